@@ -1,0 +1,39 @@
+"""One exception root for redundik; every error a user can cause derives from it."""
+
+from __future__ import annotations
+
+
+class RedundikError(Exception):
+    """Root of every error redundik raises on purpose."""
+
+
+class ModelError(RedundikError):
+    """A robot model could not be built or queried (bad D-H table, unknown frame or joint, bad URDF)."""
+
+
+class TaskError(RedundikError):
+    """A task or subtask is ill-defined (wrong dimension, unknown frame, bad parameter)."""
+
+
+class ResolverError(RedundikError):
+    """A resolver cannot handle the task stack it was given (e.g. more subtasks than null-space dimension)."""
+
+
+class SolverError(ResolverError):
+    """A QP backend failed or is not installed; carries the problem for inspection when available."""
+
+    def __init__(self, message: str, problem: object | None = None) -> None:
+        super().__init__(message)
+        self.problem = problem
+
+
+class ConfigError(RedundikError):
+    """A configuration file is invalid; the message names the YAML key path and what was expected."""
+
+    def __init__(self, message: str, path: str | None = None) -> None:
+        super().__init__(f"{path}: {message}" if path else message)
+        self.path = path
+
+
+class MechanismError(RedundikError):
+    """A parallel mechanism has bad geometry or cannot be assembled for the given inputs."""
