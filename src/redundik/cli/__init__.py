@@ -1,0 +1,1 @@
+"""Command-line interface (``redundik ...``). Nothing in the library core imports this package."""

@@ -1,0 +1,56 @@
+"""Entry point of the ``redundik`` command.
+
+Each command group lives in its own module and registers itself on :data:`app` through a ``register``
+function, so this file only lists them. Errors derived from :class:`~redundik.errors.RedundikError` are printed
+as one line on stderr with exit code 2, never as a traceback.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import typer
+
+from redundik.errors import RedundikError
+
+app = typer.Typer(
+    name="redundik",
+    help="Differential inverse kinematics of redundant robots.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+def _register_all() -> None:
+    from redundik.cli import parallel_cmds, run_cmds
+
+    run_cmds.register(app)
+    parallel_cmds.register(app)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI; returns the process exit code."""
+    _register_all()
+    try:
+        app(args=argv, standalone_mode=False)
+    except RedundikError as exc:
+        typer.secho(f"error: {exc}", err=True, fg=typer.colors.RED)
+        return 2
+    except typer.Exit as exc:
+        return int(exc.exit_code or 0)
+    except typer.Abort:
+        typer.secho("aborted", err=True)
+        return 1
+    except Exception as exc:  # click usage errors etc.
+        import click
+
+        if isinstance(exc, click.exceptions.ClickException):
+            exc.show()
+            return exc.exit_code
+        raise
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,187 @@
+"""Build a :class:`RobotModel` from a standard Denavit–Hartenberg table.
+
+Standard D-H (the chapter's convention): the one-step transform from frame i−1 to frame i is
+
+    A_{i-1}^i = Rz(θ_i) · Tz(d_i) · Tx(a_i) · Rx(α_i),
+
+with θ_i the variable of a revolute joint and d_i that of a prismatic one. Joint i therefore moves about (or
+along) z_{i−1}: in Pinocchio it is a ``JointModelRZ`` / ``JointModelPZ`` placed at frame i−1, and frame i is an
+operational frame fixed on joint i at Rz(θ_off)·Tz(d)·Tx(a)·Rx(α) (revolute) or Rz(θ)·Tz(d_off)·Tx(a)·Rx(α)
+(prismatic). Frame 0 sits at the base transform (A_b^0 of eq. 5.13) in the world frame b.
+
+Tree-shaped chains: a row may start from any earlier frame (``parent``), so two arms can branch off a shared
+torso; a row may also *reuse* the variable of an earlier row's joint (``joint``) with its own θ offset, which
+expresses couplings such as the dual arm's θ3r = θ3l + β (Table 5.1) exactly: both rows then rotate about the same
+axis z_2, and their frames are fixed on the same Pinocchio joint.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from redundik.errors import ModelError
+from redundik.kinematics.model import RobotModel
+
+
+@dataclass(frozen=True)
+class DHRow:
+    """One row of a standard D-H table.
+
+    Attributes:
+        name: Name of the frame this row ends in (frame i); also the joint name unless ``joint`` is given.
+        theta: θ_i [rad]; for a revolute joint, the offset added to the joint variable.
+        d: d_i [length unit]; for a prismatic joint, the offset added to the joint variable.
+        a: a_i [length unit].
+        alpha: α_i [rad].
+        kind: ``"revolute"``, ``"prismatic"`` or ``"fixed"`` (a constant transform, no joint).
+        lower: Lower joint limit [rad or length]; ``-inf`` if none.
+        upper: Upper joint limit [rad or length]; ``inf`` if none.
+        velocity: Joint velocity limit [rad/s or length/s]; ``inf`` if none.
+        parent: Name of frame i−1; ``None`` means the previous row's frame (or the base frame for the first row).
+        joint: Name of an earlier row whose joint variable this row shares (coupled joints); ``None`` for a new
+            joint. The shared row must start from the same parent frame.
+    """
+
+    name: str
+    theta: float = 0.0
+    d: float = 0.0
+    a: float = 0.0
+    alpha: float = 0.0
+    kind: str = "revolute"
+    lower: float = -np.inf
+    upper: float = np.inf
+    velocity: float = np.inf
+    parent: str | None = None
+    joint: str | None = None
+
+    def transform(self, value: float = 0.0) -> np.ndarray:
+        """The 4×4 homogeneous matrix A_{i-1}^i for a joint value (θ or d added to the offset)."""
+        theta = self.theta + (value if self.kind == "revolute" else 0.0)
+        d = self.d + (value if self.kind == "prismatic" else 0.0)
+        return dh_matrix(theta, d, self.a, self.alpha)
+
+
+def dh_matrix(theta: float, d: float, a: float, alpha: float) -> np.ndarray:
+    """Standard D-H homogeneous transform Rz(θ)·Tz(d)·Tx(a)·Rx(α) (the chapter's A matrices)."""
+    ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
+    return np.array(
+        [
+            [ct, -st * ca, st * sa, a * ct],
+            [st, ct * ca, -ct * sa, a * st],
+            [0.0, sa, ca, d],
+            [0.0, 0.0, 0.0, 1.0],
+        ]
+    )
+
+
+def _se3(matrix: np.ndarray) -> pin.SE3:
+    return pin.SE3(np.asarray(matrix[:3, :3]), np.asarray(matrix[:3, 3]))
+
+
+def from_dh(
+    rows: Sequence[DHRow],
+    *,
+    base: np.ndarray | None = None,
+    base_frame: str = "0",
+    name: str = "dh_robot",
+    length_unit: str = "m",
+) -> RobotModel:
+    """Build a Pinocchio-backed robot from a standard D-H table.
+
+    Args:
+        rows: The D-H rows in order; every row's ``parent`` must name an earlier frame.
+        base: 4×4 transform of frame 0 in the world base frame b (A_b^0 of eq. 5.13); identity if ``None``.
+        base_frame: Name of frame 0.
+        name: Robot name for reports.
+        length_unit: Unit of d and a (e.g. ``"m"``, ``"dm"``).
+
+    Returns:
+        A :class:`RobotModel` whose operational frames are named after the rows (plus ``base_frame``).
+
+    Raises:
+        ModelError: on duplicate names, unknown parents or coupled joints, bad kinds, non-finite numbers or
+            inverted limits; the message names the row.
+    """
+    if len(rows) == 0:
+        raise ModelError(f"robot '{name}': the D-H table has no rows")
+    base_m = np.eye(4) if base is None else np.asarray(base, dtype=float)
+    if base_m.shape != (4, 4) or not np.all(np.isfinite(base_m)):
+        raise ModelError(f"robot '{name}': base must be a finite 4×4 homogeneous matrix")
+    rot = base_m[:3, :3]
+    if not np.allclose(rot @ rot.T, np.eye(3), atol=1e-9) or np.linalg.det(rot) < 0:
+        raise ModelError(f"robot '{name}': base rotation is not a proper rotation matrix")
+
+    model = pin.Model()
+    model.name = name
+    universe = 0
+    model.addFrame(pin.Frame(base_frame, universe, 0, _se3(base_m), pin.FrameType.OP_FRAME))
+
+    # frame name -> (parent joint id, placement of that frame in the joint)
+    frames: dict[str, tuple[int, np.ndarray]] = {base_frame: (universe, base_m)}
+    # row name -> (pin joint id, the row, its parent frame name)
+    joint_rows: dict[str, tuple[int, DHRow, str]] = {}
+    previous = base_frame
+    for i, row in enumerate(rows):
+        where = f"row {i + 1} ('{row.name}')"
+        if row.name in frames:
+            raise ModelError(f"robot '{name}': {where}: duplicate frame name")
+        if row.kind not in ("revolute", "prismatic", "fixed"):
+            raise ModelError(
+                f"robot '{name}': {where}: kind must be revolute, prismatic or fixed, got {row.kind!r}"
+            )
+        nums = (row.theta, row.d, row.a, row.alpha)
+        if not all(np.isfinite(v) for v in nums):
+            raise ModelError(f"robot '{name}': {where}: θ, d, a, α must be finite numbers, got {nums}")
+        if np.isnan(row.lower) or np.isnan(row.upper) or row.lower > row.upper:
+            raise ModelError(f"robot '{name}': {where}: joint limits must satisfy lower ≤ upper")
+        parent = row.parent if row.parent is not None else previous
+        if parent not in frames:
+            raise ModelError(
+                f"robot '{name}': {where}: parent frame '{parent}' is not defined before this row; "
+                f"defined so far: {list(frames)}"
+            )
+        parent_joint, parent_placement = frames[parent]
+        # Constant part after the joint motion, in the moving joint's frame. Rz(q+θ)·Tz(d)… = Rz(q)·A(θ, d, a, α)
+        # and Rz(θ)·Tz(q+d)… = Tz(q)·A(θ, d, a, α), because Rz and Tz commute: one formula for both kinds.
+        const = dh_matrix(row.theta, row.d, row.a, row.alpha)
+        if row.kind == "fixed":
+            frames[row.name] = (parent_joint, parent_placement @ const)
+            model.addFrame(
+                pin.Frame(row.name, parent_joint, 0, _se3(parent_placement @ const), pin.FrameType.OP_FRAME)
+            )
+            previous = row.name
+            continue
+        if row.joint is not None:
+            if row.joint not in joint_rows:
+                raise ModelError(
+                    f"robot '{name}': {where}: coupled joint '{row.joint}' is not an earlier joint row; "
+                    f"joints so far: {list(joint_rows)}"
+                )
+            jid, shared, shared_parent = joint_rows[row.joint]
+            if shared_parent != parent or shared.kind != row.kind:
+                raise ModelError(
+                    f"robot '{name}': {where}: a coupled row must start from the same frame "
+                    f"('{shared_parent}') and be of the same kind ({shared.kind}) as row '{row.joint}'"
+                )
+        else:
+            jmodel = pin.JointModelRZ() if row.kind == "revolute" else pin.JointModelPZ()
+            jid = model.addJoint(
+                parent_joint,
+                jmodel,
+                _se3(parent_placement),
+                row.name,
+                np.array([np.inf]),
+                np.array([np.inf if np.isinf(row.velocity) else row.velocity]),
+                np.array([row.lower]),
+                np.array([row.upper]),
+            )
+            model.appendBodyToJoint(jid, pin.Inertia.Zero(), pin.SE3.Identity())
+            joint_rows[row.name] = (jid, row, parent)
+        frames[row.name] = (jid, const)
+        model.addFrame(pin.Frame(row.name, jid, 0, _se3(const), pin.FrameType.OP_FRAME))
+        previous = row.name
+    return RobotModel(model, name=name, length_unit=length_unit)

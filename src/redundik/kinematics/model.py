@@ -1,0 +1,302 @@
+"""The robot model every resolver works on: a thin, stateful wrapper around a ``pinocchio.Model``.
+
+A :class:`RobotModel` owns one ``pinocchio.Data``. :meth:`RobotModel.update` runs forward kinematics and the joint
+Jacobians once per control tick; tasks and potentials then read frame poses and Jacobians from that cached state,
+so several tasks on the same tick share one kinematics pass. State lives on this object, never on ``pin.Model``.
+
+Jacobians are *base-aligned* (Pinocchio's ``LOCAL_WORLD_ALIGNED``): the linear rows are the velocity of the frame
+origin and the angular rows the angular velocity, both expressed in the world (base) frame, i.e. the J_b of the
+chapter's eq. (4.15) as used in (5.6): V = (v, ω) = J q̇.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from redundik.errors import ModelError
+
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+WORLD = pin.ReferenceFrame.WORLD
+
+#: Row indices of a base-aligned 6×n Jacobian by axis name.
+AXES: dict[str, int] = {"x": 0, "y": 1, "z": 2, "rx": 3, "ry": 4, "rz": 5}
+
+
+@dataclass(frozen=True)
+class JointInfo:
+    """One actuated degree of freedom as the user sees it.
+
+    Attributes:
+        name: Joint name (D-H row name or URDF joint name).
+        idx_q: Index into the configuration vector q.
+        idx_v: Index into the velocity vector q̇.
+        kind: ``"revolute"`` [rad], ``"prismatic"`` [m or the model's length unit], or ``"other"``.
+        lower: Lower position limit (``-inf`` if none).
+        upper: Upper position limit (``+inf`` if none).
+        velocity: Velocity limit (``inf`` if none).
+    """
+
+    name: str
+    idx_q: int
+    idx_v: int
+    kind: str
+    lower: float
+    upper: float
+    velocity: float
+
+
+@dataclass
+class RobotModel:
+    """A kinematic model backed by Pinocchio, with a cached kinematic state.
+
+    Build one with :func:`redundik.kinematics.from_dh`, :func:`redundik.kinematics.from_urdf` or
+    :func:`redundik.kinematics.load_example_robot`, or wrap an existing ``pin.Model`` directly.
+
+    Args:
+        model: The Pinocchio model (kinematic tree, joint limits, operational frames).
+        name: A human-readable robot name used in reports.
+        length_unit: Unit of lengths in this model, e.g. ``"m"`` or ``"dm"``; informational.
+    """
+
+    model: pin.Model
+    name: str = "robot"
+    length_unit: str = "m"
+    data: pin.Data = field(init=False, repr=False)
+    joints: tuple[JointInfo, ...] = field(init=False, repr=False)
+    _q: np.ndarray | None = field(init=False, default=None, repr=False)
+    _hessians_ready: bool = field(init=False, default=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self.data = self.model.createData()
+        joints: list[JointInfo] = []
+        for jid in range(1, self.model.njoints):
+            jmodel = self.model.joints[jid]
+            jname = self.model.names[jid]
+            short = jmodel.shortname()
+            if "Revolute" in short and "Unbounded" not in short:
+                kind = "revolute"
+            elif "Prismatic" in short:
+                kind = "prismatic"
+            else:
+                kind = "other"
+            if jmodel.nq == 1 and jmodel.nv == 1:
+                iq, iv = jmodel.idx_q, jmodel.idx_v
+                joints.append(
+                    JointInfo(
+                        name=jname,
+                        idx_q=iq,
+                        idx_v=iv,
+                        kind=kind,
+                        lower=float(self.model.lowerPositionLimit[iq]),
+                        upper=float(self.model.upperPositionLimit[iq]),
+                        velocity=float(self.model.velocityLimit[iv]),
+                    )
+                )
+            else:
+                for k in range(jmodel.nv):
+                    joints.append(
+                        JointInfo(
+                            name=f"{jname}.{k}",
+                            idx_q=jmodel.idx_q + k if jmodel.nq == jmodel.nv else -1,
+                            idx_v=jmodel.idx_v + k,
+                            kind="other",
+                            lower=-np.inf,
+                            upper=np.inf,
+                            velocity=float(self.model.velocityLimit[jmodel.idx_v + k]),
+                        )
+                    )
+        self.joints = tuple(joints)
+
+    # ------------------------------------------------------------------ sizes and names
+    @property
+    def nq(self) -> int:
+        """Size of the configuration vector q."""
+        return int(self.model.nq)
+
+    @property
+    def nv(self) -> int:
+        """Size of the velocity vector q̇ (the number of joints n of the chapter)."""
+        return int(self.model.nv)
+
+    @property
+    def joint_names(self) -> list[str]:
+        """Names of the velocity coordinates, in q̇ order."""
+        return [j.name for j in self.joints]
+
+    @property
+    def frame_names(self) -> list[str]:
+        """Names of every frame in the model (D-H frames, URDF links, joints)."""
+        return [f.name for f in self.model.frames]
+
+    def frame_id(self, name: str) -> int:
+        """Index of the frame called ``name``.
+
+        Raises:
+            ModelError: if no such frame exists; the message lists close matches.
+        """
+        if not self.model.existFrame(name):
+            raise ModelError(
+                f"frame '{name}' does not exist in robot '{self.name}'; available: {_listing(self.frame_names)}"
+            )
+        return int(self.model.getFrameId(name))
+
+    def joint(self, name: str) -> JointInfo:
+        """The joint called ``name``.
+
+        Raises:
+            ModelError: if no such joint exists; the message lists the valid names.
+        """
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise ModelError(
+            f"joint '{name}' does not exist in robot '{self.name}'; available: {self.joint_names}"
+        )
+
+    # ------------------------------------------------------------------ configurations
+    def neutral(self) -> np.ndarray:
+        """The neutral configuration (zeros for a D-H chain)."""
+        return np.asarray(pin.neutral(self.model), dtype=float)
+
+    def random_configuration(self, rng: np.random.Generator | None = None) -> np.ndarray:
+        """A configuration drawn uniformly within the joint limits (±π for unlimited revolute joints)."""
+        rng = rng if rng is not None else np.random.default_rng()
+        lo = np.array(self.model.lowerPositionLimit, dtype=float)
+        hi = np.array(self.model.upperPositionLimit, dtype=float)
+        lo = np.where(np.isfinite(lo) & (lo > -1e10), lo, -np.pi)
+        hi = np.where(np.isfinite(hi) & (hi < 1e10), hi, np.pi)
+        q = self.neutral()
+        for jid in range(1, self.model.njoints):
+            jm = self.model.joints[jid]
+            if jm.nq == 1:
+                q[jm.idx_q] = rng.uniform(lo[jm.idx_q], hi[jm.idx_q])
+            elif jm.nq == 2 and jm.nv == 1:  # unbounded revolute stored as (cos, sin)
+                a = rng.uniform(-np.pi, np.pi)
+                q[jm.idx_q : jm.idx_q + 2] = (np.cos(a), np.sin(a))
+        return q
+
+    def integrate(self, q: np.ndarray, dq: np.ndarray, dt: float) -> np.ndarray:
+        """q ⊕ q̇·dt on the configuration manifold (plain q + q̇·dt for a D-H chain).
+
+        This is the chapter's first-order update q_new = q + q̇·dt.
+        """
+        return np.asarray(pin.integrate(self.model, q, np.asarray(dq, dtype=float) * dt), dtype=float)
+
+    def difference(self, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
+        """The velocity that goes from q0 to q1 in unit time (q1 ⊖ q0)."""
+        return np.asarray(pin.difference(self.model, q0, q1), dtype=float)
+
+    def check_configuration(self, q: Sequence[float] | np.ndarray, where: str = "q") -> np.ndarray:
+        """Return ``q`` as a float array after checking its size and finiteness.
+
+        Raises:
+            ModelError: wrong length or non-finite entries; names ``where`` and the expected size.
+        """
+        arr = np.asarray(q, dtype=float).reshape(-1)
+        if arr.shape[0] != self.nq:
+            raise ModelError(
+                f"{where}: expected {self.nq} values for robot '{self.name}', got {arr.shape[0]}"
+            )
+        if not np.all(np.isfinite(arr)):
+            raise ModelError(f"{where}: contains NaN or infinite values: {arr.tolist()}")
+        return arr
+
+    # ------------------------------------------------------------------ limits
+    @property
+    def lower_limits(self) -> np.ndarray:
+        """Lower position limits per velocity coordinate (``-inf`` where unlimited)."""
+        return np.array([j.lower for j in self.joints])
+
+    @property
+    def upper_limits(self) -> np.ndarray:
+        """Upper position limits per velocity coordinate (``+inf`` where unlimited)."""
+        return np.array([j.upper for j in self.joints])
+
+    @property
+    def velocity_limits(self) -> np.ndarray:
+        """Velocity limits per velocity coordinate (``inf`` where unlimited)."""
+        return np.array([j.velocity for j in self.joints])
+
+    def limit_violation(self, q: np.ndarray, tol: float = 1e-9) -> np.ndarray:
+        """Per-joint amount by which q is outside its position limits (0 inside), in q̇ order."""
+        out = np.zeros(len(self.joints))
+        for k, j in enumerate(self.joints):
+            if j.idx_q < 0:
+                continue
+            v = q[j.idx_q]
+            out[k] = max(j.lower - v, v - j.upper, 0.0)
+        out[out < tol] = 0.0
+        return out
+
+    # ------------------------------------------------------------------ kinematics state
+    def update(self, q: np.ndarray) -> None:
+        """Compute forward kinematics, frame placements and joint Jacobians at ``q`` (once per tick)."""
+        q = np.asarray(q, dtype=float)
+        pin.computeJointJacobians(self.model, self.data, q)
+        pin.updateFramePlacements(self.model, self.data)
+        self._q = q.copy()
+        self._hessians_ready = False
+
+    @property
+    def q(self) -> np.ndarray:
+        """The configuration of the last :meth:`update`.
+
+        Raises:
+            ModelError: if :meth:`update` was never called.
+        """
+        if self._q is None:
+            raise ModelError(f"robot '{self.name}': call update(q) before querying kinematics")
+        return self._q
+
+    def frame_pose(self, frame: str | int) -> pin.SE3:
+        """Pose of a frame in the world (base) frame at the last :meth:`update`."""
+        fid = frame if isinstance(frame, int) else self.frame_id(frame)
+        self.q  # noqa: B018 - raises if update() was never called
+        return self.data.oMf[fid]
+
+    def frame_position(self, frame: str | int) -> np.ndarray:
+        """Origin of a frame in the world frame, shape (3,)."""
+        return np.array(self.frame_pose(frame).translation)
+
+    def frame_jacobian(self, frame: str | int) -> np.ndarray:
+        """Base-aligned 6×nv Jacobian of a frame: rows (v_x, v_y, v_z, ω_x, ω_y, ω_z), eq. (5.6)."""
+        fid = frame if isinstance(frame, int) else self.frame_id(frame)
+        self.q  # noqa: B018
+        return np.asarray(pin.getFrameJacobian(self.model, self.data, fid, LWA))
+
+    def frame_jacobian_derivatives(self, frame: str | int) -> np.ndarray:
+        """∂J/∂q_k of the base-aligned frame Jacobian, shape (6, nv, nv): ``H[:, :, k] = ∂J/∂q_k``.
+
+        Built from Pinocchio's kinematic Hessian in the WORLD (spatial) convention, H^s_k = ∂J^s/∂q_k, then moved
+        to the frame origin p: J = X(p) J^s with X(p) = [[I, -[p]×], [0, I]], so
+        ∂J/∂q_k = X(p) H^s_k + [[0, -[∂p/∂q_k]×], [0, 0]] J^s  with ∂p/∂q_k the k-th linear column of J.
+        """
+        fid = frame if isinstance(frame, int) else self.frame_id(frame)
+        q = self.q
+        if not self._hessians_ready:
+            pin.computeJointKinematicHessians(self.model, self.data, q)
+            self._hessians_ready = True
+        fr = self.model.frames[fid]
+        hs = np.asarray(pin.getJointKinematicHessian(self.model, self.data, fr.parentJoint, WORLD))
+        js = np.asarray(pin.getJointJacobian(self.model, self.data, fr.parentJoint, WORLD))
+        p = np.array(self.data.oMf[fid].translation)
+        jl = self.frame_jacobian(fid)[:3]  # (3, nv): ∂p/∂q
+        out = np.empty_like(hs)
+        out[3:] = hs[3:]
+        # linear part: v_p = v_s + ω × p = v_s - [p]× ω
+        out[:3] = hs[:3] - np.einsum("ij,jkl->ikl", pin.skew(p), hs[3:])
+        # + (∂p/∂q_k) × ω_j term: d(ω × p)/dq_k includes ω × ∂p/∂q_k = -[∂p/∂q_k]× ω
+        ang = js[3:]  # (3, nv)
+        out[:3] += np.cross(ang.T[:, None, :], jl.T[None, :, :]).transpose(2, 0, 1)
+        return out
+
+
+def _listing(names: Sequence[str], limit: int = 40) -> str:
+    names = [n for n in names if n != "universe"]
+    if len(names) <= limit:
+        return ", ".join(names)
+    return ", ".join(names[:limit]) + f", ... ({len(names)} in all)"

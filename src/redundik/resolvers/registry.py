@@ -1,0 +1,31 @@
+"""Resolvers by name, for configuration files and the CLI: ``make_resolver("pinv", epsilon=1e-2)``."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from redundik.errors import ResolverError
+from redundik.resolvers.base import Resolver
+from redundik.resolvers.feedback import FeedbackResolver
+from redundik.resolvers.pinv import PinvResolver
+
+#: Factories by resolver name. QP resolvers add themselves in :mod:`redundik.resolvers` when importable.
+RESOLVERS: dict[str, Callable[..., Resolver]] = {
+    "pinv": PinvResolver,
+    "feedback": FeedbackResolver,
+}
+
+
+def make_resolver(name: str, **options: Any) -> Resolver:
+    """Build a resolver by name with keyword options.
+
+    Raises:
+        ResolverError: unknown name (lists the known ones) or bad options (names them).
+    """
+    if name not in RESOLVERS:
+        raise ResolverError(f"unknown resolver '{name}'; available: {sorted(RESOLVERS)}")
+    try:
+        return RESOLVERS[name](**options)
+    except TypeError as exc:
+        raise ResolverError(f"resolver '{name}': bad options {sorted(options)}: {exc}") from exc

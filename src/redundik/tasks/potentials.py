@@ -1,0 +1,345 @@
+"""The chapter's subtask potentials p(q) with exact gradients η = ∂p/∂q (section 5.2).
+
+Every gradient here is analytic or comes from Pinocchio's kinematic Jacobians and kinematic Hessians
+(∂J/∂q); none uses finite differences at run time. ``tests/test_potentials.py`` checks each against central
+finite differences.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from redundik.errors import TaskError
+from redundik.kinematics.model import AXES, RobotModel
+from redundik.tasks.base import Potential
+from redundik.tasks.frame import resolve_axes
+
+
+def _finite_vec(value: Sequence[float] | np.ndarray, what: str, size: int | None = None) -> np.ndarray:
+    arr = np.asarray(value, dtype=float).reshape(-1)
+    if size is not None and arr.shape[0] != size:
+        raise TaskError(f"{what}: expected {size} numbers, got {arr.shape[0]}")
+    if not np.all(np.isfinite(arr)):
+        raise TaskError(f"{what}: contains NaN or infinite values")
+    return arr
+
+
+class _JointPotential(Potential):
+    """Base for potentials of a single 1-dof joint."""
+
+    def __init__(self, joint: str, name: str | None) -> None:
+        self.joint = joint
+        self.name = name or f"{type(self).__name__.lower()}_{joint}"
+        self._iq = -1
+        self._iv = -1
+
+    def check(self, robot: RobotModel) -> None:
+        try:
+            info = robot.joint(self.joint)
+        except Exception as exc:
+            raise TaskError(f"subtask '{self.name}': {exc}") from exc
+        if info.idx_q < 0:
+            raise TaskError(f"subtask '{self.name}': joint '{self.joint}' is not a 1-dof joint")
+        self._iq, self._iv = info.idx_q, info.idx_v
+
+    def _value(self, robot: RobotModel) -> float:
+        if self._iq < 0:
+            self.check(robot)
+        return float(robot.q[self._iq])
+
+
+class JointSine2(_JointPotential):
+    """Singularity avoidance through one joint: p = sin²θ_j, η_j = sin 2θ_j (the chapter's p = sin²θ6, sin²θ3).
+
+    Maximised (k > 0) it drives θ_j towards ±90°, away from the wrist/elbow singularity at 0.
+    """
+
+    def __init__(self, joint: str, name: str | None = None) -> None:
+        super().__init__(joint, name or f"sin2_{joint}")
+
+    def value(self, robot: RobotModel) -> float:
+        return float(np.sin(self._value(robot)) ** 2)
+
+    def gradient(self, robot: RobotModel) -> np.ndarray:
+        g = np.zeros(robot.nv)
+        g[self._iv] = np.sin(2.0 * self._value(robot))
+        return g
+
+
+class JointValue(_JointPotential):
+    """A single joint towards a value: p = (q_j − c)², η_j = 2(q_j − c) (the (6+1) robot's p = (d1 − c)²)."""
+
+    def __init__(self, joint: str, value: float, name: str | None = None) -> None:
+        if not np.isfinite(value):
+            raise TaskError(f"joint value potential on '{joint}': value must be finite, got {value}")
+        self.c = float(value)
+        super().__init__(joint, name or f"value_{joint}")
+
+    def value(self, robot: RobotModel) -> float:
+        return (self._value(robot) - self.c) ** 2
+
+    def gradient(self, robot: RobotModel) -> np.ndarray:
+        g = np.zeros(robot.nv)
+        g[self._iv] = 2.0 * (self._value(robot) - self.c)
+        return g
+
+
+class JointCentering(Potential):
+    """Joint-range centering (5.9): p = ½‖q − q_c‖², η = q − q_c (5.10); minimise it (k < 0).
+
+    Args:
+        center: q_c (size nq); the middle of each joint's range if ``None`` (joints without finite limits are
+            left out, i.e. get zero weight).
+        weights: Optional per-joint weights w (size nv): p = ½ Σ w_i (q_i − q_c,i)².
+    """
+
+    def __init__(
+        self,
+        center: Sequence[float] | None = None,
+        weights: Sequence[float] | None = None,
+        name: str = "joint_centering",
+    ) -> None:
+        self.name = name
+        self.center = None if center is None else _finite_vec(center, f"subtask '{name}': center")
+        self.weights = None if weights is None else _finite_vec(weights, f"subtask '{name}': weights")
+        self._c: np.ndarray | None = None
+        self._w: np.ndarray | None = None
+
+    def check(self, robot: RobotModel) -> None:
+        if self.center is None:
+            lo, hi = robot.lower_limits, robot.upper_limits
+            finite = np.isfinite(lo) & np.isfinite(hi) & (hi - lo < 1e9)
+            q = robot.neutral()
+            w = np.zeros(robot.nv)
+            for k, j in enumerate(robot.joints):
+                if finite[k] and j.idx_q >= 0:
+                    q[j.idx_q] = 0.5 * (lo[k] + hi[k])
+                    w[k] = 1.0
+            self._c = q
+            self._w = w
+        else:
+            self._c = robot.check_configuration(self.center, f"subtask '{self.name}': center")
+            self._w = np.ones(robot.nv)
+        if self.weights is not None:
+            if self.weights.shape[0] != robot.nv:
+                raise TaskError(f"subtask '{self.name}': weights: expected {robot.nv} numbers")
+            self._w = self._w * self.weights
+
+    def _delta(self, robot: RobotModel) -> np.ndarray:
+        if self._c is None:
+            self.check(robot)
+        return robot.difference(self._c, robot.q)
+
+    def value(self, robot: RobotModel) -> float:
+        d = self._delta(robot)
+        return float(0.5 * np.sum(self._w * d * d))
+
+    def gradient(self, robot: RobotModel) -> np.ndarray:
+        # exact for vector-space joints (q_c ⊖ q is linear in q); the chart's first-order value on SO(3) bases
+        return self._w * self._delta(robot)
+
+    def __repr__(self) -> str:
+        return f"JointCentering(name={self.name!r})"
+
+
+class _FramePotential(Potential):
+    def __init__(self, frame: str, axes: str | Sequence[str], name: str) -> None:
+        self.frame = frame
+        self.axes = resolve_axes(axes)
+        self.name = name
+        self._fid = -1
+
+    def check(self, robot: RobotModel) -> None:
+        try:
+            self._fid = robot.frame_id(self.frame)
+        except Exception as exc:
+            raise TaskError(f"subtask '{self.name}': {exc}") from exc
+
+    def _id(self, robot: RobotModel) -> int:
+        if self._fid < 0:
+            self.check(robot)
+        return self._fid
+
+
+class VirtualPoint(_FramePotential):
+    """A frame point to a virtual point: p = ½‖S(p_f(q) − p_v)‖², η = J_vᵀ S (p_f − p_v).
+
+    This is the chapter's elbow-to-virtual-safe-point potential p = ½(μ_x² + μ_z²) of the (6+1) robot with
+    ``axes = ("x", "z")`` in frame 0. The chapter's printed 7×1 gradient is wrong (chapter notes); this is the
+    exact one, checked against finite differences. Minimise it (k < 0).
+
+    Args:
+        frame: The frame whose origin moves (e.g. the elbow, D-H frame ``"3"``).
+        point: p_v in world coordinates, shape (3,).
+        axes: Position axes that count (subset of x, y, z); S selects them.
+    """
+
+    def __init__(
+        self,
+        frame: str,
+        point: Sequence[float],
+        axes: str | Sequence[str] = "position",
+        name: str | None = None,
+    ) -> None:
+        super().__init__(frame, axes, name or f"virtual_point_{frame}")
+        if any(a not in ("x", "y", "z") for a in self.axes):
+            raise TaskError(f"subtask '{self.name}': axes must be among x, y, z")
+        self.point = _finite_vec(point, f"subtask '{self.name}': point", 3)
+        self.rows = np.array([AXES[a] for a in self.axes])
+
+    def _mu(self, robot: RobotModel) -> np.ndarray:
+        return (robot.frame_position(self._id(robot)) - self.point)[self.rows]
+
+    def value(self, robot: RobotModel) -> float:
+        mu = self._mu(robot)
+        return float(0.5 * mu @ mu)
+
+    def gradient(self, robot: RobotModel) -> np.ndarray:
+        J = robot.frame_jacobian(self._id(robot))[self.rows]
+        return J.T @ self._mu(robot)
+
+
+class Clearance(_FramePotential):
+    """Distance from a frame point to a round obstacle, minus its radius: p = ‖S(p_f − p_o)‖ − r.
+
+    Negative means penetration. With ``axes = ("x", "z")`` the obstacle is an infinite vertical post (the
+    (6+1) robot's post of radius 0.3 dm). η = J_vᵀ Sᵀ u with u the unit vector from the obstacle to the point.
+    Use it as a QP inequality (p ≥ margin) or maximise it (k > 0), like the chapter's collision potential
+    ‖p_el − p_ob‖² (same gradient direction).
+    """
+
+    def __init__(
+        self,
+        frame: str,
+        center: Sequence[float],
+        radius: float = 0.0,
+        axes: str | Sequence[str] = "position",
+        name: str | None = None,
+    ) -> None:
+        super().__init__(frame, axes, name or f"clearance_{frame}")
+        if any(a not in ("x", "y", "z") for a in self.axes):
+            raise TaskError(f"subtask '{self.name}': axes must be among x, y, z")
+        if not (np.isfinite(radius) and radius >= 0):
+            raise TaskError(f"subtask '{self.name}': radius must be ≥ 0, got {radius}")
+        self.center = _finite_vec(center, f"subtask '{self.name}': center", 3)
+        self.radius = float(radius)
+        self.rows = np.array([AXES[a] for a in self.axes])
+
+    def _d(self, robot: RobotModel) -> np.ndarray:
+        return (robot.frame_position(self._id(robot)) - self.center)[self.rows]
+
+    def value(self, robot: RobotModel) -> float:
+        return float(np.linalg.norm(self._d(robot)) - self.radius)
+
+    def gradient(self, robot: RobotModel) -> np.ndarray:
+        d = self._d(robot)
+        n = float(np.linalg.norm(d))
+        J = robot.frame_jacobian(self._id(robot))[self.rows]
+        if n < 1e-12:  # on the obstacle axis the distance is not differentiable: pick no direction
+            return np.zeros(robot.nv)
+        return J.T @ (d / n)
+
+
+class Manipulability(_FramePotential):
+    """Yoshikawa's manipulability p = √det(J Jᵀ) of a frame Jacobian (rows ``axes``), section 5.2.
+
+    The chapter calls its gradient "unfeasible" symbolically; numerically it is exact and cheap:
+    ∂p/∂q_k = p · tr((JJᵀ)⁻¹ (∂J/∂q_k) Jᵀ), with ∂J/∂q_k from Pinocchio's kinematic Hessian. Maximise it (k > 0).
+    At a singularity (p = 0) the gradient is taken as 0 (p is not differentiable there).
+    """
+
+    def __init__(self, frame: str, axes: str | Sequence[str] = "pose", name: str | None = None) -> None:
+        super().__init__(frame, axes, name or f"manipulability_{frame}")
+        self.rows = np.array([AXES[a] for a in self.axes])
+
+    def value(self, robot: RobotModel) -> float:
+        J = robot.frame_jacobian(self._id(robot))[self.rows]
+        return float(np.sqrt(max(np.linalg.det(J @ J.T), 0.0)))
+
+    def gradient(self, robot: RobotModel) -> np.ndarray:
+        fid = self._id(robot)
+        J = robot.frame_jacobian(fid)[self.rows]
+        A = J @ J.T
+        p = float(np.sqrt(max(np.linalg.det(A), 0.0)))
+        if p < 1e-12:
+            return np.zeros(robot.nv)
+        H = robot.frame_jacobian_derivatives(fid)[self.rows]  # (m, nv, nv): H[:, :, k] = ∂J/∂q_k
+        X = np.linalg.solve(A, J)  # (JJᵀ)⁻¹ J, (m, nv)
+        # tr(A⁻¹ H_k Jᵀ) = Σ_ij (A⁻¹J)_ij (H_k)_ij
+        return p * np.einsum("ij,ijk->k", X, H)
+
+
+class BestPosture(Potential):
+    """Best posture in the sense of uniform joint-torque distribution (5.12): p = tr(J W Jᵀ); minimise it.
+
+    J stacks the frame Jacobians (rows ``axes``) of one or more end-effectors; W = diag(w) is the joint weight.
+    ∂p/∂q_k = 2 tr((∂J/∂q_k) W Jᵀ), exact, from Pinocchio's kinematic Hessian. ``torques(F)`` gives τ = JᵀF, whose
+    spread the chapter plots against p (Fig. 5.5).
+
+    Args:
+        frames: One frame name or several.
+        weights: Diagonal of W (size nv), identity if ``None``. The chapter's example prints six entries for seven
+            joints; pass all nv explicitly.
+        axes: Rows of each frame Jacobian.
+    """
+
+    def __init__(
+        self,
+        frames: str | Sequence[str],
+        weights: Sequence[float] | None = None,
+        axes: str | Sequence[str] = "pose",
+        name: str = "best_posture",
+    ) -> None:
+        self.frames = [frames] if isinstance(frames, str) else list(frames)
+        if not self.frames:
+            raise TaskError(f"subtask '{name}': needs at least one frame")
+        self.axes = resolve_axes(axes)
+        self.rows = np.array([AXES[a] for a in self.axes])
+        self.name = name
+        self.weights = None if weights is None else _finite_vec(weights, f"subtask '{name}': weights")
+        if self.weights is not None and np.any(self.weights <= 0):
+            raise TaskError(f"subtask '{name}': weights must be > 0 (W is positive definite)")
+        self._fids: list[int] = []
+
+    def check(self, robot: RobotModel) -> None:
+        try:
+            self._fids = [robot.frame_id(f) for f in self.frames]
+        except Exception as exc:
+            raise TaskError(f"subtask '{self.name}': {exc}") from exc
+        if self.weights is not None and self.weights.shape[0] != robot.nv:
+            raise TaskError(
+                f"subtask '{self.name}': weights: expected {robot.nv} numbers (one per joint), "
+                f"got {self.weights.shape[0]}"
+            )
+
+    def _w(self, robot: RobotModel) -> np.ndarray:
+        return np.ones(robot.nv) if self.weights is None else self.weights
+
+    def jacobian(self, robot: RobotModel) -> np.ndarray:
+        """The stacked Jacobian J the measure is taken of, shape (len(frames)·m, nv)."""
+        if not self._fids:
+            self.check(robot)
+        return np.vstack([robot.frame_jacobian(f)[self.rows] for f in self._fids])
+
+    def value(self, robot: RobotModel) -> float:
+        J = self.jacobian(robot)
+        return float(np.sum(J * J * self._w(robot)))
+
+    def gradient(self, robot: RobotModel) -> np.ndarray:
+        if not self._fids:
+            self.check(robot)
+        w = self._w(robot)
+        g = np.zeros(robot.nv)
+        for fid in self._fids:
+            H = robot.frame_jacobian_derivatives(fid)[self.rows]  # (m, nv, nv)
+            Jf = robot.frame_jacobian(fid)[self.rows]
+            g += 2.0 * np.einsum("ij,ijk->k", Jf * w, H)
+        return g
+
+    def torques(self, robot: RobotModel, force: Sequence[float]) -> np.ndarray:
+        """Joint torques τ = JᵀF for a Cartesian load F (size rows·frames), the chapter's statics."""
+        J = self.jacobian(robot)
+        F = _finite_vec(force, f"subtask '{self.name}': force", J.shape[0])
+        return J.T @ F

@@ -1,0 +1,178 @@
+"""Reference trajectories for frame tasks: desired pose and twist as functions of time.
+
+Every trajectory starts from the frame's pose at t = 0 (captured by :meth:`Trajectory.start`) unless it is given an
+explicit start, so a task run can begin wherever the robot is, as in the chapter's examples. Twists are
+base-aligned (v of the frame origin, ω), both in the world frame, like the Jacobians of
+:class:`~redundik.kinematics.RobotModel`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+
+import numpy as np
+import pinocchio as pin
+
+from redundik.errors import TaskError
+from redundik.kinematics.model import AXES
+
+
+def _vec(value: Sequence[float] | np.ndarray, size: int, what: str) -> np.ndarray:
+    arr = np.asarray(value, dtype=float).reshape(-1)
+    if arr.shape[0] != size:
+        raise TaskError(f"{what}: expected {size} numbers, got {arr.shape[0]}")
+    if not np.all(np.isfinite(arr)):
+        raise TaskError(f"{what}: contains NaN or infinite values")
+    return arr
+
+
+class Trajectory(ABC):
+    """A desired frame pose and twist over time."""
+
+    _start: pin.SE3 | None = None
+
+    def start(self, pose: pin.SE3) -> None:
+        """Anchor the trajectory at the frame pose at t = 0."""
+        self._start = pose.copy()
+
+    @property
+    def start_pose(self) -> pin.SE3:
+        """The pose captured by :meth:`start`.
+
+        Raises:
+            TaskError: if :meth:`start` was never called.
+        """
+        if self._start is None:
+            raise TaskError(f"{type(self).__name__}: start(pose) must be called before sampling")
+        return self._start
+
+    @abstractmethod
+    def sample(self, t: float) -> tuple[pin.SE3, np.ndarray]:
+        """Desired pose (world) and twist (v, ω) [m/s, rad/s], shape (6,), at time t [s]."""
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}()"
+
+
+class Hold(Trajectory):
+    """Hold the start pose (zero twist): the (6+1) robot's 'end-effector held still'."""
+
+    def sample(self, t: float) -> tuple[pin.SE3, np.ndarray]:
+        return self.start_pose, np.zeros(6)
+
+
+class Line(Trajectory):
+    """Straight line at constant velocity from the start position, orientation held.
+
+    Args:
+        velocity: Linear velocity [length/s], shape (3,) (or (2,) for a planar x–y line).
+    """
+
+    def __init__(self, velocity: Sequence[float]) -> None:
+        v = np.asarray(velocity, dtype=float).reshape(-1)
+        if v.shape[0] == 2:
+            v = np.append(v, 0.0)
+        self.velocity = _vec(v, 3, "line velocity")
+
+    def sample(self, t: float) -> tuple[pin.SE3, np.ndarray]:
+        p0 = self.start_pose
+        pose = pin.SE3(p0.rotation, p0.translation + self.velocity * t)
+        return pose, np.concatenate([self.velocity, np.zeros(3)])
+
+    def __repr__(self) -> str:
+        return f"Line(velocity={self.velocity.tolist()})"
+
+
+class Circle(Trajectory):
+    """Circle in a coordinate plane at constant angular rate, orientation held.
+
+    Position: c + r(cos(ωt + φ) e1 + sin(ωt + φ) e2), as in the chapter's y_b–z_b circle of the (6+1) robot.
+
+    Args:
+        radius: r [length].
+        omega: ω [rad/s].
+        plane: The two world axes spanning the plane, e.g. ``("y", "z")``.
+        center: Centre; if ``None`` it is placed so that the circle passes through the start at phase φ.
+        phase: φ [rad].
+    """
+
+    def __init__(
+        self,
+        radius: float,
+        omega: float,
+        plane: tuple[str, str] = ("x", "y"),
+        center: Sequence[float] | None = None,
+        phase: float = 0.0,
+    ) -> None:
+        if not (np.isfinite(radius) and radius > 0):
+            raise TaskError(f"circle radius must be a positive number, got {radius}")
+        if not np.isfinite(omega):
+            raise TaskError(f"circle omega must be finite, got {omega}")
+        if len(plane) != 2 or any(a not in ("x", "y", "z") for a in plane) or plane[0] == plane[1]:
+            raise TaskError(f"circle plane must be two different axes among x, y, z, got {plane}")
+        self.radius, self.omega, self.phase = float(radius), float(omega), float(phase)
+        self.e1 = np.eye(3)[AXES[plane[0]]]
+        self.e2 = np.eye(3)[AXES[plane[1]]]
+        self.plane = tuple(plane)
+        self._center = None if center is None else _vec(center, 3, "circle center")
+
+    @property
+    def center(self) -> np.ndarray:
+        """The circle's centre in the world frame."""
+        if self._center is not None:
+            return self._center
+        p0 = self.start_pose.translation
+        return p0 - self.radius * (np.cos(self.phase) * self.e1 + np.sin(self.phase) * self.e2)
+
+    def sample(self, t: float) -> tuple[pin.SE3, np.ndarray]:
+        a = self.omega * t + self.phase
+        c, s = np.cos(a), np.sin(a)
+        p = self.center + self.radius * (c * self.e1 + s * self.e2)
+        v = self.radius * self.omega * (-s * self.e1 + c * self.e2)
+        return pin.SE3(self.start_pose.rotation, p), np.concatenate([v, np.zeros(3)])
+
+    def __repr__(self) -> str:
+        return f"Circle(radius={self.radius}, omega={self.omega}, plane={self.plane})"
+
+
+class PoseInterpolation(Trajectory):
+    """Linear interpolation from the start pose to a goal pose over ``duration``, then hold.
+
+    Position moves on a straight line at constant speed; orientation along the geodesic
+    R(s) = R0 exp(s log(R0ᵀ R1)), whose world angular velocity R0 log(R0ᵀR1)/T is constant.
+
+    Args:
+        position: Goal position [length], shape (3,).
+        rotation: Goal rotation (3×3); the start orientation if ``None``.
+        duration: T [s] > 0.
+    """
+
+    def __init__(
+        self, position: Sequence[float], duration: float, rotation: np.ndarray | None = None
+    ) -> None:
+        if not (np.isfinite(duration) and duration > 0):
+            raise TaskError(f"pose interpolation duration must be > 0, got {duration}")
+        self.goal_position = _vec(position, 3, "goal position")
+        self.goal_rotation = None if rotation is None else np.asarray(rotation, dtype=float)
+        if self.goal_rotation is not None:
+            r = self.goal_rotation
+            if r.shape != (3, 3) or not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or np.linalg.det(r) < 0:
+                raise TaskError("goal rotation must be a proper 3×3 rotation matrix")
+        self.duration = float(duration)
+
+    def sample(self, t: float) -> tuple[pin.SE3, np.ndarray]:
+        p0 = self.start_pose
+        r1 = p0.rotation if self.goal_rotation is None else self.goal_rotation
+        w = pin.log3(p0.rotation.T @ r1)
+        s = min(max(t / self.duration, 0.0), 1.0)
+        pos = p0.translation + s * (self.goal_position - p0.translation)
+        rot = p0.rotation @ pin.exp3(s * w)
+        if t < 0 or t >= self.duration:
+            return pin.SE3(rot, pos), np.zeros(6)
+        v = (self.goal_position - p0.translation) / self.duration
+        omega = p0.rotation @ w / self.duration
+        return pin.SE3(rot, pos), np.concatenate([v, omega])
+
+    def __repr__(self) -> str:
+        return f"PoseInterpolation(position={self.goal_position.tolist()}, duration={self.duration})"
