@@ -130,9 +130,7 @@ def from_dh(
         if row.name in frames:
             raise ModelError(f"robot '{name}': {where}: duplicate frame name")
         if row.kind not in ("revolute", "prismatic", "fixed"):
-            raise ModelError(
-                f"robot '{name}': {where}: kind must be revolute, prismatic or fixed, got {row.kind!r}"
-            )
+            raise ModelError(f"robot '{name}': {where}: kind must be revolute, prismatic or fixed, got {row.kind!r}")
         nums = (row.theta, row.d, row.a, row.alpha)
         if not all(np.isfinite(v) for v in nums):
             raise ModelError(f"robot '{name}': {where}: θ, d, a, α must be finite numbers, got {nums}")
@@ -150,9 +148,7 @@ def from_dh(
         const = dh_matrix(row.theta, row.d, row.a, row.alpha)
         if row.kind == "fixed":
             frames[row.name] = (parent_joint, parent_placement @ const)
-            model.addFrame(
-                pin.Frame(row.name, parent_joint, 0, _se3(parent_placement @ const), pin.FrameType.OP_FRAME)
-            )
+            model.addFrame(pin.Frame(row.name, parent_joint, 0, _se3(parent_placement @ const), pin.FrameType.OP_FRAME))
             previous = row.name
             continue
         if row.joint is not None:

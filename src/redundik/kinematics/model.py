@@ -153,9 +153,7 @@ class RobotModel:
         for j in self.joints:
             if j.name == name:
                 return j
-        raise ModelError(
-            f"joint '{name}' does not exist in robot '{self.name}'; available: {self.joint_names}"
-        )
+        raise ModelError(f"joint '{name}' does not exist in robot '{self.name}'; available: {self.joint_names}")
 
     # ------------------------------------------------------------------ configurations
     def neutral(self) -> np.ndarray:
@@ -198,9 +196,7 @@ class RobotModel:
         """
         arr = np.asarray(q, dtype=float).reshape(-1)
         if arr.shape[0] != self.nq:
-            raise ModelError(
-                f"{where}: expected {self.nq} values for robot '{self.name}', got {arr.shape[0]}"
-            )
+            raise ModelError(f"{where}: expected {self.nq} values for robot '{self.name}', got {arr.shape[0]}")
         if not np.all(np.isfinite(arr)):
             raise ModelError(f"{where}: contains NaN or infinite values: {arr.tolist()}")
         return arr

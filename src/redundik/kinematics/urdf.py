@@ -44,9 +44,7 @@ def example_robot_data_dir() -> Path:
     )
 
 
-def from_urdf(
-    path: str | os.PathLike[str], *, free_flyer: bool = False, name: str | None = None
-) -> RobotModel:
+def from_urdf(path: str | os.PathLike[str], *, free_flyer: bool = False, name: str | None = None) -> RobotModel:
     """Build a robot from a URDF file (kinematics only: meshes are not loaded).
 
     Args:

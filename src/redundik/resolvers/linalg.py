@@ -65,7 +65,7 @@ def pseudo_inverse(
     U, s, Vt = np.linalg.svd(J, full_matrices=False)  # s sorted descending, size k = min(m, n)
     smax = s[0] if s.size else 0.0
     rank = int(np.sum(s > rcond * max(smax, 1e-300))) if smax > 0 else 0
-    sigma_min = float(s[-1]) if m <= n else float(s[-1])
+    sigma_min = float(s[-1])
     lam2 = 0.0
     if sigma_min < epsilon and epsilon > 0:
         lam2 = (1.0 - (sigma_min / epsilon) ** 2) * max_damping**2

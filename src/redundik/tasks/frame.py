@@ -29,9 +29,7 @@ def resolve_axes(axes: str | Sequence[str]) -> tuple[str, ...]:
     """
     if isinstance(axes, str):
         if axes not in AXIS_SETS:
-            raise TaskError(
-                f"unknown axes '{axes}'; expected one of {sorted(AXIS_SETS)} or a list of {list(AXES)}"
-            )
+            raise TaskError(f"unknown axes '{axes}'; expected one of {sorted(AXIS_SETS)} or a list of {list(AXES)}")
         return AXIS_SETS[axes]
     out = tuple(axes)
     bad = [a for a in out if a not in AXES]
@@ -108,8 +106,7 @@ class FrameTask(Task):
 
     def __repr__(self) -> str:
         return (
-            f"FrameTask(frame={self.frame!r}, axes={list(self.axes)}, trajectory={self.trajectory!r}, "
-            f"gain={self.gain})"
+            f"FrameTask(frame={self.frame!r}, axes={list(self.axes)}, trajectory={self.trajectory!r}, gain={self.gain})"
         )
 
 

@@ -148,9 +148,7 @@ class PoseInterpolation(Trajectory):
         duration: T [s] > 0.
     """
 
-    def __init__(
-        self, position: Sequence[float], duration: float, rotation: np.ndarray | None = None
-    ) -> None:
+    def __init__(self, position: Sequence[float], duration: float, rotation: np.ndarray | None = None) -> None:
         if not (np.isfinite(duration) and duration > 0):
             raise TaskError(f"pose interpolation duration must be > 0, got {duration}")
         self.goal_position = _vec(position, 3, "goal position")
