@@ -68,7 +68,7 @@ class RobotModel:
     data: pin.Data = field(init=False, repr=False)
     joints: tuple[JointInfo, ...] = field(init=False, repr=False)
     _q: np.ndarray | None = field(init=False, default=None, repr=False)
-    _hessians_ready: bool = field(init=False, default=False, repr=False)
+    _support: np.ndarray | None = field(init=False, default=None, repr=False)
 
     def __post_init__(self) -> None:
         self.data = self.model.createData()
@@ -235,7 +235,6 @@ class RobotModel:
         pin.computeJointJacobians(self.model, self.data, q)
         pin.updateFramePlacements(self.model, self.data)
         self._q = q.copy()
-        self._hessians_ready = False
 
     @property
     def q(self) -> np.ndarray:
@@ -267,28 +266,45 @@ class RobotModel:
     def frame_jacobian_derivatives(self, frame: str | int) -> np.ndarray:
         """∂J/∂q_k of the base-aligned frame Jacobian, shape (6, nv, nv): ``H[:, :, k] = ∂J/∂q_k``.
 
-        Built from Pinocchio's kinematic Hessian in the WORLD (spatial) convention, H^s_k = ∂J^s/∂q_k, then moved
-        to the frame origin p: J = X(p) J^s with X(p) = [[I, -[p]×], [0, I]], so
-        ∂J/∂q_k = X(p) H^s_k + [[0, -[∂p/∂q_k]×], [0, 0]] J^s  with ∂p/∂q_k the k-th linear column of J.
+        Exact, from the spatial (WORLD) Jacobian J^s of the frame's joint: for columns j, k where joint(k) supports
+        joint(j) (is an ancestor of it, or the same joint), ∂J^s_j/∂q_k = ad(J^s_k) J^s_j, with
+        ad(v, ω)·(v', ω') = (ω × v' + v × ω', ω × ω'); otherwise 0. The base-aligned Jacobian at the frame origin p is
+        J = X(p) J^s with X(p) = [[I, −[p]×], [0, I]], hence ∂J/∂q_k = X(p) ∂J^s/∂q_k + [[0, −[∂p/∂q_k]×], [0, 0]] J^s,
+        with ∂p/∂q_k the k-th linear column of J. Derivatives are along the velocity coordinates (q ⊕ ε e_k).
         """
         fid = frame if isinstance(frame, int) else self.frame_id(frame)
-        q = self.q
-        if not self._hessians_ready:
-            pin.computeJointKinematicHessians(self.model, self.data, q)
-            self._hessians_ready = True
+        self.q  # noqa: B018 - raises if update() was never called
         fr = self.model.frames[fid]
-        hs = np.asarray(pin.getJointKinematicHessian(self.model, self.data, fr.parentJoint, WORLD))
-        js = np.asarray(pin.getJointJacobian(self.model, self.data, fr.parentJoint, WORLD))
+        js = np.asarray(pin.getJointJacobian(self.model, self.data, fr.parentJoint, WORLD))  # (6, nv)
+        v, w = js[:3].T, js[3:].T  # (nv, 3) each
+        # pairs [j, k]: ad(J_k) J_j = (ω_k × v_j + v_k × ω_j, ω_k × ω_j)
+        hv = np.cross(w[None, :, :], v[:, None, :]) + np.cross(v[None, :, :], w[:, None, :])  # (j, k, 3)
+        hw = np.cross(w[None, :, :], w[:, None, :])
+        mask = self._support_mask()[:, :, None]  # [j, k]: joint(k) supports joint(j)
+        hv *= mask
+        hw *= mask
         p = np.array(self.data.oMf[fid].translation)
-        jl = self.frame_jacobian(fid)[:3]  # (3, nv): ∂p/∂q
-        out = np.empty_like(hs)
-        out[3:] = hs[3:]
-        # linear part: v_p = v_s + ω × p = v_s - [p]× ω
-        out[:3] = hs[:3] - np.einsum("ij,jkl->ikl", pin.skew(p), hs[3:])
-        # + (∂p/∂q_k) × ω_j term: d(ω × p)/dq_k includes ω × ∂p/∂q_k = -[∂p/∂q_k]× ω
-        ang = js[3:]  # (3, nv)
-        out[:3] += np.cross(ang.T[:, None, :], jl.T[None, :, :]).transpose(2, 0, 1)
+        jl = v + np.cross(w, p)  # ∂p/∂q_k = v_k + ω_k × p, (nv, 3)
+        out = np.empty((6, self.nv, self.nv))
+        out[3:] = hw.transpose(2, 0, 1)
+        # X(p): linear part v + ω × p  ->  hv + hw × p, plus ω_j × ∂p/∂q_k
+        out[:3] = (hv + np.cross(hw, p) + np.cross(w[:, None, :], jl[None, :, :])).transpose(2, 0, 1)
         return out
+
+    def _support_mask(self) -> np.ndarray:
+        """Boolean (nv, nv) matrix M[j, k] = joint of velocity k is joint of velocity j or one of its ancestors."""
+        if self._support is None:
+            owner = np.empty(self.nv, dtype=int)
+            for jid in range(1, self.model.njoints):
+                jm = self.model.joints[jid]
+                owner[jm.idx_v : jm.idx_v + jm.nv] = jid
+            mask = np.zeros((self.nv, self.nv))
+            for j in range(self.nv):
+                anc = set(self.model.supports[int(owner[j])])
+                for k in range(self.nv):
+                    mask[j, k] = 1.0 if owner[k] in anc else 0.0
+            self._support = mask
+        return self._support
 
 
 def _listing(names: Sequence[str], limit: int = 40) -> str:
