@@ -193,5 +193,5 @@ def test_panda_loads_offline_with_limits_and_fd_jacobian() -> None:
 
 
 def test_unknown_example_robot_lists_known_ones() -> None:
-    with pytest.raises(ModelError, match="unknown example robot 'iiwa'; known: .*panda"):
+    with pytest.raises(ModelError, match=r"unknown example robot .iiwa.; known: .*panda"):
         load_example_robot("iiwa")

@@ -245,9 +245,10 @@ class Clearance(_FramePotential):
 class Manipulability(_FramePotential):
     """Yoshikawa's manipulability p = √det(J Jᵀ) of a frame Jacobian (rows ``axes``), section 5.2.
 
-    The chapter calls its gradient "unfeasible" symbolically; numerically it is exact and cheap:
-    ∂p/∂q_k = p · tr((JJᵀ)⁻¹ (∂J/∂q_k) Jᵀ), with ∂J/∂q_k from Pinocchio's kinematic Hessian. Maximise it (k > 0).
-    At a singularity (p = 0) the gradient is taken as 0 (p is not differentiable there).
+    The chapter calls its gradient "unfeasible" symbolically; numerically it is exact and cheap. With the SVD
+    J = Σ σ_i u_i v_iᵀ, p = Π σ_i and dσ_i = u_iᵀ dJ v_i, so ∂p/∂q_k = Σ_i (Π_{l≠i} σ_l) u_iᵀ (∂J/∂q_k) v_i, with
+    ∂J/∂q_k exact from :meth:`RobotModel.frame_jacobian_derivatives`. This form needs no inverse of JJᵀ, so it
+    stays finite at a singularity (where p is not differentiable). Maximise it (k > 0).
     """
 
     def __init__(self, frame: str, axes: str | Sequence[str] = "pose", name: str | None = None) -> None:
@@ -256,19 +257,18 @@ class Manipulability(_FramePotential):
 
     def value(self, robot: RobotModel) -> float:
         J = robot.frame_jacobian(self._id(robot))[self.rows]
-        return float(np.sqrt(max(np.linalg.det(J @ J.T), 0.0)))
+        return float(np.prod(np.linalg.svd(J, compute_uv=False)))
 
     def gradient(self, robot: RobotModel) -> np.ndarray:
         fid = self._id(robot)
         J = robot.frame_jacobian(fid)[self.rows]
-        A = J @ J.T
-        p = float(np.sqrt(max(np.linalg.det(A), 0.0)))
-        if p < 1e-12:
-            return np.zeros(robot.nv)
-        H = robot.frame_jacobian_derivatives(fid)[self.rows]  # (m, nv, nv): H[:, :, k] = ∂J/∂q_k
-        X = np.linalg.solve(A, J)  # (JJᵀ)⁻¹ J, (m, nv)
-        # tr(A⁻¹ H_k Jᵀ) = Σ_ij (A⁻¹J)_ij (H_k)_ij
-        return p * np.einsum("ij,ijk->k", X, H)
+        U, s, Vt = np.linalg.svd(J, full_matrices=False)  # (m, k), (k,), (k, nv)
+        k = s.size
+        others = np.array([np.prod(np.delete(s, i)) for i in range(k)])  # Π_{l≠i} σ_l
+        H = robot.frame_jacobian_derivatives(fid)[self.rows]  # (m, nv, nv): H[:, :, c] = ∂J/∂q_c
+        # u_iᵀ H_c v_i for every i and c
+        dsig = np.einsum("mi,mnc,in->ic", U, H, Vt)
+        return others @ dsig
 
 
 class BestPosture(Potential):
