@@ -22,6 +22,9 @@ from redundik.errors import ModelError
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 WORLD = pin.ReferenceFrame.WORLD
 
+_REVOLUTE = {"JointModelRX", "JointModelRY", "JointModelRZ"}
+_PRISMATIC = {"JointModelPX", "JointModelPY", "JointModelPZ"}
+
 #: Row indices of a base-aligned 6×n Jacobian by axis name.
 AXES: dict[str, int] = {"x": 0, "y": 1, "z": 2, "rx": 3, "ry": 4, "rz": 5}
 
@@ -77,9 +80,11 @@ class RobotModel:
             jmodel = self.model.joints[jid]
             jname = self.model.names[jid]
             short = jmodel.shortname()
-            if "Revolute" in short and "Unbounded" not in short:
+            # Pinocchio names axis-aligned joints RX/RY/RZ and PX/PY/PZ (D-H joints, most URDF joints);
+            # unaligned ones RevoluteUnaligned / PrismaticUnaligned; unbounded revolute ones RUBX... (nq = 2).
+            if short in _REVOLUTE or ("Revolute" in short and "Unbounded" not in short):
                 kind = "revolute"
-            elif "Prismatic" in short:
+            elif short in _PRISMATIC or "Prismatic" in short:
                 kind = "prismatic"
             else:
                 kind = "other"
