@@ -1,0 +1,342 @@
+"""Typed YAML entries (``type: ...``) → core objects: main tasks, trajectories, potentials, monitors.
+
+Each registry maps a ``type`` name to a pydantic model and a builder. Builders check everything that needs the
+robot (frame and joint names, vector lengths) and raise :class:`~redundik.errors.ConfigError` with the key path.
+New types are added with :func:`register_potential`, :func:`register_task` or :func:`register_trajectory`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any, Generic, TypeVar
+
+import numpy as np
+from pydantic import BaseModel
+
+from redundik.config import schema as s
+from redundik.config.robot import angle_scale, configuration_from_file, rpy_matrix
+from redundik.config.yamlio import join_path, validate
+from redundik.errors import ConfigError, RedundikError
+from redundik.kinematics import AXES, RobotModel
+from redundik.tasks import (
+    BestPosture,
+    Circle,
+    Clearance,
+    FrameTask,
+    Hold,
+    JointCentering,
+    JointSine2,
+    JointValue,
+    Line,
+    Manipulability,
+    PoseInterpolation,
+    PostureTask,
+    Potential,
+    Task,
+    VirtualPoint,
+)
+from redundik.tasks.frame import resolve_axes
+from redundik.tasks.trajectory import Trajectory
+
+T = TypeVar("T")
+
+
+@dataclass(frozen=True)
+class Context:
+    """What builders need: the robot and the angle unit of the file being read."""
+
+    robot: RobotModel
+    angle_unit: str = "rad"
+
+    @property
+    def scale(self) -> float:
+        """Factor from the file's angle unit to radians."""
+        return angle_scale(self.angle_unit)
+
+
+@dataclass(frozen=True)
+class Kind(Generic[T]):
+    """One ``type:`` of a registry: its model and the builder ``(spec, name, context, path) -> object``."""
+
+    model: type[BaseModel]
+    build: Callable[[Any, str, Context, str], T]
+
+
+# ---------------------------------------------------------------------------------------------------- checks
+def check_frame(ctx: Context, name: str, path: str) -> str:
+    """Return ``name`` if the robot has such a frame.
+
+    Raises:
+        ConfigError: at ``path``, listing the available frames.
+    """
+    if not ctx.robot.model.existFrame(name):
+        names = [n for n in ctx.robot.frame_names if n != "universe"]
+        shown = ", ".join(names) if len(names) <= 40 else ", ".join(names[:40]) + f", ... ({len(names)} in all)"
+        raise ConfigError(f"frame '{name}' does not exist; available: {shown}", path)
+    return name
+
+
+def check_joint(ctx: Context, name: str, path: str) -> str:
+    """Return ``name`` if the robot has such a 1-dof joint.
+
+    Raises:
+        ConfigError: at ``path``, listing the joints.
+    """
+    names = [j.name for j in ctx.robot.joints if j.idx_q >= 0]
+    if name not in names:
+        raise ConfigError(f"joint '{name}' does not exist; available: {', '.join(names)}", path)
+    return name
+
+
+def check_axes(axes: Any, path: str, position_only: bool = False) -> tuple[str, ...]:
+    """Axis names from ``pose``/``position``/``orientation``/``planar`` or a list of x, y, z, rx, ry, rz."""
+    if not isinstance(axes, (str, list)) or (isinstance(axes, list) and not all(isinstance(a, str) for a in axes)):
+        raise ConfigError(f"expected an axis-set name or a list of axis names, got {axes!r}", path)
+    try:
+        out = resolve_axes(axes)
+    except RedundikError as exc:
+        raise ConfigError(str(exc), path) from None
+    if position_only and any(a not in ("x", "y", "z") for a in out):
+        raise ConfigError(f"expected position axes among x, y, z, got {list(out)}", path)
+    return out
+
+
+def check_length(values: Sequence[float], n: int, path: str, what: str = "") -> np.ndarray:
+    """``values`` as an array of length ``n``.
+
+    Raises:
+        ConfigError: wrong length.
+    """
+    if len(values) != n:
+        raise ConfigError(f"expected {n} values{what}, got {len(values)}", path)
+    return np.asarray(values, dtype=float)
+
+
+def frame_list(value: Any, ctx: Context, path: str) -> list[str]:
+    """One frame name or a list of them, each checked."""
+    frames = [value] if isinstance(value, str) else list(value)
+    if not frames:
+        raise ConfigError("expected at least one frame", path)
+    if isinstance(value, str):
+        return [check_frame(ctx, value, path)]
+    return [check_frame(ctx, f, join_path(path, i)) for i, f in enumerate(frames)]
+
+
+def _wrap(path: str, make: Callable[[], T]) -> T:
+    """Call a core constructor; its :class:`RedundikError` becomes a :class:`ConfigError` at ``path``."""
+    try:
+        return make()
+    except ConfigError:
+        raise
+    except RedundikError as exc:
+        raise ConfigError(str(exc), path) from None
+
+
+def build_typed(registry: dict[str, Kind[T]], raw: Any, name: str, ctx: Context, path: str, what: str) -> T:
+    """Validate a ``type:``-tagged mapping against its registry entry and build it.
+
+    Raises:
+        ConfigError: not a mapping, missing or unknown ``type`` (lists the known ones), or any invalid field.
+    """
+    if not isinstance(raw, dict):
+        raise ConfigError(f"expected a mapping with a 'type' key, got {raw!r}", path)
+    kind = raw.get("type")
+    if kind is None:
+        raise ConfigError(f"missing 'type'; {what} types: {', '.join(registry)}", path)
+    if kind not in registry:
+        raise ConfigError(f"unknown {what} type {kind!r}; available: {', '.join(registry)}", join_path(path, "type"))
+    entry = registry[kind]
+    spec = validate(entry.model, raw, path)
+    return entry.build(spec, name, ctx, path)
+
+
+# ---------------------------------------------------------------------------------------------------- trajectories
+def _traj_hold(spec: s.HoldSpec, name: str, ctx: Context, path: str) -> Trajectory:
+    return Hold()
+
+
+def _traj_line(spec: s.LineSpec, name: str, ctx: Context, path: str) -> Trajectory:
+    return _wrap(join_path(path, "velocity"), lambda: Line(spec.velocity))
+
+
+def _traj_circle(spec: s.CircleSpec, name: str, ctx: Context, path: str) -> Trajectory:
+    if spec.plane[0] == spec.plane[1]:
+        raise ConfigError(f"expected two different axes, got {spec.plane}", join_path(path, "plane"))
+    return _wrap(
+        path,
+        lambda: Circle(
+            spec.radius,
+            spec.omega * ctx.scale,
+            plane=(spec.plane[0], spec.plane[1]),
+            center=spec.center,
+            phase=spec.phase * ctx.scale,
+        ),
+    )
+
+
+def _traj_pose(spec: s.PoseSpec, name: str, ctx: Context, path: str) -> Trajectory:
+    rot = None if spec.rpy is None else rpy_matrix(np.asarray(spec.rpy) * ctx.scale)
+    return _wrap(path, lambda: PoseInterpolation(spec.position, spec.duration, rotation=rot))
+
+
+TRAJECTORIES: dict[str, Kind[Trajectory]] = {
+    "hold": Kind(s.HoldSpec, _traj_hold),
+    "line": Kind(s.LineSpec, _traj_line),
+    "circle": Kind(s.CircleSpec, _traj_circle),
+    "pose": Kind(s.PoseSpec, _traj_pose),
+}
+
+
+# ---------------------------------------------------------------------------------------------------- main tasks
+def _task_frame(spec: s.FrameTaskSpec, name: str, ctx: Context, path: str) -> Task:
+    frame = check_frame(ctx, spec.frame, join_path(path, "frame"))
+    axes = check_axes(spec.axes, join_path(path, "axes"))
+    traj = (
+        Hold()
+        if spec.trajectory is None
+        else build_typed(TRAJECTORIES, spec.trajectory, name, ctx, join_path(path, "trajectory"), "trajectory")
+    )
+    return _wrap(
+        path,
+        lambda: FrameTask(frame, traj, axes=axes, gain=spec.gain, weight=spec.weight, name=spec.name or name),
+    )
+
+
+def _task_posture(spec: s.PostureTaskSpec, name: str, ctx: Context, path: str) -> Task:
+    target = (
+        None
+        if spec.target is None
+        else configuration_from_file(spec.target, ctx.robot, ctx.angle_unit, join_path(path, "target"))
+    )
+    return _wrap(path, lambda: PostureTask(target, gain=spec.gain, weight=spec.weight, name=spec.name or name))
+
+
+TASKS: dict[str, Kind[Task]] = {
+    "frame": Kind(s.FrameTaskSpec, _task_frame),
+    "posture": Kind(s.PostureTaskSpec, _task_posture),
+}
+
+
+def task_name(raw: Any, index: int) -> str:
+    """The name a main-task entry will have: its ``name``, else its ``frame``, else its type."""
+    if isinstance(raw, dict):
+        for key in ("name", "frame"):
+            val = raw.get(key)
+            if isinstance(val, (str, int)) and not isinstance(val, bool):
+                return str(val)
+        if isinstance(raw.get("type"), str):
+            return str(raw["type"])
+    return f"task{index}"
+
+
+# ---------------------------------------------------------------------------------------------------- potentials
+def _pot_sin2(spec: s.Sin2Spec, name: str, ctx: Context, path: str) -> Potential:
+    joint = check_joint(ctx, spec.joint, join_path(path, "joint"))
+    return JointSine2(joint, name=name)
+
+
+def _pot_joint_value(spec: s.JointValueSpec, name: str, ctx: Context, path: str) -> Potential:
+    joint = check_joint(ctx, spec.joint, join_path(path, "joint"))
+    scale = ctx.scale if ctx.robot.joint(joint).kind == "revolute" else 1.0
+    return _wrap(path, lambda: JointValue(joint, spec.value * scale, name=name))
+
+
+def _pot_centering(spec: s.JointCenteringSpec, name: str, ctx: Context, path: str) -> Potential:
+    center = (
+        None
+        if spec.center is None
+        else configuration_from_file(spec.center, ctx.robot, ctx.angle_unit, join_path(path, "center"))
+    )
+    weights = None
+    if spec.weights is not None:
+        weights = check_length(spec.weights, ctx.robot.nv, join_path(path, "weights"), " (one per joint)")
+    return _wrap(path, lambda: JointCentering(center, weights, name=name))
+
+
+def _pot_virtual_point(spec: s.VirtualPointSpec, name: str, ctx: Context, path: str) -> Potential:
+    frame = check_frame(ctx, spec.frame, join_path(path, "frame"))
+    axes = check_axes(spec.axes, join_path(path, "axes"), position_only=True)
+    return _wrap(path, lambda: VirtualPoint(frame, spec.point, axes=axes, name=name))
+
+
+def _pot_clearance(spec: s.ClearanceSpec, name: str, ctx: Context, path: str) -> Potential:
+    frame = check_frame(ctx, spec.frame, join_path(path, "frame"))
+    axes = check_axes(spec.axes, join_path(path, "axes"), position_only=True)
+    return _wrap(path, lambda: Clearance(frame, spec.center, spec.radius, axes=axes, name=name))
+
+
+def _pot_manipulability(spec: s.ManipulabilitySpec, name: str, ctx: Context, path: str) -> Potential:
+    frame = check_frame(ctx, spec.frame, join_path(path, "frame"))
+    axes = check_axes(spec.axes, join_path(path, "axes"))
+    return _wrap(path, lambda: Manipulability(frame, axes=axes, name=name))
+
+
+def _pot_best_posture(spec: s.BestPostureSpec, name: str, ctx: Context, path: str) -> Potential:
+    frames = frame_list(spec.frames, ctx, join_path(path, "frames"))
+    axes = check_axes(spec.axes, join_path(path, "axes"))
+    weights = None
+    if spec.weights is not None:
+        weights = check_length(spec.weights, ctx.robot.nv, join_path(path, "weights"), " (one per joint)")
+    return _wrap(path, lambda: BestPosture(frames, weights, axes=axes, name=name))
+
+
+POTENTIALS: dict[str, Kind[Potential]] = {
+    "sin2": Kind(s.Sin2Spec, _pot_sin2),
+    "joint_value": Kind(s.JointValueSpec, _pot_joint_value),
+    "joint_centering": Kind(s.JointCenteringSpec, _pot_centering),
+    "virtual_point": Kind(s.VirtualPointSpec, _pot_virtual_point),
+    "clearance": Kind(s.ClearanceSpec, _pot_clearance),
+    "manipulability": Kind(s.ManipulabilitySpec, _pot_manipulability),
+    "best_posture": Kind(s.BestPostureSpec, _pot_best_posture),
+}
+
+
+# ---------------------------------------------------------------------------------------------------- monitors
+@dataclass
+class TorqueMonitor:
+    """Logs τ = JᵀF (the chapter's statics) for a Cartesian load F on the stacked frame Jacobians.
+
+    Attributes:
+        name: Monitor name.
+        frames: Frames whose Jacobians are stacked.
+        rows: Jacobian rows used (from ``axes``).
+        force: F, shape (len(frames)·len(rows),).
+    """
+
+    name: str
+    frames: list[str]
+    rows: np.ndarray
+    force: np.ndarray
+
+    def torques(self, robot: RobotModel) -> np.ndarray:
+        """τ = JᵀF at the robot's current (updated) state, shape (nv,)."""
+        J = np.vstack([robot.frame_jacobian(f)[self.rows] for f in self.frames])
+        return J.T @ self.force
+
+
+def _mon_torques(spec: s.TorquesSpec, name: str, ctx: Context, path: str) -> TorqueMonitor:
+    frames = frame_list(spec.frames, ctx, join_path(path, "frames"))
+    axes = check_axes(spec.axes, join_path(path, "axes"))
+    n = len(frames) * len(axes)
+    force = check_length(spec.force, n, join_path(path, "force"), f" ({len(axes)} axes × {len(frames)} frames)")
+    return TorqueMonitor(name, frames, np.array([AXES[a] for a in axes]), force)
+
+
+#: Monitor-only types (everything in :data:`POTENTIALS` can also be a monitor).
+MONITORS: dict[str, Kind[Any]] = {"torques": Kind(s.TorquesSpec, _mon_torques)}
+
+
+def register_potential(type_name: str, model: type[BaseModel], build: Callable[..., Potential]) -> None:
+    """Make ``type: type_name`` available under ``potentials:`` and ``monitors:``."""
+    POTENTIALS[type_name] = Kind(model, build)
+
+
+def register_task(type_name: str, model: type[BaseModel], build: Callable[..., Task]) -> None:
+    """Make ``type: type_name`` available under ``main:``."""
+    TASKS[type_name] = Kind(model, build)
+
+
+def register_trajectory(type_name: str, model: type[BaseModel], build: Callable[..., Trajectory]) -> None:
+    """Make ``type: type_name`` available as a frame task's ``trajectory``."""
+    TRAJECTORIES[type_name] = Kind(model, build)

@@ -1,0 +1,335 @@
+"""Task files → a :class:`TaskPlan`: the robot, and for every run a ready task stack and resolver.
+
+The whole file is checked before anything runs: shape (pydantic), then names and sizes against the robot, then
+each run is assembled and its resolver's ``check`` called at q0. Any problem is a one-line
+:class:`~redundik.errors.ConfigError` with the YAML key path.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from redundik.config.builders import (
+    MONITORS,
+    POTENTIALS,
+    TASKS,
+    Context,
+    TorqueMonitor,
+    build_typed,
+    check_frame,
+    task_name,
+)
+from redundik.config.robot import LoadedRobot, configuration_from_file, load_robot
+from redundik.config.schema import RunSpec, SubtaskSpec, TaskFileSpec
+from redundik.config.yamlio import join_path, read_yaml, validate
+from redundik.errors import ConfigError, RedundikError
+from redundik.resolvers import RESOLVERS, Resolver, make_resolver
+from redundik.tasks import Potential, Subtask, Task, TaskStack
+
+
+@dataclass
+class RunPlan:
+    """One run, ready to simulate.
+
+    Attributes:
+        name: Run name.
+        description: Free text from the file.
+        resolver_name: Registry name of the resolver.
+        resolver: The resolver.
+        stack: Main tasks and controlled subtasks.
+        q0: Initial configuration [rad, length unit].
+        watched: The file's other potentials, logged but not controlled in this run.
+        monitors: Potentials under ``monitors:`` (logged only).
+        torque_monitors: ``type: torques`` monitors.
+    """
+
+    name: str
+    description: str
+    resolver_name: str
+    resolver: Resolver
+    stack: TaskStack
+    q0: np.ndarray
+    watched: list[Potential] = field(default_factory=list)
+    monitors: list[Potential] = field(default_factory=list)
+    torque_monitors: list[TorqueMonitor] = field(default_factory=list)
+
+
+@dataclass
+class DrawPlan:
+    """What the configuration figure draws.
+
+    Attributes:
+        segments: Links as (frame, frame) pairs.
+        plane: Two world axes for a planar drawing, or ``None`` (decide from the data).
+        every: Samples between drawn configurations, or ``None`` (about 12 per run).
+        path_frame: Frame whose path is drawn (the first frame task's frame), or ``None``.
+    """
+
+    segments: list[tuple[str, str]]
+    plane: tuple[str, str] | None = None
+    every: int | None = None
+    path_frame: str | None = None
+
+    @property
+    def frames(self) -> list[str]:
+        """Every frame the drawing needs, in order of first appearance."""
+        out: list[str] = []
+        for a, b in self.segments:
+            for f in (a, b):
+                if f not in out:
+                    out.append(f)
+        if self.path_frame is not None and self.path_frame not in out:
+            out.append(self.path_frame)
+        return out
+
+
+@dataclass
+class TaskPlan:
+    """A validated task file.
+
+    Attributes:
+        name: Task name (also the default output folder).
+        description: Free text.
+        path: The file, or ``None`` for an in-memory mapping.
+        robot: The robot and what its config added.
+        angle_unit: Unit of angle-valued entries of the task file.
+        dt: Time step [s].
+        steps: Number of steps.
+        q0: Default initial configuration [rad, length unit].
+        runs: The runs by name, in file order.
+        potential_types: ``type`` of every potential and monitor by name.
+        draw: The drawing plan.
+        log_frames: Frames whose origins are logged at every sample.
+    """
+
+    name: str
+    description: str
+    path: Path | None
+    robot: LoadedRobot
+    angle_unit: str
+    dt: float
+    steps: int
+    q0: np.ndarray
+    runs: dict[str, RunPlan]
+    potential_types: dict[str, str]
+    draw: DrawPlan
+    log_frames: list[str]
+
+
+def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None) -> TaskPlan:
+    """Read, validate and assemble a task file (every run) without running it.
+
+    Args:
+        source: Path of a YAML task file, or its content as a mapping.
+        base_dir: Folder relative paths are resolved from (the file's folder by default; cwd for a mapping).
+
+    Raises:
+        ConfigError: the first problem found, with its YAML key path.
+    """
+    if isinstance(source, dict):
+        data, path = source, None
+        base = base_dir or Path.cwd()
+    else:
+        path = Path(source)
+        data = read_yaml(path, "task file")
+        base = base_dir or path.resolve().parent
+    spec: TaskFileSpec = validate(TaskFileSpec, data)
+    robot = load_robot(spec.robot, base, "robot")
+    ctx = Context(robot.model, spec.angle_unit)
+
+    if spec.q0 is not None:
+        q0 = configuration_from_file(spec.q0, robot.model, spec.angle_unit, "q0")
+    elif robot.q0 is not None:
+        q0 = robot.q0
+    else:
+        q0 = robot.model.neutral()
+
+    # every potential and monitor once, for names/sizes (runs build their own fresh objects)
+    types: dict[str, str] = {}
+    for name, raw in spec.potentials.items():
+        build_typed(POTENTIALS, raw, name, ctx, join_path("potentials", name), "potential")
+        types[name] = str(raw["type"])
+    for name, raw in spec.monitors.items():
+        where = join_path("monitors", name)
+        if name in spec.potentials:
+            raise ConfigError(f"'{name}' is already a potential; give the monitor another name", where)
+        _build_monitor(raw, name, ctx, where)
+        types[name] = str(raw["type"])
+    for i, f in enumerate(spec.log_frames):
+        check_frame(ctx, f, join_path("log_frames", i))
+
+    runs = {name: _build_run(spec, ctx, name, run, q0) for name, run in spec.runs.items()}
+    draw = _draw_plan(spec, robot, ctx, runs)
+    log_frames = list(dict.fromkeys([*draw.frames, *spec.log_frames]))
+    return TaskPlan(
+        name=spec.name,
+        description=spec.description,
+        path=path,
+        robot=robot,
+        angle_unit=spec.angle_unit,
+        dt=spec.dt,
+        steps=spec.n_steps,
+        q0=q0,
+        runs=runs,
+        potential_types=types,
+        draw=draw,
+        log_frames=log_frames,
+    )
+
+
+def _build_monitor(raw: Any, name: str, ctx: Context, path: str) -> Potential | TorqueMonitor:
+    kind = raw.get("type") if isinstance(raw, dict) else None
+    if kind in MONITORS:
+        return build_typed(MONITORS, raw, name, ctx, path, "monitor")
+    registry: dict[str, Any] = {**POTENTIALS, **MONITORS}
+    return build_typed(registry, raw, name, ctx, path, "monitor")
+
+
+def _build_tasks(raws: list[dict[str, Any]], ctx: Context, path: str, offset: int = 0) -> list[Task]:
+    out = []
+    for i, raw in enumerate(raws):
+        name = task_name(raw, i + offset)
+        out.append(build_typed(TASKS, raw, name, ctx, join_path(path, i), "main task"))
+    return out
+
+
+def _check_options(options: dict[str, Any], path: str) -> None:
+    for key, val in options.items():
+        if isinstance(val, float) and not math.isfinite(val):
+            raise ConfigError(f"expected a finite number, got {val}", join_path(path, key))
+
+
+def _subtask(pot: Potential, sub: SubtaskSpec, path: str) -> Subtask:
+    mode = sub.mode
+    if mode is None:
+        if sub.target is not None:
+            mode = "target"
+        elif sub.lower is not None or sub.upper is not None:
+            mode = "bounds"
+        else:
+            mode = "gradient"
+    kwargs: dict[str, Any] = {
+        k: getattr(sub, k)
+        for k in ("gain", "target", "rate", "target_rate", "lower", "upper", "weight", "priority")
+        if getattr(sub, k) is not None
+    }
+    try:
+        return Subtask(pot, mode=mode, **kwargs)
+    except RedundikError as exc:
+        raise ConfigError(str(exc).removeprefix(f"subtask '{pot.name}': "), path) from None
+
+
+def _build_run(spec: TaskFileSpec, ctx: Context, name: str, run: RunSpec, q0_file: np.ndarray) -> RunPlan:
+    path = join_path("runs", name)
+    robot = ctx.robot
+    # main tasks: the file's (or this run's replacement) plus extra ones
+    if run.main is not None:
+        tasks = _build_tasks(run.main, ctx, join_path(path, "main"))
+    else:
+        tasks = _build_tasks(spec.main, ctx, "main")
+    tasks += _build_tasks(run.extra_main, ctx, join_path(path, "extra_main"), offset=len(tasks))
+    names = [t.name for t in tasks]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ConfigError(f"main task names must be unique; repeated: {', '.join(dup)} (give each a 'name')", path)
+    for key, overrides in (("gains", run.gains), ("weights", run.weights)):
+        for tname, value in overrides.items():
+            where = join_path(path, key, tname)
+            if tname not in names:
+                raise ConfigError(f"no main task named '{tname}'; main tasks: {', '.join(names) or '(none)'}", where)
+            task = tasks[names.index(tname)]
+            if key == "gains":
+                if value < 0:
+                    raise ConfigError(f"must be ≥ 0, got {value}", where)
+                task.gain = float(value)  # type: ignore[attr-defined]
+            else:
+                if value <= 0:
+                    raise ConfigError(f"must be > 0, got {value}", where)
+                task.weight = float(value)  # type: ignore[attr-defined]
+    # subtasks: named potentials of the file
+    subtasks: list[Subtask] = []
+    for pname, sub in run.subtasks.items():
+        where = join_path(path, "subtasks", pname)
+        if pname not in spec.potentials:
+            defined = ", ".join(spec.potentials) or "(none)"
+            raise ConfigError(f"no potential named '{pname}' under 'potentials'; defined: {defined}", where)
+        pot = build_typed(POTENTIALS, spec.potentials[pname], pname, ctx, join_path("potentials", pname), "potential")
+        subtasks.append(_subtask(pot, sub or SubtaskSpec(), where))
+    controlled = {s.name for s in subtasks}
+    watched = [
+        build_typed(POTENTIALS, raw, pname, ctx, join_path("potentials", pname), "potential")
+        for pname, raw in spec.potentials.items()
+        if pname not in controlled
+    ]
+    monitors: list[Potential] = []
+    torques: list[TorqueMonitor] = []
+    for mname, raw in spec.monitors.items():
+        mon = _build_monitor(raw, mname, ctx, join_path("monitors", mname))
+        (torques if isinstance(mon, TorqueMonitor) else monitors).append(mon)  # type: ignore[arg-type]
+    # resolver from the registry (QP resolvers register themselves there)
+    if run.resolver not in RESOLVERS:
+        raise ConfigError(
+            f"unknown resolver '{run.resolver}'; available: {', '.join(sorted(RESOLVERS))}",
+            join_path(path, "resolver"),
+        )
+    _check_options(run.options, join_path(path, "options"))
+    try:
+        resolver = make_resolver(run.resolver, **run.options)
+    except RedundikError as exc:
+        raise ConfigError(str(exc), join_path(path, "options")) from None
+    except (ValueError, TypeError) as exc:
+        raise ConfigError(f"resolver '{run.resolver}': bad options: {exc}", join_path(path, "options")) from None
+    q0 = q0_file if run.q0 is None else configuration_from_file(run.q0, robot, ctx.angle_unit, join_path(path, "q0"))
+    stack = TaskStack(tasks, subtasks)
+    # assemble at q0 exactly as the simulation will, so that a run that cannot start fails now
+    try:
+        robot.update(q0)
+        stack.reset(robot)
+        for pot in [*watched, *monitors]:
+            pot.check(robot)
+        resolver.reset()
+        resolver.check(robot, stack)
+        stack.evaluate(robot, 0.0)
+    except RedundikError as exc:
+        raise ConfigError(str(exc), path) from None
+    return RunPlan(name, run.description, run.resolver, resolver, stack, q0, watched, monitors, torques)
+
+
+def _draw_plan(spec: TaskFileSpec, robot: LoadedRobot, ctx: Context, runs: dict[str, RunPlan]) -> DrawPlan:
+    path_frame = None
+    for run in runs.values():
+        for t in run.stack.tasks:
+            frame = getattr(t, "frame", None)
+            if isinstance(frame, str):
+                path_frame = frame
+                break
+        if path_frame:
+            break
+    draw = spec.draw
+    if draw is None or draw.frames is None:
+        segments = list(robot.segments)
+    else:
+        raw = draw.frames
+        single = all(isinstance(f, (str, int)) and not isinstance(f, bool) for f in raw)
+        chains = [raw] if single else raw
+        segments = []
+        for ci, chain in enumerate(chains):
+            cpath = "draw.frames" if single else join_path("draw.frames", ci)
+            if not isinstance(chain, list) or len(chain) < 2:
+                raise ConfigError("expected a list of at least two frame names, or a list of such lists", cpath)
+            names = [str(f) for f in chain]
+            for i, f in enumerate(names):
+                check_frame(ctx, f, join_path(cpath, i))
+            segments += list(itertools.pairwise(names))
+    if draw is not None and draw.path is not None:
+        path_frame = check_frame(ctx, draw.path, "draw.path")
+    plane = None if draw is None or draw.plane is None else (draw.plane[0], draw.plane[1])
+    if plane is not None and plane[0] == plane[1]:
+        raise ConfigError(f"expected two different axes, got {list(plane)}", "draw.plane")
+    return DrawPlan(segments, plane, None if draw is None else draw.every, path_frame)

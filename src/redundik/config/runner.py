@@ -1,0 +1,176 @@
+"""Run the runs of a :class:`~redundik.config.TaskPlan` and summarise them (the numbers of ``summary.json``)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from redundik.config.loader import RunPlan, TaskPlan
+from redundik.errors import ConfigError
+from redundik.simulation import SimulationLog, simulate
+
+
+@dataclass
+class RunResult:
+    """One simulated run.
+
+    Attributes:
+        name: Run name.
+        plan: What was run.
+        log: The simulation log (q, q̇, task errors, potentials incl. watched ones and monitors, frame origins).
+        series: Extra per-sample series by CSV column name (torque monitors: ``m.NAME.max`` ...), shape (N,).
+        limit_violation: Largest joint-limit violation per sample [rad or length], shape (N,).
+        summary: The run's entry of ``summary.json``.
+    """
+
+    name: str
+    plan: RunPlan
+    log: SimulationLog
+    series: dict[str, np.ndarray] = field(default_factory=dict)
+    limit_violation: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    summary: dict[str, Any] = field(default_factory=dict)
+
+
+def select_runs(plan: TaskPlan, names: Iterable[str] | None) -> list[str]:
+    """The runs to execute, in file order.
+
+    Raises:
+        ConfigError: an unknown run name (lists the file's runs).
+    """
+    if names is None:
+        return list(plan.runs)
+    wanted = [n.strip() for n in names if n.strip()]
+    bad = [n for n in wanted if n not in plan.runs]
+    if bad:
+        raise ConfigError(f"no run named {', '.join(repr(b) for b in bad)}; runs in the file: {', '.join(plan.runs)}")
+    return [n for n in plan.runs if n in wanted]
+
+
+def run_task(
+    plan: TaskPlan,
+    runs: Iterable[str] | None = None,
+    progress: Callable[[str, int], None] | None = None,
+) -> dict[str, RunResult]:
+    """Simulate the selected runs of a task plan (all by default).
+
+    Args:
+        plan: From :func:`redundik.config.load_task`.
+        runs: Names of the runs to execute.
+        progress: Called as ``progress(run_name, steps_done)``.
+
+    Returns:
+        Results by run name, in file order.
+    """
+    out: dict[str, RunResult] = {}
+    for name in select_runs(plan, runs):
+        out[name] = run_one(plan, plan.runs[name], progress)
+    return out
+
+
+def run_one(plan: TaskPlan, run: RunPlan, progress: Callable[[str, int], None] | None = None) -> RunResult:
+    """Simulate one run and summarise it."""
+    robot = plan.robot.model
+    cb = None if progress is None else (lambda k: progress(run.name, k))
+    log = simulate(
+        robot,
+        run.stack,
+        run.resolver,
+        run.q0,
+        dt=plan.dt,
+        steps=plan.steps,
+        log_frames=tuple(plan.log_frames),
+        extra_potentials=tuple(run.watched + run.monitors),
+        progress=cb,
+    )
+    n = log.q.shape[0]
+    violation = np.array([float(np.max(robot.limit_violation(log.q[k]), initial=0.0)) for k in range(n)])
+    series: dict[str, np.ndarray] = {}
+    if run.torque_monitors:
+        tau = {m.name: np.empty((n, robot.nv)) for m in run.torque_monitors}
+        for k in range(n):
+            robot.update(log.q[k])
+            for m in run.torque_monitors:
+                tau[m.name][k] = m.torques(robot)
+        for m in run.torque_monitors:
+            a = np.abs(tau[m.name])
+            series[f"m.{m.name}.max"] = a.max(axis=1)
+            series[f"m.{m.name}.min"] = a.min(axis=1)
+            series[f"m.{m.name}.mean"] = a.mean(axis=1)
+    result = RunResult(run.name, run, log, series, violation)
+    result.summary = summarise(plan, result)
+    return result
+
+
+def _stats(x: np.ndarray) -> dict[str, float]:
+    return {"initial": float(x[0]), "final": float(x[-1]), "min": float(np.min(x)), "max": float(np.max(x))}
+
+
+def summarise(plan: TaskPlan, result: RunResult) -> dict[str, Any]:
+    """The ``summary.json`` entry of one run (lengths in the model's unit, angles in rad)."""
+    run, log = result.plan, result.log
+    err = log.stacked_error
+    st_us = log.step_time * 1e6
+    summary: dict[str, Any] = {
+        "resolver": run.resolver_name,
+        "description": run.description,
+        "final_q": [float(v) for v in log.q[-1]],
+        "max_task_error": float(np.max(err)),
+        "final_task_error": float(err[-1]),
+        "task_errors": {k: {"max": float(np.max(v)), "final": float(v[-1])} for k, v in log.task_errors.items()},
+        "subtasks": {
+            s.name: {
+                "mode": s.mode,
+                "initial": float(log.potentials[s.name][0]),
+                "final": float(log.potentials[s.name][-1]),
+                **({"target": float(s.target)} if s.target is not None else {}),
+            }
+            for s in run.stack.subtasks
+        },
+        "potentials": {k: _stats(v) for k, v in log.potentials.items() if k not in {m.name for m in run.monitors}},
+        "step_time_us": {
+            "median": float(np.median(st_us)) if st_us.size else 0.0,
+            "p90": float(np.percentile(st_us, 90)) if st_us.size else 0.0,
+        },
+        "limit_violations": int(np.count_nonzero(result.limit_violation > 0)),
+        "max_limit_violation": float(np.max(result.limit_violation, initial=0.0)),
+        "damped_steps": int(np.count_nonzero(log.damped)),
+        "fallbacks": len(log.fallbacks),
+    }
+    if log.fallbacks:
+        summary["fallback_reasons"] = sorted({reason for _, reason in log.fallbacks})
+    if "sigma_min" in log.extras:
+        summary["min_sigma_min"] = float(np.nanmin(log.extras["sigma_min"]))
+    monitors: dict[str, Any] = {m.name: _stats(log.potentials[m.name]) for m in run.monitors}
+    for m in run.torque_monitors:
+        monitors[m.name] = {stat: _stats(result.series[f"m.{m.name}.{stat}"]) for stat in ("max", "min", "mean")}
+    if monitors:
+        summary["monitors"] = monitors
+    clearances = [log.potentials[m.name] for m in run.monitors if plan.potential_types.get(m.name) == "clearance"]
+    if clearances:
+        summary["min_clearance"] = float(min(np.min(c) for c in clearances))
+    postures = [m.name for m in run.monitors if plan.potential_types.get(m.name) == "best_posture"]
+    if "trace_JWJT" in {m.name for m in run.monitors}:
+        postures = ["trace_JWJT"]
+    if postures:
+        x = log.potentials[postures[0]]
+        summary["trace_JWJT"] = {"initial": float(x[0]), "final": float(x[-1]), "min": float(np.min(x))}
+    return summary
+
+
+def task_summary(plan: TaskPlan, results: dict[str, RunResult]) -> dict[str, Any]:
+    """The whole ``summary.json``."""
+    robot = plan.robot.model
+    return {
+        "task": plan.name,
+        "description": plan.description,
+        "robot": robot.name,
+        "robot_source": plan.robot.source,
+        "length_unit": robot.length_unit,
+        "joints": robot.joint_names,
+        "dt": plan.dt,
+        "steps": plan.steps,
+        "runs": {name: r.summary for name, r in results.items()},
+    }

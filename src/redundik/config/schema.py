@@ -1,0 +1,324 @@
+"""Pydantic models of the YAML files: robot configs (``configs/*.yaml``) and task runs (``tasks/*.yaml``).
+
+The models only check *shape*: known keys (``extra="forbid"``), types (strict: a string is never a number, an
+integer is accepted where a float is meant), finiteness (NaN and ±inf rejected). Everything that needs the robot
+(frame and joint names, vector lengths, resolver names) is checked by :mod:`redundik.config.loader`, which also
+turns every error into a one-line :class:`~redundik.errors.ConfigError` naming the YAML key path.
+
+Typed entries (``main`` tasks, ``potentials``, ``monitors``, trajectories) are mappings with a ``type`` key; their
+models live in the registries of :mod:`redundik.config.builders`, so new types can be added without touching this
+file.
+
+The reference of the format is ``docs/task-files.md``.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+
+
+def _name(value: Any) -> Any:
+    """YAML reads ``frame: 3`` as an integer; names are strings, so accept integers and turn them into text."""
+    if isinstance(value, int) and not isinstance(value, bool):
+        return str(value)
+    return value
+
+
+#: A frame / joint / task name: a string (an integer in the YAML is taken as its decimal text).
+Name = Annotated[str, BeforeValidator(_name)]
+#: A 3-vector [length or angle unit].
+Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+AngleUnit = Literal["deg", "rad"]
+Axis = Literal["x", "y", "z"]
+
+
+class StrictModel(BaseModel):
+    """Base of every YAML model: unknown keys, wrong types and NaN/inf are errors."""
+
+    model_config = ConfigDict(strict=True, extra="forbid", allow_inf_nan=False)
+
+
+# ---------------------------------------------------------------------------------------------------- robot files
+class BaseSpec(StrictModel):
+    """Placement of frame 0 in the world (A_b^0 of eq. 5.13): ``xyz`` + ``rpy`` or a 4×4 ``matrix``."""
+
+    xyz: Vec3 | None = None
+    rpy: Vec3 | None = None
+    matrix: list[Annotated[list[float], Field(min_length=4, max_length=4)]] | None = None
+
+    @model_validator(mode="after")
+    def _one_form(self) -> BaseSpec:
+        if self.matrix is not None:
+            if self.xyz is not None or self.rpy is not None:
+                raise ValueError("give either matrix or xyz/rpy, not both")
+            if len(self.matrix) != 4:
+                raise ValueError(f"matrix: expected 4 rows of 4 numbers, got {len(self.matrix)} rows")
+        return self
+
+
+class DHRowSpec(StrictModel):
+    """One standard D-H row (see :class:`redundik.kinematics.DHRow`); angles in the file's ``angle_unit``."""
+
+    name: Name
+    type: Literal["revolute", "prismatic", "fixed"] = "revolute"
+    theta: float = 0.0
+    d: float = 0.0
+    a: float = 0.0
+    alpha: float = 0.0
+    lower: float | None = None
+    upper: float | None = None
+    velocity: float | None = Field(default=None, gt=0)
+    parent: Name | None = None
+    joint: Name | None = None
+
+
+class FrameSpec(StrictModel):
+    """An extra operational frame fixed to an existing frame (a tool point, a marker)."""
+
+    parent: Name
+    xyz: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
+    rpy: Vec3 = Field(default_factory=lambda: [0.0, 0.0, 0.0])
+
+
+class JointLimitSpec(StrictModel):
+    """Override of one joint's limits (angles in the file's ``angle_unit`` for revolute joints)."""
+
+    lower: float | None = None
+    upper: float | None = None
+    velocity: float | None = Field(default=None, gt=0)
+
+
+class RobotSpec(StrictModel):
+    """A robot config file (``configs/*.yaml``), or the inline ``robot:`` mapping of a task file."""
+
+    name: Name | None = None
+    description: str = ""
+    length_unit: str = "m"
+    angle_unit: AngleUnit = "rad"
+    base: BaseSpec | None = None
+    base_frame: Name = "0"
+    dh: list[DHRowSpec] | None = Field(default=None, min_length=1)
+    urdf: str | None = None
+    free_flyer: bool | None = None
+    q0: list[float] | None = None
+    frames: dict[Name, FrameSpec] = Field(default_factory=dict)
+    joint_limits: dict[Name, JointLimitSpec] = Field(default_factory=dict)
+
+    @model_validator(mode="after")
+    def _one_source(self) -> RobotSpec:
+        if (self.dh is None) == (self.urdf is None):
+            raise ValueError(
+                "give exactly one of 'dh' (a D-H table) or 'urdf' (a URDF path or example-robot-data:NAME)"
+            )
+        if self.dh is not None and self.free_flyer:
+            raise ValueError("free_flyer applies to URDF robots only")
+        return self
+
+
+# ---------------------------------------------------------------------------------------------------- task files
+class SubtaskSpec(StrictModel):
+    """How one run uses a named potential (fields of :class:`redundik.tasks.Subtask`).
+
+    ``mode`` defaults to ``target`` when a target is given, ``bounds`` when lower/upper are, else ``gradient``.
+    """
+
+    mode: Literal["gradient", "target", "bounds"] | None = None
+    gain: float | None = None
+    target: float | None = None
+    rate: float | None = Field(default=None, ge=0)
+    target_rate: float | None = None
+    lower: float | None = None
+    upper: float | None = None
+    weight: float | None = Field(default=None, ge=0)
+    priority: int | None = Field(default=None, ge=0)
+
+
+class RunSpec(StrictModel):
+    """One named run: a resolver, its options, the subtasks it controls and per-run overrides."""
+
+    description: str = ""
+    resolver: Name = "pinv"
+    options: dict[str, Any] = Field(default_factory=dict)
+    subtasks: dict[Name, SubtaskSpec | None] = Field(default_factory=dict)
+    gains: dict[Name, float] = Field(default_factory=dict)
+    weights: dict[Name, float] = Field(default_factory=dict)
+    main: list[dict[str, Any]] | None = None
+    extra_main: list[dict[str, Any]] = Field(default_factory=list)
+    q0: list[float] | None = None
+
+
+class DrawSpec(StrictModel):
+    """What the configuration figure draws.
+
+    ``frames``: a chain of frame names (links are drawn between consecutive ones) or a list of chains; by default
+    the robot's own skeleton. ``plane``: two world axes for a planar drawing (else chosen automatically: x–y when
+    everything stays in that plane, 3-D otherwise). ``every``: samples between two drawn configurations.
+    """
+
+    frames: list[Any] | None = None
+    plane: Annotated[list[Axis], Field(min_length=2, max_length=2)] | None = None
+    every: int | None = Field(default=None, ge=1)
+    path: Name | None = None
+
+
+class TaskFileSpec(StrictModel):
+    """A task-run file (``tasks/*.yaml``)."""
+
+    name: Name
+    description: str = ""
+    robot: Any
+    angle_unit: AngleUnit = "rad"
+    q0: list[float] | None = None
+    dt: float = Field(gt=0)
+    steps: int | None = Field(default=None, ge=1)
+    duration: float | None = Field(default=None, gt=0)
+    main: list[dict[str, Any]] = Field(default_factory=list)
+    potentials: dict[Name, dict[str, Any]] = Field(default_factory=dict)
+    monitors: dict[Name, dict[str, Any]] = Field(default_factory=dict)
+    runs: dict[Name, RunSpec] = Field(min_length=1)
+    draw: DrawSpec | None = None
+    log_frames: list[Name] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _duration(self) -> TaskFileSpec:
+        if (self.steps is None) == (self.duration is None):
+            raise ValueError("give exactly one of 'steps' (number of time steps) or 'duration' [s]")
+        if self.robot is None or not isinstance(self.robot, (str, dict)):
+            raise ValueError(
+                f"robot: expected a config path, 'example-robot-data:NAME' or an inline mapping, got {self.robot!r}"
+            )
+        return self
+
+    @property
+    def n_steps(self) -> int:
+        """Number of time steps (``steps``, or ``duration / dt`` rounded)."""
+        if self.steps is not None:
+            return self.steps
+        assert self.duration is not None  # guaranteed by the validator
+        return max(1, round(self.duration / self.dt))
+
+
+# ---------------------------------------------------------------------------------------------------- typed entries
+class FrameTaskSpec(StrictModel):
+    """Main task ``type: frame`` (:class:`redundik.tasks.FrameTask`)."""
+
+    type: Literal["frame"]
+    name: Name | None = None
+    frame: Name
+    axes: Any = "pose"
+    trajectory: dict[str, Any] | None = None
+    gain: float = Field(default=0.0, ge=0)
+    weight: float = Field(default=1.0, gt=0)
+
+
+class PostureTaskSpec(StrictModel):
+    """Main task ``type: posture`` (:class:`redundik.tasks.PostureTask`); ``target`` in the task file's angle unit."""
+
+    type: Literal["posture"]
+    name: Name = "posture"
+    target: list[float] | None = None
+    gain: float = Field(default=1.0, ge=0)
+    weight: float = Field(default=1.0, gt=0)
+
+
+class HoldSpec(StrictModel):
+    """Trajectory ``type: hold``."""
+
+    type: Literal["hold"]
+
+
+class LineSpec(StrictModel):
+    """Trajectory ``type: line``: constant velocity [length/s], 2 (x, y) or 3 numbers."""
+
+    type: Literal["line"]
+    velocity: Annotated[list[float], Field(min_length=2, max_length=3)]
+
+
+class CircleSpec(StrictModel):
+    """Trajectory ``type: circle``: ``omega`` [angle unit/s] and ``phase`` [angle unit]."""
+
+    type: Literal["circle"]
+    radius: float = Field(gt=0)
+    omega: float
+    plane: Annotated[list[Axis], Field(min_length=2, max_length=2)] = Field(default_factory=lambda: ["x", "y"])
+    center: Vec3 | None = None
+    phase: float = 0.0
+
+
+class PoseSpec(StrictModel):
+    """Trajectory ``type: pose``: straight-line interpolation to ``position`` (and ``rpy``) over ``duration``."""
+
+    type: Literal["pose"]
+    position: Vec3
+    duration: float = Field(gt=0)
+    rpy: Vec3 | None = None
+
+
+class Sin2Spec(StrictModel):
+    """Potential ``type: sin2``: p = sin²θ_j."""
+
+    type: Literal["sin2"]
+    joint: Name
+
+
+class JointValueSpec(StrictModel):
+    """Potential ``type: joint_value``: p = (q_j − c)²; ``value`` in the angle unit for a revolute joint."""
+
+    type: Literal["joint_value"]
+    joint: Name
+    value: float
+
+
+class JointCenteringSpec(StrictModel):
+    """Potential ``type: joint_centering``: p = ½ Σ w_i (q_i − q_c,i)²; ``center`` (size nq, angle unit)."""
+
+    type: Literal["joint_centering"]
+    center: list[float] | None = None
+    weights: list[float] | None = None
+
+
+class VirtualPointSpec(StrictModel):
+    """Potential ``type: virtual_point``: p = ½‖S(p_f − p_v)‖²."""
+
+    type: Literal["virtual_point"]
+    frame: Name
+    point: Vec3
+    axes: Any = "position"
+
+
+class ClearanceSpec(StrictModel):
+    """Potential ``type: clearance``: p = ‖S(p_f − c)‖ − r."""
+
+    type: Literal["clearance"]
+    frame: Name
+    center: Vec3
+    radius: float = Field(default=0.0, ge=0)
+    axes: Any = "position"
+
+
+class ManipulabilitySpec(StrictModel):
+    """Potential ``type: manipulability``: p = √det(JJᵀ)."""
+
+    type: Literal["manipulability"]
+    frame: Name
+    axes: Any = "pose"
+
+
+class BestPostureSpec(StrictModel):
+    """Potential ``type: best_posture``: p = tr(JWJᵀ) (5.12)."""
+
+    type: Literal["best_posture"]
+    frames: Name | list[Name]
+    weights: list[float] | None = None
+    axes: Any = "pose"
+
+
+class TorquesSpec(StrictModel):
+    """Monitor ``type: torques``: τ = JᵀF of the stacked frame Jacobians, logged as max/min/mean |τ|."""
+
+    type: Literal["torques"]
+    frames: Name | list[Name]
+    force: list[float]
+    axes: Any = "pose"

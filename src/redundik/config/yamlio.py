@@ -1,0 +1,197 @@
+"""Reading YAML and turning validation errors into one-line :class:`~redundik.errors.ConfigError` messages.
+
+Every message names the YAML key path (``runs.rank_null.subtasks.sin2_q3.gain``, ``main[0].frame``) and says
+what was expected; YAML syntax errors name the file and line.
+"""
+
+from __future__ import annotations
+
+import types
+import typing
+from pathlib import Path
+from typing import Any
+
+import yaml
+from pydantic import BaseModel, ValidationError
+
+from redundik.errors import ConfigError
+
+# pydantic union members appear in error locations under these labels; they are not YAML keys.
+_TYPE_LABELS = {"str", "int", "float", "bool", "list", "dict", "none", "None"}
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """A safe loader that refuses duplicate mapping keys (PyYAML silently keeps the last one)."""
+
+
+def _construct_mapping(loader: _UniqueKeyLoader, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+    seen: set[Any] = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        if key in seen:
+            mark = key_node.start_mark
+            raise yaml.constructor.ConstructorError(
+                None, None, f"duplicate key {key!r} (line {mark.line + 1})", key_node.start_mark
+            )
+        seen.add(key)
+    return loader.construct_mapping(node, deep=deep)
+
+
+_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+
+
+def read_yaml(path: Path, what: str = "file") -> dict[str, Any]:
+    """Read a YAML file whose top level must be a mapping.
+
+    Raises:
+        ConfigError: missing file, YAML syntax error (with ``file:line``), duplicate key or non-mapping top level.
+    """
+    if not path.is_file():
+        raise ConfigError(f"{what} '{path}' does not exist")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read {what} '{path}': {exc}") from exc
+    try:
+        data = yaml.load(text, Loader=_UniqueKeyLoader)  # a SafeLoader subclass
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f"{path}:{mark.line + 1}" if mark is not None else str(path)
+        problem = getattr(exc, "problem", None) or str(exc)
+        context = getattr(exc, "context", None)
+        msg = f"invalid YAML: {problem}" + (f" ({context})" if context else "")
+        raise ConfigError(msg.replace("\n", " "), where) from None
+    if not isinstance(data, dict):
+        raise ConfigError(f"expected a mapping of keys at the top level, got {type(data).__name__}", str(path))
+    return data
+
+
+def join_path(prefix: str, *parts: str | int) -> str:
+    """Append keys / list indices to a key path: ``join_path("main", 0, "frame") == "main[0].frame"``.
+
+    A prefix ending in a space (``"planar3r.yaml: "``, a file name) is followed directly by the first key.
+    """
+    out = prefix
+    for p in parts:
+        if isinstance(p, int):
+            out += f"[{p}]"
+        elif not out or out.endswith(" "):
+            out = f"{out}{p}"
+        else:
+            out = f"{out}.{p}"
+    return out
+
+
+def _unwrap(tp: Any) -> list[Any]:
+    """The candidate types of an annotation (through Optional / Union / Annotated)."""
+    origin = typing.get_origin(tp)
+    if origin is typing.Annotated:
+        return _unwrap(typing.get_args(tp)[0])
+    if origin is typing.Union or origin is types.UnionType:
+        out: list[Any] = []
+        for a in typing.get_args(tp):
+            out.extend(_unwrap(a))
+        return out
+    return [tp]
+
+
+def _allowed_keys(model: type[BaseModel], loc: tuple[Any, ...]) -> list[str] | None:
+    """Follow ``loc`` through the model's annotations; the field names of the model reached, if any."""
+    current: list[Any] = [model]
+    for part in loc:
+        nxt: list[Any] = []
+        for tp in current:
+            for cand in _unwrap(tp):
+                origin = typing.get_origin(cand)
+                if isinstance(cand, type) and issubclass(cand, BaseModel) and isinstance(part, str):
+                    field = cand.model_fields.get(part)
+                    if field is not None:
+                        nxt.append(field.annotation)
+                elif origin is dict:
+                    nxt.append(typing.get_args(cand)[1])
+                elif origin is list and isinstance(part, int):
+                    nxt.append(typing.get_args(cand)[0])
+        current = nxt
+    for tp in current:
+        for cand in _unwrap(tp):
+            if isinstance(cand, type) and issubclass(cand, BaseModel):
+                return list(cand.model_fields)
+    return None
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _message(err: dict[str, Any], allowed: list[str] | None) -> str:
+    kind = err["type"]
+    ctx = err.get("ctx") or {}
+    got = err.get("input")
+    if kind == "extra_forbidden":
+        key = err["loc"][-1] if err["loc"] else "?"
+        tail = f"; allowed keys: {', '.join(allowed)}" if allowed else ""
+        return f"unknown key '{key}'{tail}"
+    if kind == "missing":
+        return "required key is missing"
+    if kind in ("float_type", "float_parsing"):
+        return f"expected a number, got {_short(got)}"
+    if kind in ("int_type", "int_parsing", "int_from_float"):
+        return f"expected an integer, got {_short(got)}"
+    if kind == "finite_number":
+        return f"expected a finite number, got {_short(got)}"
+    if kind == "string_type":
+        return f"expected a string, got {_short(got)}"
+    if kind == "bool_type":
+        return f"expected true or false, got {_short(got)}"
+    if kind == "list_type":
+        return f"expected a list, got {_short(got)}"
+    if kind in ("dict_type", "model_type", "model_attributes_type"):
+        return f"expected a mapping, got {_short(got)}"
+    if kind == "literal_error":
+        return f"expected one of {ctx.get('expected', '?')}, got {_short(got)}"
+    if kind in ("too_short", "too_long"):
+        lo, hi = ctx.get("min_length"), ctx.get("max_length")
+        n = ctx.get("actual_length")
+        field_type = ctx.get("field_type", "List")
+        if kind == "too_short" and field_type in ("Dictionary", "Object"):
+            return "must not be empty"
+        want = f"{lo}" if hi is None or lo == hi else f"{lo} to {hi}"
+        if kind == "too_long" and lo is None:
+            want = f"at most {hi}"
+        return f"expected {want} values, got {n}"
+    if kind in ("greater_than", "greater_than_equal", "less_than", "less_than_equal"):
+        op = {"greater_than": ">", "greater_than_equal": "≥", "less_than": "<", "less_than_equal": "≤"}[kind]
+        bound = next(iter(ctx.values())) if ctx else "?"
+        return f"must be {op} {bound}, got {_short(got)}"
+    if kind == "value_error":
+        msg = str(err["msg"])
+        return msg.removeprefix("Value error, ")
+    return str(err["msg"])
+
+
+def config_error(exc: ValidationError, model: type[BaseModel], prefix: str = "") -> ConfigError:
+    """The first error of a pydantic ``ValidationError`` as a :class:`ConfigError` with its key path.
+
+    Args:
+        exc: The validation error.
+        model: The model that was validated (to list the allowed keys of an unknown one).
+        prefix: Key path of the validated mapping inside the file (``""`` for the top level).
+    """
+    errors = exc.errors()
+    err = errors[0]
+    loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and (p in _TYPE_LABELS or "[" in p)))
+    allowed = _allowed_keys(model, loc[:-1]) if err["type"] == "extra_forbidden" else None
+    path = join_path(prefix, *loc) if loc else (prefix.rstrip(": ") or "(top level)")
+    msg = _message(dict(err, loc=loc), allowed)
+    if len(errors) > 1:
+        msg += f" (and {len(errors) - 1} more error{'s' if len(errors) > 2 else ''})"
+    return ConfigError(msg, path)
+
+
+def validate(model: type[BaseModel], data: Any, prefix: str = "") -> Any:
+    """Validate ``data`` with ``model``; a failure becomes a :class:`ConfigError` at ``prefix``."""
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        raise config_error(exc, model, prefix) from None

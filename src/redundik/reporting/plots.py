@@ -1,0 +1,264 @@
+"""PNG figures of a task run (matplotlib, Agg backend; imported only when figures are written).
+
+* ``joints.png``: joint profiles q(t), one panel per joint, the runs overlaid;
+* ``task_error.png``: main-task error norms (log scale), one panel per task;
+* ``potentials.png``: subtask / watched potential / monitor values over time, with targets;
+* ``configurations.png``: the arm drawn every k samples with the tip path, one panel per run — the chapter's
+  Figs. 5.7 and 5.8 for a planar arm (a 3-D stick drawing for spatial robots).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from redundik.config.loader import TaskPlan
+from redundik.config.runner import RunResult
+
+_AXIS = {"x": 0, "y": 1, "z": 2}
+
+
+def _plt() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _colors(n: int) -> list[Any]:
+    plt = _plt()
+    cmap = plt.get_cmap("tab10")
+    return [cmap(i % 10) for i in range(n)]
+
+
+def _grid(n: int, max_cols: int = 3) -> tuple[int, int]:
+    cols = min(n, max_cols)
+    return math.ceil(n / cols), cols
+
+
+def _finish(fig: Any, path: Path) -> Path:
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    _plt().close(fig)
+    return path
+
+
+def plot_joints(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Path:
+    """Joint profiles: q_j(t) in degrees (revolute) or the length unit (prismatic), runs overlaid."""
+    plt = _plt()
+    robot = plan.robot.model
+    joints = [j for j in robot.joints if j.idx_q >= 0]
+    colors = _colors(len(results))
+    shown = joints[:12]
+    rows, cols = _grid(len(shown), 3 if len(shown) > 4 else len(shown))
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 2.9 * rows), squeeze=False, sharex=True)
+    for ax, j in zip(axes.flat, shown, strict=False):
+        revolute = j.kind == "revolute"
+        for (name, r), c in zip(results.items(), colors, strict=True):
+            y = r.log.q[:, j.idx_q]
+            ax.plot(r.log.t, np.degrees(y) if revolute else y, color=c, label=name, lw=1.6)
+        for lim in (j.lower, j.upper):
+            if np.isfinite(lim) and abs(lim) < 1e9:
+                ax.axhline(np.degrees(lim) if revolute else lim, color="0.6", ls=":", lw=1)
+        unit = "deg" if revolute else robot.length_unit
+        ax.set_title(f"joint {j.name}", fontsize=10)
+        ax.set_ylabel(f"{'θ' if revolute else 'd'} [{unit}]")
+        ax.grid(alpha=0.3)
+    for ax in axes.flat[len(shown) :]:
+        ax.set_visible(False)
+    for ax in axes[-1]:
+        ax.set_xlabel("t [s]")
+    axes.flat[0].legend(fontsize=8)
+    more = f" (first 12 of {len(joints)})" if len(joints) > 12 else ""
+    fig.suptitle(f"{plan.name}: joint profiles{more}", fontsize=12)
+    return _finish(fig, path)
+
+
+def plot_task_errors(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Path:
+    """Main-task error norms on a log scale, one panel per task, runs overlaid."""
+    plt = _plt()
+    names: list[str] = []
+    for r in results.values():
+        names += [k for k in r.log.task_errors if k not in names]
+    names = names or ["(no main task)"]
+    colors = _colors(len(results))
+    rows, cols = _grid(len(names), 2)
+    fig, axes = plt.subplots(rows, cols, figsize=(6.0 * cols, 3.4 * rows), squeeze=False)
+    unit = plan.robot.model.length_unit
+    for ax, tname in zip(axes.flat, names, strict=False):
+        for (name, r), c in zip(results.items(), colors, strict=True):
+            if tname not in r.log.task_errors:
+                continue
+            e = r.log.task_errors[tname].copy()
+            e[e <= 0] = np.nan  # log scale: exact zeros (t = 0) are not drawn
+            ax.semilogy(r.log.t, e, color=c, label=f"{name} (max {np.nanmax(r.log.task_errors[tname]):.2g})")
+        ax.set_title(f"task '{tname}': error norm ‖e‖", fontsize=10)
+        ax.set_xlabel("t [s]")
+        ax.set_ylabel(f"‖e‖ [{unit}, rad]")
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=8)
+    for ax in axes.flat[len(names) :]:
+        ax.set_visible(False)
+    fig.suptitle(f"{plan.name}: main-task error", fontsize=12)
+    return _finish(fig, path)
+
+
+def plot_potentials(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Path | None:
+    """Potential and monitor values over time, runs overlaid; controlled subtasks solid, watched ones dashed."""
+    plt = _plt()
+    series: list[str] = []
+    for r in results.values():
+        series += [k for k in r.log.potentials if k not in series]
+    torque_names: list[str] = []
+    for r in results.values():
+        torque_names += [m.name for m in r.plan.torque_monitors if m.name not in torque_names]
+    panels = series + torque_names
+    if not panels:
+        return None
+    colors = _colors(len(results))
+    rows, cols = _grid(len(panels), 2)
+    fig, axes = plt.subplots(rows, cols, figsize=(6.0 * cols, 3.4 * rows), squeeze=False)
+    for ax, pname in zip(axes.flat, panels, strict=False):
+        kind = plan.potential_types.get(pname, "")
+        for (name, r), c in zip(results.items(), colors, strict=True):
+            if pname in r.log.potentials:
+                sub = next((s for s in r.plan.stack.subtasks if s.name == pname), None)
+                style = "-" if sub is not None else "--"
+                label = name if sub is None else f"{name} ({sub.mode})"
+                ax.plot(r.log.t, r.log.potentials[pname], color=c, ls=style, label=label)
+                if sub is not None and sub.mode == "target" and sub.target is not None:
+                    ax.axhline(sub.target, color=c, ls=":", lw=1)
+                for bound in (sub.lower, sub.upper) if sub is not None and sub.mode == "bounds" else ():
+                    if bound is not None:
+                        ax.axhline(bound, color=c, ls=":", lw=1)
+            elif pname in torque_names and f"m.{pname}.max" in r.series:
+                for stat, ls in (("max", "-"), ("mean", "--"), ("min", ":")):
+                    ax.plot(r.log.t, r.series[f"m.{pname}.{stat}"], color=c, ls=ls, label=f"{name}: {stat} |τ|")
+        role = "monitor" if any(pname in {m.name for m in r.plan.monitors} for r in results.values()) else "potential"
+        if pname in torque_names:
+            role, kind = "monitor", "torques τ = JᵀF"
+        ax.set_title(f"{role} '{pname}' ({kind})", fontsize=10)
+        ax.set_xlabel("t [s]")
+        ax.set_ylabel("value")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    for ax in axes.flat[len(panels) :]:
+        ax.set_visible(False)
+    fig.suptitle(f"{plan.name}: subtask potentials and monitors (dotted: targets/bounds, dashed: not controlled)")
+    return _finish(fig, path)
+
+
+def _desired_path(r: RunResult, frame: str | None) -> np.ndarray | None:
+    if frame is None:
+        return None
+    for task in r.plan.stack.tasks:
+        traj = getattr(task, "trajectory", None)
+        if getattr(task, "frame", None) == frame and traj is not None:
+            try:
+                return np.array([traj.sample(float(t))[0].translation for t in r.log.t])
+            except Exception:  # a trajectory that was never started: no reference to draw
+                return None
+    return None
+
+
+def _plane(plan: TaskPlan, results: dict[str, RunResult]) -> tuple[str, str] | None:
+    if plan.draw.plane is not None:
+        return plan.draw.plane
+    pts = [xyz for r in results.values() for xyz in r.log.frame_positions.values()]
+    if not pts:
+        return None
+    allp = np.vstack(pts)
+    span = allp.max(axis=0) - allp.min(axis=0)
+    scale = max(float(span.max()), 1e-9)
+    flat = [a for a in "xyz" if span[_AXIS[a]] < 1e-9 * scale]
+    if not flat:
+        return None
+    rest = [a for a in "xyz" if a != flat[-1]]
+    return rest[0], rest[1]
+
+
+def plot_configurations(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Path | None:
+    """The arm every k samples (links between logged frame origins), the tip path and the desired path.
+
+    One panel per run. Planar robots (or ``draw.plane``) are drawn in that plane, others as 3-D sticks.
+    """
+    segments = plan.draw.segments
+    if not segments:
+        return None
+    plt = _plt()
+    plane = _plane(plan, results)
+    n_runs = len(results)
+    rows, cols = _grid(n_runs, 2 if n_runs == 4 else 3)
+    size = 5.0 if plane is not None else 5.5
+    kw: dict[str, Any] = {} if plane is not None else {"subplot_kw": {"projection": "3d"}}
+    fig, axes = plt.subplots(rows, cols, figsize=(size * cols, size * rows), squeeze=False, **kw)
+    unit = plan.robot.model.length_unit
+    colors = _colors(n_runs)
+    all_pts = np.vstack([xyz for r in results.values() for xyz in r.log.frame_positions.values()])
+    lo, hi = all_pts.min(axis=0), all_pts.max(axis=0)
+    for ax, (name, r), c in zip(axes.flat, results.items(), colors, strict=False):
+        fp = r.log.frame_positions
+        n = r.log.t.shape[0]
+        every = plan.draw.every or max(1, math.ceil((n - 1) / 20))
+        idx = list(range(0, n, every))
+        if idx[-1] != n - 1:
+            idx.append(n - 1)
+        ids = [i for i in (0, 1) if i < 2] if plane is not None else [0, 1, 2]
+        if plane is not None:
+            ids = [_AXIS[plane[0]], _AXIS[plane[1]]]
+        for k_i, k in enumerate(idx):
+            first, last = k_i == 0, k == n - 1
+            color = "tab:blue" if first else "tab:red" if last else "0.55"
+            lw = 2.4 if first or last else 1.0
+            alpha = 1.0 if first or last else 0.35 + 0.5 * k / max(n - 1, 1)
+            for a, b in segments:
+                pa, pb = fp[a][k], fp[b][k]
+                coords = [[pa[i], pb[i]] for i in ids]
+                ax.plot(*coords, color=color, lw=lw, alpha=alpha, solid_capstyle="round")
+            joints = np.array([fp[f][k] for f in dict.fromkeys([s for seg in segments for s in seg])])
+            ax.plot(*[joints[:, i] for i in ids], "o", color=color, ms=3.5 if (first or last) else 2, alpha=alpha)
+        tip = plan.draw.path_frame
+        if tip is not None and tip in fp:
+            ax.plot(*[fp[tip][:, i] for i in ids], color=c, lw=2.0, label=f"path of frame {tip}")
+            ref = _desired_path(r, tip)
+            if ref is not None:
+                ax.plot(*[ref[:, i] for i in ids], color="k", ls="--", lw=1.0, label="desired path")
+        ax.plot([], [], color="tab:blue", lw=2.4, label="t = 0")
+        ax.plot([], [], color="tab:red", lw=2.4, label=f"t = {r.log.t[-1]:.3g} s")
+        ax.plot([], [], color="0.55", lw=1.0, label=f"every {every * plan.dt:.3g} s")
+        ax.set_title(f"{name} ({r.plan.resolver_name})", fontsize=10)
+        if plane is not None:
+            ax.set_xlabel(f"{plane[0]} [{unit}]")
+            ax.set_ylabel(f"{plane[1]} [{unit}]")
+            ax.set_aspect("equal", adjustable="datalim")
+            ax.grid(alpha=0.3)
+        else:
+            ax.set_xlabel(f"x [{unit}]")
+            ax.set_ylabel(f"y [{unit}]")
+            ax.set_zlabel(f"z [{unit}]")
+            mid, half = (lo + hi) / 2, max(float(np.max(hi - lo)) / 2, 1e-3)
+            ax.set_xlim(mid[0] - half, mid[0] + half)
+            ax.set_ylim(mid[1] - half, mid[1] + half)
+            ax.set_zlim(mid[2] - half, mid[2] + half)
+        ax.legend(fontsize=7, loc="best")
+    for ax in axes.flat[n_runs:]:
+        ax.set_visible(False)
+    fig.suptitle(f"{plan.name}: configurations over time", fontsize=12)
+    return _finish(fig, path)
+
+
+def write_figures(plan: TaskPlan, results: dict[str, RunResult], out_dir: Path) -> list[Path]:
+    """Write every figure into ``out_dir``; returns the files written."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    written = [
+        plot_joints(plan, results, out_dir / "joints.png"),
+        plot_task_errors(plan, results, out_dir / "task_error.png"),
+        plot_potentials(plan, results, out_dir / "potentials.png"),
+        plot_configurations(plan, results, out_dir / "configurations.png"),
+    ]
+    return [p for p in written if p is not None]
