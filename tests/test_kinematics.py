@@ -195,3 +195,10 @@ def test_panda_loads_offline_with_limits_and_fd_jacobian() -> None:
 def test_unknown_example_robot_lists_known_ones() -> None:
     with pytest.raises(ModelError, match=r"unknown example robot .iiwa.; known: .*panda"):
         load_example_robot("iiwa")
+
+
+def test_joint_kinds_are_recognised_for_dh_and_urdf_joints() -> None:
+    robot = from_dh([DHRow("1"), DHRow("2", kind="prismatic"), DHRow("3", kind="fixed")])
+    assert [j.kind for j in robot.joints] == ["revolute", "prismatic"]
+    panda = load_example_robot("panda")
+    assert [j.kind for j in panda.joints] == ["revolute"] * 7 + ["prismatic"] * 2
