@@ -131,8 +131,8 @@ def left_jacobian_so3(phi: ArrayLike) -> FloatArray:
 def rotation_angle_between(r_a: ArrayLike, r_b: ArrayLike) -> float:
     """Angle [rad] of the relative rotation ``R_aᵀ R_b`` (0 when equal)."""
     rel = np.asarray(r_a, dtype=float).T @ np.asarray(r_b, dtype=float)
-    c = (np.trace(rel) - 1.0) / 2.0
-    return float(np.arccos(np.clip(c, -1.0, 1.0)))
+    # log map instead of arccos((tr − 1)/2), which loses half the digits near 0
+    return float(Rotation.from_matrix(rel).magnitude())
 
 
 def wrap_angle(angle: float | FloatArray) -> float | FloatArray:
