@@ -72,6 +72,8 @@ class FrameTask(Task):
         self.trajectory = trajectory if trajectory is not None else Hold()
         self.axes = resolve_axes(axes)
         self.rows = np.array([AXES[a] for a in self.axes], dtype=int)
+        self._all_rows = self.rows.tolist() == list(range(6))
+        self._rotation_rows = bool(np.any(self.rows >= 3))
         self.gain = float(gain)
         self.weight = float(weight)
         self.name = name or frame
@@ -95,14 +97,20 @@ class FrameTask(Task):
         fid = self._fid
         assert fid is not None  # for the type checker; set by reset()
         pose = robot.frame_pose(fid)
-        pose_d, twist_d = self.trajectory.sample(t)
-        err6 = np.empty(6)
-        err6[:3] = pose_d.translation - pose.translation
-        err6[3:] = pin.log3(pose_d.rotation @ pose.rotation.T)
-        J = robot.frame_jacobian(fid)[self.rows]
+        p_d, R_d, twist_d = self.trajectory.reference(t)
+        J = robot.frame_jacobian(fid)
+        if self._all_rows:
+            e = np.empty(6)
+            e[:3] = p_d - pose.translation
+            e[3:] = pin.log3(R_d @ pose.rotation.T)
+            return TaskTerm(self.name, J, twist_d + self.gain * e if self.gain else twist_d, e, self.weight)
+        err6 = np.zeros(6)
+        err6[:3] = p_d - pose.translation
+        if self._rotation_rows:
+            err6[3:] = pin.log3(R_d @ pose.rotation.T)
         e = err6[self.rows]
         v = twist_d[self.rows] + self.gain * e
-        return TaskTerm(self.name, J, v, e, self.weight)
+        return TaskTerm(self.name, J[self.rows], v, e, self.weight)
 
     def __repr__(self) -> str:
         return (

@@ -8,6 +8,7 @@ base-aligned (v of the frame origin, ω), both in the world frame, like the Jaco
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 
@@ -35,6 +36,12 @@ class Trajectory(ABC):
     def start(self, pose: pin.SE3) -> None:
         """Anchor the trajectory at the frame pose at t = 0."""
         self._start = pose.copy()
+        self._p0 = np.array(pose.translation)
+        self._R0 = np.array(pose.rotation)
+        self._prepare()
+
+    def _prepare(self) -> None:  # noqa: B027 - optional hook
+        """Precompute what :meth:`reference` needs once the start pose is known."""
 
     @property
     def start_pose(self) -> pin.SE3:
@@ -47,9 +54,14 @@ class Trajectory(ABC):
             raise TaskError(f"{type(self).__name__}: start(pose) must be called before sampling")
         return self._start
 
-    @abstractmethod
     def sample(self, t: float) -> tuple[pin.SE3, np.ndarray]:
         """Desired pose (world) and twist (v, ω) [m/s, rad/s], shape (6,), at time t [s]."""
+        p, R, twist = self.reference(t)
+        return pin.SE3(R, p), twist
+
+    @abstractmethod
+    def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Desired position (3,), rotation (3, 3) and twist (6,) at time t [s] as plain arrays (the hot path)."""
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"
@@ -58,8 +70,12 @@ class Trajectory(ABC):
 class Hold(Trajectory):
     """Hold the start pose (zero twist): the (6+1) robot's 'end-effector held still'."""
 
-    def sample(self, t: float) -> tuple[pin.SE3, np.ndarray]:
-        return self.start_pose, np.zeros(6)
+    def _prepare(self) -> None:
+        self._zero = np.zeros(6)
+
+    def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        self.start_pose  # noqa: B018 - raises if start() was never called
+        return self._p0, self._R0, self._zero
 
 
 class Line(Trajectory):
@@ -75,10 +91,12 @@ class Line(Trajectory):
             v = np.append(v, 0.0)
         self.velocity = _vec(v, 3, "line velocity")
 
-    def sample(self, t: float) -> tuple[pin.SE3, np.ndarray]:
-        p0 = self.start_pose
-        pose = pin.SE3(p0.rotation, p0.translation + self.velocity * t)
-        return pose, np.concatenate([self.velocity, np.zeros(3)])
+    def _prepare(self) -> None:
+        self._twist = np.concatenate([self.velocity, np.zeros(3)])
+
+    def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        self.start_pose  # noqa: B018 - raises if start() was never called
+        return self._p0 + self.velocity * t, self._R0, self._twist
 
     def __repr__(self) -> str:
         return f"Line(velocity={self.velocity.tolist()})"
@@ -125,12 +143,20 @@ class Circle(Trajectory):
         p0 = self.start_pose.translation
         return p0 - self.radius * (np.cos(self.phase) * self.e1 + np.sin(self.phase) * self.e2)
 
-    def sample(self, t: float) -> tuple[pin.SE3, np.ndarray]:
+    def _prepare(self) -> None:
+        self._c = self.center
+        self._re1 = self.radius * self.e1
+        self._re2 = self.radius * self.e2
+        self._twist = np.zeros(6)
+
+    def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        self.start_pose  # noqa: B018 - raises if start() was never called
         a = self.omega * t + self.phase
-        c, s = np.cos(a), np.sin(a)
-        p = self.center + self.radius * (c * self.e1 + s * self.e2)
-        v = self.radius * self.omega * (-s * self.e1 + c * self.e2)
-        return pin.SE3(self.start_pose.rotation, p), np.concatenate([v, np.zeros(3)])
+        c, s = math.cos(a), math.sin(a)
+        p = self._c + c * self._re1 + s * self._re2
+        twist = self._twist.copy()
+        twist[:3] = self.omega * (c * self._re2 - s * self._re1)
+        return p, self._R0, twist
 
     def __repr__(self) -> str:
         return f"Circle(radius={self.radius}, omega={self.omega}, plane={self.plane})"
@@ -159,18 +185,20 @@ class PoseInterpolation(Trajectory):
                 raise TaskError("goal rotation must be a proper 3×3 rotation matrix")
         self.duration = float(duration)
 
-    def sample(self, t: float) -> tuple[pin.SE3, np.ndarray]:
-        p0 = self.start_pose
-        r1 = p0.rotation if self.goal_rotation is None else self.goal_rotation
-        w = pin.log3(p0.rotation.T @ r1)
+    def _prepare(self) -> None:
+        r1 = self._R0 if self.goal_rotation is None else self.goal_rotation
+        self._w = pin.log3(self._R0.T @ r1)
+        self._dp = self.goal_position - self._p0
+        self._moving = np.concatenate([self._dp / self.duration, self._R0 @ self._w / self.duration])
+
+    def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        self.start_pose  # noqa: B018 - raises if start() was never called
         s = min(max(t / self.duration, 0.0), 1.0)
-        pos = p0.translation + s * (self.goal_position - p0.translation)
-        rot = p0.rotation @ pin.exp3(s * w)
+        pos = self._p0 + s * self._dp
+        rot = self._R0 @ pin.exp3(s * self._w)
         if t < 0 or t >= self.duration:
-            return pin.SE3(rot, pos), np.zeros(6)
-        v = (self.goal_position - p0.translation) / self.duration
-        omega = p0.rotation @ w / self.duration
-        return pin.SE3(rot, pos), np.concatenate([v, omega])
+            return pos, rot, np.zeros(6)
+        return pos, rot, self._moving
 
     def __repr__(self) -> str:
         return f"PoseInterpolation(position={self.goal_position.tolist()}, duration={self.duration})"
