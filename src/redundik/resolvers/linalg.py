@@ -12,13 +12,30 @@ with σ_min the smallest singular value among the m task directions and a thresh
 and J⁺_λ = V diag(σ_i / (σ_i² + λ²)) Uᵀ. Far from singularities the solution is the exact pseudo-inverse; near
 one, ‖J⁺_λ‖ ≤ 1/(2λ) bounds the joint velocity. The null-space projector P_n = I − V_r V_rᵀ always uses the
 numerical rank r (σ_i > rcond·σ_max), so J P_n = 0 holds whether or not the rank part was damped.
+
+Fast path: when J has no more rows than columns and is well conditioned (σ_min ≥ ε and σ_min² > 1e-10·σ_max²),
+the pseudo-inverse is the chapter's closed form J⁺ = Jᵀ(JJᵀ)⁻¹ (eq. 5.7), computed from the symmetric
+eigendecomposition JJᵀ = U Λ Uᵀ of the small m×m matrix (LAPACK ``dsyevd``), which is several times cheaper than
+the SVD of J; σ_min = √λ_min still decides the damping. Otherwise the SVD path above is used.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
+from scipy.linalg import lapack
+
+#: Smallest λ_min/λ_max of JJᵀ for the eigendecomposition fast path (σ ratio 1e-5).
+_FAST_PATH_RCOND = 1e-10
+
+
+@lru_cache(maxsize=32)
+def _identity(n: int) -> np.ndarray:
+    eye = np.eye(n)
+    eye.setflags(write=False)
+    return eye
 
 
 @dataclass(frozen=True)
@@ -62,6 +79,13 @@ def pseudo_inverse(
     m, n = J.shape
     if m == 0:
         return PseudoInverse(np.zeros((n, 0)), np.eye(n), 0, np.inf, 0.0)
+    if m <= n:
+        lam, U, info = lapack.dsyevd(J @ J.T)  # ascending eigenvalues of JJᵀ
+        if info == 0 and lam[-1] > 0 and lam[0] > _FAST_PATH_RCOND * lam[-1]:
+            sigma_min = float(np.sqrt(lam[0]))
+            if sigma_min >= epsilon:
+                pinv = ((J.T @ U) / lam) @ U.T  # Jᵀ U Λ⁻¹ Uᵀ = Jᵀ(JJᵀ)⁻¹
+                return PseudoInverse(pinv, _identity(n) - pinv @ J, m, sigma_min, 0.0)
     U, s, Vt = np.linalg.svd(J, full_matrices=False)  # s sorted descending, size k = min(m, n)
     smax = s[0] if s.size else 0.0
     rank = int(np.sum(s > rcond * max(smax, 1e-300))) if smax > 0 else 0
