@@ -4,15 +4,20 @@ from redundik.resolvers.base import Resolver, StepResult
 from redundik.resolvers.feedback import FeedbackResolver
 from redundik.resolvers.linalg import PseudoInverse, pseudo_inverse
 from redundik.resolvers.pinv import PinvResolver
+from redundik.resolvers.qp import HierarchicalQPResolver, JointLimits, WeightedQPResolver, available_backends
 from redundik.resolvers.registry import RESOLVERS, make_resolver
 
 __all__ = [
     "RESOLVERS",
     "FeedbackResolver",
+    "HierarchicalQPResolver",
+    "JointLimits",
     "PinvResolver",
     "PseudoInverse",
     "Resolver",
     "StepResult",
+    "WeightedQPResolver",
+    "available_backends",
     "make_resolver",
     "pseudo_inverse",
 ]

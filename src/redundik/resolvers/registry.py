@@ -9,11 +9,15 @@ from redundik.errors import ResolverError
 from redundik.resolvers.base import Resolver
 from redundik.resolvers.feedback import FeedbackResolver
 from redundik.resolvers.pinv import PinvResolver
+from redundik.resolvers.qp.hqp import HierarchicalQPResolver
+from redundik.resolvers.qp.wqp import WeightedQPResolver
 
 #: Factories by resolver name. QP resolvers add themselves in :mod:`redundik.resolvers` when importable.
 RESOLVERS: dict[str, Callable[..., Resolver]] = {
     "pinv": PinvResolver,
     "feedback": FeedbackResolver,
+    "wqp": WeightedQPResolver,
+    "hqp": HierarchicalQPResolver,
 }
 
 

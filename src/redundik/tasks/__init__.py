@@ -1,7 +1,9 @@
 """The task API: main tasks (J, V, e), subtask potentials (p, η) and trajectories."""
 
 from redundik.tasks.base import Potential, Subtask, Task, TaskStack, TaskTerm, stack_terms
+from redundik.tasks.coupling import JointCoupling
 from redundik.tasks.frame import AXIS_SETS, FrameTask, PostureTask
+from redundik.tasks.potential_task import PotentialTask
 from redundik.tasks.potentials import (
     BestPosture,
     Clearance,
@@ -21,6 +23,7 @@ __all__ = [
     "FrameTask",
     "Hold",
     "JointCentering",
+    "JointCoupling",
     "JointSine2",
     "JointValue",
     "Line",
@@ -28,6 +31,7 @@ __all__ = [
     "PoseInterpolation",
     "PostureTask",
     "Potential",
+    "PotentialTask",
     "Subtask",
     "Task",
     "TaskStack",

@@ -1,0 +1,83 @@
+"""Joint coupling as an equality task: q_i − q_j = c (e.g. the dual-arm's θ3r = θ3l + β, section 5.3)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from redundik.errors import TaskError
+from redundik.kinematics.model import RobotModel
+from redundik.tasks.base import Task, TaskTerm
+
+
+class JointCoupling(Task):
+    """Keep two 1-dof joints coupled: q_i − q_j = c, as the 1-row task (e_i − e_j)ᵀq̇ = K(c − (q_i − q_j)).
+
+    With ``offset=None`` the offset c is captured at :meth:`reset` (the coupling holds what the start pose has).
+    In a QP hierarchy place it at level 0 (hard) or lower; in ``wqp`` its weight sets how hard it is held.
+
+    Args:
+        joint_i: Name of the first joint.
+        joint_j: Name of the second joint.
+        offset: c [rad or m]; captured at reset when ``None``.
+        gain: K [1/s] ≥ 0 on the coupling error.
+        weight: Weight in a weighted QP (> 0).
+        priority: Level in a strict hierarchy (0 = highest).
+        name: Task name (default ``"coupling_<i>_<j>"``).
+
+    Raises:
+        TaskError: same joint twice, non-finite offset, negative gain or weight.
+    """
+
+    def __init__(
+        self,
+        joint_i: str,
+        joint_j: str,
+        offset: float | None = None,
+        *,
+        gain: float = 1.0,
+        weight: float = 1.0,
+        priority: int = 0,
+        name: str | None = None,
+    ) -> None:
+        self.name = name or f"coupling_{joint_i}_{joint_j}"
+        if joint_i == joint_j:
+            raise TaskError(f"task '{self.name}': joint_i and joint_j must differ, got '{joint_i}' twice")
+        if offset is not None and not np.isfinite(offset):
+            raise TaskError(f"task '{self.name}': offset must be finite, got {offset}")
+        if not (np.isfinite(gain) and gain >= 0):
+            raise TaskError(f"task '{self.name}': gain must be a finite number ≥ 0, got {gain}")
+        if not (np.isfinite(weight) and weight > 0):
+            raise TaskError(f"task '{self.name}': weight must be > 0, got {weight}")
+        self.joint_i, self.joint_j = joint_i, joint_j
+        self.offset = None if offset is None else float(offset)
+        self.gain, self.weight, self.priority = float(gain), float(weight), int(priority)
+        self._idx: tuple[int, int, int, int] | None = None
+        self._c: float | None = self.offset
+
+    def reset(self, robot: RobotModel) -> None:
+        idx = []
+        for jn in (self.joint_i, self.joint_j):
+            try:
+                info = robot.joint(jn)
+            except Exception as exc:
+                raise TaskError(f"task '{self.name}': {exc}") from exc
+            if info.idx_q < 0:
+                raise TaskError(f"task '{self.name}': joint '{jn}' is not a 1-dof joint")
+            idx += [info.idx_q, info.idx_v]
+        self._idx = (idx[0], idx[1], idx[2], idx[3])
+        q = robot.q
+        self._c = self.offset if self.offset is not None else float(q[idx[0]] - q[idx[2]])
+
+    def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
+        if self._idx is None or self._c is None:
+            self.reset(robot)
+        assert self._idx is not None and self._c is not None  # set by reset()
+        iq, iv, jq, jv = self._idx
+        q = robot.q
+        e = np.array([self._c - (q[iq] - q[jq])])
+        J = np.zeros((1, robot.nv))
+        J[0, iv], J[0, jv] = 1.0, -1.0
+        return TaskTerm(self.name, J, self.gain * e, e, self.weight)
+
+    def __repr__(self) -> str:
+        return f"JointCoupling({self.joint_i!r}, {self.joint_j!r}, offset={self.offset}, gain={self.gain})"
