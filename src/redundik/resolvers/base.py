@@ -79,6 +79,6 @@ class Resolver(ABC):
 
 def finite_or_zero(dq: np.ndarray) -> tuple[np.ndarray, bool]:
     """Return ``dq`` unchanged if finite, else zeros and ``False`` (a resolver must never output NaN)."""
-    if np.all(np.isfinite(dq)):
+    if np.isfinite(dq).all():
         return dq, True
     return np.zeros_like(dq), False
