@@ -147,7 +147,7 @@ def build_robot(spec: RobotSpec, base_dir: Path, prefix: str, source: str) -> Lo
             names = ", ".join(loaded.model.joint_names)
             raise ConfigError(f"joint '{jname}' does not exist (or is not a 1-dof joint); available: {names}", where)
         jm = model.joints[model.getJointId(jname)]
-        s = scale if "Revolute" in jm.shortname() else 1.0
+        s = scale if loaded.model.joint(jname).kind == "revolute" else 1.0
         lo, hi = model.lowerPositionLimit.copy(), model.upperPositionLimit.copy()
         vel = model.velocityLimit.copy()
         if lim.lower is not None:

@@ -119,12 +119,52 @@ def _allowed_keys(model: type[BaseModel], loc: tuple[Any, ...]) -> list[str] | N
     return None
 
 
+def _length_bounds(model: type[BaseModel], loc: tuple[Any, ...]) -> tuple[int | None, int | None]:
+    """(min_length, max_length) declared on the field at ``loc`` (pydantic reports only the violated one)."""
+    if not loc or not isinstance(loc[-1], str):
+        return None, None
+    lo: int | None = None
+    hi: int | None = None
+    current: list[Any] = [model]
+    for part in loc[:-1]:
+        nxt: list[Any] = []
+        for tp in current:
+            for cand in _unwrap(tp):
+                origin = typing.get_origin(cand)
+                if isinstance(cand, type) and issubclass(cand, BaseModel) and isinstance(part, str):
+                    f = cand.model_fields.get(part)
+                    if f is not None:
+                        nxt.append(f.annotation)
+                elif origin is dict:
+                    nxt.append(typing.get_args(cand)[1])
+                elif origin is list and isinstance(part, int):
+                    nxt.append(typing.get_args(cand)[0])
+        current = nxt
+    metas: list[Any] = []
+    for tp in current:
+        for cand in _unwrap(tp):
+            if isinstance(cand, type) and issubclass(cand, BaseModel) and loc[-1] in cand.model_fields:
+                field = cand.model_fields[loc[-1]]
+                metas += list(field.metadata)
+                stack = [field.annotation]
+                while stack:
+                    a = stack.pop()
+                    if typing.get_origin(a) is typing.Annotated:
+                        for m in typing.get_args(a)[1:]:
+                            metas += list(getattr(m, "metadata", [m]))
+                    stack += [x for x in typing.get_args(a) if typing.get_origin(x) is not None]
+    for m in metas:
+        lo = getattr(m, "min_length", lo) if getattr(m, "min_length", None) is not None else lo
+        hi = getattr(m, "max_length", hi) if getattr(m, "max_length", None) is not None else hi
+    return lo, hi
+
+
 def _short(value: Any) -> str:
     text = repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def _message(err: dict[str, Any], allowed: list[str] | None) -> str:
+def _message(err: dict[str, Any], allowed: list[str] | None, bounds: tuple[int | None, int | None]) -> str:
     kind = err["type"]
     ctx = err.get("ctx") or {}
     got = err.get("input")
@@ -151,14 +191,16 @@ def _message(err: dict[str, Any], allowed: list[str] | None) -> str:
     if kind == "literal_error":
         return f"expected one of {ctx.get('expected', '?')}, got {_short(got)}"
     if kind in ("too_short", "too_long"):
-        lo, hi = ctx.get("min_length"), ctx.get("max_length")
+        lo = ctx.get("min_length", bounds[0])
+        hi = ctx.get("max_length", bounds[1])
         n = ctx.get("actual_length")
         field_type = ctx.get("field_type", "List")
         if kind == "too_short" and field_type in ("Dictionary", "Object"):
             return "must not be empty"
-        want = f"{lo}" if hi is None or lo == hi else f"{lo} to {hi}"
-        if kind == "too_long" and lo is None:
-            want = f"at most {hi}"
+        if lo is not None and hi is not None:
+            want = f"{lo}" if lo == hi else f"{lo} to {hi}"
+        else:
+            want = f"at least {lo}" if lo is not None else f"at most {hi}"
         return f"expected {want} values, got {n}"
     if kind in ("greater_than", "greater_than_equal", "less_than", "less_than_equal"):
         op = {"greater_than": ">", "greater_than_equal": "≥", "less_than": "<", "less_than_equal": "≤"}[kind]
@@ -183,7 +225,8 @@ def config_error(exc: ValidationError, model: type[BaseModel], prefix: str = "")
     loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and (p in _TYPE_LABELS or "[" in p)))
     allowed = _allowed_keys(model, loc[:-1]) if err["type"] == "extra_forbidden" else None
     path = join_path(prefix, *loc) if loc else (prefix.rstrip(": ") or "(top level)")
-    msg = _message(dict(err, loc=loc), allowed)
+    bounds = _length_bounds(model, loc) if err["type"] in ("too_short", "too_long") else (None, None)
+    msg = _message(dict(err, loc=loc), allowed, bounds)
     if len(errors) > 1:
         msg += f" (and {len(errors) - 1} more error{'s' if len(errors) > 2 else ''})"
     return ConfigError(msg, path)
