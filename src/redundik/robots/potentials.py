@@ -1,0 +1,77 @@
+"""Potentials for the chapter's robot examples that the core set does not cover."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from redundik.errors import TaskError
+from redundik.kinematics.model import RobotModel
+from redundik.tasks.base import Potential
+
+
+class JointWaypoints(Potential):
+    """A joint visiting values in turn: p = (q_j − c_i)² with c_i the active waypoint, η_j = 2(q_j − c_i).
+
+    The (6+1) robot's round trip (section 5.2, Figs. 5.2–5.5): with p = (d_1 − c)² and k < 0 the null-space motion
+    slides the arm to c; the chapter then brings it back home. Here the waypoint switches to the next value once
+    |q_j − c_i| < ``tolerance``, so one run does the whole trip: ``values = [c, d_1(0)]``. Between switches p is the
+    chapter's (d_1 − c)² and its gradient is exact; the switch is the only discontinuity. The state (active index)
+    is reset by :meth:`check`, which :meth:`TaskStack.reset` calls at the start of every run.
+
+    Args:
+        joint: Joint name (e.g. the track joint ``"1"``).
+        values: Waypoints c_1, c_2, … [rad or length unit].
+        tolerance: Distance to the active waypoint at which the next one becomes active (> 0).
+        name: Potential name.
+
+    Raises:
+        TaskError: no waypoint, non-finite values, tolerance ≤ 0; unknown joint at :meth:`check`.
+    """
+
+    def __init__(self, joint: str, values: Sequence[float], tolerance: float = 0.05, name: str | None = None) -> None:
+        self.name = name or f"waypoints_{joint}"
+        vals = np.asarray(values, dtype=float).reshape(-1)
+        if vals.size == 0 or not np.all(np.isfinite(vals)):
+            raise TaskError(f"subtask '{self.name}': values must be one or more finite numbers, got {list(values)}")
+        if not (np.isfinite(tolerance) and tolerance > 0):
+            raise TaskError(f"subtask '{self.name}': tolerance must be > 0, got {tolerance}")
+        self.joint, self.values, self.tolerance = joint, vals, float(tolerance)
+        self.active = 0
+        self._iq = self._iv = -1
+
+    def check(self, robot: RobotModel) -> None:
+        try:
+            info = robot.joint(self.joint)
+        except Exception as exc:
+            raise TaskError(f"subtask '{self.name}': {exc}") from exc
+        if info.idx_q < 0:
+            raise TaskError(f"subtask '{self.name}': joint '{self.joint}' is not a 1-dof joint")
+        self._iq, self._iv = info.idx_q, info.idx_v
+        self.active = 0
+
+    def _delta(self, robot: RobotModel) -> float:
+        if self._iq < 0:
+            self.check(robot)
+        x = float(robot.q[self._iq])
+        while self.active < self.values.size - 1 and abs(x - self.values[self.active]) < self.tolerance:
+            self.active += 1
+        return x - float(self.values[self.active])
+
+    @property
+    def target(self) -> float:
+        """The active waypoint c_i."""
+        return float(self.values[self.active])
+
+    def value(self, robot: RobotModel) -> float:
+        return self._delta(robot) ** 2
+
+    def gradient(self, robot: RobotModel) -> np.ndarray:
+        delta = self._delta(robot)
+        g = np.zeros(robot.nv)
+        g[self._iv] = 2.0 * delta
+        return g
+
+    def __repr__(self) -> str:
+        return f"JointWaypoints(joint={self.joint!r}, values={self.values.tolist()}, tolerance={self.tolerance})"
