@@ -36,6 +36,11 @@ def _colors(n: int) -> list[Any]:
     return [cmap(i % 10) for i in range(n)]
 
 
+def _lw(i: int, n: int) -> float:
+    """Line width of run i of n: earlier runs thicker, so runs with identical curves all stay visible."""
+    return 1.4 + 2.0 * (n - 1 - i) / max(n - 1, 1)
+
+
 def _grid(n: int, max_cols: int = 3) -> tuple[int, int]:
     cols = min(n, max_cols)
     return math.ceil(n / cols), cols
@@ -57,14 +62,20 @@ def plot_joints(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Pa
     shown = joints[:12]
     rows, cols = _grid(len(shown), 3 if len(shown) > 4 else len(shown))
     fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 2.9 * rows), squeeze=False, sharex=True)
+    n_runs = len(results)
     for ax, j in zip(axes.flat, shown, strict=False):
         revolute = j.kind == "revolute"
-        for (name, r), c in zip(results.items(), colors, strict=True):
+        lo, hi = np.inf, -np.inf
+        for i, ((name, r), c) in enumerate(zip(results.items(), colors, strict=True)):
             y = r.log.q[:, j.idx_q]
-            ax.plot(r.log.t, np.degrees(y) if revolute else y, color=c, label=name, lw=1.6)
+            y = np.degrees(y) if revolute else y
+            lo, hi = min(lo, float(np.min(y))), max(hi, float(np.max(y)))
+            ax.plot(r.log.t, y, color=c, label=name, lw=_lw(i, n_runs))
+        pad = max(0.08 * (hi - lo), 1.0 if revolute else 1e-3)
+        ax.set_ylim(lo - pad, hi + pad)  # limits outside the motion's range are not drawn (they would flatten it)
         for lim in (j.lower, j.upper):
             if np.isfinite(lim) and abs(lim) < 1e9:
-                ax.axhline(np.degrees(lim) if revolute else lim, color="0.6", ls=":", lw=1)
+                ax.axhline(np.degrees(lim) if revolute else lim, color="k", ls=":", lw=1.2)
         unit = "deg" if revolute else robot.length_unit
         ax.set_title(f"joint {j.name}", fontsize=10)
         ax.set_ylabel(f"{'θ' if revolute else 'd'} [{unit}]")
@@ -91,15 +102,20 @@ def plot_task_errors(plan: TaskPlan, results: dict[str, RunResult], path: Path) 
     fig, axes = plt.subplots(rows, cols, figsize=(6.0 * cols, 3.4 * rows), squeeze=False)
     unit = plan.robot.model.length_unit
     for ax, tname in zip(axes.flat, names, strict=False):
-        for (name, r), c in zip(results.items(), colors, strict=True):
+        rotational = False
+        for i, ((name, r), c) in enumerate(zip(results.items(), colors, strict=True)):
             if tname not in r.log.task_errors:
                 continue
+            task = next((t for t in r.plan.stack.tasks if t.name == tname), None)
+            axes_names = getattr(task, "axes", ("rx",))
+            rotational = rotational or any(a.startswith("r") for a in axes_names)
             e = r.log.task_errors[tname].copy()
             e[e <= 0] = np.nan  # log scale: exact zeros (t = 0) are not drawn
-            ax.semilogy(r.log.t, e, color=c, label=f"{name} (max {np.nanmax(r.log.task_errors[tname]):.2g})")
-        ax.set_title(f"task '{tname}': error norm ‖e‖", fontsize=10)
+            label = f"{name} (max {np.nanmax(r.log.task_errors[tname]):.2g})"
+            ax.semilogy(r.log.t, e, color=c, label=label, lw=_lw(i, len(results)))
+        ax.set_title(f"task '{tname}': error norm ‖e‖ (desired − actual)", fontsize=10)
         ax.set_xlabel("t [s]")
-        ax.set_ylabel(f"‖e‖ [{unit}, rad]")
+        ax.set_ylabel(f"‖e‖ [{unit}{', rad' if rotational else ''}]")
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=8)
     for ax in axes.flat[len(names) :]:
@@ -125,21 +141,27 @@ def plot_potentials(plan: TaskPlan, results: dict[str, RunResult], path: Path) -
     fig, axes = plt.subplots(rows, cols, figsize=(6.0 * cols, 3.4 * rows), squeeze=False)
     for ax, pname in zip(axes.flat, panels, strict=False):
         kind = plan.potential_types.get(pname, "")
-        for (name, r), c in zip(results.items(), colors, strict=True):
+        monitor = any(pname in {m.name for m in r.plan.monitors} for r in results.values())
+        for i, ((name, r), c) in enumerate(zip(results.items(), colors, strict=True)):
             if pname in r.log.potentials:
                 sub = next((s for s in r.plan.stack.subtasks if s.name == pname), None)
-                style = "-" if sub is not None else "--"
-                label = name if sub is None else f"{name} ({sub.mode})"
-                ax.plot(r.log.t, r.log.potentials[pname], color=c, ls=style, label=label)
+                style = "-" if sub is not None or monitor else "--"
+                label = name if monitor else f"{name} (not controlled)" if sub is None else f"{name} ({sub.mode})"
+                t, p = r.log.t, r.log.potentials[pname]
+                ax.plot(t, p, color=c, ls=style, label=label, lw=_lw(i, len(results)))
                 if sub is not None and sub.mode == "target" and sub.target is not None:
                     ax.axhline(sub.target, color=c, ls=":", lw=1)
+                    ideal = sub.target + (p[0] - sub.target) * np.exp(-sub.rate * (t - t[0]))
+                    ax.plot(
+                        t, ideal, color="k", ls=":", lw=1.2, label=f"{name}: p_d + (p₀ − p_d)e^(−Kt), K = {sub.rate:g}"
+                    )
                 for bound in (sub.lower, sub.upper) if sub is not None and sub.mode == "bounds" else ():
                     if bound is not None:
                         ax.axhline(bound, color=c, ls=":", lw=1)
             elif pname in torque_names and f"m.{pname}.max" in r.series:
                 for stat, ls in (("max", "-"), ("mean", "--"), ("min", ":")):
                     ax.plot(r.log.t, r.series[f"m.{pname}.{stat}"], color=c, ls=ls, label=f"{name}: {stat} |τ|")
-        role = "monitor" if any(pname in {m.name for m in r.plan.monitors} for r in results.values()) else "potential"
+        role = "monitor" if monitor else "potential"
         if pname in torque_names:
             role, kind = "monitor", "torques τ = JᵀF"
         ax.set_title(f"{role} '{pname}' ({kind})", fontsize=10)
@@ -149,7 +171,7 @@ def plot_potentials(plan: TaskPlan, results: dict[str, RunResult], path: Path) -
         ax.legend(fontsize=8)
     for ax in axes.flat[len(panels) :]:
         ax.set_visible(False)
-    fig.suptitle(f"{plan.name}: subtask potentials and monitors (dotted: targets/bounds, dashed: not controlled)")
+    fig.suptitle(f"{plan.name}: subtask potentials and monitors", fontsize=12)
     return _finish(fig, path)
 
 
@@ -198,19 +220,16 @@ def plot_configurations(plan: TaskPlan, results: dict[str, RunResult], path: Pat
     kw: dict[str, Any] = {} if plane is not None else {"subplot_kw": {"projection": "3d"}}
     fig, axes = plt.subplots(rows, cols, figsize=(size * cols, size * rows), squeeze=False, **kw)
     unit = plan.robot.model.length_unit
-    colors = _colors(n_runs)
     all_pts = np.vstack([xyz for r in results.values() for xyz in r.log.frame_positions.values()])
     lo, hi = all_pts.min(axis=0), all_pts.max(axis=0)
-    for ax, (name, r), c in zip(axes.flat, results.items(), colors, strict=False):
+    for ax, (name, r) in zip(axes.flat, results.items(), strict=False):
         fp = r.log.frame_positions
         n = r.log.t.shape[0]
         every = plan.draw.every or max(1, math.ceil((n - 1) / 20))
         idx = list(range(0, n, every))
         if idx[-1] != n - 1:
             idx.append(n - 1)
-        ids = [i for i in (0, 1) if i < 2] if plane is not None else [0, 1, 2]
-        if plane is not None:
-            ids = [_AXIS[plane[0]], _AXIS[plane[1]]]
+        ids = [0, 1, 2] if plane is None else [_AXIS[plane[0]], _AXIS[plane[1]]]
         for k_i, k in enumerate(idx):
             first, last = k_i == 0, k == n - 1
             color = "tab:blue" if first else "tab:red" if last else "0.55"
@@ -224,7 +243,7 @@ def plot_configurations(plan: TaskPlan, results: dict[str, RunResult], path: Pat
             ax.plot(*[joints[:, i] for i in ids], "o", color=color, ms=3.5 if (first or last) else 2, alpha=alpha)
         tip = plan.draw.path_frame
         if tip is not None and tip in fp:
-            ax.plot(*[fp[tip][:, i] for i in ids], color=c, lw=2.0, label=f"path of frame {tip}")
+            ax.plot(*[fp[tip][:, i] for i in ids], color="tab:orange", lw=2.0, label=f"path of frame {tip}")
             ref = _desired_path(r, tip)
             if ref is not None:
                 ax.plot(*[ref[:, i] for i in ids], color="k", ls="--", lw=1.0, label="desired path")
@@ -245,11 +264,15 @@ def plot_configurations(plan: TaskPlan, results: dict[str, RunResult], path: Pat
             ax.set_xlim(mid[0] - half, mid[0] + half)
             ax.set_ylim(mid[1] - half, mid[1] + half)
             ax.set_zlim(mid[2] - half, mid[2] + half)
-        ax.legend(fontsize=7, loc="best")
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=9, frameon=False)
     for ax in axes.flat[n_runs:]:
         ax.set_visible(False)
     fig.suptitle(f"{plan.name}: configurations over time", fontsize=12)
-    return _finish(fig, path)
+    fig.tight_layout(rect=(0, 0.04, 1, 1))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
 
 
 def write_figures(plan: TaskPlan, results: dict[str, RunResult], out_dir: Path) -> list[Path]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from typing import Any
 
 from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 
@@ -13,34 +14,34 @@ def _num(x: float | None, fmt: str = ".3g") -> str:
 
 
 def summary_table(summary: dict[str, Any]) -> Table:
-    """One row per run: resolver, task errors, subtask values, step time, limit violations, damping."""
+    """One row per run: resolver, task errors, subtask values, median step time, limit violations, damping."""
     unit = summary.get("length_unit", "m")
-    table = Table(title=f"{summary['task']} — {summary['robot']}, dt = {summary['dt']} s, {summary['steps']} steps")
-    table.add_column("run", style="bold")
-    table.add_column("resolver")
-    table.add_column(f"max err [{unit}]", justify="right")
-    table.add_column(f"final err [{unit}]", justify="right")
-    table.add_column("subtasks initial → final")
-    table.add_column("step µs (med/p90)", justify="right")
-    table.add_column("limit viol.", justify="right")
-    table.add_column("damped", justify="right")
+    table = Table(
+        title=f"{summary['task']}: {summary['robot']}, dt = {summary['dt']} s, {summary['steps']} steps",
+        title_justify="left",
+        padding=(0, 1),
+    )
+    table.add_column("run\n(resolver)", no_wrap=True)
+    table.add_column(escape(f"error [{unit}]") + "\nmax / final", justify="right", no_wrap=True)
+    table.add_column("subtasks\ninitial → final", min_width=12, ratio=1)
+    table.add_column("µs/step\nmedian", justify="right", no_wrap=True)
+    table.add_column("limit\nviol.", justify="right", no_wrap=True)
+    table.add_column("damped", justify="right", no_wrap=True)
     for name, r in summary["runs"].items():
-        subs = ", ".join(f"{k}: {_num(v['initial'])} → {_num(v['final'])}" for k, v in r["subtasks"].items())
-        extra = []
+        items = [f"{k} {_num(v['initial'])} → {_num(v['final'])}" for k, v in r["subtasks"].items()]
         if "min_clearance" in r:
-            extra.append(f"min clearance {_num(r['min_clearance'])}")
+            items.append(f"min clearance {_num(r['min_clearance'])}")
         if "trace_JWJT" in r:
-            extra.append(f"tr(JWJᵀ) {_num(r['trace_JWJT']['initial'])} → {_num(r['trace_JWJT']['final'])}")
+            items.append(f"tr(JWJᵀ) {_num(r['trace_JWJT']['initial'])} → {_num(r['trace_JWJT']['final'])}")
         viol = str(r["limit_violations"])
+        damped = str(r.get("damped_steps", 0)) + (f" ({r['fallbacks']} fb)" if r.get("fallbacks") else "")
         table.add_row(
-            name,
-            r["resolver"],
-            _num(r["max_task_error"]),
-            _num(r["final_task_error"]),
-            "; ".join(x for x in [subs, *extra] if x) or "–",
-            f"{r['step_time_us']['median']:.0f} / {r['step_time_us']['p90']:.0f}",
+            f"[bold]{name}[/bold]\n[dim]({r['resolver']})[/dim]",
+            f"{_num(r['max_task_error'], '.2g')} / {_num(r['final_task_error'], '.2g')}",
+            "; ".join(items) or "–",
+            f"{r['step_time_us']['median']:.0f}",
             f"[red]{viol}[/red]" if r["limit_violations"] else viol,
-            str(r.get("damped_steps", 0)) + (f" ({r['fallbacks']} fallbacks)" if r.get("fallbacks") else ""),
+            damped,
         )
     return table
 
