@@ -13,7 +13,8 @@ no third-party exception leaks into a control loop.
 * ``quadprog``: Goldfarb–Idnani dual active set through ``quadprog.solve_qp`` (exact; bounds as rows).
 * ``proxsuite``: ProxQP (augmented Lagrangian) through a cached ``proxsuite.proxqp.dense.QP`` object per problem
   size, updated in place and warm-started from the previous result; tolerances tightened to ``eps_abs = 1e-9``
-  (its default 1e-5 gives answers up to ~1 off the active-set ones on ill-conditioned steps).
+  (its default 1e-5 gives answers up to ~1 off the active-set ones on ill-conditioned steps) and the infeasibility
+  thresholds to 1e-10 (the default 1e-4 declared a plainly feasible 1-variable, 14-row level QP infeasible).
 * ``osqp``: ADMM through qpsolvers with ``eps_abs = eps_rel = 1e-8``, polishing and warm start; the slowest and
   least accurate here (kept for comparison and for very large sparse problems).
 * ``qpsolvers:NAME``: any other solver qpsolvers knows, through ``qpsolvers.solve_problem``.
@@ -171,6 +172,9 @@ class ProxsuiteBackend(Backend):
                 qp.settings.eps_abs = self.eps_abs
                 qp.settings.eps_rel = 0.0
                 qp.settings.max_iter = self.max_iter
+                # the default 1e-4 declares small feasible QPs "primal infeasible" (seen on 1-variable hqp levels)
+                qp.settings.eps_primal_inf = 1e-10
+                qp.settings.eps_dual_inf = 1e-10
                 qp.settings.initial_guess = self._px.InitialGuess.NO_INITIAL_GUESS
                 qp.init(problem.P, problem.q, A, b, C, l_in if p else None, u_in if p else None, lb, ub)
                 self._cache[key] = qp
@@ -227,7 +231,9 @@ class OsqpBackend(QpsolversBackend):
     """OSQP through qpsolvers, with sparse matrices built here (no conversion warnings) and tight tolerances."""
 
     def __init__(self) -> None:
-        super().__init__("osqp", eps_abs=1e-8, eps_rel=1e-8, polishing=True, max_iter=20000, verbose=False)
+        super().__init__(
+            "osqp", eps_abs=1e-8, eps_rel=1e-8, polishing=True, max_iter=20000, verbose=False, raise_error=False
+        )
 
     def solve(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
         import scipy.sparse as sp

@@ -108,7 +108,7 @@ class HierarchicalQPResolver(QPResolverBase):
         if not (np.isfinite(rcond) and 0 < rcond < 1):
             raise ResolverError(f"hqp: rcond must be in (0, 1), got {rcond}")
         self.regularization, self.rcond = float(regularization), float(rcond)
-        self.slack_tolerance = 1e-9
+        self.slack_tolerance = 1e-7  # feasibility margin of the rows that carry higher levels and limits
 
     # ------------------------------------------------------------------ the two cascades
     def _project(self, lv: Level, x: np.ndarray, Z: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
