@@ -23,10 +23,11 @@ app = typer.Typer(
 
 
 def _register_all() -> None:
-    from redundik.cli import parallel_cmds, run_cmds
+    from redundik.cli import bench_cmds, parallel_cmds, run_cmds
 
     run_cmds.register(app)
     parallel_cmds.register(app)
+    bench_cmds.register(app)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,0 +1,155 @@
+"""Write a benchmark run as a Markdown table, a JSON file and a plot (matplotlib, Agg, imported lazily)."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+from redundik.peers.bench.harness import METHODS, BenchResult
+
+
+def _num(x: float, digits: int = 1) -> str:
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "–"
+    return f"{x:.{digits}f}"
+
+
+def _sci(x: float) -> str:
+    return "–" if x is None or math.isnan(x) else f"{x:.2e}"
+
+
+def to_json(result: BenchResult) -> dict[str, Any]:
+    """The JSON document: ``{"cases": [...], "ratios": [...], "targets": [...], "skipped": [...], "meta": {...}}``."""
+    return {
+        "cases": [c.as_json() for c in result.cases],
+        "ratios": result.ratios(),
+        "targets": result.targets(),
+        "skipped": result.skipped,
+        "meta": result.meta,
+    }
+
+
+def write_json(result: BenchResult, path: str | Path) -> Path:
+    """Write :func:`to_json` to ``path`` (parents created)."""
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    p.write_text(json.dumps(to_json(result), indent=2, allow_nan=False, default=_json_default))
+    return p
+
+
+def _json_default(obj: object) -> object:
+    if hasattr(obj, "item"):
+        return obj.item()  # numpy scalars
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+def markdown(result: BenchResult, command: str = "") -> str:
+    """The Markdown report: main table, ratios to the faster peer, targets, per-stage profile, skipped cases."""
+    order = {m: i for i, m in enumerate(METHODS)}
+    cases = sorted(result.cases, key=lambda c: (list(result.meta["robots"]).index(c.robot), order[c.method]))
+    lines: list[str] = []
+    if command:
+        lines += [f"Command: `{command}`", ""]
+    m = result.meta
+    lines += [
+        f"{m['steps']} timed steps per case after {m['warmup']} warm-up steps, round-robin in chunks of "
+        f"{m['chunk']}; Python {m['python']} on {m['platform']} ({m['processor']}); wall time "
+        f"{m['wall_time_s']:.0f} s.",
+        "",
+        "| robot | method | backend | median µs | p90 µs | × faster peer | max task error | subtask (final) "
+        "| limit viol. | failures |",
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|",
+    ]
+    for c in cases:
+        peer = result.faster_peer(c.robot)
+        ratio = "–" if peer is None else _num(c.median_us / peer.median_us, 2)
+        star = " (default)" if c.default_backend else ""
+        lines.append(
+            f"| {c.robot} | {c.method} | {c.backend}{star} | {_num(c.median_us)} | {_num(c.p90_us)} | {ratio} "
+            f"| {_sci(c.max_task_error)} | {c.subtask_label} = {c.subtask_final:.4g} | {c.limit_violations}"
+            f"{'' if not c.limit_violations else f' (max {c.max_violation:.1e})'} | {c.failures} |"
+        )
+    lines += ["", "Targets (issue 3, measured in this run):", ""]
+    lines += ["| target | measured | limit | met | detail |", "|---|---:|---:|---|---|"]
+    for t in result.targets():
+        val = "–" if t["value"] is None else (f"{t['value']:.3f}" if t["unit"] == "ratio" else f"{t['value']:.1f} µs")
+        lim = f"{t['limit']:.3f}" if t["unit"] == "ratio" else f"{t['limit']:.0f} µs"
+        met = {True: "yes", False: "**no**", None: "–"}[t["met"]]
+        lines.append(f"| {t['target']} | {val} | {lim} | {met} | {t['detail']} |")
+    prof = [c for c in cases if c.stages_us]
+    if prof:
+        lines += [
+            "",
+            "Per-stage profile of redundik's methods (median µs per step, separate probed run):",
+            "",
+            "| robot | method | backend | kinematics | tasks | build | solve | other | total |",
+            "|---|---|---|---:|---:|---:|---:|---:|---:|",
+        ]
+        for c in prof:
+            s = c.stages_us or {}
+            lines.append(
+                f"| {c.robot} | {c.method} | {c.backend} | "
+                + " | ".join(_num(s.get(k, float("nan"))) for k in ("kinematics", "tasks", "build", "solve", "other"))
+                + f" | {_num(s.get('total', float('nan')))} |"
+            )
+    fails = [c for c in cases if c.first_failure]
+    if fails:
+        lines += ["", "First failure per case:", ""]
+        lines += [f"- {c.robot}/{c.method}/{c.backend}: {c.first_failure}" for c in fails]
+    if result.skipped:
+        lines += ["", "Skipped:", ""] + [f"- {s}" for s in result.skipped]
+    return "\n".join(lines) + "\n"
+
+
+def ratio_lines(result: BenchResult) -> list[str]:
+    """One line per redundik case: its median over the faster peer's."""
+    return [
+        f"{r['robot']:>9} {r['method']:>8}/{r['backend']:<10} = {r['ratio']:.2f} × {r['peer']}" for r in result.ratios()
+    ]
+
+
+def plot(result: BenchResult, path: str | Path) -> Path:
+    """Horizontal bars of the median step time (p90 as whisker), one panel per robot, log scale; PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    robots = list(result.meta["robots"])
+    order = {m: i for i, m in enumerate(METHODS)}
+    fig, axes = plt.subplots(len(robots), 1, figsize=(8, 1.2 + 0.32 * len(result.cases)), squeeze=False)
+    colors = {"pinv": "C0", "feedback": "C1", "wqp": "C2", "hqp": "C3", "mink": "C7", "pink": "C8"}
+    for ax, robot in zip(axes[:, 0], robots, strict=True):
+        cs = sorted([c for c in result.cases if c.robot == robot], key=lambda c: (order[c.method], c.median_us))
+        y = list(range(len(cs)))
+        med = [c.median_us for c in cs]
+        err = [max(c.p90_us - c.median_us, 0.0) for c in cs]
+        ax.barh(y, med, xerr=[[0.0] * len(cs), err], color=[colors[c.method] for c in cs])
+        ax.set_yticks(y, [f"{c.method}/{c.backend}" for c in cs], fontsize=8)
+        ax.invert_yaxis()
+        ax.set_xscale("log")
+        ax.set_title(robot, fontsize=9)
+        ax.grid(axis="x", which="both", alpha=0.3)
+    axes[-1, 0].set_xlabel("time per IK step [µs] (median, whisker to p90)")
+    fig.tight_layout()
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(p, dpi=110)
+    plt.close(fig)
+    return p
+
+
+def write_all(result: BenchResult, out_dir: str | Path, command: str = "", json_path: str | Path | None = None) -> dict:
+    """Write ``compare_resolvers.md``, ``.json`` and ``.png`` to ``out_dir`` (and the JSON to ``json_path``)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    md = out / "compare_resolvers.md"
+    md.write_text(markdown(result, command))
+    paths = {"markdown": md, "json": write_json(result, out / "compare_resolvers.json"), "plot": None}
+    if json_path is not None:
+        paths["json_requested"] = write_json(result, json_path)
+    if result.cases:
+        paths["plot"] = plot(result, out / "compare_resolvers.png")
+    return paths

@@ -1,0 +1,377 @@
+"""One benchmark case = one runner: a method (redundik resolver or peer) stepping one scenario, timed per step.
+
+The timed region of a step is what a control loop pays per tick, the same for every method: the kinematics update
+at q, sampling the references, building and solving the problem — never the integration q ⊕ q̇·dt nor the
+metrics. Metrics (tracking error, subtask value, limit violations) are computed afterwards on a separate redundik
+model with the same frame tasks, so every method is measured by the same ruler.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from redundik.kinematics.model import RobotModel
+from redundik.peers.bench.scenarios import POSTURE_GAIN, POSTURE_WEIGHT, Scenario, urdf_path
+from redundik.resolvers.base import Resolver
+from redundik.resolvers.registry import make_resolver
+from redundik.tasks.base import Potential, Task, TaskStack, TaskTerm
+
+_ns = time.perf_counter_ns
+
+
+@dataclass
+class Record:
+    """Per-step records of a runner (appended as it runs)."""
+
+    step_ns: list[int] = field(default_factory=list)
+    task_error: list[float] = field(default_factory=list)
+    monitor: list[float] = field(default_factory=list)
+    violation: list[float] = field(default_factory=list)
+    failures: int = 0
+    first_failure: str | None = None
+    stages: dict[str, list[int]] = field(default_factory=dict)
+
+
+class Metrics:
+    """The common ruler: frame-task errors, the monitored potential and limit violations, on its own model."""
+
+    def __init__(self, scenario: Scenario) -> None:
+        self.robot = scenario.robot()
+        self.tasks = scenario.frame_tasks(gain=0.0)
+        self.monitor = scenario.monitor()
+        self.reset(scenario.q0)
+
+    def reset(self, q0: np.ndarray) -> None:
+        """Anchor the references at q0 (start of an episode)."""
+        self.robot.update(q0)
+        for task in self.tasks:
+            task.reset(self.robot)
+        self.monitor.check(self.robot)
+
+    def task_error(self, q: np.ndarray, t: float) -> float:
+        """Norm of the stacked frame-task errors at (q, t)."""
+        self.robot.update(q)
+        return float(np.sqrt(sum(task.evaluate(self.robot, t).error_norm ** 2 for task in self.tasks)))
+
+    def after_step(self, q: np.ndarray) -> tuple[float, float]:
+        """(monitored potential, largest limit violation) at the configuration reached by a step."""
+        self.robot.update(q)
+        return float(self.monitor.value(self.robot)), float(np.max(self.robot.limit_violation(q), initial=0.0))
+
+
+class Runner(ABC):
+    """Steps one scenario with one method; :meth:`run` advances it by a chunk of steps."""
+
+    method: str
+    backend: str
+
+    def __init__(self, scenario: Scenario) -> None:
+        self.scenario = scenario
+        self.metrics = Metrics(scenario)
+        self.record = Record()
+        self.k = 0  # step within the episode
+        self.q = scenario.q0.copy()
+
+    @property
+    def label(self) -> str:
+        """``robot/method/backend``."""
+        return f"{self.scenario.key}/{self.method}/{self.backend}"
+
+    def restart(self) -> None:
+        """Start a new episode at q0."""
+        self.k = 0
+        self.q = self.scenario.q0.copy()
+        self.metrics.reset(self.q)
+        self._restart()
+
+    def run(self, steps: int) -> None:
+        """Advance by ``steps`` control ticks (restarting episodes as the scenario says)."""
+        sc, rec = self.scenario, self.record
+        for _ in range(steps):
+            if sc.episode is not None and self.k >= sc.episode:
+                self.restart()
+            t = self.k * sc.dt
+            try:
+                elapsed, q_next = self._step(t)
+            except Exception as exc:  # a method that raises is counted, never stops the benchmark
+                rec.failures += 1
+                if rec.first_failure is None:
+                    rec.first_failure = f"{type(exc).__name__}: {exc}"
+                elapsed, q_next = 0, self.q
+            rec.step_ns.append(elapsed)
+            rec.task_error.append(self.metrics.task_error(self.q, t))
+            value, viol = self.metrics.after_step(q_next)
+            rec.monitor.append(value)
+            rec.violation.append(viol)
+            self.q = q_next
+            self.k += 1
+
+    @abstractmethod
+    def _step(self, t: float) -> tuple[int, np.ndarray]:
+        """One timed step at time t from self.q: (elapsed [ns], next configuration in redundik coordinates)."""
+
+    def _restart(self) -> None:  # noqa: B027 - optional hook
+        """Method-specific reset at the start of an episode."""
+
+
+# ---------------------------------------------------------------------------------------------------------- redundik
+class RedundikRunner(Runner):
+    """A redundik resolver from the registry: ``resolver.step(robot, stack, q, t, dt)`` is the timed region."""
+
+    def __init__(self, scenario: Scenario, method: str, backend: str | None, options: dict[str, Any]) -> None:
+        super().__init__(scenario)
+        self.method = method
+        self.options = dict(options)
+        if backend is not None:
+            self.options["backend"] = backend
+        self.resolver: Resolver = make_resolver(method, **self.options)
+        used = getattr(self.resolver, "backend", None)
+        self.backend = backend or str(getattr(used, "name", used) or "-")
+        self.robot = scenario.robot()
+        self.stack = scenario.stack(method, self.robot)
+        self._restart()
+
+    def _restart(self) -> None:
+        self.robot.update(self.q)
+        self.stack = self.scenario.stack(self.method, self.robot)
+        self.stack.reset(self.robot)
+        self.resolver.reset()
+        self.resolver.check(self.robot, self.stack)
+
+    def _step(self, t: float) -> tuple[int, np.ndarray]:
+        dt = self.scenario.dt
+        t0 = _ns()
+        res = self.resolver.step(self.robot, self.stack, self.q, t, dt)
+        t1 = _ns()
+        return t1 - t0, self.robot.integrate(self.q, res.dq, dt)
+
+    def profile(self, steps: int) -> dict[str, float]:
+        """Median time per stage [µs] over ``steps`` extra steps with timing probes (not the timed run).
+
+        Stages: ``kinematics`` (RobotModel.update), ``tasks`` (task terms, potential values and gradients),
+        ``build`` (the resolver's build time minus the task evaluation inside it), ``solve`` (its solve time),
+        ``other`` (the rest of the step: results, diagnostics, Python glue).
+        """
+        probe = _Probe()
+
+        def timed_stack() -> TaskStack:
+            return TaskStack(
+                [_TimedTask(task, probe) for task in self.stack.tasks],
+                [replace(sub, potential=_TimedPotential(sub.potential, probe)) for sub in self.stack.subtasks],
+            )
+
+        timed = timed_stack()
+        out: dict[str, list[float]] = {k: [] for k in ("kinematics", "tasks", "build", "solve", "other", "total")}
+        dt = self.scenario.dt
+        for _ in range(steps):
+            if self.scenario.episode is not None and self.k >= self.scenario.episode:
+                self.restart()
+                timed = timed_stack()
+            t = self.k * dt
+            probe.ns = 0
+            t0 = _ns()
+            self.robot.update(self.q)
+            t1 = _ns()
+            res = self.resolver.solve(self.robot, timed, t, dt)
+            t2 = _ns()
+            build_ns = res.build_time * 1e9
+            solve_ns = res.solve_time * 1e9
+            out["kinematics"].append(t1 - t0)
+            out["tasks"].append(probe.ns)
+            out["build"].append(max(build_ns - probe.ns, 0.0))
+            out["solve"].append(solve_ns)
+            out["other"].append(max((t2 - t1) - build_ns - solve_ns, 0.0))
+            out["total"].append(t2 - t0)
+            self.q = self.robot.integrate(self.q, res.dq, dt)
+            self.k += 1
+        return {k: float(np.median(v)) / 1e3 for k, v in out.items() if v}
+
+
+class _Probe:
+    ns: int = 0
+
+
+class _TimedTask(Task):
+    def __init__(self, inner: Task, probe: _Probe) -> None:
+        self.inner, self.probe, self.name = inner, probe, inner.name
+        self.priority = getattr(inner, "priority", 0)
+
+    def reset(self, robot: RobotModel) -> None:
+        self.inner.reset(robot)
+
+    def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
+        t0 = _ns()
+        term = self.inner.evaluate(robot, t)
+        self.probe.ns += _ns() - t0
+        return term
+
+    def __repr__(self) -> str:
+        return repr(self.inner)
+
+
+class _TimedPotential(Potential):
+    def __init__(self, inner: Potential, probe: _Probe) -> None:
+        self.inner, self.probe, self.name = inner, probe, inner.name
+
+    def check(self, robot: RobotModel) -> None:
+        self.inner.check(robot)
+
+    def value(self, robot: RobotModel) -> float:
+        t0 = _ns()
+        v = self.inner.value(robot)
+        self.probe.ns += _ns() - t0
+        return v
+
+    def gradient(self, robot: RobotModel) -> np.ndarray:
+        t0 = _ns()
+        g = self.inner.gradient(robot)
+        self.probe.ns += _ns() - t0
+        return g
+
+
+# ---------------------------------------------------------------------------------------------------------- peers
+class _PeerRunner(Runner):
+    """Shared by mink and pink: frame tasks to the next reference pose (gain 1), posture, limits."""
+
+    def __init__(self, scenario: Scenario, backend: str) -> None:
+        super().__init__(scenario)
+        self.backend = backend
+        self.robot = scenario.robot()  # helper model for the adapters' gradients
+        self.refs = scenario.frame_tasks(gain=0.0)  # the references, sampled at t + dt
+        self._build()
+        self._restart()
+
+    def _restart(self) -> None:
+        self.robot.update(self.q)
+        for ref in self.refs:
+            ref.reset(self.robot)
+        self._reset_peer()
+
+    @abstractmethod
+    def _build(self) -> None: ...
+
+    @abstractmethod
+    def _reset_peer(self) -> None: ...
+
+
+class MinkRunner(_PeerRunner):
+    """mink on a MuJoCo model of the same robot (from the URDF, or built from the D-H model)."""
+
+    method = "mink"
+
+    def _build(self) -> None:
+        from redundik.peers._deps import require
+        from redundik.peers.joint_map import JointMap
+        from redundik.peers.mujoco_model import mujoco_from_robot, mujoco_from_urdf
+
+        mink = require("mink")
+        self.mink = mink
+        sc = self.scenario
+        frames = [f.frame for f in sc.frames]
+        if sc.urdf is None:
+            self.model = mujoco_from_robot(self.robot, frames)
+        else:
+            self.model = mujoco_from_urdf(urdf_path(sc), self.robot, frames, free_flyer=sc.urdf[1])
+        self.jmap = JointMap.from_mujoco(self.robot, self.model)
+        self.conf = mink.Configuration(self.model)
+        self.frame_tasks = []
+        for spec in sc.frames:
+            pos, ori = (1.0, 1.0) if spec.axes == "pose" else (np.array([1.0, 1.0, 0.0]), 0.0)
+            self.frame_tasks.append(mink.FrameTask(spec.frame, "site", position_cost=pos, orientation_cost=ori))
+        self.tasks: list[Any] = list(self.frame_tasks)
+        if sc.posture:
+            self.posture = mink.PostureTask(self.model, cost=np.sqrt(POSTURE_WEIGHT), gain=POSTURE_GAIN * sc.dt)
+            self.tasks.append(self.posture)
+        if sc.peer_potential is not None:
+            from redundik.peers.mink_tasks import MinkPotentialTask
+
+            factory, kw = sc.peer_potential
+            self.tasks.append(MinkPotentialTask(factory(), sc.robot(), dt=sc.dt, joint_map=self.jmap, **kw))
+        self.limits: list[Any] = [mink.ConfigurationLimit(self.model)]
+        vel = {j.name: j.velocity for j in self.robot.joints if j.idx_q >= 0 and np.isfinite(j.velocity)}
+        if vel:
+            self.limits.append(mink.VelocityLimit(self.model, vel))
+        self.SE3, self.SO3 = mink.SE3, mink.SO3
+
+    def _reset_peer(self) -> None:
+        self.conf.update(self.jmap.to_peer_q(self.q))
+        if self.scenario.posture:
+            self.posture.set_target(self.jmap.to_peer_q(self.scenario.q0))
+
+    def _step(self, t: float) -> tuple[int, np.ndarray]:
+        dt = self.scenario.dt
+        q_peer = self.jmap.to_peer_q(self.q)
+        t0 = _ns()
+        self.conf.update(q_peer)
+        for task, ref in zip(self.frame_tasks, self.refs, strict=True):
+            pose, _ = ref.trajectory.sample(t + dt)
+            task.set_target(
+                self.SE3.from_rotation_and_translation(self.SO3.from_matrix(pose.rotation), pose.translation)
+            )
+        v = self.mink.solve_ik(self.conf, self.tasks, dt, self.backend, damping=1e-12, limits=self.limits)
+        t1 = _ns()
+        q_next_peer = self.conf.integrate(v, dt)
+        return t1 - t0, self.jmap.to_robot_q(q_next_peer)
+
+
+class PinkRunner(_PeerRunner):
+    """pink on a Pinocchio model of the same robot (a copy of redundik's, so pink's attributes stay off ours)."""
+
+    method = "pink"
+
+    def _build(self) -> None:
+        import pinocchio as pin
+
+        from redundik.peers._deps import require
+        from redundik.peers.joint_map import JointMap
+
+        pink = require("pink")
+        self.pink = pink
+        sc = self.scenario
+        self.model = pin.Model(self.robot.model)
+        self.data = self.model.createData()
+        self.jmap = JointMap.from_pinocchio(self.robot, self.model)
+        self.frame_tasks = []
+        for spec in sc.frames:
+            pos, ori = (1.0, 1.0) if spec.axes == "pose" else ([1.0, 1.0, 0.0], 0.0)
+            self.frame_tasks.append(pink.tasks.FrameTask(spec.frame, position_cost=pos, orientation_cost=ori))
+        self.tasks: list[Any] = list(self.frame_tasks)
+        if sc.posture:
+            self.posture = pink.tasks.PostureTask(cost=float(np.sqrt(POSTURE_WEIGHT)), gain=POSTURE_GAIN * sc.dt)
+            self.tasks.append(self.posture)
+        if sc.peer_potential is not None:
+            from redundik.peers.pink_tasks import PinkPotentialTask
+
+            factory, kw = sc.peer_potential
+            self.tasks.append(PinkPotentialTask(factory(), sc.robot(), dt=sc.dt, joint_map=self.jmap, **kw))
+        self.conf = pink.Configuration(self.model, self.data, self.jmap.to_peer_q(self.q))
+        self.limits: list[Any] = [self.model.configuration_limit]
+        if np.any(np.isfinite(self.robot.velocity_limits) & (self.robot.velocity_limits < 1e9)):
+            self.limits.append(self.model.velocity_limit)
+        logging.getLogger().setLevel(logging.ERROR)  # pink logs each out-of-limit step (counted here instead)
+
+    def _reset_peer(self) -> None:
+        self.conf.update(self.jmap.to_peer_q(self.q))
+        if self.scenario.posture:
+            self.posture.set_target(self.jmap.to_peer_q(self.scenario.q0))
+
+    def _step(self, t: float) -> tuple[int, np.ndarray]:
+        dt = self.scenario.dt
+        q_peer = self.jmap.to_peer_q(self.q)
+        t0 = _ns()
+        self.conf.update(q_peer)
+        for task, ref in zip(self.frame_tasks, self.refs, strict=True):
+            task.set_target(ref.trajectory.sample(t + dt)[0])
+        # safety_break=False: pink would raise on 1e-5 rad excursions (environment notes); violations are counted
+        # by the common ruler instead, for every method alike.
+        v = self.pink.solve_ik(
+            self.conf, self.tasks, dt, solver=self.backend, damping=1e-12, limits=self.limits, safety_break=False
+        )
+        t1 = _ns()
+        return t1 - t0, self.jmap.to_robot_q(self.conf.integrate(v, dt))

@@ -1,0 +1,289 @@
+"""The benchmark's robots and tasks, each expressed once per method on the same robot (identical task set).
+
+Three scenarios (see ``docs/benchmark.md``):
+
+* ``planar3r``: the chapter's 3R arm (D-H, a = 1 m), tip on the line v = (0.2, −0.4) m/s from q0 = (110°, −40°, −30°)
+  for 5 s (the chapter's episode, repeated), subtask p = sin²θ3 raised (gradient k = 1, or target 1 with K = 1/s).
+* ``panda``: Franka Panda (example-robot-data), pose task on ``panda_hand`` along a 5 cm circle in the y–z plane
+  (period 4 s, orientation held), posture subtask, joint position and velocity limits; the 3-level ``hqp`` is
+  [hand pose] > [elbow ≥ 10 cm from a post, an inequality] > [posture].
+* ``talos``: Talos (``talos_reduced.urdf``, free flyer), both grippers on 5 cm circles (pose tasks), posture on the
+  actuated joints, limits; the 3-level ``hqp`` puts a left-elbow clearance inequality between hands and posture.
+
+Subtasks per closed form: ``pinv`` takes the posture as the null-space gradient −K_p(q − q0) (eq. 5.8),
+``feedback`` as p = ½‖q − q0‖² driven to 0 at K = 1/s.
+
+Every frame task tracks its reference with feed-forward plus the error gain K = 1/dt, which is exactly the peers'
+dead-beat task (gain α = 1 towards the pose of the next sample): J Δq = p_d(t + dt) − p(t) ≈ dt (ṗ_d + e/dt).
+The posture is K_p = 1/s with weight 0.01 against 1 for the frames (peer costs 0.1 and 1: a peer's cost c weighs
+its rows by c², and its gain α = K_p·dt).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from redundik.kinematics.dh import DHRow, from_dh
+from redundik.kinematics.model import RobotModel
+from redundik.kinematics.urdf import EXAMPLE_ROBOTS, example_robot_data_dir, load_example_robot
+from redundik.tasks.base import Potential, Subtask, Task, TaskStack, TaskTerm
+from redundik.tasks.frame import FrameTask
+from redundik.tasks.potentials import Clearance, JointCentering, JointSine2
+from redundik.tasks.trajectory import Circle, Line, Trajectory
+
+POSTURE_GAIN = 1.0  # K_p [1/s]
+POSTURE_WEIGHT = 0.01  # against 1 for frame tasks (peer cost 0.1)
+
+
+class ActuatedPostureTask(Task):
+    """Posture on the actuated joints only: q̇_a = K (q_ref ⊖ q)_a (the floating base left free, as in mink/pink).
+
+    Args:
+        target: Reference configuration (size nq).
+        gain: K [1/s].
+        weight: Weight in a weighted QP.
+        priority: Level in a hierarchy (read by ``hqp``).
+    """
+
+    def __init__(self, target: np.ndarray, *, gain: float, weight: float, priority: int = 0) -> None:
+        self.target = np.asarray(target, dtype=float)
+        self.gain, self.weight, self.priority, self.name = float(gain), float(weight), int(priority), "posture"
+        self._rows: np.ndarray | None = None
+        self._J: np.ndarray | None = None
+
+    def reset(self, robot: RobotModel) -> None:
+        self._rows = np.array([j.idx_v for j in robot.joints if j.idx_q >= 0 and j.kind != "other"], dtype=int)
+        self._J = np.eye(robot.nv)[self._rows]
+
+    def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
+        if self._rows is None or self._J is None:
+            self.reset(robot)
+        assert self._rows is not None and self._J is not None  # set by reset()
+        e = robot.difference(robot.q, self.target)[self._rows]
+        return TaskTerm(self.name, self._J, self.gain * e, e, self.weight)
+
+    def __repr__(self) -> str:
+        return f"ActuatedPostureTask(gain={self.gain}, weight={self.weight})"
+
+
+@dataclass
+class FrameSpec:
+    """One tracked frame: name, axes and a trajectory factory (each case gets a fresh trajectory)."""
+
+    frame: str
+    axes: str
+    trajectory: Callable[[], Trajectory]
+
+
+@dataclass
+class Scenario:
+    """One robot with its task set, expressed for every method.
+
+    Attributes:
+        key: Short name used in reports (``"panda"``).
+        title: Human-readable description.
+        robot: Factory of the redundik model (a fresh one per case).
+        q0: Start configuration (redundik coordinates).
+        dt: Control step [s].
+        frames: The tracked frames.
+        episode: Steps per episode (the run restarts from q0 after that many steps), ``None`` for continuous.
+        monitor: Factory of the potential reported as the subtask value.
+        monitor_label: What the monitored value is.
+        urdf: (path, free_flyer) for the peers' models, or ``None`` for a D-H robot.
+        posture: Whether the posture task is part of the set (QP methods and peers).
+        peer_potential: For the peers: (potential factory, keyword arguments of the adapter task), or ``None``.
+    """
+
+    key: str
+    title: str
+    robot: Callable[[], RobotModel]
+    q0: np.ndarray
+    dt: float
+    frames: list[FrameSpec]
+    episode: int | None
+    monitor: Callable[[], Potential]
+    monitor_label: str
+    urdf: tuple[str, bool] | None = None
+    posture: bool = True
+    peer_potential: tuple[Callable[[], Potential], dict] | None = None
+    stacks: dict[str, Callable[[RobotModel], TaskStack]] = field(default_factory=dict)
+
+    def frame_tasks(self, gain: float | None = None) -> list[FrameTask]:
+        """Fresh frame tasks with gain K = 1/dt (or ``gain``)."""
+        k = 1.0 / self.dt if gain is None else gain
+        return [FrameTask(f.frame, f.trajectory(), axes=f.axes, gain=k, name=f.frame) for f in self.frames]
+
+    def posture_task(self, priority: int = 0) -> ActuatedPostureTask:
+        """The posture task towards q0."""
+        return ActuatedPostureTask(self.q0, gain=POSTURE_GAIN, weight=POSTURE_WEIGHT, priority=priority)
+
+    def stack(self, method: str, robot: RobotModel) -> TaskStack:
+        """The task stack of a redundik method (``pinv``, ``feedback``, ``wqp``, ``hqp``)."""
+        return self.stacks[method](robot)
+
+
+# ---------------------------------------------------------------------------------------------------------- 3R
+def _planar3r() -> RobotModel:
+    lim = np.pi
+    rows = [DHRow(str(i), a=1.0, lower=-lim, upper=lim, velocity=np.pi) for i in (1, 2, 3)]
+    return from_dh(rows, name="planar3r")
+
+
+def planar3r_scenario() -> Scenario:
+    """The chapter's 3R line task (section 5.2, Figs. 5.7–5.8)."""
+    sc = Scenario(
+        key="planar3r",
+        title="3R arm (D-H), tip on a line, sin²θ3 raised",
+        robot=_planar3r,
+        q0=np.deg2rad([110.0, -40.0, -30.0]),
+        dt=0.01,
+        frames=[FrameSpec("3", "planar", lambda: Line([0.2, -0.4]))],
+        episode=500,
+        monitor=lambda: JointSine2("3"),
+        monitor_label="sin²θ3",
+        posture=False,
+        peer_potential=(lambda: JointSine2("3"), {"mode": "target", "target": 1.0, "rate": 1.0, "cost": 1.0}),
+    )
+    sc.stacks = {
+        "pinv": lambda r: TaskStack(sc.frame_tasks(), [Subtask(JointSine2("3"), gain=1.0)]),
+        "feedback": lambda r: TaskStack(sc.frame_tasks(), [Subtask(JointSine2("3"), mode="target", target=1.0)]),
+        "wqp": lambda r: TaskStack(sc.frame_tasks(), [Subtask(JointSine2("3"), mode="target", target=1.0)]),
+        "hqp": lambda r: TaskStack(sc.frame_tasks(), [Subtask(JointSine2("3"), gain=1.0, priority=1)]),
+    }
+    return sc
+
+
+# ---------------------------------------------------------------------------------------------------------- Panda
+PANDA_Q0 = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.02, 0.02])
+
+
+def panda_scenario() -> Scenario:
+    """Panda hand on a 5 cm circle (orientation held) + posture + limits; hqp has 3 levels."""
+    omega = 2.0 * np.pi / 4.0
+    sc = Scenario(
+        key="panda",
+        title="Panda, hand on a 5 cm circle, posture, limits",
+        robot=lambda: load_example_robot("panda"),
+        q0=PANDA_Q0.copy(),
+        dt=0.01,
+        frames=[FrameSpec("panda_hand", "pose", lambda: Circle(0.05, omega, ("y", "z")))],
+        episode=None,
+        monitor=lambda: JointCentering(center=PANDA_Q0, name="posture_dist"),
+        monitor_label="½‖q − q0‖²",
+        urdf=EXAMPLE_ROBOTS["panda"],
+    )
+    sc.stacks = {
+        "pinv": lambda r: TaskStack(sc.frame_tasks(), [Subtask(JointCentering(center=PANDA_Q0), gain=-POSTURE_GAIN)]),
+        "feedback": lambda r: TaskStack(sc.frame_tasks(), [_posture_target(PANDA_Q0)]),
+        "wqp": lambda r: TaskStack([*sc.frame_tasks(), sc.posture_task()]),
+        "hqp": lambda r: TaskStack(
+            [*sc.frame_tasks(), sc.posture_task(priority=2)], [_post_clearance(r, "panda_link4", PANDA_Q0)]
+        ),
+    }
+    return sc
+
+
+def _posture_target(q0: np.ndarray) -> Subtask:
+    """The state-feedback twin of the posture: p = ½‖q − q0‖² driven to 0 at K = 1/s."""
+    return Subtask(JointCentering(center=q0), mode="target", target=0.0, rate=POSTURE_GAIN)
+
+
+def _post_clearance(robot: RobotModel, frame: str, q0: np.ndarray, side: float = 0.25) -> Subtask:
+    """Level 1 of the 3-level hqp: keep ``frame`` ≥ 10 cm from a vertical post (r = 5 cm) 25 cm to its side.
+
+    An inequality level, inactive at the start (the issue's elbow–obstacle example), between the frame tasks
+    (level 0) and the posture (level 2).
+    """
+    robot.update(q0)
+    center = robot.frame_position(frame) + np.array([0.0, side, 0.0])
+    return Subtask(
+        Clearance(frame, center, radius=0.05, axes=("x", "y"), name="post_clearance"),
+        mode="bounds",
+        lower=0.10,
+        rate=10.0,
+        priority=1,
+    )
+
+
+# ---------------------------------------------------------------------------------------------------------- Talos
+#: Talos half-sitting posture (actuated joints), the usual start of its examples.
+TALOS_HALF_SITTING: dict[str, float] = {
+    "leg_left_3_joint": -0.411354,
+    "leg_left_4_joint": 0.859395,
+    "leg_left_5_joint": -0.448041,
+    "leg_left_6_joint": -0.001708,
+    "leg_right_3_joint": -0.411354,
+    "leg_right_4_joint": 0.859395,
+    "leg_right_5_joint": -0.448041,
+    "leg_right_6_joint": -0.001708,
+    "torso_2_joint": 0.006761,
+    "arm_left_1_joint": 0.25847,
+    "arm_left_2_joint": 0.173046,
+    "arm_left_3_joint": -0.0002,
+    "arm_left_4_joint": -0.525366,
+    "arm_left_7_joint": 0.1,
+    "gripper_left_joint": -0.005,
+    "arm_right_1_joint": -0.25847,
+    "arm_right_2_joint": -0.173046,
+    "arm_right_3_joint": 0.0002,
+    "arm_right_4_joint": -0.525366,
+    "arm_right_7_joint": 0.1,
+    "gripper_right_joint": -0.005,
+}
+
+
+def talos_q0(robot: RobotModel) -> np.ndarray:
+    """Half-sitting configuration of a Talos model (base at the origin)."""
+    q = robot.neutral()
+    for name, val in TALOS_HALF_SITTING.items():
+        q[robot.joint(name).idx_q] = val
+    return q
+
+
+def talos_scenario() -> Scenario:
+    """Talos with a free flyer: both grippers on 5 cm circles (pose), posture, limits."""
+    robot0 = load_example_robot("talos")
+    q0 = talos_q0(robot0)
+    omega = 2.0 * np.pi / 4.0
+    hands = ["gripper_left_base_link", "gripper_right_base_link"]
+    sc = Scenario(
+        key="talos",
+        title="Talos (free flyer), two grippers on 5 cm circles, posture, limits",
+        robot=lambda: load_example_robot("talos"),
+        q0=q0,
+        dt=0.01,
+        frames=[
+            FrameSpec(hands[0], "pose", lambda: Circle(0.05, omega, ("y", "z"))),
+            FrameSpec(hands[1], "pose", lambda: Circle(0.05, omega, ("y", "z"), phase=np.pi)),
+        ],
+        episode=None,
+        monitor=lambda: JointCentering(center=q0, name="posture_dist"),
+        monitor_label="½‖q − q0‖²",
+        urdf=EXAMPLE_ROBOTS["talos"],
+    )
+    sc.stacks = {
+        "pinv": lambda r: TaskStack(sc.frame_tasks(), [Subtask(JointCentering(center=q0), gain=-POSTURE_GAIN)]),
+        "feedback": lambda r: TaskStack(sc.frame_tasks(), [_posture_target(q0)]),
+        "wqp": lambda r: TaskStack([*sc.frame_tasks(), sc.posture_task()]),
+        "hqp": lambda r: TaskStack(
+            [*sc.frame_tasks(), sc.posture_task(priority=2)], [_post_clearance(r, "arm_left_4_link", q0)]
+        ),
+    }
+    return sc
+
+
+SCENARIOS: dict[str, Callable[[], Scenario]] = {
+    "planar3r": planar3r_scenario,
+    "panda": panda_scenario,
+    "talos": talos_scenario,
+}
+
+
+def urdf_path(scenario: Scenario) -> str:
+    """Absolute path of the scenario's URDF (for the peers' models)."""
+    if scenario.urdf is None:
+        raise ValueError(f"scenario '{scenario.key}' has no URDF")
+    return str(example_robot_data_dir() / scenario.urdf[0])

@@ -1,0 +1,130 @@
+"""The resolver benchmark in a tiny mode: schema, coverage of every method on every robot, finite numbers.
+
+No timing assertions (speed is reported by ``benchmarks/compare_resolvers.py``, never asserted).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from redundik.cli.main import main as cli_main
+from redundik.errors import ConfigError
+from redundik.peers import available
+from redundik.peers.bench import METHODS, BenchConfig, markdown, run_benchmark, write_all
+from redundik.peers.bench.scenarios import SCENARIOS, ActuatedPostureTask
+
+REQUIRED = {
+    "robot": str,
+    "method": str,
+    "backend": str,
+    "median_us": float,
+    "p90_us": float,
+    "max_task_error": float,
+    "limit_violations": int,
+}
+PEERS_INSTALLED = available("mink") and available("mujoco") and available("pink")
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def tiny():
+    config = BenchConfig(steps=20, warmup=5, chunk=7, profile_steps=10, peer_backends=("daqp",))
+    return config, run_benchmark(config, log=lambda msg: None)
+
+
+def test_every_method_runs_on_every_robot(tiny) -> None:
+    config, result = tiny
+    expected = {m for m in METHODS if m not in ("mink", "pink") or PEERS_INSTALLED}
+    for robot in config.robots:
+        ran = {c.method for c in result.cases if c.robot == robot}
+        assert ran == expected, (robot, ran, result.skipped)
+        qp = {c.backend for c in result.cases if c.robot == robot and c.method == "wqp"}
+        assert len(qp) >= 2 and "osqp" in qp  # every installed backend, osqp at least among them
+        assert sum(c.default_backend for c in result.cases if c.robot == robot and c.method == "wqp") == 1
+
+
+def test_records_are_complete_and_finite(tiny) -> None:
+    config, result = tiny
+    for c in result.cases:
+        assert c.steps == config.warmup + config.steps  # round-robin ran every case to the end
+        for key in ("median_us", "p90_us", "max_task_error", "mean_task_error", "max_violation", "subtask_final"):
+            assert math.isfinite(getattr(c, key)), (c, key)
+        assert c.median_us > 0 and c.p90_us >= c.median_us
+        assert c.limit_violations >= 0
+        if c.method not in ("mink", "pink"):
+            assert c.failures == 0, c.first_failure  # redundik never raises in a loop
+            assert c.stages_us is not None and set(c.stages_us) >= {"kinematics", "tasks", "build", "solve"}
+        if c.method in ("wqp", "hqp"):
+            assert c.limit_violations == 0, c  # the QP resolvers keep the limits
+
+
+def test_json_schema_and_reports(tiny, tmp_path: Path) -> None:
+    _, result = tiny
+    paths = write_all(result, tmp_path / "out", "pytest", tmp_path / "summary.json")
+    doc = json.loads((tmp_path / "summary.json").read_text())
+    assert doc == json.loads(paths["json"].read_text())
+    assert doc["cases"]
+    for case in doc["cases"]:
+        for key, typ in REQUIRED.items():
+            assert isinstance(case[key], typ), (key, case)
+        assert case["method"] in METHODS
+        assert case["robot"] in SCENARIOS
+    assert {t["target"] for t in doc["targets"]} and all("met" in t for t in doc["targets"])
+    if PEERS_INSTALLED:
+        assert doc["ratios"] and all(r["ratio"] > 0 for r in doc["ratios"])
+    assert paths["plot"].stat().st_size > 1000
+    md = markdown(result)
+    assert md.count("\n| ") >= len(result.cases) and "Targets" in md
+
+
+def test_cli_bench_writes_the_json(tmp_path: Path) -> None:
+    out = tmp_path / "res"
+    code = cli_main(
+        ["bench", "--quick", "--steps", "5", "--robots", "planar3r", "--methods", "pinv,wqp", "--out", str(out),
+         "--json", str(tmp_path / "b.json")]
+    )  # fmt: skip
+    assert code == 0
+    doc = json.loads((tmp_path / "b.json").read_text())
+    assert {c["method"] for c in doc["cases"]} == {"pinv", "wqp"}
+    assert (out / "compare_resolvers.md").is_file() and (out / "compare_resolvers.png").is_file()
+
+
+def test_cli_rejects_unknown_robot(capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli_main(["bench", "--quick", "--robots", "icub"]) == 2
+    assert "unknown robots ['icub']" in capsys.readouterr().err
+    with pytest.raises(ConfigError, match="methods"):
+        BenchConfig(methods=("ik",)).check()
+
+
+def test_script_runs(tmp_path: Path) -> None:
+    spec = importlib.util.spec_from_file_location("compare_resolvers", ROOT / "benchmarks" / "compare_resolvers.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["compare_resolvers"] = module
+    spec.loader.exec_module(module)
+    args = ["--quick", "--steps", "5", "--robots", "panda", "--methods", "pinv", "feedback", "--out", str(tmp_path)]
+    assert module.main(args) == 0
+    assert json.loads((tmp_path / "compare_resolvers.json").read_text())["cases"]
+
+
+def test_actuated_posture_leaves_the_floating_base_free() -> None:
+    sc = SCENARIOS["talos"]()
+    robot = sc.robot()
+    task = ActuatedPostureTask(sc.q0, gain=2.0, weight=1.0)
+    q = sc.q0.copy()
+    q[:3] += 0.3  # move the base: no posture error
+    q[10] += 0.1  # and one actuated joint
+    robot.update(q)
+    term = task.evaluate(robot, 0.0)
+    assert term.J.shape == (robot.nv - 6, robot.nv)
+    assert np.all(term.J[:, :6] == 0.0)
+    np.testing.assert_allclose(term.J @ robot.difference(q, sc.q0), term.error)  # J picks the actuated rows
+    np.testing.assert_allclose(np.abs(term.error).max(), 0.1)
+    np.testing.assert_allclose(term.v, 2.0 * term.error)
