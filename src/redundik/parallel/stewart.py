@@ -88,6 +88,10 @@ class StewartPlatform:
             unused = sorted(set(range(len(pts))) - used)
             if unused:
                 raise MechanismError(f"{label} points {unused} are not connected to any leg")
+            gaps = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2) + np.eye(len(pts))
+            if gaps.min() < 1e-12:
+                i, j = sorted(np.unravel_index(int(np.argmin(gaps)), gaps.shape))
+                raise MechanismError(f"{label} points {i} and {j} coincide")
             centred = pts - pts.mean(axis=0)
             if len(pts) < 3 or np.linalg.matrix_rank(centred, tol=1e-9 * max(1.0, np.abs(pts).max())) < 2:
                 raise MechanismError(f"{label} points are collinear or coincident: {pts.tolist()}")
