@@ -14,7 +14,8 @@ no third-party exception leaks into a control loop.
 * ``proxsuite``: ProxQP (augmented Lagrangian) through a cached ``proxsuite.proxqp.dense.QP`` object per problem
   size, updated in place and warm-started from the previous result; tolerances tightened to ``eps_abs = 1e-9``
   (its default 1e-5 gives answers up to ~1 off the active-set ones on ill-conditioned steps) and the infeasibility
-  thresholds to 1e-10 (the default 1e-4 declared a plainly feasible 1-variable, 14-row level QP infeasible).
+  thresholds to 1e-10 (the default 1e-4 declared a plainly feasible 1-variable, 14-row level QP infeasible), with
+  the duality-gap check on (without it a "solved" answer was 1e-5 off on a 2-variable QP).
 * ``osqp``: ADMM through qpsolvers with ``eps_abs = eps_rel = 1e-8``, polishing and warm start; the slowest and
   least accurate here (kept for comparison and for very large sparse problems).
 * ``qpsolvers:NAME``: any other solver qpsolvers knows, through ``qpsolvers.solve_problem``.
@@ -175,7 +176,10 @@ class ProxsuiteBackend(Backend):
                 # the default 1e-4 declares small feasible QPs "primal infeasible" (seen on 1-variable hqp levels)
                 qp.settings.eps_primal_inf = 1e-10
                 qp.settings.eps_dual_inf = 1e-10
-                qp.settings.initial_guess = self._px.InitialGuess.NO_INITIAL_GUESS
+                # without the duality-gap check "solved" can be 1e-5 off in x on a 2-variable QP
+                qp.settings.check_duality_gap = True
+                qp.settings.eps_duality_gap_abs = 1e-10
+                qp.settings.eps_duality_gap_rel = 0.0
                 qp.init(problem.P, problem.q, A, b, C, l_in if p else None, u_in if p else None, lb, ub)
                 self._cache[key] = qp
             else:

@@ -6,12 +6,13 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from redundik.errors import ResolverError
+from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver
 from redundik.resolvers.linalg import pseudo_inverse
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, make_backend
 from redundik.resolvers.qp.limits import JointLimits, LimitBox
+from redundik.resolvers.qp.problem import QPProblem, QPSolution
 from redundik.resolvers.qp.terms import Level
 from redundik.tasks.base import TaskStack
 
@@ -103,6 +104,22 @@ class QPResolverBase(Resolver):
     def reset(self) -> None:
         self._dq_prev = None
         self.backend.reset()
+
+    def _solve_qp(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
+        """The backend's answer; anything it raises (also a user backend's own exception) becomes SolverError."""
+        try:
+            sol = self.backend.solve(problem, warm)
+        except SolverError:
+            raise
+        except Exception as exc:  # a failed QP must never crash a control loop
+            raise SolverError(
+                f"{self.backend.name} raised {type(exc).__name__} on {problem.label}: {exc}", problem
+            ) from exc
+        if sol.x.shape != (problem.n,) or not np.all(np.isfinite(sol.x)):
+            raise SolverError(
+                f"{self.backend.name}: no finite solution of size {problem.n} for {problem.label}", problem
+            )
+        return sol
 
     def _box(self, robot: RobotModel, dt: float) -> LimitBox:
         return self.limits.box(robot, robot.q, dt, self._dq_prev)

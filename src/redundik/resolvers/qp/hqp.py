@@ -200,7 +200,14 @@ class HierarchicalQPResolver(QPResolverBase):
         G = np.vstack(rows) if rows else np.zeros((0, nvar))
         h = np.concatenate(rhs_rows) if rhs_rows else np.zeros(0)
         prob = QPProblem(P, q, G, h, np.zeros((0, nvar)), np.zeros(0), lb, ub, f"hqp level {lv.priority}")
-        sol = self.backend.solve(prob)
+        try:
+            sol = self._solve_qp(prob)
+        except SolverError:
+            # dual active-set solvers (daqp) work with P⁻¹ and can misjudge a 1e-9-regularised level as infeasible:
+            # retry once with a stronger minimum-norm regulariser (still far below the slack's unit weight)
+            info["regularization_retry"] = 1
+            P[:r, :r] += (max(1e-6, 1e3 * eps) - eps) * np.eye(r)
+            sol = self._solve_qp(prob)
         info["qp"] = int(info.get("qp", 0)) + 1
         info["iterations"] = int(info.get("iterations", 0)) + max(sol.iterations, 0)
         info["backend"] = sol.backend

@@ -119,7 +119,7 @@ class WeightedQPResolver(QPResolverBase):
         if not feasible:
             info["qp"] = 1
             try:
-                sol = self.backend.solve(prob, self._dq_prev)
+                sol = self._solve_qp(prob, self._dq_prev)
                 x = sol.x
                 info["backend"], info["iterations"] = sol.backend, sol.iterations
             except SolverError as exc:
@@ -127,7 +127,7 @@ class WeightedQPResolver(QPResolverBase):
                 if lv.p:
                     relaxed = QPProblem(prob.P, prob.q, prob.G[:0], prob.h[:0], prob.A, prob.b, prob.lb, prob.ub, "wqp")
                     try:
-                        x = self.backend.solve(relaxed, self._dq_prev).x
+                        x = self._solve_qp(relaxed, self._dq_prev).x
                         fallback = f"wqp relaxed (bound subtasks {lv.c_names} dropped): {exc}"
                     except SolverError:
                         x = None
