@@ -60,3 +60,11 @@ def test_lint_is_clean() -> None:
         [ruff, "check", "src", "tests", "benchmarks", "examples"], cwd=root, capture_output=True, text=True
     )
     assert out.returncode == 0, out.stdout[-3000:]
+
+
+def test_usage_error_is_one_message_not_a_traceback() -> None:
+    exe = _tool("redundik")
+    cmd = [exe] if exe else [sys.executable, "-m", "redundik.cli.main"]
+    out = subprocess.run([*cmd, "run"], capture_output=True, text=True)  # missing FILE
+    assert out.returncode == 2
+    assert "Traceback" not in out.stderr and "Missing argument" in out.stderr
