@@ -23,6 +23,10 @@ app = typer.Typer(
 
 
 def _register_all() -> None:
+    # main() can be called many times in one process (tests): register the commands once, or typer keeps
+    # appending duplicates and every call rebuilds all of them (calls grew slower, O(calls²) overall).
+    if app.registered_commands:
+        return
     from redundik.cli import bench_cmds, parallel_cmds, run_cmds
 
     run_cmds.register(app)
