@@ -406,3 +406,9 @@ def test_monitor_torques_force_length(write_yaml: Callable[..., Path], planar_ta
     planar_task_data["monitors"] = {"tau": {"type": "torques", "frames": ["3"], "force": [-1, 2, 0]}}
     with pytest.raises(ConfigError, match=r"^monitors.tau.force: expected 6 values \(6 axes × 1 frames\), got 3"):
         load_task(write_yaml(planar_task_data))
+
+
+@pytest.mark.parametrize("task_file", sorted(PLANAR_TASK.parent.glob("*.yaml")), ids=lambda p: p.name)
+def test_every_task_file_in_the_repository_validates(task_file: Path) -> None:
+    plan = load_task(task_file)
+    assert plan.runs and plan.steps >= 1
