@@ -5,16 +5,17 @@ For a 1-dof joint i at q_i with limits [q_lo, q_hi], velocity limit v_max and (o
     position:  g·(q_lo − q_i)/dt ≤ q̇_i ≤ g·(q_hi − q_i)/dt        (g = ``position_gain`` ∈ (0, 1])
     velocity:  −v_max ≤ q̇_i ≤ v_max
     rate:      q̇_prev,i − a_max·dt ≤ q̇_i ≤ q̇_prev,i + a_max·dt     (acceleration-like, between steps)
+    braking:   −B(q_i − q_lo) ≤ q̇_i ≤ B(q_hi − q_i),  B(δ) = −a_max·dt + √((a_max·dt)² + 2·a_max·δ)  (with a_max)
 
-so that q_i + q̇_i·dt stays in [q_lo, q_hi] whenever it starts there. From a start *outside* a limit (q_i > q_hi)
-the upper bound is negative: the joint may only move back inside, as fast as the velocity limit allows
-(−v_max when g·(q_hi − q_i)/dt < −v_max), and it is back inside after ⌈(q_i − q_hi)/(v_max·dt)⌉ steps. Position and
-velocity bounds are hard; a rate window that does not meet them is moved onto the nearest feasible velocity (the rate
-limit is the one relaxed), so the box is never empty and the QP over it is always feasible.
-
-Only 1-dof joints (``JointInfo.idx_q ≥ 0``) carry position limits; free-flyer and unbounded (cos, sin) joints have
-none. Defaults come from the model (D-H rows' ``lower``/``upper``/``velocity``, URDF ``<limit>``); a limit with
-magnitude ≥ 1e10 or infinite means "no limit"; a URDF velocity of 0 (missing) means none too.
+so that q_i + q̇_i·dt stays in [q_lo, q_hi] whenever it starts there; with a rate limit the braking bound keeps the
+joint slow enough near a limit to stop in time, so the rate window never has to be broken to respect a limit. From a
+start *outside* a limit (q_i > q_hi) the upper bound is negative: the joint may only move back inside, as fast as
+the velocity limit allows (−v_max when g·(q_hi − q_i)/dt < −v_max), and it is back inside after ⌈(q_i −
+q_hi)/(v_max·dt)⌉ steps. Position and velocity bounds are hard; a rate window that does not meet them is moved onto
+the nearest feasible velocity (the rate limit is the one relaxed), so the box is never empty and the QP over it is
+always feasible. Only 1-dof joints (``JointInfo.idx_q ≥ 0``) carry position limits; free-flyer and unbounded (cos,
+sin) joints have none. Defaults come from the model (D-H rows' ``lower``/``upper``/``velocity``, URDF ``<limit>``);
+a limit with magnitude ≥ 1e10 or infinite means "no limit"; a URDF velocity of 0 (missing) means none too.
 """
 
 from __future__ import annotations
@@ -229,6 +230,18 @@ class JointLimits:
             g = self.position_gain / dt
             pl = g * (self._lo - qk)  # ≤ 0 inside the range
             pu = g * (self._hi - qk)  # ≥ 0 inside the range
+            if self._has_rate:
+                # braking distance: with |Δq̇| ≤ a·dt per step, a joint at distance δ from its limit must keep
+                # q̇ ≤ B(δ) = −a·dt + √((a·dt)² + 2aδ) (covers v²/2a + v·dt ≥ the discrete stopping distance), so
+                # the next step's rate window always meets the position window and neither limit is ever broken
+                ak = self._amax[k]
+                adt = ak * dt
+                with np.errstate(invalid="ignore"):
+                    bu = -adt + np.sqrt(adt * adt + 2.0 * ak * np.maximum(self._hi - qk, 0.0))
+                    bl = adt - np.sqrt(adt * adt + 2.0 * ak * np.maximum(qk - self._lo, 0.0))
+                fin = np.isfinite(ak)
+                pu = np.where(fin & (self._hi >= qk), np.minimum(pu, bu), pu)
+                pl = np.where(fin & (self._lo <= qk), np.maximum(pl, bl), pl)
             vk = vmax[k]
             # outside a limit: move back at most as fast as the velocity limit allows
             pl = np.minimum(pl, vk)
