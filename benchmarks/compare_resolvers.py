@@ -30,7 +30,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--steps", type=int, default=None, help="timed steps per case (default 2000, quick 300)")
     parser.add_argument("--json", type=Path, default=None, help="also write the JSON summary here")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help="output folder (default benchmarks/results)")
-    parser.add_argument("--robots", nargs="+", default=None, help="subset of planar3r panda talos")
+    parser.add_argument("--robots", nargs="+", default=None, help="subset of planar3r panda panda_tight talos")
     parser.add_argument("--methods", nargs="+", default=None, help="subset of pinv feedback wqp hqp mink pink")
     args = parser.parse_args(argv)
     config = BenchConfig.quick() if args.quick else BenchConfig()

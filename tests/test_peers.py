@@ -114,6 +114,19 @@ def test_mujoco_from_dh_robot_matches() -> None:
         np.testing.assert_allclose(model.jnt_range[model.joint(j.name).id], [j.lower, j.upper])
 
 
+def test_mujoco_from_panda_model_with_unaligned_joint(panda: rk.RobotModel) -> None:
+    """The generic builder handles axis-aligned and unaligned joints (the Panda's second finger is (0, −1, 0))."""
+    model = mujoco_from_robot(panda, ["panda_hand", "panda_leftfinger", "panda_rightfinger"])
+    jmap = JointMap.from_mujoco(panda, model)
+    data = mujoco.MjData(model)
+    q = panda.random_configuration(np.random.default_rng(8))
+    data.qpos[:] = jmap.to_peer_q(q)
+    mujoco.mj_kinematics(model, data)
+    panda.update(q)
+    for f in ("panda_hand", "panda_leftfinger", "panda_rightfinger"):
+        np.testing.assert_allclose(data.site_xpos[model.site(f).id], panda.frame_position(f), atol=1e-9)
+
+
 def test_joint_map_reorders_by_name_and_rejects_other_robots(panda: rk.RobotModel) -> None:
     # a MuJoCo model whose joints come in another order than Pinocchio's: indices must follow names
     robot = planar3r()

@@ -18,7 +18,9 @@ def bench(
     steps: Annotated[
         int | None, typer.Option("--steps", help="Timed steps per case [default 2000, quick 300].")
     ] = None,
-    robots: Annotated[str | None, typer.Option("--robots", help="Comma-separated: planar3r,panda,talos.")] = None,
+    robots: Annotated[
+        str | None, typer.Option("--robots", help="Comma-separated: planar3r,panda,panda_tight,talos.")
+    ] = None,
     methods: Annotated[
         str | None, typer.Option("--methods", help="Comma-separated: pinv,feedback,wqp,hqp,mink,pink.")
     ] = None,

@@ -35,7 +35,7 @@ class BenchConfig:
     """What to run.
 
     Attributes:
-        robots: Scenario keys (``planar3r``, ``panda``, ``talos``).
+        robots: Scenario keys (``planar3r``, ``panda``, ``panda_tight``, ``talos``).
         methods: Methods among :data:`METHODS`.
         steps: Timed steps per case after warm-up (≥ 2000 for the reported numbers).
         warmup: Steps run before timing starts.
@@ -46,14 +46,14 @@ class BenchConfig:
         resolver_options: Extra options per redundik method (e.g. tolerances).
     """
 
-    robots: Sequence[str] = ("planar3r", "panda", "talos")
+    robots: Sequence[str] = ("planar3r", "panda", "panda_tight", "talos")
     methods: Sequence[str] = METHODS
     steps: int = 2000
     warmup: int = 200
     chunk: int = 50
     qp_backends: Sequence[str] | None = None
     peer_backends: Sequence[str] = PEER_BACKENDS
-    profile_steps: int = 300
+    profile_steps: int = 400
     resolver_options: dict[str, dict[str, Any]] = field(default_factory=dict)
 
     @classmethod
@@ -95,6 +95,7 @@ class CaseResult:
     failures: int
     steps: int
     default_backend: bool = False
+    qp_fraction: float | None = None
     first_failure: str | None = None
     stages_us: dict[str, float] | None = None
 
@@ -118,6 +119,7 @@ class CaseResult:
             "first_failure": self.first_failure,
             "steps": self.steps,
             "default_backend": self.default_backend,
+            "qp_fraction": self.qp_fraction,
             "stages_us": self.stages_us,
         }
 
@@ -352,6 +354,7 @@ def _summarise(r: Runner, warmup: int, defaults: dict[str, str]) -> CaseResult:
         steps=len(rec.step_ns),
         default_backend=defaults.get(f"{r.scenario.key}/{r.method}") == backend,
         first_failure=rec.first_failure,
+        qp_fraction=rec.qp_steps / max(len(rec.step_ns), 1) if r.method in ("wqp", "hqp") else None,
     )
 
 

@@ -84,15 +84,17 @@ def markdown(result: BenchResult, command: str = "") -> str:
             "",
             "Per-stage profile of redundik's methods (median µs per step, separate probed run):",
             "",
-            "| robot | method | backend | kinematics | tasks | build | solve | other | total |",
-            "|---|---|---|---:|---:|---:|---:|---:|---:|",
+            "| robot | method | backend | kinematics | tasks | build | solve | other | total | QP called |",
+            "|---|---|---|---:|---:|---:|---:|---:|---:|---:|",
         ]
         for c in prof:
             s = c.stages_us or {}
             lines.append(
                 f"| {c.robot} | {c.method} | {c.backend} | "
                 + " | ".join(_num(s.get(k, float("nan"))) for k in ("kinematics", "tasks", "build", "solve", "other"))
-                + f" | {_num(s.get('total', float('nan')))} |"
+                + f" | {_num(s.get('total', float('nan')))} | "
+                + ("–" if c.qp_fraction is None else f"{100 * c.qp_fraction:.0f} %")
+                + " |"
             )
     fails = [c for c in cases if c.first_failure]
     if fails:

@@ -34,6 +34,7 @@ class Record:
     monitor: list[float] = field(default_factory=list)
     violation: list[float] = field(default_factory=list)
     failures: int = 0
+    qp_steps: int = 0
     first_failure: str | None = None
     stages: dict[str, list[int]] = field(default_factory=dict)
 
@@ -149,6 +150,8 @@ class RedundikRunner(Runner):
         t0 = _ns()
         res = self.resolver.step(self.robot, self.stack, self.q, t, dt)
         t1 = _ns()
+        if res.info.get("qp", 0):  # wqp/hqp: a backend was called (0 = closed-form shortcut, no active constraint)
+            self.record.qp_steps += 1
         return t1 - t0, self.robot.integrate(self.q, res.dq, dt)
 
     def profile(self, steps: int) -> dict[str, float]:

@@ -208,6 +208,29 @@ def _post_clearance(robot: RobotModel, frame: str, q0: np.ndarray, side: float =
     )
 
 
+def _panda_tight() -> RobotModel:
+    """The Panda with panda_joint1 limited to ±0.02 rad, so the circle keeps a joint limit active."""
+    base = load_example_robot("panda")
+    model = base.model.copy()
+    iq = base.joint("panda_joint1").idx_q
+    model.lowerPositionLimit[iq], model.upperPositionLimit[iq] = -0.02, 0.02
+    return RobotModel(model, name="panda_tight")
+
+
+def panda_tight_scenario() -> Scenario:
+    """The Panda circle with a joint limit that binds (panda_joint1 ∈ ±0.02 rad): the QP backends really work.
+
+    Not one of the issue's target cases; it shows what each backend costs when a constraint is active (in the
+    plain circle no limit is reached, so wqp/hqp take their closed-form shortcut and never call a backend).
+    """
+    sc = panda_scenario()
+    sc.key = "panda_tight"
+    sc.title = "Panda circle with panda_joint1 limited to ±0.02 rad (an active limit)"
+    sc.robot = _panda_tight
+    sc.urdf = None  # peers: MuJoCo model built from the modified redundik model (same kinematics, new limits)
+    return sc
+
+
 # ---------------------------------------------------------------------------------------------------------- Talos
 #: Talos half-sitting posture (actuated joints), the usual start of its examples.
 TALOS_HALF_SITTING: dict[str, float] = {
@@ -278,6 +301,7 @@ def talos_scenario() -> Scenario:
 SCENARIOS: dict[str, Callable[[], Scenario]] = {
     "planar3r": planar3r_scenario,
     "panda": panda_scenario,
+    "panda_tight": panda_tight_scenario,
     "talos": talos_scenario,
 }
 
