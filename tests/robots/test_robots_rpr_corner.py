@@ -29,7 +29,7 @@ def runs():
 
 
 def test_model_matches_the_hand_formulas_and_starts_on_the_circle(runs) -> None:
-    plan, res = runs
+    _, res = runs
     r = res["rank_only"]
     tip0, _ = _hand(r.log.q[0])
     np.testing.assert_allclose(tip0, [1.8, 1.0], atol=1e-3)
@@ -42,7 +42,7 @@ def test_model_matches_the_hand_formulas_and_starts_on_the_circle(runs) -> None:
 
 
 def test_every_run_draws_the_circle_ccw_at_half_a_radian_per_second(runs) -> None:
-    plan, res = runs
+    _, res = runs
     t = res["rank_only"].log.t
     expected = np.c_[1.2 + 0.6 * np.cos(0.5 * t), 1.0 + 0.6 * np.sin(0.5 * t)]
     for r in res.values():
