@@ -140,10 +140,10 @@ class QPResolverBase(Resolver):
         self, dq: np.ndarray, box: LimitBox, robot: RobotModel, info: dict[str, object]
     ) -> tuple[np.ndarray, bool]:
         """Clip to the limit box, refuse NaN, remember q̇ for the rate limit, add the active-limit diagnostics."""
-        ok = bool(np.all(np.isfinite(dq)))
+        ok = bool(np.isfinite(dq).all())
         if not ok:
             dq = np.zeros_like(dq)
-        dq = box.clip(dq)  # the limits hold whatever happened (solver tolerance, fallback)
+        dq = box.clip(dq)  # the limits hold whatever happened (solver tolerance, fallback); a new array
         active = box.active(dq, self.limits.joint_names)
         info["active_limits"] = active
         info["n_active"] = len(active)

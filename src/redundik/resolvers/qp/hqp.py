@@ -123,6 +123,22 @@ class HierarchicalQPResolver(QPResolverBase):
             return False
         return lsq.rank < min(int(np.linalg.matrix_rank(A)), r)
 
+    @staticmethod
+    def _identity_target(lv: Level) -> np.ndarray | None:
+        """For a level whose rows are all identity blocks (gradient ½ω‖q̇ − z‖², posture w‖q̇ − v‖²), the weighted
+        target (ωz + wv)/(ω + w) that minimises it; ``None`` for any other level."""
+        if lv.m and not lv.identity:
+            return None
+        w = float(lv.w[0]) if lv.m else 0.0
+        om = lv.z_weight if lv.z is not None else 0.0
+        if w + om <= 0:
+            return None
+        if not lv.m:
+            return lv.z
+        if lv.z is None:
+            return lv.v
+        return (om * lv.z + w * lv.v) / (om + w)
+
     def _closed_form_cascade(self, levels: list[Level], n: int, info: dict) -> np.ndarray:
         x = np.zeros(n)
         Z: np.ndarray | None = None
@@ -133,11 +149,12 @@ class HierarchicalQPResolver(QPResolverBase):
                 break
             if not lv.m and lv.z is None:
                 continue
-            if not lv.m:  # pure gradient level: u = Zᵀ(z − x) exactly, nothing left below it
-                if lv.z_weight <= 0:
-                    continue
-                x = lv.z.copy() if Z is None else x + Z @ (Z.T @ (lv.z - x))
+            target = self._identity_target(lv)
+            if target is not None:  # rows = I (gradient and/or posture): u = Zᵀ(target − x) exactly, nothing left
+                x = target.copy() if Z is None else x + Z @ (Z.T @ (target - x))
                 Z, r = np.zeros((n, 0)), 0
+                continue
+            if not lv.m:
                 continue
             A, M, rhs = self._project(lv, x, Z)
             lsq = _Lsq(M, rhs, self.epsilon, self.max_damping, self.rcond)

@@ -37,24 +37,48 @@ _BIG = 1e10
 
 @dataclass
 class LimitBox:
-    """Bounds lb ≤ q̇ ≤ ub for one step, and which limit sets each bound.
+    """Bounds lb ≤ q̇ ≤ ub for one step, with the candidate bounds they came from (to say which limit is active).
 
     Attributes:
         lb: Lower bound on q̇ (nv,), ``-inf`` where free.
         ub: Upper bound on q̇ (nv,), ``+inf`` where free.
-        lower_src: Code of the limit setting each lower bound (``POSITION``, ``VELOCITY``, ``RATE`` or ``NONE``).
-        upper_src: Same for the upper bounds.
+        pos_lo: Lower bound from the position limit (−inf where none), after the outside-start rule.
+        pos_hi: Upper bound from the position limit (+inf where none).
+        vmax: Velocity limits (inf where none).
+        rate_lo: Lower end of the rate window, or ``None`` without a rate limit.
+        rate_hi: Upper end of the rate window, or ``None``.
     """
 
     lb: np.ndarray
     ub: np.ndarray
-    lower_src: np.ndarray
-    upper_src: np.ndarray
+    pos_lo: np.ndarray
+    pos_hi: np.ndarray
+    vmax: np.ndarray
+    rate_lo: np.ndarray | None = None
+    rate_hi: np.ndarray | None = None
 
     @property
     def bounded(self) -> bool:
         """True when at least one bound is finite."""
         return bool(np.isfinite(self.lb).any() or np.isfinite(self.ub).any())
+
+    def _source(self, bound: np.ndarray, pos: np.ndarray, vel: np.ndarray, rate: np.ndarray | None) -> np.ndarray:
+        src = np.full(bound.shape[0], NONE, dtype=np.int8)
+        src[np.isfinite(bound) & (bound == vel)] = VELOCITY
+        src[np.isfinite(bound) & (bound == pos)] = POSITION
+        if rate is not None:
+            src[(bound == rate) & (bound != pos) & (bound != vel)] = RATE
+        return src
+
+    @property
+    def lower_src(self) -> np.ndarray:
+        """Code of the limit setting each lower bound (``POSITION``, ``VELOCITY``, ``RATE`` or ``NONE``)."""
+        return self._source(self.lb, self.pos_lo, -self.vmax, self.rate_lo)
+
+    @property
+    def upper_src(self) -> np.ndarray:
+        """Same for the upper bounds."""
+        return self._source(self.ub, self.pos_hi, self.vmax, self.rate_hi)
 
     def clip(self, dq: np.ndarray) -> np.ndarray:
         """q̇ projected onto the box."""
@@ -62,17 +86,22 @@ class LimitBox:
 
     def contains(self, dq: np.ndarray, tol: float = 0.0) -> bool:
         """True when lb − tol ≤ q̇ ≤ ub + tol."""
-        return bool(np.all(dq >= self.lb - tol) and np.all(dq <= self.ub + tol))
+        if tol:
+            return not ((dq < self.lb - tol).any() or (dq > self.ub + tol).any())
+        return not ((dq < self.lb).any() or (dq > self.ub).any())
 
     def active(self, dq: np.ndarray, names: list[str], tol: float = 1e-7) -> list[str]:
-        """``"joint:upper_position"``-style labels of the bounds q̇ sits on (within ``tol`` [unit/s])."""
+        """``"joint:upper_position"``-style labels of the bounds q̇ sits on (within ``tol`` [rad/s or m/s])."""
+        near_u = self.ub - dq <= tol
+        near_l = dq - self.lb <= tol
+        if not (near_u.any() or near_l.any()):
+            return []
         out = []
-        scale_u = tol * np.maximum(1.0, np.abs(self.ub))
-        scale_l = tol * np.maximum(1.0, np.abs(self.lb))
-        for i in np.flatnonzero((self.ub - dq <= scale_u) & (self.upper_src > 0)):
-            out.append(f"{names[i]}:upper_{SOURCE_NAMES[int(self.upper_src[i])]}")
-        for i in np.flatnonzero((dq - self.lb <= scale_l) & (self.lower_src > 0)):
-            out.append(f"{names[i]}:lower_{SOURCE_NAMES[int(self.lower_src[i])]}")
+        us, ls = self.upper_src, self.lower_src
+        for i in np.flatnonzero(near_u & (us > 0)):
+            out.append(f"{names[i]}:upper_{SOURCE_NAMES[int(us[i])]}")
+        for i in np.flatnonzero(near_l & (ls > 0)):
+            out.append(f"{names[i]}:lower_{SOURCE_NAMES[int(ls[i])]}")
         return out
 
 
@@ -178,19 +207,15 @@ class JointLimits:
                 amax[index[jn]] = val
         else:
             amax = np.full(nv, np.inf if self.acceleration is None else float(self.acceleration))
-        self._has_pos = self.position and bool(np.isfinite(lo).any() or np.isfinite(hi).any())
+        self._iq = np.maximum(iq, 0)  # q index per q̇ coordinate (0 where none: its limits are ±inf anyway)
+        self._lo, self._hi = lo, hi
         self._pos_k = np.flatnonzero(np.isfinite(lo) | np.isfinite(hi))
-        self._pos_iq = iq[self._pos_k]
-        self._lo, self._hi = lo[self._pos_k], hi[self._pos_k]
         self._vmax = vmax if self.velocity else np.full(nv, np.inf)
+        self._neg_vmax = -self._vmax
         self._amax = amax
         self._has_rate = bool(np.isfinite(amax).any())
         self._names = names
         self._robot_id = id(robot)
-        # preallocated box arrays (filled in place by box())
-        self._lb, self._ub = np.empty(nv), np.empty(nv)
-        self._ls, self._us = np.empty(nv, dtype=np.int8), np.empty(nv, dtype=np.int8)
-        self._vsrc = np.where(np.isfinite(self._vmax), VELOCITY, NONE).astype(np.int8)
 
     @property
     def joint_names(self) -> list[str]:
@@ -200,69 +225,50 @@ class JointLimits:
     @property
     def lower_position(self) -> np.ndarray:
         """Effective lower position limits by q̇ coordinate (after :meth:`bind`; ``-inf`` where none)."""
-        out = np.full(len(self._names), -np.inf)
-        out[self._pos_k] = self._lo
-        return out
+        return self._lo.copy()
 
     @property
     def upper_position(self) -> np.ndarray:
         """Effective upper position limits by q̇ coordinate (after :meth:`bind`; ``+inf`` where none)."""
-        out = np.full(len(self._names), np.inf)
-        out[self._pos_k] = self._hi
-        return out
+        return self._hi.copy()
 
     def box(self, robot: RobotModel, q: np.ndarray, dt: float, dq_prev: np.ndarray | None = None) -> LimitBox:
-        """Bounds on q̇ for a step dt [s] from q (see the module docstring).
-
-        The returned arrays are reused by the next call (no allocation per step): copy them to keep them.
-        """
+        """Bounds on q̇ for a step dt [s] from q (see the module docstring)."""
         if self._robot_id != id(robot):
             self.bind(robot)
-        lb, ub, ls, us = self._lb, self._ub, self._ls, self._us
-        vmax = self._vmax
-        np.negative(vmax, out=lb)
-        np.copyto(ub, vmax)
-        ls[:] = self._vsrc
-        us[:] = self._vsrc
+        vmax, nvmax = self._vmax, self._neg_vmax
         if self.position and self._pos_k.size:
-            k = self._pos_k
-            qk = q[self._pos_iq]
+            qv = q[self._iq]
             g = self.position_gain / dt
-            pl = g * (self._lo - qk)  # ≤ 0 inside the range
-            pu = g * (self._hi - qk)  # ≥ 0 inside the range
+            with np.errstate(invalid="ignore"):  # inf − inf cannot occur: q is finite
+                pl = (self._lo - qv) * g  # ≤ 0 inside the range, −inf without a limit
+                pu = (self._hi - qv) * g  # ≥ 0 inside the range, +inf without a limit
             if self._has_rate:
                 # braking distance: with |Δq̇| ≤ a·dt per step, a joint at distance δ from its limit must keep
                 # q̇ ≤ B(δ) = −a·dt + √((a·dt)² + 2aδ) (covers v²/2a + v·dt ≥ the discrete stopping distance), so
                 # the next step's rate window always meets the position window and neither limit is ever broken
-                ak = self._amax[k]
-                adt = ak * dt
+                a = self._amax
+                adt = a * dt
                 with np.errstate(invalid="ignore"):
-                    bu = -adt + np.sqrt(adt * adt + 2.0 * ak * np.maximum(self._hi - qk, 0.0))
-                    bl = adt - np.sqrt(adt * adt + 2.0 * ak * np.maximum(qk - self._lo, 0.0))
-                fin = np.isfinite(ak)
-                pu = np.where(fin & (self._hi >= qk), np.minimum(pu, bu), pu)
-                pl = np.where(fin & (self._lo <= qk), np.maximum(pl, bl), pl)
-            vk = vmax[k]
+                    bu = -adt + np.sqrt(adt * adt + 2.0 * a * np.maximum(self._hi - qv, 0.0))
+                    bl = adt - np.sqrt(adt * adt + 2.0 * a * np.maximum(qv - self._lo, 0.0))
+                fin = np.isfinite(a)
+                pu = np.where(fin & (self._hi >= qv), np.minimum(pu, bu), pu)
+                pl = np.where(fin & (self._lo <= qv), np.maximum(pl, bl), pl)
             # outside a limit: move back at most as fast as the velocity limit allows
-            pl = np.minimum(pl, vk)
-            pu = np.maximum(pu, -vk)
-            m = pl > lb[k]
-            lb[k[m]] = pl[m]
-            ls[k[m]] = POSITION
-            m = pu < ub[k]
-            ub[k[m]] = pu[m]
-            us[k[m]] = POSITION
+            np.minimum(pl, vmax, out=pl)
+            np.maximum(pu, nvmax, out=pu)
+            lb = np.maximum(pl, nvmax)
+            ub = np.minimum(pu, vmax)
+        else:
+            pl, pu = np.full(vmax.shape[0], -np.inf), np.full(vmax.shape[0], np.inf)
+            lb, ub = nvmax.copy(), vmax.copy()
         if self._has_rate and dq_prev is not None:
             step = self._amax * dt
             rl = np.clip(dq_prev - step, lb, ub)
             ru = np.clip(dq_prev + step, lb, ub)
-            m = rl > lb
-            ls[m] = RATE
-            m2 = ru < ub
-            us[m2] = RATE
-            np.copyto(lb, rl)
-            np.copyto(ub, ru)
-        return LimitBox(lb, ub, ls, us)
+            return LimitBox(rl, ru, pl, pu, vmax, rl, ru)
+        return LimitBox(lb, ub, pl, pu, vmax)
 
     def __repr__(self) -> str:
         return (

@@ -25,6 +25,7 @@ import numpy as np
 from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import Subtask, TaskStack, TaskTerm
+from redundik.tasks.frame import PostureTask
 
 
 @dataclass
@@ -43,6 +44,7 @@ class Level:
         z: Target z = Σ k_i η_i of the gradient objective ½ω‖q̇ − z‖² (n,), or ``None`` without gradient subtasks.
         z_weight: ω, the mean weight of the gradient subtasks.
         gradient_names: Names of the gradient subtasks.
+        identity: True when the task rows are exactly one identity block (a posture task): J = I.
     """
 
     priority: int
@@ -56,6 +58,7 @@ class Level:
     z: np.ndarray | None = None
     z_weight: float = 0.0
     gradient_names: list[str] = field(default_factory=list)
+    identity: bool = False
 
     @property
     def m(self) -> int:
@@ -159,6 +162,7 @@ def build_levels(
         g["J"].append(term.J)
         g["v"].append(term.v)
         g["w"].append(np.full(term.v.shape[0], term.weight))
+        g.setdefault("posture", []).append(isinstance(task, PostureTask))
     for sub in stack.subtasks:
         prio = int(levels.get(sub.name, sub.priority))
         if sub.mode == "gradient" and sub.gain == 0.0:
@@ -181,22 +185,36 @@ def build_levels(
             g["d"].extend(rhs)
             g["cn"].extend(names)
     out = []
+    no_rows, no_rhs = np.zeros((0, n)), np.zeros(0)
     for prio in sorted(groups):
         g = groups[prio]
-        lv = Level(prio, g["names"])
-        if g["J"]:
-            lv.J = g["J"][0] if len(g["J"]) == 1 else np.vstack(g["J"])
-            lv.v = g["v"][0] if len(g["v"]) == 1 else np.concatenate(g["v"])
-            lv.w = np.concatenate(g["w"])
+        Js, vs, ws = g["J"], g["v"], g["w"]
+        if Js:
+            J = Js[0] if len(Js) == 1 else np.vstack(Js)
+            v = vs[0] if len(vs) == 1 else np.concatenate(vs)
+            w = ws[0] if len(ws) == 1 else np.concatenate(ws)
         else:
-            lv.J, lv.v, lv.w = np.zeros((0, n)), np.zeros(0), np.zeros(0)
+            J, v, w = no_rows, no_rhs, no_rhs
         if g["C"]:
-            lv.C, lv.d, lv.c_names = np.vstack(g["C"]), np.array(g["d"], dtype=float), g["cn"]
+            C, d = np.vstack(g["C"]), np.array(g["d"], dtype=float)
         else:
-            lv.C, lv.d = np.zeros((0, n)), np.zeros(0)
-        if g["z"]:
-            lv.z = np.sum(g["z"], axis=0) if len(g["z"]) > 1 else g["z"][0]
-            lv.z_weight = float(np.mean(g["zw"]))
-            lv.gradient_names = g["zn"]
-        out.append(lv)
+            C, d = no_rows, no_rhs
+        zs, zw = g["z"], g["zw"]
+        z = (zs[0] if len(zs) == 1 else np.sum(zs, axis=0)) if zs else None
+        out.append(
+            Level(
+                prio,
+                g["names"],
+                J,
+                v,
+                w,
+                C,
+                d,
+                g["cn"],
+                z,
+                sum(zw) / len(zw) if zw else 0.0,
+                g["zn"],
+                len(Js) == 1 and g.get("posture", [False]) == [True],
+            )
+        )
     return out

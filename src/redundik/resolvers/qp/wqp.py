@@ -20,6 +20,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from scipy.linalg.lapack import dposv as _dposv
 
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
@@ -28,7 +29,8 @@ from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPResolverBase
 from redundik.resolvers.qp.problem import QPProblem
 from redundik.resolvers.qp.terms import Level, build_levels
-from redundik.tasks.base import TaskStack
+from redundik.tasks.base import TaskStack, stack_terms
+from redundik.tasks.frame import PostureTask
 
 
 class WeightedQPResolver(QPResolverBase):
@@ -66,29 +68,48 @@ class WeightedQPResolver(QPResolverBase):
                 raise ResolverError(f"wqp: {key} must be a finite number ≥ 0, got {val}")
         self.damping, self.lm_damping = float(damping), float(lm_damping)
         self._P: np.ndarray | None = None
-        self._eye: np.ndarray | None = None
+        self._q: np.ndarray | None = None
+        self._empty: Level | None = None
+        self._no_rows, self._no_rhs = np.zeros((0, 0)), np.zeros(0)
+        self._sub_stacks: dict[int, TaskStack] = {}
 
     def build(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> tuple[QPProblem, Level, list]:
         """Evaluate the stack and build the QP (without solving it), for inspection and tests.
 
+        Main tasks are accumulated straight into P = Σ w JᵀJ and q = −Σ w Jᵀv in preallocated arrays (a posture
+        task's identity Jacobian as a diagonal update); subtasks go through :func:`~.terms.build_levels`.
+
         Returns:
-            (problem, the merged level, the main-task terms).
+            (problem, the subtasks' merged level, the main-task terms).
         """
         terms = stack.evaluate(robot, t)
-        levels = build_levels(robot, stack, terms, dt, None, merge=True)
         n = robot.nv
-        lv = levels[0] if levels else Level(0, J=np.zeros((0, n)), v=np.zeros(0), w=np.zeros(0), C=np.zeros((0, n)))
         if self._P is None or self._P.shape[0] != n:
-            self._P, self._eye = np.empty((n, n)), np.eye(n)
-        P, eye = self._P, self._eye
-        assert eye is not None
-        if lv.m:
-            Jw = lv.J * lv.w[:, None]  # (m, n)
-            np.matmul(lv.J.T, Jw, out=P)
-            q = -(Jw.T @ lv.v)
+            self._P, self._q = np.empty((n, n)), np.empty(n)
+        P, q = self._P, self._q
+        P.fill(0.0)
+        q.fill(0.0)
+        diag = P.reshape(-1)[:: n + 1]  # a view on P's diagonal
+        for task, term in zip(stack.tasks, terms, strict=True):
+            w, J = term.weight, term.J
+            if isinstance(task, PostureTask):  # J = I
+                diag += w
+                q -= w * term.v
+            else:
+                Jw = w * J.T  # (n, m)
+                P += Jw @ J
+                q -= Jw @ term.v
+        if stack.subtasks:
+            sub_stack = self._sub_stacks.get(id(stack))
+            if sub_stack is None or sub_stack.subtasks is not stack.subtasks:
+                sub_stack = self._sub_stacks[id(stack)] = TaskStack([], stack.subtasks)
+            lv = build_levels(robot, sub_stack, [], dt, None, merge=True)[0]
+            if lv.m:
+                Jw = lv.J.T * lv.w  # (n, m)
+                P += Jw @ lv.J
+                q -= Jw @ lv.v
         else:
-            P.fill(0.0)
-            q = np.zeros(n)
+            lv = self._empty_level(n)
         lam = self.damping
         if self.lm_damping and terms:
             lam += self.lm_damping * sum(float(tm.error @ tm.error) for tm in terms)
@@ -97,11 +118,17 @@ class WeightedQPResolver(QPResolverBase):
             lam += lv.z_weight  # the gradient objective's ½ω‖q̇‖²
             q -= lv.z_weight * lv.z
         if lam:
-            P += lam * eye
+            diag += lam
         box = self._box(robot, dt)
-        prob = QPProblem(P, q, lv.C, lv.d, np.zeros((0, n)), np.zeros(0), box.lb, box.ub, "wqp", lv.c_names)
         self._last_box = box
+        prob = QPProblem(P, q, lv.C, lv.d, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp", lv.c_names)
         return prob, lv, terms
+
+    def _empty_level(self, n: int) -> Level:
+        if self._empty is None or self._empty.J.shape[1] != n:
+            self._no_rows, self._no_rhs = np.zeros((0, n)), np.zeros(0)
+            self._empty = Level(0, [], np.zeros((0, n)), np.zeros(0), np.zeros(0), np.zeros((0, n)), np.zeros(0))
+        return self._empty
 
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
         t0 = time.perf_counter()
@@ -110,12 +137,8 @@ class WeightedQPResolver(QPResolverBase):
         t1 = time.perf_counter()
         info: dict[str, object] = {"backend": "closed-form", "qp": 0, "iterations": 0}
         fallback = None
-        try:
-            x = np.linalg.solve(prob.P, -prob.q)
-            singular = False
-        except np.linalg.LinAlgError:
-            x, singular = np.zeros(robot.nv), True
-        feasible = not singular and box.contains(x, 1e-12) and (not lv.p or bool(np.all(lv.C @ x <= lv.d + 1e-12)))
+        _, x, fail = _dposv(prob.P, -prob.q)  # Cholesky solve of the unconstrained optimum (P is SPD when λ > 0)
+        feasible = not fail and box.contains(x, 1e-12) and (not lv.p or not (lv.C @ x > lv.d + 1e-12).any())
         if not feasible:
             info["qp"] = 1
             try:
@@ -133,13 +156,18 @@ class WeightedQPResolver(QPResolverBase):
                         x = None
                 if x is None:
                     fallback = f"wqp failed, damped closed form clipped to the limits: {exc}"
-                    x = self._closed_form([lv], robot.nv)
+                    J, V = stack_terms(terms, robot.nv)
+                    x = self._closed_form([Level(0, [], J, V, np.ones(V.shape[0]), z=lv.z)], robot.nv)
                 info["backend"] = "fallback"
         dq, ok = self._finish(x, box, robot, info)
         if not ok:
             fallback = "non-finite q̇ replaced by zero"
-        if lv.m:
-            info["residual_L0"] = float(np.linalg.norm(lv.J @ dq - lv.v))
+        if terms:
+            res2 = 0.0
+            for tm in terms:
+                r = tm.J @ dq - tm.v
+                res2 += float(r @ r)
+            info["residual_L0"] = res2**0.5
         if lv.p:
             viol = lv.inequality_residual(dq)
             info["bound_violation"] = float(np.max(viol))
