@@ -47,7 +47,7 @@ def _book_loop(q0_deg: tuple[float, float, float], k: float, dt: float = 0.01, s
 
 
 def test_file_has_the_chapter_runs(results: dict[str, RunResult]) -> None:
-    assert list(results) == ["rank_only", "rank_null", "feedback", "closed_loop"]
+    assert list(results)[:4] == ["rank_only", "rank_null", "feedback", "closed_loop"]
     for r in results.values():
         assert r.log.t.shape == (501,)
         assert r.log.t[-1] == pytest.approx(5.0)
