@@ -148,11 +148,13 @@ def test_good_file_loads_and_validates_every_run() -> None:
         "rank_null": "pinv",
         "feedback": "feedback",
         "closed_loop": "pinv",
+        "wqp": "wqp",
+        "hqp": "hqp",
     }
     # every run has its own task objects (they carry state: trajectory start, frame ids)
     tasks = [r.stack.tasks[0] for r in plan.runs.values()]
     assert len({id(t) for t in tasks}) == len(tasks)
-    assert [t.gain for t in tasks] == [0.0, 0.0, 0.0, 20.0]
+    assert [t.gain for t in tasks] == [0.0, 0.0, 0.0, 20.0, 0.0, 0.0]
 
 
 def test_yaml_syntax_error_names_file_and_line(write_yaml: Callable[..., Path]) -> None:
