@@ -31,12 +31,14 @@ class FeedbackResolver(Resolver):
     Args:
         epsilon: Damping threshold of J⁺ (see :mod:`redundik.resolvers.linalg`).
         max_damping: λ_max of J⁺.
-        d_epsilon: Smallest singular value of D under which D⁻¹ is damped.
+        d_epsilon: Relative threshold: D⁻¹ is damped when σ_min(D) < d_epsilon·‖N‖_F², i.e. when the subtask
+            gradients have almost no component left in the null space (scale-free, so the rule does not depend on
+            the units of the potentials). The damping is then λ = d_epsilon·‖N‖_F².
     """
 
     name = "feedback"
 
-    def __init__(self, epsilon: float = 1e-2, max_damping: float = 5e-2, d_epsilon: float = 1e-6) -> None:
+    def __init__(self, epsilon: float = 1e-2, max_damping: float = 5e-2, d_epsilon: float = 1e-3) -> None:
         self.epsilon, self.max_damping, self.d_epsilon = float(epsilon), float(max_damping), float(d_epsilon)
 
     def check(self, robot: RobotModel, stack: TaskStack) -> None:
@@ -78,9 +80,10 @@ class FeedbackResolver(Resolver):
         d_damped = False
         if r:
             U, s, Vt = np.linalg.svd(D)
-            if s[-1] < self.d_epsilon:
+            lam = self.d_epsilon * max(float(np.sum(N * N)), 1e-300)
+            if s[-1] < lam:
                 d_damped = True
-                inv_s = s / (s * s + self.d_epsilon**2)
+                inv_s = s / (s * s + lam**2)
             else:
                 inv_s = 1.0 / s
             k = Vt.T @ (inv_s * (U.T @ rhs))
