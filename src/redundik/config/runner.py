@@ -168,6 +168,7 @@ def task_summary(plan: TaskPlan, results: dict[str, RunResult]) -> dict[str, Any
         "description": plan.description,
         "robot": robot.name,
         "robot_source": plan.robot.source,
+        "task_file": str(plan.path.resolve()) if plan.path is not None else None,
         "length_unit": robot.length_unit,
         "joints": robot.joint_names,
         "dt": plan.dt,
