@@ -65,3 +65,20 @@ def test_view_writes_html_from_an_output_folder(tmp_path) -> None:
     text = page.read_text(encoding="utf-8")
     assert "replay-data" in text and "planar3r_line" in text
     assert main(["view", str(tmp_path)]) == 2  # no summary.json: a one-line error
+
+
+def test_gif_and_split_error_figure(tmp_path) -> None:
+    from PIL import Image
+
+    from redundik.cli.main import main
+
+    out = tmp_path / "rpr"
+    assert (
+        main(["run", str(TASKS / "rpr_corner.yaml"), "--gif", "--out", str(out), "--quiet", "--runs", "avoid_hqp"]) == 0
+    )
+    gif = Image.open(out / "rpr_corner.gif")
+    assert gif.n_frames >= 30
+    first = np.asarray(gif.convert("RGB"))
+    gif.seek(gif.n_frames - 1)
+    assert np.abs(first.astype(int) - np.asarray(gif.convert("RGB")).astype(int)).sum() > 0  # it moves
+    assert (out / "task_error.png").is_file() and (out / "configurations.png").is_file()
