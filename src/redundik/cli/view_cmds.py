@@ -110,6 +110,8 @@ def view(
     out_dir: Annotated[Path, typer.Argument(help="Output folder of `redundik run`.", show_default=False)],
     task: Annotated[Path | None, typer.Option("--task", help="Task file [default: the one in summary.json].")] = None,
     html: Annotated[Path | None, typer.Option("--html", help="Write an offline HTML replay here instead.")] = None,
+    png: Annotated[Path | None, typer.Option("--png", help="Screenshot the HTML replay (headless Chromium).")] = None,
+    at: Annotated[float, typer.Option("--t", help="Time shown in the screenshot [s].")] = 0.0,
     run: Annotated[str | None, typer.Option("--run", help="Run to replay in meshcat [default: the first].")] = None,
     speed: Annotated[float, typer.Option("--speed", help="Playback speed factor.")] = 1.0,
     loops: Annotated[int, typer.Option("--loops", help="Times to play the run in meshcat.")] = 1,
@@ -119,12 +121,21 @@ def view(
 
     plan, runs = load_output(out_dir, task)
     console = Console()
-    if html is not None:
+    if html is not None or png is not None:
+        import tempfile
+
         from redundik.viewer.html import build_task_replay, render_page
 
-        html.parent.mkdir(parents=True, exist_ok=True)
-        html.write_text(render_page(build_task_replay(plan, runs)), encoding="utf-8")
-        console.print(f"wrote {html}")
+        with tempfile.TemporaryDirectory(prefix="redundik-view-") as tmp:
+            page = html if html is not None else Path(tmp) / f"{plan.name}.html"
+            page.parent.mkdir(parents=True, exist_ok=True)
+            page.write_text(render_page(build_task_replay(plan, runs)), encoding="utf-8")
+            console.print(f"wrote {page}" if html is not None else f"replay of {', '.join(runs)}")
+            if png is not None:
+                from redundik.viewer.snapshot import screenshot
+
+                query = f"?t={at}" + (f"&run={run}" if run else "")
+                console.print(f"wrote {screenshot(page.resolve().as_uri() + query, png)}")
         return
     from redundik.viewer.live import replay_meshcat
 
