@@ -74,6 +74,11 @@ def run_one(plan: TaskPlan, run: RunPlan, progress: Callable[[str, int], None] |
     """Simulate one run and summarise it."""
     robot = plan.robot.model
     cb = None if progress is None else (lambda k: progress(run.name, k))
+    plant = None
+    if run.plant is not None:
+        from redundik.simulation.plant import make_plant
+
+        plant = make_plant(run.plant, plan, f"runs.{run.name}.plant")
     log = simulate(
         robot,
         run.stack,
@@ -84,6 +89,7 @@ def run_one(plan: TaskPlan, run: RunPlan, progress: Callable[[str, int], None] |
         log_frames=tuple(plan.log_frames),
         extra_potentials=tuple(run.watched + run.monitors),
         progress=cb,
+        plant=plant,
     )
     n = log.q.shape[0]
     violation = np.array([float(np.max(robot.limit_violation(log.q[k]), initial=0.0)) for k in range(n)])
@@ -99,8 +105,14 @@ def run_one(plan: TaskPlan, run: RunPlan, progress: Callable[[str, int], None] |
             series[f"m.{m.name}.max"] = a.max(axis=1)
             series[f"m.{m.name}.min"] = a.min(axis=1)
             series[f"m.{m.name}.mean"] = a.mean(axis=1)
+    if plant is not None:
+        series.update(plant.series())
     result = RunResult(run.name, run, log, series, violation)
     result.summary = summarise(plan, result)
+    if plant is not None:
+        from redundik.simulation.plant import plant_summary
+
+        result.summary.update(plant_summary(plan, run, plant, log))
     return result
 
 
@@ -171,6 +183,7 @@ def task_summary(plan: TaskPlan, results: dict[str, RunResult]) -> dict[str, Any
         "description": plan.description,
         "robot": robot.name,
         "robot_source": plan.robot.source,
+        "task_file": str(plan.path.resolve()) if plan.path is not None else None,
         "length_unit": robot.length_unit,
         "joints": robot.joint_names,
         "dt": plan.dt,
