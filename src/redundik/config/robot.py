@@ -17,10 +17,12 @@ import pinocchio as pin
 
 from redundik.config.schema import RobotSpec
 from redundik.config.yamlio import join_path, read_yaml, validate
-from redundik.errors import ConfigError, RedundikError
+from redundik.errors import ConfigError, RedundikError, short_repr
 from redundik.kinematics import EXAMPLE_ROBOTS, DHRow, RobotModel, example_robot_data_dir, from_dh, from_urdf
 
 EXAMPLE_PREFIX = "example-robot-data:"
+#: Largest magnitude of a configuration entry written in a file [rad, deg or length unit].
+MAX_FILE_COORDINATE = 1e6
 
 
 @dataclass
@@ -72,6 +74,10 @@ def configuration_from_file(
         names = ", ".join(robot.joint_names)
         raise ConfigError(f"expected {n} values (joints: {names}), got {len(values)}", path)
     arr = np.asarray(values, dtype=float)
+    big = np.flatnonzero(~(np.abs(arr) <= MAX_FILE_COORDINATE))
+    if big.size:
+        i = int(big[0])
+        raise ConfigError(f"must be at most {MAX_FILE_COORDINATE:g} in magnitude, got {arr[i]:g}", f"{path}[{i}]")
     scale = angle_scale(unit)
     if scale != 1.0:
         for j in robot.joints:
@@ -105,7 +111,7 @@ def load_robot(ref: Any, base_dir: Path, path: str = "robot") -> LoadedRobot:
     if isinstance(ref, dict):
         spec = validate(RobotSpec, ref, path)
         return build_robot(spec, base_dir, path, "inline")
-    raise ConfigError(f"expected a config path, '{EXAMPLE_PREFIX}NAME' or a mapping, got {ref!r}", path)
+    raise ConfigError(f"expected a config path, '{EXAMPLE_PREFIX}NAME' or a mapping, got {short_repr(ref)}", path)
 
 
 def _example_robot(name: str, free_flyer: bool | None, path: str, source: str) -> LoadedRobot:

@@ -84,6 +84,9 @@ def run_one(plan: TaskPlan, run: RunPlan, progress: Callable[[str, int], None] |
         log_frames=tuple(plan.log_frames),
         extra_potentials=tuple(run.watched + run.monitors),
         progress=cb,
+        integrator=run.integrator,
+        rtol=run.rtol,
+        atol=run.atol,
     )
     n = log.q.shape[0]
     violation = np.array([float(np.max(robot.limit_violation(log.q[k]), initial=0.0)) for k in range(n)])
