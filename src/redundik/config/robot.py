@@ -101,9 +101,13 @@ def load_robot(ref: Any, base_dir: Path, path: str = "robot") -> LoadedRobot:
     if isinstance(ref, str):
         if ref.startswith(EXAMPLE_PREFIX):
             return _example_robot(ref[len(EXAMPLE_PREFIX) :], None, path, ref)
-        cfg_path = (base_dir / ref).resolve() if not Path(ref).is_absolute() else Path(ref)
-        if not cfg_path.is_file():
-            raise ConfigError(f"robot config '{ref}' does not exist (looked for {cfg_path})", path)
+        try:
+            cfg_path = (base_dir / ref).resolve() if not Path(ref).is_absolute() else Path(ref)
+            exists = cfg_path.is_file()
+        except (OSError, ValueError):  # a name too long, an embedded NUL, ...
+            raise ConfigError(f"robot config {short_repr(ref)} cannot be read (not a usable path)", path) from None
+        if not exists:
+            raise ConfigError(f"robot config {short_repr(ref)} does not exist (looked for {cfg_path})", path)
         data = read_yaml(cfg_path, "robot config")
         prefix = f"{ref}: "
         spec = validate(RobotSpec, data, prefix)
@@ -137,7 +141,10 @@ def build_robot(spec: RobotSpec, base_dir: Path, prefix: str, source: str) -> Lo
         if spec.urdf.startswith(EXAMPLE_PREFIX):
             loaded = _example_robot(spec.urdf[len(EXAMPLE_PREFIX) :], spec.free_flyer, where, source)
         else:
-            urdf_path = Path(spec.urdf) if Path(spec.urdf).is_absolute() else (base_dir / spec.urdf).resolve()
+            try:
+                urdf_path = Path(spec.urdf) if Path(spec.urdf).is_absolute() else (base_dir / spec.urdf).resolve()
+            except (OSError, ValueError):
+                raise ConfigError(f"{short_repr(spec.urdf)} is not a usable URDF path", where) from None
             try:
                 robot = from_urdf(urdf_path, free_flyer=bool(spec.free_flyer), name=spec.name)
             except RedundikError as exc:

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from redundik.config.loader import RunPlan, TaskPlan
-from redundik.errors import ConfigError
+from redundik.errors import ConfigError, SimulationError
 from redundik.simulation import SimulationLog, simulate
 
 
@@ -102,6 +102,13 @@ def run_one(plan: TaskPlan, run: RunPlan, progress: Callable[[str, int], None] |
             series[f"m.{m.name}.max"] = a.max(axis=1)
             series[f"m.{m.name}.min"] = a.min(axis=1)
             series[f"m.{m.name}.mean"] = a.mean(axis=1)
+    for key, values in series.items():
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            t = float(log.t[bad[0]])
+            raise SimulationError(
+                f"run '{run.name}' diverged at t = {t:.6g} s: monitor {key} is not finite (overflow?)"
+            )
     result = RunResult(run.name, run, log, series, violation)
     result.summary = summarise(plan, result)
     return result

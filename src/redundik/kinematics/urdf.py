@@ -93,9 +93,16 @@ def from_urdf(path: str | os.PathLike[str], *, free_flyer: bool = False, name: s
         ModelError: if the file is missing or Pinocchio cannot parse it.
     """
     p = Path(path)
-    if not p.is_file():
-        raise ModelError(f"URDF file '{p}' does not exist")
-    if p.stat().st_size > MAX_URDF_BYTES:
+    try:
+        exists = p.is_file()
+        size = p.stat().st_size if exists else 0
+    except (OSError, ValueError) as exc:  # a name too long, an embedded NUL, ...
+        raise ModelError(
+            f"URDF file '{str(p)[:120]}' cannot be read: {getattr(exc, 'strerror', None) or exc}"
+        ) from None
+    if not exists:
+        raise ModelError(f"URDF file '{str(p)[:200]}' does not exist")
+    if size > MAX_URDF_BYTES:
         raise ModelError(f"URDF file '{p}' is larger than {MAX_URDF_BYTES // (1024 * 1024)} MiB")
     chatter: list[str] = []
     try:
