@@ -17,7 +17,7 @@ import numpy as np
 from redundik.resolvers import make_resolver
 from redundik.robots import snake
 from redundik.simulation import simulate
-from redundik.tasks import Circle, Clearance, FrameTask, JointCentering, Subtask, TaskStack
+from redundik.tasks import BoundSubtask, Circle, Clearance, FrameTask, GradientSubtask, JointCentering, TaskStack
 
 
 def build(n: int, resolver: str):
@@ -29,10 +29,10 @@ def build(n: int, resolver: str):
     obstacles = [robot.frame_position(f) + np.array([0.0, 0.12, 0.0]) for f in frames]
     clear = [Clearance(f, c, 0.06, name=f"clear{f}") for f, c in zip(frames, obstacles, strict=True)]
     if resolver == "pinv":
-        subs = [Subtask(JointCentering(), gain=-1.0)] + [Subtask(c, gain=0.3) for c in clear]
+        subs = [GradientSubtask(JointCentering(), gain=-1.0)] + [GradientSubtask(c, gain=0.3) for c in clear]
     else:
-        subs = [Subtask(c, mode="bounds", lower=0.03, rate=2.0, priority=1) for c in clear]
-        subs.append(Subtask(JointCentering(), gain=-1.0, priority=2))
+        subs = [BoundSubtask(c, lower=0.03, rate=2.0, priority=1) for c in clear]
+        subs.append(GradientSubtask(JointCentering(), gain=-1.0))
     task = FrameTask(str(n), Circle(0.15, 1.2566, ("x", "y")), axes="pose", gain=2.0, name="tip")
     return robot, TaskStack([task], subs), make_resolver(resolver), q0
 

@@ -27,7 +27,7 @@ def main() -> int:
     circle = rk.Circle(radius=0.10, omega=np.pi, plane=("y", "z"))  # one turn in 2 s, centred beside the start
     stack = rk.TaskStack(
         tasks=[rk.FrameTask(TOOL, circle, axes="pose", gain=50.0)],  # feed-forward + 50 /s feedback on the error
-        subtasks=[rk.Subtask(rk.JointCentering(), gain=-2.0)],  # k < 0: descend ½‖q − q_c‖² in the null space
+        subtasks=[rk.GradientSubtask(rk.JointCentering(), gain=-2.0)],  # k < 0: descend ½‖q − q_c‖² in the null space
     )
     resolver = rk.PinvResolver()
 

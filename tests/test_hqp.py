@@ -46,8 +46,8 @@ def test_hqp_main_plus_gradient_equals_pinv_on_random_robots(seed: int, n: int, 
     q = robot.random_configuration(rng)
     joint = robot.joint_names[int(rng.integers(n))]
     subs = [
-        rk.Subtask(rk.JointValue(joint, float(rng.uniform(-1, 1))), gain=float(rng.uniform(-2, 2))),
-        rk.Subtask(rk.JointCentering(), gain=float(rng.uniform(-2, 2))),
+        rk.GradientSubtask(rk.JointValue(joint, float(rng.uniform(-1, 1))), gain=float(rng.uniform(-2, 2))),
+        rk.GradientSubtask(rk.JointCentering(), gain=float(rng.uniform(-2, 2))),
     ]
     stack = rk.TaskStack([rk.FrameTask(tip(robot), rk.Line(rng.uniform(-0.3, 0.3, 3)), axes=axes, gain=1.0)], subs)
     hqp, pinv = rk.HierarchicalQPResolver(limits=False), rk.PinvResolver()
@@ -70,7 +70,7 @@ def _levels_stack(robot: rk.RobotModel, rng: np.random.Generator, depth: int) ->
         tasks.append(rk.PotentialTask(rk.JointValue(names[1], 0.0), target=0.0, rate=5.0, priority=2, name="j2"))
     subs = []
     if depth > 3:
-        subs.append(rk.Subtask(rk.JointValue(names[0], 1.0), gain=-3.0, priority=3))
+        subs.append(rk.GradientSubtask(rk.JointValue(names[0], 1.0), gain=-3.0))
     return rk.TaskStack(tasks, subs)
 
 
@@ -121,8 +121,8 @@ def test_three_levels_with_an_inequality_in_the_middle() -> None:
     stack = rk.TaskStack(
         [rk.FrameTask("3", rk.Line([0.2, -0.4]), axes="planar")],
         [
-            rk.Subtask(rk.JointValue("2", 0.0, name="th2"), mode="bounds", upper=0.75**2, rate=10.0, priority=1),
-            rk.Subtask(rk.JointValue("2", -3.0, name="down"), gain=-5.0, priority=2),
+            rk.BoundSubtask(rk.JointValue("2", 0.0, name="th2"), upper=0.75**2, rate=10.0, priority=1),
+            rk.GradientSubtask(rk.JointValue("2", -3.0, name="down"), gain=-5.0),
         ],
     )
     log = rk.simulate(robot, stack, rk.HierarchicalQPResolver(), CASE2_Q0, dt=0.01, steps=150)
@@ -149,8 +149,8 @@ def test_clearance_inequality_subtask_is_respected() -> None:
     stack = rk.TaskStack(
         [rk.FrameTask("3", rk.Line([0.2, -0.4]), axes="planar")],
         [
-            rk.Subtask(clearance, mode="bounds", lower=margin, rate=20.0, priority=1),
-            rk.Subtask(rk.JointSine2("3"), gain=1.0, priority=2),
+            rk.BoundSubtask(clearance, lower=margin, rate=20.0, priority=1),
+            rk.GradientSubtask(rk.JointSine2("3"), gain=1.0),
         ],
     )
     kept = rk.simulate(robot, stack, rk.HierarchicalQPResolver(), CASE2_Q0, dt=0.01, steps=150)
@@ -179,19 +179,29 @@ def test_rank_loss_is_reported_for_an_algorithmic_singularity() -> None:
 
 def test_levels_option_reorders_the_hierarchy() -> None:
     robot = case2_robot()
-    stack = case2_stack()
     q = CASE2_Q0
-    flipped = rk.HierarchicalQPResolver(limits=False, levels={"sin2_3": 0, "3": 1})
-    prepared(flipped, robot, stack, q)
-    dq = flipped.step(robot, stack, q, 0.0, 0.01).dq
-    # the gradient level on top takes the whole q̇ = kη; the tip task gets nothing left
-    np.testing.assert_allclose(dq, [0.0, 0.0, np.sin(2 * q[2])], atol=1e-12)
-    listed = rk.HierarchicalQPResolver(limits=False, levels=[["sin2_3"], ["3"]])
-    prepared(listed, robot, stack, q)
-    np.testing.assert_allclose(listed.step(robot, stack, q, 0.0, 0.01).dq, dq, atol=1e-12)
-    with pytest.raises(rk.ResolverError, match=r"unknown task.*'nope'"):
-        bad = rk.HierarchicalQPResolver(levels={"nope": 1})
-        prepared(bad, robot, stack, q)
+    tip = rk.FrameTask("3", rk.Line([0.2, -0.4]), axes="planar")
+    push = rk.TargetSubtask(rk.JointValue("1", 3.0, name="push"), target=0.0, rate=5.0)  # wants q̇1 far from J⁺V
+    push2 = rk.TargetSubtask(rk.JointValue("2", 3.0, name="push2"), target=0.0, rate=5.0)
+    stack = rk.TaskStack([tip], [push, push2])  # 2 + 2 rows on 3 joints: whichever level is lower loses
+
+    def residuals(resolver: rk.HierarchicalQPResolver) -> tuple[float, float]:
+        prepared(resolver, robot, stack, q)
+        info = resolver.step(robot, stack, q, 0.0, 0.01).info
+        return float(info["residual_L0"]), float(info["residual_L1"])
+
+    # default: the tip at level 0 (exact), the target subtask one below (what is left of it)
+    top, below = residuals(rk.HierarchicalQPResolver(limits=False))
+    assert top < 1e-12 and below > 1e-3
+    # flipped: the 1-row subtask on top is met exactly, the tip task gets only what remains
+    for levels in ({"push": 0, "push2": 0, "3": 1}, [["push", "push2"], ["3"]]):
+        top, below = residuals(rk.HierarchicalQPResolver(limits=False, levels=levels))
+        assert top < 1e-12 and below > 1e-3
+    with pytest.raises(rk.ResolverError, match=r"'nope': no such task or subtask; tasks and subtasks with a level"):
+        prepared(rk.HierarchicalQPResolver(levels={"nope": 1}), robot, stack, q)
+    grad = rk.TaskStack([tip], [rk.GradientSubtask(rk.JointSine2("3"))])
+    with pytest.raises(rk.ResolverError, match=r"'sin2_3': a gradient subtask belongs to the null-space objective"):
+        prepared(rk.HierarchicalQPResolver(levels={"sin2_3": 0}), robot, grad, q)
 
 
 def test_joint_coupling_at_level_0_holds_the_offset() -> None:

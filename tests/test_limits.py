@@ -85,7 +85,7 @@ def _wild_stack(robot: rk.RobotModel, rng: np.random.Generator) -> rk.TaskStack:
     names = robot.joint_names
     far = rk.Line(rng.uniform(-1.0, 1.0, 3))
     subs = [
-        rk.Subtask(rk.JointValue(names[k], float(rng.choice([-5.0, 5.0]))), gain=-4.0, priority=1)
+        rk.GradientSubtask(rk.JointValue(names[k], float(rng.choice([-5.0, 5.0]))), gain=-4.0)
         for k in rng.choice(len(names), 3, replace=False)
     ]
     return rk.TaskStack([rk.FrameTask(tip(robot), far, axes="position", gain=2.0)], subs)

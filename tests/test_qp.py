@@ -24,21 +24,23 @@ def test_every_subtask_mode_becomes_the_documented_rows() -> None:
     p1 = rk.JointValue("1", 0.5, name="v1")
     dt = 0.01
     subs = [
-        rk.Subtask(p3, gain=2.0, priority=1),
-        rk.Subtask(rk.JointCentering(center=[0, 0, 0], name="c"), gain=-1.0, priority=1),
-        rk.Subtask(p1, mode="target", target=0.3, rate=4.0, target_rate=0.1, weight=2.0, priority=2),
-        rk.Subtask(rk.JointValue("2", 0.0, name="b2"), mode="bounds", lower=0.1, upper=0.9, rate=5.0, priority=2),
+        rk.GradientSubtask(p3, gain=2.0),
+        rk.GradientSubtask(rk.JointCentering(center=[0, 0, 0], name="c"), gain=-1.0),
+        rk.TargetSubtask(p1, target=0.3, rate=4.0, target_rate=0.1, weight=2.0, priority=2),
+        rk.BoundSubtask(rk.JointValue("2", 0.0, name="b2"), lower=0.1, upper=0.9, rate=5.0, priority=2),
     ]
     stack = rk.TaskStack([rk.FrameTask("3", rk.Line([0.2, -0.4]), axes="planar")], subs)
     stack.reset(robot)
     terms = stack.evaluate(robot, 0.0)
-    levels = build_levels(robot, stack, terms, dt)
-    assert [lv.priority for lv in levels] == [0, 1, 2]
+    levels = build_levels(robot, stack, terms, stack.layout(), dt)
+    # main task at 0, the target and bound subtasks at their priority 2, the null-space objective last
+    assert [lv.priority for lv in levels] == [0, 2, 3]
     np.testing.assert_array_equal(levels[0].J, robot.frame_jacobian("3")[:2])
     q = CASE2_Q0
     z = 2.0 * np.array([0, 0, np.sin(2 * q[2])]) - 1.0 * q  # Σ k η with η_centering = q − q_c
-    np.testing.assert_allclose(levels[1].z, z, atol=1e-15)
-    lv2 = levels[2]
+    np.testing.assert_allclose(levels[2].z, z, atol=1e-15)
+    assert levels[2].pure_null_objective and levels[0].z is None and levels[1].z is None
+    lv2 = levels[1]
     np.testing.assert_allclose(lv2.J, [[2 * (q[0] - 0.5), 0, 0]])
     np.testing.assert_allclose(lv2.v, [0.1 + 4.0 * (0.3 - (q[0] - 0.5) ** 2)])
     assert lv2.w.tolist() == [2.0]
@@ -47,8 +49,6 @@ def test_every_subtask_mode_becomes_the_documented_rows() -> None:
     np.testing.assert_allclose(lv2.C, [[0, -eta2, 0], [0, eta2, 0]])
     np.testing.assert_allclose(lv2.d, [-gamma * (0.1 - p2), gamma * (0.9 - p2)])
     assert lv2.c_names == ["b2:lower", "b2:upper"]
-    merged = build_levels(robot, stack, terms, dt, merge=True)
-    assert len(merged) == 1 and merged[0].m == 3 and merged[0].p == 2
 
 
 def test_potential_task_drives_the_potential_at_rate_k() -> None:
@@ -71,9 +71,11 @@ def test_wqp_unconstrained_equals_the_normal_equations() -> None:
     out = res.step(robot, stack, CASE2_Q0, 0.0, 0.01)
     J = robot.frame_jacobian("3")[:2]
     z = np.array([0, 0, np.sin(2 * CASE2_Q0[2])])
-    # minimise 7‖Jx − v‖² + ‖x − z‖² + 1e-3‖x‖² by stacked least squares (numpy's lstsq, not the resolver's solve)
-    A = np.vstack([np.sqrt(7.0) * J, np.eye(3), np.sqrt(1e-3) * np.eye(3)])
-    b = np.concatenate([np.sqrt(7.0) * np.array([0.2, -0.4]), z, np.zeros(3)])
+    # minimise 7‖Jx − v‖² + ρ‖x − z‖² + 1e-3·ρ‖x‖² (ρ = 1e-4: the null-space objective is level 1; λ is relative to
+    # the lowest level's weight) by stacked least squares (numpy's lstsq, not the resolver's solve)
+    rho = 1e-4
+    A = np.vstack([np.sqrt(7.0) * J, np.sqrt(rho) * np.eye(3), np.sqrt(1e-3 * rho) * np.eye(3)])
+    b = np.concatenate([np.sqrt(7.0) * np.array([0.2, -0.4]), np.sqrt(rho) * z, np.zeros(3)])
     np.testing.assert_allclose(out.dq, np.linalg.lstsq(A, b, rcond=None)[0], atol=1e-12)
     assert out.info["qp"] == 0 and out.fallback is None
 
@@ -83,15 +85,17 @@ def test_wqp_approaches_hqp_as_the_weight_ratio_grows() -> None:
     q = robot.random_configuration(np.random.default_rng(12))
     stack = rk.TaskStack(
         [rk.FrameTask(tip(robot), rk.Line([0.1, -0.2, 0.05]), axes="position", gain=1.0)],
-        [rk.Subtask(rk.JointCentering(), gain=-2.0), rk.Subtask(rk.JointSine2(robot.joint_names[2]), gain=1.0)],
+        [
+            rk.GradientSubtask(rk.JointCentering(), gain=-2.0),
+            rk.GradientSubtask(rk.JointSine2(robot.joint_names[2]), gain=1.0),
+        ],
     )
     hqp = rk.HierarchicalQPResolver(limits=False)
     prepared(hqp, robot, stack, q)
     ref = hqp.step(robot, stack, q, 0.0, 0.01).dq
     diffs = []
-    for w in 10.0 ** np.arange(0, 7):
-        stack.tasks[0].weight = float(w)
-        wqp = rk.WeightedQPResolver(limits=False, damping=0.0)
+    for rho in 10.0 ** -np.arange(0, 7):
+        wqp = rk.WeightedQPResolver(limits=False, damping=0.0, level_ratio=min(float(rho), 0.999))
         prepared(wqp, robot, stack, q)
         diffs.append(float(np.linalg.norm(wqp.step(robot, stack, q, 0.0, 0.01).dq - ref)))
     assert all(b < a for a, b in itertools.pairwise(diffs)), diffs
@@ -103,7 +107,7 @@ def test_wqp_with_limits_solves_a_qp_that_satisfies_the_kkt_conditions() -> None
     stack = case2_stack()
     res = rk.WeightedQPResolver()
     prepared(res, robot, stack, CASE2_Q0)
-    prob, _, _ = res.build(robot, stack, 0.0, 0.01)
+    prob = res.build(robot, stack, 0.0, 0.01).problem
     out = res.step(robot, stack, CASE2_Q0, 0.0, 0.01)
     x = out.dq
     assert out.info["qp"] == 1
@@ -202,14 +206,15 @@ def test_infeasible_bound_subtask_in_wqp_is_relaxed_not_fatal() -> None:
     robot = case2_robot(velocity=0.3, lower=-np.pi, upper=np.pi)
     stack = rk.TaskStack(
         [rk.FrameTask("3", rk.Line([0.2, -0.4]), axes="planar")],
-        [rk.Subtask(rk.JointValue("1", -10.0, name="far"), mode="bounds", lower=13.0**2, rate=0.0)],
+        [rk.BoundSubtask(rk.JointValue("1", -10.0, name="far"), lower=13.0**2, rate=0.0)],
     )
     log = rk.simulate(robot, stack, rk.WeightedQPResolver(), CASE2_Q0, dt=0.01, steps=30)
     assert log.fallbacks and "relaxed" in log.fallbacks[0][1]
     assert np.all(np.isfinite(log.dq)) and np.all(np.abs(log.dq) <= 0.3 + 1e-12)
-    # hqp gives the same bound its slack instead: no fallback, the bound is pushed as hard as the limits allow
+    # hqp gives the same bound its slack instead, pushed as hard as the limits allow, and reports the contradiction
     log_h = rk.simulate(robot, stack, rk.HierarchicalQPResolver(), CASE2_Q0, dt=0.01, steps=30)
-    assert not log_h.fallbacks
+    assert len(log_h.fallbacks) == 30
+    assert all("level 1 contradicted" in why and "far:lower" in why for _, why in log_h.fallbacks)
     plain = rk.simulate(robot, rk.TaskStack(stack.tasks), rk.HierarchicalQPResolver(), CASE2_Q0, dt=0.01, steps=30)
     assert np.all(log_h.dq[:-1, 0] > plain.dq[:-1, 0] + 5e-3)  # θ1 is pushed up, as far as the tip task lets it
     assert log_h.max_task_error < plain.max_task_error + 1e-6  # ... without giving up level 0

@@ -23,7 +23,7 @@ def case2_stack(gain: float = 1.0, priority: int = 1) -> rk.TaskStack:
     """Case 2: tip line v = (0.2, −0.4) m/s, p = sin²θ3 with k = 1 as a gradient subtask."""
     return rk.TaskStack(
         [rk.FrameTask("3", rk.Line([0.2, -0.4]), axes="planar")],
-        [rk.Subtask(rk.JointSine2("3"), gain=gain, priority=priority)],
+        [rk.GradientSubtask(rk.JointSine2("3"), gain=gain)],
     )
 
 

@@ -11,7 +11,17 @@ from redundik.errors import ResolverError
 from redundik.kinematics import DHRow, from_dh
 from redundik.resolvers import FeedbackResolver, PinvResolver, pseudo_inverse
 from redundik.simulation import simulate
-from redundik.tasks import FrameTask, JointCentering, JointSine2, Line, Subtask, TaskStack, VirtualPoint
+from redundik.tasks import (
+    BoundSubtask,
+    FrameTask,
+    GradientSubtask,
+    JointCentering,
+    JointSine2,
+    Line,
+    TargetSubtask,
+    TaskStack,
+    VirtualPoint,
+)
 
 from .helpers import planar3r, random_dh_robot
 
@@ -58,7 +68,7 @@ def test_damping_bounds_the_velocity_near_singularity_and_is_reported() -> None:
 
 
 def _stack_3r(gain: float = 1.0) -> TaskStack:
-    subs = [Subtask(JointSine2("3"), gain=gain)] if gain else []
+    subs = [GradientSubtask(JointSine2("3"), gain=gain)] if gain else []
     return TaskStack([FrameTask("3", Line([0.2, -0.4]), axes="planar")], subs)
 
 
@@ -70,7 +80,7 @@ def test_rank_and_null_parts_are_orthogonal_and_null_part_does_not_move_the_task
     robot.update(q)
     stack = TaskStack(
         [FrameTask("j7", Line([0.1, 0.0, -0.2]), axes="position")],
-        [Subtask(JointCentering(), gain=-1.0), Subtask(VirtualPoint("j3", [0.5, 0.5, 0.5]), gain=-0.5)],
+        [GradientSubtask(JointCentering(), gain=-1.0), GradientSubtask(VirtualPoint("j3", [0.5, 0.5, 0.5]), gain=-0.5)],
     )
     stack.reset(robot)
     res = PinvResolver().solve(robot, stack, 0.0, 0.01)
@@ -90,7 +100,7 @@ def test_null_motion_moves_the_potential_in_the_sign_of_k(k: float) -> None:
     for _ in range(50):
         q = robot.random_configuration(rng)
         robot.update(q)
-        stack = TaskStack([FrameTask("3", Line([0.2, -0.4]), axes="planar")], [Subtask(pot, gain=k)])
+        stack = TaskStack([FrameTask("3", Line([0.2, -0.4]), axes="planar")], [GradientSubtask(pot, gain=k)])
         stack.reset(robot)
         res = PinvResolver().solve(robot, stack, 0.0, 0.01)
         pdot_n = pot.gradient(robot) @ res.dq_null
@@ -114,7 +124,7 @@ def test_feedback_law_converges_at_rate_k() -> None:
     K, pd = 2.0, 0.9
     stack = TaskStack(
         [FrameTask("3", Line([0.2, -0.4]), axes="planar", gain=5.0)],
-        [Subtask(JointSine2("3"), mode="target", target=pd, rate=K)],
+        [TargetSubtask(JointSine2("3"), target=pd, rate=K)],
     )
     dt = 1e-3
     log = simulate(robot, stack, FeedbackResolver(), q0, dt=dt, steps=1500)
@@ -133,12 +143,12 @@ def test_feedback_refuses_more_subtasks_than_null_space_dimension() -> None:
     stack = TaskStack(
         [FrameTask("3", Line([0.2, -0.4]), axes="planar")],
         [
-            Subtask(JointSine2("3"), mode="target", target=1.0),
-            Subtask(JointSine2("2"), mode="target", target=1.0),
+            TargetSubtask(JointSine2("3"), target=1.0),
+            TargetSubtask(JointSine2("2"), target=1.0),
         ],
     )
     stack.reset(robot)
-    with pytest.raises(ResolverError, match=r"2 subtasks but the null space of the 2×3 .* dimension at most 1"):
+    with pytest.raises(ResolverError, match=r"2 target subtasks but the null space of the 2×3 .* has dimension 1"):
         FeedbackResolver().check(robot, stack)
 
 
@@ -148,11 +158,15 @@ def test_feedback_with_singular_decoupling_matrix_gives_no_nan() -> None:
     robot.update(q)
     stack = TaskStack(
         [FrameTask("3", Line([0.2, -0.4]), axes="planar")],
-        [Subtask(JointSine2("3"), mode="target", target=1.0)],
+        [TargetSubtask(JointSine2("3"), target=1.0)],
     )
     stack.reset(robot)
     res = FeedbackResolver().solve(robot, stack, 0.0, 0.01)
-    assert np.all(np.isfinite(res.dq)) and res.damped and res.info["D_damped"]
+    # D = 0 exactly: the kernel truncates the zero direction (k = 0), no damping, no 0/0, and q̇ = J⁺V
+    assert np.all(np.isfinite(res.dq)) and res.fallback is None and res.info["D_rank"] == 0
+    np.testing.assert_allclose(res.gains, [0.0])
+    J = res.terms[0].J
+    np.testing.assert_allclose(res.dq, np.linalg.pinv(J) @ res.terms[0].v, atol=1e-12)
 
 
 def test_pinv_near_singularity_stays_bounded_and_says_it_damped() -> None:
@@ -168,6 +182,6 @@ def test_pinv_near_singularity_stays_bounded_and_says_it_damped() -> None:
 def test_pinv_refuses_bounds_subtasks() -> None:
     robot = planar3r()
     robot.update(robot.neutral())
-    stack = TaskStack([], [Subtask(JointSine2("3"), mode="bounds", lower=0.1)])
-    with pytest.raises(ResolverError, match="takes only 'gradient' subtasks"):
+    stack = TaskStack([], [BoundSubtask(JointSine2("3"), lower=0.1)])
+    with pytest.raises(ResolverError, match="'sin2_3' is a bound subtask; pinv accepts gradient subtasks"):
         PinvResolver().check(robot, stack)

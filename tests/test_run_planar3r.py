@@ -97,7 +97,7 @@ def test_closed_loop_is_at_least_20_times_tighter(results: dict[str, RunResult])
 def test_feedback_run_follows_the_exponential(results: dict[str, RunResult]) -> None:
     r = results["feedback"]
     sub = r.plan.stack.subtasks[0]
-    assert (sub.mode, sub.target, sub.rate) == ("target", 1.0, 1.0)
+    assert (sub.kind, sub.target, sub.rate) == ("target", 1.0, 1.0)
     t, p = r.log.t, r.log.potentials["sin2_q3"]
     expected = sub.target + (p[0] - sub.target) * np.exp(-sub.rate * t)
     assert np.max(np.abs(p - expected)) < 0.01

@@ -68,7 +68,9 @@ def test_trajectories_start_at_the_start_pose_and_interpolation_ends_at_goal() -
         (lambda: PoseInterpolation([0, 0, 0], 0.0), "duration must be > 0"),
         (lambda: PoseInterpolation([0, 0, 0], 1.0, rotation=np.diag([1.0, 1.0, -1.0])), "proper 3×3 rotation"),
         (lambda: FrameTask("tip", axes=["x", "q"]), "expected distinct names"),
-        (lambda: FrameTask("tip", gain=-1.0), "gain must be a finite number ≥ 0"),
+        (lambda: FrameTask("tip", gain=-1.0), "gain must be ≥ 0, got -1"),
+        (lambda: FrameTask("tip", gain=float("nan")), "gain must be a finite number"),
+        (lambda: FrameTask("../x"), "not valid"),
     ],
 )
 def test_bad_task_parameters_raise(make, match) -> None:

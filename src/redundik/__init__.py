@@ -8,7 +8,7 @@ Typical control-loop use::
     import redundik as rk
     robot = rk.from_dh([rk.DHRow("1", a=1), rk.DHRow("2", a=1), rk.DHRow("3", a=1)])
     stack = rk.TaskStack([rk.FrameTask("3", rk.Line([0.2, -0.4]), axes="planar")],
-                         [rk.Subtask(rk.JointSine2("3"), gain=1.0)])
+                         [rk.GradientSubtask(rk.JointSine2("3"), gain=1.0)])
     resolver = rk.PinvResolver()
     robot.update(q); stack.reset(robot)
     for tick in ...:
@@ -39,10 +39,14 @@ from redundik.resolvers import (
 )
 from redundik.simulation import SimulationLog, simulate
 from redundik.tasks import (
+    Barrier,
+    BarrierTerm,
     BestPosture,
+    BoundSubtask,
     Circle,
     Clearance,
     FrameTask,
+    GradientSubtask,
     Hold,
     JointCentering,
     JointCoupling,
@@ -55,6 +59,7 @@ from redundik.tasks import (
     Potential,
     PotentialTask,
     Subtask,
+    TargetSubtask,
     Task,
     TaskStack,
     TaskTerm,
@@ -64,13 +69,17 @@ from redundik.tasks import (
 __version__ = "0.1.0"
 
 __all__ = [
+    "Barrier",
+    "BarrierTerm",
     "BestPosture",
+    "BoundSubtask",
     "Circle",
     "Clearance",
     "ConfigError",
     "DHRow",
     "FeedbackResolver",
     "FrameTask",
+    "GradientSubtask",
     "HierarchicalQPResolver",
     "Hold",
     "JointCentering",
@@ -95,6 +104,7 @@ __all__ = [
     "SolverError",
     "StepResult",
     "Subtask",
+    "TargetSubtask",
     "Task",
     "TaskError",
     "TaskStack",

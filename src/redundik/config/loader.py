@@ -31,7 +31,7 @@ from redundik.config.schema import MAX_STEPS, RunSpec, SubtaskSpec, TaskFileSpec
 from redundik.config.yamlio import join_path, read_yaml, validate
 from redundik.errors import ConfigError, RedundikError
 from redundik.resolvers import RESOLVERS, Resolver, make_resolver
-from redundik.tasks import Potential, Subtask, Task, TaskStack
+from redundik.tasks import BoundSubtask, GradientSubtask, Potential, Subtask, TargetSubtask, Task, TaskStack
 
 
 @dataclass
@@ -266,23 +266,50 @@ def _check_options(options: dict[str, Any], path: str) -> None:
             raise ConfigError(f"expected a finite number, got {val}", join_path(path, key))
 
 
+_KINDS = {"gradient": "gradient", "target": "target", "bound": "bound", "bounds": "bound"}
+
+
 def _subtask(pot: Potential, sub: SubtaskSpec, path: str) -> Subtask:
-    mode = sub.mode
-    if mode is None:
+    """A typed subtask from its YAML entry: ``kind`` (or the old ``mode``) if given, else inferred from the keys."""
+    kind = sub.kind or (None if sub.mode is None else _KINDS[sub.mode])
+    if kind is None:
         if sub.target is not None:
-            mode = "target"
+            kind = "target"
         elif sub.lower is not None or sub.upper is not None:
-            mode = "bounds"
+            kind = "bound"
         else:
-            mode = "gradient"
-    kwargs: dict[str, Any] = {
-        k: getattr(sub, k)
+            kind = "gradient"
+    allowed = {
+        "gradient": ("gain",),
+        "target": ("target", "rate", "target_rate", "weight", "priority"),
+        "bound": ("lower", "upper", "rate", "priority"),
+    }[kind]
+    given = [
+        k
         for k in ("gain", "target", "rate", "target_rate", "lower", "upper", "weight", "priority")
         if getattr(sub, k) is not None
-    }
+    ]
+    extra = [k for k in given if k not in allowed]
+    if extra:
+        why = ""
+        if kind == "gradient":
+            why = (
+                " (a gradient subtask z = kη has no weight or level of its own: its gain k sets its strength and it "
+                "always lies in the null space of everything above, see docs/stack.md; remove the key)"
+            )
+        raise ConfigError(f"a {kind} subtask takes {', '.join(allowed)}; remove {', '.join(extra)}{why}", path)
+    kwargs: dict[str, Any] = {k: getattr(sub, k) for k in given}
     try:
-        return Subtask(pot, mode=mode, **kwargs)
+        if kind == "gradient":
+            return GradientSubtask(pot, **kwargs)
+        if kind == "target":
+            if "target" not in kwargs:
+                raise ConfigError("a target subtask needs 'target'", path)
+            return TargetSubtask(pot, **kwargs)
+        return BoundSubtask(pot, **kwargs)
     except RedundikError as exc:
+        if isinstance(exc, ConfigError):
+            raise
         raise ConfigError(str(exc).removeprefix(f"subtask '{pot.name}': "), path) from None
 
 

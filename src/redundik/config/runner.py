@@ -132,10 +132,13 @@ def summarise(plan: TaskPlan, result: RunResult) -> dict[str, Any]:
         "task_errors": {k: {"max": float(np.max(v)), "final": float(v[-1])} for k, v in log.task_errors.items()},
         "subtasks": {
             s.name: {
-                "mode": s.mode,
-                "initial": float(log.potentials[s.name][0]),
-                "final": float(log.potentials[s.name][-1]),
-                **({"target": float(s.target)} if s.target is not None else {}),
+                "kind": s.kind,
+                **(
+                    {"initial": float(log.potentials[s.name][0]), "final": float(log.potentials[s.name][-1])}
+                    if s.name in log.potentials
+                    else {}
+                ),
+                **({"target": float(s.target)} if getattr(s, "target", None) is not None else {}),
             }
             for s in run.stack.subtasks
         },

@@ -135,11 +135,14 @@ class RobotSpec(StrictModel):
 
 # ---------------------------------------------------------------------------------------------------- task files
 class SubtaskSpec(StrictModel):
-    """How one run uses a named potential (fields of :class:`redundik.tasks.Subtask`).
+    """How one run uses a named potential: a typed subtask (:mod:`redundik.tasks.subtasks`).
 
-    ``mode`` defaults to ``target`` when a target is given, ``bounds`` when lower/upper are, else ``gradient``.
+    ``kind``: ``gradient`` (``gain``), ``target`` (``target``, ``rate``, ``target_rate``, ``weight``, ``priority``)
+    or ``bound`` (``lower``/``upper``, ``rate``, ``priority``); inferred when omitted (``target`` → target,
+    ``lower``/``upper`` → bound, else gradient). ``mode`` is the old spelling of ``kind`` (``bounds`` = ``bound``).
     """
 
+    kind: Literal["gradient", "target", "bound"] | None = None
     mode: Literal["gradient", "target", "bounds"] | None = None
     gain: float | None = None
     target: float | None = None
@@ -147,7 +150,7 @@ class SubtaskSpec(StrictModel):
     target_rate: float | None = None
     lower: float | None = None
     upper: float | None = None
-    weight: float | None = Field(default=None, ge=0)
+    weight: float | None = Field(default=None, gt=0)
     priority: int | None = Field(default=None, ge=0)
 
 

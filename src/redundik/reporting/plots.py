@@ -147,16 +147,16 @@ def plot_potentials(plan: TaskPlan, results: dict[str, RunResult], path: Path) -
             if pname in r.log.potentials:
                 sub = next((s for s in r.plan.stack.subtasks if s.name == pname), None)
                 style = "-" if sub is not None or monitor else "--"
-                label = name if monitor else f"{name} (not controlled)" if sub is None else f"{name} ({sub.mode})"
+                label = name if monitor else f"{name} (not controlled)" if sub is None else f"{name} ({sub.kind})"
                 t, p = r.log.t, r.log.potentials[pname]
                 ax.plot(t, p, color=c, ls=style, label=label, lw=_lw(i, len(results)))
-                if sub is not None and sub.mode == "target" and sub.target is not None:
+                if sub is not None and sub.kind == "target":
                     ax.axhline(sub.target, color=c, ls=":", lw=1)
                     ideal = sub.target + (p[0] - sub.target) * np.exp(-sub.rate * (t - t[0]))
                     ax.plot(
                         t, ideal, color="k", ls=":", lw=1.2, label=f"{name}: p_d + (p₀ − p_d)e^(−Kt), K = {sub.rate:g}"
                     )
-                for bound in (sub.lower, sub.upper) if sub is not None and sub.mode == "bounds" else ():
+                for bound in (sub.lower, sub.upper) if sub is not None and sub.kind == "bound" else ():
                     if bound is not None:
                         ax.axhline(bound, color=c, ls=":", lw=1)
             elif pname in torque_names and f"m.{pname}.max" in r.series:

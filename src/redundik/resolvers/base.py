@@ -1,14 +1,31 @@
-"""What every resolver shares: the step result record and the abstract interface."""
+"""What every resolver shares: the step result record, input validation, and the abstract interface.
+
+The contract of :meth:`Resolver.step` (the call a control loop makes once per tick):
+
+* q must be finite and of size nq, dt finite and > 0, t finite: otherwise a :class:`ResolverError` naming the value;
+* the stack is checked on first use and whenever its membership changes (:meth:`TaskStack.signature`): subtask
+  kinds the resolver does not accept are refused with an error that names the subtask and lists what it accepts;
+* a task gain K with K·dt > 2 is refused (the first-order loop e ← (1 − K dt) e diverges);
+* the returned q̇ is always finite; when an intermediate is not, the step says so in ``fallback`` with the terms
+  that caused it, and q̇ is the safest value the resolver has (zero, clipped to the limits).
+"""
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 
+from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
-from redundik.tasks.base import TaskStack, TaskTerm
+from redundik.tasks.base import TaskTerm
+from redundik.tasks.stack import TaskStack
+
+#: Largest stable K·dt of the first-order update (e ← (1 − K dt) e).
+STABLE_GAIN_DT = 2.0
 
 
 @dataclass
@@ -17,16 +34,18 @@ class StepResult:
 
     Attributes:
         dq: Joint velocity q̇, shape (nv,), always finite.
-        terms: The main-task terms the step was computed from.
+        terms: The task terms the step was computed from (main and regularisation tasks, in stack order).
         dq_rank: The rank (main-task) part J⁺V when the resolver separates it, else ``None``.
         dq_null: The null-space part when the resolver separates it, else ``None``.
         gains: Subtask gains k actually used (state-feedback law), or ``None``.
-        damped: True when the pseudo-inverse was damped near a singularity.
-        damping: λ used.
+        damped: True when a singular direction was damped.
+        damping: Largest λ used.
+        sigma_min: Smallest nonzero singular value of the main-task Jacobian (or of the top level) [unit of J].
         fallback: Why the resolver fell back to a simpler method, or ``None``.
-        info: Resolver-specific diagnostics (active constraints, level residuals, ...).
+        info: Resolver-specific diagnostics by name (numbers go to the run's CSV).
         build_time: Seconds spent building the problem.
         solve_time: Seconds spent solving it.
+        main: Indices into ``terms`` of the main tasks (``None``: all of them).
     """
 
     dq: np.ndarray
@@ -36,49 +55,135 @@ class StepResult:
     gains: np.ndarray | None = None
     damped: bool = False
     damping: float = 0.0
+    sigma_min: float = math.inf
     fallback: str | None = None
     info: dict[str, object] = field(default_factory=dict)
     build_time: float = 0.0
     solve_time: float = 0.0
+    main: list[int] | None = None
+
+    @property
+    def main_terms(self) -> list[TaskTerm]:
+        """The main tasks' terms (regularisation tasks left out)."""
+        return self.terms if self.main is None else [self.terms[i] for i in self.main]
 
     @property
     def task_error(self) -> float:
         """Norm of the stacked main-task error."""
-        if not self.terms:
+        terms = self.main_terms
+        if not terms:
             return 0.0
-        return float(np.sqrt(sum(float(t.error @ t.error) for t in self.terms)))
+        return float(np.sqrt(sum(float(t.error @ t.error) for t in terms)))
+
+
+def nonfinite_sources(terms: list[TaskTerm], **arrays: np.ndarray | None) -> list[str]:
+    """Names of the terms (and named arrays) holding NaN or infinite values, for a diagnosed fallback."""
+    bad = [t.name for t in terms if not (np.isfinite(t.J).all() and np.isfinite(t.v).all())]
+    bad += [k for k, a in arrays.items() if a is not None and not np.isfinite(a).all()]
+    return bad
 
 
 class Resolver(ABC):
     """Turns a task stack into a joint velocity, one control tick at a time.
 
-    Subclasses implement :meth:`solve`, which reads a robot already updated at the current configuration.
-    :meth:`step` is the call for a control loop: update kinematics at q, then solve.
+    Subclasses implement :meth:`solve`, which reads a robot already updated at the current configuration, and
+    declare the subtask kinds they accept in :attr:`accepts`. :meth:`step` is the call for a control loop.
     """
 
     name: str = "resolver"
+    #: Subtask kinds (``Subtask.kind``) this resolver resolves; others are refused by :meth:`check`.
+    accepts: ClassVar[tuple[str, ...]] = ()
 
-    def check(self, robot: RobotModel, stack: TaskStack) -> None:  # noqa: B027 - optional hook
-        """Refuse a stack this resolver cannot handle (raise :class:`~redundik.errors.ResolverError`)."""
+    _checked: tuple[int, ...] | None = None
 
-    def reset(self) -> None:  # noqa: B027 - optional hook
-        """Forget any state kept between steps (warm starts, previous q̇)."""
+    def check(self, robot: RobotModel, stack: TaskStack) -> None:
+        """Refuse a stack this resolver cannot handle.
+
+        Raises:
+            ResolverError: a subtask kind the resolver does not accept (names it, lists the accepted kinds), or a
+                malformed stack.
+        """
+        if not isinstance(stack, TaskStack):
+            raise ResolverError(f"{self.name}: expected a TaskStack, got {type(stack).__name__}")
+        stack.check(robot)
+        for sub in stack.subtasks:
+            if sub.kind not in self.accepts:
+                raise ResolverError(
+                    f"{self.name}: subtask '{sub.name}' is a {sub.kind} subtask; {self.name} accepts "
+                    f"{', '.join(self.accepts) or 'no'} subtasks{self._hint(sub.kind)}"
+                )
+
+    def _hint(self, kind: str) -> str:
+        return {
+            "target": " (use 'feedback', 'wqp' or 'hqp' to drive a potential to a target)",
+            "bound": " (use 'wqp' or 'hqp' for bounds and barriers)",
+        }.get(kind, "")
+
+    def reset(self) -> None:
+        """Forget any state kept between steps (warm starts, previous q̇, the checked stack)."""
+        self._checked = None
 
     @abstractmethod
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
         """Resolve the stack at the robot's current state, time t [s], for a step dt [s]."""
 
     def step(self, robot: RobotModel, stack: TaskStack, q: np.ndarray, t: float, dt: float) -> StepResult:
-        """Update the kinematics at ``q`` and resolve one step; the call to make once per control tick."""
+        """Validate, update the kinematics at ``q`` and resolve one step; the call to make once per control tick.
+
+        Raises:
+            ResolverError: q not finite or of the wrong size, dt not finite and > 0, t not finite, a refused stack,
+                or a task gain with K·dt > 2.
+        """
+        q = self.check_inputs(robot, q, t, dt)
         robot.update(q)
-        return self.solve(robot, stack, t, dt)
+        sig = (id(robot), *stack.signature())
+        if sig != self._checked:
+            self.check(robot, stack)
+            self._checked = sig
+        check_gains(stack, dt, self.name)
+        return self.solve(robot, stack, float(t), float(dt))
+
+    def check_inputs(self, robot: RobotModel, q: np.ndarray, t: float, dt: float) -> np.ndarray:
+        """Validated q (as a float array) after checking t and dt; raises :class:`ResolverError` otherwise."""
+        try:
+            arr = np.asarray(q, dtype=float).reshape(-1)
+        except (TypeError, ValueError) as exc:
+            raise ResolverError(f"{self.name}: q must be an array of {robot.nq} numbers: {exc}") from None
+        if arr.shape[0] != robot.nq:
+            raise ResolverError(f"{self.name}: q has {arr.shape[0]} entries, the robot has nq = {robot.nq}")
+        if not np.isfinite(arr).all():
+            idx = np.flatnonzero(~np.isfinite(arr)).tolist()
+            raise ResolverError(f"{self.name}: q contains NaN or infinite values at indices {idx[:8]}")
+        for key, val in (("dt", dt), ("t", t)):
+            if isinstance(val, bool) or not isinstance(val, (int, float, np.integer, np.floating)):
+                raise ResolverError(f"{self.name}: {key} must be a number [s], got {type(val).__name__}")
+            if not math.isfinite(float(val)):
+                raise ResolverError(f"{self.name}: {key} must be finite [s], got {val}")
+        if not dt > 0:
+            raise ResolverError(f"{self.name}: dt must be > 0 [s], got {dt}")
+        return arr
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"
 
 
-def finite_or_zero(dq: np.ndarray) -> tuple[np.ndarray, bool]:
-    """Return ``dq`` unchanged if finite, else zeros and ``False`` (a resolver must never output NaN)."""
-    if np.isfinite(dq).all():
-        return dq, True
-    return np.zeros_like(dq), False
+def check_gains(stack: TaskStack, dt: float, who: str) -> None:
+    """Refuse a task or target-subtask gain K with K·dt > 2 (the first-order loop would diverge).
+
+    Raises:
+        ResolverError: names the task, its gain, dt and the stable range.
+    """
+    limit = STABLE_GAIN_DT / dt
+    for task in stack.tasks:
+        if task.gain > limit:
+            raise ResolverError(
+                f"{who}: task '{task.name}' has gain {task.gain:g} /s with dt = {dt:g} s: K·dt = {task.gain * dt:g} "
+                f"> 2 makes the first-order loop diverge; use a gain < {limit:g} /s "
+                f"(≤ {1 / dt:g} closes the error in one step)"
+            )
+    for sub in stack.target_subtasks:
+        if sub.rate > limit:
+            raise ResolverError(
+                f"{who}: subtask '{sub.name}' has rate {sub.rate:g} /s with dt = {dt:g} s: K·dt > 2 diverges; "
+                f"use a rate < {limit:g} /s"
+            )

@@ -1,96 +1,111 @@
 """The chapter's nonlinear state-feedback law for the subtask gains (section 5.2, after eq. 5.15).
 
-With N = (η_1 … η_r) and y = (p_1 … p_r)ᵀ, eq. (5.15) gives ẏ = NᵀJ⁺V + D k with the decoupling matrix
-D = Nᵀ(I − J⁺J)N. Asking ẏ = ẏ_d + K(y_d − y) yields
+With N = (η_1 … η_r) of the target subtasks and y = (p_1 … p_r)ᵀ, eq. (5.15) gives, for
+q̇ = J⁺V + P(N k + z) (P = I − J⁺J, z the stack's null-space objective: gradient subtasks and posture),
 
-    k = D⁻¹[ẏ_d + K(y_d − y)] − D⁻¹NᵀJ⁺V,    q̇ = J⁺V + (I − J⁺J) N k,
+    ẏ = NᵀJ⁺V + D k + NᵀP z,   D = Nᵀ P N.
 
-so each p_i converges to p_i^d exponentially at rate K_i (exactly in continuous time, to O(dt) with Euler steps).
-D is r×r and can be non-singular only if r ≤ dim N(J) = n − rank(J); a singular D (e.g. a gradient that vanishes
-or lies in the rank space) is handled by damped least squares on D instead of a NaN (reported as ``damped``).
+Asking ẏ = ẏ_d + K(y_d − y) yields the chapter's law, extended by the z term:
+
+    k = D⁻¹[ẏ_d + K(y_d − y) − NᵀJ⁺V − NᵀP z],
+
+so each p_i converges to p_i^d exponentially at rate K_i (exactly in continuous time, to O(dt) with Euler steps)
+and, with no target subtasks, the law is exactly ``pinv``. D is r×r and can be non-singular only if
+r ≤ dim N(J) = n − rank(J). D is inverted by the shared damped-SVD kernel with scale-free thresholds
+(ε_D = d_epsilon·‖N‖_F², truncation of exact zeros): a gradient that vanishes (N = 0 at a potential's own
+optimum) gives k = 0, never 0/0.
 """
 
 from __future__ import annotations
 
 import time
+from typing import ClassVar
 
 import numpy as np
 
 from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
-from redundik.resolvers.base import Resolver, StepResult, finite_or_zero
-from redundik.resolvers.linalg import pseudo_inverse
-from redundik.tasks.base import TaskStack, stack_terms
+from redundik.resolvers.base import Resolver, StepResult, nonfinite_sources
+from redundik.resolvers.linalg import damped_svd, pseudo_inverse
+from redundik.resolvers.pinv import check_damping_options, main_system
+from redundik.tasks.stack import StackLayout, TaskStack
 
 
 class FeedbackResolver(Resolver):
     """Nonlinear state-feedback control of the subtask gains k (the chapter's decoupling law).
 
-    Every subtask must be in mode ``"target"`` (target p_d, rate K, optional ṗ_d).
+    Accepts target subtasks (target p_d, rate K, optional ṗ_d) and gradient subtasks (the null-space objective,
+    as ``pinv``).
 
     Args:
         epsilon: Damping threshold of J⁺ (see :mod:`redundik.resolvers.linalg`).
         max_damping: λ_max of J⁺.
-        d_epsilon: Relative threshold: D⁻¹ is damped when σ_min(D) < d_epsilon·‖N‖_F², i.e. when the subtask
-            gradients have almost no component left in the null space (scale-free, so the rule does not depend on
-            the units of the potentials). The damping is then λ = d_epsilon·‖N‖_F².
+        d_epsilon: Relative threshold: a direction of D is damped when its singular value is below
+            d_epsilon·‖N‖_F² (scale-free: independent of the potentials' units), with λ_max = the same value.
     """
 
     name = "feedback"
+    accepts: ClassVar[tuple[str, ...]] = ("gradient", "target")
 
     def __init__(self, epsilon: float = 1e-2, max_damping: float = 5e-2, d_epsilon: float = 1e-3) -> None:
-        self.epsilon, self.max_damping, self.d_epsilon = float(epsilon), float(max_damping), float(d_epsilon)
+        self.epsilon, self.max_damping = check_damping_options("feedback", epsilon, max_damping)
+        self.d_epsilon = check_damping_options("feedback", d_epsilon, 0.0)[0]
+        self._layout: tuple[tuple[int, ...], StackLayout] | None = None
 
     def check(self, robot: RobotModel, stack: TaskStack) -> None:
-        for s in stack.subtasks:
-            if s.mode != "target":
-                raise ResolverError(
-                    f"feedback: subtask '{s.name}' has mode '{s.mode}'; the state-feedback law drives potentials "
-                    "to a target: give it mode 'target' with a target value"
-                )
-        m = sum(len(t.evaluate(robot, 0.0).v) for t in stack.tasks)
-        r = len(stack.subtasks)
-        if r > robot.nv - m:
+        super().check(robot, stack)
+        r = len(stack.target_subtasks)
+        if not r:
+            return
+        layout = stack.layout()
+        J, _, _ = main_system(robot, stack, stack.evaluate(robot, 0.0), layout)
+        rank = pseudo_inverse(J, epsilon=0.0).rank
+        free = robot.nv - rank
+        if r > free:
             raise ResolverError(
-                f"feedback: {r} subtasks but the null space of the {m}×{robot.nv} main-task Jacobian has dimension "
-                f"at most {robot.nv - m}; D = Nᵀ(I − J⁺J)N would be singular. Remove "
-                f"{r - (robot.nv - m)} subtask(s) or use 'pinv' / 'hqp'"
+                f"feedback: {r} target subtasks but the null space of the {J.shape[0]}×{robot.nv} main-task Jacobian "
+                f"(rank {rank}) has dimension {free}; D = Nᵀ(I − J⁺J)N would be singular. Remove {r - free} "
+                "target subtask(s) or use 'hqp'"
             )
 
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
         t0 = time.perf_counter()
         terms = stack.evaluate(robot, t)
-        J, V = stack_terms(terms, robot.nv)
-        subs = stack.subtasks
+        sig = stack.signature()
+        if self._layout is None or self._layout[0] != sig:
+            self._layout = (sig, stack.layout())
+        layout = self._layout[1]
+        J, V, z = main_system(robot, stack, terms, layout)
+        subs = stack.target_subtasks
         r = len(subs)
         N = np.empty((robot.nv, r))
-        y = np.empty(r)
+        rhs = np.empty(r)
         for i, s in enumerate(subs):
-            N[:, i] = s.potential.gradient(robot)
-            y[i] = s.potential.value(robot)
-        yd = np.array([s.target for s in subs], dtype=float)
-        yd_dot = np.array([s.target_rate for s in subs], dtype=float)
-        K = np.array([s.rate for s in subs], dtype=float)
+            eta, v, _ = s.row(robot)  # v = ṗ_d + K (p_d − p)
+            N[:, i] = eta
+            rhs[i] = v
         t1 = time.perf_counter()
         pi = pseudo_inverse(J, epsilon=self.epsilon, max_damping=self.max_damping)
         dq_r = pi.pinv @ V
-        PN = pi.null_projector @ N  # (n, r)
-        D = N.T @ PN  # (r, r), symmetric positive semi-definite
-        rhs = yd_dot + K * (yd - y) - N.T @ dq_r
-        d_damped = False
+        Pz = pi.null_projector @ z if z is not None else np.zeros(robot.nv)
+        d_damped, d_rank = False, 0
+        k = np.zeros(r)
         if r:
-            U, s, Vt = np.linalg.svd(D)
-            lam = self.d_epsilon * max(float(np.sum(N * N)), 1e-300)
-            if s[-1] < lam:
-                d_damped = True
-                inv_s = s / (s * s + lam**2)
-            else:
-                inv_s = 1.0 / s
-            k = Vt.T @ (inv_s * (U.T @ rhs))
+            PN = pi.null_projector @ N  # (n, r)
+            D = N.T @ PN  # (r, r), symmetric positive semi-definite
+            scale = float(np.sum(N * N))
+            dk = damped_svd(D, epsilon=self.d_epsilon * scale, max_damping=self.d_epsilon * scale)
+            k = dk.solve(rhs - N.T @ dq_r - N.T @ Pz)
+            d_damped, d_rank = dk.damped, dk.rank
+            dq_n = PN @ k + Pz
         else:
-            k = np.zeros(0)
-        dq_n = PN @ k
-        dq, ok = finite_or_zero(dq_r + dq_n)
+            dq_n = Pz
+        dq = dq_r + dq_n
+        fallback = None
+        if not np.isfinite(dq).all():
+            bad = nonfinite_sources(terms, z=z, subtask_gradients=N)
+            fallback = f"non-finite q̇ (from {', '.join(bad) or 'the decoupling law'}): q̇ = 0 this step"
+            dq = np.zeros(robot.nv)
         t2 = time.perf_counter()
         return StepResult(
             dq=dq,
@@ -100,11 +115,13 @@ class FeedbackResolver(Resolver):
             gains=k,
             damped=pi.damped or d_damped,
             damping=pi.damping,
-            fallback=None if ok else "non-finite q̇ replaced by zero",
-            info={"sigma_min": pi.sigma_min, "rank": pi.rank, "D_damped": d_damped},
+            sigma_min=pi.sigma_min,
+            fallback=fallback,
+            info={"sigma_min": pi.sigma_min, "rank": pi.rank, "D_damped": d_damped, "D_rank": d_rank},
             build_time=t1 - t0,
             solve_time=t2 - t1,
+            main=layout.main,
         )
 
     def __repr__(self) -> str:
-        return f"FeedbackResolver(epsilon={self.epsilon})"
+        return f"FeedbackResolver(epsilon={self.epsilon}, d_epsilon={self.d_epsilon})"

@@ -1,61 +1,86 @@
 """The chapter's closed form: rank solution plus null-space gradient projection, eqs. (5.8) and (5.15).
 
-q̇ = J⁺V + (I − J⁺J) Σ_i k_i η_i = J⁺V + (I − J⁺J) N k.
+q̇ = J⁺V + (I − J⁺J) z,   z = Σ_i k_i η_i + Σ_r K_r e_r  (gradient subtasks and identity regularisers such as a
+posture: the stack's null-space objective, :mod:`redundik.tasks.stack`).
 """
 
 from __future__ import annotations
 
 import time
+from typing import ClassVar
 
 import numpy as np
 
 from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
-from redundik.resolvers.base import Resolver, StepResult, finite_or_zero
+from redundik.resolvers.base import Resolver, StepResult, nonfinite_sources
 from redundik.resolvers.linalg import pseudo_inverse
-from redundik.tasks.base import TaskStack, stack_terms
+from redundik.tasks.base import TaskTerm, stack_terms
+from redundik.tasks.stack import StackLayout, TaskStack
+
+
+def check_damping_options(who: str, epsilon: float, max_damping: float) -> tuple[float, float]:
+    """Validated (ε, λ_max): finite numbers ≥ 0."""
+    for key, val in (("epsilon", epsilon), ("max_damping", max_damping)):
+        if isinstance(val, bool) or not isinstance(val, (int, float, np.integer, np.floating)):
+            raise ResolverError(f"{who}: {key} must be a number, got {type(val).__name__}")
+        if not (np.isfinite(val) and val >= 0):
+            raise ResolverError(f"{who}: {key} must be a finite number ≥ 0, got {val}")
+    return float(epsilon), float(max_damping)
+
+
+def main_system(
+    robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], layout: StackLayout
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """(J, V) of every main task stacked (eq. 5.6) and z of the null-space objective (``None`` if empty).
+
+    Regularisation tasks that are not identity blocks (rare) are left out of these closed forms.
+    """
+    main_terms = [terms[i] for i in layout.main]
+    J, V = stack_terms(main_terms, robot.nv)
+    return J, V, stack.null_target(robot, terms, layout)
 
 
 class PinvResolver(Resolver):
     """Pseudo-inverse resolution with null-space gradient projection (5.8, 5.15).
 
-    Subtasks must be in mode ``"gradient"``: each contributes z += k_i η_i, projected on the null space of the
-    stacked main-task Jacobian. Near a singularity J⁺ is damped (see :mod:`redundik.resolvers.linalg`) and the
-    step result says so (``damped``, ``damping``, ``info["sigma_min"]``).
+    Accepts gradient subtasks (and regularisation tasks: a posture), projected on the null space of the stacked
+    main-task Jacobian. Near a singularity the small singular directions of J⁺ are damped (see
+    :mod:`redundik.resolvers.linalg`) and the step result says so (``damped``, ``damping``, ``sigma_min``).
 
     Args:
-        epsilon: Singular value under which damping starts.
-        max_damping: Damping λ_max at σ_min = 0.
+        epsilon: Singular value under which a direction is damped [unit of J].
+        max_damping: Damping λ_max as σ → 0.
     """
 
     name = "pinv"
+    accepts: ClassVar[tuple[str, ...]] = ("gradient",)
 
     def __init__(self, epsilon: float = 1e-2, max_damping: float = 5e-2) -> None:
-        if not (epsilon >= 0 and max_damping >= 0 and np.isfinite(epsilon) and np.isfinite(max_damping)):
-            raise ResolverError("pinv: epsilon and max_damping must be finite numbers ≥ 0")
-        self.epsilon, self.max_damping = float(epsilon), float(max_damping)
+        self.epsilon, self.max_damping = check_damping_options("pinv", epsilon, max_damping)
+        self._layout: tuple[tuple[int, ...], StackLayout] | None = None
 
-    def check(self, robot: RobotModel, stack: TaskStack) -> None:
-        for s in stack.subtasks:
-            if s.mode != "gradient":
-                raise ResolverError(
-                    f"pinv: subtask '{s.name}' has mode '{s.mode}'; the pseudo-inverse resolver takes only "
-                    "'gradient' subtasks (use 'feedback' for targets, 'wqp' or 'hqp' for bounds)"
-                )
+    def _stack_layout(self, stack: TaskStack) -> StackLayout:
+        sig = stack.signature()
+        if self._layout is None or self._layout[0] != sig:
+            self._layout = (sig, stack.layout())
+        return self._layout[1]
 
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
         t0 = time.perf_counter()
         terms = stack.evaluate(robot, t)
-        J, V = stack_terms(terms, robot.nv)
-        z = np.zeros(robot.nv)
-        for s in stack.subtasks:
-            if s.gain != 0.0:
-                z += s.gain * s.potential.gradient(robot)
+        layout = self._stack_layout(stack)
+        J, V, z = main_system(robot, stack, terms, layout)
         t1 = time.perf_counter()
         pi = pseudo_inverse(J, epsilon=self.epsilon, max_damping=self.max_damping)
         dq_r = pi.pinv @ V
-        dq_n = pi.null_projector @ z
-        dq, ok = finite_or_zero(dq_r + dq_n)
+        dq_n = pi.null_projector @ z if z is not None else np.zeros(robot.nv)
+        dq = dq_r + dq_n
+        fallback = None
+        if not np.isfinite(dq).all():
+            bad = nonfinite_sources(terms, z=z)
+            fallback = f"non-finite q̇ (from {', '.join(bad) or 'the pseudo-inverse'}): q̇ = 0 this step"
+            dq = np.zeros(robot.nv)
         t2 = time.perf_counter()
         return StepResult(
             dq=dq,
@@ -64,10 +89,12 @@ class PinvResolver(Resolver):
             dq_null=dq_n,
             damped=pi.damped,
             damping=pi.damping,
-            fallback=None if ok else "non-finite q̇ replaced by zero",
+            sigma_min=pi.sigma_min,
+            fallback=fallback,
             info={"sigma_min": pi.sigma_min, "rank": pi.rank},
             build_time=t1 - t0,
             solve_time=t2 - t1,
+            main=layout.main,
         )
 
     def __repr__(self) -> str:

@@ -26,7 +26,7 @@ from redundik.simulation.integrators import (
     rk4_step,
     rk45_step,
 )
-from redundik.tasks.base import TaskStack
+from redundik.tasks.stack import TaskStack
 
 
 @dataclass
@@ -44,6 +44,8 @@ class SimulationLog:
         fallbacks: (step index, reason) for each step that fell back.
         extras: Per-step scalar diagnostics by name (e.g. ``"sigma_min"``), shape (N−1,).
         frame_positions: Logged frame origins by frame name, shape (N, 3).
+        main_tasks: Names of the main tasks (regularisation tasks such as a posture are logged but not counted in
+            :attr:`stacked_error`); ``None``: every task.
     """
 
     t: np.ndarray
@@ -56,6 +58,7 @@ class SimulationLog:
     fallbacks: list[tuple[int, str]] = field(default_factory=list)
     extras: dict[str, np.ndarray] = field(default_factory=dict)
     frame_positions: dict[str, np.ndarray] = field(default_factory=dict)
+    main_tasks: list[str] | None = None
 
     @property
     def max_task_error(self) -> float:
@@ -65,9 +68,10 @@ class SimulationLog:
     @property
     def stacked_error(self) -> np.ndarray:
         """Norm of all task errors together at each sample, shape (N,)."""
-        if not self.task_errors:
+        names = list(self.task_errors) if self.main_tasks is None else self.main_tasks
+        if not names:
             return np.zeros_like(self.t)
-        return np.sqrt(sum(e**2 for e in self.task_errors.values()))
+        return np.sqrt(sum(self.task_errors[k] ** 2 for k in names))
 
 
 def simulate(
@@ -124,7 +128,8 @@ def simulate(
     resolver.check(robot, stack)
     for p in extra_potentials:
         p.check(robot)
-    watched = [s.potential for s in stack.subtasks] + list(extra_potentials)
+    watched = [p for p in (getattr(s, "potential", None) for s in stack.subtasks) if p is not None]
+    watched += list(extra_potentials)
     names_task = [t.name for t in stack.tasks]
     Q = np.empty((n, robot.nq))
     DQ = np.zeros((n, robot.nv))
@@ -139,8 +144,7 @@ def simulate(
     guard = StateGuard([resolver, *stack.tasks, *stack.subtasks, *watched])
 
     def law(t: float, q_stage: np.ndarray) -> np.ndarray:
-        robot.update(q_stage)
-        dq_stage = resolver.solve(robot, stack, t, dt).dq
+        dq_stage = resolver.step(robot, stack, q_stage, t, dt).dq
         check_finite(dq_stage, "the joint velocity q̇ (at an integrator stage)", t)
         return np.asarray(dq_stage, dtype=float)
 
@@ -148,8 +152,7 @@ def simulate(
         for k in range(n):
             t = float(times[k])
             t0 = time.perf_counter()
-            robot.update(q)
-            res: StepResult = resolver.solve(robot, stack, t, dt)
+            res: StepResult = resolver.step(robot, stack, q, t, dt)
             elapsed = time.perf_counter() - t0
             Q[k] = q
             for term in res.terms:
@@ -183,6 +186,7 @@ def simulate(
         fallbacks=fallbacks,
         extras=extras,
         frame_positions=F,
+        main_tasks=[t.name for t in stack.tasks if not t.regularization],
     )
 
 

@@ -1,8 +1,8 @@
-"""The task API: main tasks (J, V, e), subtask potentials (p, η) and trajectories."""
+"""The task API: tasks (J, V, e), potentials (p, η), barriers (h, H), typed subtasks, the stack, trajectories."""
 
-from redundik.tasks.base import Potential, Subtask, Task, TaskStack, TaskTerm, stack_terms
+from redundik.tasks.base import Barrier, BarrierTerm, Potential, Task, TaskTerm, stack_terms
 from redundik.tasks.coupling import JointCoupling
-from redundik.tasks.frame import AXIS_SETS, FrameTask, PostureTask
+from redundik.tasks.frame import AXIS_SETS, DEFAULT_HOLD_GAIN, FrameTask, PostureTask
 from redundik.tasks.potential_task import PotentialTask
 from redundik.tasks.potentials import (
     BestPosture,
@@ -13,26 +13,36 @@ from redundik.tasks.potentials import (
     Manipulability,
     VirtualPoint,
 )
+from redundik.tasks.stack import LevelPlan, StackLayout, TaskStack
+from redundik.tasks.subtasks import BoundSubtask, GradientSubtask, Subtask, TargetSubtask
 from redundik.tasks.trajectory import Circle, Hold, Line, PoseInterpolation, Trajectory
 
 __all__ = [
     "AXIS_SETS",
+    "DEFAULT_HOLD_GAIN",
+    "Barrier",
+    "BarrierTerm",
     "BestPosture",
+    "BoundSubtask",
     "Circle",
     "Clearance",
     "FrameTask",
+    "GradientSubtask",
     "Hold",
     "JointCentering",
     "JointCoupling",
     "JointSine2",
     "JointValue",
+    "LevelPlan",
     "Line",
     "Manipulability",
     "PoseInterpolation",
     "PostureTask",
     "Potential",
     "PotentialTask",
+    "StackLayout",
     "Subtask",
+    "TargetSubtask",
     "Task",
     "TaskStack",
     "TaskTerm",

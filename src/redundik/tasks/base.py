@@ -1,23 +1,72 @@
 """The task contract every resolver reads.
 
-* A **task** (main task, or a QP level) gives, at the current kinematic state, a :class:`TaskTerm`:
-  a Jacobian J (m×n), a desired velocity V (m,) and an error e (m,), so that J q̇ = V is what it asks for (eq. 5.6).
+* A **task** (a main task, or a regularisation task such as a posture) gives, at the current kinematic state, a
+  :class:`TaskTerm`: a Jacobian J (m×n), a desired velocity V (m,) and an error e (m,), so that J q̇ = V is what it
+  asks for (eq. 5.6). Its shared fields — ``name``, ``weight``, ``gain``, ``priority`` — live here with one
+  validation. A task *declares* what a resolver may exploit (:attr:`Task.identity_jacobian`: J = I, a diagonal
+  update; :attr:`Task.regularization`: it lies below every main task and subtask), so no resolver tests classes.
 * A **potential** is a scalar p(q) with its exact gradient η = ∂p/∂q (n,) — the subtasks of section 5.2.
-* A :class:`Subtask` says how a resolver should use a potential: with a gain k in the null space (eq. 5.8),
-  driven to a target value (the state-feedback law, or a 1-row QP task), or kept within bounds (QP inequality).
+* A **barrier** is a vector h(q) ≥ 0 with its Jacobian H = ∂h/∂q (k×n): a clearance, a collision distance, a
+  support polygon. Bound subtasks keep it non-negative.
+* How a resolver uses a potential or a barrier is a typed subtask (:mod:`redundik.tasks.subtasks`).
+* The meaning of a stack under every resolver is fixed in one place: :mod:`redundik.tasks.stack`.
 """
 
 from __future__ import annotations
 
 import math
+import re
 from abc import ABC, abstractmethod
-from dataclasses import dataclass, field
-from typing import Literal
+from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
+
+#: Task, subtask and potential names: a letter or digit first, then letters, digits, ``_ . : -`` (≤ 64 chars).
+NAME_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.:\-]{0,63}$")
+
+
+def check_name(name: object, what: str) -> str:
+    """Return ``name`` if it is a valid task / subtask name (see :data:`NAME_PATTERN`).
+
+    Raises:
+        TaskError: not a string, empty, too long, or with characters outside the set.
+    """
+    if not isinstance(name, str) or not NAME_PATTERN.match(name) or ".." in name:
+        shown = repr(name)[:70]
+        raise TaskError(
+            f"{what}: name {shown} is not valid: use 1-64 characters among letters, digits and _ . : - "
+            "(starting with a letter or digit, no '..')"
+        )
+    return name
+
+
+def check_number(value: object, what: str, *, low: float | None = None, strict: bool = False) -> float:
+    """A finite float ≥ ``low`` (> ``low`` when ``strict``).
+
+    Raises:
+        TaskError: not a real number, NaN/inf, or out of range; the message names ``what``.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TaskError(f"{what} must be a number, got {type(value).__name__}")
+    val = float(value)
+    if not math.isfinite(val):
+        raise TaskError(f"{what} must be a finite number, got {val}")
+    if low is not None and (val <= low if strict else val < low):
+        raise TaskError(f"{what} must be {'>' if strict else '≥'} {low:g}, got {val:g}")
+    return val
+
+
+def check_priority(value: object, what: str) -> int | None:
+    """``None`` or an integer level ≥ 0 (0 is the highest)."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or int(value) < 0:
+        raise TaskError(f"{what}: priority must be an integer level ≥ 0 (0 = highest) or None, got {value!r}")
+    return int(value)
 
 
 @dataclass
@@ -45,12 +94,86 @@ class TaskTerm:
 
 
 class Task(ABC):
-    """A velocity-level task J q̇ = v (a main task of the chapter, or one level of a QP stack)."""
+    """A velocity-level task J q̇ = v (a main task of the chapter, a QP level, or a regulariser).
 
-    name: str
+    Shared fields (validated on every assignment):
 
+    * ``name``: unique in a stack (see :data:`NAME_PATTERN`);
+    * ``weight`` > 0: the task's weight among the rows of its level (``wqp``: relative to the other tasks of the
+      level; ``pinv``/``hqp`` ignore it within a single task);
+    * ``gain`` K ≥ 0 [1/s]: feedback on the task error, v = v_d + K e; with a first-order loop the error decays as
+      (1 − K dt)^k, so resolvers refuse K·dt > 2 (unstable);
+    * ``priority``: ``None`` (the default level of the task's role, see :mod:`redundik.tasks.stack`) or an
+      integer level ≥ 0 (0 = highest).
+
+    Declarations for resolvers (class attributes, overridable per instance):
+
+    * ``identity_jacobian``: J is the n×n identity (a posture): the QP adds it as a diagonal update;
+    * ``regularization``: the task lies strictly below every main task and subtask (a posture / damping task).
+    """
+
+    identity_jacobian: ClassVar[bool] = False
+    regularization: ClassVar[bool] = False
+
+    _name: str
+    _weight: float = 1.0
+    _gain: float = 0.0
+    _priority: int | None = None
+
+    def _init_task(self, name: str, *, weight: float = 1.0, gain: float = 0.0, priority: int | None = None) -> None:
+        """Set the shared fields with their validation (call from a subclass's ``__init__``)."""
+        self.name = name
+        self.weight = weight
+        self.gain = gain
+        self.priority = priority
+
+    # -- shared fields with one validation
+    @property
+    def name(self) -> str:
+        """Task name."""
+        return self._name
+
+    @name.setter
+    def name(self, value: str) -> None:
+        self._name = check_name(value, f"task {type(self).__name__}")
+
+    @property
+    def weight(self) -> float:
+        """Weight (> 0) among the rows of the task's level."""
+        return self._weight
+
+    @weight.setter
+    def weight(self, value: float) -> None:
+        self._weight = check_number(value, f"task '{self._label}': weight", low=0.0, strict=True)
+
+    @property
+    def gain(self) -> float:
+        """Feedback gain K [1/s] ≥ 0 on the task error."""
+        return self._gain
+
+    @gain.setter
+    def gain(self, value: float) -> None:
+        self._gain = check_number(value, f"task '{self._label}': gain", low=0.0)
+
+    @property
+    def priority(self) -> int | None:
+        """Explicit level (0 = highest), or ``None`` for the default of the task's role."""
+        return self._priority
+
+    @priority.setter
+    def priority(self, value: int | None) -> None:
+        self._priority = check_priority(value, f"task '{self._label}'")
+
+    @property
+    def _label(self) -> str:
+        return getattr(self, "_name", type(self).__name__)
+
+    # -- the contract
     def reset(self, robot: RobotModel) -> None:  # noqa: B027 - optional hook
-        """Capture what the task needs at t = 0 (e.g. the start pose of a trajectory); ``robot`` is updated."""
+        """Capture what the task needs at t = 0 (e.g. the start pose of a trajectory); ``robot`` is updated.
+
+        A target set explicitly (``set_target``) survives a reset.
+        """
 
     @abstractmethod
     def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
@@ -80,87 +203,37 @@ class Potential(ABC):
         return f"{type(self).__name__}(name={self.name!r})"
 
 
-SubtaskMode = Literal["gradient", "target", "bounds"]
-
-
 @dataclass
-class Subtask:
-    """How a resolver uses a potential.
+class BarrierTerm:
+    """A barrier evaluated at one instant: keep h(q) ≥ 0.
 
     Attributes:
-        potential: The potential p(q).
-        mode: ``"gradient"``: z = kη in the null space (eq. 5.8; QP: the linear objective −k ηᵀq̇);
-            ``"target"``: drive p to ``target`` (state-feedback law, or the 1-row QP task ηᵀq̇ = ṗ_d + K(p_d − p));
-            ``"bounds"``: keep ``lower ≤ p ≤ upper`` (QP inequality ηᵀq̇·dt ≥ lower − p, ...).
-        gain: k of eq. (5.8): > 0 increases p, < 0 decreases it.
-        target: Desired value p_d (mode ``"target"``).
-        rate: Feedback gain K [1/s] towards the target, or the bound-approach gain in mode ``"bounds"``.
-        target_rate: Desired rate ṗ_d (mode ``"target"``).
-        lower: Lower bound (mode ``"bounds"``), or ``None``.
-        upper: Upper bound (mode ``"bounds"``), or ``None``.
-        weight: Weight in a weighted QP.
-        priority: Level in a strict hierarchy (0 is the main task's level; larger is lower priority).
+        h: Barrier values, shape (k,) (distance-like; ≥ 0 is safe).
+        H: Their Jacobian ∂h/∂q, shape (k, nv).
+        names: One name per row, for diagnostics.
+        gamma: Optional per-row approach gain γ [1/s] of the damper ḣ ≥ −γ h (``None``: the subtask's rate).
     """
 
-    potential: Potential
-    mode: SubtaskMode = "gradient"
-    gain: float = 0.0
-    target: float | None = None
-    rate: float = 1.0
-    target_rate: float = 0.0
-    lower: float | None = None
-    upper: float | None = None
-    weight: float = 1.0
-    priority: int = 1
-
-    def __post_init__(self) -> None:
-        name = getattr(self.potential, "name", "?")
-        for key in ("gain", "rate", "target_rate", "weight"):
-            val = getattr(self, key)
-            if not math.isfinite(val):
-                raise TaskError(f"subtask '{name}': {key} must be a finite number, got {val}")
-        if self.mode not in ("gradient", "target", "bounds"):
-            raise TaskError(f"subtask '{name}': mode must be gradient, target or bounds, got {self.mode!r}")
-        if self.mode == "target" and (self.target is None or not math.isfinite(self.target)):
-            raise TaskError(f"subtask '{name}': mode 'target' needs a finite target value")
-        if self.mode == "bounds":
-            if self.lower is None and self.upper is None:
-                raise TaskError(f"subtask '{name}': mode 'bounds' needs lower and/or upper")
-            if self.lower is not None and self.upper is not None and self.lower > self.upper:
-                raise TaskError(f"subtask '{name}': lower ({self.lower}) > upper ({self.upper})")
-        if self.rate < 0:
-            raise TaskError(f"subtask '{name}': rate (K) must be ≥ 0, got {self.rate}")
-        if self.weight < 0:
-            raise TaskError(f"subtask '{name}': weight must be ≥ 0, got {self.weight}")
-
-    @property
-    def name(self) -> str:
-        """The potential's name."""
-        return self.potential.name
+    h: np.ndarray
+    H: np.ndarray
+    names: list[str]
+    gamma: np.ndarray | None = None
 
 
-@dataclass
-class TaskStack:
-    """What a resolver resolves: main tasks (stacked, highest priority) and subtasks.
+class Barrier(ABC):
+    """A vector-valued constraint h(q) ≥ 0 with its Jacobian (pink's barriers; Kanoun et al. 2011 inequalities)."""
 
-    Attributes:
-        tasks: Main tasks; their terms are stacked into one J and V (eq. 5.6).
-        subtasks: Subtasks (potentials and how to use them).
-    """
+    name: str
 
-    tasks: list[Task] = field(default_factory=list)
-    subtasks: list[Subtask] = field(default_factory=list)
+    def check(self, robot: RobotModel) -> None:  # noqa: B027 - optional hook
+        """Validate against a robot; raise :class:`TaskError` if not."""
 
-    def reset(self, robot: RobotModel) -> None:
-        """Reset every task at the robot's current state (call after ``robot.update(q0)``)."""
-        for s in self.subtasks:
-            s.potential.check(robot)
-        for task in self.tasks:
-            task.reset(robot)
+    @abstractmethod
+    def evaluate(self, robot: RobotModel) -> BarrierTerm:
+        """h(q), ∂h/∂q at the robot's current (updated) state."""
 
-    def evaluate(self, robot: RobotModel, t: float) -> list[TaskTerm]:
-        """Every main task's term at time ``t``."""
-        return [task.evaluate(robot, t) for task in self.tasks]
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(name={self.name!r})"
 
 
 def stack_terms(terms: list[TaskTerm], nv: int) -> tuple[np.ndarray, np.ndarray]:

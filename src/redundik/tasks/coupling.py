@@ -21,7 +21,7 @@ class JointCoupling(Task):
         offset: c [rad or m]; captured at reset when ``None``.
         gain: K [1/s] ≥ 0 on the coupling error.
         weight: Weight in a weighted QP (> 0).
-        priority: Level in a strict hierarchy (0 = highest).
+        priority: Level (0 = highest); ``None``: the main tasks' level 0.
         name: Task name (default ``"coupling_<i>_<j>"``).
 
     Raises:
@@ -36,7 +36,7 @@ class JointCoupling(Task):
         *,
         gain: float = 1.0,
         weight: float = 1.0,
-        priority: int = 0,
+        priority: int | None = None,
         name: str | None = None,
     ) -> None:
         self.name = name or f"coupling_{joint_i}_{joint_j}"
@@ -50,7 +50,7 @@ class JointCoupling(Task):
             raise TaskError(f"task '{self.name}': weight must be > 0, got {weight}")
         self.joint_i, self.joint_j = joint_i, joint_j
         self.offset = None if offset is None else float(offset)
-        self.gain, self.weight, self.priority = float(gain), float(weight), int(priority)
+        self.gain, self.weight, self.priority = float(gain), float(weight), priority
         self._idx: tuple[int, int, int, int] | None = None
         self._c: float | None = self.offset
 

@@ -38,6 +38,31 @@ def resolve_axes(axes: str | Sequence[str]) -> tuple[str, ...]:
     return out
 
 
+#: Gain [1/s] of a frame task built without a trajectory (hold the start pose, or track targets set at run time).
+DEFAULT_HOLD_GAIN = 10.0
+
+
+def _as_pose(target: object, what: str) -> pin.SE3 | np.ndarray:
+    """An SE3 from an SE3 or a 4×4 homogeneous matrix, or a position (3,) array; validated."""
+    if isinstance(target, pin.SE3):
+        T = target.homogeneous
+    else:
+        try:
+            T = np.asarray(target, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise TaskError(f"{what}: expected an SE3, a 4×4 matrix or a position (3,), got {target!r:.80}") from exc
+    if T.shape == (3,):
+        if not np.all(np.isfinite(T)):
+            raise TaskError(f"{what}: position contains NaN or infinite values")
+        return T.copy()
+    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+        raise TaskError(f"{what}: expected an SE3, a finite 4×4 matrix or a position (3,), got shape {T.shape}")
+    R = T[:3, :3]
+    if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0 or not np.allclose(T[3], [0, 0, 0, 1]):
+        raise TaskError(f"{what}: the 4×4 matrix is not a rigid transform (rotation not orthonormal, or bad last row)")
+    return pin.SE3(R.copy(), T[:3, 3].copy())
+
+
 class FrameTask(Task):
     """Track a trajectory with a frame: J q̇ = V_d + K·e on the selected rows of the base-aligned Jacobian.
 
@@ -45,12 +70,17 @@ class FrameTask(Task):
     the chapter's open-loop feed-forward V = ṗ_d (its 3R and (6+1) simulations); a positive gain closes the loop on
     the tracking error (first-order convergence e ~ exp(−K t)).
 
+    Defaults: with a trajectory, ``gain`` = 0 (the chapter's open loop); without one the task holds the pose it
+    has at reset, or the target set with :meth:`set_target`, with ``gain`` = :data:`DEFAULT_HOLD_GAIN` (10 /s).
+    A target set at run time survives :meth:`reset`.
+
     Args:
         frame: Frame name.
         trajectory: Reference; :class:`Hold` if ``None``.
         axes: Rows to control (see :data:`AXIS_SETS`).
-        gain: K [1/s] ≥ 0 on the error.
-        weight: Weight in a weighted QP.
+        gain: K [1/s] ≥ 0 on the error (default above).
+        weight: Weight among the rows of its level in a weighted QP (> 0).
+        priority: Level (0 = highest; ``None``: the main tasks' level 0).
         name: Task name (defaults to the frame name).
     """
 
@@ -60,44 +90,94 @@ class FrameTask(Task):
         trajectory: Trajectory | None = None,
         *,
         axes: str | Sequence[str] = "pose",
-        gain: float = 0.0,
+        gain: float | None = None,
         weight: float = 1.0,
+        priority: int | None = None,
         name: str | None = None,
     ) -> None:
-        if not (np.isfinite(gain) and gain >= 0):
-            raise TaskError(f"frame task '{name or frame}': gain must be a finite number ≥ 0, got {gain}")
-        if not (np.isfinite(weight) and weight > 0):
-            raise TaskError(f"frame task '{name or frame}': weight must be > 0, got {weight}")
+        if gain is None:
+            gain = 0.0 if trajectory is not None else DEFAULT_HOLD_GAIN
+        self._init_task(name or frame, weight=weight, gain=gain, priority=priority)
         self.frame = frame
         self.trajectory = trajectory if trajectory is not None else Hold()
+        if not isinstance(self.trajectory, Trajectory):
+            raise TaskError(
+                f"frame task '{self.name}': trajectory must be a Trajectory, got {type(trajectory).__name__}"
+            )
         self.axes = resolve_axes(axes)
         self.rows = np.array([AXES[a] for a in self.axes], dtype=int)
         self._all_rows = self.rows.tolist() == list(range(6))
         self._rotation_rows = bool(np.any(self.rows >= 3))
-        self.gain = float(gain)
-        self.weight = float(weight)
-        self.name = name or frame
         self._fid: int | None = None
+        self._pending_position: np.ndarray | None = None
+        self._last_R: np.ndarray | None = None  # the target orientation at the last evaluation
 
     @property
     def dim(self) -> int:
         """Number of task rows m."""
         return len(self.rows)
 
+    def set_target(self, target: pin.SE3 | np.ndarray | Sequence[float]) -> None:
+        """Hold a new target from now on (teleoperation): an SE3, a 4×4 homogeneous matrix, or a position (3,).
+
+        A position keeps the current target orientation (or the frame's own at the next evaluation if the task has
+        not run yet). The reference twist becomes zero; the gain closes the error, so it must be > 0 to move.
+
+        Raises:
+            TaskError: malformed target.
+        """
+        pose = _as_pose(target, f"frame task '{self.name}': set_target")
+        if isinstance(pose, np.ndarray):
+            if self._last_R is not None:
+                self._hold(pin.SE3(self._last_R.copy(), pose))
+            else:
+                self._pending_position = pose
+            return
+        self._pending_position = None
+        self._hold(pose)
+
+    def set_target_from_configuration(self, robot: RobotModel) -> None:
+        """Hold the frame's pose at the robot's current (updated) configuration."""
+        self._pending_position = None
+        self._hold(robot.frame_pose(self._frame_id(robot)))
+
+    @property
+    def target(self) -> pin.SE3 | None:
+        """The held target pose, or ``None`` while following a trajectory / before the first evaluation."""
+        traj = self.trajectory
+        return traj.pose if isinstance(traj, Hold) else None
+
+    def _hold(self, pose: pin.SE3) -> None:
+        self.trajectory = Hold(pose)
+        self.trajectory.start(pose)
+
+    def _frame_id(self, robot: RobotModel) -> int:
+        if self._fid is None:
+            try:
+                self._fid = robot.frame_id(self.frame)
+            except Exception as exc:
+                raise TaskError(f"task '{self.name}': {exc}") from exc
+        return self._fid
+
     def reset(self, robot: RobotModel) -> None:
-        try:
-            self._fid = robot.frame_id(self.frame)
-        except Exception as exc:
-            raise TaskError(f"task '{self.name}': {exc}") from exc
-        self.trajectory.start(robot.frame_pose(self._fid))
+        self._fid = None
+        pose = robot.frame_pose(self._frame_id(robot))
+        self.trajectory.start(pose)  # a Hold(pose) keeps its pose
+        if self._pending_position is not None:
+            self._hold(pin.SE3(np.array(pose.rotation), self._pending_position))
+            self._pending_position = None
 
     def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
-        if self._fid is None:
+        if self._fid is None or not self.trajectory.has_start:
             self.reset(robot)
         fid = self._fid
         assert fid is not None  # for the type checker; set by reset()
         pose = robot.frame_pose(fid)
+        if self._pending_position is not None:
+            self._hold(pin.SE3(np.array(pose.rotation), self._pending_position))
+            self._pending_position = None
         p_d, R_d, twist_d = self.trajectory.reference(t)
+        self._last_R = R_d
         J = robot.frame_jacobian(fid)
         if self._all_rows:
             e = np.empty(6)
@@ -119,32 +199,50 @@ class FrameTask(Task):
 
 
 class PostureTask(Task):
-    """Joint-space posture: q̇ = K (q_ref ⊖ q) on every joint (the usual lowest-priority regulariser).
+    """Joint-space posture: q̇ = K (q_ref ⊖ q) on every joint — a regularisation task.
+
+    It declares ``identity_jacobian`` and ``regularization``: in every resolver it lies below the main tasks and the
+    subtasks, as one term of the null-space objective z (see :mod:`redundik.tasks.stack`): it is the gradient
+    of −½K‖q ⊖ q_ref‖². As in pink and mink, a posture never pulls the main tasks off their targets; its strength
+    in the null space is its gain (its weight only matters if it is given an explicit ``priority``).
 
     Args:
-        target: Reference configuration q_ref (size nq); the configuration at reset if ``None``.
-        gain: K [1/s] > 0.
-        weight: Weight in a weighted QP.
+        target: Reference configuration q_ref (size nq); the configuration at reset if ``None``. Settable at run
+            time with :meth:`set_target` (kept across resets).
+        gain: K [1/s] ≥ 0.
+        weight: Weight (> 0), used only when the task is given an explicit level.
+        priority: ``None`` (the null-space objective) or an explicit level.
     """
+
+    identity_jacobian = True
+    regularization = True
 
     def __init__(
         self,
-        target: Sequence[float] | None = None,
+        target: Sequence[float] | np.ndarray | None = None,
         *,
         gain: float = 1.0,
         weight: float = 1.0,
+        priority: int | None = None,
         name: str = "posture",
     ) -> None:
-        if not (np.isfinite(gain) and gain >= 0):
-            raise TaskError(f"posture task '{name}': gain must be ≥ 0, got {gain}")
-        self.target = None if target is None else np.asarray(target, dtype=float)
-        self.gain, self.weight, self.name = float(gain), float(weight), name
+        self._init_task(name, weight=weight, gain=gain, priority=priority)
+        self._given = None if target is None else np.array(target, dtype=float)
+        self.target: np.ndarray | None = self._given
+
+    def set_target(self, q: Sequence[float] | np.ndarray) -> None:
+        """A new reference configuration q_ref (size nq), checked against the robot at the next evaluation."""
+        arr = np.array(q, dtype=float).reshape(-1)
+        if not np.all(np.isfinite(arr)):
+            raise TaskError(f"posture task '{self.name}': set_target: contains NaN or infinite values")
+        self._given = arr
+        self.target = None
 
     def reset(self, robot: RobotModel) -> None:
-        if self.target is None:
+        if self._given is None:
             self.target = robot.q.copy()
         else:
-            self.target = robot.check_configuration(self.target, f"task '{self.name}': target")
+            self.target = robot.check_configuration(self._given, f"task '{self.name}': target")
 
     def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
         if self.target is None:

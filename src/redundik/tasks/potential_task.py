@@ -21,7 +21,7 @@ class PotentialTask(Task):
         rate: K [1/s] ≥ 0.
         target_rate: ṗ_d [1/s · unit of p].
         weight: Weight in a weighted QP (> 0).
-        priority: Level in a strict hierarchy (0 = highest).
+        priority: Level (0 = highest); ``None``: the main tasks' level 0.
         name: Task name (default: the potential's name).
 
     Raises:
@@ -36,7 +36,7 @@ class PotentialTask(Task):
         rate: float = 1.0,
         target_rate: float = 0.0,
         weight: float = 1.0,
-        priority: int = 0,
+        priority: int | None = None,
         name: str | None = None,
     ) -> None:
         self.name = name or potential.name
@@ -49,7 +49,7 @@ class PotentialTask(Task):
             raise TaskError(f"task '{self.name}': weight must be > 0, got {weight}")
         self.potential = potential
         self.target, self.rate, self.target_rate = float(target), float(rate), float(target_rate)
-        self.weight, self.priority = float(weight), int(priority)
+        self.weight, self.priority = float(weight), priority
 
     def reset(self, robot: RobotModel) -> None:
         self.potential.check(robot)

@@ -44,6 +44,11 @@ class Trajectory(ABC):
         """Precompute what :meth:`reference` needs once the start pose is known."""
 
     @property
+    def has_start(self) -> bool:
+        """True once :meth:`start` has anchored the trajectory."""
+        return self._start is not None
+
+    @property
     def start_pose(self) -> pin.SE3:
         """The pose captured by :meth:`start`.
 
@@ -68,10 +73,23 @@ class Trajectory(ABC):
 
 
 class Hold(Trajectory):
-    """Hold the start pose (zero twist): the (6+1) robot's 'end-effector held still'."""
+    """Hold a pose (zero twist): the start pose — the (6+1) robot's 'end-effector held still' — or a given one.
+
+    Args:
+        pose: A fixed pose to hold (a target set at run time); ``None`` holds the pose captured at start.
+    """
+
+    def __init__(self, pose: pin.SE3 | None = None) -> None:
+        self.pose = None if pose is None else pose.copy()
+
+    def start(self, pose: pin.SE3) -> None:
+        super().start(self.pose if self.pose is not None else pose)
 
     def _prepare(self) -> None:
         self._zero = np.zeros(6)
+
+    def __repr__(self) -> str:
+        return "Hold()" if self.pose is None else f"Hold(pose at {np.round(self.pose.translation, 6).tolist()})"
 
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         self.start_pose  # noqa: B018 - raises if start() was never called

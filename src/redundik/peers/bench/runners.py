@@ -8,10 +8,11 @@ model with the same frame tasks, so every method is measured by the same ruler.
 
 from __future__ import annotations
 
+import copy
 import logging
 import time
 from abc import ABC, abstractmethod
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -20,7 +21,9 @@ from redundik.kinematics.model import RobotModel
 from redundik.peers.bench.scenarios import POSTURE_GAIN, POSTURE_WEIGHT, Scenario, urdf_path
 from redundik.resolvers.base import Resolver
 from redundik.resolvers.registry import make_resolver
-from redundik.tasks.base import Potential, Task, TaskStack, TaskTerm
+from redundik.tasks.base import Potential, Task, TaskTerm
+from redundik.tasks.stack import TaskStack
+from redundik.tasks.subtasks import Subtask
 
 _ns = time.perf_counter_ns
 
@@ -166,7 +169,7 @@ class RedundikRunner(Runner):
         def timed_stack() -> TaskStack:
             return TaskStack(
                 [_TimedTask(task, probe) for task in self.stack.tasks],
-                [replace(sub, potential=_TimedPotential(sub.potential, probe)) for sub in self.stack.subtasks],
+                [_timed_subtask(sub, probe) for sub in self.stack.subtasks],
             )
 
         timed = timed_stack()
@@ -200,10 +203,23 @@ class _Probe:
     ns: int = 0
 
 
+def _timed_subtask(sub: Subtask, probe: _Probe) -> Subtask:
+    """A shallow copy of ``sub`` whose potential is timed (barriers are left as they are)."""
+    out = copy.copy(sub)
+    if hasattr(out, "source"):
+        if isinstance(out.source, Potential):
+            out.source = _TimedPotential(out.source, probe)
+    elif getattr(out, "potential", None) is not None:
+        out.potential = _TimedPotential(out.potential, probe)  # type: ignore[attr-defined]
+    return out
+
+
 class _TimedTask(Task):
     def __init__(self, inner: Task, probe: _Probe) -> None:
-        self.inner, self.probe, self.name = inner, probe, inner.name
-        self.priority = getattr(inner, "priority", 0)
+        self.inner, self.probe = inner, probe
+        self._init_task(inner.name, weight=inner.weight, gain=inner.gain, priority=inner.priority)
+        self.identity_jacobian = inner.identity_jacobian  # type: ignore[misc]  # mirror the declarations
+        self.regularization = inner.regularization  # type: ignore[misc]
 
     def reset(self, robot: RobotModel) -> None:
         self.inner.reset(robot)

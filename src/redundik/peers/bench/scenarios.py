@@ -29,9 +29,11 @@ import numpy as np
 from redundik.kinematics.dh import DHRow, from_dh
 from redundik.kinematics.model import RobotModel
 from redundik.kinematics.urdf import EXAMPLE_ROBOTS, example_robot_data_dir, load_example_robot
-from redundik.tasks.base import Potential, Subtask, Task, TaskStack, TaskTerm
+from redundik.tasks.base import Potential, Task, TaskTerm
 from redundik.tasks.frame import FrameTask
 from redundik.tasks.potentials import Clearance, JointCentering, JointSine2
+from redundik.tasks.stack import TaskStack
+from redundik.tasks.subtasks import BoundSubtask, GradientSubtask, Subtask, TargetSubtask
 from redundik.tasks.trajectory import Circle, Line, Trajectory
 
 POSTURE_GAIN = 1.0  # K_p [1/s]
@@ -148,10 +150,10 @@ def planar3r_scenario() -> Scenario:
         peer_potential=(lambda: JointSine2("3"), {"mode": "target", "target": 1.0, "rate": 1.0, "cost": 1.0}),
     )
     sc.stacks = {
-        "pinv": lambda r: TaskStack(sc.frame_tasks(), [Subtask(JointSine2("3"), gain=1.0)]),
-        "feedback": lambda r: TaskStack(sc.frame_tasks(), [Subtask(JointSine2("3"), mode="target", target=1.0)]),
-        "wqp": lambda r: TaskStack(sc.frame_tasks(), [Subtask(JointSine2("3"), mode="target", target=1.0)]),
-        "hqp": lambda r: TaskStack(sc.frame_tasks(), [Subtask(JointSine2("3"), gain=1.0, priority=1)]),
+        "pinv": lambda r: TaskStack(sc.frame_tasks(), [GradientSubtask(JointSine2("3"), gain=1.0)]),
+        "feedback": lambda r: TaskStack(sc.frame_tasks(), [TargetSubtask(JointSine2("3"), target=1.0)]),
+        "wqp": lambda r: TaskStack(sc.frame_tasks(), [TargetSubtask(JointSine2("3"), target=1.0)]),
+        "hqp": lambda r: TaskStack(sc.frame_tasks(), [GradientSubtask(JointSine2("3"), gain=1.0)]),
     }
     return sc
 
@@ -176,7 +178,9 @@ def panda_scenario() -> Scenario:
         urdf=EXAMPLE_ROBOTS["panda"],
     )
     sc.stacks = {
-        "pinv": lambda r: TaskStack(sc.frame_tasks(), [Subtask(JointCentering(center=PANDA_Q0), gain=-POSTURE_GAIN)]),
+        "pinv": lambda r: TaskStack(
+            sc.frame_tasks(), [GradientSubtask(JointCentering(center=PANDA_Q0), gain=-POSTURE_GAIN)]
+        ),
         "feedback": lambda r: TaskStack(sc.frame_tasks(), [_posture_target(PANDA_Q0)]),
         "wqp": lambda r: TaskStack([*sc.frame_tasks(), sc.posture_task()]),
         "hqp": lambda r: TaskStack(
@@ -188,7 +192,7 @@ def panda_scenario() -> Scenario:
 
 def _posture_target(q0: np.ndarray) -> Subtask:
     """The state-feedback twin of the posture: p = ½‖q − q0‖² driven to 0 at K = 1/s."""
-    return Subtask(JointCentering(center=q0), mode="target", target=0.0, rate=POSTURE_GAIN)
+    return TargetSubtask(JointCentering(center=q0), target=0.0, rate=POSTURE_GAIN)
 
 
 def _post_clearance(robot: RobotModel, frame: str, q0: np.ndarray, side: float = 0.25) -> Subtask:
@@ -199,12 +203,8 @@ def _post_clearance(robot: RobotModel, frame: str, q0: np.ndarray, side: float =
     """
     robot.update(q0)
     center = robot.frame_position(frame) + np.array([0.0, side, 0.0])
-    return Subtask(
-        Clearance(frame, center, radius=0.05, axes=("x", "y"), name="post_clearance"),
-        mode="bounds",
-        lower=0.10,
-        rate=10.0,
-        priority=1,
+    return BoundSubtask(
+        Clearance(frame, center, radius=0.05, axes=("x", "y"), name="post_clearance"), lower=0.10, rate=10.0, priority=1
     )
 
 
@@ -288,7 +288,7 @@ def talos_scenario() -> Scenario:
         urdf=EXAMPLE_ROBOTS["talos"],
     )
     sc.stacks = {
-        "pinv": lambda r: TaskStack(sc.frame_tasks(), [Subtask(JointCentering(center=q0), gain=-POSTURE_GAIN)]),
+        "pinv": lambda r: TaskStack(sc.frame_tasks(), [GradientSubtask(JointCentering(center=q0), gain=-POSTURE_GAIN)]),
         "feedback": lambda r: TaskStack(sc.frame_tasks(), [_posture_target(q0)]),
         "wqp": lambda r: TaskStack([*sc.frame_tasks(), sc.posture_task()]),
         "hqp": lambda r: TaskStack(

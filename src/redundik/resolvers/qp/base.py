@@ -1,20 +1,28 @@
-"""What ``wqp`` and ``hqp`` share: limits, the backend, the closed-form fallback and the step diagnostics."""
+"""What ``wqp`` and ``hqp`` share: limits, the backend, and one solve skeleton — build → solve → fallback →
+diagnostics — with a typed diagnostics record (:class:`QPDiagnostics`) that the run's CSV reads through
+``StepResult.info``."""
 
 from __future__ import annotations
 
+import math
+import time
+from abc import abstractmethod
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
 
 import numpy as np
 
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
-from redundik.resolvers.base import Resolver
+from redundik.resolvers.base import Resolver, StepResult, nonfinite_sources
 from redundik.resolvers.linalg import pseudo_inverse
+from redundik.resolvers.pinv import check_damping_options, main_system
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, make_backend
 from redundik.resolvers.qp.limits import JointLimits, LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
-from redundik.resolvers.qp.terms import Level
-from redundik.tasks.base import TaskStack
+from redundik.tasks.base import TaskTerm
+from redundik.tasks.stack import StackLayout, TaskStack
 
 LimitsOption = JointLimits | Mapping[str, object] | bool | None
 LevelsOption = Mapping[str, int] | Sequence[Sequence[str]] | None
@@ -67,8 +75,71 @@ def make_levels(levels: LevelsOption) -> dict[str, int]:
     return out
 
 
+@dataclass
+class QPDiagnostics:
+    """What a QP step reports (typed; :meth:`as_info` gives the ``StepResult.info`` dict the CSV reads).
+
+    Attributes:
+        backend: Backend that produced q̇ (``"closed-form"`` when no QP was needed, ``"fallback"``).
+        qp: Number of QPs solved this step.
+        iterations: Backend iterations summed over them.
+        sigma_min: Smallest nonzero singular value of the top level's (main-task) Jacobian.
+        level_sigma_min: Per level, σ_min of its projected Jacobian (hqp).
+        level_residuals: Per level, its residual (:meth:`~.terms.Level.residual`) at the returned q̇.
+        damped_levels: Levels whose solve damped a direction.
+        rank_loss_levels: Levels whose projected Jacobian lost rank while their own did not (algorithmic
+            singularity).
+        contradicted: Per level, how far its bound rows are violated at the returned q̇ (> tolerance only).
+        active_limits: Joint-limit bounds q̇ sits on.
+        bound_violation: Largest bound-subtask violation (wqp), or ``None`` without bound subtasks.
+        regularization_retry: 1 when a level QP was retried with a stronger regulariser.
+    """
+
+    backend: str = "closed-form"
+    qp: int = 0
+    iterations: int = 0
+    sigma_min: float = math.inf
+    level_sigma_min: dict[int, float] = field(default_factory=dict)
+    level_residuals: dict[int, float] = field(default_factory=dict)
+    damped_levels: list[int] = field(default_factory=list)
+    rank_loss_levels: list[int] = field(default_factory=list)
+    contradicted: dict[int, float] = field(default_factory=dict)
+    active_limits: list[str] = field(default_factory=list)
+    bound_violation: float | None = None
+    regularization_retry: int = 0
+
+    def as_info(self) -> dict[str, object]:
+        """The flat dict of ``StepResult.info`` (numbers are logged per step)."""
+        info: dict[str, object] = {
+            "backend": self.backend,
+            "qp": self.qp,
+            "iterations": self.iterations,
+            "sigma_min": self.sigma_min,
+            "rank_loss": len(self.rank_loss_levels),
+            "rank_loss_levels": list(self.rank_loss_levels),
+            "active_limits": list(self.active_limits),
+            "n_active": len(self.active_limits),
+        }
+        for k, v in self.level_residuals.items():
+            info[f"residual_L{k}"] = v
+        for k, v in self.level_sigma_min.items():
+            info[f"sigma_min_L{k}"] = v
+        if self.damped_levels:
+            info["damped_levels"] = list(self.damped_levels)
+        if self.bound_violation is not None:
+            info["bound_violation"] = self.bound_violation
+        if self.regularization_retry:
+            info["regularization_retry"] = self.regularization_retry
+        if self.contradicted:
+            info["contradicted_levels"] = dict(self.contradicted)
+        return info
+
+
 class QPResolverBase(Resolver):
-    """Shared machinery of the QP resolvers (not registered itself).
+    """Shared machinery of the QP resolvers (not registered itself): the template :meth:`solve`.
+
+    Subclasses implement :meth:`build` (the problem, without solving it — for inspection and tests) and
+    :meth:`_resolve` (q̇ from a built problem, or :class:`SolverError`).
 
     Args:
         backend: QP backend name (see :func:`~redundik.resolvers.qp.backends.make_backend`) or instance.
@@ -78,6 +149,8 @@ class QPResolverBase(Resolver):
         max_damping: λ_max of that damping rule.
     """
 
+    accepts: ClassVar[tuple[str, ...]] = ("gradient", "target", "bound")
+
     def __init__(
         self,
         backend: str | Backend = DEFAULT_BACKEND,
@@ -86,24 +159,79 @@ class QPResolverBase(Resolver):
         epsilon: float = 1e-2,
         max_damping: float = 5e-2,
     ) -> None:
-        if not (np.isfinite(epsilon) and epsilon >= 0 and np.isfinite(max_damping) and max_damping >= 0):
-            raise ResolverError(f"{self.name}: epsilon and max_damping must be finite numbers ≥ 0")
+        self.epsilon, self.max_damping = check_damping_options(self.name, epsilon, max_damping)
         self.backend = make_backend(backend)
         self.limits = make_limits(limits)
         self.levels = make_levels(levels)
-        self.epsilon, self.max_damping = float(epsilon), float(max_damping)
         self._dq_prev: np.ndarray | None = None
+        self._layout: tuple[tuple[int, ...], StackLayout] | None = None
 
     def check(self, robot: RobotModel, stack: TaskStack) -> None:
+        super().check(robot, stack)
         self.limits.bind(robot)
-        known = {getattr(t, "name", "") for t in stack.tasks} | {s.name for s in stack.subtasks}
-        bad = sorted(set(self.levels) - known)
-        if bad:
-            raise ResolverError(f"{self.name}: levels name unknown task(s) {bad}; tasks and subtasks: {sorted(known)}")
+        stack.layout(self.levels)  # unknown level names are refused here, with the valid ones listed
 
     def reset(self) -> None:
+        super().reset()
         self._dq_prev = None
+        self._layout = None
         self.backend.reset()
+
+    def layout(self, stack: TaskStack) -> StackLayout:
+        """The stack's levels with this resolver's overrides (cached while the stack's membership is unchanged)."""
+        sig = stack.signature()
+        if self._layout is None or self._layout[0] != sig:
+            self._layout = (sig, stack.layout(self.levels))
+        return self._layout[1]
+
+    @abstractmethod
+    def build(
+        self, robot: RobotModel, stack: TaskStack, t: float, dt: float, terms: list[TaskTerm] | None = None
+    ) -> Any:
+        """Evaluate the stack and build the problem (without solving it)."""
+
+    @abstractmethod
+    def _resolve(self, built: Any, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
+        """(q̇ before clipping, a fallback note or ``None``); raises :class:`SolverError` when nothing is usable."""
+
+    @abstractmethod
+    def _diagnose(self, built: Any, dq: np.ndarray, diag: QPDiagnostics) -> None:
+        """Fill the per-level residuals at the returned q̇."""
+
+    def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
+        t0 = time.perf_counter()
+        terms = stack.evaluate(robot, t)
+        built = self.build(robot, stack, t, dt, terms)
+        box: LimitBox = built.box
+        t1 = time.perf_counter()
+        diag = QPDiagnostics()
+        try:
+            x, fallback = self._resolve(built, diag)
+        except SolverError as exc:
+            x = self._closed_form(robot, stack, terms)
+            fallback = f"{self.name} failed, damped closed form clipped to the limits: {exc}"
+            diag.backend = "fallback"
+        if not np.isfinite(x).all():
+            bad = nonfinite_sources(terms)
+            fallback = f"non-finite q̇ (from {', '.join(bad) or 'the solver'}): q̇ = 0 clipped to the limits"
+            x = np.zeros(robot.nv)
+            diag.backend = "fallback"
+        dq = box.clip(x)  # the limits hold whatever happened (solver tolerance, fallback); a new array
+        diag.active_limits = box.active(dq, self.limits.joint_names)
+        self._dq_prev = dq.copy()
+        self._diagnose(built, dq, diag)
+        t2 = time.perf_counter()
+        return StepResult(
+            dq=dq,
+            terms=terms,
+            damped=bool(diag.damped_levels),
+            sigma_min=diag.sigma_min,
+            fallback=fallback,
+            info=diag.as_info(),
+            build_time=t1 - t0,
+            solve_time=t2 - t1,
+            main=self.layout(stack).main,
+        )
 
     def _solve_qp(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
         """The backend's answer; anything it raises (also a user backend's own exception) becomes SolverError."""
@@ -124,31 +252,14 @@ class QPResolverBase(Resolver):
     def _box(self, robot: RobotModel, dt: float) -> LimitBox:
         return self.limits.box(robot, robot.q, dt, self._dq_prev)
 
-    def _closed_form(self, levels: list[Level], n: int) -> np.ndarray:
-        """The damped closed form J⁺V + (I − J⁺J)z on the level-0 rows and every gradient target (the fallback)."""
-        top = levels[0] if levels else None
-        z = np.zeros(n)
-        for lv in levels:
-            if lv.z is not None:
-                z += lv.z
-        if top is None or not top.m:
-            return z
-        pi = pseudo_inverse(top.J, epsilon=self.epsilon, max_damping=max(self.max_damping, 1e-3))
-        return pi.pinv @ top.v + pi.null_projector @ z
-
-    def _finish(
-        self, dq: np.ndarray, box: LimitBox, robot: RobotModel, info: dict[str, object]
-    ) -> tuple[np.ndarray, bool]:
-        """Clip to the limit box, refuse NaN, remember q̇ for the rate limit, add the active-limit diagnostics."""
-        ok = bool(np.isfinite(dq).all())
-        if not ok:
-            dq = np.zeros_like(dq)
-        dq = box.clip(dq)  # the limits hold whatever happened (solver tolerance, fallback); a new array
-        active = box.active(dq, self.limits.joint_names)
-        info["active_limits"] = active
-        info["n_active"] = len(active)
-        self._dq_prev = dq.copy()
-        return dq, ok
+    def _closed_form(self, robot: RobotModel, stack: TaskStack, terms: list[TaskTerm]) -> np.ndarray:
+        """The damped closed form J⁺V + (I − J⁺J)z on the main tasks and the null-space objective (the fallback)."""
+        J, V, z = main_system(robot, stack, terms, self.layout(stack))
+        pi = pseudo_inverse(J, epsilon=self.epsilon, max_damping=max(self.max_damping, 1e-3))
+        out = pi.pinv @ V
+        if z is not None:
+            out = out + pi.null_projector @ z
+        return out
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(backend={self.backend.name!r}, limits={self.limits!r})"

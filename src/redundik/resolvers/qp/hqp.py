@@ -21,9 +21,15 @@ level u = (A_k Z)⁺(b_k − A_k x), with the damped pseudo-inverse of :mod:`red
 it satisfies every inequality and limit, since a feasible unconstrained lexicographic optimum is the constrained one.
 For [main task, gradient subtask] this is q̇ = J⁺V + Z Zᵀ z = J⁺V + (I − J⁺J)z, the chapter's eq. (5.8), exactly.
 
-Gradient subtasks at a level contribute the rows √ω(q̇ = z), z = Σ k_i η_i (see :mod:`.terms`); restricted to Z they
-give the projection Z Zᵀ(z − x). Levels: main tasks at 0 unless their ``priority`` attribute or the ``levels`` option
-says otherwise; subtasks at ``Subtask.priority`` (default 1).
+The levels are the stack's (:mod:`redundik.tasks.stack`): main tasks at their priority (0), target and bound
+subtasks below them, the null-space objective ½‖q̇ − z‖² (gradient subtasks and posture) last; restricted to Z it
+gives the projection Z Zᵀ(z − x). Every level's least squares goes through the shared damped-SVD kernel of
+:mod:`redundik.resolvers.linalg`, which damps only small nonzero singular directions: a level that is exactly
+rank-deficient (a duplicated or zero row) is solved exactly and keeps its optimum under every lower level.
+
+A level that cannot be met — its bound rows contradicted by the levels above and the limits (slack w_k* > 1e-6),
+or a level QP the backend fails — is a recorded fallback (``StepResult.fallback`` names the level and by how much;
+``info["contradicted_levels"]``).
 
 Diagnostics in ``StepResult.info``: ``residual_L<k>`` (per level: ‖J_k q̇ − v_k‖ of its task rows, or ‖q̇ − z‖ for a
 pure gradient level, combined with the norm of its inequality violations),
@@ -34,43 +40,32 @@ projected Jacobian lost rank while the task's own did not — an algorithmic sin
 
 from __future__ import annotations
 
-import time
+from dataclasses import dataclass
 
 import numpy as np
 
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
-from redundik.resolvers.base import StepResult
+from redundik.resolvers.linalg import DampedSVD, damped_svd
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend
-from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPResolverBase
+from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem
 from redundik.resolvers.qp.terms import Level, build_levels
-from redundik.tasks.base import TaskStack
+from redundik.tasks.base import TaskTerm
+from redundik.tasks.stack import TaskStack
+
+#: Slack above which a level's bound rows count as contradicted (reported as a fallback).
+CONTRADICTION_TOLERANCE = 1e-6
 
 
-class _Lsq:
-    """Damped least squares of one projected level, with the null-space basis of the projected Jacobian."""
+@dataclass
+class HQPBuild:
+    """A built ``hqp`` step: its levels (rows) and the joint-limit box."""
 
-    __slots__ = ("damping", "null", "rank", "sigma_min", "u")
-
-    def __init__(self, M: np.ndarray, rhs: np.ndarray, epsilon: float, max_damping: float, rcond: float) -> None:
-        U, s, Vt = np.linalg.svd(M, full_matrices=True)  # Vt (r, r); s descending, size min(m, r)
-        k = s.shape[0]
-        smax = float(s[0]) if k else 0.0
-        rank = int(np.count_nonzero(s > rcond * smax)) if smax > 0 else 0
-        sigma_min = float(s[-1]) if k else np.inf
-        lam2 = 0.0
-        if k and sigma_min < epsilon and epsilon > 0:
-            lam2 = (1.0 - (sigma_min / epsilon) ** 2) * max_damping**2
-        if lam2 > 0:
-            inv_s = s / (s * s + lam2)
-        else:
-            inv_s = np.zeros_like(s)
-            inv_s[:rank] = 1.0 / s[:rank]
-        self.u = Vt[:k].T @ (inv_s * (U[:, :k].T @ rhs))
-        self.null = Vt[rank:].T  # (r, r − rank)
-        self.rank, self.sigma_min, self.damping = rank, sigma_min, float(np.sqrt(lam2))
+    levels: list[Level]
+    box: LimitBox
+    n: int
 
 
 class HierarchicalQPResolver(QPResolverBase):
@@ -82,7 +77,7 @@ class HierarchicalQPResolver(QPResolverBase):
             :class:`~redundik.resolvers.qp.limits.JointLimits` options, or an instance.
         levels: Level overrides: ``{name: level}`` or a list of levels of names.
         regularization: ε, the minimum-norm regulariser of each level QP (> 0).
-        epsilon: Singular value under which a level's projected Jacobian is damped.
+        epsilon: Singular value under which a direction of a level's projected Jacobian is damped.
         max_damping: λ_max of that damping.
         rcond: Relative threshold of the numerical rank of a projected Jacobian.
 
@@ -103,12 +98,21 @@ class HierarchicalQPResolver(QPResolverBase):
         rcond: float = 1e-10,
     ) -> None:
         super().__init__(backend, limits, levels, epsilon, max_damping)
-        if not (np.isfinite(regularization) and regularization > 0):
-            raise ResolverError(f"hqp: regularization must be a finite number > 0, got {regularization}")
-        if not (np.isfinite(rcond) and 0 < rcond < 1):
-            raise ResolverError(f"hqp: rcond must be in (0, 1), got {rcond}")
+        if not (isinstance(regularization, (int, float)) and np.isfinite(regularization) and regularization > 0):
+            raise ResolverError(f"hqp: regularization must be a finite number > 0, got {regularization!r}")
+        if not (isinstance(rcond, (int, float)) and 0 < rcond < 1):
+            raise ResolverError(f"hqp: rcond must be in (0, 1), got {rcond!r}")
         self.regularization, self.rcond = float(regularization), float(rcond)
         self.slack_tolerance = 1e-7  # feasibility margin of the rows that carry higher levels and limits
+
+    def build(
+        self, robot: RobotModel, stack: TaskStack, t: float, dt: float, terms: list[TaskTerm] | None = None
+    ) -> HQPBuild:
+        """Evaluate the stack (unless ``terms`` are given) and lay out its levels as rows, without solving."""
+        if terms is None:
+            terms = stack.evaluate(robot, t)
+        levels = build_levels(robot, stack, terms, self.layout(stack), dt)
+        return HQPBuild(levels, self._box(robot, dt), robot.nv)
 
     # ------------------------------------------------------------------ the two cascades
     def _project(self, lv: Level, x: np.ndarray, Z: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -116,79 +120,67 @@ class HierarchicalQPResolver(QPResolverBase):
         M = A if Z is None else A @ Z
         return A, M, b - A @ x
 
-    def _rank_loss(self, A: np.ndarray, lsq: _Lsq, r: int, lv: Level) -> bool:
-        """Projected Jacobian A Z deficient while A itself is not (only for task rows; a gradient block never is)."""
-        m = A.shape[0]
-        if (lv.z is not None and not lv.m) or lsq.rank >= min(m, r):
-            return False
-        return lsq.rank < min(int(np.linalg.matrix_rank(A)), r)
+    def _lsq(self, M: np.ndarray) -> DampedSVD:
+        return damped_svd(M, epsilon=self.epsilon, max_damping=self.max_damping, rcond=self.rcond)
 
-    @staticmethod
-    def _identity_target(lv: Level) -> np.ndarray | None:
-        """For a level whose rows are all identity blocks (gradient ½ω‖q̇ − z‖², posture w‖q̇ − v‖²), the weighted
-        target (ωz + wv)/(ω + w) that minimises it; ``None`` for any other level."""
-        if lv.m and not lv.identity:
-            return None
-        w = float(lv.w[0]) if lv.m else 0.0
-        om = lv.z_weight if lv.z is not None else 0.0
-        if w + om <= 0:
-            return None
-        if not lv.m:
-            return lv.z
-        if lv.z is None:
-            return lv.v
-        return (om * lv.z + w * lv.v) / (om + w)
+    def _note(self, lv: Level, A: np.ndarray, lsq: DampedSVD, r: int, projected: bool, diag: QPDiagnostics) -> None:
+        diag.level_sigma_min[lv.priority] = lsq.sigma_min
+        if lsq.damped:
+            diag.damped_levels.append(lv.priority)
+        if not diag.level_sigma_min or len(diag.level_sigma_min) == 1:
+            diag.sigma_min = lsq.sigma_min
+        # algorithmic singularity: the projected Jacobian A Z lost rank while A itself did not
+        if projected and not lv.pure_null_objective and lsq.rank < min(A.shape[0], r):
+            if lsq.rank < min(int(np.linalg.matrix_rank(A)), r):
+                diag.rank_loss_levels.append(lv.priority)
 
-    def _closed_form_cascade(self, levels: list[Level], n: int, info: dict) -> np.ndarray:
+    def _closed_form_cascade(self, levels: list[Level], n: int, diag: QPDiagnostics) -> np.ndarray:
         x = np.zeros(n)
         Z: np.ndarray | None = None
         r = n
-        losses = []
         for lv in levels:
             if r == 0:
                 break
-            if not lv.m and lv.z is None:
-                continue
-            target = self._identity_target(lv)
-            if target is not None:  # rows = I (gradient and/or posture): u = Zᵀ(target − x) exactly, nothing left
-                x = target.copy() if Z is None else x + Z @ (Z.T @ (target - x))
+            if lv.pure_null_objective:  # rows = I: u = Zᵀ(z − x) exactly, nothing left below
+                assert lv.z is not None
+                x = lv.z.copy() if Z is None else x + Z @ (Z.T @ (lv.z - x))
                 Z, r = np.zeros((n, 0)), 0
                 continue
             if not lv.m:
                 continue
             A, M, rhs = self._project(lv, x, Z)
-            lsq = _Lsq(M, rhs, self.epsilon, self.max_damping, self.rcond)
-            info[f"sigma_min_L{lv.priority}"] = lsq.sigma_min
-            if lsq.damping > 0:
-                info["damped_levels"] = [*info.get("damped_levels", []), lv.priority]
-            if Z is not None and self._rank_loss(A, lsq, r, lv):
-                losses.append(lv.priority)
+            lsq = self._lsq(M)
+            self._note(lv, A, lsq, r, Z is not None, diag)
+            u = lsq.solve(rhs)
             if Z is None:
-                x = lsq.u
-                Z = lsq.null
+                x, Z = u, lsq.null_basis
             else:
-                x = x + Z @ lsq.u
-                Z = Z @ lsq.null
+                x, Z = x + Z @ u, Z @ lsq.null_basis
             r = Z.shape[1]
-        info["rank_loss"] = len(losses)
-        info["rank_loss_levels"] = losses
         return x
 
     def _level_qp(
-        self, lv: Level, x: np.ndarray, Z: np.ndarray | None, r: int, box: LimitBox, fixed: list, info: dict
-    ) -> tuple[np.ndarray, _Lsq | None]:
-        """Solve level ``lv`` over q̇ = x + Z u (module docstring); returns (u, the level's least squares)."""
+        self,
+        lv: Level,
+        x: np.ndarray,
+        Z: np.ndarray | None,
+        r: int,
+        box: LimitBox,
+        fixed: list[tuple[np.ndarray, np.ndarray]],
+        diag: QPDiagnostics,
+    ) -> tuple[np.ndarray, DampedSVD | None, np.ndarray | None]:
+        """Solve level ``lv`` over q̇ = x + Z u (module docstring); returns (u, the level's least squares, A)."""
         n = x.shape[0]
         Zm = np.eye(n) if Z is None else Z
         p = lv.p
         nvar = r + p
         P = np.zeros((nvar, nvar))
         q = np.zeros(nvar)
-        lsq = None
+        lsq, A = None, None
         eps = self.regularization
         if lv.m or lv.z is not None:
-            _, M, rhs = self._project(lv, x, Z)
-            lsq = _Lsq(M, rhs, self.epsilon, self.max_damping, self.rcond)
+            A, M, rhs = self._project(lv, x, Z)
+            lsq = self._lsq(M)
             eps = max(eps, lsq.damping**2)
             P[:r, :r] = M.T @ M
             q[:r] = -(M.T @ rhs)
@@ -222,85 +214,65 @@ class HierarchicalQPResolver(QPResolverBase):
         except SolverError:
             # dual active-set solvers (daqp) work with P⁻¹ and can misjudge a 1e-9-regularised level as infeasible:
             # retry once with a stronger minimum-norm regulariser (still far below the slack's unit weight)
-            info["regularization_retry"] = 1
+            diag.regularization_retry = 1
             P[:r, :r] += (max(1e-6, 1e3 * eps) - eps) * np.eye(r)
             sol = self._solve_qp(prob)
-        info["qp"] = int(info.get("qp", 0)) + 1
-        info["iterations"] = int(info.get("iterations", 0)) + max(sol.iterations, 0)
-        info["backend"] = sol.backend
-        return sol.x[:r], lsq
+        diag.qp += 1
+        diag.iterations += max(sol.iterations, 0)
+        diag.backend = sol.backend
+        return sol.x[:r], lsq, A
 
-    def _qp_cascade(self, levels: list[Level], n: int, box: LimitBox, info: dict) -> tuple[np.ndarray, str | None]:
+    def _qp_cascade(
+        self, levels: list[Level], box: LimitBox, n: int, diag: QPDiagnostics
+    ) -> tuple[np.ndarray, list[str]]:
         x = np.zeros(n)
         Z: np.ndarray | None = None
         r = n
         fixed: list[tuple[np.ndarray, np.ndarray]] = []
-        losses = []
-        skipped = []
+        notes: list[str] = []
         for lv in levels:
-            if r == 0:
+            if r == 0 and not lv.p:
                 break
             if not lv.m and lv.z is None and not lv.p:
                 continue
             try:
-                u, lsq = self._level_qp(lv, x, Z, r, box, fixed, info)
+                u, lsq, A = self._level_qp(lv, x, Z, r, box, fixed, diag)
             except SolverError as exc:
-                skipped.append(f"level {lv.priority} skipped ({exc})")
+                if lv is levels[0]:
+                    raise  # nothing of the cascade is worth keeping: the base falls back to the closed form
+                notes.append(f"level {lv.priority} skipped ({exc})")
                 continue
             x = x + (u if Z is None else Z @ u)
             if lv.p:
                 w = np.maximum(lv.C @ x - lv.d, 0.0)
                 fixed.append((lv.C, lv.d + w + self.slack_tolerance))
-            if lsq is not None:
-                info[f"sigma_min_L{lv.priority}"] = lsq.sigma_min
-                if Z is not None:
-                    A, _ = lv.ls_rows()
-                    if self._rank_loss(A, lsq, r, lv):
-                        losses.append(lv.priority)
-                Z = lsq.null if Z is None else Z @ lsq.null
+                worst = float(np.max(w))
+                if worst > CONTRADICTION_TOLERANCE:
+                    diag.contradicted[lv.priority] = worst
+                    rows = [lv.c_names[i] for i in np.flatnonzero(w > CONTRADICTION_TOLERANCE)]
+                    notes.append(
+                        f"level {lv.priority} contradicted by the levels above and the limits: {rows} violated by "
+                        f"up to {worst:.3g}"
+                    )
+            if lsq is not None and A is not None:
+                self._note(lv, A, lsq, r, Z is not None, diag)
+                Z = lsq.null_basis if Z is None else Z @ lsq.null_basis
                 r = Z.shape[1]
-        info["rank_loss"] = len(losses)
-        info["rank_loss_levels"] = losses
-        return x, ("hqp relaxed: " + "; ".join(skipped)) if skipped else None
+        return x, notes
 
-    # ------------------------------------------------------------------ the step
-    def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
-        t0 = time.perf_counter()
-        terms = stack.evaluate(robot, t)
-        levels = build_levels(robot, stack, terms, dt, self.levels)
-        box = self._box(robot, dt)
-        n = robot.nv
-        t1 = time.perf_counter()
-        info: dict[str, object] = {"backend": "closed-form", "qp": 0, "iterations": 0}
-        fallback = None
-        x = self._closed_form_cascade(levels, n, info)
+    # ------------------------------------------------------------------ the step (skeleton in QPResolverBase.solve)
+    def _resolve(self, built: HQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
+        levels, box, n = built.levels, built.box, built.n
+        x = self._closed_form_cascade(levels, n, diag)
         tol = 1e-12
-        feasible = box.contains(x, tol) and all(not lv.p or bool(np.all(lv.C @ x <= lv.d + tol)) for lv in levels)
-        if not feasible:
-            x, fallback = self._qp_cascade(levels, n, box, info)
-            if fallback is not None and f"level {levels[0].priority} skipped" in fallback:
-                x = self._closed_form(levels, n)  # the top level failed: nothing of the cascade is worth keeping
-                fallback = f"{fallback}; damped closed form clipped to the limits"
-                info["backend"] = "fallback"
-        dq, ok = self._finish(x, box, robot, info)
-        if not ok:
-            fallback = "non-finite q̇ replaced by zero"
-        for lv in levels:
-            res = 0.0
-            if lv.m:
-                res = float(np.sum((lv.J @ dq - lv.v) ** 2))
-            elif lv.z is not None:
-                res = float(np.sum((dq - lv.z) ** 2))
-            if lv.p:
-                res += float(np.sum(lv.inequality_residual(dq) ** 2))
-            info[f"residual_L{lv.priority}"] = float(np.sqrt(res))
-        t2 = time.perf_counter()
-        return StepResult(
-            dq=dq,
-            terms=terms,
-            fallback=fallback,
-            info=info,
-            damped=bool(info.get("damped_levels")),
-            build_time=t1 - t0,
-            solve_time=t2 - t1,
-        )
+        if box.contains(x, tol) and all(not lv.p or bool(np.all(lv.C @ x <= lv.d + tol)) for lv in levels):
+            return x, None
+        diag.level_sigma_min.clear()
+        diag.damped_levels.clear()
+        diag.rank_loss_levels.clear()
+        x, notes = self._qp_cascade(levels, box, n, diag)
+        return x, ("hqp: " + "; ".join(notes)) if notes else None
+
+    def _diagnose(self, built: HQPBuild, dq: np.ndarray, diag: QPDiagnostics) -> None:
+        for lv in built.levels:
+            diag.level_residuals[lv.priority] = lv.residual(dq)

@@ -1,36 +1,56 @@
-"""``wqp``: one QP, a weighted sum of every task plus damping, with the joint limits and bound subtasks as constraints.
+"""``wqp``: one QP, a weighted sum of every level of the stack, with the joint limits and bound subtasks as constraints.
 
-    minimise   ½ Σ_t w_t ‖J_t q̇ − v_t‖² + ½ω‖q̇ − z‖² + ½λ‖q̇‖²
-    subject to C q̇ ≤ d (bound subtasks),   lb ≤ q̇ ≤ ub (joint limits over dt)
+    minimise   ½ Σ_k ρ^k [ Σ_{t ∈ level k} w_t ‖J_t q̇ − v_t‖² ]  + ½λ‖q̇‖²
+    subject to C q̇ ≤ d (bound subtasks, every level),   lb ≤ q̇ ≤ ub (joint limits over dt)
 
-with z = Σ k_i η_i the gradient subtasks' target (ω their mean weight; −ωzᵀq̇ is the QP twin of the null-space term
-kη of eq. 5.8) and λ = ``damping`` + ``lm_damping``·‖e‖² a Levenberg–Marquardt-like regulariser that grows with the
-stacked task error e (Sugihara 2011), keeping the step bounded near singularities. As the main-task weights grow
-relative to ω, the solution tends to the hierarchy's J⁺V + (I − J⁺J)z (tested against ``hqp``).
+The levels are the stack's (:mod:`redundik.tasks.stack`): main tasks, then target subtasks, then the null-space
+objective ½‖q̇ − z‖² (z = Σ k_i η_i + posture), counted k = 0, 1, … over the levels present; ρ = ``level_ratio``
+(default 1e-4) makes each level a small perturbation of the one above, so with no constraint active the main-task
+velocity differs from the hierarchy's (``pinv``/``hqp``) by O(ρ‖z‖/σ_min²) — a stack tracks under ``wqp`` as it
+does under ``pinv`` — while the task weights w_t keep their meaning within a level. The −ρ^k zᵀq̇ part of the null
+objective is the QP twin of the null-space term kη of eq. (5.8). λ = ``damping``·ρ^(L−1) (L levels: always far below
+the lowest level) + ``lm_damping``·‖e‖² (a Levenberg–Marquardt-like regulariser growing with the main-task error,
+Sugihara 2011) keeps the optimum unique and bounded near singularities.
 
 Hot loop: when the unconstrained optimum P⁻¹(−q) already satisfies every constraint it is the QP's optimum and is
-returned without calling the backend (a 9×9 solve instead of a QP, flagged ``info["qp"] = 0``); otherwise the backend
-solves the QP, warm-started at the previous q̇. A backend failure or an infeasible QP (bound subtasks that the limits
-do not allow) is relaxed first (bound subtasks dropped), then replaced by the damped closed form clipped to the
-limits; ``StepResult.fallback`` says which.
+returned without calling the backend (a Cholesky solve instead of a QP, flagged ``info["qp"] = 0``); otherwise the
+backend solves the QP, warm-started at the previous q̇. A backend failure or an infeasible QP (bound subtasks that the
+limits do not allow) is relaxed first (bound subtasks dropped), then replaced by the damped closed form clipped to
+the limits; ``StepResult.fallback`` says which.
 """
 
 from __future__ import annotations
 
-import time
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.linalg.lapack import dposv as _dposv
 
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
-from redundik.resolvers.base import StepResult
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend
-from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPResolverBase
+from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
+from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem
-from redundik.resolvers.qp.terms import Level, build_levels
-from redundik.tasks.base import TaskStack, stack_terms
-from redundik.tasks.frame import PostureTask
+from redundik.tasks.base import TaskTerm
+from redundik.tasks.stack import TaskStack
+
+
+@dataclass
+class WQPBuild:
+    """A built ``wqp`` step: the problem and what the diagnostics need.
+
+    Attributes:
+        problem: The QP (inspect it, save it, solve it).
+        box: The joint-limit box of the step.
+        main_terms: The main tasks' terms (for the level-0 residual).
+        damping: λ of the step.
+    """
+
+    problem: QPProblem
+    box: LimitBox
+    main_terms: list[TaskTerm]
+    damping: float = 0.0
 
 
 class WeightedQPResolver(QPResolverBase):
@@ -40,14 +60,15 @@ class WeightedQPResolver(QPResolverBase):
         backend: QP backend (default ``"daqp"``; see :mod:`redundik.resolvers.qp.backends`).
         limits: Joint limits: ``None`` = the model's, ``False`` = none, a dict of
             :class:`~redundik.resolvers.qp.limits.JointLimits` options, or an instance.
-        damping: Constant part of λ [unit of ‖v‖⁻²-scaled cost], ≥ 0.
+        level_ratio: ρ ∈ (0, 1): weight of each level relative to the one above.
+        damping: λ relative to the lowest level's weight ρ^(L−1), ≥ 0.
         lm_damping: Error-dependent part: λ += lm_damping·‖e‖², ≥ 0.
-        levels: Accepted for symmetry with ``hqp`` (a weighted QP has one level); must name existing tasks.
+        levels: Level overrides by task / subtask name (as ``hqp``).
         epsilon: Damping threshold of the closed-form fallback.
         max_damping: λ_max of the closed-form fallback.
 
     Raises:
-        ResolverError: negative or non-finite damping; SolverError: unknown or missing backend.
+        ResolverError: negative or non-finite numbers; SolverError: unknown or missing backend.
     """
 
     name = "wqp"
@@ -56,6 +77,7 @@ class WeightedQPResolver(QPResolverBase):
         self,
         backend: str | Backend = DEFAULT_BACKEND,
         limits: LimitsOption = None,
+        level_ratio: float = 1e-4,
         damping: float = 1e-6,
         lm_damping: float = 0.0,
         levels: LevelsOption = None,
@@ -64,25 +86,25 @@ class WeightedQPResolver(QPResolverBase):
     ) -> None:
         super().__init__(backend, limits, levels, epsilon, max_damping)
         for key, val in (("damping", damping), ("lm_damping", lm_damping)):
-            if not (np.isfinite(val) and val >= 0):
-                raise ResolverError(f"wqp: {key} must be a finite number ≥ 0, got {val}")
-        self.damping, self.lm_damping = float(damping), float(lm_damping)
+            if not (isinstance(val, (int, float)) and np.isfinite(val) and val >= 0):
+                raise ResolverError(f"wqp: {key} must be a finite number ≥ 0, got {val!r}")
+        if not (isinstance(level_ratio, (int, float)) and 0 < level_ratio < 1):
+            raise ResolverError(f"wqp: level_ratio must be in (0, 1), got {level_ratio!r}")
+        self.damping, self.lm_damping, self.level_ratio = float(damping), float(lm_damping), float(level_ratio)
         self._P: np.ndarray | None = None
         self._q: np.ndarray | None = None
-        self._empty: Level | None = None
-        self._no_rows, self._no_rhs = np.zeros((0, 0)), np.zeros(0)
-        self._sub_stacks: dict[int, TaskStack] = {}
 
-    def build(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> tuple[QPProblem, Level, list]:
-        """Evaluate the stack and build the QP (without solving it), for inspection and tests.
+    def build(
+        self, robot: RobotModel, stack: TaskStack, t: float, dt: float, terms: list[TaskTerm] | None = None
+    ) -> WQPBuild:
+        """Evaluate the stack (unless ``terms`` are given) and build the QP without solving it.
 
-        Main tasks are accumulated straight into P = Σ w JᵀJ and q = −Σ w Jᵀv in preallocated arrays (a posture
-        task's identity Jacobian as a diagonal update); subtasks go through :func:`~.terms.build_levels`.
-
-        Returns:
-            (problem, the subtasks' merged level, the main-task terms).
+        Rows are accumulated straight into P = Σ ρ^k w JᵀJ and q = −Σ ρ^k w Jᵀv in preallocated arrays; a task
+        that declares ``identity_jacobian`` and the null-space objective are diagonal updates.
         """
-        terms = stack.evaluate(robot, t)
+        if terms is None:
+            terms = stack.evaluate(robot, t)
+        layout = self.layout(stack)
         n = robot.nv
         if self._P is None or self._P.shape[0] != n:
             self._P, self._q = np.empty((n, n)), np.empty(n)
@@ -90,95 +112,92 @@ class WeightedQPResolver(QPResolverBase):
         P.fill(0.0)
         q.fill(0.0)
         diag = P.reshape(-1)[:: n + 1]  # a view on P's diagonal
-        for task, term in zip(stack.tasks, terms, strict=True):
-            w, J = term.weight, term.J
-            if isinstance(task, PostureTask):  # J = I
-                diag += w
-                q -= w * term.v
-            else:
-                Jw = w * J.T  # (n, m)
-                P += Jw @ J
-                q -= Jw @ term.v
-        if stack.subtasks:
-            sub_stack = self._sub_stacks.get(id(stack))
-            if sub_stack is None or sub_stack.subtasks is not stack.subtasks:
-                sub_stack = self._sub_stacks[id(stack)] = TaskStack([], stack.subtasks)
-            lv = build_levels(robot, sub_stack, [], dt, None, merge=True)[0]
-            if lv.m:
-                Jw = lv.J.T * lv.w  # (n, m)
-                P += Jw @ lv.J
-                q -= Jw @ lv.v
-        else:
-            lv = self._empty_level(n)
-        lam = self.damping
-        if self.lm_damping and terms:
-            lam += self.lm_damping * sum(float(tm.error @ tm.error) for tm in terms)
-        self._last_lam = lam
-        if lv.z is not None and lv.z_weight > 0:
-            lam += lv.z_weight  # the gradient objective's ½ω‖q̇‖²
-            q -= lv.z_weight * lv.z
+        Cs, ds, names = [], [], []
+        scale = 1.0
+        for k, plan in enumerate(layout.levels):
+            scale = self.level_ratio**k
+            for i in plan.tasks:
+                term, w = terms[i], scale * terms[i].weight
+                if stack.tasks[i].identity_jacobian:
+                    diag += w
+                    q -= w * term.v
+                else:
+                    Jw = w * term.J.T  # (n, m)
+                    P += Jw @ term.J
+                    q -= Jw @ term.v
+            for sub in plan.targets:
+                eta, v, _ = sub.row(robot)
+                w = scale * sub.weight
+                P += w * np.outer(eta, eta)
+                q -= (w * v) * eta
+            for sub in plan.bounds:
+                C, d, rn = sub.rows(robot, dt)
+                Cs.append(C)
+                ds.append(d)
+                names += rn
+            if plan.null_objective:
+                z = stack.null_target(robot, terms, layout)
+                diag += scale
+                if z is not None:
+                    q -= scale * z
+        lam = self.damping * scale
+        main_terms = [terms[i] for i in layout.main]
+        if self.lm_damping and main_terms:
+            lam += self.lm_damping * sum(float(tm.error @ tm.error) for tm in main_terms)
         if lam:
             diag += lam
+        if Cs:
+            G, h = np.vstack(Cs), np.concatenate(ds)
+        else:
+            G, h = np.zeros((0, n)), np.zeros(0)
         box = self._box(robot, dt)
-        self._last_box = box
-        prob = QPProblem(P, q, lv.C, lv.d, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp", lv.c_names)
-        return prob, lv, terms
+        prob = QPProblem(P, q, G, h, np.zeros((0, n)), np.zeros(0), box.lb, box.ub, "wqp", names)
+        return WQPBuild(prob, box, main_terms, lam)
 
-    def _empty_level(self, n: int) -> Level:
-        if self._empty is None or self._empty.J.shape[1] != n:
-            self._no_rows, self._no_rhs = np.zeros((0, n)), np.zeros(0)
-            self._empty = Level(0, [], np.zeros((0, n)), np.zeros(0), np.zeros(0), np.zeros((0, n)), np.zeros(0))
-        return self._empty
-
-    def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
-        t0 = time.perf_counter()
-        prob, lv, terms = self.build(robot, stack, t, dt)
-        box = self._last_box
-        t1 = time.perf_counter()
-        info: dict[str, object] = {"backend": "closed-form", "qp": 0, "iterations": 0}
-        fallback = None
+    def _resolve(self, built: WQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
+        prob, box = built.problem, built.box
         _, x, fail = _dposv(prob.P, -prob.q)  # Cholesky solve of the unconstrained optimum (P is SPD when λ > 0)
-        feasible = not fail and box.contains(x, 1e-12) and (not lv.p or not (lv.C @ x > lv.d + 1e-12).any())
-        if not feasible:
-            info["qp"] = 1
-            try:
-                sol = self._solve_qp(prob, self._dq_prev)
-                x = sol.x
-                info["backend"], info["iterations"] = sol.backend, sol.iterations
-            except SolverError as exc:
-                x = None
-                if lv.p:
-                    relaxed = QPProblem(prob.P, prob.q, prob.G[:0], prob.h[:0], prob.A, prob.b, prob.lb, prob.ub, "wqp")
-                    try:
-                        x = self._solve_qp(relaxed, self._dq_prev).x
-                        fallback = f"wqp relaxed (bound subtasks {lv.c_names} dropped): {exc}"
-                    except SolverError:
-                        x = None
-                if x is None:
-                    fallback = f"wqp failed, damped closed form clipped to the limits: {exc}"
-                    J, V = stack_terms(terms, robot.nv)
-                    x = self._closed_form([Level(0, [], J, V, np.ones(V.shape[0]), z=lv.z)], robot.nv)
-                info["backend"] = "fallback"
-        dq, ok = self._finish(x, box, robot, info)
-        if not ok:
-            fallback = "non-finite q̇ replaced by zero"
-        if terms:
+        if not fail and box.contains(x, 1e-12) and not (prob.G.shape[0] and (prob.G @ x > prob.h + 1e-12).any()):
+            return x, None
+        diag.qp = 1
+        try:
+            sol = self._solve_qp(prob, self._dq_prev)
+            diag.backend, diag.iterations = sol.backend, sol.iterations
+            return sol.x, None
+        except SolverError as exc:
+            if not prob.G.shape[0]:
+                raise
+            n = prob.n
+            relaxed = QPProblem(prob.P, prob.q, np.zeros((0, n)), np.zeros(0), prob.A, prob.b, prob.lb, prob.ub, "wqp")
+            sol = self._solve_qp(relaxed, self._dq_prev)  # a SolverError here goes to the closed form
+            diag.backend, diag.iterations, diag.qp = sol.backend, sol.iterations, 2
+            return (
+                sol.x,
+                f"wqp relaxed (bound subtasks {sorted(set(r.split(':')[0] for r in prob.row_names))} dropped): {exc}",
+            )
+
+    def _diagnose(self, built: WQPBuild, dq: np.ndarray, diag: QPDiagnostics) -> None:
+        """Level-0 residual, bound violation, and σ_min of the main-task Jacobian (eigenvalues of the small JJᵀ);
+        the step counts as damped when λ ≥ 1e-3·σ_min² (the regulariser then bends the main-task solution)."""
+        if built.main_terms:
+            J = built.main_terms[0].J if len(built.main_terms) == 1 else np.vstack([t.J for t in built.main_terms])
+            if J.shape[0]:
+                gram = J @ J.T if J.shape[0] <= J.shape[1] else J.T @ J
+                ev = np.linalg.eigvalsh(gram)
+                nz = ev[ev > 1e-20 * max(float(ev[-1]), 1e-300)]
+                diag.sigma_min = float(np.sqrt(nz[0])) if nz.size else np.inf
+                if built.damping >= 1e-3 * diag.sigma_min**2:
+                    diag.damped_levels.append(0)
             res2 = 0.0
-            for tm in terms:
+            for tm in built.main_terms:
                 r = tm.J @ dq - tm.v
                 res2 += float(r @ r)
-            info["residual_L0"] = res2**0.5
-        if lv.p:
-            viol = lv.inequality_residual(dq)
-            info["bound_violation"] = float(np.max(viol))
-        t2 = time.perf_counter()
-        return StepResult(
-            dq=dq,
-            terms=terms,
-            fallback=fallback,
-            info=info,
-            damping=self._last_lam,
-            damped=self._last_lam > self.damping,
-            build_time=t1 - t0,
-            solve_time=t2 - t1,
+            diag.level_residuals[0] = res2**0.5
+        G = built.problem.G
+        if G.shape[0]:
+            diag.bound_violation = float(np.max(np.maximum(G @ dq - built.problem.h, 0.0)))
+
+    def __repr__(self) -> str:
+        return (
+            f"WeightedQPResolver(backend={self.backend.name!r}, level_ratio={self.level_ratio}, limits={self.limits!r})"
         )

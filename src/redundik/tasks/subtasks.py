@@ -1,0 +1,229 @@
+"""Typed subtasks: how a resolver uses a potential or a barrier (section 5.2). One type per use, one formula each.
+
+* :class:`GradientSubtask` — z = k η in the null space of the main tasks (eq. 5.8; several: z = Σ k_i η_i, 5.15).
+  Its strength is its gain k (> 0 increases p, < 0 decreases it); it has no weight and no level of its own: every
+  gradient subtask belongs to the stack's null-space objective (see :mod:`redundik.tasks.stack`).
+* :class:`TargetSubtask` — drive p to p_d at rate K: ṗ = ṗ_d + K(p_d − p). The state-feedback law computes the
+  gains k that achieve it (``feedback``); a QP places it as the 1-row task ηᵀq̇ = ṗ_d + K(p_d − p) (``wqp``, ``hqp``).
+* :class:`BoundSubtask` — keep lower ≤ p ≤ upper, or a vector barrier h(q) ≥ 0, as the inequality rows of the
+  velocity damper ḣ ≥ −γ h (Faverjon & Tournassoud 1987), γ = min(K, 1/dt) (γ = 1/dt when K = 0): with γ = 1/dt it
+  is the first-order prediction h + ḣ·dt ≥ 0 itself; with γ < 1/dt, h can shrink at most like exp(−γt), so the
+  bound is approached smoothly and never crossed to first order. QP resolvers only.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import ClassVar
+
+import numpy as np
+
+from redundik.errors import TaskError
+from redundik.kinematics.model import RobotModel
+from redundik.tasks.base import Barrier, Potential, check_name, check_number, check_priority
+
+
+class Subtask(ABC):
+    """Base of the typed subtasks: a name (the potential's or barrier's by default) and a ``kind``."""
+
+    kind: ClassVar[str] = "subtask"
+    _name: str
+
+    @property
+    def name(self) -> str:
+        """Subtask name (unique in a stack)."""
+        return self._name
+
+    @name.setter
+    def name(self, value: str) -> None:
+        self._name = check_name(value, f"{type(self).__name__}")
+
+    @abstractmethod
+    def check(self, robot: RobotModel) -> None:
+        """Validate against a robot (frames, joints, sizes); raise :class:`TaskError` if not."""
+
+    @abstractmethod
+    def __repr__(self) -> str: ...
+
+
+def _potential(obj: object, what: str) -> Potential:
+    if not isinstance(obj, Potential):
+        raise TaskError(f"{what}: expected a Potential (p(q) with its gradient), got {type(obj).__name__}")
+    return obj
+
+
+class GradientSubtask(Subtask):
+    """z = k η in the null space of the main tasks (eq. 5.8).
+
+    Args:
+        potential: p(q).
+        gain: k [1/s · unit of q per unit of p]: > 0 climbs p, < 0 descends it.
+        name: Defaults to the potential's name.
+
+    Raises:
+        TaskError: not a potential, or a non-finite gain.
+    """
+
+    kind: ClassVar[str] = "gradient"
+
+    def __init__(self, potential: Potential, gain: float = 1.0, *, name: str | None = None) -> None:
+        self.potential = _potential(potential, "GradientSubtask")
+        self.name = name or potential.name
+        self.gain = gain
+
+    @property
+    def gain(self) -> float:
+        """k of eq. (5.8)."""
+        return self._gain
+
+    @gain.setter
+    def gain(self, value: float) -> None:
+        self._gain = check_number(value, f"subtask '{self.name}': gain")
+
+    def check(self, robot: RobotModel) -> None:
+        self.potential.check(robot)
+
+    def direction(self, robot: RobotModel) -> np.ndarray:
+        """This subtask's part of z: k η, shape (nv,) (eq. 5.8)."""
+        return self._gain * self.potential.gradient(robot)
+
+    def __repr__(self) -> str:
+        return f"GradientSubtask({self.potential!r}, gain={self._gain})"
+
+
+class TargetSubtask(Subtask):
+    """Drive p to p_d: ṗ = ṗ_d + K (p_d − p), exponential convergence at rate K.
+
+    Args:
+        potential: p(q).
+        target: p_d [unit of p]; settable between ticks (:meth:`set_target`).
+        rate: K [1/s] ≥ 0.
+        target_rate: ṗ_d [unit of p / s].
+        weight: > 0, among the rows of its level in a QP.
+        priority: ``None`` (the first level below the main tasks) or an explicit level ≥ 0.
+        name: Defaults to the potential's name.
+
+    Raises:
+        TaskError: non-finite numbers, negative rate, non-positive weight, bad priority.
+    """
+
+    kind: ClassVar[str] = "target"
+
+    def __init__(
+        self,
+        potential: Potential,
+        target: float,
+        *,
+        rate: float = 1.0,
+        target_rate: float = 0.0,
+        weight: float = 1.0,
+        priority: int | None = None,
+        name: str | None = None,
+    ) -> None:
+        self.potential = _potential(potential, "TargetSubtask")
+        self.name = name or potential.name
+        self.set_target(target, target_rate)
+        self.rate = check_number(rate, f"subtask '{self.name}': rate (K)", low=0.0)
+        self.weight = check_number(weight, f"subtask '{self.name}': weight", low=0.0, strict=True)
+        self.priority = check_priority(priority, f"subtask '{self.name}'")
+
+    def set_target(self, target: float, target_rate: float = 0.0) -> None:
+        """Move the target p_d (and its rate ṗ_d) at run time, between ticks."""
+        self.target = check_number(target, f"subtask '{self.name}': target")
+        self.target_rate = check_number(target_rate, f"subtask '{self.name}': target_rate")
+
+    def check(self, robot: RobotModel) -> None:
+        self.potential.check(robot)
+
+    def row(self, robot: RobotModel) -> tuple[np.ndarray, float, float]:
+        """(η, v, e): the 1-row task ηᵀq̇ = v with v = ṗ_d + K e and e = p_d − p."""
+        e = self.target - self.potential.value(robot)
+        return self.potential.gradient(robot), self.target_rate + self.rate * e, e
+
+    def __repr__(self) -> str:
+        return f"TargetSubtask({self.potential!r}, target={self.target}, rate={self.rate})"
+
+
+class BoundSubtask(Subtask):
+    """Keep ``lower ≤ p ≤ upper`` (a potential) or h(q) ≥ 0 (a barrier) with the velocity damper (module docstring).
+
+    Args:
+        source: A :class:`~redundik.tasks.base.Potential` (give ``lower`` and/or ``upper``) or a
+            :class:`~redundik.tasks.base.Barrier` (no bounds: it is kept ≥ 0).
+        lower: Lower bound [unit of p] or ``None``.
+        upper: Upper bound [unit of p] or ``None``.
+        rate: Approach gain K [1/s] ≥ 0 (0: γ = 1/dt).
+        priority: ``None`` (the first level below the main tasks) or an explicit level ≥ 0.
+        name: Defaults to the source's name.
+
+    Raises:
+        TaskError: neither bound for a potential, bounds for a barrier, lower > upper, non-finite numbers.
+    """
+
+    kind: ClassVar[str] = "bound"
+
+    def __init__(
+        self,
+        source: Potential | Barrier,
+        *,
+        lower: float | None = None,
+        upper: float | None = None,
+        rate: float = 0.0,
+        priority: int | None = None,
+        name: str | None = None,
+    ) -> None:
+        if not isinstance(source, (Potential, Barrier)):
+            raise TaskError(f"BoundSubtask: expected a Potential or a Barrier, got {type(source).__name__}")
+        self.source = source
+        self.name = name or source.name
+        if isinstance(source, Barrier):
+            if lower is not None or upper is not None:
+                raise TaskError(f"subtask '{self.name}': a barrier is kept ≥ 0; lower/upper apply to potentials only")
+        elif lower is None and upper is None:
+            raise TaskError(f"subtask '{self.name}': a bound subtask needs lower and/or upper")
+        self.lower = None if lower is None else check_number(lower, f"subtask '{self.name}': lower")
+        self.upper = None if upper is None else check_number(upper, f"subtask '{self.name}': upper")
+        if self.lower is not None and self.upper is not None and self.lower > self.upper:
+            raise TaskError(f"subtask '{self.name}': lower ({self.lower}) > upper ({self.upper})")
+        self.rate = check_number(rate, f"subtask '{self.name}': rate (K)", low=0.0)
+        self.priority = check_priority(priority, f"subtask '{self.name}'")
+
+    @property
+    def potential(self) -> Potential | None:
+        """The potential, or ``None`` for a barrier source."""
+        return self.source if isinstance(self.source, Potential) else None
+
+    def check(self, robot: RobotModel) -> None:
+        self.source.check(robot)
+
+    def values(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray, list[str], np.ndarray | None]:
+        """(h, H, row names, per-row γ or ``None``) with h ≥ 0 the safe side."""
+        src = self.source
+        if isinstance(src, Barrier):
+            term = src.evaluate(robot)
+            return term.h, term.H, [f"{self.name}:{n}" for n in term.names], term.gamma
+        p, eta = src.value(robot), src.gradient(robot)
+        hs, Hs, names = [], [], []
+        if self.lower is not None:
+            hs.append(p - self.lower)
+            Hs.append(eta)
+            names.append(f"{self.name}:lower")
+        if self.upper is not None:
+            hs.append(self.upper - p)
+            Hs.append(-eta)
+            names.append(f"{self.name}:upper")
+        return np.array(hs), np.vstack(Hs), names, None
+
+    def rows(self, robot: RobotModel, dt: float) -> tuple[np.ndarray, np.ndarray, list[str]]:
+        """The damper ḣ ≥ −γh as QP rows C q̇ ≤ d: C = −H, d = γ h (module docstring), γ = min(K or 1/dt, 1/dt)."""
+        h, H, names, gamma_rows = self.values(robot)
+        cap = 1.0 / dt
+        gamma: float | np.ndarray
+        if gamma_rows is not None:
+            gamma = np.minimum(gamma_rows, cap)
+        else:
+            gamma = cap if self.rate == 0 else min(self.rate, cap)
+        return -H, gamma * h, names
+
+    def __repr__(self) -> str:
+        return f"BoundSubtask({self.source!r}, lower={self.lower}, upper={self.upper}, rate={self.rate})"
