@@ -254,3 +254,20 @@ def test_non_finite_log_values_never_reach_summary() -> None:
     with pytest.raises(SimulationError):
         check_finite(np.array([1e300]), "q", 0.0)
     check_finite(np.array([1.0, -2.0]), "q", 0.0)
+
+
+def test_overflowing_torque_monitor_stops_the_run(cli: Callable[..., tuple[int, str, str]], tmp_path: Path) -> None:
+    from tests.conftest import load_yaml
+
+    data = load_yaml(TASKS / "exercise3_rpr_lamp.yaml")
+    data["robot"] = str((TASKS / data["robot"]).resolve())
+    data["monitors"]["load"]["force"][0] = -1e308
+    data.pop("duration", None)
+    data["steps"] = 10
+    import yaml
+
+    task = tmp_path / "t.yaml"
+    task.write_text(yaml.safe_dump(data), encoding="utf-8")
+    code, _, err = cli("run", task, "--out", tmp_path / "out", "--no-figures", "--quiet")
+    assert code == 2 and err.count("\n") == 1 and "monitor" in err and "diverged" in err, err
+    assert not (tmp_path / "out" / "summary.json").exists()

@@ -93,15 +93,16 @@ def run_one(plan: TaskPlan, run: RunPlan, progress: Callable[[str, int], None] |
     series: dict[str, np.ndarray] = {}
     if run.torque_monitors:
         tau = {m.name: np.empty((n, robot.nv)) for m in run.torque_monitors}
-        for k in range(n):
-            robot.update(log.q[k])
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported below, in one line
+            for k in range(n):
+                robot.update(log.q[k])
+                for m in run.torque_monitors:
+                    tau[m.name][k] = m.torques(robot)
             for m in run.torque_monitors:
-                tau[m.name][k] = m.torques(robot)
-        for m in run.torque_monitors:
-            a = np.abs(tau[m.name])
-            series[f"m.{m.name}.max"] = a.max(axis=1)
-            series[f"m.{m.name}.min"] = a.min(axis=1)
-            series[f"m.{m.name}.mean"] = a.mean(axis=1)
+                a = np.abs(tau[m.name])
+                series[f"m.{m.name}.max"] = a.max(axis=1)
+                series[f"m.{m.name}.min"] = a.min(axis=1)
+                series[f"m.{m.name}.mean"] = a.mean(axis=1)
     for key, values in series.items():
         bad = np.flatnonzero(~np.isfinite(values))
         if bad.size:

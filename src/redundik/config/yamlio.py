@@ -45,6 +45,12 @@ class BoundedLoader(yaml.SafeLoader):
         self._depth = 0
         self._weights: dict[int, int] = {}
 
+    def fetch_flow_collection_start(self, TokenClass: Any) -> None:
+        # refuse deep flow nesting ([[[[...) in the scanner already: its simple-key bookkeeping is quadratic in depth
+        if self.flow_level >= MAX_DEPTH:
+            raise yaml.scanner.ScannerError(None, None, f"nesting deeper than {MAX_DEPTH} levels", self.get_mark())
+        super().fetch_flow_collection_start(TokenClass)
+
     def compose_node(self, parent: yaml.Node | None, index: object) -> yaml.Node | None:
         if self.check_event(yaml.AliasEvent):
             event = self.peek_event()
