@@ -31,6 +31,7 @@ from redundik.config.schema import MAX_STEPS, RunSpec, SubtaskSpec, TaskFileSpec
 from redundik.config.yamlio import join_path, read_yaml, validate
 from redundik.errors import ConfigError, RedundikError
 from redundik.resolvers import RESOLVERS, Resolver, make_resolver
+from redundik.resolvers.base import check_gains
 from redundik.tasks import BoundSubtask, GradientSubtask, Potential, Subtask, TargetSubtask, Task, TaskStack
 
 
@@ -383,6 +384,7 @@ def _build_run(spec: TaskFileSpec, ctx: Context, name: str, run: RunSpec, q0_fil
             pot.check(robot)
         resolver.reset()
         resolver.check(robot, stack)
+        check_gains(stack, spec.dt, resolver.name)  # what Resolver.step refuses at the first step (K·dt > 2)
         stack.evaluate(robot, 0.0)
     except RedundikError as exc:
         raise ConfigError(str(exc), path) from None
