@@ -247,7 +247,7 @@ def _check_log_memory(runs: dict[str, RunPlan], steps: int, nq: int, nv: int, n_
 
 def _build_monitor(raw: Any, name: str, ctx: Context, path: str) -> Potential | TorqueMonitor:
     kind = raw.get("type") if isinstance(raw, dict) else None
-    if kind in MONITORS:
+    if isinstance(kind, str) and kind in MONITORS:
         return build_typed(MONITORS, raw, name, ctx, path, "monitor")
     registry: dict[str, Any] = {**POTENTIALS, **MONITORS}
     return build_typed(registry, raw, name, ctx, path, "monitor")
