@@ -41,7 +41,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         app(args=argv, standalone_mode=False)
     except RedundikError as exc:
-        typer.secho(f"error: {exc}", err=True, fg=typer.colors.RED)
+        text = " ".join(str(exc).split())  # always one line, and bounded
+        typer.secho(f"error: {text if len(text) <= 1000 else text[:997] + '...'}", err=True, fg=typer.colors.RED)
         return 2
     except typer.Exit as exc:
         return int(exc.exit_code or 0)

@@ -12,19 +12,18 @@ import typer
 
 
 def validate(
-    file: Annotated[Path, typer.Argument(help="Task file (YAML).", show_default=False)],
+    file: Annotated[
+        Path, typer.Argument(help="Task file, robot config or mechanism config (YAML).", show_default=False)
+    ],
 ) -> None:
-    """Check a task file (robot, tasks, potentials, every run) without running it."""
+    """Check a task file (robot, tasks, potentials, every run), a robot config or a mechanism config."""
     from rich.console import Console
+    from rich.markup import escape
 
-    from redundik.config import load_task
+    from redundik.config.anyfile import validate_file
 
-    plan = load_task(file)
-    Console().print(
-        f"[green]ok[/green] {file}: task '{plan.name}', robot '{plan.robot.model.name}' "
-        f"({plan.robot.model.nv} joints), dt = {plan.dt} s, {plan.steps} steps, "
-        f"runs: {', '.join(f'{n} ({r.resolver_name})' for n, r in plan.runs.items())}"
-    )
+    what = validate_file(file)
+    Console(soft_wrap=True).print(f"[green]ok[/green] {escape(str(file))}: {escape(what)}")
 
 
 def run(

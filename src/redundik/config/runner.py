@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from redundik.config.loader import RunPlan, TaskPlan
-from redundik.errors import ConfigError
+from redundik.errors import ConfigError, SimulationError
 from redundik.simulation import SimulationLog, simulate
 
 
@@ -90,21 +90,32 @@ def run_one(plan: TaskPlan, run: RunPlan, progress: Callable[[str, int], None] |
         extra_potentials=tuple(run.watched + run.monitors),
         progress=cb,
         plant=plant,
+        integrator=run.integrator,
+        rtol=run.rtol,
+        atol=run.atol,
     )
     n = log.q.shape[0]
     violation = np.array([float(np.max(robot.limit_violation(log.q[k]), initial=0.0)) for k in range(n)])
     series: dict[str, np.ndarray] = {}
     if run.torque_monitors:
         tau = {m.name: np.empty((n, robot.nv)) for m in run.torque_monitors}
-        for k in range(n):
-            robot.update(log.q[k])
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported below, in one line
+            for k in range(n):
+                robot.update(log.q[k])
+                for m in run.torque_monitors:
+                    tau[m.name][k] = m.torques(robot)
             for m in run.torque_monitors:
-                tau[m.name][k] = m.torques(robot)
-        for m in run.torque_monitors:
-            a = np.abs(tau[m.name])
-            series[f"m.{m.name}.max"] = a.max(axis=1)
-            series[f"m.{m.name}.min"] = a.min(axis=1)
-            series[f"m.{m.name}.mean"] = a.mean(axis=1)
+                a = np.abs(tau[m.name])
+                series[f"m.{m.name}.max"] = a.max(axis=1)
+                series[f"m.{m.name}.min"] = a.min(axis=1)
+                series[f"m.{m.name}.mean"] = a.mean(axis=1)
+    for key, values in series.items():
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            t = float(log.t[bad[0]])
+            raise SimulationError(
+                f"run '{run.name}' diverged at t = {t:.6g} s: monitor {key} is not finite (overflow?)"
+            )
     if plant is not None:
         series.update(plant.series())
     result = RunResult(run.name, run, log, series, violation)

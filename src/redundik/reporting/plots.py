@@ -17,6 +17,7 @@ import numpy as np
 
 from redundik.config.loader import TaskPlan
 from redundik.config.runner import RunResult
+from redundik.reporting.paths import safe_path
 
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
@@ -404,11 +405,10 @@ def plot_configurations(plan: TaskPlan, results: dict[str, RunResult], path: Pat
 
 def write_figures(plan: TaskPlan, results: dict[str, RunResult], out_dir: Path) -> list[Path]:
     """Write every figure into ``out_dir``; returns the files written."""
-    out_dir.mkdir(parents=True, exist_ok=True)
     written = [
-        plot_joints(plan, results, out_dir / "joints.png"),
-        plot_task_errors(plan, results, out_dir / "task_error.png"),
-        plot_potentials(plan, results, out_dir / "potentials.png"),
-        plot_configurations(plan, results, out_dir / "configurations.png"),
+        plot_joints(plan, results, safe_path(out_dir, "joints.png")),
+        plot_task_errors(plan, results, safe_path(out_dir, "task_error.png")),
+        plot_potentials(plan, results, safe_path(out_dir, "potentials.png")),
+        plot_configurations(plan, results, safe_path(out_dir, "configurations.png")),
     ]
     return [p for p in written if p is not None]
