@@ -38,6 +38,7 @@ class LoadedRobot:
     source: str
     q0: np.ndarray | None = None
     segments: list[tuple[str, str]] = field(default_factory=list)
+    urdf: Path | None = None
 
 
 def rpy_matrix(rpy: list[float] | np.ndarray) -> np.ndarray:
@@ -117,7 +118,7 @@ def _example_robot(name: str, free_flyer: bool | None, path: str, source: str) -
     except RedundikError as exc:
         raise ConfigError(str(exc), path) from None
     robot = RobotModel(robot.model, name=name, length_unit="m")
-    return LoadedRobot(robot, source, None, _urdf_segments(robot))
+    return LoadedRobot(robot, source, None, _urdf_segments(robot), example_robot_data_dir() / rel)
 
 
 def build_robot(spec: RobotSpec, base_dir: Path, prefix: str, source: str) -> LoadedRobot:
@@ -136,7 +137,7 @@ def build_robot(spec: RobotSpec, base_dir: Path, prefix: str, source: str) -> Lo
                 robot = from_urdf(urdf_path, free_flyer=bool(spec.free_flyer), name=spec.name)
             except RedundikError as exc:
                 raise ConfigError(str(exc), where) from None
-            loaded = LoadedRobot(robot, source, None, _urdf_segments(robot))
+            loaded = LoadedRobot(robot, source, None, _urdf_segments(robot), urdf_path)
         if spec.name:
             loaded.model = RobotModel(loaded.model.model, name=spec.name, length_unit=spec.length_unit)
     model = loaded.model.model
