@@ -228,6 +228,7 @@ class CollisionWorld:
         self_collision: Include robot–robot pairs.
         disabled: Link-name pairs never checked (an SRDF's, the user's).
         obstacle_links: Links checked against obstacles (``None``: every moving link).
+        links: The links kept at all (``None``: every link with collision geometry), e.g. a humanoid's torso and arms.
 
     Raises:
         ModelError: unknown link names in ``disabled`` / ``obstacle_links`` (lists the links), repeated obstacle
@@ -243,11 +244,20 @@ class CollisionWorld:
         self_collision: bool = True,
         disabled: Sequence[tuple[str, str]] = (),
         obstacle_links: Sequence[str] | None = None,
+        links: Sequence[str] | None = None,
     ) -> None:
         self.model = robot.model
         self.robot_name = robot.name
         gm = pin.GeometryModel()
+        every = [go.name for go in robot_geometry.geometryObjects]
+        bad = [n for n in (links or ()) if n not in every]
+        if bad:
+            raise ModelError(
+                f"links: unknown link(s) {', '.join(map(repr, bad))}; links with collision geometry: {', '.join(every)}"
+            )
         for go in robot_geometry.geometryObjects:
+            if links is not None and go.name not in links:
+                continue
             gm.addGeometryObject(pin.GeometryObject(go.name, go.parentJoint, go.parentFrame, go.placement, go.geometry))
         self.n_links = gm.ngeoms
         self.link_names = [go.name for go in gm.geometryObjects]
@@ -259,7 +269,10 @@ class CollisionWorld:
         for ob in self.obstacles:
             gm.addGeometryObject(pin.GeometryObject(ob.name, 0, 0, ob.placement, ob.shape))
         self.geometry = gm
-        self._check_links([n for pair in disabled for n in pair], "disabled pair")
+        unknown = sorted({n for pair in disabled for n in pair} - set(every))
+        if unknown:
+            shown = ", ".join(map(repr, unknown))
+            raise ModelError(f"disabled pair: unknown link(s) {shown}; links: {', '.join(every)}")
         if obstacle_links is not None:
             self._check_links(obstacle_links, "obstacle_links")
         off = {frozenset(p) for p in disabled}
@@ -301,6 +314,7 @@ class CollisionWorld:
         package_dirs: Sequence[str] | None = None,
         self_collision: bool = True,
         obstacle_links: Sequence[str] | None = None,
+        links: Sequence[str] | None = None,
     ) -> CollisionWorld:
         """Load the URDF's collision geometry, fit ``approximation`` shapes and filter pairs.
 
@@ -316,15 +330,23 @@ class CollisionWorld:
         srdf_path = default_srdf(urdf) if srdf is True else (None if srdf in (False, None) else Path(srdf))  # type: ignore[arg-type]
         if srdf_path is not None:
             off += read_srdf_pairs(srdf_path)
-        links = {go.name for go in shapes.geometryObjects}
-        bad = sorted({n for pair in disabled for n in pair} - links)
+        known = {go.name for go in shapes.geometryObjects}
+        bad = sorted({n for pair in disabled for n in pair} - known)
         if bad:
             raise ModelError(
                 f"disabled pair: unknown link(s) {', '.join(map(repr, bad))}; links with collision geometry: "
-                f"{', '.join(sorted(links))}"
+                f"{', '.join(sorted(known))}"
             )
-        off = [p for p in off if p[0] in links and p[1] in links]
-        return cls(robot, shapes, obstacles, self_collision=self_collision, disabled=off, obstacle_links=obstacle_links)
+        off = [p for p in off if p[0] in known and p[1] in known]
+        return cls(
+            robot,
+            shapes,
+            obstacles,
+            self_collision=self_collision,
+            disabled=off,
+            obstacle_links=obstacle_links,
+            links=links,
+        )
 
     def _check_links(self, names: Sequence[str], what: str) -> None:
         bad = [n for n in names if n not in self.link_names]

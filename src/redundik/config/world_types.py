@@ -68,6 +68,7 @@ class CollisionSpec(s.StrictModel):
     self_collision: bool = True
     disable: list[Annotated[list[s.Name], Field(min_length=2, max_length=2)]] = Field(default_factory=list)
     obstacle_links: list[s.Name] | None = None
+    links: list[s.Name] | None = None
     exclude_colliding_at_start: bool = True
     urdf: str | None = None
 
@@ -141,6 +142,7 @@ def build_world(
             disabled=[(a, b) for a, b in spec.disable],
             self_collision=spec.self_collision,
             obstacle_links=spec.obstacle_links,
+            links=spec.links,
         )
     except RedundikError as exc:
         msg = str(exc)
@@ -149,6 +151,8 @@ def build_world(
             where, msg = "collision.disable", msg.removeprefix("disabled pair: ")
         elif msg.startswith("obstacle_links: "):
             where, msg = "collision.obstacle_links", msg.removeprefix("obstacle_links: ")
+        elif msg.startswith("links: "):
+            where, msg = "collision.links", msg.removeprefix("links: ")
         elif "SRDF" in msg:
             where = "collision.srdf"
         elif "obstacle names" in msg:
