@@ -27,11 +27,12 @@ def _register_all() -> None:
     # appending duplicates and every call rebuilds all of them (calls grew slower, O(calls²) overall).
     if app.registered_commands:
         return
-    from redundik.cli import bench_cmds, parallel_cmds, run_cmds
+    from redundik.cli import bench_cmds, parallel_cmds, run_cmds, view_cmds
 
     run_cmds.register(app)
     parallel_cmds.register(app)
     bench_cmds.register(app)
+    view_cmds.register(app)
 
 
 def main(argv: list[str] | None = None) -> int:

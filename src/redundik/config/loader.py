@@ -30,7 +30,7 @@ from redundik.config.builders import (
     task_name,
 )
 from redundik.config.robot import LoadedRobot, angle_scale, configuration_from_file, load_robot
-from redundik.config.schema import RunSpec, SubtaskSpec, TaskFileSpec
+from redundik.config.schema import PlantSpec, RunSpec, SubtaskSpec, TaskFileSpec
 from redundik.config.yamlio import join_path, read_yaml, validate
 from redundik.errors import ConfigError, RedundikError
 from redundik.resolvers import RESOLVERS, Resolver, make_resolver
@@ -51,6 +51,7 @@ class RunPlan:
         watched: The file's other potentials, logged but not controlled in this run.
         monitors: Potentials under ``monitors:`` (logged only).
         torque_monitors: ``type: torques`` monitors.
+        plant: The simulated robot driven by the run (``plant:`` of the run or the file), ``None``: kinematic.
     """
 
     name: str
@@ -62,6 +63,7 @@ class RunPlan:
     watched: list[Potential] = field(default_factory=list)
     monitors: list[Potential] = field(default_factory=list)
     torque_monitors: list[TorqueMonitor] = field(default_factory=list)
+    plant: PlantSpec | None = None
 
 
 @dataclass
@@ -334,7 +336,8 @@ def _build_run(spec: TaskFileSpec, ctx: Context, name: str, run: RunSpec, q0_fil
         stack.evaluate(robot, 0.0)
     except RedundikError as exc:
         raise ConfigError(str(exc), path) from None
-    return RunPlan(name, run.description, run.resolver, resolver, stack, q0, watched, monitors, torques)
+    plant = run.plant if run.plant is not None else spec.plant
+    return RunPlan(name, run.description, run.resolver, resolver, stack, q0, watched, monitors, torques, plant)
 
 
 def _draw_plan(spec: TaskFileSpec, robot: LoadedRobot, ctx: Context, runs: dict[str, RunPlan]) -> DrawPlan:

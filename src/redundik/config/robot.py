@@ -32,6 +32,7 @@ class LoadedRobot:
         source: Where it came from (config path, ``example-robot-data:NAME`` or ``inline``).
         q0: Home configuration from the config [rad, length unit], or ``None``.
         segments: Links to draw, as (frame, frame) pairs: the D-H rows' parent → child, or the URDF joint tree.
+        urdf: The URDF file the model was built from (visual meshes, MuJoCo plant), ``None`` for a D-H robot.
     """
 
     model: RobotModel

@@ -79,6 +79,11 @@ def run_one(plan: TaskPlan, run: RunPlan, progress: Callable[[str, int], None] |
     if world is not None:  # moving obstacles: the clock follows the steps (the next tick is at k·dt)
         world.set_time(0.0)
         cb = world_clock(world, plan.dt, cb)
+    plant = None
+    if run.plant is not None:
+        from redundik.simulation.plant import make_plant
+
+        plant = make_plant(run.plant, plan, f"runs.{run.name}.plant")
     log = simulate(
         robot,
         run.stack,
@@ -89,6 +94,7 @@ def run_one(plan: TaskPlan, run: RunPlan, progress: Callable[[str, int], None] |
         log_frames=tuple(plan.log_frames),
         extra_potentials=tuple(run.watched + run.monitors),
         progress=cb,
+        plant=plant,
     )
     n = log.q.shape[0]
     violation = np.array([float(np.max(robot.limit_violation(log.q[k]), initial=0.0)) for k in range(n)])
@@ -106,8 +112,14 @@ def run_one(plan: TaskPlan, run: RunPlan, progress: Callable[[str, int], None] |
             series[f"m.{m.name}.mean"] = a.mean(axis=1)
     world_stats, world_series = world_summary(plan, run, log)
     series.update(world_series)
+    if plant is not None:
+        series.update(plant.series())
     result = RunResult(run.name, run, log, series, violation)
     result.summary = summarise(plan, result) | world_stats
+    if plant is not None:
+        from redundik.simulation.plant import plant_summary
+
+        result.summary.update(plant_summary(plan, run, plant, log))
     return result
 
 
@@ -178,6 +190,7 @@ def task_summary(plan: TaskPlan, results: dict[str, RunResult]) -> dict[str, Any
         "description": plan.description,
         "robot": robot.name,
         "robot_source": plan.robot.source,
+        "task_file": str(plan.path.resolve()) if plan.path is not None else None,
         "length_unit": robot.length_unit,
         "joints": robot.joint_names,
         "dt": plan.dt,

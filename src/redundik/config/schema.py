@@ -138,6 +138,26 @@ class SubtaskSpec(StrictModel):
     priority: int | None = Field(default=None, ge=0)
 
 
+class PlantSpec(StrictModel):
+    """``plant:`` (task file or run): drive a simulated robot instead of integrating q̇ (see ``docs/task-files.md``).
+
+    Gains are per joint (a number for all, or a mapping joint → value): ``kp`` [N·m/rad or N/m], ``kv``
+    [N·m·s/rad or N·s/m] (position actuators: damping; velocity actuators: the velocity gain). ``sim_dt`` [s] must
+    divide the control ``dt``. ``armature`` [kg·m²] adds reflected rotor inertia to every joint.
+    """
+
+    type: Literal["mujoco"]
+    actuator: Literal["position", "velocity"] = "position"
+    kp: float | dict[Name, float] = 2000.0
+    kv: float | dict[Name, float] = 100.0
+    sim_dt: float = Field(default=0.001, gt=0)
+    gravity: bool = True
+    gravity_compensation: bool = True
+    effort_limits: bool = True
+    armature: float = Field(default=0.1, ge=0)
+    kinematic_reference: bool = True
+
+
 class RunSpec(StrictModel):
     """One named run: a resolver, its options, the subtasks it controls and per-run overrides."""
 
@@ -150,6 +170,7 @@ class RunSpec(StrictModel):
     main: list[dict[str, Any]] | None = None
     extra_main: list[dict[str, Any]] = Field(default_factory=list)
     q0: list[float] | None = None
+    plant: PlantSpec | None = None
 
 
 class DrawSpec(StrictModel):
@@ -187,6 +208,7 @@ class TaskFileSpec(StrictModel):
     collision: dict[str, Any] | None = None
     #: Named environment obstacles (redundik.config.world_types.ObstacleSpec).
     obstacles: dict[Name, dict[str, Any]] = Field(default_factory=dict)
+    plant: PlantSpec | None = None
 
     @model_validator(mode="after")
     def _duration(self) -> TaskFileSpec:

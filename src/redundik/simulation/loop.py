@@ -10,6 +10,7 @@ import numpy as np
 
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver, StepResult
+from redundik.simulation.plant import Plant
 from redundik.tasks.stack import TaskStack
 
 
@@ -69,6 +70,7 @@ def simulate(
     log_frames: tuple[str, ...] = (),
     extra_potentials: tuple = (),
     progress: Callable[[int], None] | None = None,
+    plant: Plant | None = None,
 ) -> SimulationLog:
     """Run ``steps`` control ticks from ``q0`` with the first-order update q ← q ⊕ q̇·dt.
 
@@ -82,11 +84,14 @@ def simulate(
         log_frames: Frames whose origins are logged at each sample (for drawings).
         extra_potentials: Potentials logged but not controlled (e.g. tr(JWJᵀ) under a rank-only run).
         progress: Called with the number of steps done, for a progress bar.
+        plant: Drive this plant with q̇ and read its measured q at every tick instead of integrating.
 
     Returns:
         The :class:`SimulationLog`.
     """
     q = robot.check_configuration(q0, "q0").copy()
+    if plant is not None:
+        q = plant.reset(q)
     n = steps + 1
     robot.update(q)
     stack.reset(robot)
@@ -129,7 +134,7 @@ def simulate(
         if res.fallback:
             fallbacks.append((k, res.fallback))
         DQ[k] = res.dq
-        q = robot.integrate(q, res.dq, dt)
+        q = robot.integrate(q, res.dq, dt) if plant is None else plant.step(res.dq, dt)
         if progress is not None:
             progress(k + 1)
     return SimulationLog(
