@@ -15,7 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from redundik.config import chapter_types  # noqa: F401 - registers the chapter robots' YAML types (issue 4)
+from redundik.config import (
+    chapter_types,  # noqa: F401 - registers the chapter robots' YAML types (issue 4)
+    world_types,  # registers collision / balance YAML types (issue 12)
+)
 from redundik.config.builders import (
     MONITORS,
     POTENTIALS,
@@ -26,7 +29,7 @@ from redundik.config.builders import (
     check_frame,
     task_name,
 )
-from redundik.config.robot import LoadedRobot, configuration_from_file, load_robot
+from redundik.config.robot import LoadedRobot, angle_scale, configuration_from_file, load_robot
 from redundik.config.schema import MAX_STEPS, PlantSpec, RunSpec, SubtaskSpec, TaskFileSpec
 from redundik.config.yamlio import join_path, read_yaml, validate
 from redundik.errors import ConfigError, RedundikError
@@ -131,6 +134,7 @@ class TaskPlan:
     potential_types: dict[str, str]
     draw: DrawPlan
     log_frames: list[str]
+    world: Any = None  # the collision world (redundik.collision.CollisionWorld) of 'collision:'/'obstacles:'
 
 
 def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None) -> TaskPlan:
@@ -154,7 +158,6 @@ def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None)
     steps = _check_steps(spec)
     robot = load_robot(spec.robot, base, "robot")
     _check_integrators(spec, robot.model.nq, robot.model.nv)
-    ctx = Context(robot.model, spec.angle_unit)
 
     if spec.q0 is not None:
         q0 = configuration_from_file(spec.q0, robot.model, spec.angle_unit, "q0")
@@ -162,6 +165,10 @@ def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None)
         q0 = robot.q0
     else:
         q0 = robot.model.neutral()
+    world = None
+    if spec.collision is not None or spec.obstacles:
+        world = world_types.build_world(spec.collision, spec.obstacles, robot, q0, angle_scale(spec.angle_unit), base)
+    ctx = Context(robot.model, spec.angle_unit, world)
 
     # every potential and monitor once, for names/sizes (runs build their own fresh objects)
     types: dict[str, str] = {}
@@ -196,6 +203,7 @@ def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None)
         potential_types=types,
         draw=draw,
         log_frames=log_frames,
+        world=world,
     )
 
 
