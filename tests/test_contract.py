@@ -383,7 +383,8 @@ class _NaNPotential(rk.Potential):
 def test_a_non_finite_intermediate_is_a_diagnosed_fallback(name: str) -> None:
     robot = case2_robot()
     q = np.radians([110.0, -40.0, -30.0])
-    stack = rk.TaskStack([rk.FrameTask("3", rk.Line([0.2, -0.4]), axes="planar")], [rk.GradientSubtask(_NaNPotential())])
+    tip_task = rk.FrameTask("3", rk.Line([0.2, -0.4]), axes="planar")
+    stack = rk.TaskStack([tip_task], [rk.GradientSubtask(_NaNPotential())])
     res = _step(name, robot, stack, q)
     assert np.isfinite(res.dq).all()
     assert res.fallback is not None and "non-finite" in res.fallback

@@ -63,3 +63,26 @@ def test_ci_runs_the_readme_test_command_verbatim() -> None:
     assert len(commands) == 1, commands
     assert commands[0].strip() in [line.strip() for line in ci.splitlines()]
     assert "mkdocs build --strict" in ci
+
+
+API_PAGES = {
+    "redundik.tasks": "tasks.md",
+    "redundik.resolvers": "resolvers.md",
+    "redundik.resolvers.qp": "qp.md",
+    "redundik.kinematics": "kinematics.md",
+    "redundik.simulation": "simulation.md",
+    "redundik.parallel": "parallel.md",
+}
+
+
+def test_every_module_of_the_reference_has_its_notes() -> None:
+    """A new module in a documented package gets an entry (its docstring carries the equations and references)."""
+    missing = []
+    for package, page in API_PAGES.items():
+        text = (DOCS / "api" / page).read_text(encoding="utf-8")
+        folder = ROOT / "src" / Path(*package.split("."))
+        for module in sorted(folder.glob("*.py")):
+            if not module.stem.startswith("_") and f"::: {package}.{module.stem}\n" not in text:
+                missing.append(f"{package}.{module.stem} (docs/api/{page})")
+        assert f"::: {package}\n" in text
+    assert missing == [], f"add a '::: module' entry for: {missing}"
