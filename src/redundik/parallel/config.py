@@ -258,7 +258,7 @@ def load_config(path: str | Path) -> AnyConfig:
 
     Raises:
         ConfigError: missing, unreadable, binary or non-UTF-8 file, YAML syntax error, duplicate key, alias bomb,
-        too deep nesting, or invalid content (one line each).
+            too deep nesting, or invalid content (one line each).
     """
     data = read_yaml(Path(path), "mechanism config")  # the bounded reader shared by every YAML entry point
     return parse_config(data, str(path))

@@ -85,7 +85,8 @@ class QPDiagnostics:
         iterations: Backend iterations summed over them.
         sigma_min: Smallest nonzero singular value of the top level's (main-task) Jacobian.
         level_sigma_min: Per level, σ_min of its projected Jacobian (hqp).
-        level_residuals: Per level, its residual (:meth:`~.terms.Level.residual`) at the returned q̇.
+        level_residuals: Per level, its residual at the returned q̇
+            (:meth:`~redundik.resolvers.qp.terms.Level.residual`).
         damped_levels: Levels whose solve damped a direction.
         rank_loss_levels: Levels whose projected Jacobian lost rank while their own did not (algorithmic
             singularity).
