@@ -28,7 +28,7 @@ import pinocchio as pin
 
 from redundik.errors import ModelError
 
-#: The approximations :func:`robot_geometry` offers.
+#: The approximations :func:`approximate` offers.
 APPROXIMATIONS = ("capsule", "sphere", "hull", "mesh")
 
 

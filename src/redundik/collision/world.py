@@ -170,7 +170,7 @@ class Obstacle:
 # ---------------------------------------------------------------------------------------------------- distances
 @dataclass
 class Distances:
-    """Every candidate pair at one instant (pair order of :attr:`CollisionWorld.pair_names`).
+    """Every candidate pair at one instant (pair order of ``CollisionWorld.pair_names``).
 
     Attributes:
         d: Signed distances [m], shape (P,) (negative: penetration depth).
