@@ -256,9 +256,9 @@ class QPResolverBase(Resolver):
         """The damped closed form J⁺V + (I − J⁺J)z on the main tasks and the null-space objective (the fallback)."""
         J, V, z = main_system(robot, stack, terms, self.layout(stack))
         pi = pseudo_inverse(J, epsilon=self.epsilon, max_damping=max(self.max_damping, 1e-3))
-        out = pi.pinv @ V
+        out = pi.solve(V)
         if z is not None:
-            out = out + pi.null_projector @ z
+            out = out + pi.null_project(z)
         return out
 
     def __repr__(self) -> str:
