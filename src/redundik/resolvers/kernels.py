@@ -178,23 +178,41 @@ def closed_form_batch(
 
 
 @_jit
+def in_box(x: np.ndarray, lb: np.ndarray, ub: np.ndarray, tol: float) -> bool:
+    """True when lb − tol ≤ x ≤ ub + tol elementwise."""
+    for i in range(x.shape[0]):
+        if x[i] < lb[i] - tol or x[i] > ub[i] + tol:
+            return False
+    return True
+
+
+@_jit
 def spd_solve(P: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, bool]:
-    """x = −P⁻¹ q by Cholesky (P (n, n) symmetric positive definite); ``ok`` false when P is not numerically SPD."""
+    """x = −P⁻¹ q by Cholesky (P (n, n) symmetric positive definite); ``ok`` false when P is not numerically SPD.
+
+    Unblocked loops up to n = 32 (no call overhead), LAPACK ``dpotrf`` (``np.linalg.cholesky``) above.
+    """
     n = q.shape[0]
-    L = np.zeros((n, n))
-    for j in range(n):
-        s = P[j, j]
-        for k in range(j):
-            s -= L[j, k] * L[j, k]
-        if not (s > 0.0):
+    if n > 32:
+        try:
+            L = np.linalg.cholesky(P)
+        except Exception:  # not positive definite
             return np.zeros(n), False
-        ljj = math.sqrt(s)
-        L[j, j] = ljj
-        for i in range(j + 1, n):
-            t = P[i, j]
+    else:
+        L = np.zeros((n, n))
+        for j in range(n):
+            s = P[j, j]
             for k in range(j):
-                t -= L[i, k] * L[j, k]
-            L[i, j] = t / ljj
+                s -= L[j, k] * L[j, k]
+            if not (s > 0.0):
+                return np.zeros(n), False
+            ljj = math.sqrt(s)
+            L[j, j] = ljj
+            for i in range(j + 1, n):
+                t = P[i, j]
+                for k in range(j):
+                    t -= L[i, k] * L[j, k]
+                L[i, j] = t / ljj
     y = np.empty(n)
     for i in range(n):  # L y = −q
         t = -q[i]
@@ -207,16 +225,20 @@ def spd_solve(P: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, bool]:
         for k in range(i + 1, n):
             t -= L[k, i] * x[k]
         x[i] = t / L[i, i]
-    return x, True
+    ok = True
+    for i in range(n):
+        if not math.isfinite(x[i]):
+            ok = False
+    return x, ok
 
 
 @_jit
-def in_box(x: np.ndarray, lb: np.ndarray, ub: np.ndarray, tol: float) -> bool:
-    """True when lb − tol ≤ x ≤ ub + tol elementwise."""
-    for i in range(x.shape[0]):
-        if x[i] < lb[i] - tol or x[i] > ub[i] + tol:
-            return False
-    return True
+def spd_solve_box(
+    P: np.ndarray, q: np.ndarray, lb: np.ndarray, ub: np.ndarray, tol: float
+) -> tuple[np.ndarray, bool, bool]:
+    """(x = −P⁻¹q, Cholesky succeeded, lb − tol ≤ x ≤ ub + tol): ``wqp``'s unconstrained optimum and its test."""
+    x, ok = spd_solve(P, q)
+    return x, ok, ok and in_box(x, lb, ub, tol)
 
 
 @_jit
@@ -233,10 +255,10 @@ def spd_solve_batch(
     ok = np.empty(N, dtype=np.bool_)
     inside = np.empty(N, dtype=np.bool_)
     for i in range(N):
-        xi, oki = spd_solve(P[i], q[i])
+        xi, oki, ini = spd_solve_box(np.ascontiguousarray(P[i]), q[i].copy(), lb[i].copy(), ub[i].copy(), tol)
         x[i] = xi
         ok[i] = oki
-        inside[i] = oki and in_box(xi, lb[i], ub[i], tol)
+        inside[i] = ini
     return x, ok, inside
 
 

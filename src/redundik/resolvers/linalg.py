@@ -28,18 +28,43 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 
-from redundik.resolvers.kernels import (
-    damped_inverse_values,
-    damped_svd_factors,
-    factor,
-    null_project_factored,
-    solve_factored,
-)
 
-__all__ = ["RCOND", "DampedSVD", "PseudoInverse", "contiguous", "damped_inverse_values", "damped_svd", "pseudo_inverse"]
+class _Kernels:
+    """The compiled kernels of :mod:`redundik.resolvers.kernels`, imported on first use (numba loads then, not when
+    redundik is imported); after the first access every kernel is a plain attribute."""
+
+    def __getattr__(self, name: str) -> Any:
+        from redundik.resolvers import kernels
+
+        self.__dict__.update({k: v for k, v in vars(kernels).items() if not k.startswith("__")})
+        return getattr(kernels, name)
+
+
+#: The compiled kernels (``K.closed_form``, ``K.spd_solve_box``, …).
+K = _Kernels()
+
+
+def damped_inverse_values(s: np.ndarray, epsilon: float, max_damping: float, rcond: float) -> tuple[np.ndarray, int]:
+    """The per-direction inverse of singular values ``s`` (descending) by this module's rule, and the rank
+    (the compiled :func:`redundik.resolvers.kernels.damped_inverse_values`)."""
+    inv, rank = K.damped_inverse_values(np.ascontiguousarray(s, dtype=float), epsilon, max_damping, rcond)
+    return inv, int(rank)
+
+
+__all__ = [
+    "RCOND",
+    "DampedSVD",
+    "K",
+    "PseudoInverse",
+    "contiguous",
+    "damped_inverse_values",
+    "damped_svd",
+    "pseudo_inverse",
+]
 #: Default relative threshold of the numerical rank.
 RCOND = 1e-10
 
@@ -100,7 +125,7 @@ def damped_svd(M: np.ndarray, *, epsilon: float, max_damping: float, rcond: floa
     m, n = M.shape
     if m == 0:
         return DampedSVD(np.zeros((0, 0)), np.zeros(0), np.eye(n), np.zeros(0), 0, np.inf, 0.0)
-    U, s, Vt, inv, rank, sigma_min, damping = damped_svd_factors(contiguous(M), epsilon, max_damping, rcond)
+    U, s, Vt, inv, rank, sigma_min, damping = K.damped_svd_factors(contiguous(M), epsilon, max_damping, rcond)
     return DampedSVD(U, s, Vt, inv, int(rank), float(sigma_min), float(damping))
 
 
@@ -123,7 +148,7 @@ class PseudoInverse:
     __slots__ = ("_J", "_U", "_Vt", "_inv", "_null", "_pinv", "damping", "fast", "n", "rank", "sigma_min")
 
     def __init__(self, J: np.ndarray, epsilon: float, max_damping: float, rcond: float) -> None:
-        fast, U, _, Vt, inv, rank, smin, damping = factor(J, epsilon, max_damping, rcond)
+        fast, U, _, Vt, inv, rank, smin, damping = K.factor(J, epsilon, max_damping, rcond)
         self._J, self._U, self._Vt, self._inv = J, U, Vt, inv
         self.fast, self.rank, self.sigma_min, self.damping = bool(fast), int(rank), float(smin), float(damping)
         self.n = int(J.shape[1])
@@ -139,11 +164,13 @@ class PseudoInverse:
         """J⁺_λ rhs for rhs of shape (m,) (minimum-norm, damped least squares), shape (n,)."""
         if self._J.shape[0] == 0:
             return np.zeros(self.n)
-        return solve_factored(self.fast, self._J, self._U, self._inv, self._Vt, np.ascontiguousarray(rhs, dtype=float))
+        return K.solve_factored(
+            self.fast, self._J, self._U, self._inv, self._Vt, np.ascontiguousarray(rhs, dtype=float)
+        )
 
     def null_project(self, z: np.ndarray) -> np.ndarray:
         """P_n z = (I − V_r V_rᵀ) z, the projection of z (n,) on the null space of J (numerical rank r)."""
-        return null_project_factored(
+        return K.null_project_factored(
             self.fast, self._J, self._U, self._inv, self._Vt, self.rank, np.ascontiguousarray(z, dtype=float)
         )
 

@@ -14,8 +14,7 @@ import numpy as np
 from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver, StepResult, nonfinite_sources
-from redundik.resolvers.kernels import closed_form
-from redundik.resolvers.linalg import RCOND, contiguous
+from redundik.resolvers.linalg import RCOND, K, contiguous
 from redundik.tasks.base import TaskTerm, stack_terms
 from redundik.tasks.stack import StackLayout, TaskStack
 
@@ -74,7 +73,7 @@ class PinvResolver(Resolver):
         J, V, z = main_system(robot, stack, terms, layout)
         t1 = time.perf_counter()
         has_z = z is not None
-        dq_r, dq_n, rank, sigma_min, damping = closed_form(  # one compiled call: J⁺V and (I − J⁺J) z (5.8)
+        dq_r, dq_n, rank, sigma_min, damping = K.closed_form(  # one compiled call: J⁺V and (I − J⁺J) z (5.8)
             contiguous(J),
             contiguous(V),
             contiguous(z) if has_z else V[:0].copy(),
