@@ -365,3 +365,37 @@ def test_teleop_example_tracks_a_moving_and_jumping_target() -> None:
         assert rec["error_at_jump_m"] > 0.03  # the jump really happened
         assert rec["settled_error_m"] < 5e-3 and rec["error_before_jump_m"] < 5e-3  # lag of a 0.1 m/s target at 40 /s
         assert rec["fallback_steps"] == 0 and rec["limit_violation"] == 0.0
+
+
+class _NaNPotential(rk.Potential):
+    """A broken user potential: its gradient is NaN (the step must say so, not return NaN)."""
+
+    name = "broken"
+
+    def value(self, robot: rk.RobotModel) -> float:
+        return 0.0
+
+    def gradient(self, robot: rk.RobotModel) -> np.ndarray:
+        return np.full(robot.nv, np.nan)
+
+
+@pytest.mark.parametrize("name", ["pinv", "feedback", "wqp", "hqp"])
+def test_a_non_finite_intermediate_is_a_diagnosed_fallback(name: str) -> None:
+    robot = case2_robot()
+    q = np.radians([110.0, -40.0, -30.0])
+    tip_task = rk.FrameTask("3", rk.Line([0.2, -0.4]), axes="planar")
+    stack = rk.TaskStack([tip_task], [rk.GradientSubtask(_NaNPotential())])
+    res = _step(name, robot, stack, q)
+    assert np.isfinite(res.dq).all()
+    assert res.fallback is not None and "non-finite" in res.fallback
+    # an absurd but finite request is resolved as asked; the overflow it causes is refused at the next tick
+    huge = rk.TaskStack([rk.FrameTask("3", rk.Line([1e308, -1e308]), axes="planar", gain=1.0)])
+    with np.errstate(over="ignore", invalid="ignore"):
+        res = _step(name, robot, huge, q)
+        q_next = robot.integrate(q, res.dq, 10.0)
+    assert np.isfinite(res.dq).all()
+    if res.fallback is None:  # resolved as asked (pinv, hqp, feedback): the next tick refuses the overflowed q
+        with pytest.raises(rk.ResolverError, match="NaN or infinite"):
+            rk.make_resolver(name).step(robot, huge, q_next, 10.0, 0.01)
+    else:  # wqp's normal equations overflow (‖v‖² ~ 1e616): a diagnosed fallback
+        assert "non-finite" in res.fallback or "failed" in res.fallback

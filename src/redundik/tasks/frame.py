@@ -247,6 +247,7 @@ class PostureTask(Task):
     def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
         if self.target is None:
             self.reset(robot)
+        assert self.target is not None  # set by reset()
         e = robot.difference(robot.q, self.target)
         return TaskTerm(self.name, np.eye(robot.nv), self.gain * e, e, self.weight)
 

@@ -106,9 +106,10 @@ class WeightedQPResolver(QPResolverBase):
             terms = stack.evaluate(robot, t)
         layout = self.layout(stack)
         n = robot.nv
-        if self._P is None or self._P.shape[0] != n:
+        if self._P is None or self._q is None or self._P.shape[0] != n:
             self._P, self._q = np.empty((n, n)), np.empty(n)
-        P, q = self._P, self._q
+        P: np.ndarray = self._P
+        q: np.ndarray = self._q
         P.fill(0.0)
         q.fill(0.0)
         diag = P.reshape(-1)[:: n + 1]  # a view on P's diagonal
@@ -130,8 +131,8 @@ class WeightedQPResolver(QPResolverBase):
                 w = scale * sub.weight
                 P += w * np.outer(eta, eta)
                 q -= (w * v) * eta
-            for sub in plan.bounds:
-                C, d, rn = sub.rows(robot, dt)
+            for bsub in plan.bounds:
+                C, d, rn = bsub.rows(robot, dt)
                 Cs.append(C)
                 ds.append(d)
                 names += rn
