@@ -30,7 +30,7 @@ from redundik.tasks.stack import TaskStack
 #: Largest stable K·dt of the first-order update (e ← (1 − K dt) e).
 STABLE_GAIN_DT = 2.0
 #: From this many velocity coordinates on, a step limits BLAS to one thread (see ``Resolver.blas_threads``).
-BLAS_LIMIT_NV = 24
+BLAS_LIMIT_NV = 64  # measured: on Talos (nv = 38) toggling the BLAS pool cost more (+20 µs) than it saved
 _USER_CHOSE_THREADS = any(os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"))
 _CONTROLLER: object | None = None
 
@@ -237,7 +237,7 @@ class Resolver(ABC):
     _checked: tuple[int, ...] | None = None
     _gain_members: tuple[tuple, tuple] = ((), ())
     #: BLAS threads inside a step: an int, or ``None`` to leave the process's setting alone. The default ``"auto"``
-    #: limits BLAS to one thread for robots with nv ≥ :data:`BLAS_LIMIT_NV` (threaded products on small matrices
+    #: limits BLAS to one thread for robots with nv ≥ :data:`BLAS_LIMIT_NV` = 64 (threaded products on small matrices
     #: stall on busy cores) unless the user set ``OMP_NUM_THREADS``/``OPENBLAS_NUM_THREADS``/``MKL_NUM_THREADS``.
     blas_threads: int | str | None = "auto"
 
