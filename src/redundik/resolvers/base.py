@@ -30,7 +30,9 @@ from redundik.tasks.stack import TaskStack
 #: Largest stable K·dt of the first-order update (e ← (1 − K dt) e).
 STABLE_GAIN_DT = 2.0
 #: From this many velocity coordinates on, a step limits BLAS to one thread (see ``Resolver.blas_threads``).
-BLAS_LIMIT_NV = 64  # measured: on Talos (nv = 38) toggling the BLAS pool cost more (+20 µs) than it saved
+#: Robots with at least this many velocity coordinates get one BLAS thread inside a step (measured: on Talos,
+#: nv = 38, toggling the BLAS pool cost more, +20 µs, than it saved).
+BLAS_LIMIT_NV = 64
 _USER_CHOSE_THREADS = any(os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"))
 _CONTROLLER: object | None = None
 
