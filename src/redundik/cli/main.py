@@ -33,6 +33,7 @@ def _register_all() -> None:
     parallel_cmds.register(app)
     bench_cmds.register(app)
     view_cmds.register(app)
+    __import__("redundik.cli.sweep_cmds", fromlist=["register"]).register(app)  # issue 11: redundik sweep
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,0 +1,256 @@
+"""Sweep files → a :class:`SweepPlan`: the robot, the task template, every problem's target and start.
+
+The problems are targets × starts, numbered p = i_target · n_starts + i_start; they are generated once from the
+file (grids in order, random samples from their seeds with NumPy's PCG64), so problem p is the same problem whatever
+the chunking or the engine. The whole file is checked before anything runs (shape by pydantic, then the frame,
+configurations, resolver options and gains against the robot, then the number of problems ≤
+:data:`~redundik.sweep.schema.MAX_PROBLEMS`); every problem is a one-line :class:`~redundik.errors.ConfigError`
+with the YAML key path.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+from redundik.config.robot import LoadedRobot, angle_scale, configuration_from_file, load_robot, rpy_matrix
+from redundik.config.yamlio import join_path, read_yaml, validate
+from redundik.errors import ConfigError, RedundikError
+from redundik.resolvers import make_resolver
+from redundik.resolvers.batch import BatchResolver
+from redundik.sweep.schema import MAX_PROBLEMS, GridSpec, RangeSpec, SweepFileSpec
+from redundik.tasks.frame import resolve_axes
+
+
+@dataclass
+class SweepPlan:
+    """A validated sweep file, ready to run (see the module docstring).
+
+    Attributes:
+        spec: The validated file.
+        robot: The robot and what its config added.
+        axes: Frame-task rows.
+        home: The robot's home configuration [rad, length unit].
+        posture_target: q_ref of the null-space posture [rad, length unit].
+        target_positions: Target positions of the frame, shape (n_targets, 3) [m].
+        target_rotation: Target orientation of the frame (one for all targets), shape (3, 3).
+        starts: Start configurations, shape (n_starts, nq) [rad, length unit].
+        payload: What a remote worker needs to rebuild this plan (the file's data and its folder).
+    """
+
+    spec: SweepFileSpec
+    robot: LoadedRobot
+    axes: tuple[str, ...]
+    home: np.ndarray
+    posture_target: np.ndarray
+    target_positions: np.ndarray
+    target_rotation: np.ndarray
+    starts: np.ndarray
+    payload: dict[str, Any]
+
+    @property
+    def name(self) -> str:
+        """The sweep's name (also its output files' stem)."""
+        return self.spec.name
+
+    @property
+    def n_targets(self) -> int:
+        """Number of targets."""
+        return int(self.target_positions.shape[0])
+
+    @property
+    def n_starts(self) -> int:
+        """Number of start configurations per target."""
+        return int(self.starts.shape[0])
+
+    @property
+    def n_problems(self) -> int:
+        """Number of problems, targets × starts."""
+        return self.n_targets * self.n_starts
+
+    @property
+    def key(self) -> str:
+        """A digest of :attr:`payload` (workers cache plans by it)."""
+        text = json.dumps(self.payload, sort_keys=True, default=str)
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+    def batch_resolver(self) -> BatchResolver:
+        """A fresh :class:`~redundik.resolvers.batch.BatchResolver` of the task template (one per chunk)."""
+        r = self.spec.resolver
+        t = self.spec.task
+        return BatchResolver(
+            make_resolver(r.name, **r.options),
+            self.robot.model,
+            t.frame,
+            axes=self.axes,
+            gain=t.gain,
+            posture_gain=t.posture.gain,
+            posture_target=self.posture_target,
+        )
+
+    def problems(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Problems ``start`` … ``stop − 1``: (target index (n,), start index (n,), q (n, nq), targets (n, 4, 4))."""
+        p = np.arange(start, stop, dtype=np.int64)
+        ti, si = p // self.n_starts, p % self.n_starts
+        T = np.zeros((p.size, 4, 4))
+        T[:, :3, :3] = self.target_rotation
+        T[:, :3, 3] = self.target_positions[ti]
+        T[:, 3, 3] = 1.0
+        return ti, si, self.starts[si].copy(), T
+
+
+def _axis_values(axis: float | RangeSpec) -> np.ndarray:
+    if isinstance(axis, RangeSpec):
+        return np.linspace(axis.start, axis.stop, axis.num)
+    return np.array([float(axis)])
+
+
+def _grid_size(grid: GridSpec) -> int:
+    n = 1
+    for axis in (grid.x, grid.y, grid.z):
+        n *= axis.num if isinstance(axis, RangeSpec) else 1
+    return n
+
+
+def _count(spec: SweepFileSpec) -> tuple[int, int]:
+    """(n_targets, n_starts) from the file alone, before anything is allocated."""
+    t = spec.targets
+    if t.grid is not None:
+        n_t = _grid_size(t.grid)
+    elif t.random is not None:
+        n_t = t.random.count
+    else:
+        assert t.points is not None
+        n_t = len(t.points)
+    s = spec.starts
+    n_s = int(s.home) + len(s.configurations) + (s.random.count if s.random is not None else 0)
+    return n_t, n_s
+
+
+def _targets(spec: SweepFileSpec) -> np.ndarray:
+    t = spec.targets
+    if t.grid is not None:
+        axes = [_axis_values(a) for a in (t.grid.x, t.grid.y, t.grid.z)]
+        mesh = np.meshgrid(*axes, indexing="ij")
+        return np.stack([m.reshape(-1) for m in mesh], axis=1)
+    if t.random is not None:
+        rng = np.random.default_rng(t.random.seed)
+        return rng.uniform(np.array(t.random.low), np.array(t.random.high), size=(t.random.count, 3))
+    assert t.points is not None
+    return np.array(t.points, dtype=float).reshape(-1, 3)
+
+
+def _starts(spec: SweepFileSpec, robot: LoadedRobot, home: np.ndarray) -> np.ndarray:
+    model = robot.model
+    out: list[np.ndarray] = []
+    s = spec.starts
+    if s.home:
+        out.append(home[None, :])
+    for i, values in enumerate(s.configurations):
+        q = configuration_from_file(values, model, spec.angle_unit, join_path("starts.configurations", i))
+        out.append(q[None, :])
+    if s.random is not None:
+        if model.nq != model.nv:
+            raise ConfigError(
+                f"random starts need a robot whose configuration is a vector space (nq = nv); this one has "
+                f"nq = {model.nq}, nv = {model.nv}: list the configurations instead",
+                "starts.random",
+            )
+        lo = np.array(model.model.lowerPositionLimit, dtype=float)
+        hi = np.array(model.model.upperPositionLimit, dtype=float)
+        lo = np.where(np.isfinite(lo) & (lo > -1e10), lo, -np.pi)
+        hi = np.where(np.isfinite(hi) & (hi < 1e10), hi, np.pi)
+        m = s.random.margin * (hi - lo)
+        rng = np.random.default_rng(s.random.seed)
+        out.append(rng.uniform(lo + m, hi - m, size=(s.random.count, model.nq)))
+    return np.concatenate(out, axis=0)
+
+
+def load_sweep(source: str | Path | dict[str, Any], base_dir: Path | None = None) -> SweepPlan:
+    """Read, validate and assemble a sweep file without running it.
+
+    Args:
+        source: Path of a YAML sweep file (read by :func:`redundik.config.yamlio.read_yaml`), or its content.
+        base_dir: Folder relative paths (the robot config) are resolved from (the file's folder; cwd for a mapping).
+
+    Raises:
+        ConfigError: the first problem found, with its YAML key path.
+    """
+    if isinstance(source, dict):
+        data = source
+        base = (base_dir or Path.cwd()).resolve()
+    else:
+        path = Path(source)
+        data = read_yaml(path, "sweep file")
+        base = (base_dir or path.resolve().parent).resolve()
+    spec: SweepFileSpec = validate(SweepFileSpec, data)
+    n_t, n_s = _count(spec)
+    if n_s == 0:
+        raise ConfigError("no start configuration: set 'home: true', list 'configurations' or draw 'random'", "starts")
+    if n_t * n_s > MAX_PROBLEMS:
+        raise ConfigError(
+            f"{n_t} targets × {n_s} starts = {n_t * n_s} problems; at most {MAX_PROBLEMS} are allowed "
+            "(split the sweep into several files)",
+            "targets",
+        )
+    robot = load_robot(spec.robot, base, "robot")
+    model = robot.model
+    task = spec.task
+    try:
+        axes = resolve_axes(task.axes)
+    except RedundikError as exc:
+        raise ConfigError(str(exc), "task.axes") from None
+    try:
+        fid = model.frame_id(task.frame)
+    except RedundikError as exc:
+        raise ConfigError(str(exc), "task.frame") from None
+    dt = spec.convergence.dt
+    for key, gain in (("task.gain", task.gain), ("task.posture.gain", task.posture.gain)):
+        if gain * dt > 2.0:
+            raise ConfigError(
+                f"gain × dt = {gain:g} × {dt:g} = {gain * dt:g} > 2: the iteration would diverge; lower the gain or dt",
+                key,
+            )
+    home = robot.q0 if robot.q0 is not None else model.neutral()
+    if task.posture.target == "home":
+        posture = home.copy()
+    else:
+        posture = configuration_from_file(task.posture.target, model, spec.angle_unit, "task.posture.target")  # type: ignore[arg-type]
+    if spec.targets.orientation is not None:
+        rpy = np.array(spec.targets.orientation) * angle_scale(spec.angle_unit)
+        R = rpy_matrix(rpy)
+    else:
+        data_ = model.model.createData()
+        pin.framesForwardKinematics(model.model, data_, home)
+        R = np.array(data_.oMf[fid].rotation)
+    starts = _starts(spec, robot, home)
+    payload = {"data": data, "base_dir": str(base)}
+    plan = SweepPlan(
+        spec=spec,
+        robot=robot,
+        axes=axes,
+        home=home,
+        posture_target=posture,
+        target_positions=_targets(spec),
+        target_rotation=R,
+        starts=starts,
+        payload=payload,
+    )
+    for key, val in spec.resolver.options.items():
+        if isinstance(val, float) and not np.isfinite(val):
+            raise ConfigError(f"expected a finite number, got {val}", join_path("resolver.options", key))
+    try:
+        limits = getattr(plan.batch_resolver().resolver, "limits", None)
+        if limits is not None:
+            limits.bind(model)  # unknown joint names in limit overrides fail now, not in a worker
+    except RedundikError as exc:
+        raise ConfigError(f"resolver '{spec.resolver.name}': {exc}", "resolver.options") from None
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"resolver '{spec.resolver.name}': bad options: {exc}", "resolver.options") from None
+    return plan
