@@ -155,6 +155,9 @@ def test_shipped_example_validates() -> None:
         ({"targets": {"grid": {"x": 0.0, "y": 0.0}}}, "targets.grid.z: required key is missing"),
         ({"targets": {"points": [[0, 0, 0]], "grid": {"x": 0, "y": 0, "z": 0}}}, "targets: give exactly one of"),
         ({"name": "../evil"}, "name: '../evil' is not a safe name"),
+        ({"robot": "example-robot-data:panda"}, "starts.home: the home configuration is outside the joint limits"),
+        ({"starts": {"home": False, "configurations": [[0.0] * 9]}}, "starts.configurations[0]: this start config"),
+        ({"q0": [0.0, 1.0]}, "q0: expected 9 values"),
     ],
 )
 def test_bad_sweep_files_are_one_line_errors_with_key_paths(

@@ -127,7 +127,7 @@ def dask_client(local: int | None = None, scheduler: str | None = None, processe
             n_workers=local,
             threads_per_worker=1,
             processes=processes,
-            dashboard_address=None,
+            dashboard_address=":0",  # no fixed port: never collides with another cluster
             silence_logs=logging.ERROR,
         )
         try:

@@ -146,6 +146,18 @@ def _targets(spec: SweepFileSpec) -> np.ndarray:
     return np.array(t.points, dtype=float).reshape(-1, 3)
 
 
+def _check_within_limits(model: Any, q: np.ndarray, where: str, what: str) -> None:
+    """Refuse a configuration outside the joint limits (the iteration would start, or be pulled, outside them)."""
+    bad = np.flatnonzero(model.limit_violation(q, tol=1e-9) > 0)
+    if bad.size:
+        j = model.joints[int(bad[0])]
+        raise ConfigError(
+            f"{what} is outside the joint limits ({j.name} = {q[j.idx_q]:.4g} not in [{j.lower:.4g}, {j.upper:.4g}]); "
+            "give 'q0' (or a robot config with q0, e.g. configs/panda.yaml) or list start configurations",
+            where,
+        )
+
+
 def _starts(spec: SweepFileSpec, robot: LoadedRobot, home: np.ndarray) -> np.ndarray:
     model = robot.model
     out: list[np.ndarray] = []
@@ -153,7 +165,9 @@ def _starts(spec: SweepFileSpec, robot: LoadedRobot, home: np.ndarray) -> np.nda
     if s.home:
         out.append(home[None, :])
     for i, values in enumerate(s.configurations):
-        q = configuration_from_file(values, model, spec.angle_unit, join_path("starts.configurations", i))
+        where = join_path("starts.configurations", i)
+        q = configuration_from_file(values, model, spec.angle_unit, where)
+        _check_within_limits(model, q, where, "this start configuration")
         out.append(q[None, :])
     if s.random is not None:
         if model.nq != model.nv:
@@ -217,7 +231,13 @@ def load_sweep(source: str | Path | dict[str, Any], base_dir: Path | None = None
                 f"gain × dt = {gain:g} × {dt:g} = {gain * dt:g} > 2: the iteration would diverge; lower the gain or dt",
                 key,
             )
-    home = robot.q0 if robot.q0 is not None else model.neutral()
+    if spec.q0 is not None:
+        home = configuration_from_file(spec.q0, model, spec.angle_unit, "q0")
+    else:
+        home = robot.q0 if robot.q0 is not None else model.neutral()
+    if spec.starts.home or spec.task.posture.target == "home":
+        where = "q0" if spec.q0 is not None else "starts.home" if spec.starts.home else "task.posture.target"
+        _check_within_limits(model, home, where, "the home configuration")
     if task.posture.target == "home":
         posture = home.copy()
     else:

@@ -150,6 +150,8 @@ class SweepFileSpec(StrictModel):
     description: str = ""
     robot: Any
     angle_unit: AngleUnit = "rad"
+    #: The home configuration (start ``home`` and posture target ``home``); default: the robot config's ``q0``.
+    q0: list[float] | None = None
     task: TaskSpec
     targets: TargetsSpec
     starts: StartsSpec = Field(default_factory=StartsSpec)
