@@ -6,6 +6,8 @@
   warmed up (every worker builds the plan and loads the compiled kernels once), then the whole sweep is timed
   (``run_sweep(plan, client=…)``: submission, the chunks, gathering). Speed-up = t(1) / t(N). The tables of all
   runs are checked to be identical.
+  The workers' CPU seconds are reported too: equal CPU for 1 and 2 workers and a CPU share below 100 % say that
+  the missing speed-up is the cores being shared with other jobs, not the sweep's overhead.
 * **In-chunk**: one chunk of ``--chunk`` problems iterated to convergence with one ``BatchResolver.solve`` per
   iteration (``batch``) vs the same problems one by one through ``resolver.step`` (``loop``), in this process.
 
@@ -60,8 +62,11 @@ def scaling(plan, workers: list[int]) -> tuple[list[dict[str, object]], bool]:  
         with dask_client(local=n) as client:
             client.run(remote_chunk, plan.key, plan.payload, 0, 4, "batch")  # every worker: plan + kernels once
             before = _load()
+            cpu0 = client.run(time.process_time)
             res = run_sweep(plan, client=client)
+            cpu1 = client.run(time.process_time)
             after = _load()
+        cpu = sum(cpu1[w] - cpu0[w] for w in cpu1)  # CPU seconds the workers got
         tables.append(res.columns)
         rows.append(
             {
@@ -71,13 +76,15 @@ def scaling(plan, workers: list[int]) -> tuple[list[dict[str, object]], bool]:  
                 "seconds": round(res.seconds, 2),
                 "problems_per_s": round(res.n_problems / res.seconds, 1),
                 "converged": res.n_converged,
+                "worker_cpu_s": round(cpu, 2),
+                "cpu_share": round(cpu / (n * res.seconds), 3),  # 1.0: each worker had a core to itself
                 "load_before": before,
                 "load_after": after,
             }
         )
         print(
             f"  {n} worker(s): {res.seconds:.1f} s, {res.n_problems / res.seconds:.0f} problems/s "
-            f"(load {before} → {after})",
+            f"(load {before} → {after}); worker CPU {cpu:.1f} s = {cpu / (n * res.seconds):.0%} of {n} core(s)",
             flush=True,
         )
     same = all(all(np.array_equal(t[k], tables[0][k]) for k in t) for t in tables[1:])
