@@ -37,3 +37,26 @@ class ConfigError(RedundikError):
 
 class MechanismError(RedundikError):
     """A parallel mechanism has bad geometry or cannot be assembled for the given inputs."""
+
+
+class SimulationError(RedundikError):
+    """A run could not be continued: a non-finite joint velocity or configuration (overflow, a huge gain)."""
+
+
+def short_repr(value: object, limit: int = 60) -> str:
+    """A bounded ``repr`` for error messages: never formats more than a few levels / items of ``value``.
+
+    ``repr()`` of a parsed alias bomb or of a deeply nested list would take unbounded time and memory; this one
+    looks at no more than ~6 items per level and 3 levels, then truncates to ``limit`` characters.
+    """
+    import reprlib
+
+    r = reprlib.Repr()
+    r.maxlevel, r.maxlist, r.maxtuple, r.maxdict, r.maxset = 3, 6, 6, 6, 6
+    r.maxstring, r.maxother, r.maxlong = limit, limit, 40
+    try:
+        text = r.repr(value)
+    except Exception:  # a hostile __repr__: say what it is, not what it contains
+        text = f"<{type(value).__name__}>"
+    text = text.replace("\n", " ")
+    return text if len(text) <= limit else text[: limit - 3] + "..."

@@ -136,16 +136,17 @@ def test_independent_paths_are_tracked_with_and_without_subtasks(runs) -> None:
 
 def test_carried_object_keeps_the_relative_pose(runs) -> None:
     r = runs["carry_r5"]
-    assert r.summary["task_errors"]["grasp"]["max"] < 5e-3
+    assert r.summary["task_errors"]["grasp"]["max"] < 1e-4  # held within 0.1 mm (the line stays in the workspace)
+    assert r.summary["damped_steps"] == 0
     # independently: relative pose of the hands from the logged configurations
     robot = r.plan.stack.tasks[1]
     model = load_robot(str(CONFIG), ROOT).model
     rel0 = _relative(model, r.log.q[0])
     for k in (50, 100, 150):
         rel = _relative(model, r.log.q[k])
-        assert np.linalg.norm(rel.translation - rel0.translation) < 5e-3
-        assert np.linalg.norm(pin.log3(rel.rotation @ rel0.rotation.T)) < 5e-3
+        assert np.linalg.norm(rel.translation - rel0.translation) < 1e-4
+        assert np.linalg.norm(pin.log3(rel.rotation @ rel0.rotation.T)) < 1e-4
     # the object did move: the left hand travelled along its line
     left = r.log.frame_positions["10"]
-    assert np.linalg.norm(left[150] - left[0]) == pytest.approx(np.linalg.norm([0, 0.02, 0.03]) * 3.0, rel=0.05)
+    assert np.linalg.norm(left[150] - left[0]) == pytest.approx(np.linalg.norm([0, 0.015, 0.02]) * 3.0, rel=0.05)
     assert isinstance(robot, RelativePoseTask)

@@ -27,11 +27,12 @@ def _register_all() -> None:
     # appending duplicates and every call rebuilds all of them (calls grew slower, O(calls²) overall).
     if app.registered_commands:
         return
-    from redundik.cli import bench_cmds, parallel_cmds, run_cmds
+    from redundik.cli import bench_cmds, parallel_cmds, run_cmds, view_cmds
 
     run_cmds.register(app)
     parallel_cmds.register(app)
     bench_cmds.register(app)
+    view_cmds.register(app)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -40,7 +41,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         app(args=argv, standalone_mode=False)
     except RedundikError as exc:
-        typer.secho(f"error: {exc}", err=True, fg=typer.colors.RED)
+        text = " ".join(str(exc).split())  # always one line, and bounded
+        typer.secho(f"error: {text if len(text) <= 1000 else text[:997] + '...'}", err=True, fg=typer.colors.RED)
         return 2
     except typer.Exit as exc:
         return int(exc.exit_code or 0)

@@ -17,6 +17,7 @@ import typer
 from scipy.spatial.transform import Rotation
 
 from redundik.errors import ConfigError, MechanismError
+from redundik.reporting.paths import safe_path
 
 stewart_app = typer.Typer(
     help="Stewart platforms (3-3, 6-3, 6-6): IK, FK, Jacobian, statics, drawings.", no_args_is_help=True
@@ -61,6 +62,11 @@ def _rotation(rpy: tuple[float, float, float] | None, rot: tuple[float, ...] | N
             raise MechanismError(f"--rpy: non-finite angle {list(rpy)}")
         return rpy_matrix(*rpy)
     return np.eye(3)
+
+
+def _out_file(out: Path) -> Path:
+    """``--out FILE``: the file name must be a safe name and the resolved path stay in its folder."""
+    return safe_path(out.parent, out.name)
 
 
 def _vec(values: tuple[float, ...], name: str) -> np.ndarray:
@@ -187,8 +193,9 @@ def stewart_draw(
     from redundik.parallel.plots import draw_stewart
 
     platform = _load(config, "stewart").build()
-    draw_stewart(platform, _vec(p, "--p"), _rotation(rpy, rot), out)
-    typer.echo(str(out))
+    target = _out_file(out)
+    draw_stewart(platform, _vec(p, "--p"), _rotation(rpy, rot), target)
+    typer.echo(str(target))
 
 
 @stewart_app.command("animate")
@@ -207,8 +214,9 @@ def stewart_animate(
 
     platform = _load(config, "stewart").build()
     ps, Rs = linear_path(_vec(p, "--p"), _rotation(rpy, None), _vec(to_p, "--to-p"), _rotation(to_rpy, None), frames)
-    animate_stewart(platform, list(zip(ps, Rs, strict=True)), out)
-    typer.echo(str(out))
+    target = _out_file(out)
+    animate_stewart(platform, list(zip(ps, Rs, strict=True)), target)
+    typer.echo(str(target))
 
 
 # ---------------------------------------------------------------------------------------------- hybrid33
@@ -306,8 +314,8 @@ def hybrid_path(
         np.radians(cfg.home.theta6),
         cfg.branch,
     )
-    out.mkdir(parents=True, exist_ok=True)
-    plot_joint_profiles(res, out / "joint_profiles.png")
+    profiles, roundtrip = safe_path(out, "joint_profiles.png"), safe_path(out, "roundtrip.json")
+    plot_joint_profiles(res, profiles)
     payload: dict[str, Any] = res.summary() | {
         "n": len(res.t),
         "dt": cfg.path.dt,
@@ -317,9 +325,9 @@ def hybrid_path(
         "roundtrip_position_exact": res.roundtrip_exact.tolist(),
         "roundtrip_angle_book": res.roundtrip_book_angle.tolist(),
         "roundtrip_angle_exact": res.roundtrip_exact_angle.tolist(),
-        "files": [str(out / "joint_profiles.png"), str(out / "roundtrip.json")],
+        "files": [str(profiles), str(roundtrip)],
     }
-    (out / "roundtrip.json").write_text(json.dumps(payload, indent=1), encoding="utf-8")
+    roundtrip.write_text(json.dumps(payload, indent=1), encoding="utf-8")
     rows = [(k, f"{v:.3e}") for k, v in res.summary().items()] + [("written", str(out))]
     _emit({k: payload[k] for k in (*res.summary(), "files")}, as_json, "project 2 round trips", rows)
 

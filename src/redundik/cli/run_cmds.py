@@ -12,19 +12,18 @@ import typer
 
 
 def validate(
-    file: Annotated[Path, typer.Argument(help="Task file (YAML).", show_default=False)],
+    file: Annotated[
+        Path, typer.Argument(help="Task file, robot config or mechanism config (YAML).", show_default=False)
+    ],
 ) -> None:
-    """Check a task file (robot, tasks, potentials, every run) without running it."""
+    """Check a task file (robot, tasks, potentials, every run), a robot config or a mechanism config."""
     from rich.console import Console
+    from rich.markup import escape
 
-    from redundik.config import load_task
+    from redundik.config.anyfile import validate_file
 
-    plan = load_task(file)
-    Console().print(
-        f"[green]ok[/green] {file}: task '{plan.name}', robot '{plan.robot.model.name}' "
-        f"({plan.robot.model.nv} joints), dt = {plan.dt} s, {plan.steps} steps, "
-        f"runs: {', '.join(f'{n} ({r.resolver_name})' for n, r in plan.runs.items())}"
-    )
+    what = validate_file(file)
+    Console(soft_wrap=True).print(f"[green]ok[/green] {escape(str(file))}: {escape(what)}")
 
 
 def run(
@@ -33,11 +32,15 @@ def run(
     runs: Annotated[str | None, typer.Option("--runs", help="Comma-separated run names (default: all).")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No table, no progress bar.")] = False,
     figures: Annotated[bool, typer.Option("--figures/--no-figures", help="Write PNG figures.")] = True,
+    html: Annotated[bool, typer.Option("--html", help="Write an offline 3-D replay, TASK.html.")] = False,
+    gif: Annotated[bool, typer.Option("--gif", help="Write an animation of the runs, TASK.gif.")] = False,
+    view: Annotated[bool, typer.Option("--view", help="Replay the first run in meshcat (extra `viewer`).")] = False,
 ) -> None:
-    """Simulate every run of a task file; write summary.json, RUN.csv per run and PNG figures."""
+    """Simulate every run of a task file; write summary.json, RUN.csv per run, PNG figures (and HTML, GIF)."""
     from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
+    from redundik.cli.view_cmds import output_steps, write_pictures
     from redundik.config import load_task
     from redundik.config.runner import run_task, select_runs
     from redundik.reporting.outputs import write_outputs
@@ -47,9 +50,13 @@ def run(
     names = select_runs(plan, None if runs is None else runs.split(","))
     out_dir = out if out is not None else Path("out") / plan.name
     console = Console(stderr=True)
-    total = plan.steps * len(names)
+    pictures = output_steps(figures, html, gif)
+    unit = max(plan.steps // 4, 1)  # progress units of one output step (figures, html, gif)
+    total = plan.steps * len(names) + unit * len(pictures)
     if quiet or total < 2000:
         results = run_task(plan, names)
+        summary = write_outputs(plan, results, out_dir)
+        pictures_written = write_pictures(plan, results, out_dir, pictures)
     else:
         with Progress(
             TextColumn("{task.description}"),
@@ -68,15 +75,24 @@ def run(
                     bar.update(task_id, completed=sum(done.values()), description=f"{plan.name}: {run_name}")
 
             results = run_task(plan, names, progress)
-    summary = write_outputs(plan, results, out_dir)
-    written = ["summary.json", *(f"{n}.csv" for n in results)]
-    if figures:
-        from redundik.reporting.plots import write_figures
+            summary = write_outputs(plan, results, out_dir)
+            finished: list[str] = []
 
-        written += [p.name for p in write_figures(plan, results, out_dir)]
+            def picture_done(step: str) -> None:
+                finished.append(step)
+                bar.update(task_id, completed=plan.steps * len(names) + unit * len(finished))
+
+            bar.update(task_id, description=f"{plan.name}: {', '.join(pictures) or 'outputs'}")
+            pictures_written = write_pictures(plan, results, out_dir, pictures, picture_done)
+    written = ["summary.json", *(f"{n}.csv" for n in results), *(p.name for p in pictures_written)]
     if not quiet:
         print_summary(summary, Console())
         Console().print(f"wrote {out_dir}/: {', '.join(written)}")
+    if view:
+        from redundik.viewer.live import replay_meshcat
+
+        first = next(iter(results.values()))
+        replay_meshcat(plan, first.name, first.log.t, first.log.q, console=Console())
 
 
 def register(app: typer.Typer) -> None:

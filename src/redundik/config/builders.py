@@ -17,7 +17,7 @@ from pydantic import BaseModel
 from redundik.config import schema as s
 from redundik.config.robot import angle_scale, configuration_from_file, rpy_matrix
 from redundik.config.yamlio import join_path, validate
-from redundik.errors import ConfigError, RedundikError
+from redundik.errors import ConfigError, RedundikError, short_repr
 from redundik.kinematics import AXES, RobotModel
 from redundik.tasks import (
     BestPosture,
@@ -48,6 +48,7 @@ class Context:
 
     robot: RobotModel
     angle_unit: str = "rad"
+    world: Any = None  # the task file's collision world (redundik.collision.CollisionWorld), if it has one
 
     @property
     def scale(self) -> float:
@@ -92,7 +93,7 @@ def check_joint(ctx: Context, name: str, path: str) -> str:
 def check_axes(axes: Any, path: str, position_only: bool = False) -> tuple[str, ...]:
     """Axis names from ``pose``/``position``/``orientation``/``planar`` or a list of x, y, z, rx, ry, rz."""
     if not isinstance(axes, (str, list)) or (isinstance(axes, list) and not all(isinstance(a, str) for a in axes)):
-        raise ConfigError(f"expected an axis-set name or a list of axis names, got {axes!r}", path)
+        raise ConfigError(f"expected an axis-set name or a list of axis names, got {short_repr(axes)}", path)
     try:
         out = resolve_axes(axes)
     except RedundikError as exc:
@@ -140,12 +141,13 @@ def build_typed(registry: dict[str, Kind[T]], raw: Any, name: str, ctx: Context,
         ConfigError: not a mapping, missing or unknown ``type`` (lists the known ones), or any invalid field.
     """
     if not isinstance(raw, dict):
-        raise ConfigError(f"expected a mapping with a 'type' key, got {raw!r}", path)
+        raise ConfigError(f"expected a mapping with a 'type' key, got {short_repr(raw)}", path)
     kind = raw.get("type")
     if kind is None:
         raise ConfigError(f"missing 'type'; {what} types: {', '.join(registry)}", path)
-    if kind not in registry:
-        raise ConfigError(f"unknown {what} type {kind!r}; available: {', '.join(registry)}", join_path(path, "type"))
+    if not isinstance(kind, str) or kind not in registry:
+        got = short_repr(kind)
+        raise ConfigError(f"unknown {what} type {got}; available: {', '.join(registry)}", join_path(path, "type"))
     entry = registry[kind]
     spec = validate(entry.model, raw, path)
     return entry.build(spec, name, ctx, path)

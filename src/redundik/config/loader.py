@@ -15,7 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from redundik.config import chapter_types  # noqa: F401 - registers the chapter robots' YAML types (issue 4)
+from redundik.config import (
+    chapter_types,  # noqa: F401 - registers the chapter robots' YAML types (issue 4)
+    world_types,  # registers collision / balance YAML types (issue 12)
+)
 from redundik.config.builders import (
     MONITORS,
     POTENTIALS,
@@ -26,11 +29,12 @@ from redundik.config.builders import (
     check_frame,
     task_name,
 )
-from redundik.config.robot import LoadedRobot, configuration_from_file, load_robot
-from redundik.config.schema import RunSpec, SubtaskSpec, TaskFileSpec
+from redundik.config.robot import LoadedRobot, angle_scale, configuration_from_file, load_robot
+from redundik.config.schema import MAX_STEPS, PlantSpec, RunSpec, SubtaskSpec, TaskFileSpec
 from redundik.config.yamlio import join_path, read_yaml, validate
 from redundik.errors import ConfigError, RedundikError
 from redundik.resolvers import RESOLVERS, Resolver, make_resolver
+from redundik.resolvers.base import check_gains
 from redundik.tasks import BoundSubtask, GradientSubtask, Potential, Subtask, TargetSubtask, Task, TaskStack
 
 
@@ -48,6 +52,7 @@ class RunPlan:
         watched: The file's other potentials, logged but not controlled in this run.
         monitors: Potentials under ``monitors:`` (logged only).
         torque_monitors: ``type: torques`` monitors.
+        plant: The simulated robot driven by the run (``plant:`` of the run or the file), ``None``: kinematic.
     """
 
     name: str
@@ -59,6 +64,14 @@ class RunPlan:
     watched: list[Potential] = field(default_factory=list)
     monitors: list[Potential] = field(default_factory=list)
     torque_monitors: list[TorqueMonitor] = field(default_factory=list)
+    plant: PlantSpec | None = None
+    integrator: str = "euler"
+    rtol: float = 1e-10
+    atol: float = 1e-12
+
+
+#: Memory the logs of all runs of a file may need [bytes]: Σ (steps + 1) × columns × 8 (see docs/task-files.md).
+MAX_LOG_BYTES = 512 * 1024 * 1024
 
 
 @dataclass
@@ -121,6 +134,7 @@ class TaskPlan:
     potential_types: dict[str, str]
     draw: DrawPlan
     log_frames: list[str]
+    world: Any = None  # the collision world (redundik.collision.CollisionWorld) of 'collision:'/'obstacles:'
 
 
 def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None) -> TaskPlan:
@@ -141,8 +155,9 @@ def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None)
         data = read_yaml(path, "task file")
         base = base_dir or path.resolve().parent
     spec: TaskFileSpec = validate(TaskFileSpec, data)
+    steps = _check_steps(spec)
     robot = load_robot(spec.robot, base, "robot")
-    ctx = Context(robot.model, spec.angle_unit)
+    _check_integrators(spec, robot.model.nq, robot.model.nv)
 
     if spec.q0 is not None:
         q0 = configuration_from_file(spec.q0, robot.model, spec.angle_unit, "q0")
@@ -150,6 +165,10 @@ def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None)
         q0 = robot.q0
     else:
         q0 = robot.model.neutral()
+    world = None
+    if spec.collision is not None or spec.obstacles:
+        world = world_types.build_world(spec.collision, spec.obstacles, robot, q0, angle_scale(spec.angle_unit), base)
+    ctx = Context(robot.model, spec.angle_unit, world)
 
     # every potential and monitor once, for names/sizes (runs build their own fresh objects)
     types: dict[str, str] = {}
@@ -166,8 +185,11 @@ def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None)
         check_frame(ctx, f, join_path("log_frames", i))
 
     runs = {name: _build_run(spec, ctx, name, run, q0) for name, run in spec.runs.items()}
+    _set_integrators(spec, runs)
     draw = _draw_plan(spec, robot, ctx, runs)
     log_frames = list(dict.fromkeys([*draw.frames, *spec.log_frames]))
+    size_key = "steps" if spec.steps is not None else "duration"
+    _check_log_memory(runs, steps, robot.model.nq, robot.model.nv, len(log_frames), size_key)
     return TaskPlan(
         name=spec.name,
         description=spec.description,
@@ -175,18 +197,67 @@ def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None)
         robot=robot,
         angle_unit=spec.angle_unit,
         dt=spec.dt,
-        steps=spec.n_steps,
+        steps=steps,
         q0=q0,
         runs=runs,
         potential_types=types,
         draw=draw,
         log_frames=log_frames,
+        world=world,
     )
+
+
+def _check_steps(spec: TaskFileSpec) -> int:
+    """The number of steps, bounded by :data:`MAX_STEPS` (``duration / dt`` too)."""
+    n = spec.n_steps
+    if n > MAX_STEPS:
+        raise ConfigError(
+            f"duration / dt = {spec.duration:g} / {spec.dt:g} gives {n} steps; at most {MAX_STEPS} are allowed",
+            "duration",
+        )
+    return n
+
+
+def _check_integrators(spec: TaskFileSpec, nq: int, nv: int) -> None:
+    """Runge-Kutta integrators need a vector-space configuration (nq = nv)."""
+    for name, run in spec.runs.items():
+        integrator = run.integrator or spec.integrator
+        if integrator != "euler" and nq != nv:
+            where = join_path("runs", name, "integrator") if run.integrator else "integrator"
+            raise ConfigError(
+                f"{integrator} needs a robot whose configuration is a vector space (nq = nv); this one has "
+                f"nq = {nq}, nv = {nv} (a free-flyer base or continuous joints): use euler",
+                where,
+            )
+
+
+def _set_integrators(spec: TaskFileSpec, runs: dict[str, RunPlan]) -> None:
+    """Each run's integrator and tolerances: its own keys, else the file's."""
+    for name, plan in runs.items():
+        run = spec.runs[name]
+        plan.integrator = run.integrator or spec.integrator
+        plan.rtol = spec.rtol if run.rtol is None else run.rtol
+        plan.atol = spec.atol if run.atol is None else run.atol
+
+
+def _check_log_memory(runs: dict[str, RunPlan], steps: int, nq: int, nv: int, n_frames: int, key: str) -> None:
+    """Refuse a file whose logs would need more than :data:`MAX_LOG_BYTES` (estimate: samples × columns × 8)."""
+    total = 0
+    for plan in runs.values():
+        n_pot = len(plan.stack.subtasks) + len(plan.watched) + len(plan.monitors) + 3 * len(plan.torque_monitors)
+        columns = 1 + nq + nv + len(plan.stack.tasks) + n_pot + 3 * n_frames + 16  # 16: per-step diagnostics
+        total += (steps + 1) * columns * 8
+    if total > MAX_LOG_BYTES:
+        raise ConfigError(
+            f"{steps} steps would need about {total / 2**20:.0f} MiB of logs for {len(runs)} run(s) "
+            f"(at most {MAX_LOG_BYTES // 2**20} MiB): use fewer steps, a larger dt or fewer runs",
+            key,
+        )
 
 
 def _build_monitor(raw: Any, name: str, ctx: Context, path: str) -> Potential | TorqueMonitor:
     kind = raw.get("type") if isinstance(raw, dict) else None
-    if kind in MONITORS:
+    if isinstance(kind, str) and kind in MONITORS:
         return build_typed(MONITORS, raw, name, ctx, path, "monitor")
     registry: dict[str, Any] = {**POTENTIALS, **MONITORS}
     return build_typed(registry, raw, name, ctx, path, "monitor")
@@ -323,10 +394,12 @@ def _build_run(spec: TaskFileSpec, ctx: Context, name: str, run: RunSpec, q0_fil
             pot.check(robot)
         resolver.reset()
         resolver.check(robot, stack)
+        check_gains(stack, spec.dt, resolver.name)  # what Resolver.step refuses at the first step (K·dt > 2)
         stack.evaluate(robot, 0.0)
     except RedundikError as exc:
         raise ConfigError(str(exc), path) from None
-    return RunPlan(name, run.description, run.resolver, resolver, stack, q0, watched, monitors, torques)
+    plant = run.plant if run.plant is not None else spec.plant
+    return RunPlan(name, run.description, run.resolver, resolver, stack, q0, watched, monitors, torques, plant)
 
 
 def _draw_plan(spec: TaskFileSpec, robot: LoadedRobot, ctx: Context, runs: dict[str, RunPlan]) -> DrawPlan:

@@ -17,10 +17,12 @@ import pinocchio as pin
 
 from redundik.config.schema import RobotSpec
 from redundik.config.yamlio import join_path, read_yaml, validate
-from redundik.errors import ConfigError, RedundikError
+from redundik.errors import ConfigError, RedundikError, short_repr
 from redundik.kinematics import EXAMPLE_ROBOTS, DHRow, RobotModel, example_robot_data_dir, from_dh, from_urdf
 
 EXAMPLE_PREFIX = "example-robot-data:"
+#: Largest magnitude of a configuration entry written in a file [rad, deg or length unit].
+MAX_FILE_COORDINATE = 1e6
 
 
 @dataclass
@@ -32,12 +34,14 @@ class LoadedRobot:
         source: Where it came from (config path, ``example-robot-data:NAME`` or ``inline``).
         q0: Home configuration from the config [rad, length unit], or ``None``.
         segments: Links to draw, as (frame, frame) pairs: the D-H rows' parent → child, or the URDF joint tree.
+        urdf: The URDF file the model was built from (visual meshes, MuJoCo plant), ``None`` for a D-H robot.
     """
 
     model: RobotModel
     source: str
     q0: np.ndarray | None = None
     segments: list[tuple[str, str]] = field(default_factory=list)
+    urdf: Path | None = None
 
 
 def rpy_matrix(rpy: list[float] | np.ndarray) -> np.ndarray:
@@ -72,6 +76,10 @@ def configuration_from_file(
         names = ", ".join(robot.joint_names)
         raise ConfigError(f"expected {n} values (joints: {names}), got {len(values)}", path)
     arr = np.asarray(values, dtype=float)
+    big = np.flatnonzero(~(np.abs(arr) <= MAX_FILE_COORDINATE))
+    if big.size:
+        i = int(big[0])
+        raise ConfigError(f"must be at most {MAX_FILE_COORDINATE:g} in magnitude, got {arr[i]:g}", f"{path}[{i}]")
     scale = angle_scale(unit)
     if scale != 1.0:
         for j in robot.joints:
@@ -95,9 +103,13 @@ def load_robot(ref: Any, base_dir: Path, path: str = "robot") -> LoadedRobot:
     if isinstance(ref, str):
         if ref.startswith(EXAMPLE_PREFIX):
             return _example_robot(ref[len(EXAMPLE_PREFIX) :], None, path, ref)
-        cfg_path = (base_dir / ref).resolve() if not Path(ref).is_absolute() else Path(ref)
-        if not cfg_path.is_file():
-            raise ConfigError(f"robot config '{ref}' does not exist (looked for {cfg_path})", path)
+        try:
+            cfg_path = (base_dir / ref).resolve() if not Path(ref).is_absolute() else Path(ref)
+            exists = cfg_path.is_file()
+        except (OSError, ValueError):  # a name too long, an embedded NUL, ...
+            raise ConfigError(f"robot config {short_repr(ref)} cannot be read (not a usable path)", path) from None
+        if not exists:
+            raise ConfigError(f"robot config {short_repr(ref)} does not exist (looked for {cfg_path})", path)
         data = read_yaml(cfg_path, "robot config")
         prefix = f"{ref}: "
         spec = validate(RobotSpec, data, prefix)
@@ -105,7 +117,7 @@ def load_robot(ref: Any, base_dir: Path, path: str = "robot") -> LoadedRobot:
     if isinstance(ref, dict):
         spec = validate(RobotSpec, ref, path)
         return build_robot(spec, base_dir, path, "inline")
-    raise ConfigError(f"expected a config path, '{EXAMPLE_PREFIX}NAME' or a mapping, got {ref!r}", path)
+    raise ConfigError(f"expected a config path, '{EXAMPLE_PREFIX}NAME' or a mapping, got {short_repr(ref)}", path)
 
 
 def _example_robot(name: str, free_flyer: bool | None, path: str, source: str) -> LoadedRobot:
@@ -117,7 +129,7 @@ def _example_robot(name: str, free_flyer: bool | None, path: str, source: str) -
     except RedundikError as exc:
         raise ConfigError(str(exc), path) from None
     robot = RobotModel(robot.model, name=name, length_unit="m")
-    return LoadedRobot(robot, source, None, _urdf_segments(robot))
+    return LoadedRobot(robot, source, None, _urdf_segments(robot), example_robot_data_dir() / rel)
 
 
 def build_robot(spec: RobotSpec, base_dir: Path, prefix: str, source: str) -> LoadedRobot:
@@ -131,12 +143,15 @@ def build_robot(spec: RobotSpec, base_dir: Path, prefix: str, source: str) -> Lo
         if spec.urdf.startswith(EXAMPLE_PREFIX):
             loaded = _example_robot(spec.urdf[len(EXAMPLE_PREFIX) :], spec.free_flyer, where, source)
         else:
-            urdf_path = Path(spec.urdf) if Path(spec.urdf).is_absolute() else (base_dir / spec.urdf).resolve()
+            try:
+                urdf_path = Path(spec.urdf) if Path(spec.urdf).is_absolute() else (base_dir / spec.urdf).resolve()
+            except (OSError, ValueError):
+                raise ConfigError(f"{short_repr(spec.urdf)} is not a usable URDF path", where) from None
             try:
                 robot = from_urdf(urdf_path, free_flyer=bool(spec.free_flyer), name=spec.name)
             except RedundikError as exc:
                 raise ConfigError(str(exc), where) from None
-            loaded = LoadedRobot(robot, source, None, _urdf_segments(robot))
+            loaded = LoadedRobot(robot, source, None, _urdf_segments(robot), urdf_path)
         if spec.name:
             loaded.model = RobotModel(loaded.model.model, name=spec.name, length_unit=spec.length_unit)
     model = loaded.model.model

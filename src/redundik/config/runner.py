@@ -9,7 +9,8 @@ from typing import Any
 import numpy as np
 
 from redundik.config.loader import RunPlan, TaskPlan
-from redundik.errors import ConfigError
+from redundik.config.world_types import world_clock, world_summary
+from redundik.errors import ConfigError, SimulationError
 from redundik.simulation import SimulationLog, simulate
 
 
@@ -74,6 +75,15 @@ def run_one(plan: TaskPlan, run: RunPlan, progress: Callable[[str, int], None] |
     """Simulate one run and summarise it."""
     robot = plan.robot.model
     cb = None if progress is None else (lambda k: progress(run.name, k))
+    world = getattr(plan, "world", None)
+    if world is not None:  # moving obstacles: the clock follows the steps (the next tick is at k·dt)
+        world.set_time(0.0)
+        cb = world_clock(world, plan.dt, cb)
+    plant = None
+    if run.plant is not None:
+        from redundik.simulation.plant import make_plant
+
+        plant = make_plant(run.plant, plan, f"runs.{run.name}.plant")
     log = simulate(
         robot,
         run.stack,
@@ -84,23 +94,43 @@ def run_one(plan: TaskPlan, run: RunPlan, progress: Callable[[str, int], None] |
         log_frames=tuple(plan.log_frames),
         extra_potentials=tuple(run.watched + run.monitors),
         progress=cb,
+        plant=plant,
+        integrator=run.integrator,
+        rtol=run.rtol,
+        atol=run.atol,
     )
     n = log.q.shape[0]
     violation = np.array([float(np.max(robot.limit_violation(log.q[k]), initial=0.0)) for k in range(n)])
     series: dict[str, np.ndarray] = {}
     if run.torque_monitors:
         tau = {m.name: np.empty((n, robot.nv)) for m in run.torque_monitors}
-        for k in range(n):
-            robot.update(log.q[k])
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported below, in one line
+            for k in range(n):
+                robot.update(log.q[k])
+                for m in run.torque_monitors:
+                    tau[m.name][k] = m.torques(robot)
             for m in run.torque_monitors:
-                tau[m.name][k] = m.torques(robot)
-        for m in run.torque_monitors:
-            a = np.abs(tau[m.name])
-            series[f"m.{m.name}.max"] = a.max(axis=1)
-            series[f"m.{m.name}.min"] = a.min(axis=1)
-            series[f"m.{m.name}.mean"] = a.mean(axis=1)
+                a = np.abs(tau[m.name])
+                series[f"m.{m.name}.max"] = a.max(axis=1)
+                series[f"m.{m.name}.min"] = a.min(axis=1)
+                series[f"m.{m.name}.mean"] = a.mean(axis=1)
+    for key, values in series.items():
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            t = float(log.t[bad[0]])
+            raise SimulationError(
+                f"run '{run.name}' diverged at t = {t:.6g} s: monitor {key} is not finite (overflow?)"
+            )
+    world_stats, world_series = world_summary(plan, run, log)
+    series.update(world_series)
+    if plant is not None:
+        series.update(plant.series())
     result = RunResult(run.name, run, log, series, violation)
-    result.summary = summarise(plan, result)
+    result.summary = summarise(plan, result) | world_stats
+    if plant is not None:
+        from redundik.simulation.plant import plant_summary
+
+        result.summary.update(plant_summary(plan, run, plant, log))
     return result
 
 
@@ -171,6 +201,7 @@ def task_summary(plan: TaskPlan, results: dict[str, RunResult]) -> dict[str, Any
         "description": plan.description,
         "robot": robot.name,
         "robot_source": plan.robot.source,
+        "task_file": str(plan.path.resolve()) if plan.path is not None else None,
         "length_unit": robot.length_unit,
         "joints": robot.joint_names,
         "dt": plan.dt,

@@ -16,7 +16,10 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+
+from redundik.errors import short_repr
+from redundik.reporting.paths import name_problem
 
 
 def _name(value: Any) -> Any:
@@ -28,8 +31,21 @@ def _name(value: Any) -> Any:
 
 #: A frame / joint / task name: a string (an integer in the YAML is taken as its decimal text).
 Name = Annotated[str, BeforeValidator(_name)]
+
+
+def _safe_name(value: str) -> str:
+    problem = name_problem(value)
+    if problem is not None:
+        raise ValueError(problem)
+    return value
+
+
+#: A name that becomes a file name (task and run names): see :data:`redundik.reporting.paths.NAME_PATTERN`.
+SafeName = Annotated[str, BeforeValidator(_name), AfterValidator(_safe_name)]
 #: A 3-vector [length or angle unit].
 Vec3 = Annotated[list[float], Field(min_length=3, max_length=3)]
+#: A geometric number of a robot file, |x| ≤ 1e6 (length unit or angle unit): larger ones overflow the kinematics.
+Bounded = Annotated[float, Field(ge=-1e6, le=1e6)]
 AngleUnit = Literal["deg", "rad"]
 Axis = Literal["x", "y", "z"]
 
@@ -63,10 +79,10 @@ class DHRowSpec(StrictModel):
 
     name: Name
     type: Literal["revolute", "prismatic", "fixed"] = "revolute"
-    theta: float = 0.0
-    d: float = 0.0
-    a: float = 0.0
-    alpha: float = 0.0
+    theta: Bounded = 0.0
+    d: Bounded = 0.0
+    a: Bounded = 0.0
+    alpha: Bounded = 0.0
     lower: float | None = None
     upper: float | None = None
     velocity: float | None = Field(default=None, gt=0)
@@ -138,6 +154,35 @@ class SubtaskSpec(StrictModel):
     priority: int | None = Field(default=None, ge=0)
 
 
+class PlantSpec(StrictModel):
+    """``plant:`` (task file or run): drive a simulated robot instead of integrating q̇ (see ``docs/task-files.md``).
+
+    Gains are per joint (a number for all, or a mapping joint → value): ``kp`` [N·m/rad or N/m], ``kv``
+    [N·m·s/rad or N·s/m] (position actuators: damping; velocity actuators: the velocity gain). ``sim_dt`` [s] must
+    divide the control ``dt``. ``armature`` [kg·m²] adds reflected rotor inertia to every joint.
+    """
+
+    type: Literal["mujoco"]
+    actuator: Literal["position", "velocity"] = "position"
+    kp: float | dict[Name, float] = 2000.0
+    kv: float | dict[Name, float] = 100.0
+    sim_dt: float = Field(default=0.001, gt=0)
+    gravity: bool = True
+    gravity_compensation: bool = True
+    effort_limits: bool = True
+    armature: float = Field(default=0.1, ge=0)
+    kinematic_reference: bool = True
+
+
+#: Integrators of a run (:mod:`redundik.simulation.integrators`).
+IntegratorName = Literal["euler", "rk4", "rk45"]
+#: Bounds of a run's time grid: steps ≤ MAX_STEPS, DT_MIN ≤ dt ≤ DT_MAX [s] (see docs/task-files.md).
+MAX_STEPS = 1_000_000
+DT_MIN, DT_MAX = 1e-6, 1.0
+#: Longest ``duration`` [s] (duration / dt must also give at most MAX_STEPS steps).
+MAX_DURATION = 1e6
+
+
 class RunSpec(StrictModel):
     """One named run: a resolver, its options, the subtasks it controls and per-run overrides."""
 
@@ -150,6 +195,10 @@ class RunSpec(StrictModel):
     main: list[dict[str, Any]] | None = None
     extra_main: list[dict[str, Any]] = Field(default_factory=list)
     q0: list[float] | None = None
+    plant: PlantSpec | None = None
+    integrator: IntegratorName | None = None
+    rtol: float | None = Field(default=None, gt=0, lt=1)
+    atol: float | None = Field(default=None, gt=0, lt=1)
 
 
 class DrawSpec(StrictModel):
@@ -169,20 +218,28 @@ class DrawSpec(StrictModel):
 class TaskFileSpec(StrictModel):
     """A task-run file (``tasks/*.yaml``)."""
 
-    name: Name
+    name: SafeName
     description: str = ""
     robot: Any
     angle_unit: AngleUnit = "rad"
     q0: list[float] | None = None
-    dt: float = Field(gt=0)
-    steps: int | None = Field(default=None, ge=1)
-    duration: float | None = Field(default=None, gt=0)
+    dt: float = Field(ge=DT_MIN, le=DT_MAX)
+    steps: int | None = Field(default=None, ge=1, le=MAX_STEPS)
+    duration: float | None = Field(default=None, gt=0, le=MAX_DURATION)
+    integrator: IntegratorName = "euler"
+    rtol: float = Field(default=1e-10, gt=0, lt=1)
+    atol: float = Field(default=1e-12, gt=0, lt=1)
     main: list[dict[str, Any]] = Field(default_factory=list)
     potentials: dict[Name, dict[str, Any]] = Field(default_factory=dict)
     monitors: dict[Name, dict[str, Any]] = Field(default_factory=dict)
-    runs: dict[Name, RunSpec] = Field(min_length=1)
+    runs: dict[SafeName, RunSpec] = Field(min_length=1)
     draw: DrawSpec | None = None
     log_frames: list[Name] = Field(default_factory=list)
+    #: The robot's collision shapes and pair filters (redundik.config.world_types.CollisionSpec).
+    collision: dict[str, Any] | None = None
+    #: Named environment obstacles (redundik.config.world_types.ObstacleSpec).
+    obstacles: dict[Name, dict[str, Any]] = Field(default_factory=dict)
+    plant: PlantSpec | None = None
 
     @model_validator(mode="after")
     def _duration(self) -> TaskFileSpec:
@@ -190,7 +247,8 @@ class TaskFileSpec(StrictModel):
             raise ValueError("give exactly one of 'steps' (number of time steps) or 'duration' [s]")
         if self.robot is None or not isinstance(self.robot, (str, dict)):
             raise ValueError(
-                f"robot: expected a config path, 'example-robot-data:NAME' or an inline mapping, got {self.robot!r}"
+                "robot: expected a config path, 'example-robot-data:NAME' or an inline mapping, "
+                f"got {short_repr(self.robot)}"
             )
         return self
 

@@ -6,6 +6,7 @@ what was expected; YAML syntax errors name the file and line.
 
 from __future__ import annotations
 
+import re
 import types
 import typing
 from pathlib import Path
@@ -14,55 +15,169 @@ from typing import Any
 import yaml
 from pydantic import BaseModel, ValidationError
 
-from redundik.errors import ConfigError
+from redundik.errors import ConfigError, short_repr
 
 # pydantic union members appear in error locations under these labels; they are not YAML keys.
 _TYPE_LABELS = {"str", "int", "float", "bool", "list", "dict", "none", "None"}
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
-    """A safe loader that refuses duplicate mapping keys (PyYAML silently keeps the last one)."""
+#: Largest YAML file read [bytes] (the shipped files are below 40 KB).
+MAX_FILE_BYTES = 4 * 1024 * 1024
+#: Deepest nesting of lists / mappings (the shipped files use at most 6 levels).
+MAX_DEPTH = 48
+#: Largest number of nodes a document may stand for once its aliases are expanded (billion laughs: 10⁹).
+MAX_EXPANDED_NODES = 500_000
+#: Longest error message built from a YAML problem [characters].
+_MAX_MESSAGE = 240
 
 
-def _construct_mapping(loader: _UniqueKeyLoader, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+class BoundedLoader(yaml.SafeLoader):
+    """PyYAML's SafeLoader with bounds checked *while* composing, and duplicate mapping keys refused.
+
+    * nesting depth ≤ :data:`MAX_DEPTH` (no RecursionError on 500 levels);
+    * every node's size with its aliases expanded ≤ :data:`MAX_EXPANDED_NODES` (a billion-laughs file is refused
+      after composing its few hundred real nodes, before anything walks the expanded structure);
+    * recursive aliases (``&a [*a]``) refused.
+    """
+
+    def __init__(self, stream: str) -> None:
+        super().__init__(stream)
+        self._depth = 0
+        self._weights: dict[int, int] = {}
+
+    def fetch_flow_collection_start(self, TokenClass: Any) -> None:
+        # refuse deep flow nesting ([[[[...) in the scanner already: its simple-key bookkeeping is quadratic in depth
+        if self.flow_level >= MAX_DEPTH:
+            raise yaml.scanner.ScannerError(None, None, f"nesting deeper than {MAX_DEPTH} levels", self.get_mark())
+        super().fetch_flow_collection_start(TokenClass)
+
+    def compose_node(self, parent: yaml.Node | None, index: object) -> yaml.Node | None:
+        if self.check_event(yaml.AliasEvent):
+            event = self.peek_event()
+            target = self.anchors.get(event.anchor)
+            if target is not None and id(target) not in self._weights:
+                raise yaml.composer.ComposerError(
+                    None, None, f"recursive alias *{short_repr(event.anchor, 40)}", event.start_mark
+                )
+            return super().compose_node(parent, index)
+        event = self.peek_event()
+        self._depth += 1
+        try:
+            if self._depth > MAX_DEPTH:
+                raise yaml.composer.ComposerError(
+                    None, None, f"nesting deeper than {MAX_DEPTH} levels", event.start_mark
+                )
+            node = super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+        weight = 1
+        if isinstance(node, yaml.SequenceNode):
+            weight += sum(self._weights.get(id(c), 1) for c in node.value)
+        elif isinstance(node, yaml.MappingNode):
+            weight += sum(self._weights.get(id(k), 1) + self._weights.get(id(v), 1) for k, v in node.value)
+        if weight > MAX_EXPANDED_NODES:
+            raise yaml.composer.ComposerError(
+                None,
+                None,
+                f"the document expands to more than {MAX_EXPANDED_NODES} nodes through its aliases (an alias bomb?)",
+                event.start_mark,
+            )
+        self._weights[id(node)] = weight
+        return node
+
+
+def _construct_mapping(loader: BoundedLoader, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
     seen: set[Any] = set()
     for key_node, _ in node.value:
         key = loader.construct_object(key_node, deep=deep)
-        if key in seen:
-            mark = key_node.start_mark
+        mark = key_node.start_mark
+        try:
+            hash(key)
+        except TypeError:
             raise yaml.constructor.ConstructorError(
-                None, None, f"duplicate key {key!r} (line {mark.line + 1})", key_node.start_mark
+                None, None, f"a {type(key).__name__} cannot be a mapping key (line {mark.line + 1})", mark
+            ) from None
+        if key in seen:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"duplicate key {short_repr(key, 60)} (line {mark.line + 1})", mark
             )
         seen.add(key)
     return loader.construct_mapping(node, deep=deep)
 
 
-_UniqueKeyLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+BoundedLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+# YAML 1.2 exponent floats (``1e7``, ``1.5e3``, ``-2E-3``): PyYAML (YAML 1.1) reads them as strings, so ``steps: 1e7``
+# would be "expected an integer, got '1e7'" instead of being seen as the number it is.
+BoundedLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+    list("-+0123456789"),
+)
+
+
+def _one_line(text: str, limit: int = _MAX_MESSAGE) -> str:
+    text = " ".join(text.split())
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def _read_text(path: Path, what: str) -> str:
+    """The file's text: size-bounded, not binary, valid UTF-8; any problem is a one-line ConfigError."""
+    shown = short_repr(str(path), 200).strip("'\"")
+    try:
+        if not path.is_file():
+            raise ConfigError(f"cannot read {what} '{shown}': it does not exist (or is not a regular file)")
+        with path.open("rb") as fh:
+            raw = fh.read(MAX_FILE_BYTES + 1)
+    except OSError as exc:
+        raise ConfigError(f"cannot read {what} '{shown}': {exc.strerror or type(exc).__name__}") from None
+    except ValueError as exc:  # e.g. an embedded NUL in the path
+        raise ConfigError(f"cannot read {what} '{shown}': {_one_line(str(exc), 80)}") from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise ConfigError(f"{what} is larger than {MAX_FILE_BYTES // (1024 * 1024)} MiB; refusing to read it", shown)
+    if b"\0" in raw:
+        raise ConfigError(f"{what} is a binary file (it contains NUL bytes), not YAML text", shown)
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        raise ConfigError(f"{what} is not UTF-8 text (bad byte 0x{raw[exc.start]:02x} at line {line})", shown) from None
+
+
+def parse_yaml(text: str, where: str) -> Any:
+    """Parse YAML text with :class:`BoundedLoader`; a problem is a one-line ConfigError at ``where:line``."""
+    loader = BoundedLoader(text)
+    try:
+        return loader.get_single_data()
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        at = f"{where}:{mark.line + 1}" if mark is not None else where
+        problem = getattr(exc, "problem", None) or type(exc).__name__
+        context = getattr(exc, "context", None)
+        msg = f"invalid YAML: {problem}" + (f" ({context})" if context else "")
+        raise ConfigError(_one_line(msg), at) from None
+    except RecursionError:  # belt and braces: the depth bound should make this unreachable
+        raise ConfigError(f"invalid YAML: nesting deeper than {MAX_DEPTH} levels", where) from None
+    finally:
+        loader.dispose()
 
 
 def read_yaml(path: Path, what: str = "file") -> dict[str, Any]:
-    """Read a YAML file whose top level must be a mapping.
+    """Read a YAML file whose top level must be a mapping: **the one reader of every YAML entry point**.
+
+    Task files, robot configs, parallel-mechanism configs (and any later format) go through here: the file size
+    (:data:`MAX_FILE_BYTES`), nesting depth (:data:`MAX_DEPTH`) and alias expansion (:data:`MAX_EXPANDED_NODES`)
+    are bounded while parsing, so a hostile file fails in milliseconds.
 
     Raises:
-        ConfigError: missing file, YAML syntax error (with ``file:line``), duplicate key or non-mapping top level.
+        ConfigError: missing, unreadable, too large, binary or non-UTF-8 file; YAML syntax error (with
+            ``file:line``); duplicate key; alias bomb; too deep nesting; non-mapping top level. Always one line.
     """
-    if not path.is_file():
-        raise ConfigError(f"{what} '{path}' does not exist")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read {what} '{path}': {exc}") from exc
-    try:
-        data = yaml.load(text, Loader=_UniqueKeyLoader)  # a SafeLoader subclass
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"{path}:{mark.line + 1}" if mark is not None else str(path)
-        problem = getattr(exc, "problem", None) or str(exc)
-        context = getattr(exc, "context", None)
-        msg = f"invalid YAML: {problem}" + (f" ({context})" if context else "")
-        raise ConfigError(msg.replace("\n", " "), where) from None
+    path = Path(path)
+    text = _read_text(path, what)
+    shown = short_repr(str(path), 200).strip("'\"")
+    data = parse_yaml(text, shown)
     if not isinstance(data, dict):
-        raise ConfigError(f"expected a mapping of keys at the top level, got {type(data).__name__}", str(path))
+        raise ConfigError(f"expected a mapping of keys at the top level, got {type(data).__name__}", shown)
     return data
 
 
@@ -73,6 +188,8 @@ def join_path(prefix: str, *parts: str | int) -> str:
     """
     out = prefix
     for p in parts:
+        if isinstance(p, str) and (len(p) > 40 or not p.isprintable()):
+            p = short_repr(p, 40)  # a key path never carries unbounded or control-character input
         if isinstance(p, int):
             out += f"[{p}]"
         elif not out or out.endswith(" "):
@@ -160,8 +277,7 @@ def _length_bounds(model: type[BaseModel], loc: tuple[Any, ...]) -> tuple[int | 
 
 
 def _short(value: Any) -> str:
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
+    return short_repr(value, 60)
 
 
 def _message(err: dict[str, Any], allowed: list[str] | None, bounds: tuple[int | None, int | None]) -> str:

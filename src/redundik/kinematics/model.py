@@ -253,7 +253,8 @@ class RobotModel:
         return self._q
 
     def frame_pose(self, frame: str | int) -> pin.SE3:
-        """Pose of a frame in the world (base) frame at the last :meth:`update`."""
+        """Pose of a frame in the world (base) frame at the last :meth:`update` — a live view on the kinematic data
+        (it changes at the next update): ``.copy()`` it to keep it."""
         fid = frame if isinstance(frame, int) else self.frame_id(frame)
         self.q  # noqa: B018 - raises if update() was never called
         return self.data.oMf[fid]

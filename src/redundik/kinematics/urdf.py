@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import sys
+import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
 import pinocchio as pin
@@ -44,6 +47,40 @@ def example_robot_data_dir() -> Path:
     )
 
 
+#: Largest URDF file parsed [bytes].
+MAX_URDF_BYTES = 64 * 1024 * 1024
+
+
+@contextlib.contextmanager
+def _captured_stderr() -> Iterator[list[str]]:
+    """Redirect file descriptor 2 (where urdfdom's C++ code prints) into a buffer for the duration.
+
+    Yields a list that receives the captured text after the block, so an error can quote its first line instead
+    of the parser's chatter reaching the terminal ahead of redundik's own one-line message.
+    """
+    out: list[str] = []
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):  # no usable fd 2 (embedded interpreter): nothing to redirect
+        yield out
+        return
+    with tempfile.TemporaryFile() as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            yield out
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            tmp.seek(0)
+            out.append(tmp.read(4096).decode("utf-8", "replace"))
+
+
+def _first_line(text: str) -> str:
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
+    return lines[0][:160] if lines else ""
+
+
 def from_urdf(path: str | os.PathLike[str], *, free_flyer: bool = False, name: str | None = None) -> RobotModel:
     """Build a robot from a URDF file (kinematics only: meshes are not loaded).
 
@@ -56,15 +93,30 @@ def from_urdf(path: str | os.PathLike[str], *, free_flyer: bool = False, name: s
         ModelError: if the file is missing or Pinocchio cannot parse it.
     """
     p = Path(path)
-    if not p.is_file():
-        raise ModelError(f"URDF file '{p}' does not exist")
     try:
-        if free_flyer:
-            model = pin.buildModelFromUrdf(str(p), pin.JointModelFreeFlyer())
-        else:
-            model = pin.buildModelFromUrdf(str(p))
+        exists = p.is_file()
+        size = p.stat().st_size if exists else 0
+    except (OSError, ValueError) as exc:  # a name too long, an embedded NUL, ...
+        raise ModelError(
+            f"URDF file '{str(p)[:120]}' cannot be read: {getattr(exc, 'strerror', None) or exc}"
+        ) from None
+    if not exists:
+        raise ModelError(f"URDF file '{str(p)[:200]}' does not exist")
+    if size > MAX_URDF_BYTES:
+        raise ModelError(f"URDF file '{p}' is larger than {MAX_URDF_BYTES // (1024 * 1024)} MiB")
+    chatter: list[str] = []
+    try:
+        with _captured_stderr() as chatter:
+            if free_flyer:
+                model = pin.buildModelFromUrdf(str(p), pin.JointModelFreeFlyer())
+            else:
+                model = pin.buildModelFromUrdf(str(p))
     except Exception as exc:  # pinocchio raises ValueError / RuntimeError with C++ messages
-        raise ModelError(f"could not parse URDF '{p}': {exc}") from exc
+        detail = _first_line(str(exc)) or type(exc).__name__
+        said = _first_line("".join(chatter))
+        raise ModelError(
+            f"could not parse URDF '{p}': {detail}" + (f" (urdfdom: {said})" if said and said not in detail else "")
+        ) from None
     return RobotModel(model, name=name or model.name, length_unit="m")
 
 

@@ -12,10 +12,10 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from redundik.errors import ConfigError, MechanismError
+from redundik.config.yamlio import read_yaml
+from redundik.errors import ConfigError, MechanismError, short_repr
 from redundik.parallel.delta import DeltaRobot
 from redundik.parallel.hybrid33 import Hybrid33Arm
 from redundik.parallel.mobility import SPACE_DIM, JointGroup, Mobility, grubler
@@ -112,8 +112,8 @@ class PoseConfig(_Model):
 class PathConfig(_Model):
     """Sampling of computer project 2."""
 
-    n: Annotated[int, Field(ge=2)] = 100
-    dt: PositiveFloat = 0.01
+    n: Annotated[int, Field(ge=2, le=100_000)] = 100
+    dt: Annotated[float, Field(ge=1e-6, le=1.0)] = 0.01
 
 
 def _upr(layout: str, base: Disc, top: Disc, axes: list[Vec3] | None, d4: float, unit: str) -> UPRPlatform:
@@ -217,13 +217,15 @@ def _message(err: dict[str, Any]) -> str:
         return "unknown key"
     if kind == "finite_number":
         return "expected a finite number"
-    msg: str = err["msg"]
-    return msg[0].lower() + msg[1:]
+    msg: str = " ".join(str(err["msg"]).split())[:200]
+    return msg[0].lower() + msg[1:] if msg else kind
 
 
 def _key_path(loc: tuple[Any, ...]) -> str:
     out = ""
     for part in loc:
+        if isinstance(part, str) and (len(part) > 40 or not part.isprintable()):
+            part = short_repr(part, 40)
         out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
     return out
 
@@ -237,8 +239,8 @@ def parse_config(data: Any, source: str = "<config>") -> AnyConfig:
     if not isinstance(data, dict):
         raise ConfigError(f"{source}: expected a mapping at the top level")
     kind = data.get("kind")
-    if kind not in MODELS:
-        raise ConfigError(f"expected one of {sorted(MODELS)}, got {kind!r}", path="kind")
+    if not isinstance(kind, str) or kind not in MODELS:
+        raise ConfigError(f"expected one of {sorted(MODELS)}, got {short_repr(kind)}", path="kind")
     try:
         return MODELS[kind].model_validate(data)  # type: ignore[return-value]
     except ValidationError as exc:
@@ -255,15 +257,8 @@ def load_config(path: str | Path) -> AnyConfig:
     """Read and validate a YAML configuration file.
 
     Raises:
-        ConfigError: missing file, YAML syntax error, or invalid content.
+        ConfigError: missing, unreadable, binary or non-UTF-8 file, YAML syntax error, duplicate key, alias bomb,
+            too deep nesting, or invalid content (one line each).
     """
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(f"cannot read {path}: {exc.strerror}") from exc
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: invalid YAML: {exc}") from exc
+    data = read_yaml(Path(path), "mechanism config")  # the bounded reader shared by every YAML entry point
     return parse_config(data, str(path))

@@ -1,4 +1,8 @@
-"""Files a task run writes: ``summary.json`` and one ``RUN.csv`` per run."""
+"""Files a task run writes: ``summary.json`` and one ``RUN.csv`` per run.
+
+Every path goes through :func:`safe_path` (re-exported from :mod:`redundik.reporting.paths`): use it for any new
+writer too.
+"""
 
 from __future__ import annotations
 
@@ -13,6 +17,9 @@ import numpy as np
 from redundik.config.loader import TaskPlan
 from redundik.config.runner import RunResult, task_summary
 from redundik.kinematics import RobotModel
+from redundik.reporting.paths import safe_path
+
+__all__ = ["q_labels", "run_table", "safe_path", "write_csv", "write_outputs"]
 
 
 def q_labels(robot: RobotModel) -> list[str]:
@@ -90,10 +97,11 @@ def _jsonable(obj: Any) -> Any:
 
 def write_outputs(plan: TaskPlan, results: dict[str, RunResult], out_dir: Path) -> dict[str, Any]:
     """Write ``summary.json`` and the CSV of every run into ``out_dir`` (created); returns the summary."""
-    out_dir.mkdir(parents=True, exist_ok=True)
     summary = _jsonable(task_summary(plan, results))
-    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
-    for name, result in results.items():
-        header, rows = run_table(plan, result)
-        write_csv(out_dir / f"{name}.csv", header, rows)
+    text = json.dumps(summary, indent=2, ensure_ascii=False) + "\n"
+    tables = {name: run_table(plan, result) for name, result in results.items()}
+    paths = {name: safe_path(out_dir, f"{name}.csv") for name in results}  # every path checked before any write
+    safe_path(out_dir, "summary.json").write_text(text, encoding="utf-8")
+    for name, (header, rows) in tables.items():
+        write_csv(paths[name], header, rows)
     return summary

@@ -17,6 +17,7 @@ import numpy as np
 
 from redundik.config.loader import TaskPlan
 from redundik.config.runner import RunResult
+from redundik.reporting.paths import safe_path
 
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
@@ -47,7 +48,7 @@ def _grid(n: int, max_cols: int = 3) -> tuple[int, int]:
 
 
 def _finish(fig: Any, path: Path) -> Path:
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 0.95))  # leave the suptitle its own band
     fig.savefig(path, dpi=110)
     _plt().close(fig)
     return path
@@ -72,11 +73,30 @@ def plot_joints(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Pa
             lo, hi = min(lo, float(np.min(y))), max(hi, float(np.max(y)))
             ax.plot(r.log.t, y, color=c, label=name, lw=_lw(i, n_runs))
         pad = max(0.08 * (hi - lo), 1.0 if revolute else 1e-3)
-        ax.set_ylim(lo - pad, hi + pad)  # limits outside the motion's range are not drawn (they would flatten it)
-        for lim in (j.lower, j.upper):
-            if np.isfinite(lim) and abs(lim) < 1e9:
-                ax.axhline(np.degrees(lim) if revolute else lim, color="k", ls=":", lw=1.2)
+        span = max(hi - lo, 10.0 if revolute else 0.05)
+        far: list[str] = []
         unit = "deg" if revolute else robot.length_unit
+        for lim, side in ((j.lower, "min"), (j.upper, "max")):
+            if not (np.isfinite(lim) and abs(lim) < 1e9):
+                continue
+            v = float(np.degrees(lim)) if revolute else float(lim)
+            if lo - span <= v <= hi + span:  # near the motion: draw the limit line, widening the axis to it
+                ax.axhline(v, color="tab:red", ls="--", lw=1.2, label="joint limit" if not far else None)
+                lo, hi = min(lo, v), max(hi, v)
+            else:  # far away: drawing it would flatten the motion, so name it
+                far.append(f"{side} {v:.4g}")
+        ax.set_ylim(lo - pad, hi + pad)
+        if far:
+            ax.text(
+                0.99,
+                0.03,
+                "limit " + ", ".join(far) + f" {unit}",
+                transform=ax.transAxes,
+                ha="right",
+                va="bottom",
+                fontsize=7,
+                color="tab:red",
+            )
         ax.set_title(f"joint {j.name}", fontsize=10)
         ax.set_ylabel(f"{'θ' if revolute else 'd'} [{unit}]")
         ax.grid(alpha=0.3)
@@ -91,37 +111,88 @@ def plot_joints(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Pa
 
 
 def plot_task_errors(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Path:
-    """Main-task error norms on a log scale, one panel per task, runs overlaid."""
+    """Main-task errors on a log scale, runs overlaid: one panel per task and unit (a pose task gets a position
+    panel [length unit] and an orientation panel [rad], recomputed from the logged q), so no axis mixes units."""
     plt = _plt()
-    names: list[str] = []
-    for r in results.values():
-        names += [k for k in r.log.task_errors if k not in names]
-    names = names or ["(no main task)"]
-    colors = _colors(len(results))
-    rows, cols = _grid(len(names), 2)
-    fig, axes = plt.subplots(rows, cols, figsize=(6.0 * cols, 3.4 * rows), squeeze=False)
     unit = plan.robot.model.length_unit
-    for ax, tname in zip(axes.flat, names, strict=False):
-        rotational = False
-        for i, ((name, r), c) in enumerate(zip(results.items(), colors, strict=True)):
-            if tname not in r.log.task_errors:
+    panels: dict[str, tuple[str, str]] = {}  # key → (title, y label)
+    curves: dict[str, list[tuple[str, np.ndarray, np.ndarray]]] = {}
+    for name, r in results.items():
+        split = split_task_errors(plan, r)
+        for tname, e in r.log.task_errors.items():
+            parts = split.get(tname)
+            if parts is None:
+                key = tname
+                panels.setdefault(key, (f"task '{tname}': ‖e‖", "‖e‖"))
+                curves.setdefault(key, []).append((name, r.log.t, e))
                 continue
-            task = next((t for t in r.plan.stack.tasks if t.name == tname), None)
-            axes_names = getattr(task, "axes", ("rx",))
-            rotational = rotational or any(a.startswith("r") for a in axes_names)
-            e = r.log.task_errors[tname].copy()
-            e[e <= 0] = np.nan  # log scale: exact zeros (t = 0) are not drawn
-            label = f"{name} (max {np.nanmax(r.log.task_errors[tname]):.2g})"
-            ax.semilogy(r.log.t, e, color=c, label=label, lw=_lw(i, len(results)))
-        ax.set_title(f"task '{tname}': error norm ‖e‖ (desired − actual)", fontsize=10)
+            pos, rot = parts
+            if pos is not None:
+                key = f"{tname}/position"
+                panels.setdefault(key, (f"task '{tname}': position error ‖p_d − p‖", f"‖e_p‖ [{unit}]"))
+                curves.setdefault(key, []).append((name, r.log.t, pos))
+            if rot is not None:
+                key = f"{tname}/orientation"
+                panels.setdefault(key, (f"task '{tname}': orientation error ‖log(R_d Rᵀ)‖", "‖e_R‖ [rad]"))
+                curves.setdefault(key, []).append((name, r.log.t, rot))
+    if not panels:
+        panels["(none)"] = ("no main task", "‖e‖")
+        curves["(none)"] = []
+    colors = dict(zip(results, _colors(len(results)), strict=True))
+    rows, cols = _grid(len(panels), 2)
+    fig, axes = plt.subplots(rows, cols, figsize=(6.0 * cols, 3.4 * rows), squeeze=False)
+    for ax, (key, (title, ylabel)) in zip(axes.flat, panels.items(), strict=False):
+        for i, (name, t, e) in enumerate(curves[key]):
+            y = np.array(e, dtype=float)
+            y[y <= 0] = np.nan  # log scale: exact zeros (t = 0) are not drawn
+            label = f"{name} (max {np.nanmax(e) if np.any(np.isfinite(y)) else 0.0:.2g})"
+            ax.semilogy(t, y, color=colors[name], label=label, lw=_lw(i, len(results)))
+        peak = max((float(np.nanmax(e)) for _, _, e in curves[key] if np.any(np.asarray(e) > 0)), default=0.0)
+        if peak > 0:  # the exact start (e ≈ 1e-16) would stretch the log axis over 12 decades
+            ax.set_ylim(bottom=peak * 1e-5)
+        ax.set_title(title, fontsize=10)
         ax.set_xlabel("t [s]")
-        ax.set_ylabel(f"‖e‖ [{unit}{', rad' if rotational else ''}]")
+        ax.set_ylabel(ylabel)
         ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=8)
-    for ax in axes.flat[len(names) :]:
+        if curves[key]:
+            ax.legend(fontsize=8)
+    for ax in axes.flat[len(panels) :]:
         ax.set_visible(False)
     fig.suptitle(f"{plan.name}: main-task error", fontsize=12)
     return _finish(fig, path)
+
+
+def split_task_errors(plan: TaskPlan, r: RunResult) -> dict[str, tuple[np.ndarray | None, np.ndarray | None]]:
+    """Per frame task that mixes position and orientation rows: (position error norm, orientation error norm)
+    at every sample, recomputed from the logged q and the task's reference; other tasks are left out."""
+    from redundik.tasks.frame import FrameTask
+
+    tasks = [t for t in r.plan.stack.tasks if isinstance(t, FrameTask)]
+    tasks = [t for t in tasks if any(a.startswith("r") for a in t.axes) and any(not a.startswith("r") for a in t.axes)]
+    if not tasks:
+        return {}
+    import pinocchio as pin
+
+    out: dict[str, tuple[np.ndarray | None, np.ndarray | None]] = {}
+    model = plan.robot.model
+    model.update(r.log.q[0])
+    for t in tasks:
+        t.reset(model)
+    pos = {t.name: np.empty(r.log.t.shape[0]) for t in tasks}
+    rot = {t.name: np.empty(r.log.t.shape[0]) for t in tasks}
+    for k, tk in enumerate(r.log.t):
+        model.update(r.log.q[k])
+        for t in tasks:
+            pose = model.frame_pose(t.frame)
+            p_d, R_d, _ = t.trajectory.reference(float(tk))
+            e = np.concatenate([p_d - pose.translation, pin.log3(R_d @ pose.rotation.T)])
+            rows_p = [i for i in t.rows if i < 3]
+            rows_r = [i for i in t.rows if i >= 3]
+            pos[t.name][k] = float(np.linalg.norm(e[rows_p]))
+            rot[t.name][k] = float(np.linalg.norm(e[rows_r]))
+    for t in tasks:
+        out[t.name] = (pos[t.name], rot[t.name])
+    return out
 
 
 def plot_potentials(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Path | None:
@@ -204,6 +275,55 @@ def _plane(plan: TaskPlan, results: dict[str, RunResult]) -> tuple[str, str] | N
     return rest[0], rest[1]
 
 
+def frame_task_paths(plan: TaskPlan, r: RunResult) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """(frame, desired positions, actual positions) of every frame task of a run, from the logged q (≤ 1500 points)."""
+    from redundik.viewer.html import run_paths
+
+    return [(p.frame, p.desired, p.actual) for p in run_paths(plan.robot.model, r.plan, r.log.t, r.log.q)]
+
+
+def _draw_obstacles(ax: Any, r: RunResult, ids: list[int], spatial: bool) -> None:
+    """Round obstacles of the run's clearance potentials: circles (posts) in a plane, wire spheres / posts in 3-D."""
+    from redundik.viewer.html import run_obstacles
+
+    for k, ob in enumerate(run_obstacles(r.plan)):
+        label = "obstacle" if k == 0 else None
+        c = ob.center
+        a = np.linspace(0, 2 * np.pi, 60)
+        if not spatial:
+            ax.fill(
+                c[ids[0]] + ob.radius * np.cos(a),
+                c[ids[1]] + ob.radius * np.sin(a),
+                color="tab:red",
+                alpha=0.3,
+                label=label,
+            )
+            continue
+        if ob.vertical:
+            for z in (c[2] - 0.5 * ob.height, c[2] + 0.5 * ob.height):
+                ax.plot(c[0] + ob.radius * np.cos(a), c[1] + ob.radius * np.sin(a), z, color="tab:red", alpha=0.5)
+            ax.plot(
+                [c[0], c[0]],
+                [c[1], c[1]],
+                [c[2] - 0.5 * ob.height, c[2] + 0.5 * ob.height],
+                color="tab:red",
+                lw=3,
+                alpha=0.5,
+                label=label,
+            )
+        else:
+            u, v = np.meshgrid(a[::4], np.linspace(0, np.pi, 8))
+            ax.plot_wireframe(
+                c[0] + ob.radius * np.cos(u) * np.sin(v),
+                c[1] + ob.radius * np.sin(u) * np.sin(v),
+                c[2] + ob.radius * np.cos(v),
+                color="tab:red",
+                alpha=0.4,
+                lw=0.6,
+                label=label,
+            )
+
+
 def plot_configurations(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Path | None:
     """The arm every k samples (links between logged frame origins), the tip path and the desired path.
 
@@ -242,11 +362,19 @@ def plot_configurations(plan: TaskPlan, results: dict[str, RunResult], path: Pat
             joints = np.array([fp[f][k] for f in dict.fromkeys([s for seg in segments for s in seg])])
             ax.plot(*[joints[:, i] for i in ids], "o", color=color, ms=3.5 if (first or last) else 2, alpha=alpha)
         tip = plan.draw.path_frame
-        if tip is not None and tip in fp:
+        task_paths = frame_task_paths(plan, r)
+        drawn = {frame for frame, _, _ in task_paths}
+        if tip is not None and tip in fp and tip not in drawn:
             ax.plot(*[fp[tip][:, i] for i in ids], color="tab:orange", lw=2.0, label=f"path of frame {tip}")
             ref = _desired_path(r, tip)
             if ref is not None:
                 ax.plot(*[ref[:, i] for i in ids], color="k", ls="--", lw=1.0, label="desired path")
+        for j, (frame, desired, actual) in enumerate(task_paths):
+            first = j == 0
+            ax.plot(*[actual[:, i] for i in ids], color="tab:orange", lw=2.0, label="actual paths" if first else None)
+            ax.plot(*[desired[:, i] for i in ids], color="k", ls="--", lw=1.0, label="desired paths" if first else None)
+            del frame
+        _draw_obstacles(ax, r, ids, plane is None)
         ax.plot([], [], color="tab:blue", lw=2.4, label="t = 0")
         ax.plot([], [], color="tab:red", lw=2.4, label=f"t = {r.log.t[-1]:.3g} s")
         ax.plot([], [], color="0.55", lw=1.0, label=f"every {every * plan.dt:.3g} s")
@@ -265,11 +393,11 @@ def plot_configurations(plan: TaskPlan, results: dict[str, RunResult], path: Pat
             ax.set_ylim(mid[1] - half, mid[1] + half)
             ax.set_zlim(mid[2] - half, mid[2] + half)
     handles, labels = axes.flat[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=len(labels), fontsize=9, frameon=False)
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 4), fontsize=9, frameon=False)
     for ax in axes.flat[n_runs:]:
         ax.set_visible(False)
     fig.suptitle(f"{plan.name}: configurations over time", fontsize=12)
-    fig.tight_layout(rect=(0, 0.04, 1, 1))
+    fig.tight_layout(rect=(0, 0.07, 1, 0.95))
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
@@ -277,11 +405,10 @@ def plot_configurations(plan: TaskPlan, results: dict[str, RunResult], path: Pat
 
 def write_figures(plan: TaskPlan, results: dict[str, RunResult], out_dir: Path) -> list[Path]:
     """Write every figure into ``out_dir``; returns the files written."""
-    out_dir.mkdir(parents=True, exist_ok=True)
     written = [
-        plot_joints(plan, results, out_dir / "joints.png"),
-        plot_task_errors(plan, results, out_dir / "task_error.png"),
-        plot_potentials(plan, results, out_dir / "potentials.png"),
-        plot_configurations(plan, results, out_dir / "configurations.png"),
+        plot_joints(plan, results, safe_path(out_dir, "joints.png")),
+        plot_task_errors(plan, results, safe_path(out_dir, "task_error.png")),
+        plot_potentials(plan, results, safe_path(out_dir, "potentials.png")),
+        plot_configurations(plan, results, safe_path(out_dir, "configurations.png")),
     ]
     return [p for p in written if p is not None]

@@ -33,6 +33,10 @@ def summary_table(summary: dict[str, Any]) -> Table:
             items.append(f"min clearance {_num(r['min_clearance'])}")
         if "trace_JWJT" in r:
             items.append(f"tr(JWJᵀ) {_num(r['trace_JWJT']['initial'])} → {_num(r['trace_JWJT']['final'])}")
+        if "plant" in r:  # a run through a simulated plant: the kinematic run's error and the actuator effort
+            effort = max(r.get("actuator_effort", {}).get("max_abs", {}).values(), default=None)
+            items.append(f"{r['plant']} plant; kinematic max {_num(r.get('kinematic_max_task_error'), '.2g')}")
+            items.append(f"max |τ| {_num(effort)} N·m")
         viol = str(r["limit_violations"])
         damped = str(r.get("damped_steps", 0)) + (f" ({r['fallbacks']} fb)" if r.get("fallbacks") else "")
         table.add_row(

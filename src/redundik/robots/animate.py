@@ -83,8 +83,10 @@ def animate_planar(
             path_line.set_data(frames[trace][: k + 1, i], frames[trace][: k + 1, j])
         return [*lines, path_line]
 
+    from redundik.reporting.paths import safe_path
+
     anim = FuncAnimation(fig, draw, frames=samples, blit=True)
-    out = Path(path)
+    out = safe_path(Path(path).parent, Path(path).name)
     anim.save(out, writer=PillowWriter(fps=fps))
     plt.close(fig)
     return out

@@ -5,8 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import yaml
 
+from redundik.config.yamlio import read_yaml
 from redundik.errors import ConfigError
 from redundik.kinematics.dh import DHRow
 
@@ -20,7 +20,7 @@ def read_dh_table(path: str | Path) -> tuple[list[DHRow], np.ndarray, str]:
     Raises:
         ConfigError: the file has no ``dh`` table or a base with ``rpy``.
     """
-    data = yaml.safe_load(Path(path).read_text())
+    data = read_yaml(Path(path), "robot config")
     if not isinstance(data, dict) or "dh" not in data:
         raise ConfigError("expected a D-H robot config with a 'dh' table", str(path))
     scale = np.pi / 180.0 if data.get("angle_unit", "rad") == "deg" else 1.0

@@ -1,4 +1,9 @@
-"""Closed-loop kinematic simulation: resolve, integrate q ⊕ q̇·dt, log — the chapter's first-order update."""
+"""Closed-loop kinematic simulation: resolve, integrate, log.
+
+The default integrator is the chapter's first-order update q ← q ⊕ q̇·dt; ``rk4`` and ``rk45`` integrate the same
+velocity law accurately (see :mod:`redundik.simulation.integrators`). A run whose q̇, q, task errors or potential
+values stop being finite raises :class:`~redundik.errors.SimulationError` instead of logging inf/NaN.
+"""
 
 from __future__ import annotations
 
@@ -8,8 +13,20 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from redundik.errors import SimulationError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver, StepResult
+from redundik.simulation.integrators import (
+    DEFAULT_ATOL,
+    DEFAULT_RTOL,
+    INTEGRATORS,
+    StateGuard,
+    check_finite,
+    check_tolerances,
+    rk4_step,
+    rk45_step,
+)
+from redundik.simulation.plant import Plant
 from redundik.tasks.stack import TaskStack
 
 
@@ -69,8 +86,12 @@ def simulate(
     log_frames: tuple[str, ...] = (),
     extra_potentials: tuple = (),
     progress: Callable[[int], None] | None = None,
+    plant: Plant | None = None,
+    integrator: str = "euler",
+    rtol: float = DEFAULT_RTOL,
+    atol: float = DEFAULT_ATOL,
 ) -> SimulationLog:
-    """Run ``steps`` control ticks from ``q0`` with the first-order update q ← q ⊕ q̇·dt.
+    """Run ``steps`` control ticks from ``q0``: by default the first-order update q ← q ⊕ q̇·dt.
 
     Args:
         robot: The robot model.
@@ -82,11 +103,31 @@ def simulate(
         log_frames: Frames whose origins are logged at each sample (for drawings).
         extra_potentials: Potentials logged but not controlled (e.g. tr(JWJᵀ) under a rank-only run).
         progress: Called with the number of steps done, for a progress bar.
+        plant: Drive this plant with q̇ and read its measured q at every tick instead of integrating.
+        integrator: ``euler`` (the chapter's update), ``rk4`` or ``rk45`` (:mod:`redundik.simulation.integrators`;
+            the resolver is called at every stage, ``dq`` is logged at the samples). Runge-Kutta needs nq = nv.
+        rtol: Relative tolerance of ``rk45``.
+        atol: Absolute tolerance of ``rk45`` [rad or length unit].
 
     Returns:
         The :class:`SimulationLog`.
+
+    Raises:
+        ValueError: unknown integrator, bad tolerances, or Runge-Kutta on a robot with nq ≠ nv.
+        SimulationError: q̇, q, a task error or a potential became non-finite (or diverged) during the run.
     """
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got {integrator!r}")
+    check_tolerances(rtol, atol)
+    if integrator != "euler" and robot.nq != robot.nv:
+        raise ValueError(
+            f"integrator {integrator} needs nq = nv (no free-flyer base), got nq={robot.nq}, nv={robot.nv}"
+        )
+    if plant is not None and integrator != "euler":
+        raise ValueError(f"integrator {integrator}: a plant integrates its own dynamics; use integrator euler with it")
     q = robot.check_configuration(q0, "q0").copy()
+    if plant is not None:
+        q = plant.reset(q)
     n = steps + 1
     robot.update(q)
     stack.reset(robot)
@@ -107,31 +148,43 @@ def simulate(
     extras: dict[str, np.ndarray] = {}
     fallbacks: list[tuple[int, str]] = []
     times = np.arange(n) * dt
-    for k in range(n):
-        t = float(times[k])
-        t0 = time.perf_counter()
-        res: StepResult = resolver.step(robot, stack, q, t, dt)
-        elapsed = time.perf_counter() - t0
-        Q[k] = q
-        for term in res.terms:
-            E[term.name][k] = term.error_norm
-        for p in watched:
-            P[p.name][k] = p.value(robot)
-        for f in log_frames:
-            F[f][k] = robot.frame_position(f)
-        if k == steps:
-            break
-        step_time[k] = elapsed
-        damped[k] = res.damped
-        for key, val in res.info.items():
-            if isinstance(val, (int, float, np.floating, np.integer)) and not isinstance(val, bool):
-                extras.setdefault(key, np.full(steps, np.nan))[k] = float(val)
-        if res.fallback:
-            fallbacks.append((k, res.fallback))
-        DQ[k] = res.dq
-        q = robot.integrate(q, res.dq, dt)
-        if progress is not None:
-            progress(k + 1)
+    guard = StateGuard([resolver, *stack.tasks, *stack.subtasks, *watched])
+
+    def law(t: float, q_stage: np.ndarray) -> np.ndarray:
+        dq_stage = resolver.step(robot, stack, q_stage, t, dt).dq
+        check_finite(dq_stage, "the joint velocity q̇ (at an integrator stage)", t)
+        return np.asarray(dq_stage, dtype=float)
+
+    with np.errstate(over="ignore", invalid="ignore"):  # overflow is reported once, as a SimulationError
+        for k in range(n):
+            t = float(times[k])
+            t0 = time.perf_counter()
+            res: StepResult = resolver.step(robot, stack, q, t, dt)
+            elapsed = time.perf_counter() - t0
+            Q[k] = q
+            for term in res.terms:
+                E[term.name][k] = term.error_norm
+            for p in watched:
+                P[p.name][k] = p.value(robot)
+            for f in log_frames:
+                F[f][k] = robot.frame_position(f)
+            _check_sample(k, t, res, E, P)
+            if k == steps:
+                break
+            if plant is None:
+                q = _advance(robot, law, guard, integrator, t, q, res, dt, rtol, atol)
+            else:  # the plant integrates its own dynamics at its own rate; q is what it measures
+                q = plant.step(res.dq, dt)
+            step_time[k] = elapsed
+            damped[k] = res.damped
+            for key, val in res.info.items():
+                if isinstance(val, (int, float, np.floating, np.integer)) and not isinstance(val, bool):
+                    extras.setdefault(key, np.full(steps, np.nan))[k] = float(val)
+            if res.fallback:
+                fallbacks.append((k, res.fallback))
+            DQ[k] = res.dq
+            if progress is not None:
+                progress(k + 1)
     return SimulationLog(
         t=times,
         q=Q,
@@ -145,3 +198,41 @@ def simulate(
         frame_positions=F,
         main_tasks=[t.name for t in stack.tasks if not t.regularization],
     )
+
+
+def _check_sample(k: int, t: float, res: StepResult, E: dict[str, np.ndarray], P: dict[str, np.ndarray]) -> None:
+    """Stop the run at the first non-finite q̇, task error or potential value of sample ``k``."""
+    check_finite(res.dq, "the joint velocity q̇", t)
+    for name, e in E.items():
+        check_finite(e[k : k + 1], f"the error of task '{name}'", t)
+    for name, p in P.items():
+        if not np.isfinite(p[k]):
+            raise SimulationError(f"the run diverged at t = {t:.6g} s: potential '{name}' is not finite")
+
+
+def _advance(
+    robot: RobotModel,
+    law: Callable[[float, np.ndarray], np.ndarray],
+    guard: StateGuard,
+    integrator: str,
+    t: float,
+    q: np.ndarray,
+    res: StepResult,
+    dt: float,
+    rtol: float,
+    atol: float,
+) -> np.ndarray:
+    """The configuration at t + dt [s] from the sample (t, q) whose resolver answer is ``res``."""
+    if integrator == "euler":
+        q_next = robot.integrate(q, res.dq, dt)
+    else:
+        guard.save()  # stage calls must not advance the resolver's / potentials' state (see integrators.py)
+        try:
+            if integrator == "rk4":
+                q_next = rk4_step(law, t, q, np.asarray(res.dq, dtype=float), dt)
+            else:
+                q_next = rk45_step(law, t, q, dt, rtol, atol)
+        finally:
+            guard.restore()
+    check_finite(q_next, "the configuration q", t + dt)
+    return q_next

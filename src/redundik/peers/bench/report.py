@@ -183,14 +183,14 @@ def plot(result: BenchResult, path: str | Path) -> Path:
 
 def write_all(result: BenchResult, out_dir: str | Path, command: str = "", json_path: str | Path | None = None) -> dict:
     """Write ``compare_resolvers.md``, ``.json`` and ``.png`` to ``out_dir`` (and the JSON to ``json_path``)."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    md = out / "compare_resolvers.md"
+    from redundik.reporting.paths import safe_path
+
+    md = safe_path(out_dir, "compare_resolvers.md")
     md.write_text(markdown(result, command))
-    (out / "readme_table.md").write_text(readme_table(result))
-    paths = {"markdown": md, "json": write_json(result, out / "compare_resolvers.json"), "plot": None}
+    safe_path(out_dir, "readme_table.md").write_text(readme_table(result))
+    paths = {"markdown": md, "json": write_json(result, safe_path(out_dir, "compare_resolvers.json")), "plot": None}
     if json_path is not None:
         paths["json_requested"] = write_json(result, json_path)
     if result.cases:
-        paths["plot"] = plot(result, out / "compare_resolvers.png")
+        paths["plot"] = plot(result, safe_path(out_dir, "compare_resolvers.png"))
     return paths

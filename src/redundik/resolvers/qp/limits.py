@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from redundik.errors import ResolverError
+from redundik.errors import ResolverError, short_repr
 from redundik.kinematics.model import RobotModel
 
 #: Codes of what sets a bound, in :attr:`LimitBox.lower_src` / :attr:`LimitBox.upper_src`.
@@ -107,6 +107,10 @@ class LimitBox:
         return out
 
 
+def _is_number(val: object) -> bool:
+    return isinstance(val, (int, float, np.integer, np.floating)) and not isinstance(val, (bool, np.bool_))
+
+
 class JointLimits:
     """Per-joint limit settings; :meth:`box` turns them into bounds on q̇ for one step.
 
@@ -142,19 +146,23 @@ class JointLimits:
         self.velocity_limits = dict(velocity_limits or {})
         self.acceleration = acceleration
         self.position_gain = float(position_gain)
-        for key, table in (("lower", self.lower), ("upper", self.upper)):
+        for key, table in (("lower", self.lower), ("upper", self.upper), ("velocity_limits", self.velocity_limits)):
             for jn, val in table.items():
+                if not _is_number(val):
+                    raise ResolverError(f"limits: {key}['{jn}'] must be a number, got {short_repr(val)}")
                 if np.isnan(val):
                     raise ResolverError(f"limits: {key}['{jn}'] is NaN")
+                if (key == "upper" and val == -np.inf) or (key == "lower" and val == np.inf):
+                    raise ResolverError(f"limits: {key}['{jn}'] = {val} leaves no admissible position")
         for jn, val in self.velocity_limits.items():
             if not val > 0:
                 raise ResolverError(f"limits: velocity_limits['{jn}'] must be > 0, got {val}")
         if isinstance(acceleration, Mapping):
             for jn, val in acceleration.items():
-                if not val > 0:
+                if not _is_number(val) or not val > 0:
                     raise ResolverError(f"limits: acceleration['{jn}'] must be > 0, got {val}")
-        elif acceleration is not None and not acceleration > 0:
-            raise ResolverError(f"limits: acceleration must be > 0 or None, got {acceleration}")
+        elif acceleration is not None and (not _is_number(acceleration) or not acceleration > 0):
+            raise ResolverError(f"limits: acceleration must be > 0 or None, got {short_repr(acceleration)}")
         self._robot_id: int | None = None
 
     def bind(self, robot: RobotModel) -> None:
@@ -235,12 +243,15 @@ class JointLimits:
         return self._hi.copy()
 
     def box(self, robot: RobotModel, q: np.ndarray, dt: float, dq_prev: np.ndarray | None = None) -> LimitBox:
-        """Bounds on q̇ for a step dt [s] from q (see the module docstring)."""
+        """Bounds on q̇ for a step dt [s] from q (see the module docstring).
+
+        ``q`` may also be a stack of N configurations (N, nq): the bounds are then (N, nv) (batches).
+        """
         if self._robot_id != id(robot):
             self.bind(robot)
         vmax, nvmax = self._vmax, self._neg_vmax
         if self.position and self._pos_k.size:
-            qv = q[self._iq]
+            qv = q[..., self._iq]
             g = self.position_gain / dt
             with np.errstate(invalid="ignore"):  # inf − inf cannot occur: q is finite
                 pl = (self._lo - qv) * g  # ≤ 0 inside the range, −inf without a limit

@@ -116,15 +116,15 @@ def build_levels(
             vs.append(term.v)
             ws.append(np.full(term.v.shape[0], term.weight))
         for sub in plan.targets:
-            eta, v, _ = sub.row(robot)
+            eta, vt, _ = sub.row(robot)
             names.append(sub.name)
             Js.append(eta.reshape(1, n))
-            vs.append(np.array([v]))
+            vs.append(np.array([vt]))
             ws.append(np.array([sub.weight]))
         Cs, ds, cn = [], [], []
-        for sub in plan.bounds:
-            C, d, rn = sub.rows(robot, dt)
-            names.append(sub.name)
+        for bsub in plan.bounds:
+            C, d, rn = bsub.rows(robot, dt)
+            names.append(bsub.name)
             Cs.append(C)
             ds.append(d)
             cn.extend(rn)

@@ -24,10 +24,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg.lapack import dposv as _dposv
 
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
+from redundik.resolvers.linalg import K
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
 from redundik.resolvers.qp.limits import LimitBox
@@ -106,9 +106,10 @@ class WeightedQPResolver(QPResolverBase):
             terms = stack.evaluate(robot, t)
         layout = self.layout(stack)
         n = robot.nv
-        if self._P is None or self._P.shape[0] != n:
+        if self._P is None or self._q is None or self._P.shape[0] != n:
             self._P, self._q = np.empty((n, n)), np.empty(n)
-        P, q = self._P, self._q
+        P: np.ndarray = self._P
+        q: np.ndarray = self._q
         P.fill(0.0)
         q.fill(0.0)
         diag = P.reshape(-1)[:: n + 1]  # a view on P's diagonal
@@ -130,8 +131,8 @@ class WeightedQPResolver(QPResolverBase):
                 w = scale * sub.weight
                 P += w * np.outer(eta, eta)
                 q -= (w * v) * eta
-            for sub in plan.bounds:
-                C, d, rn = sub.rows(robot, dt)
+            for bsub in plan.bounds:
+                C, d, rn = bsub.rows(robot, dt)
                 Cs.append(C)
                 ds.append(d)
                 names += rn
@@ -156,8 +157,9 @@ class WeightedQPResolver(QPResolverBase):
 
     def _resolve(self, built: WQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
         prob, box = built.problem, built.box
-        _, x, fail = _dposv(prob.P, -prob.q)  # Cholesky solve of the unconstrained optimum (P is SPD when λ > 0)
-        if not fail and box.contains(x, 1e-12) and not (prob.G.shape[0] and (prob.G @ x > prob.h + 1e-12).any()):
+        # the unconstrained optimum by Cholesky (P is SPD when λ > 0) and its box test, in one compiled call
+        x, _, inside = K.spd_solve_box(prob.P, prob.q, box.lb, box.ub, 1e-12)
+        if inside and not (prob.G.shape[0] and (prob.G @ x > prob.h + 1e-12).any()):
             return x, None
         diag.qp = 1
         try:

@@ -1,0 +1,151 @@
+"""Pictures of a task run from the command line: ``redundik run FILE --html/--gif/--view`` and ``redundik view DIR``.
+
+Heavy imports (Pinocchio, matplotlib, meshcat) happen inside the functions, so ``redundik --help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
+
+import numpy as np
+import typer
+
+from redundik.errors import ConfigError
+
+if TYPE_CHECKING:
+    from redundik.config.loader import TaskPlan
+    from redundik.config.runner import RunResult
+
+
+def output_steps(figures: bool, html: bool, gif: bool) -> list[str]:
+    """The names of the output steps after the simulation, in the order :func:`write_pictures` runs them."""
+    return [n for n, on in (("figures", figures), ("html", html), ("gif", gif)) if on]
+
+
+def write_pictures(
+    plan: TaskPlan,
+    results: dict[str, RunResult],
+    out_dir: Path,
+    steps: list[str],
+    done: Callable[[str], None] | None = None,
+) -> list[Path]:
+    """Write the selected pictures (``figures``, ``html``, ``gif``) of a task run into ``out_dir``.
+
+    Args:
+        plan: The task file.
+        results: The runs.
+        out_dir: Output folder.
+        steps: From :func:`output_steps`.
+        done: Called with each step's name once written (for a progress bar).
+    """
+    written: list[Path] = []
+    for step in steps:
+        if step == "figures":
+            from redundik.reporting.plots import write_figures
+
+            written += write_figures(plan, results, out_dir)
+        elif step == "html":
+            from redundik.viewer.html import write_html
+
+            written.append(write_html(out_dir / f"{plan.name}.html", plan, results))
+        elif step == "gif":
+            from redundik.reporting.gif import write_gif
+
+            written.append(write_gif(plan, results, out_dir / f"{plan.name}.gif"))
+        if done is not None:
+            done(step)
+    return written
+
+
+# ---------------------------------------------------------------------------------------------------- redundik view
+def read_run_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Times [s] (N,) and configurations (N, nq) from a ``RUN.csv`` (columns ``t`` and ``q.*``/``q[i]``)."""
+    with path.open(encoding="utf-8") as fh:
+        rows = list(csv.reader(fh))
+    if not rows or "t" not in rows[0]:
+        raise ConfigError(f"'{path}' is not a run table (no 't' column)")
+    header = rows[0]
+    qcols = [i for i, h in enumerate(header) if h.startswith("q.") or h.startswith("q[")]
+    data = np.array([[float(v) if v else np.nan for v in r] for r in rows[1:]])
+    return data[:, header.index("t")], data[:, qcols]
+
+
+def load_output(out_dir: Path, task: Path | None) -> tuple[TaskPlan, dict[str, tuple[np.ndarray, np.ndarray, dict]]]:
+    """The task plan and the logged runs of an output folder of ``redundik run``.
+
+    Raises:
+        ConfigError: no ``summary.json``, no task file recorded and none given, or a missing run table.
+    """
+    from redundik.config import load_task
+
+    summary_path = out_dir / "summary.json"
+    if not summary_path.is_file():
+        raise ConfigError(f"'{out_dir}' has no summary.json: give the output folder of `redundik run`")
+    summary: dict[str, Any] = json.loads(summary_path.read_text(encoding="utf-8"))
+    if task is None:
+        recorded = summary.get("task_file")
+        if not recorded:
+            raise ConfigError(f"'{summary_path}' does not name its task file: pass --task FILE")
+        task = Path(recorded)
+    plan = load_task(task)
+    runs = {}
+    for name, entry in summary.get("runs", {}).items():
+        if name not in plan.runs:
+            continue
+        csv_path = out_dir / f"{name}.csv"
+        if not csv_path.is_file():
+            raise ConfigError(f"run table '{csv_path}' is missing")
+        t, q = read_run_csv(csv_path)
+        runs[name] = (t, q, {"resolver": entry.get("resolver", ""), "max task error": entry.get("max_task_error")})
+    if not runs:
+        raise ConfigError(f"no run of '{task}' found in '{out_dir}'")
+    return plan, runs
+
+
+def view(
+    out_dir: Annotated[Path, typer.Argument(help="Output folder of `redundik run`.", show_default=False)],
+    task: Annotated[Path | None, typer.Option("--task", help="Task file [default: the one in summary.json].")] = None,
+    html: Annotated[Path | None, typer.Option("--html", help="Write an offline HTML replay here instead.")] = None,
+    png: Annotated[Path | None, typer.Option("--png", help="Screenshot the HTML replay (headless Chromium).")] = None,
+    at: Annotated[float, typer.Option("--t", help="Time shown in the screenshot [s].")] = 0.0,
+    run: Annotated[str | None, typer.Option("--run", help="Run to replay in meshcat [default: the first].")] = None,
+    speed: Annotated[float, typer.Option("--speed", help="Playback speed factor.")] = 1.0,
+    loops: Annotated[int, typer.Option("--loops", help="Times to play the run in meshcat.")] = 1,
+) -> None:
+    """Replay a finished run: in meshcat (live viewer, extra `viewer`) or as an offline HTML file."""
+    from rich.console import Console
+
+    plan, runs = load_output(out_dir, task)
+    console = Console()
+    if html is not None or png is not None:
+        import tempfile
+
+        from redundik.viewer.html import build_task_replay, render_page
+
+        with tempfile.TemporaryDirectory(prefix="redundik-view-") as tmp:
+            page = html if html is not None else Path(tmp) / f"{plan.name}.html"
+            page.parent.mkdir(parents=True, exist_ok=True)
+            page.write_text(render_page(build_task_replay(plan, runs)), encoding="utf-8")
+            console.print(f"wrote {page}" if html is not None else f"replay of {', '.join(runs)}")
+            if png is not None:
+                from redundik.viewer.snapshot import screenshot
+
+                query = f"?t={at}" + (f"&run={run}" if run else "")
+                console.print(f"wrote {screenshot(page.resolve().as_uri() + query, png)}")
+        return
+    from redundik.viewer.live import replay_meshcat
+
+    name = run or next(iter(runs))
+    if name not in runs:
+        raise ConfigError(f"no run named '{name}' in '{out_dir}'; runs: {', '.join(runs)}")
+    t, q, _ = runs[name]
+    replay_meshcat(plan, name, t, q, speed=speed, loops=loops, console=console)
+
+
+def register(app: typer.Typer) -> None:
+    """Add ``view`` to the ``redundik`` command."""
+    app.command("view")(view)

@@ -1,0 +1,290 @@
+"""Offline HTML replay of task runs: one self-contained file (data and a small WebGL renderer inline, no network).
+
+The page embeds, as JSON, the robot's decimated visual meshes, each part's world pose at up to ``max_frames``
+samples per run (computed here with Pinocchio), joint-limit proximity per part (drawn orange → red near a limit),
+the desired and actual paths of every frame task, task-frame and target triads, and round obstacles (clearance
+potentials). It plays with a time slider; several runs of one task file are switchable. URL parameters (query or
+hash): ``run=NAME``, ``t=SECONDS`` (that instant, paused), ``play=1``, ``speed=X``, ``az``/``el`` [deg],
+``robot=0``, ``paths=0``.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+from collections.abc import Mapping, Sequence
+from importlib import resources
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from redundik.kinematics.model import RobotModel
+from redundik.viewer.scene import (
+    MeshPart,
+    Obstacle,
+    PathSet,
+    RunFrames,
+    cylinder_mesh,
+    robot_parts,
+    sample_run,
+    sphere_mesh,
+    world_bounds,
+)
+
+if TYPE_CHECKING:
+    from redundik.config.loader import RunPlan, TaskPlan
+    from redundik.config.runner import RunResult
+
+_PAGE = """<!doctype html>
+<html lang="en"><head><meta charset="utf-8"><title>{title}</title>
+<style>
+html,body{{margin:0;height:100%;font:13px system-ui,sans-serif;color:#223;background:#f6f7f9}}
+#bar{{position:absolute;left:0;right:0;top:0;height:34px;display:flex;gap:8px;align-items:center;padding:0 8px;
+background:#fff;border-bottom:1px solid #dde}}
+#slider{{flex:1}} #info{{color:#556;white-space:nowrap;overflow:hidden}}
+#view{{position:absolute;top:35px;left:0;width:100%;height:calc(100% - 35px);display:block}}
+#legend{{position:absolute;right:8px;bottom:8px;background:#ffffffd0;padding:4px 8px;border-radius:4px}}
+.sw{{display:inline-block;width:18px;height:3px;vertical-align:middle;margin:0 4px 0 10px}}
+</style></head>
+<body data-status="loading">
+<div id="bar"><b>{title}</b><select id="run" title="run"></select><button id="play">play</button>
+<input type="range" id="slider" min="0" max="0" value="0"><span id="time"></span><span id="info"></span></div>
+<canvas id="view"></canvas>
+<div id="legend"><span class="sw" style="background:#1a9940"></span>desired path / target
+<span class="sw" style="background:#2659e6"></span>actual path
+<span class="sw" style="background:#f59a1f"></span><span class="sw" style="background:#e61f1a;margin-left:0"></span>
+near a joint limit</div>
+<script id="replay-data" type="application/json">{data}</script>
+<script>{script}</script>
+</body></html>
+"""
+
+
+def _b64(a: np.ndarray, dtype: str = "<f4") -> str:
+    return base64.b64encode(np.ascontiguousarray(a, dtype=dtype).tobytes()).decode("ascii")
+
+
+def _mesh_json(v: np.ndarray, t: np.ndarray) -> dict[str, Any]:
+    wide = v.shape[0] >= 65536
+    return {
+        "vertices": _b64(v.reshape(-1)),
+        "triangles": _b64(t.reshape(-1), "<u4" if wide else "<u2"),
+        "index_type": "uint32" if wide else "uint16",
+    }
+
+
+def _obstacle_json(ob: Obstacle) -> dict[str, Any]:
+    if ob.vertical:
+        v, t = cylinder_mesh(ob.radius, -0.5 * ob.height, 0.5 * ob.height, sides=24)
+    else:
+        v, t = sphere_mesh(ob.radius, rings=12, sides=24)
+    pose = np.hstack([np.eye(3), np.asarray(ob.center, dtype=float).reshape(3, 1)])
+    return {"name": ob.name, "color": [0.85, 0.35, 0.3], "pose": _b64(pose.reshape(-1)), **_mesh_json(v, t)}
+
+
+def _frame_matrices(robot: RobotModel, frame: str, q: np.ndarray) -> np.ndarray:
+    out = np.empty((q.shape[0], 12))
+    for k in range(q.shape[0]):
+        robot.update(q[k])
+        out[k] = robot.frame_pose(frame).homogeneous[:3].reshape(-1)
+    return out
+
+
+def replay_data(
+    robot: RobotModel,
+    parts: Sequence[MeshPart],
+    runs: Sequence[RunFrames],
+    *,
+    title: str,
+    obstacles: Sequence[Obstacle] = (),
+    task_frames: Mapping[str, Sequence[tuple[str, np.ndarray, np.ndarray]]] | None = None,
+    path_times: Mapping[str, np.ndarray] | None = None,
+) -> dict[str, Any]:
+    """The JSON document the page plays.
+
+    Args:
+        robot: The robot (for frame poses).
+        parts: Drawable parts (see :func:`redundik.viewer.scene.robot_parts`).
+        runs: Sampled runs (see :func:`redundik.viewer.scene.sample_run`), with their paths filled in.
+        title: Page title.
+        obstacles: Round obstacles to draw.
+        task_frames: Per run, (frame name, actual 3×4 poses (F, 12), desired 3×4 poses (F, 12)) at the drawn samples.
+        path_times: Per run, the times [s] of the path samples, shape (N,).
+    """
+    center, radius = world_bounds(parts, runs)
+    lows = [float(np.min(r.poses[:, :, 11])) for r in runs]
+    floor = min(0.0, *lows) if lows else 0.0
+    step = float(10 ** np.floor(np.log10(radius / 2))) if radius > 0 else 0.1
+    doc: dict[str, Any] = {
+        "title": title,
+        "view": {"center": [float(c) for c in center], "radius": radius, "floor": floor, "grid": step},
+        "parts": [{"name": p.name, "color": list(p.color), **_mesh_json(p.vertices, p.triangles)} for p in parts],
+        "obstacles": [_obstacle_json(o) for o in obstacles],
+        "runs": [],
+    }
+    for r in runs:
+        frames = (task_frames or {}).get(r.name, [])
+        pt = (path_times or {}).get(r.name, r.t)
+        doc["runs"].append(
+            {
+                "name": r.name,
+                "t": [round(float(x), 6) for x in r.t],
+                "info": r.info,
+                "poses": _b64(r.poses.reshape(-1)),
+                "proximity": _b64(r.proximity.reshape(-1)),
+                "path_t": [round(float(x), 6) for x in pt],
+                "paths": [
+                    {"name": p.name, "desired": _b64(p.desired.reshape(-1)), "actual": _b64(p.actual.reshape(-1))}
+                    for p in r.paths
+                ],
+                "task_frames": [
+                    {"name": n, "actual": _b64(a.reshape(-1)), "desired": _b64(d.reshape(-1))} for n, a, d in frames
+                ],
+            }
+        )
+    return doc
+
+
+def render_page(doc: Mapping[str, Any]) -> str:
+    """The HTML text of a replay document (script and data inline)."""
+    script = resources.files("redundik.viewer").joinpath("replay.js").read_text(encoding="utf-8")
+    data = json.dumps(doc, separators=(",", ":"), allow_nan=False).replace("</", "<\\/")
+    return _PAGE.format(title=html.escape(str(doc.get("title", "redundik replay"))), data=data, script=script)
+
+
+# ---------------------------------------------------------------------------------------------------- task runs
+def _frame_tasks(run: RunPlan) -> list[Any]:
+    from redundik.tasks.frame import FrameTask
+
+    return [t for t in run.stack.tasks if isinstance(t, FrameTask)]
+
+
+def run_obstacles(run: RunPlan, length_scale: float = 1.0) -> list[Obstacle]:
+    """Round obstacles of a run's clearance potentials (controlled, watched or monitored)."""
+    from redundik.tasks.potentials import Clearance
+
+    out: list[Obstacle] = []
+    pots = [s.potential for s in run.stack.subtasks] + list(run.watched) + list(run.monitors)
+    for p in pots:
+        if isinstance(p, Clearance) and p.name not in {o.name for o in out}:
+            vertical = set(p.axes) == {"x", "y"}  # distance in x-y only: an infinite post along z
+            center = np.array(p.center, dtype=float)
+            out.append(Obstacle(p.name, center, max(p.radius, 0.01 * length_scale), vertical, 2.0 * length_scale))
+    return out
+
+
+def run_paths(robot: RobotModel, run: RunPlan, t: np.ndarray, q: np.ndarray, max_points: int = 1500) -> list[PathSet]:
+    """Desired (from the task's trajectory, anchored at q[0]) and actual positions of each frame task's frame."""
+    tasks = _frame_tasks(run)
+    if not tasks:
+        return []
+    robot.update(q[0])
+    for task in tasks:
+        task.reset(robot)
+    idx = np.unique(np.linspace(0, t.shape[0] - 1, min(t.shape[0], max_points)).round().astype(int))
+    out = []
+    for task in tasks:
+        desired = np.array([task.trajectory.reference(float(t[i]))[0] for i in idx])
+        actual = np.empty_like(desired)
+        for k, i in enumerate(idx):
+            robot.update(q[i])
+            actual[k] = robot.frame_position(task.frame)
+        out.append(PathSet(task.name, task.frame, desired, actual))
+    return out
+
+
+def _desired_matrices(run: RunPlan, t: np.ndarray) -> list[np.ndarray]:
+    out = []
+    for task in _frame_tasks(run):
+        mats = np.empty((t.shape[0], 12))
+        for k, tk in enumerate(t):
+            p, R, _ = task.trajectory.reference(float(tk))
+            mats[k] = np.hstack([np.asarray(R), np.asarray(p).reshape(3, 1)]).reshape(-1)
+        out.append(mats)
+    return out
+
+
+def build_task_replay(
+    plan: TaskPlan,
+    runs: Mapping[str, tuple[np.ndarray, np.ndarray, dict[str, Any]]],
+    *,
+    max_frames: int = 200,
+    max_triangles: int = 2500,
+) -> dict[str, Any]:
+    """The replay document of several runs of one task file.
+
+    Args:
+        plan: The loaded task file.
+        runs: By run name: (t [s] (N,), q (N, nq), info shown in the page).
+        max_frames: Drawn samples per run (the paths keep up to 1500 points).
+        max_triangles: Triangle budget per visual mesh.
+    """
+    robot = plan.robot.model
+    parts = robot_parts(robot, plan.robot.urdf, plan.draw.segments, max_triangles)
+    frames_list: list[RunFrames] = []
+    task_frames: dict[str, list[tuple[str, np.ndarray, np.ndarray]]] = {}
+    path_times: dict[str, np.ndarray] = {}
+    obstacles: list[Obstacle] = []
+    for name, (t, q, info) in runs.items():
+        rp = plan.runs[name]
+        rf = sample_run(robot, parts, name, t, q, max_frames)
+        rf.paths = run_paths(robot, rp, t, q)
+        rf.info = dict(info)
+        n = t.shape[0]
+        path_times[name] = t[np.unique(np.linspace(0, n - 1, min(n, 1500)).round().astype(int))]
+        tasks = _frame_tasks(rp)
+        desired = _desired_matrices(rp, rf.t)
+        task_frames[name] = [
+            (tk.name, _frame_matrices(robot, tk.frame, rf.q), d) for tk, d in zip(tasks, desired, strict=True)
+        ]
+        for ob in run_obstacles(rp):
+            if ob.name not in {o.name for o in obstacles}:
+                obstacles.append(ob)
+        frames_list.append(rf)
+    return replay_data(
+        robot,
+        parts,
+        frames_list,
+        title=f"{plan.name} — {plan.robot.model.name}",
+        obstacles=obstacles,
+        task_frames=task_frames,
+        path_times=path_times,
+    )
+
+
+def write_html(
+    path: str | Path,
+    plan: TaskPlan,
+    results: Mapping[str, RunResult],
+    *,
+    max_frames: int = 200,
+    max_triangles: int = 2500,
+) -> Path:
+    """Write the offline replay of a task file's runs to ``path`` (one self-contained HTML file); returns it.
+
+    Args:
+        path: Output file (``.html``); its folder is created.
+        plan: The loaded task file.
+        results: From :func:`redundik.config.runner.run_task`.
+        max_frames: Drawn samples per run.
+        max_triangles: Triangle budget per visual mesh.
+    """
+    runs = {
+        name: (
+            r.log.t,
+            r.log.q,
+            {
+                "resolver": r.plan.resolver_name,
+                "max task error": float(r.summary.get("max_task_error", r.log.max_task_error)),
+                **({"plant": r.summary["plant"]} if "plant" in r.summary else {}),
+            },
+        )
+        for name, r in results.items()
+    }
+    doc = build_task_replay(plan, runs, max_frames=max_frames, max_triangles=max_triangles)
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(render_page(doc), encoding="utf-8")
+    return out
