@@ -13,7 +13,7 @@ no third-party exception leaks into a control loop.
 * ``quadprog``: Goldfarb–Idnani dual active set through ``quadprog.solve_qp`` (exact; bounds as rows).
 * ``proxsuite``: ProxQP (augmented Lagrangian) through a cached ``proxsuite.proxqp.dense.QP`` object per problem
   size, updated in place and warm-started from the previous result, at most 200 outer × 40 inner iterations (a
-  stalled iterate is polished, :func:`polish`, or kept when feasible); tolerances tightened to ``eps_abs = 1e-9``
+  stalled iterate is polished, ``polish``, or kept when feasible); tolerances tightened to ``eps_abs = 1e-9``
   (its default 1e-5 gives answers up to ~1 off the active-set ones on ill-conditioned steps) and the infeasibility
   thresholds to 1e-10 (the default 1e-4 declared a plainly feasible 1-variable, 14-row level QP infeasible), with
   the duality-gap check on (without it a "solved" answer was 1e-5 off on a 2-variable QP).
@@ -154,7 +154,7 @@ ITERATE_VIOLATION = 1e-6
 
 
 def _stalled(problem: QPProblem, x: np.ndarray | None) -> np.ndarray | None:
-    """The exact optimum polished from a stalled iterate (:func:`polish`), else the iterate itself when it violates
+    """The exact optimum polished from a stalled iterate (``polish``), else the iterate itself when it violates
     no constraint by more than :data:`ITERATE_VIOLATION`, else ``None``."""
     xp = polish(problem, x)
     if xp is not None or x is None:
@@ -364,7 +364,7 @@ class OsqpBackend(QpsolversBackend):
 
     ADMM stalls on degenerate QPs (several constraints active at a 1e-7 margin, seen on hqp levels): whatever OSQP
     stops with that is not "solved" — the iteration limit, "solved inaccurate", a spurious infeasibility — is
-    polished (:func:`polish`, kept only if the polished point verifies the KKT conditions), else kept if it
+    polished (``polish``, kept only if the polished point verifies the KKT conditions), else kept if it
     violates no constraint by more than :data:`ITERATE_VIOLATION`, else a :class:`SolverError`.
     """
 
