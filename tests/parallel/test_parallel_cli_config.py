@@ -221,5 +221,5 @@ def test_main_entry_point_reports_errors_in_one_line(capsys: pytest.CaptureFixtu
     assert code == 0
     assert json.loads(capsys.readouterr().out)["m"] == 6
     code = main_mod.main(["stewart", "ik", str(CONFIGS / "stewart66.yaml"), "--p", "0", "0", "nan"])
-    assert code == 2
+    assert code == 3
     assert capsys.readouterr().err.strip().startswith("error: --p: non-finite value")

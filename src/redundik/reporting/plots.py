@@ -23,7 +23,9 @@ _AXIS = {"x": 0, "y": 1, "z": 2}
 
 
 def _plt() -> Any:
-    import matplotlib
+    from redundik._extras import require
+
+    matplotlib = require("matplotlib", "plotting")
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

@@ -47,7 +47,9 @@ def animate_planar(
     Raises:
         ConfigError: unknown frame in ``segments``/``trace`` or ``every`` < 1.
     """
-    import matplotlib
+    from redundik._extras import require
+
+    matplotlib = require("matplotlib", "plotting")
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

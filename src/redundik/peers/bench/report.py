@@ -114,7 +114,9 @@ def ratio_lines(result: BenchResult) -> list[str]:
 
 def plot(result: BenchResult, path: str | Path) -> Path:
     """Horizontal bars of the median step time (p90 as whisker), one panel per robot, log scale; PNG."""
-    import matplotlib
+    from redundik._extras import require
+
+    matplotlib = require("matplotlib", "plotting")
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt

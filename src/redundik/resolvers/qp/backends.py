@@ -16,8 +16,10 @@ no third-party exception leaks into a control loop.
   (its default 1e-5 gives answers up to ~1 off the active-set ones on ill-conditioned steps) and the infeasibility
   thresholds to 1e-10 (the default 1e-4 declared a plainly feasible 1-variable, 14-row level QP infeasible), with
   the duality-gap check on (without it a "solved" answer was 1e-5 off on a 2-variable QP).
-* ``osqp``: ADMM through qpsolvers with ``eps_abs = eps_rel = 1e-8``, polishing and warm start; the slowest and
-  least accurate here (kept for comparison and for very large sparse problems).
+* ``osqp``: ADMM through qpsolvers with ``eps_abs = eps_rel = 1e-8`` and warm start, polishing off (OSQP prints
+  "Polishing not needed" on stdout, whatever ``verbose`` says, whenever no constraint is active; the tolerances
+  already meet :data:`TOLERANCE`); the slowest and least accurate here (kept for comparison and for very large
+  sparse problems).
 * ``qpsolvers:NAME``: any other solver qpsolvers knows, through ``qpsolvers.solve_problem``.
 
 The tolerances in :data:`TOLERANCE` are what the tests hold each backend to (largest |x − x_ref| on well-scaled
@@ -236,7 +238,7 @@ class OsqpBackend(QpsolversBackend):
 
     def __init__(self) -> None:
         super().__init__(
-            "osqp", eps_abs=1e-8, eps_rel=1e-8, polishing=True, max_iter=20000, verbose=False, raise_error=False
+            "osqp", eps_abs=1e-8, eps_rel=1e-8, polishing=False, max_iter=20000, verbose=False, raise_error=False
         )
 
     def solve(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
@@ -292,6 +294,7 @@ def make_backend(name: str | Backend = DEFAULT_BACKEND) -> Backend:
         )
     if not _installed(name):
         raise SolverError(
-            f"QP backend '{name}' is not installed (pip install {_MODULES[name][1]}); installed: {available_backends()}"
+            f"QP backend '{name}' is not installed (pip install 'redundik[backends]', or pip install "
+            f"{_MODULES[name][1]}); installed: {available_backends()}"
         )
     return _FACTORIES[name]()
