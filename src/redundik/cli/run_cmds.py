@@ -120,9 +120,31 @@ def run(
         replay_meshcat(plan, first.name, first.log.t, first.log.q, console=human)
 
 
+def schema(
+    robot: Annotated[bool, typer.Option("--robot", help="Schema of a robot config instead of a task file.")] = False,
+    out: Annotated[Path | None, typer.Option("--out", "-o", help="Write it to this file [default: stdout].")] = None,
+) -> None:
+    """Print the JSON Schema of task files (or robot configs), for editors: every type, key, default and unit."""
+    import json
+
+    from redundik.config.jsonschema import robot_schema, task_schema
+
+    text = json.dumps(robot_schema() if robot else task_schema(), indent=2, ensure_ascii=False) + "\n"
+    if out is None:
+        typer.echo(text, nl=False)
+        return
+    from redundik.errors import ConfigError
+
+    try:
+        out.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"cannot write '{out}': {exc.strerror or exc}") from None
+
+
 def register(app: typer.Typer) -> None:
     """Add ``run`` and ``validate`` to the ``redundik`` command."""
     from redundik.cli.main import EPILOG
 
     app.command("run", epilog=EPILOG)(run)
     app.command("validate", epilog=EPILOG)(validate)
+    app.command("schema")(schema)

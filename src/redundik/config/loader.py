@@ -15,7 +15,6 @@ from typing import Any
 
 import numpy as np
 
-from redundik.config import chapter_types  # noqa: F401 - registers the chapter robots' YAML types (issue 4)
 from redundik.config.builders import (
     MONITORS,
     POTENTIALS,
