@@ -66,7 +66,7 @@ def _stewart66() -> dict:
     ("patch", "message"),
     [
         ({"top": {"radius": -0.8}}, "top.radius: must be > 0.0, got -0.8"),
-        ({"top": {"radius": 0.8, "colour": "red"}}, "top.colour: unknown key 'colour'; allowed keys: radius, side, points"),
+        ({"top": {"radius": 0.8, "colour": "red"}}, "top.colour: unknown key 'colour'; allowed keys: radius, side"),
         ({"legz": 1}, "legz: unknown key 'legz'; allowed keys: kind, name"),
         ({"layout": "hexagon"}, "layout: expected one of 'symmetric_33'"),
         ({"beta_deg": None}, "beta_deg: required for layout symmetric_66"),
