@@ -399,3 +399,10 @@ def test_a_non_finite_intermediate_is_a_diagnosed_fallback(name: str) -> None:
             rk.make_resolver(name).step(robot, huge, q_next, 10.0, 0.01)
     else:  # wqp's normal equations overflow (‖v‖² ~ 1e616): a diagnosed fallback
         assert "non-finite" in res.fallback or "failed" in res.fallback
+
+
+def test_a_frame_task_on_a_world_fixed_frame_is_refused() -> None:
+    robot = case2_robot()
+    robot.update(np.radians([110.0, -40.0, -30.0]))
+    with pytest.raises(rk.TaskError, match="frame '0' is fixed to the world"):
+        rk.TaskStack([rk.FrameTask("0", axes="planar")]).reset(robot)

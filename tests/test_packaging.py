@@ -253,4 +253,4 @@ def test_wheel_ships_the_examples_license_and_metadata(wheel: Path) -> None:
         for line in meta.splitlines()
         if line.startswith("Requires-Dist:") and "extra ==" not in line
     )
-    assert core == ["daqp", "numpy", "pin", "qpsolvers", "scipy"]
+    assert core == ["daqp", "numba", "numpy", "pin", "qpsolvers", "scipy", "threadpoolctl"]

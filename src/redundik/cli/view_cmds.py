@@ -77,7 +77,9 @@ def read_run_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return data[:, header.index("t")], data[:, qcols]
 
 
-def load_output(out_dir: Path, task: Path | None) -> tuple[TaskPlan, dict[str, tuple[np.ndarray, np.ndarray, dict]]]:
+def load_output(
+    out_dir: Path, task: Path | None
+) -> tuple[TaskPlan, dict[str, tuple[np.ndarray, np.ndarray, dict[str, Any]]]]:
     """The task plan and the logged runs of an output folder of ``redundik run``.
 
     Raises:

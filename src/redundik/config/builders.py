@@ -34,6 +34,7 @@ class Context:
 
     robot: RobotModel
     angle_unit: str = "rad"
+    world: Any = None  # the task file's collision world (redundik.collision.CollisionWorld), if it has one
 
     @property
     def scale(self) -> float:

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from redundik.config import world_types  # registers collision / balance YAML types (issue 12)
 from redundik.config.builders import (
     MONITORS,
     POTENTIALS,
@@ -25,7 +26,7 @@ from redundik.config.builders import (
     check_frame,
     task_name,
 )
-from redundik.config.robot import LoadedRobot, configuration_from_file, load_robot
+from redundik.config.robot import LoadedRobot, angle_scale, configuration_from_file, load_robot
 from redundik.config.schema import MAX_STEPS, PlantSpec, RunSpec, SubtaskSpec, TaskFileSpec
 from redundik.config.yamlio import join_path, read_yaml, validate
 from redundik.errors import ConfigError, RedundikError
@@ -130,6 +131,7 @@ class TaskPlan:
     potential_types: dict[str, str]
     draw: DrawPlan
     log_frames: list[str]
+    world: Any = None  # the collision world (redundik.collision.CollisionWorld) of 'collision:'/'obstacles:'
 
 
 def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None) -> TaskPlan:
@@ -153,7 +155,6 @@ def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None)
     steps = _check_steps(spec)
     robot = load_robot(spec.robot, base, "robot")
     _check_integrators(spec, robot.model.nq, robot.model.nv)
-    ctx = Context(robot.model, spec.angle_unit)
 
     if spec.q0 is not None:
         q0 = configuration_from_file(spec.q0, robot.model, spec.angle_unit, "q0")
@@ -161,6 +162,10 @@ def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None)
         q0 = robot.q0
     else:
         q0 = robot.model.neutral()
+    world = None
+    if spec.collision is not None or spec.obstacles:
+        world = world_types.build_world(spec.collision, spec.obstacles, robot, q0, angle_scale(spec.angle_unit), base)
+    ctx = Context(robot.model, spec.angle_unit, world)
 
     # every potential and monitor once, for names/sizes (runs build their own fresh objects)
     types: dict[str, str] = {}
@@ -195,6 +200,7 @@ def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None)
         potential_types=types,
         draw=draw,
         log_frames=log_frames,
+        world=world,
     )
 
 
@@ -337,11 +343,11 @@ def _build_run(spec: TaskFileSpec, ctx: Context, name: str, run: RunSpec, q0_fil
             if key == "gains":
                 if value < 0:
                     raise ConfigError(f"must be ≥ 0, got {value}", where)
-                task.gain = float(value)  # type: ignore[attr-defined]
+                task.gain = float(value)
             else:
                 if value <= 0:
                     raise ConfigError(f"must be > 0, got {value}", where)
-                task.weight = float(value)  # type: ignore[attr-defined]
+                task.weight = float(value)
     # subtasks: named potentials of the file
     subtasks: list[Subtask] = []
     for pname, sub in run.subtasks.items():

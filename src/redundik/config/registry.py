@@ -322,7 +322,7 @@ def register(
     """
     params = params or {}
     sig = inspect.signature(factory)
-    target = factory.__init__ if inspect.isclass(factory) else factory  # type: ignore[misc]
+    target = factory.__init__ if inspect.isclass(factory) else factory
     hints = typing.get_type_hints(target)
     docs = arg_docs(factory)
     fields: dict[str, Any] = {"type": (Literal[type_name], ...)}
@@ -359,7 +359,7 @@ def register(
     for key, (ann, default) in (extra or {}).items():
         fields[key] = (ann, Field(default=default, description=docs.get(key, "")))
     doc_line = description or (inspect.getdoc(factory) or type_name).split("\n")[0]
-    model = create_model(  # type: ignore[call-overload]
+    model = create_model(
         f"{section.capitalize()}_{type_name}",
         __base__=s.StrictModel,
         __doc__=f"{WHAT[section].capitalize()} ``type: {type_name}``: {doc_line}",

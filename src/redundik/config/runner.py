@@ -9,8 +9,10 @@ from typing import Any
 import numpy as np
 
 from redundik.config.loader import RunPlan, TaskPlan
+from redundik.config.world_types import world_clock, world_summary
 from redundik.errors import ConfigError, SimulationError
 from redundik.simulation import SimulationLog, simulate
+from redundik.tasks.subtasks import TargetSubtask
 
 
 @dataclass
@@ -74,6 +76,10 @@ def run_one(plan: TaskPlan, run: RunPlan, progress: Callable[[str, int], None] |
     """Simulate one run and summarise it."""
     robot = plan.robot.model
     cb = None if progress is None else (lambda k: progress(run.name, k))
+    world = getattr(plan, "world", None)
+    if world is not None:  # moving obstacles: the clock follows the steps (the next tick is at k·dt)
+        world.set_time(0.0)
+        cb = world_clock(world, plan.dt, cb)
     plant = None
     if run.plant is not None:
         from redundik.simulation.plant import make_plant
@@ -116,10 +122,12 @@ def run_one(plan: TaskPlan, run: RunPlan, progress: Callable[[str, int], None] |
             raise SimulationError(
                 f"run '{run.name}' diverged at t = {t:.6g} s: monitor {key} is not finite (overflow?)"
             )
+    world_stats, world_series = world_summary(plan, run, log)
+    series.update(world_series)
     if plant is not None:
         series.update(plant.series())
     result = RunResult(run.name, run, log, series, violation)
-    result.summary = summarise(plan, result)
+    result.summary = summarise(plan, result) | world_stats
     if plant is not None:
         from redundik.simulation.plant import plant_summary
 
@@ -151,7 +159,7 @@ def summarise(plan: TaskPlan, result: RunResult) -> dict[str, Any]:
                     if s.name in log.potentials
                     else {}
                 ),
-                **({"target": float(s.target)} if getattr(s, "target", None) is not None else {}),
+                **({"target": float(s.target)} if isinstance(s, TargetSubtask) else {}),
             }
             for s in run.stack.subtasks
         },

@@ -235,6 +235,10 @@ class TaskFileSpec(StrictModel):
     runs: dict[SafeName, RunSpec] = Field(min_length=1)
     draw: DrawSpec | None = None
     log_frames: list[Name] = Field(default_factory=list)
+    #: The robot's collision shapes and pair filters (redundik.config.world_types.CollisionSpec).
+    collision: dict[str, Any] | None = None
+    #: Named environment obstacles (redundik.config.world_types.ObstacleSpec).
+    obstacles: dict[Name, dict[str, Any]] = Field(default_factory=dict)
     plant: PlantSpec | None = None
 
     @model_validator(mode="after")

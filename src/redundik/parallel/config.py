@@ -56,6 +56,10 @@ def _points(disc: Disc, key: str) -> list[Vec3]:
     return disc.points
 
 
+def _array(points: list[Vec3]) -> np.ndarray:
+    return np.asarray(points, dtype=float)
+
+
 def _geometry(build: Any, key: str) -> Any:
     try:
         return build()
@@ -97,7 +101,7 @@ class StewartConfig(_Model):
             return _geometry(lambda: StewartPlatform.symmetric_66(r0, r6, beta, gamma, self.unit), "beta_deg")
         if self.legs is None:
             raise ConfigError("required for layout 'points'", path="legs")
-        base, top, legs = _points(self.base, "base"), _points(self.top, "top"), self.legs
+        base, top, legs = _array(_points(self.base, "base")), _array(_points(self.top, "top")), self.legs
         return _geometry(lambda: StewartPlatform(base, top, tuple(legs), self.name, self.unit), "legs")
 
 
@@ -118,8 +122,9 @@ class PathConfig(_Model):
 
 def _upr(layout: str, base: Disc, top: Disc, axes: list[Vec3] | None, d4: float, unit: str) -> UPRPlatform:
     if layout == "points":
-        b, t = _points(base, "base"), _points(top, "top")
-        return _geometry(lambda: UPRPlatform(b, t, axes, d4, unit), "axes" if axes else "top.points")
+        b, t = _array(_points(base, "base")), _array(_points(top, "top"))
+        ax = None if axes is None else _array(axes)
+        return _geometry(lambda: UPRPlatform(b, t, ax, d4, unit), "axes" if axes else "top.points")
     rb, rt = _radius(base, "base", False), _radius(top, "top", False)
     return _geometry(lambda: UPRPlatform.book_layout(layout, rb, rt, d4, unit), "layout")  # type: ignore[arg-type]
 
@@ -226,7 +231,7 @@ def load_config(path: str | Path) -> AnyConfig:
 
     Raises:
         ConfigError: missing, unreadable, binary or non-UTF-8 file, YAML syntax error, duplicate key, alias bomb,
-        too deep nesting, or invalid content (one line each).
+            too deep nesting, or invalid content (one line each).
     """
     data = read_yaml(Path(path), "mechanism config")  # the bounded reader shared by every YAML entry point
     return parse_config(data, str(path))

@@ -11,7 +11,7 @@ Deviations from the print, each pinned by a test:
 * (5.42) reads ``l_0^i = p_0^t − p_0^a − d_4 z_0^3 − R_0^3 p_3^i`` for every leg. Each leg uses its own base
   point and, with the convention of (5.18) (``l = R p + o − p_0``), the platform term enters with a plus sign:
   ``l_0^i = p_0^t − d_4 z_0^3 + R_0^3 p_3^i − p_0^i``.
-* (5.38): γ11 and γ13 contain b_3^β where b_3^γ belongs; :func:`book_orientation` derives the coefficients
+* (5.38): γ11 and γ13 contain b_3^β where b_3^γ belongs; :meth:`UPRPlatform.book_orientation` derives the coefficients
   from the axis table, which gives the corrected form.
 * The book's closed form assumes ``R_0^3 = R(y, ψ) R(x, φ)`` (no spin) and uses only two of the three rows
   of (5.32) for the right isosceles and rectangle layouts, so the third row is in general violated; for the
@@ -147,6 +147,13 @@ class UPRPlatform:
         object.__setattr__(self, "axes", axes)
         object.__setattr__(self, "d4", float(self.d4))
 
+    @property
+    def joint_axes(self) -> FloatArray:
+        """The revolute axes of the top joints, shape (3, 3) (always set once constructed)."""
+        if self.axes is None:  # unreachable after __post_init__
+            raise MechanismError("the platform's joint axes are not set")
+        return self.axes
+
     @classmethod
     def book_layout(
         cls, layout: Layout, base_radius: float, top_radius: float, d4: float = 0.0, unit: str = "m"
@@ -197,7 +204,7 @@ class UPRPlatform:
                 singular 2×2 system.
         """
         top = as_vector(top, 3, "top point")
-        a = self.axes[:, :2]
+        a = self.joint_axes[:, :2]
         eta = self._eta(top)
         rows_x = [i for i in range(3) if abs(a[i, 1]) < 1e-12]
         if not rows_x:

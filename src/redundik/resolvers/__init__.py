@@ -1,6 +1,7 @@
 """Resolvers: turn a task stack into a joint velocity. Closed forms here; QP resolvers beside them."""
 
 from redundik.resolvers.base import Resolver, StepResult
+from redundik.resolvers.batch import BatchResolver, BatchResult, solve_batch
 from redundik.resolvers.feedback import FeedbackResolver
 from redundik.resolvers.linalg import PseudoInverse, pseudo_inverse
 from redundik.resolvers.pinv import PinvResolver
@@ -9,6 +10,8 @@ from redundik.resolvers.registry import RESOLVERS, make_resolver
 
 __all__ = [
     "RESOLVERS",
+    "BatchResolver",
+    "BatchResult",
     "FeedbackResolver",
     "HierarchicalQPResolver",
     "JointLimits",
@@ -20,4 +23,5 @@ __all__ = [
     "available_backends",
     "make_resolver",
     "pseudo_inverse",
+    "solve_batch",
 ]

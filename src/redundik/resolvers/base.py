@@ -13,9 +13,12 @@ The contract of :meth:`Resolver.step` (the call a control loop makes once per ti
 from __future__ import annotations
 
 import math
+import os
 from abc import ABC, abstractmethod
+from collections.abc import Callable
+from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -26,6 +29,22 @@ from redundik.tasks.stack import TaskStack
 
 #: Largest stable K·dt of the first-order update (e ← (1 − K dt) e).
 STABLE_GAIN_DT = 2.0
+#: From this many velocity coordinates on, a step limits BLAS to one thread (see ``Resolver.blas_threads``).
+#: Robots with at least this many velocity coordinates get one BLAS thread inside a step (measured: on Talos,
+#: nv = 38, toggling the BLAS pool cost more, +20 µs, than it saved).
+BLAS_LIMIT_NV = 64
+_USER_CHOSE_THREADS = any(os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"))
+_CONTROLLER: Any = None  # threadpoolctl.ThreadpoolController (untyped), built on first use
+
+
+def _blas_threads(n: int) -> AbstractContextManager[object]:
+    """A context limiting the BLAS libraries to ``n`` threads (threadpoolctl, controller built once)."""
+    global _CONTROLLER
+    from threadpoolctl import ThreadpoolController
+
+    if _CONTROLLER is None:
+        _CONTROLLER = ThreadpoolController()
+    return _CONTROLLER.limit(limits=n, user_api="blas")
 
 
 @dataclass
@@ -76,6 +95,129 @@ class StepResult:
         return float(np.sqrt(sum(float(t.error @ t.error) for t in terms)))
 
 
+class LazyInfo(dict):  # type: ignore[type-arg]
+    """``StepResult.info`` whose costly entries are computed on first read (the keys given eagerly stay cheap).
+
+    Reading a key that is present returns it at once; reading any other key, iterating, or asking the size runs the
+    pending diagnostics once (a QP step's residuals, σ_min, active-limit labels), then behaves as a plain dict.
+    """
+
+    __slots__ = ("_pending",)
+
+    def __init__(self, eager: dict[str, object], pending: Callable[[], dict[str, object]] | None) -> None:
+        super().__init__(eager)
+        self._pending = pending
+
+    def _fill(self) -> None:
+        pending, self._pending = self._pending, None
+        if pending is not None:
+            dict.update(self, pending())
+
+    def __getitem__(self, key: str) -> object:
+        if self._pending is not None and not dict.__contains__(self, key):
+            self._fill()
+        return dict.__getitem__(self, key)
+
+    def get(self, key: str, default: object = None) -> object:
+        if self._pending is not None and not dict.__contains__(self, key):
+            self._fill()
+        return dict.get(self, key, default)
+
+    def __contains__(self, key: object) -> bool:
+        if self._pending is not None and not dict.__contains__(self, key):
+            self._fill()
+        return dict.__contains__(self, key)
+
+    def __iter__(self):  # type: ignore[no-untyped-def]
+        self._fill()
+        return dict.__iter__(self)
+
+    def __len__(self) -> int:
+        self._fill()
+        return dict.__len__(self)
+
+    def keys(self):  # type: ignore[no-untyped-def]
+        self._fill()
+        return dict.keys(self)
+
+    def values(self):  # type: ignore[no-untyped-def]
+        self._fill()
+        return dict.values(self)
+
+    def items(self):  # type: ignore[no-untyped-def]
+        self._fill()
+        return dict.items(self)
+
+    def copy(self) -> dict[str, object]:
+        self._fill()
+        return dict(dict.items(self))
+
+    def __eq__(self, other: object) -> bool:
+        self._fill()
+        return dict.__eq__(self, other)
+
+    __hash__ = None
+
+    def __repr__(self) -> str:
+        self._fill()
+        return dict.__repr__(self)
+
+
+class LazyStepResult(StepResult):
+    """A :class:`StepResult` whose diagnostics (``sigma_min``, ``damped``, ``info``) are computed on first read.
+
+    The resolver sets :attr:`pending`, a callable returning (σ_min, damped, info entries); nothing is computed on a
+    step whose result is only used for q̇ — the hot path of a control loop — while a logger that reads them gets
+    exactly what an eager step would have reported.
+    """
+
+    pending: Callable[[], tuple[float, bool, dict[str, object]]] | None = None
+
+    def _resolve(self) -> None:
+        pending = self.__dict__.get("pending")
+        if pending is not None:
+            self.__dict__["pending"] = None
+            smin, damped, extra = pending()
+            self.__dict__["_sigma_min"], self.__dict__["_damped"] = smin, damped
+            info = self.__dict__["_info"]
+            if isinstance(info, LazyInfo):
+                info._pending = None
+            dict.update(info, extra)
+
+    @property
+    def sigma_min(self) -> float:
+        self._resolve()
+        return self.__dict__.get("_sigma_min", math.inf)
+
+    @sigma_min.setter
+    def sigma_min(self, value: float) -> None:
+        self.__dict__["_sigma_min"] = value
+
+    @property
+    def damped(self) -> bool:
+        self._resolve()
+        return self.__dict__.get("_damped", False)
+
+    @damped.setter
+    def damped(self, value: bool) -> None:
+        self.__dict__["_damped"] = value
+
+    @property
+    def info(self) -> dict[str, object]:
+        return self.__dict__["_info"]
+
+    @info.setter
+    def info(self, value: dict[str, object]) -> None:
+        if not isinstance(value, LazyInfo):
+            value = LazyInfo(value, None)
+        value._pending = self._info_pending
+        self.__dict__["_info"] = value
+
+    def _info_pending(self) -> dict[str, object]:
+        self._resolve()
+        return {}
+
+
 def nonfinite_sources(terms: list[TaskTerm], **arrays: np.ndarray | None) -> list[str]:
     """Names of the terms (and named arrays) holding NaN or infinite values, for a diagnosed fallback."""
     bad = [t.name for t in terms if not (np.isfinite(t.J).all() and np.isfinite(t.v).all())]
@@ -95,6 +237,11 @@ class Resolver(ABC):
     accepts: ClassVar[tuple[str, ...]] = ()
 
     _checked: tuple[int, ...] | None = None
+    _gain_members: tuple[tuple[Any, ...], tuple[Any, ...]] = ((), ())
+    #: BLAS threads inside a step: an int, or ``None`` to leave the process's setting alone. The default ``"auto"``
+    #: limits BLAS to one thread for robots with nv ≥ :data:`BLAS_LIMIT_NV` = 64 (threaded products on small matrices
+    #: stall on busy cores) unless the user set ``OMP_NUM_THREADS``/``OPENBLAS_NUM_THREADS``/``MKL_NUM_THREADS``.
+    blas_threads: int | str | None = "auto"
 
     def check(self, robot: RobotModel, stack: TaskStack) -> None:
         """Refuse a stack this resolver cannot handle.
@@ -134,14 +281,36 @@ class Resolver(ABC):
             ResolverError: q not finite or of the wrong size, dt not finite and > 0, t not finite, a refused stack,
                 or a task gain with K·dt > 2.
         """
-        q = self.check_inputs(robot, q, t, dt)
+        if not (  # the common case checked in a few operations; anything unusual goes through check_inputs
+            type(q) is np.ndarray
+            and q.dtype == np.float64
+            and q.shape == (robot.nq,)
+            and type(dt) is float
+            and type(t) is float
+            and 0.0 < dt < math.inf
+            and math.isfinite(t)
+            and math.isfinite(float(q @ q))  # every entry finite (an overflow to inf falls back to the full check)
+        ):
+            q = self.check_inputs(robot, q, t, dt)
         robot.update(q)
         sig = (id(robot), *stack.signature())
         if sig != self._checked:
             self.check(robot, stack)
             self._checked = sig
-        check_gains(stack, dt, self.name)
-        return self.solve(robot, stack, float(t), float(dt))
+            self._gain_members = (tuple(stack.tasks), tuple(stack.target_subtasks))
+        tasks, targets = self._gain_members
+        limit = STABLE_GAIN_DT / dt
+        if any(task.gain > limit for task in tasks) or any(sub.rate > limit for sub in targets):
+            check_gains(stack, dt, self.name)  # raises with the offending member named
+        with self._blas_limit(robot):
+            return self.solve(robot, stack, float(t), float(dt))
+
+    def _blas_limit(self, robot: RobotModel) -> AbstractContextManager[object]:
+        """The BLAS thread limit of a step (a no-op context below :data:`BLAS_LIMIT_NV` or when the user chose)."""
+        threads = self.blas_threads
+        if threads is None or (threads == "auto" and (robot.nv < BLAS_LIMIT_NV or _USER_CHOSE_THREADS)):
+            return nullcontext()
+        return _blas_threads(1 if threads == "auto" else int(threads))
 
     def check_inputs(self, robot: RobotModel, q: np.ndarray, t: float, dt: float) -> np.ndarray:
         """Validated q (as a float array) after checking t and dt; raises :class:`ResolverError` otherwise."""

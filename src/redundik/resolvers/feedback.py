@@ -86,8 +86,8 @@ class FeedbackResolver(Resolver):
             rhs[i] = v
         t1 = time.perf_counter()
         pi = pseudo_inverse(J, epsilon=self.epsilon, max_damping=self.max_damping)
-        dq_r = pi.pinv @ V
-        Pz = pi.null_projector @ z if z is not None else np.zeros(robot.nv)
+        dq_r = pi.solve(V)
+        Pz = pi.null_project(z) if z is not None else np.zeros(robot.nv)
         d_damped, d_rank = False, 0
         k = np.zeros(r)
         if r:

@@ -28,12 +28,43 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
-from scipy.linalg import lapack
 
-#: Smallest λ_min/λ_max of JJᵀ for the eigendecomposition fast path (κ(J) ≤ 1e3).
-_FAST_PATH_RCOND = 1e-6
+
+class _Kernels:
+    """The compiled kernels of :mod:`redundik.resolvers.kernels`, imported on first use (numba loads then, not when
+    redundik is imported); after the first access every kernel is a plain attribute."""
+
+    def __getattr__(self, name: str) -> Any:
+        from redundik.resolvers import kernels
+
+        self.__dict__.update({k: v for k, v in vars(kernels).items() if not k.startswith("__")})
+        return getattr(kernels, name)
+
+
+#: The compiled kernels (``K.closed_form``, ``K.spd_solve_box``, …).
+K = _Kernels()
+
+
+def damped_inverse_values(s: np.ndarray, epsilon: float, max_damping: float, rcond: float) -> tuple[np.ndarray, int]:
+    """The per-direction inverse of singular values ``s`` (descending) by this module's rule, and the rank
+    (the compiled :func:`redundik.resolvers.kernels.damped_inverse_values`)."""
+    inv, rank = K.damped_inverse_values(np.ascontiguousarray(s, dtype=float), epsilon, max_damping, rcond)
+    return inv, int(rank)
+
+
+__all__ = [
+    "RCOND",
+    "DampedSVD",
+    "K",
+    "PseudoInverse",
+    "contiguous",
+    "damped_inverse_values",
+    "damped_svd",
+    "pseudo_inverse",
+]
 #: Default relative threshold of the numerical rank.
 RCOND = 1e-10
 
@@ -43,27 +74,6 @@ def _identity(n: int) -> np.ndarray:
     eye = np.eye(n)
     eye.setflags(write=False)
     return eye
-
-
-def damped_inverse_values(s: np.ndarray, epsilon: float, max_damping: float, rcond: float) -> tuple[np.ndarray, int]:
-    """The per-direction inverse of singular values ``s`` (descending) by this module's rule, and the rank.
-
-    Returns:
-        (inverse values, numerical rank r).
-    """
-    smax = float(s[0]) if s.size else 0.0
-    inv = np.zeros_like(s)
-    if smax <= 0.0 or not np.isfinite(smax):
-        return inv, 0
-    rank = int(np.count_nonzero(s > rcond * smax))
-    sr = s[:rank]
-    inv[:rank] = 1.0 / sr
-    if epsilon > 0 and max_damping > 0 and rank and sr[-1] < epsilon:
-        small = sr < epsilon
-        ss = sr[small]
-        lam2 = (1.0 - (ss / epsilon) ** 2) * max_damping**2
-        inv[:rank][small] = ss / (ss * ss + lam2)
-    return inv, rank
 
 
 @dataclass(frozen=True)
@@ -115,44 +125,87 @@ def damped_svd(M: np.ndarray, *, epsilon: float, max_damping: float, rcond: floa
     m, n = M.shape
     if m == 0:
         return DampedSVD(np.zeros((0, 0)), np.zeros(0), np.eye(n), np.zeros(0), 0, np.inf, 0.0)
-    U, s, Vt = np.linalg.svd(M, full_matrices=True)
-    k = s.shape[0]
-    inv, rank = damped_inverse_values(s, epsilon, max_damping, rcond)
-    sigma_min = float(s[rank - 1]) if rank else np.inf
-    damping = 0.0
-    if rank and sigma_min < epsilon and epsilon > 0:
-        damping = float(np.sqrt(1.0 - (sigma_min / epsilon) ** 2) * max_damping)
-    return DampedSVD(U[:, :k], s, Vt, inv, rank, sigma_min, damping)
+    U, s, Vt, inv, rank, sigma_min, damping = K.damped_svd_factors(contiguous(M), epsilon, max_damping, rcond)
+    return DampedSVD(U, s, Vt, inv, int(rank), float(sigma_min), float(damping))
 
 
-@dataclass(frozen=True)
 class PseudoInverse:
-    """J⁺ (possibly damped) and the null-space projector of one Jacobian.
+    """J⁺ (possibly damped) and the null-space projector of one Jacobian, factored but not formed.
+
+    The hot path never forms the n×n matrices: :meth:`solve` gives J⁺_λ b and :meth:`null_project` gives
+    P_n z = z − V_r V_rᵀ z from the factors of :func:`redundik.resolvers.kernels.factor` (the m×m eigendecomposition
+    of JJᵀ on the fast path, the damped SVD otherwise). :attr:`pinv` and :attr:`null_projector` are formed on first
+    access and cached.
 
     Attributes:
-        pinv: J⁺ or J⁺_λ, shape (n, m).
-        null_projector: P_n = I − V_r V_rᵀ for the numerical rank, shape (n, n).
+        n: Number of columns of J.
         rank: Numerical rank of J.
-        sigma_min: Smallest nonzero singular value (∞ for an empty or zero J).
+        sigma_min: Smallest nonzero singular value (∞ for an empty or zero J) [unit of J].
         damping: Largest λ_i used (0 when not damped).
+        fast: True when the fast path Jᵀ(JJᵀ)⁻¹ was taken.
     """
 
-    pinv: np.ndarray
-    null_projector: np.ndarray
-    rank: int
-    sigma_min: float
-    damping: float
+    __slots__ = ("_J", "_U", "_Vt", "_inv", "_null", "_pinv", "damping", "fast", "n", "rank", "sigma_min")
+
+    def __init__(self, J: np.ndarray, epsilon: float, max_damping: float, rcond: float) -> None:
+        fast, U, _, Vt, inv, rank, smin, damping = K.factor(J, epsilon, max_damping, rcond)
+        self._J, self._U, self._Vt, self._inv = J, U, Vt, inv
+        self.fast, self.rank, self.sigma_min, self.damping = bool(fast), int(rank), float(smin), float(damping)
+        self.n = int(J.shape[1])
+        self._pinv: np.ndarray | None = None
+        self._null: np.ndarray | None = None
 
     @property
     def damped(self) -> bool:
         """True when a direction was damped."""
         return self.damping > 0.0
 
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """J⁺_λ rhs for rhs of shape (m,) (minimum-norm, damped least squares), shape (n,)."""
+        if self._J.shape[0] == 0:
+            return np.zeros(self.n)
+        return K.solve_factored(
+            self.fast, self._J, self._U, self._inv, self._Vt, np.ascontiguousarray(rhs, dtype=float)
+        )
+
+    def null_project(self, z: np.ndarray) -> np.ndarray:
+        """P_n z = (I − V_r V_rᵀ) z, the projection of z (n,) on the null space of J (numerical rank r)."""
+        return K.null_project_factored(
+            self.fast, self._J, self._U, self._inv, self._Vt, self.rank, np.ascontiguousarray(z, dtype=float)
+        )
+
+    @property
+    def pinv(self) -> np.ndarray:
+        """J⁺ or J⁺_λ, shape (n, m) (formed on first access)."""
+        if self._pinv is None:
+            m = self._J.shape[0]
+            eye = np.eye(m)
+            self._pinv = np.column_stack([self.solve(eye[:, j]) for j in range(m)]) if m else np.zeros((self.n, 0))
+        return self._pinv
+
+    @property
+    def null_projector(self) -> np.ndarray:
+        """P_n = I − V_r V_rᵀ for the numerical rank, shape (n, n) (formed on first access)."""
+        if self._null is None:
+            eye = np.eye(self.n)
+            self._null = np.column_stack([self.null_project(eye[:, j]) for j in range(self.n)])
+        return self._null
+
+    def __repr__(self) -> str:
+        return (
+            f"PseudoInverse(n={self.n}, rank={self.rank}, sigma_min={self.sigma_min:.3g}, damping={self.damping:.3g})"
+        )
+
+
+def contiguous(J: np.ndarray) -> np.ndarray:
+    """J as a C-contiguous float array (one compiled specialisation of the kernels; no copy when it already is)."""
+    return np.ascontiguousarray(J, dtype=float)
+
 
 def pseudo_inverse(
     J: np.ndarray, *, epsilon: float = 1e-2, max_damping: float = 5e-2, rcond: float = RCOND
 ) -> PseudoInverse:
-    """Pseudo-inverse with this module's damping rule (and its fast path).
+    """Pseudo-inverse with this module's damping rule (and its fast path), factored but not formed.
 
     Args:
         J: Matrix (m, n).
@@ -161,16 +214,7 @@ def pseudo_inverse(
         rcond: Relative threshold of the numerical rank.
 
     Returns:
-        A :class:`PseudoInverse`.
+        A :class:`PseudoInverse` (``solve``/``null_project`` for the hot path; ``pinv``/``null_projector`` formed on
+        request).
     """
-    m, n = J.shape
-    if m == 0:
-        return PseudoInverse(np.zeros((n, 0)), _identity(n), 0, np.inf, 0.0)
-    if m <= n:
-        lam, U, info = lapack.dsyevd(J @ J.T)  # ascending eigenvalues of JJᵀ
-        if info == 0 and lam[-1] > 0 and lam[0] > _FAST_PATH_RCOND * lam[-1] and lam[0] >= epsilon * epsilon:
-            pinv = ((J.T @ U) / lam) @ U.T  # Jᵀ U Λ⁻¹ Uᵀ = Jᵀ(JJᵀ)⁻¹
-            return PseudoInverse(pinv, _identity(n) - pinv @ J, m, float(np.sqrt(lam[0])), 0.0)
-    d = damped_svd(J, epsilon=epsilon, max_damping=max_damping, rcond=rcond)
-    Vr = d.Vt[: d.rank]
-    return PseudoInverse(d.pinv, np.eye(n) - Vr.T @ Vr, d.rank, d.sigma_min, d.damping)
+    return PseudoInverse(contiguous(J), float(epsilon), float(max_damping), float(rcond))

@@ -14,7 +14,7 @@ import numpy as np
 from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver, StepResult, nonfinite_sources
-from redundik.resolvers.linalg import pseudo_inverse
+from redundik.resolvers.linalg import RCOND, K, contiguous
 from redundik.tasks.base import TaskTerm, stack_terms
 from redundik.tasks.stack import StackLayout, TaskStack
 
@@ -72,9 +72,16 @@ class PinvResolver(Resolver):
         layout = self._stack_layout(stack)
         J, V, z = main_system(robot, stack, terms, layout)
         t1 = time.perf_counter()
-        pi = pseudo_inverse(J, epsilon=self.epsilon, max_damping=self.max_damping)
-        dq_r = pi.pinv @ V
-        dq_n = pi.null_projector @ z if z is not None else np.zeros(robot.nv)
+        has_z = z is not None
+        dq_r, dq_n, rank, sigma_min, damping = K.closed_form(  # one compiled call: J⁺V and (I − J⁺J) z (5.8)
+            contiguous(J),
+            contiguous(V),
+            contiguous(z) if z is not None else V[:0].copy(),
+            has_z,
+            self.epsilon,
+            self.max_damping,
+            RCOND,
+        )
         dq = dq_r + dq_n
         fallback = None
         if not np.isfinite(dq).all():
@@ -87,11 +94,11 @@ class PinvResolver(Resolver):
             terms=terms,
             dq_rank=dq_r,
             dq_null=dq_n,
-            damped=pi.damped,
-            damping=pi.damping,
-            sigma_min=pi.sigma_min,
+            damped=damping > 0.0,
+            damping=float(damping),
+            sigma_min=float(sigma_min),
             fallback=fallback,
-            info={"sigma_min": pi.sigma_min, "rank": pi.rank},
+            info={"sigma_min": float(sigma_min), "rank": int(rank)},
             build_time=t1 - t0,
             solve_time=t2 - t1,
             main=layout.main,

@@ -1,5 +1,6 @@
 """The task API: tasks (J, V, e), potentials (p, η), barriers (h, H), typed subtasks, the stack, trajectories."""
 
+from redundik.tasks.balance import CoMTask, ContactTask, SupportPolygon
 from redundik.tasks.base import Barrier, BarrierTerm, Potential, Task, TaskTerm, stack_terms
 from redundik.tasks.coupling import JointCoupling
 from redundik.tasks.frame import AXIS_SETS, DEFAULT_HOLD_GAIN, FrameTask, PostureTask
@@ -26,6 +27,8 @@ __all__ = [
     "BoundSubtask",
     "Circle",
     "Clearance",
+    "CoMTask",
+    "ContactTask",
     "FrameTask",
     "GradientSubtask",
     "Hold",
@@ -42,6 +45,7 @@ __all__ = [
     "PotentialTask",
     "StackLayout",
     "Subtask",
+    "SupportPolygon",
     "TargetSubtask",
     "Task",
     "TaskStack",

@@ -160,8 +160,20 @@ class FrameTask(Task):
         return self._fid
 
     def reset(self, robot: RobotModel) -> None:
+        """Anchor the trajectory at the frame's current pose (a target set at run time is kept).
+
+        Raises:
+            TaskError: unknown frame, or a frame that no joint moves (its parent joint is the world: the task
+                could never be met).
+        """
         self._fid = None
-        pose = robot.frame_pose(self._frame_id(robot))
+        fid = self._frame_id(robot)
+        if robot.model.frames[fid].parentJoint == 0:
+            raise TaskError(
+                f"task '{self.name}': frame '{self.frame}' is fixed to the world (no joint moves it): a task on it can "
+                "never be met; choose a frame on a moving link"
+            )
+        pose = robot.frame_pose(fid)
         self.trajectory.start(pose)  # a Hold(pose) keeps its pose
         if self._pending_position is not None:
             self._hold(pin.SE3(np.array(pose.rotation), self._pending_position))

@@ -145,7 +145,9 @@ def plot(result: BenchResult, path: str | Path) -> Path:
     return p
 
 
-def write_all(result: BenchResult, out_dir: str | Path, command: str = "", json_path: str | Path | None = None) -> dict:
+def write_all(
+    result: BenchResult, out_dir: str | Path, command: str = "", json_path: str | Path | None = None
+) -> dict[str, Any]:
     """Write ``compare_resolvers.md``, ``.json`` and ``.png`` to ``out_dir`` (and the JSON to ``json_path``)."""
     from redundik.reporting.paths import safe_path
 

@@ -31,6 +31,7 @@ from __future__ import annotations
 import importlib.util
 import time
 from abc import ABC, abstractmethod
+from typing import Any
 
 import numpy as np
 
@@ -153,7 +154,7 @@ class ProxsuiteBackend(Backend):
 
         self._px = proxsuite.proxqp
         self.eps_abs, self.max_iter = float(eps_abs), int(max_iter)
-        self._cache: dict[tuple[int, int, int], object] = {}
+        self._cache: dict[tuple[int, int, int], Any] = {}  # proxsuite QP objects (untyped)
 
     def reset(self) -> None:
         self._cache.clear()
@@ -212,7 +213,7 @@ class QpsolversBackend(Backend):
         self._qps = qpsolvers
         self.solver = solver
         self.name = solver if solver == "osqp" else f"qpsolvers:{solver}"
-        self.settings = settings
+        self.settings: dict[str, Any] = dict(settings)
 
     def solve(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
         t0 = time.perf_counter()

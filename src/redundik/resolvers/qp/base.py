@@ -15,7 +15,7 @@ import numpy as np
 
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
-from redundik.resolvers.base import Resolver, StepResult, nonfinite_sources
+from redundik.resolvers.base import LazyStepResult, Resolver, StepResult, nonfinite_sources
 from redundik.resolvers.linalg import pseudo_inverse
 from redundik.resolvers.pinv import check_damping_options, main_system
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, make_backend
@@ -85,7 +85,8 @@ class QPDiagnostics:
         iterations: Backend iterations summed over them.
         sigma_min: Smallest nonzero singular value of the top level's (main-task) Jacobian.
         level_sigma_min: Per level, σ_min of its projected Jacobian (hqp).
-        level_residuals: Per level, its residual (:meth:`~.terms.Level.residual`) at the returned q̇.
+        level_residuals: Per level, its residual at the returned q̇
+            (:meth:`~redundik.resolvers.qp.terms.Level.residual`).
         damped_levels: Levels whose solve damped a direction.
         rank_loss_levels: Levels whose projected Jacobian lost rank while their own did not (algorithmic
             singularity).
@@ -217,21 +218,26 @@ class QPResolverBase(Resolver):
             x = np.zeros(robot.nv)
             diag.backend = "fallback"
         dq = box.clip(x)  # the limits hold whatever happened (solver tolerance, fallback); a new array
-        diag.active_limits = box.active(dq, self.limits.joint_names)
-        self._dq_prev = dq.copy()
-        self._diagnose(built, dq, diag)
+        dq_kept = dq.copy()
+        self._dq_prev = dq_kept
         t2 = time.perf_counter()
-        return StepResult(
+
+        def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
+            diag.active_limits = box.active(dq_kept, self.limits.joint_names)
+            self._diagnose(built, dq_kept, diag)
+            return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
+
+        res = LazyStepResult(
             dq=dq,
             terms=terms,
-            damped=bool(diag.damped_levels),
-            sigma_min=diag.sigma_min,
             fallback=fallback,
-            info=diag.as_info(),
+            info={"backend": diag.backend, "qp": diag.qp, "iterations": diag.iterations},
             build_time=t1 - t0,
             solve_time=t2 - t1,
             main=self.layout(stack).main,
         )
+        res.pending = diagnostics
+        return res
 
     def _solve_qp(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
         """The backend's answer; anything it raises (also a user backend's own exception) becomes SolverError."""
@@ -256,9 +262,9 @@ class QPResolverBase(Resolver):
         """The damped closed form J⁺V + (I − J⁺J)z on the main tasks and the null-space objective (the fallback)."""
         J, V, z = main_system(robot, stack, terms, self.layout(stack))
         pi = pseudo_inverse(J, epsilon=self.epsilon, max_damping=max(self.max_damping, 1e-3))
-        out = pi.pinv @ V
+        out = pi.solve(V)
         if z is not None:
-            out = out + pi.null_projector @ z
+            out = out + pi.null_project(z)
         return out
 
     def __repr__(self) -> str:

@@ -204,9 +204,9 @@ class JointLimits:
                     )
         lo[(np.abs(lo) >= _BIG) | (iq < 0)] = -np.inf
         hi[(np.abs(hi) >= _BIG) | (iq < 0)] = np.inf
-        bad = np.flatnonzero(lo > hi)
-        if bad.size:
-            k = int(bad[0])
+        crossed = np.flatnonzero(lo > hi)
+        if crossed.size:
+            k = int(crossed[0])
             raise ResolverError(f"limits: joint '{names[k]}': lower {lo[k]} > upper {hi[k]}")
         vmax[~(vmax > 0) | (vmax >= _BIG)] = np.inf
         if isinstance(self.acceleration, Mapping):
@@ -241,12 +241,15 @@ class JointLimits:
         return self._hi.copy()
 
     def box(self, robot: RobotModel, q: np.ndarray, dt: float, dq_prev: np.ndarray | None = None) -> LimitBox:
-        """Bounds on q̇ for a step dt [s] from q (see the module docstring)."""
+        """Bounds on q̇ for a step dt [s] from q (see the module docstring).
+
+        ``q`` may also be a stack of N configurations (N, nq): the bounds are then (N, nv) (batches).
+        """
         if self._robot_id != id(robot):
             self.bind(robot)
         vmax, nvmax = self._vmax, self._neg_vmax
         if self.position and self._pos_k.size:
-            qv = q[self._iq]
+            qv = q[..., self._iq]
             g = self.position_gain / dt
             with np.errstate(invalid="ignore"):  # inf − inf cannot occur: q is finite
                 pl = (self._lo - qv) * g  # ≤ 0 inside the range, −inf without a limit

@@ -24,10 +24,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg.lapack import dposv as _dposv
 
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
+from redundik.resolvers.linalg import K
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
 from redundik.resolvers.qp.limits import LimitBox
@@ -157,8 +157,9 @@ class WeightedQPResolver(QPResolverBase):
 
     def _resolve(self, built: WQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
         prob, box = built.problem, built.box
-        _, x, fail = _dposv(prob.P, -prob.q)  # Cholesky solve of the unconstrained optimum (P is SPD when λ > 0)
-        if not fail and box.contains(x, 1e-12) and not (prob.G.shape[0] and (prob.G @ x > prob.h + 1e-12).any()):
+        # the unconstrained optimum by Cholesky (P is SPD when λ > 0) and its box test, in one compiled call
+        x, _, inside = K.spd_solve_box(prob.P, prob.q, box.lb, box.ub, 1e-12)
+        if inside and not (prob.G.shape[0] and (prob.G @ x > prob.h + 1e-12).any()):
             return x, None
         diag.qp = 1
         try:

@@ -1,0 +1,148 @@
+"""Collision avoidance as a barrier (velocity damper, QP resolvers) and as a repulsive potential (``pinv``,
+``feedback``) — one object, two roles.
+
+**Barrier** (``BoundSubtask(CollisionAvoidance(...))`` in ``wqp`` and at any ``hqp`` level): one row per pair
+within the influence distance d_i, h = d − d_s ≥ 0 with the exact H = ∂d/∂q (:mod:`redundik.collision.world`) and
+the per-row gain γ = ξ/(d_i − d_s), so that the bound subtask's damper ḣ ≥ −γh is the velocity damper of
+Faverjon & Tournassoud (1987) as used by Kanoun, Lamiraux & Wieber (2011):
+
+    ḋ ≥ −ξ (d − d_s)/(d_i − d_s)     [m/s],  for d < d_i
+
+(pairs beyond d_i give no row). With a moving obstacle ḋ = H q̇ + ∂d/∂t, and ∂d/∂t = nᵀ v_obstacle is folded into
+h (h = d − d_s + (∂d/∂t)/γ), so the rows C q̇ ≤ γh are the damper on the total rate. The bound subtask caps γ at
+1/dt; choose ξ ≤ (d_i − d_s)/dt for the exact damper.
+
+**Potential** (``GradientSubtask(..., gain < 0)``): the repulsive penalty, quadratic inside the influence zone,
+
+    p(q) = ½ Σ_{d_j < d_i} ((d_i − d_j)/(d_i − d_s))²,    η = −Σ (d_i − d_j)/(d_i − d_s)² ∂d_j/∂q
+
+(dimensionless; C¹ at d = d_i), descended by a negative gain k in the null space of the main tasks: it pushes
+pairs apart but, as any null-space term, cannot override a main task that drives the robot into an obstacle.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from redundik.collision.world import CollisionWorld
+from redundik.errors import ModelError, TaskError
+from redundik.kinematics.model import RobotModel
+from redundik.tasks.base import Barrier, BarrierTerm, Potential, check_name, check_number
+
+
+@dataclass
+class CollisionReport:
+    """Diagnostics of one evaluation.
+
+    Attributes:
+        closest_pair: Name ``body1|body2`` of the closest pair.
+        distance: Its signed distance [m] (``inf`` without pairs).
+        active: Names of the pairs within the influence distance (the barrier's rows).
+        candidates: Number of candidate pairs checked.
+    """
+
+    closest_pair: str = ""
+    distance: float = math.inf
+    active: list[str] = field(default_factory=list)
+    candidates: int = 0
+
+
+class CollisionAvoidance(Barrier, Potential):
+    """Distance constraints / repulsion between the pairs of a :class:`CollisionWorld` (module docstring).
+
+    Args:
+        world: The collision world (robot shapes, obstacles, pairs).
+        influence: d_i [m] > d_s: pairs farther away are ignored.
+        safety: d_s [m] ≥ 0: the distance kept.
+        xi: ξ [m/s] > 0: the damper's approach speed at d = d_i.
+        name: Subtask name.
+
+    Raises:
+        TaskError: non-finite or out-of-range numbers (d_i ≤ d_s, ξ ≤ 0, d_s < 0).
+    """
+
+    def __init__(
+        self,
+        world: CollisionWorld,
+        *,
+        influence: float = 0.1,
+        safety: float = 0.01,
+        xi: float = 0.2,
+        name: str = "collision",
+    ) -> None:
+        if not isinstance(world, CollisionWorld):
+            raise TaskError(f"collision subtask: expected a CollisionWorld, got {type(world).__name__}")
+        self.name = check_name(name, "collision subtask")
+        self.world = world
+        self.safety = check_number(safety, f"subtask '{name}': safety (d_s) [m]", low=0.0)
+        self.influence = check_number(influence, f"subtask '{name}': influence (d_i) [m]", low=self.safety, strict=True)
+        self.xi = check_number(xi, f"subtask '{name}': xi [m/s]", low=0.0, strict=True)
+        self.report = CollisionReport()
+
+    @property
+    def gamma(self) -> float:
+        """γ = ξ/(d_i − d_s) [1/s]."""
+        return self.xi / (self.influence - self.safety)
+
+    def check(self, robot: RobotModel) -> None:
+        try:
+            self.world.check(robot)
+        except ModelError as exc:
+            raise TaskError(f"subtask '{self.name}': {exc}") from None
+
+    def _near(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(indices of the pairs within d_i, their distances, the full distance vector) and the report."""
+        dist = self.world.compute(robot, self.influence)
+        rows = dist.near
+        rep = self.report
+        rep.candidates = self.world.n_pairs
+        if dist.d.size:
+            k = int(np.argmin(dist.d))
+            rep.closest_pair, rep.distance = self.world.pair_names[k], float(dist.d[k])
+        else:
+            rep.closest_pair, rep.distance = "", math.inf
+        rep.active = [self.world.pair_names[k] for k in rows]
+        return rows, dist.d[rows], dist.d
+
+    # ------------------------------------------------------------------ barrier
+    def evaluate(self, robot: RobotModel) -> BarrierTerm:
+        """h = d − d_s (+ ∂d/∂t / γ), H = ∂d/∂q, γ = ξ/(d_i − d_s) for every pair within d_i."""
+        rows, d, _ = self._near(robot)
+        dist = self.world.compute(robot, self.influence)
+        H = self.world.jacobian(robot, dist, rows)
+        g = self.gamma
+        h = d - self.safety + dist.rate[rows] / g
+        names = [self.world.pair_names[k] for k in rows]
+        return BarrierTerm(h, H, names, np.full(len(rows), g))
+
+    # ------------------------------------------------------------------ potential
+    def value(self, robot: RobotModel) -> float:
+        """p = ½ Σ ((d_i − d)/(d_i − d_s))² over the pairs within d_i (dimensionless)."""
+        _, d, _ = self._near(robot)
+        s = (self.influence - d) / (self.influence - self.safety)
+        return float(0.5 * s @ s)
+
+    def gradient(self, robot: RobotModel) -> np.ndarray:
+        """η = −Σ (d_i − d)/(d_i − d_s)² ∂d/∂q, shape (nv,)."""
+        rows, d, _ = self._near(robot)
+        if not rows.size:
+            return np.zeros(robot.nv)
+        dist = self.world.compute(robot, self.influence)
+        H = self.world.jacobian(robot, dist, rows)
+        w = -(self.influence - d) / (self.influence - self.safety) ** 2
+        return np.asarray(w @ H)
+
+    def diagnostics(self, robot: RobotModel | None = None) -> CollisionReport:
+        """The closest pair, its distance and the active pairs (of the last evaluation, or at ``robot``'s state)."""
+        if robot is not None:
+            self._near(robot)
+        return self.report
+
+    def __repr__(self) -> str:
+        return (
+            f"CollisionAvoidance(name={self.name!r}, pairs={self.world.n_pairs}, influence={self.influence}, "
+            f"safety={self.safety}, xi={self.xi})"
+        )

@@ -1,0 +1,509 @@
+"""The collision world: the robot's fitted link shapes, obstacles (static or moving), the filtered pair list, and
+per-tick distances with witness points and their exact Jacobian.
+
+Distances come from coal (through Pinocchio's ``computeDistances``) on the primitives of
+:mod:`redundik.collision.geometry`; for every pair (body 1, body 2) coal gives the signed distance d, the nearest
+points p₁, p₂ (world frame) and the unit normal n with p₂ − p₁ = d n (also when penetrating, d < 0). The distance
+Jacobian is then exact (Faverjon & Tournassoud 1987; Kanoun, Lamiraux & Wieber 2011, eq. of the collision task):
+
+    ∂d/∂q = nᵀ (J_{p₂} − J_{p₁}),   J_p = J_v(joint) − [p − o_joint]× J_ω(joint)
+
+with the base-aligned (``LOCAL_WORLD_ALIGNED``) joint Jacobian at the joint origin o (rows v, ω): the velocity of
+the body point coinciding with p. Where the nearest points are unique (generic for strictly convex primitives)
+this is the true derivative; the tests check it against finite differences.
+
+Pair filtering (done once, at construction): pairs on the same joint or on adjacent joints (parent and child), the
+SRDF's ``disable_collisions`` (the Panda's and TALOS's ship with example-robot-data; MoveIt's "Adjacent", "Never",
+"Default" pairs), user-given pairs, pairs of two bodies that cannot move (both fixed to the world), and — with
+:meth:`CollisionWorld.exclude_colliding_at` — self pairs whose enclosing shapes already overlap at a reference
+configuration (they would be structural contacts of the approximation, not of the robot).
+"""
+
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import coal
+import numpy as np
+import pinocchio as pin
+
+from redundik.collision.geometry import approximate, load_collision_model
+from redundik.errors import ModelError
+from redundik.kinematics.model import RobotModel
+
+
+# ---------------------------------------------------------------------------------------------------- obstacles
+@dataclass(frozen=True)
+class Motion:
+    """A translational obstacle motion: offset(t) = v t + A ⊙ sin(2π f t + φ) [m] added to the obstacle's pose.
+
+    Attributes:
+        velocity: v [m/s], shape (3,).
+        amplitude: A [m], shape (3,).
+        frequency: f [Hz] ≥ 0.
+        phase: φ [rad].
+    """
+
+    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    amplitude: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    frequency: float = 0.0
+    phase: float = 0.0
+
+    def __post_init__(self) -> None:
+        vals = [*self.velocity, *self.amplitude, self.frequency, self.phase]
+        if len(self.velocity) != 3 or len(self.amplitude) != 3 or not all(math.isfinite(float(v)) for v in vals):
+            raise ModelError("obstacle motion: velocity and amplitude need 3 finite numbers, frequency/phase finite")
+        if self.frequency < 0:
+            raise ModelError(f"obstacle motion: frequency must be ≥ 0 [Hz], got {self.frequency}")
+
+    def offset(self, t: float) -> np.ndarray:
+        """Displacement at time t [s], shape (3,) [m]."""
+        w = 2 * math.pi * self.frequency
+        return np.asarray(self.velocity) * t + np.asarray(self.amplitude) * math.sin(w * t + self.phase)
+
+    def rate(self, t: float) -> np.ndarray:
+        """Velocity at time t [s], shape (3,) [m/s]."""
+        w = 2 * math.pi * self.frequency
+        return np.asarray(self.velocity) + np.asarray(self.amplitude) * w * math.cos(w * t + self.phase)
+
+
+#: Obstacle kinds and their size parameters.
+OBSTACLE_KINDS: dict[str, tuple[str, ...]] = {
+    "sphere": ("radius",),
+    "box": ("size",),
+    "capsule": ("radius", "length"),
+    "cylinder": ("radius", "length"),
+    "plane": (),
+    "mesh": ("path",),
+}
+
+
+def _positive(value: float, what: str, allow_zero: bool = False) -> float:
+    v = float(value)
+    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
+        raise ModelError(f"{what} must be a finite number {'≥' if allow_zero else '>'} 0 [m], got {value}")
+    return v
+
+
+def make_shape(
+    kind: str,
+    *,
+    radius: float | None = None,
+    length: float | None = None,
+    size: Sequence[float] | None = None,
+    path: str | Path | None = None,
+    scale: Sequence[float] = (1.0, 1.0, 1.0),
+) -> object:
+    """A coal shape for an obstacle of ``kind`` (see :data:`OBSTACLE_KINDS`); sizes in [m].
+
+    ``box`` takes full side lengths ``size`` (3,); ``capsule``/``cylinder`` a ``radius`` and the ``length`` of the
+    axis (along local z); ``plane`` is the half-space z ≤ 0 of its frame (solid below); ``mesh`` is a mesh file
+    (STL, OBJ, DAE) used through its convex hull.
+
+    Raises:
+        ModelError: unknown kind (lists them), a missing or non-positive size, a missing or unreadable mesh file.
+    """
+    if kind == "sphere":
+        return coal.Sphere(_positive(radius if radius is not None else -1, "sphere radius"))
+    if kind == "box":
+        if size is None or len(size) != 3:
+            raise ModelError("box: 'size' needs 3 side lengths [m]")
+        return coal.Box(*[_positive(s, "box size") for s in size])
+    if kind in ("capsule", "cylinder"):
+        r = _positive(radius if radius is not None else -1, f"{kind} radius")
+        ln = _positive(length if length is not None else -1, f"{kind} length", allow_zero=True)
+        return coal.Capsule(r, ln) if kind == "capsule" else coal.Cylinder(r, ln)
+    if kind == "plane":
+        return coal.Halfspace(np.array([0.0, 0.0, 1.0]), 0.0)
+    if kind == "mesh":
+        if path is None:
+            raise ModelError("mesh: 'path' (a mesh file) is required")
+        p = Path(path)
+        if not p.is_file():
+            raise ModelError(f"mesh file '{p}' does not exist")
+        sc = np.array([_positive(s, "mesh scale") for s in scale], dtype=float)
+        try:
+            bvh = coal.MeshLoader().load(str(p), sc)
+            if bvh.num_vertices < 4:
+                raise ValueError("fewer than 4 vertices")
+            bvh.buildConvexHull(True, "Qt")
+            return bvh.convex
+        except Exception as exc:
+            raise ModelError(
+                f"mesh file '{p}' could not be read: {str(exc).strip()[:120] or type(exc).__name__}"
+            ) from exc
+    raise ModelError(f"unknown obstacle type '{kind}'; available: {', '.join(OBSTACLE_KINDS)}")
+
+
+@dataclass
+class Obstacle:
+    """An environment obstacle fixed to the world, optionally moving (translation only).
+
+    Attributes:
+        name: Unique name (also the pair names of diagnostics).
+        shape: A coal shape (:func:`make_shape`).
+        placement: Pose in the world at t = 0.
+        motion: A :class:`Motion`, or ``None`` (static).
+    """
+
+    name: str
+    shape: object
+    placement: pin.SE3 = field(default_factory=pin.SE3.Identity)
+    motion: Motion | None = None
+
+    def __post_init__(self) -> None:
+        M = self.placement.homogeneous
+        if not np.all(np.isfinite(M)):
+            raise ModelError(f"obstacle '{self.name}': the pose contains NaN or infinite values")
+
+    def placement_at(self, t: float) -> pin.SE3:
+        """Pose at time t [s]."""
+        if self.motion is None:
+            return self.placement
+        return pin.SE3(self.placement.rotation, self.placement.translation + self.motion.offset(t))
+
+
+# ---------------------------------------------------------------------------------------------------- distances
+@dataclass
+class Distances:
+    """Every candidate pair at one instant (pair order of ``CollisionWorld.pair_names``).
+
+    Attributes:
+        d: Signed distances [m], shape (P,) (negative: penetration depth).
+        p1: Nearest points on body 1, world frame [m], shape (P, 3) (filled for :attr:`near` pairs only).
+        p2: Nearest points on body 2 [m], shape (P, 3) (idem).
+        n: Unit normals from body 1 to body 2, shape (P, 3) (idem).
+        rate: ∂d/∂t from moving obstacles [m/s], shape (P,) (idem).
+        near: Indices of the pairs whose witness points were read (d < the influence distance asked for).
+    """
+
+    d: np.ndarray
+    p1: np.ndarray
+    p2: np.ndarray
+    n: np.ndarray
+    rate: np.ndarray
+    near: np.ndarray
+
+
+def read_srdf_pairs(path: str | Path) -> list[tuple[str, str]]:
+    """The ``<disable_collisions link1= link2=>`` pairs of an SRDF file.
+
+    Raises:
+        ModelError: a missing or malformed file.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise ModelError(f"SRDF file '{p}' does not exist")
+    try:
+        root = ET.parse(p).getroot()
+    except ET.ParseError as exc:
+        raise ModelError(f"SRDF file '{p}' is not valid XML: {exc}") from exc
+    return [(e.get("link1", ""), e.get("link2", "")) for e in root.iter("disable_collisions")]
+
+
+def default_srdf(urdf: str | Path) -> Path | None:
+    """The SRDF example-robot-data ships beside a URDF (``../srdf/*.srdf``), or ``None``."""
+    folder = Path(urdf).resolve().parent.parent / "srdf"
+    if not folder.is_dir():
+        return None
+    files = sorted(folder.glob("*.srdf"))
+    stem = Path(urdf).stem.split("_")[0]
+    for f in files:
+        if f.stem == stem:
+            return f
+    return files[0] if files else None
+
+
+class CollisionWorld:
+    """Robot link shapes + obstacles + the filtered candidate pairs, with distances and distance Jacobians.
+
+    Args:
+        robot: The robot (its ``pin.Model`` must be the one ``robot_geometry`` was built for).
+        robot_geometry: One shape per link (:func:`~redundik.collision.geometry.approximate`).
+        obstacles: Environment obstacles.
+        self_collision: Include robot–robot pairs.
+        disabled: Link-name pairs never checked (an SRDF's, the user's).
+        obstacle_links: Links checked against obstacles (``None``: every moving link).
+        links: The links kept at all (``None``: every link with collision geometry), e.g. a humanoid's torso and arms.
+
+    Raises:
+        ModelError: unknown link names in ``disabled`` / ``obstacle_links`` (lists the links), repeated obstacle
+            names.
+    """
+
+    def __init__(
+        self,
+        robot: RobotModel,
+        robot_geometry: pin.GeometryModel,
+        obstacles: Sequence[Obstacle] = (),
+        *,
+        self_collision: bool = True,
+        disabled: Sequence[tuple[str, str]] = (),
+        obstacle_links: Sequence[str] | None = None,
+        links: Sequence[str] | None = None,
+    ) -> None:
+        self.model = robot.model
+        self.robot_name = robot.name
+        gm = pin.GeometryModel()
+        every = [go.name for go in robot_geometry.geometryObjects]
+        bad = [n for n in (links or ()) if n not in every]
+        if bad:
+            raise ModelError(
+                f"links: unknown link(s) {', '.join(map(repr, bad))}; links with collision geometry: {', '.join(every)}"
+            )
+        for go in robot_geometry.geometryObjects:
+            if links is not None and go.name not in links:
+                continue
+            gm.addGeometryObject(pin.GeometryObject(go.name, go.parentJoint, go.parentFrame, go.placement, go.geometry))
+        self.n_links = gm.ngeoms
+        self.link_names = [go.name for go in gm.geometryObjects]
+        names = [o.name for o in obstacles]
+        dup = sorted({n for n in names if names.count(n) > 1} | (set(names) & set(self.link_names)))
+        if dup:
+            raise ModelError(f"obstacle names must be unique and differ from the link names; repeated: {dup}")
+        self.obstacles = list(obstacles)
+        for ob in self.obstacles:
+            gm.addGeometryObject(pin.GeometryObject(ob.name, 0, 0, ob.placement, ob.shape))
+        self.geometry = gm
+        unknown = sorted({n for pair in disabled for n in pair} - set(every))
+        if unknown:
+            shown = ", ".join(map(repr, unknown))
+            raise ModelError(f"disabled pair: unknown link(s) {shown}; links: {', '.join(every)}")
+        if obstacle_links is not None:
+            self._check_links(obstacle_links, "obstacle_links")
+        off = {frozenset(p) for p in disabled}
+        parents = self.model.parents
+        pairs: list[tuple[int, int]] = []
+        objs = gm.geometryObjects
+        if self_collision:
+            for i in range(self.n_links):
+                for j in range(i + 1, self.n_links):
+                    ji, jj = objs[i].parentJoint, objs[j].parentJoint
+                    if ji == jj or parents[ji] == jj or parents[jj] == ji or (ji == 0 and jj == 0):
+                        continue
+                    if frozenset((self.link_names[i], self.link_names[j])) in off:
+                        continue
+                    pairs.append((i, j))
+        allowed = set(obstacle_links) if obstacle_links is not None else None
+        for i in range(self.n_links):
+            if objs[i].parentJoint == 0 or (allowed is not None and self.link_names[i] not in allowed):
+                continue
+            for k in range(len(self.obstacles)):
+                pairs.append((i, self.n_links + k))
+        self._set_pairs(pairs)
+        self.time = 0.0
+        self.excluded: list[str] = []
+        self._cache: tuple[tuple[int, float, float], np.ndarray] | None = None
+        self._dist: Distances | None = None
+
+    # ------------------------------------------------------------------ construction helpers
+    @classmethod
+    def from_urdf(
+        cls,
+        robot: RobotModel,
+        urdf: str | Path,
+        obstacles: Sequence[Obstacle] = (),
+        *,
+        approximation: str = "capsule",
+        srdf: str | Path | bool | None = True,
+        disabled: Sequence[tuple[str, str]] = (),
+        package_dirs: Sequence[str] | None = None,
+        self_collision: bool = True,
+        obstacle_links: Sequence[str] | None = None,
+        links: Sequence[str] | None = None,
+    ) -> CollisionWorld:
+        """Load the URDF's collision geometry, fit ``approximation`` shapes and filter pairs.
+
+        Args:
+            srdf: ``True``: the SRDF shipped beside the URDF if any; a path; ``False``/``None``: none.
+
+        Raises:
+            ModelError: missing URDF / mesh / SRDF, unknown approximation or link names.
+        """
+        raw = load_collision_model(robot.model, urdf, package_dirs)
+        shapes = approximate(robot.model, raw, approximation)
+        off = list(disabled)
+        srdf_path = default_srdf(urdf) if srdf is True else (None if srdf in (False, None) else Path(srdf))  # type: ignore[arg-type]
+        if srdf_path is not None:
+            off += read_srdf_pairs(srdf_path)
+        known = {go.name for go in shapes.geometryObjects}
+        bad = sorted({n for pair in disabled for n in pair} - known)
+        if bad:
+            raise ModelError(
+                f"disabled pair: unknown link(s) {', '.join(map(repr, bad))}; links with collision geometry: "
+                f"{', '.join(sorted(known))}"
+            )
+        off = [p for p in off if p[0] in known and p[1] in known]
+        return cls(
+            robot,
+            shapes,
+            obstacles,
+            self_collision=self_collision,
+            disabled=off,
+            obstacle_links=obstacle_links,
+            links=links,
+        )
+
+    def _check_links(self, names: Sequence[str], what: str) -> None:
+        bad = [n for n in names if n not in self.link_names]
+        if bad:
+            raise ModelError(
+                f"{what}: unknown link(s) {', '.join(repr(b) for b in bad)}; links with collision geometry: "
+                f"{', '.join(self.link_names)}"
+            )
+
+    def _set_pairs(self, pairs: list[tuple[int, int]]) -> None:
+        gm = self.geometry
+        gm.removeAllCollisionPairs()
+        for i, j in pairs:
+            gm.addCollisionPair(pin.CollisionPair(i, j))
+        self.pairs = list(pairs)
+        objs = gm.geometryObjects
+        self.pair_joints = [(int(objs[i].parentJoint), int(objs[j].parentJoint)) for i, j in pairs]
+        self.pair_names = [f"{objs[i].name}|{objs[j].name}" for i, j in pairs]
+        self._moving = {self.n_links + k for k, ob in enumerate(self.obstacles) if ob.motion is not None}
+        self.data = pin.GeometryData(gm)
+        for req in self.data.distanceRequests:
+            req.enable_signed_distance = True
+        self._cache = None
+
+    def exclude_colliding_at(self, robot: RobotModel, q: np.ndarray, threshold: float = 0.0) -> list[str]:
+        """Drop the self pairs closer than ``threshold`` [m] at ``q`` (structural overlaps of the approximation).
+
+        Returns:
+            The names of the dropped pairs (also kept in :attr:`excluded`).
+        """
+        robot.update(q)
+        dist = self.compute(robot)
+        keep, dropped = [], []
+        for k, (i, j) in enumerate(self.pairs):
+            if j < self.n_links and dist.d[k] < threshold:
+                dropped.append(self.pair_names[k])
+            else:
+                keep.append((i, j))
+        self._set_pairs(keep)
+        self.excluded += dropped
+        return dropped
+
+    # ------------------------------------------------------------------ time
+    def set_time(self, t: float) -> None:
+        """Move the moving obstacles to their pose at time t [s] (call before the tick at t)."""
+        t = float(t)
+        if not math.isfinite(t):
+            raise ModelError(f"collision world: time must be finite, got {t}")
+        self.time = t
+        for k, ob in enumerate(self.obstacles):
+            if ob.motion is not None:
+                self.geometry.geometryObjects[self.n_links + k].placement = ob.placement_at(t)
+
+    # ------------------------------------------------------------------ distances
+    @property
+    def n_pairs(self) -> int:
+        """Number of candidate pairs."""
+        return len(self.pairs)
+
+    def check(self, robot: RobotModel) -> None:
+        """Raise :class:`ModelError` unless ``robot`` is the robot this world was built for."""
+        if robot.model is not self.model:
+            raise ModelError(
+                f"collision world was built for robot '{self.robot_name}', not for '{robot.name}' (another model)"
+            )
+
+    def compute(self, robot: RobotModel, influence: float = math.inf) -> Distances:
+        """Distances of every pair at the robot's current (updated) state; witness points for d < ``influence``.
+
+        The broad phase is coal's own (bounding volumes of the primitives); this method keeps for the narrow data
+        (points, normals, Jacobians) only the pairs within ``influence`` [m]. Cached per kinematic update and time.
+        """
+        q = robot.q
+        if (
+            self._cache is not None
+            and self._cache[0] == (id(robot), self.time, influence)
+            and np.array_equal(self._cache[1], q)
+            and self._dist is not None
+        ):
+            return self._dist
+        pin.updateGeometryPlacements(self.model, robot.data, self.geometry, self.data)
+        pin.computeDistances(self.geometry, self.data)
+        results = self.data.distanceResults
+        P = len(self.pairs)
+        d = np.empty(P)
+        for k in range(P):
+            d[k] = results[k].min_distance
+        near = np.flatnonzero(d < influence)
+        p1, p2, nrm, rate = np.zeros((P, 3)), np.zeros((P, 3)), np.zeros((P, 3)), np.zeros(P)
+        for k in near.tolist():
+            r = results[k]
+            a, b = r.getNearestPoint1(), r.getNearestPoint2()
+            p1[k], p2[k] = a, b
+            diff = b - a
+            nd = math.sqrt(float(diff @ diff))
+            # p2 − p1 = d n (coal's convention, also when penetrating); coal's own normal where the points coincide
+            nrm[k] = diff / (nd if d[k] >= 0 else -nd) if nd > 1e-9 else r.normal
+            ib = self.pairs[k][1]
+            if ib in self._moving:
+                motion = self.obstacles[ib - self.n_links].motion
+                assert motion is not None
+                rate[k] = float(nrm[k] @ motion.rate(self.time))
+        self._dist = Distances(d, p1, p2, nrm, rate, near)
+        self._cache = ((id(robot), self.time, influence), q.copy())
+        return self._dist
+
+    def jacobian(self, robot: RobotModel, dist: Distances, rows: np.ndarray) -> np.ndarray:
+        """∂d/∂q of the pairs ``rows`` (pair indices), shape (k, nv) (module docstring).
+
+        Vectorised on the spatial (WORLD) Jacobian J^s of the last kinematic update: the velocity of the body point
+        at p is v_p = M_j ⊙ (J^s_v − [p]× J^s_ω) q̇ with M_j the columns of the joints supporting body j, so
+        nᵀ v_p = M_j ⊙ (nᵀJ^s_v + (p × n)ᵀ J^s_ω) — equal to the base-aligned form of the module docstring.
+        """
+        rows = np.asarray(rows, dtype=int)
+        if not rows.size:
+            return np.zeros((0, robot.nv))
+        Js = np.asarray(robot.data.J)  # (6, nv), spatial Jacobian in the world frame
+        n, p1, p2 = dist.n[rows], dist.p1[rows], dist.p2[rows]
+        ja, jb = self._pair_joint_arrays()
+        mask = self._joint_masks(robot)
+        A = n @ Js[:3]
+        out = mask[jb[rows]] * (A + np.cross(p2, n) @ Js[3:])
+        out -= mask[ja[rows]] * (A + np.cross(p1, n) @ Js[3:])
+        return out
+
+    def _pair_joint_arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        pj: tuple[np.ndarray, np.ndarray] | None = getattr(self, "_pj", None)
+        if pj is None or len(pj[0]) != len(self.pair_joints):
+            arr = np.array(self.pair_joints, dtype=int).reshape(-1, 2)
+            pj = (arr[:, 0].copy(), arr[:, 1].copy())
+            self._pj = pj
+        return pj
+
+    def _joint_masks(self, robot: RobotModel) -> np.ndarray:
+        """M[j, k] = 1 when velocity k belongs to a joint supporting joint j (M[0] = 0: the world), (njoints, nv)."""
+        if getattr(self, "_masks", None) is None:
+            m = self.model
+            owner = np.empty(m.nv, dtype=int)
+            for jid in range(1, m.njoints):
+                jm = m.joints[jid]
+                owner[jm.idx_v : jm.idx_v + jm.nv] = jid
+            masks = np.zeros((m.njoints, m.nv))
+            for jid in range(1, m.njoints):
+                masks[jid] = np.isin(owner, list(m.supports[jid]))
+            self._masks = masks
+        return self._masks
+
+    def closest(self, robot: RobotModel) -> tuple[str, float]:
+        """(pair name, distance [m]) of the closest pair at the robot's current state (``("", inf)`` if none)."""
+        if not self.pairs:
+            return "", math.inf
+        dist = self.compute(robot, influence=-math.inf)
+        k = int(np.argmin(dist.d))
+        return self.pair_names[k], float(dist.d[k])
+
+    def __repr__(self) -> str:
+        return (
+            f"CollisionWorld(robot={self.robot_name!r}, links={self.n_links}, obstacles={len(self.obstacles)}, "
+            f"pairs={self.n_pairs})"
+        )

@@ -1,0 +1,269 @@
+"""Batches: N independent pose problems on one robot model, resolved at once (``pinv`` and ``wqp``).
+
+Problem i is one control step from configuration q_i towards a target pose T_i of one frame, with the stack
+
+    [FrameTask(frame, target T_i, gain K, axes)]  +  [PostureTask(q_ref, gain K_p)]   (the null-space objective)
+
+exactly what :meth:`BatchResolver.loop_stack` builds for the one-by-one loop (:meth:`BatchResolver.solve_loop`).
+Vectorised over problems:
+
+* kinematics: one ``pinocchio.computeFrameJacobian`` per problem into preallocated (N, 6, nv) / (N, 4, 4) buffers;
+  pose errors e = (p_d − p, log(R_d Rᵀ)) for all N at once;
+* ``pinv``: q̇ = J⁺V + (I − J⁺J)z through :func:`redundik.resolvers.kernels.closed_form_batch` — the very kernel of
+  the single ``pinv`` step, problem by problem;
+* ``wqp``: P = w JᵀJ + ρ I + λ I and q = −w JᵀV − ρ z for all N (batched products), the unconstrained optimum and its
+  box test by :func:`redundik.resolvers.kernels.spd_solve_batch` (the kernel of the single ``wqp`` step), the
+  joint-limit boxes of all N by one call of :meth:`JointLimits.box` on a (N, nq) array. Only the problems whose
+  optimum leaves the box (a limit binds) call the QP backend — through the single-problem ``wqp`` step itself, so
+  they get exactly the loop's answer.
+
+Agreement with the loop: ≤ 1e-9 in q̇ (tested); the differences are rounding in the kinematics (Pinocchio's
+``computeFrameJacobian`` vs ``computeJointJacobians``) and in batched products.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import cast
+
+import numpy as np
+import pinocchio as pin
+
+from redundik.errors import ResolverError
+from redundik.kinematics.model import RobotModel
+from redundik.resolvers.base import Resolver
+from redundik.resolvers.linalg import RCOND, K
+from redundik.resolvers.pinv import PinvResolver
+from redundik.resolvers.qp.wqp import WeightedQPResolver
+from redundik.tasks.base import Task
+from redundik.tasks.frame import FrameTask, PostureTask, resolve_axes
+from redundik.tasks.stack import TaskStack
+
+_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+
+
+@dataclass
+class BatchResult:
+    """N resolved problems.
+
+    Attributes:
+        dq: Joint velocities q̇, shape (N, nv).
+        task_error: Norm of each problem's frame-task error before the step, shape (N,) [m and rad mixed].
+        qp: True where the QP backend was called (a limit bound), shape (N,) (all false for ``pinv``).
+        fallback: Per problem, why its step fell back (``None`` for none), only filled for problems run one by one.
+    """
+
+    dq: np.ndarray
+    task_error: np.ndarray
+    qp: np.ndarray
+    fallback: list[str | None] = field(default_factory=list)
+
+    @property
+    def qp_fraction(self) -> float:
+        """Fraction of the problems that needed the QP backend."""
+        return float(np.mean(self.qp)) if self.qp.size else 0.0
+
+
+def batch_log3(R: np.ndarray) -> np.ndarray:
+    """log(R) ∈ so(3) as rotation vectors for R of shape (N, 3, 3) [rad], shape (N, 3).
+
+    θ = acos((tr R − 1)/2), ω = θ/(2 sin θ)·(R₃₂ − R₂₃, R₁₃ − R₃₁, R₂₁ − R₁₂); near θ = 0 the series θ/(2 sin θ) ≈ ½ +
+    θ²/12; near θ = π the axis is taken from the diagonal (as ``pinocchio.log3``).
+    """
+    tr = np.clip((np.einsum("nii->n", R) - 1.0) * 0.5, -1.0, 1.0)
+    theta = np.arccos(tr)
+    vee = np.stack([R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]], axis=1)
+    s = np.sin(theta)
+    small = theta < 1e-4
+    k = np.where(small, 0.5 + theta**2 / 12.0, theta / (2.0 * np.where(small, 1.0, s)))
+    out = vee * k[:, None]
+    near_pi = np.pi - theta < 1e-6
+    for i in np.flatnonzero(near_pi):  # rare: the generic formula loses the axis
+        out[i] = pin.log3(R[i])
+    return out
+
+
+class BatchResolver:
+    """Resolve N pose problems at once with ``pinv`` or ``wqp`` (see the module docstring).
+
+    Args:
+        resolver: A :class:`PinvResolver` or :class:`WeightedQPResolver` (its options — damping, limits, level
+            ratio, backend — are the batch's).
+        robot: The robot model (one for all problems).
+        frame: The frame to place.
+        axes: Frame-task rows (``"pose"``, ``"position"``, …).
+        gain: K [1/s] of the frame task (v = K e).
+        posture_gain: K_p [1/s] of the posture task (0: no posture).
+        posture_target: q_ref (nq,); ``None``: each problem's own start configuration.
+
+    Raises:
+        ResolverError: a resolver other than pinv/wqp, wqp level overrides, or a frame the robot lacks.
+    """
+
+    def __init__(
+        self,
+        resolver: Resolver,
+        robot: RobotModel,
+        frame: str,
+        *,
+        axes: str = "pose",
+        gain: float = 1.0,
+        posture_gain: float = 1.0,
+        posture_target: np.ndarray | None = None,
+    ) -> None:
+        if type(resolver) not in (PinvResolver, WeightedQPResolver):
+            raise ResolverError(
+                f"batch: resolver {resolver!r} is not supported; batches take 'pinv' (PinvResolver) or 'wqp' "
+                "(WeightedQPResolver)"
+            )
+        if isinstance(resolver, WeightedQPResolver) and resolver.levels:
+            raise ResolverError("batch: wqp level overrides are not supported in a batch")
+        self.resolver, self.robot, self.frame = resolver, robot, frame
+        self.axes = resolve_axes(axes)
+        self.rows = np.array([("x", "y", "z", "rx", "ry", "rz").index(a) for a in self.axes])
+        self.gain, self.posture_gain = float(gain), float(posture_gain)
+        self.posture_target = None if posture_target is None else robot.check_configuration(posture_target)
+        self.fid = robot.frame_id(frame)
+        self._data = robot.model.createData()
+
+    # ------------------------------------------------------------------ the one-by-one reference
+    def loop_stack(self, q: np.ndarray, target: np.ndarray) -> TaskStack:
+        """The stack problem i means, for the loop: frame task towards ``target`` (4×4), posture (if any)."""
+        task = FrameTask(self.frame, axes=self.axes, gain=self.gain)
+        task.set_target(target)
+        tasks: list[Task] = [task]
+        if self.posture_gain > 0:
+            tasks.append(PostureTask(self.posture_target, gain=self.posture_gain))
+        return TaskStack(tasks)
+
+    def solve_loop(self, q: np.ndarray, targets: np.ndarray, dt: float) -> BatchResult:
+        """The same N problems one by one through ``resolver.step`` (the reference the batch must equal)."""
+        N = q.shape[0]
+        dq = np.empty((N, self.robot.nv))
+        err = np.empty(N)
+        used = np.zeros(N, dtype=bool)
+        notes: list[str | None] = []
+        stack = self.loop_stack(q[0], targets[0]) if N else TaskStack()
+        for i in range(N):
+            stack.tasks[0].set_target(targets[i])  # type: ignore[attr-defined]
+            if self.posture_gain > 0:
+                ref = q[i] if self.posture_target is None else self.posture_target
+                stack.tasks[1].set_target(ref)  # type: ignore[attr-defined]
+            self.robot.update(q[i])
+            if i == 0:
+                stack.reset(self.robot)
+            self.resolver.reset()  # independent problems: no previous q̇ (rate window), no warm start
+            res = self.resolver.step(self.robot, stack, q[i], 0.0, dt)
+            dq[i] = res.dq
+            err[i] = res.terms[0].error_norm
+            used[i] = bool(res.info.get("qp", 0))
+            notes.append(res.fallback)
+        return BatchResult(dq, err, used, notes)
+
+    # ------------------------------------------------------------------ the batch
+    def _kinematics(self, q: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(J (N, m, nv), e (N, m), posture error (N, nv)) at the N configurations."""
+        model, data, fid = self.robot.model, self._data, self.fid
+        N, nv = q.shape[0], self.robot.nv
+        J6 = np.empty((N, 6, nv))
+        M = np.empty((N, 4, 4))
+        for i in range(N):
+            J6[i] = pin.computeFrameJacobian(model, data, q[i], fid, _LWA)
+            M[i] = data.oMf[fid].homogeneous
+        e6 = np.empty((N, 6))
+        e6[:, :3] = targets[:, :3, 3] - M[:, :3, 3]
+        if np.any(self.rows >= 3):
+            e6[:, 3:] = batch_log3(targets[:, :3, :3] @ M[:, :3, :3].transpose(0, 2, 1))
+        else:
+            e6[:, 3:] = 0.0
+        if self.posture_gain > 0:
+            ref = q if self.posture_target is None else np.broadcast_to(self.posture_target, q.shape)
+            if self.robot.nq == nv:
+                ep = ref - q
+            else:
+                ep = np.stack([pin.difference(model, q[i], ref[i]) for i in range(N)])
+        else:
+            ep = np.zeros((N, nv))
+        return J6[:, self.rows], e6[:, self.rows], ep
+
+    def solve(self, q: np.ndarray, targets: np.ndarray, dt: float) -> BatchResult:
+        """Resolve the N problems (q (N, nq), targets (N, 4, 4)) for one step dt [s].
+
+        Raises:
+            ResolverError: shapes that do not match, non-finite inputs or dt ≤ 0.
+        """
+        q = np.ascontiguousarray(q, dtype=float)
+        targets = np.asarray(targets, dtype=float)
+        N = q.shape[0]
+        if q.ndim != 2 or q.shape[1] != self.robot.nq or targets.shape != (N, 4, 4):
+            raise ResolverError(
+                f"batch: expected q (N, {self.robot.nq}) and targets (N, 4, 4), got {q.shape} and {targets.shape}"
+            )
+        if not (np.isfinite(q).all() and np.isfinite(targets).all() and np.isfinite(dt) and dt > 0):
+            raise ResolverError("batch: q, targets and dt must be finite, dt > 0")
+        J, e, ep = self._kinematics(q, targets)
+        V = self.gain * e
+        z = self.posture_gain * ep
+        err = np.linalg.norm(e, axis=1)
+        r = self.resolver
+        if isinstance(r, PinvResolver):
+            dq_r, dq_n, _, _, _ = K.closed_form_batch(
+                np.ascontiguousarray(J), V, z, self.posture_gain > 0, r.epsilon, r.max_damping, RCOND
+            )
+            return BatchResult(dq_r + dq_n, err, np.zeros(N, dtype=bool), [None] * N)
+        return self._solve_wqp(cast(WeightedQPResolver, r), q, targets, J, V, z, e, err, dt)
+
+    def _solve_wqp(
+        self,
+        r: WeightedQPResolver,
+        q: np.ndarray,
+        targets: np.ndarray,
+        J: np.ndarray,
+        V: np.ndarray,
+        z: np.ndarray,
+        e: np.ndarray,
+        err: np.ndarray,
+        dt: float,
+    ) -> BatchResult:
+        N, nv = q.shape[0], self.robot.nv
+        has_posture = self.posture_gain > 0
+        scale = r.level_ratio if has_posture else 1.0  # ρ^(L−1): the lowest level's weight
+        Jt = J.transpose(0, 2, 1)  # (N, nv, m); the frame task's weight is 1 at level 0
+        P = Jt @ J
+        qv = -(Jt @ V[:, :, None])[:, :, 0]
+        idx = np.arange(nv)
+        if has_posture:
+            P[:, idx, idx] += scale
+            qv -= scale * z
+        lam = np.full(N, r.damping * scale)
+        if r.lm_damping:
+            lam += r.lm_damping * np.einsum("nm,nm->n", e, e)
+        P[:, idx, idx] += lam[:, None]
+        r.limits.bind(self.robot)
+        box = r.limits.box(self.robot, q, dt)  # (N, nv) bounds: one call for every problem
+        lb = np.ascontiguousarray(np.broadcast_to(box.lb, (N, nv)))
+        ub = np.ascontiguousarray(np.broadcast_to(box.ub, (N, nv)))
+        x, _, inside = K.spd_solve_batch(np.ascontiguousarray(P), qv, lb, ub, 1e-12)
+        dq = np.minimum(np.maximum(x, lb), ub)
+        notes: list[str | None] = [None] * N
+        bind = np.flatnonzero(~inside)
+        if bind.size:  # a limit binds: the single-problem step (its backend, its fallbacks), exactly as the loop
+            sub = self.solve_loop(q[bind], targets[bind], dt)
+            dq[bind] = sub.dq
+            for k, i in enumerate(bind):
+                notes[i] = sub.fallback[k]
+        used = ~inside
+        return BatchResult(dq, err, used, notes)
+
+
+def solve_batch(
+    resolver: Resolver,
+    robot: RobotModel,
+    frame: str,
+    q: np.ndarray,
+    targets: np.ndarray,
+    dt: float,
+    **options: object,
+) -> BatchResult:
+    """One call: :class:`BatchResolver` (``options``: axes, gain, posture_gain, posture_target) then ``solve``."""
+    return BatchResolver(resolver, robot, frame, **options).solve(q, targets, dt)  # type: ignore[arg-type]

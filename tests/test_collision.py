@@ -1,0 +1,224 @@
+"""Collision geometry, distances and their exact Jacobian, the damper in the QP resolvers, and the panda_shelf run."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+import coal
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from redundik.collision import (
+    CollisionAvoidance,
+    CollisionWorld,
+    Motion,
+    Obstacle,
+    fit_capsule,
+    make_shape,
+)
+from redundik.config import load_task
+from redundik.config.runner import run_task
+from redundik.errors import ConfigError, ModelError, TaskError
+from redundik.kinematics import example_robot_data_dir, load_example_robot
+from redundik.resolvers import make_resolver
+from redundik.tasks import BoundSubtask, FrameTask, GradientSubtask, PostureTask, TaskStack
+
+TASKS = Path(__file__).resolve().parents[1] / "tasks"
+PANDA_Q0 = np.array([0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398, 0.02, 0.02])
+
+
+@lru_cache(maxsize=1)
+def panda_world() -> tuple[object, CollisionWorld]:
+    robot = load_example_robot("panda")
+    urdf = example_robot_data_dir() / "panda_description/urdf/panda.urdf"
+    obstacles = [
+        Obstacle("post", make_shape("capsule", radius=0.03, length=1.0), pin.SE3(np.eye(3), np.array([0.3, 0.3, 0.5]))),
+        Obstacle("ball", make_shape("sphere", radius=0.05), pin.SE3(np.eye(3), np.array([0.45, -0.2, 0.4]))),
+    ]
+    return robot, CollisionWorld.from_urdf(robot, urdf, obstacles)
+
+
+def test_fitted_capsule_encloses_the_points() -> None:
+    rng = np.random.default_rng(0)
+    pts = rng.normal(size=(200, 3)) * [0.02, 0.03, 0.1] + [0.1, -0.2, 0.3]
+    fit = fit_capsule(pts)
+    cap = fit.shape
+    assert isinstance(cap, coal.Capsule)
+    local = (pts - fit.placement.translation) @ np.asarray(fit.placement.rotation)
+    z = np.clip(local[:, 2], -cap.halfLength, cap.halfLength)
+    dist = np.linalg.norm(local - np.column_stack([0 * z, 0 * z, z]), axis=1)
+    assert np.all(dist <= cap.radius + 1e-9)
+    assert cap.radius < 0.12  # tight along the short axes, not a bounding sphere of the cloud
+
+
+def test_panda_pairs_are_filtered_by_adjacency_and_srdf() -> None:
+    _robot, world = panda_world()
+    names = set(world.pair_names)
+    assert "panda_link3|panda_link4" not in names  # adjacent
+    assert "panda_link3|panda_hand" not in names and "panda_hand|panda_link3" not in names  # SRDF "Never"
+    assert "panda_link1|panda_link5" in names
+    assert "panda_link0|post" not in names  # a fixed link and a static obstacle cannot meet
+    assert "panda_hand|post" in names
+    assert 20 <= world.n_pairs <= 60
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_distance_jacobian_matches_finite_differences(seed: int) -> None:
+    robot, world = panda_world()
+    rng = np.random.default_rng(seed)
+    q = robot.random_configuration(rng)
+    robot.update(q)
+    dist = world.compute(robot, np.inf)
+    rows = np.arange(world.n_pairs)
+    H = world.jacobian(robot, dist, rows)
+    eps = 1e-6
+    fd = np.zeros_like(H)
+    for i in range(robot.nv):
+        dq = np.zeros(robot.nv)
+        dq[i] = eps
+        robot.update(pin.integrate(robot.model, q, dq))
+        dp = world.compute(robot, -np.inf).d.copy()
+        robot.update(pin.integrate(robot.model, q, -dq))
+        dm = world.compute(robot, -np.inf).d.copy()
+        fd[:, i] = (dp - dm) / (2 * eps)
+    np.testing.assert_allclose(H, fd, atol=1e-6)
+
+
+def test_barrier_rows_are_the_velocity_damper() -> None:
+    robot, world = panda_world()
+    avoid = CollisionAvoidance(world, influence=0.3, safety=0.02, xi=0.5)
+    robot.update(PANDA_Q0)
+    term = avoid.evaluate(robot)
+    dist = world.compute(robot, np.inf)
+    assert term.h.size == np.count_nonzero(dist.d < 0.3) > 0
+    np.testing.assert_allclose(term.gamma, 0.5 / (0.3 - 0.02))
+    C, d, _names = BoundSubtask(avoid).rows(robot, 0.01)
+    np.testing.assert_allclose(C, -term.H)
+    np.testing.assert_allclose(d, term.gamma * term.h)  # ḋ ≥ −ξ (d − d_s)/(d_i − d_s)
+    rep = avoid.diagnostics()
+    assert rep.closest_pair in world.pair_names and rep.distance == pytest.approx(float(dist.d.min()))
+    assert len(rep.active) == term.h.size
+
+
+def test_moving_obstacle_rate_is_folded_into_h() -> None:
+    robot = load_example_robot("panda")
+    urdf = example_robot_data_dir() / "panda_description/urdf/panda.urdf"
+    ball = Obstacle(
+        "ball",
+        make_shape("sphere", radius=0.05),
+        pin.SE3(np.eye(3), np.array([0.5, 0.0, 0.6])),
+        Motion(velocity=(-0.1, 0.0, 0.0)),
+    )
+    world = CollisionWorld.from_urdf(robot, urdf, [ball], self_collision=False)
+    avoid = CollisionAvoidance(world, influence=0.5, safety=0.0, xi=1.0)
+    robot.update(PANDA_Q0)
+    world.set_time(0.0)
+    d0 = world.compute(robot, np.inf).d.copy()
+    world.set_time(1e-4)
+    d1 = world.compute(robot, np.inf).d.copy()
+    world.set_time(0.0)
+    term = avoid.evaluate(robot)
+    k = [world.pair_names.index(n) for n in term.names]
+    rate = (d1 - d0)[k] / 1e-4
+    np.testing.assert_allclose(term.h, d0[k] + rate / avoid.gamma, atol=1e-5)
+    assert np.all(rate[rate != 0] < 0)  # the ball approaches
+
+
+@pytest.mark.parametrize("resolver", ["wqp", "hqp"])
+def test_qp_keeps_a_hand_driven_into_an_obstacle_outside(resolver: str) -> None:
+    robot, world = panda_world()
+    world.set_time(0.0)
+    avoid = CollisionAvoidance(world, influence=0.1, safety=0.01, xi=0.3)
+    hand = FrameTask("panda_hand", axes="position", gain=5.0)
+    hand.set_target([0.45, -0.2, 0.4])  # the centre of the ball
+    bound = BoundSubtask(avoid, priority=0 if resolver == "hqp" else None)
+    stack = TaskStack([hand, PostureTask(gain=1.0)], [bound])
+    res = make_resolver(resolver, **({"levels": {"panda_hand": 1}} if resolver == "hqp" else {}))
+    q = PANDA_Q0.copy()
+    dmin = np.inf
+    for k in range(150):
+        step = res.step(robot, stack, q, k * 0.01, 0.01)
+        q = robot.integrate(q, step.dq, 0.01)
+        robot.update(q)
+        dmin = min(dmin, world.closest(robot)[1])
+    assert dmin >= 0.0
+    assert dmin < 0.03  # it did go and press against the ball
+    assert world.closest(robot)[0] in {"panda_hand|ball", "panda_leftfinger|ball", "panda_rightfinger|ball"}
+
+
+def test_pinv_refuses_the_barrier_but_takes_the_repulsive_potential() -> None:
+    robot, world = panda_world()
+    avoid = CollisionAvoidance(world)
+    stack = TaskStack([FrameTask("panda_hand")], [BoundSubtask(avoid)])
+    with pytest.raises(Exception, match="bound subtask"):
+        make_resolver("pinv").step(robot, stack, PANDA_Q0, 0.0, 0.01)
+    stack = TaskStack([FrameTask("panda_hand")], [GradientSubtask(avoid, gain=-1.0)])
+    assert np.isfinite(make_resolver("pinv").step(robot, stack, PANDA_Q0, 0.0, 0.01).dq).all()
+
+
+def test_bad_parameters_raise() -> None:
+    _robot, world = panda_world()
+    with pytest.raises(TaskError, match="influence"):
+        CollisionAvoidance(world, influence=0.01, safety=0.02)
+    with pytest.raises(ModelError, match="radius must be a finite number > 0"):
+        make_shape("sphere", radius=-0.1)
+    with pytest.raises(ModelError, match="unknown obstacle type 'cone'; available"):
+        make_shape("cone")
+    with pytest.raises(ModelError, match=r"mesh file .* does not exist"):
+        make_shape("mesh", path="/nonexistent/x.stl")
+    with pytest.raises(ModelError, match="NaN"):
+        Obstacle("o", make_shape("sphere", radius=0.1), pin.SE3(np.eye(3), np.array([np.nan, 0, 0])))
+    other = load_example_robot("panda")
+    with pytest.raises(TaskError, match="built for robot"):
+        CollisionAvoidance(world).check(other)
+
+
+def _shelf(tmp_path: Path, **edit: object) -> dict:
+    import yaml
+
+    data = yaml.safe_load((TASKS / "panda_shelf.yaml").read_text())
+    data["robot"] = str(TASKS.parent / "configs/panda.yaml")
+    for key, value in edit.items():
+        node = data
+        *head, last = key.split("/")
+        for h in head:
+            node = node[h]
+        node[last] = value
+    return data
+
+
+@pytest.mark.parametrize(
+    ("edit", "match"),
+    [
+        ({"obstacles/post/radius": -0.03}, r"obstacles\.post\.radius: must be > 0"),
+        ({"obstacles/post/xyz": [0.1, float("nan"), 0.2]}, r"obstacles\.post\.xyz\[1\]"),
+        ({"obstacles/post": {"type": "mesh", "path": "missing.stl"}}, r"obstacles\.post\.path: mesh file"),
+        ({"obstacles/post": {"type": "box"}}, r"obstacles\.post: a box obstacle needs 'size'"),
+        ({"collision": {"disable": [["panda_link3", "panda_elbow"]]}}, r"collision\.disable: .*'panda_elbow'"),
+        ({"collision": {"obstacle_links": ["hand"]}}, r"collision\.obstacle_links: unknown link"),
+        ({"collision": {"approximation": "voxels"}}, r"collision\.approximation"),
+        ({"potentials/avoid": {"type": "collision", "influence": 0.01, "safety": 0.02}}, r"potentials\.avoid"),
+    ],
+)
+def test_bad_world_input_is_a_one_line_config_error(tmp_path: Path, edit: dict, match: str) -> None:
+    with pytest.raises(ConfigError, match=match) as info:
+        load_task(_shelf(tmp_path, **edit), base_dir=tmp_path)
+    assert "\n" not in str(info.value) and "Traceback" not in str(info.value)
+
+
+def test_panda_shelf_run() -> None:
+    plan = load_task(TASKS / "panda_shelf.yaml")
+    res = run_task(plan)
+    s = {name: r.summary for name, r in res.items()}
+    assert s["no_avoidance"]["min_collision_distance"] < -0.03  # the forearm goes through the post
+    assert s["no_avoidance"]["closest_pair"] == "panda_link5|post"
+    for name in ("pinv_repulsive", "wqp", "hqp"):
+        assert s[name]["min_collision_distance"] >= 0.0, name
+        assert s[name]["penetrating_samples"] == 0
+        assert s[name]["final_task_error"] < 1e-3, name  # the hand reaches the target in the bay
+    for name in ("wqp", "hqp"):
+        assert s[name]["min_collision_distance"] >= 0.005  # the damper keeps d ≥ d_s (1 cm) to first order
+        assert s[name]["max_active_pairs"] >= 1
+    assert "min_distance" in res["wqp"].series
