@@ -28,7 +28,8 @@ class BuildPyWithData(build_py):
             if not source.is_dir():  # building from an sdist that lacks them would ship no examples: refuse
                 raise SystemExit(f"setup.py: {source} is missing; the wheel must ship the example {folder}")
             target = Path(self.build_lib) / "redundik" / "_data" / folder
-            target.mkdir(parents=True, exist_ok=True)
+            shutil.rmtree(target, ignore_errors=True)  # a file removed from the checkout must not linger in build/
+            target.mkdir(parents=True)
             for file in sorted(source.glob(pattern)):
                 shutil.copy2(file, target / file.name)
 
