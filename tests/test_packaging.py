@@ -94,14 +94,27 @@ print(__import__("json").dumps({"errors": out, "loaded": loaded}))
     assert len(res["errors"]) == 8 and max(res["errors"].values()) < 5e-3, res["errors"]
 
 
-def test_missing_example_robot_data_says_which_extra(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+@pytest.fixture
+def no_example_robot_data(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """example-robot-data's URDFs cannot be found (the module's view of sys.path and sys.prefix is empty)."""
+    import types
+
     from redundik.kinematics import urdf
 
-    monkeypatch.setattr(urdf.sys, "path", [str(tmp_path)])
-    monkeypatch.setattr(urdf.sys, "prefix", str(tmp_path))
+    monkeypatch.setattr(
+        urdf, "sys", types.SimpleNamespace(path=[str(tmp_path)], prefix=str(tmp_path), stderr=sys.stderr)
+    )
     monkeypatch.delenv("EXAMPLE_ROBOT_DATA_MODEL_DIR", raising=False)
+
+
+@pytest.mark.usefixtures("no_example_robot_data")
+def test_missing_example_robot_data_says_which_extra(cli) -> None:  # type: ignore[no-untyped-def]
+    from redundik.kinematics import urdf
+
     with pytest.raises(MissingDependencyError, match=r"pip install 'redundik\[robots\]'"):
         urdf.load_example_robot("panda")
+    code, _, err = cli("validate", TASKS / "panda_circle.yaml")  # through the config layer: still exit code 5
+    assert code == 5 and err.startswith("error: loading an example robot") and "redundik[robots]" in err, err
 
 
 def test_missing_matplotlib_says_which_extra(monkeypatch: pytest.MonkeyPatch) -> None:
