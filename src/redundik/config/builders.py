@@ -1,8 +1,11 @@
 """Typed YAML entries (``type: ...``) → core objects: main tasks, trajectories, potentials, monitors.
 
-Each registry maps a ``type`` name to a pydantic model and a builder. Builders check everything that needs the
-robot (frame and joint names, vector lengths) and raise :class:`~redundik.errors.ConfigError` with the key path.
-New types are added with :func:`register_potential`, :func:`register_task` or :func:`register_trajectory`.
+The registries (:data:`TASKS`, :data:`TRAJECTORIES`, :data:`POTENTIALS`, :data:`MONITORS`) map a ``type`` name
+to a model and a builder; the checks here (frame and joint names, axes, vector lengths) raise
+:class:`~redundik.errors.ConfigError` with the key path. Types are registered from the library's constructors by
+:func:`redundik.config.registry.register` (the library's own in :mod:`redundik.config.types`); a hand-written model
+and builder can still be added with :func:`register_potential`, :func:`register_task` or
+:func:`register_trajectory`.
 """
 
 from __future__ import annotations

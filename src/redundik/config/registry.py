@@ -370,8 +370,7 @@ def register(
     return entry
 
 
-#: Positive / non-negative bounds used by several registrations.
+#: The bound ``> 0``, used by several registrations.
 POSITIVE: dict[str, Any] = {"gt": 0}
-NON_NEGATIVE: dict[str, Any] = {"ge": 0}
 #: A 3-vector, optional.
 OptVec3 = Annotated[list[float], Field(min_length=3, max_length=3)] | None
