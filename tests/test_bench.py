@@ -112,7 +112,7 @@ def test_cli_bench_writes_the_json(tmp_path: Path) -> None:
 
 
 def test_cli_rejects_unknown_robot(capsys: pytest.CaptureFixture[str]) -> None:
-    assert cli_main(["bench", "--quick", "--robots", "icub"]) == 2
+    assert cli_main(["bench", "--quick", "--robots", "icub"]) == 3
     assert "unknown robots ['icub']" in capsys.readouterr().err
     with pytest.raises(ConfigError, match="methods"):
         BenchConfig(methods=("ik",)).check()

@@ -20,7 +20,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable
 from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -37,7 +37,7 @@ STABLE_GAIN_DT = 2.0
 #: nv = 38, toggling the BLAS pool cost more, +20 µs, than it saved).
 BLAS_LIMIT_NV = 64
 _USER_CHOSE_THREADS = any(os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"))
-_CONTROLLER: object | None = None
+_CONTROLLER: Any = None  # threadpoolctl.ThreadpoolController (untyped), built on first use
 
 
 def _blas_threads(n: int) -> AbstractContextManager[object]:
@@ -47,7 +47,7 @@ def _blas_threads(n: int) -> AbstractContextManager[object]:
 
     if _CONTROLLER is None:
         _CONTROLLER = ThreadpoolController()
-    return _CONTROLLER.limit(limits=n, user_api="blas")  # type: ignore[attr-defined]
+    return _CONTROLLER.limit(limits=n, user_api="blas")
 
 
 @dataclass
@@ -121,7 +121,7 @@ class LazyInfo(dict):  # type: ignore[type-arg]
             self._fill()
         return dict.__getitem__(self, key)
 
-    def get(self, key: str, default: object = None) -> object:  # type: ignore[override]
+    def get(self, key: str, default: object = None) -> object:
         if self._pending is not None and not dict.__contains__(self, key):
             self._fill()
         return dict.get(self, key, default)
@@ -151,7 +151,7 @@ class LazyInfo(dict):  # type: ignore[type-arg]
         self._fill()
         return dict.items(self)
 
-    def copy(self) -> dict[str, object]:  # type: ignore[override]
+    def copy(self) -> dict[str, object]:
         self._fill()
         return dict(dict.items(self))
 
@@ -159,7 +159,7 @@ class LazyInfo(dict):  # type: ignore[type-arg]
         self._fill()
         return dict.__eq__(self, other)
 
-    __hash__ = None  # type: ignore[assignment]
+    __hash__ = None
 
     def __repr__(self) -> str:
         self._fill()
@@ -187,7 +187,7 @@ class LazyStepResult(StepResult):
                 info._pending = None
             dict.update(info, extra)
 
-    @property  # type: ignore[override]
+    @property
     def sigma_min(self) -> float:
         self._resolve()
         return self.__dict__.get("_sigma_min", math.inf)
@@ -196,7 +196,7 @@ class LazyStepResult(StepResult):
     def sigma_min(self, value: float) -> None:
         self.__dict__["_sigma_min"] = value
 
-    @property  # type: ignore[override]
+    @property
     def damped(self) -> bool:
         self._resolve()
         return self.__dict__.get("_damped", False)
@@ -205,7 +205,7 @@ class LazyStepResult(StepResult):
     def damped(self, value: bool) -> None:
         self.__dict__["_damped"] = value
 
-    @property  # type: ignore[override]
+    @property
     def info(self) -> dict[str, object]:
         return self.__dict__["_info"]
 
@@ -241,7 +241,7 @@ class Resolver(ABC):
 
     _checked: tuple[int, ...] | None = None
     _watch: DivergenceWatch | None = None
-    _gain_members: tuple[tuple, tuple] = ((), ())
+    _gain_members: tuple[tuple[Any, ...], tuple[Any, ...]] = ((), ())
     #: BLAS threads inside a step: an int, or ``None`` to leave the process's setting alone. The default ``"auto"``
     #: limits BLAS to one thread for robots with nv ≥ :data:`BLAS_LIMIT_NV` = 64 (threaded products on small matrices
     #: stall on busy cores) unless the user set ``OMP_NUM_THREADS``/``OPENBLAS_NUM_THREADS``/``MKL_NUM_THREADS``.

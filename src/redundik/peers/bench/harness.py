@@ -248,7 +248,9 @@ def _detail(a: CaseResult | None, b: CaseResult | None) -> str:
 
 
 # ---------------------------------------------------------------------------------------------------------- building
-def build_cases(config: BenchConfig, log: Callable[[str], None] = print) -> tuple[list[Runner], list[str], dict]:
+def build_cases(
+    config: BenchConfig, log: Callable[[str], None] = print
+) -> tuple[list[Runner], list[str], dict[str, Any]]:
     """One runner per (robot, method, backend) that can run here; the rest is listed as skipped with why."""
     runners: list[Runner] = []
     skipped: list[str] = []

@@ -152,7 +152,9 @@ def ratio_lines(result: BenchResult) -> list[str]:
 
 def plot(result: BenchResult, path: str | Path) -> Path:
     """Horizontal bars of the median step time (p90 as whisker), one panel per robot, log scale; PNG."""
-    import matplotlib
+    from redundik._extras import require
+
+    matplotlib = require("matplotlib", "plotting")
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -181,7 +183,9 @@ def plot(result: BenchResult, path: str | Path) -> Path:
     return p
 
 
-def write_all(result: BenchResult, out_dir: str | Path, command: str = "", json_path: str | Path | None = None) -> dict:
+def write_all(
+    result: BenchResult, out_dir: str | Path, command: str = "", json_path: str | Path | None = None
+) -> dict[str, Any]:
     """Write ``compare_resolvers.md``, ``.json`` and ``.png`` to ``out_dir`` (and the JSON to ``json_path``)."""
     from redundik.reporting.paths import safe_path
 

@@ -22,6 +22,7 @@ from redundik.peers.bench.scenarios import POSTURE_GAIN, POSTURE_WEIGHT, Scenari
 from redundik.resolvers.base import Resolver
 from redundik.resolvers.registry import make_resolver
 from redundik.tasks.base import Potential, Task, TaskTerm
+from redundik.tasks.frame import FrameTask
 from redundik.tasks.stack import TaskStack
 from redundik.tasks.subtasks import Subtask
 
@@ -274,7 +275,8 @@ class _PeerRunner(Runner):
         super().__init__(scenario)
         self.backend = backend
         self.robot = scenario.robot()  # helper model for the adapters' gradients
-        self.refs = scenario.frame_tasks(gain=0.0)  # the references, sampled at t + dt
+        # the references, sampled at t + dt
+        self.refs = [t for t in scenario.frame_tasks(gain=0.0) if isinstance(t, FrameTask)]
         self._build()
         self._restart()
 

@@ -40,6 +40,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -132,11 +133,11 @@ class Scenario:
     monitor_label: str
     urdf: tuple[str, bool] | None = None
     posture: bool = True
-    peer_potential: tuple[Callable[[], Potential], dict] | None = None
+    peer_potential: tuple[Callable[[], Potential], dict[str, Any]] | None = None
     error_tolerance: float = ERROR_TOLERANCE
     stacks: dict[str, Callable[[RobotModel], TaskStack]] = field(default_factory=dict)
 
-    def frame_tasks(self, gain: float | None = None) -> list[FrameTask]:
+    def frame_tasks(self, gain: float | None = None) -> list[Task]:
         """Fresh frame tasks with gain K = 1/dt (or ``gain``)."""
         k = 1.0 / self.dt if gain is None else gain
         return [FrameTask(f.frame, f.trajectory(), axes=f.axes, gain=k, name=f.frame) for f in self.frames]

@@ -17,8 +17,10 @@ no third-party exception leaks into a control loop.
   (its default 1e-5 gives answers up to ~1 off the active-set ones on ill-conditioned steps) and the infeasibility
   thresholds to 1e-10 (the default 1e-4 declared a plainly feasible 1-variable, 14-row level QP infeasible), with
   the duality-gap check on (without it a "solved" answer was 1e-5 off on a 2-variable QP).
-* ``osqp``: ADMM through qpsolvers with ``eps_abs = eps_rel = 1e-8``, polishing and warm start; the slowest and
-  least accurate here (kept for comparison and for very large sparse problems).
+* ``osqp``: ADMM through qpsolvers with ``eps_abs = eps_rel = 1e-8`` and warm start, polishing off (OSQP prints
+  "Polishing not needed" on stdout, whatever ``verbose`` says, whenever no constraint is active; the tolerances
+  already meet :data:`TOLERANCE`); the slowest and least accurate here (kept for comparison and for very large
+  sparse problems).
 * ``qpsolvers:NAME``: any other solver qpsolvers knows, through ``qpsolvers.solve_problem``.
 
 The tolerances in :data:`TOLERANCE` are what the tests hold each backend to (largest |x − x_ref| on well-scaled
@@ -30,6 +32,7 @@ from __future__ import annotations
 import importlib.util
 import time
 from abc import ABC, abstractmethod
+from typing import Any
 
 import numpy as np
 
@@ -269,7 +272,7 @@ class ProxsuiteBackend(Backend):
 
         self._px = proxsuite.proxqp
         self.eps_abs, self.max_iter, self.max_iter_in = float(eps_abs), int(max_iter), int(max_iter_in)
-        self._cache: dict[tuple[int, int, int], object] = {}
+        self._cache: dict[tuple[int, int, int], Any] = {}  # proxsuite QP objects (untyped)
 
     def reset(self) -> None:
         self._cache.clear()
@@ -338,7 +341,7 @@ class QpsolversBackend(Backend):
         self._qps = qpsolvers
         self.solver = solver
         self.name = solver if solver == "osqp" else f"qpsolvers:{solver}"
-        self.settings = settings
+        self.settings: dict[str, Any] = dict(settings)
 
     def solve(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
         t0 = time.perf_counter()
@@ -370,7 +373,7 @@ class OsqpBackend(QpsolversBackend):
 
     def __init__(self) -> None:
         super().__init__(
-            "osqp", eps_abs=1e-8, eps_rel=1e-8, polishing=True, max_iter=20000, verbose=False, raise_error=False
+            "osqp", eps_abs=1e-8, eps_rel=1e-8, polishing=False, max_iter=20000, verbose=False, raise_error=False
         )
 
     def solve(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
@@ -445,6 +448,7 @@ def make_backend(name: str | Backend = DEFAULT_BACKEND) -> Backend:
         )
     if not _installed(name):
         raise SolverError(
-            f"QP backend '{name}' is not installed (pip install {_MODULES[name][1]}); installed: {available_backends()}"
+            f"QP backend '{name}' is not installed (pip install 'redundik[backends]', or pip install "
+            f"{_MODULES[name][1]}); installed: {available_backends()}"
         )
     return _FACTORIES[name]()

@@ -206,9 +206,9 @@ class JointLimits:
                     )
         lo[(np.abs(lo) >= _BIG) | (iq < 0)] = -np.inf
         hi[(np.abs(hi) >= _BIG) | (iq < 0)] = np.inf
-        bad = np.flatnonzero(lo > hi)
-        if bad.size:
-            k = int(bad[0])
+        crossed = np.flatnonzero(lo > hi)
+        if crossed.size:
+            k = int(crossed[0])
             raise ResolverError(f"limits: joint '{names[k]}': lower {lo[k]} > upper {hi[k]}")
         vmax[~(vmax > 0) | (vmax >= _BIG)] = np.inf
         if isinstance(self.acceleration, Mapping):
