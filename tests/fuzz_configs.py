@@ -230,7 +230,7 @@ def check(mutant: Mutant, work: Path, tally: Tally) -> None:
         rcode, _, rerr, rsecs = _cli(["run", str(f), "--out", str(out), "--no-figures", "--quiet"], 30.0)
         tally.calls += 1
         ran = _judge(mutant, tally, rcode, rerr, rsecs, 30.0)
-        load_time = rcode == 2 and "diverged" not in rerr and not rerr.startswith("error: rk45 failed")
+        load_time = rcode == 3
         if valid and load_time:
             tally.bad("mismatch", mutant, f"validate ok, run failed at load: {rerr.strip()}")
         if not valid and ran:
@@ -262,10 +262,10 @@ def _judge(mutant: Mutant, tally: Tally, code: int | None, err: str, secs: float
     if code == -1:
         tally.bad("hangs", mutant, f"> {limit} s")
         return False
-    if code is None or code not in (0, 2) or "Traceback" in err:
+    if code is None or code not in (0, 3, 4) or "Traceback" in err:
         tally.bad("tracebacks", mutant, err.strip().splitlines()[-1] if err.strip() else f"exit {code}")
         return False
-    if code == 2:
+    if code in (3, 4):  # invalid input, run failure
         tally.clean_errors += 1
         if err.count("\n") != 1 or not err.startswith("error: "):
             tally.bad("multiline", mutant, err)

@@ -110,7 +110,7 @@ def test_validate_refuses_in_one_line_under_a_second(
     start = time.perf_counter()
     code, out, err = cli("validate", path)
     elapsed = time.perf_counter() - start
-    assert code == 2, (out, err)
+    assert code == 3, (out, err)  # invalid input
     assert out == ""
     assert err.startswith("error: ") and err.count("\n") == 1, err
     assert len(err) < 1100 and "Traceback" not in err
@@ -173,7 +173,7 @@ def test_run_with_a_path_as_run_name_writes_nothing(
     (work / "task.yaml").write_text(text, encoding="utf-8")
     before = _tree(tmp_path)
     code, _, err = cli("run", "task.yaml", "--no-figures", "--quiet")
-    assert code == 2 and err.count("\n") == 1
+    assert code == 3 and err.count("\n") == 1
     assert _tree(tmp_path) == before
 
 
@@ -185,7 +185,7 @@ def test_run_output_symlinked_outside_is_refused(cli: Callable[..., tuple[int, s
     task = tmp_path / "t.yaml"
     task.write_text(TASK.replace("steps: 500", "steps: 3"), encoding="utf-8")
     code, _, err = cli("run", task, "--out", out, "--no-figures", "--quiet", "--runs", "rank_only")
-    assert code == 2 and "outside the output folder" in err
+    assert code == 3 and "outside the output folder" in err
     assert list(outside.iterdir()) == [] and not (out / "summary.json").exists()
 
 
@@ -195,10 +195,10 @@ def test_parallel_outputs_go_through_safe_path(cli: Callable[..., tuple[int, str
     outside.mkdir()
     (out / "joint_profiles.png").symlink_to(outside / "x.png")
     code, _, err = cli("hybrid33", "path", CONFIGS / "hybrid33_rect.yaml", "--out", out)
-    assert code == 2 and "outside the output folder" in err
+    assert code == 3 and "outside the output folder" in err
     assert list(outside.iterdir()) == []
     code, _, err = cli("stewart", "draw", CONFIGS / "stewart33.yaml", "--p", "0", "0", "2", "--out", out / "..png")
-    assert code == 2 and "not a safe name" in err
+    assert code == 3 and "not a safe name" in err
 
 
 # ------------------------------------------------------------------------------------------------ overflow in a run
@@ -210,7 +210,7 @@ def test_overflow_stops_the_run_with_one_line(
     task.write_text(TASK.replace(*change).replace("steps: 500", "steps: 20"), encoding="utf-8")
     assert cli("validate", task)[0] == 0
     code, _, err = cli("run", task, "--out", tmp_path / "out", "--no-figures", "--quiet", "--runs", "rank_null")
-    assert code == 2 and err.count("\n") == 1 and "diverged" in err
+    assert code == 4 and err.count("\n") == 1 and "diverged" in err  # run failure
     assert not (tmp_path / "out" / "summary.json").exists()
 
 
@@ -239,7 +239,7 @@ def test_urdf_chatter_does_not_reach_the_terminal(tmp_path: Path) -> None:
     proc = subprocess.run(
         [sys.executable, "-m", "redundik.cli.main", "validate", str(task)], capture_output=True, text=True, env=env
     )
-    assert proc.returncode == 2
+    assert proc.returncode == 3
     assert proc.stderr.count("\n") == 1 and proc.stderr.startswith("error: robot.urdf: could not parse URDF"), (
         proc.stderr
     )
@@ -269,5 +269,5 @@ def test_overflowing_torque_monitor_stops_the_run(cli: Callable[..., tuple[int, 
     task = tmp_path / "t.yaml"
     task.write_text(yaml.safe_dump(data), encoding="utf-8")
     code, _, err = cli("run", task, "--out", tmp_path / "out", "--no-figures", "--quiet")
-    assert code == 2 and err.count("\n") == 1 and "monitor" in err and "diverged" in err, err
+    assert code == 4 and err.count("\n") == 1 and "monitor" in err and "diverged" in err, err
     assert not (tmp_path / "out" / "summary.json").exists()

@@ -63,10 +63,7 @@ def test_overrides_and_errors_name_the_joint() -> None:
 def test_free_flyer_coordinates_carry_no_position_limits() -> None:
     from redundik.kinematics.urdf import EXAMPLE_ROBOTS, example_robot_data_dir
 
-    try:
-        path = example_robot_data_dir() / EXAMPLE_ROBOTS["panda"][0]
-    except rk.ModelError as exc:  # optional data not installed
-        pytest.skip(f"example-robot-data not available: {exc}")
+    path = example_robot_data_dir() / EXAMPLE_ROBOTS["panda"][0]  # example-robot-data: in the test extra
     robot = rk.from_urdf(path, free_flyer=True)
     lim = JointLimits()
     lim.bind(robot)

@@ -60,6 +60,10 @@ def test_lint_is_clean() -> None:
         [ruff, "check", "src", "tests", "benchmarks", "examples"], cwd=root, capture_output=True, text=True
     )
     assert out.returncode == 0, out.stdout[-3000:]
+    out = subprocess.run(
+        [ruff, "format", "--check", "src", "tests", "benchmarks", "examples"], cwd=root, capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stdout[-3000:]  # ruff is pinned in the test extra, so this cannot drift
 
 
 def test_usage_error_is_one_message_not_a_traceback() -> None:

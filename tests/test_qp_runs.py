@@ -44,13 +44,7 @@ def panda(tmp_path_factory: pytest.TempPathFactory) -> dict[str, RunResult]:
     data["duration"] = 1.0  # half a circle: the joint-1 stop is reached after ~0.3 s
     path = tmp_path_factory.mktemp("panda") / "panda_short.yaml"
     path.write_text(yaml.safe_dump(data, sort_keys=False, allow_unicode=True), encoding="utf-8")
-    try:
-        plan = load_task(path)
-    except Exception as exc:  # the Panda URDF comes from the optional example-robot-data package
-        if "example-robot-data" in str(exc):
-            pytest.skip(f"example-robot-data not installed: {exc}")
-        raise
-    return run_task(plan)
+    return run_task(load_task(path))  # the Panda URDF: example-robot-data, in the test extra
 
 
 def _circle_error(r: RunResult, radius: float) -> float:
@@ -90,10 +84,5 @@ def test_panda_hqp_without_the_stop_equals_pinv(write_yaml: Callable[..., Path])
     data["robot"] = str((PANDA_TASK.parent / data["robot"]).resolve())
     data["duration"] = 0.25
     data["runs"] = {"pinv": data["runs"]["pinv"], "hqp": {"resolver": "hqp", "subtasks": {"posture": {"gain": -1.0}}}}
-    try:
-        res = run_task(load_task(write_yaml(data)))
-    except Exception as exc:
-        if "example-robot-data" in str(exc):
-            pytest.skip(f"example-robot-data not installed: {exc}")
-        raise
+    res = run_task(load_task(write_yaml(data)))
     np.testing.assert_allclose(res["hqp"].log.q, res["pinv"].log.q, atol=1e-6)

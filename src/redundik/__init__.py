@@ -16,6 +16,12 @@ Typical control-loop use::
         q = robot.integrate(q, dq, dt)
 """
 
+# The top level is lazy (PEP 562): ``import redundik`` loads only the error classes and the version, and a name
+# such as ``redundik.FrameTask`` imports its subpackage (Pinocchio, SciPy) on first use. So ``redundik --help`` and
+# ``redundik validate`` start without the numerical stack, and the CLI never pays for what it does not use.
+from typing import TYPE_CHECKING, Any
+
+from redundik._version import __version__
 from redundik.errors import (
     ConfigError,
     MechanismError,
@@ -25,48 +31,111 @@ from redundik.errors import (
     SolverError,
     TaskError,
 )
-from redundik.kinematics import DHRow, RobotModel, dh_matrix, from_dh, from_urdf, load_example_robot
-from redundik.resolvers import (
-    FeedbackResolver,
-    HierarchicalQPResolver,
-    JointLimits,
-    PinvResolver,
-    Resolver,
-    StepResult,
-    WeightedQPResolver,
-    make_resolver,
-    pseudo_inverse,
-)
-from redundik.simulation import SimulationLog, simulate
-from redundik.tasks import (
-    Barrier,
-    BarrierTerm,
-    BestPosture,
-    BoundSubtask,
-    Circle,
-    Clearance,
-    FrameTask,
-    GradientSubtask,
-    Hold,
-    JointCentering,
-    JointCoupling,
-    JointSine2,
-    JointValue,
-    Line,
-    Manipulability,
-    PoseInterpolation,
-    PostureTask,
-    Potential,
-    PotentialTask,
-    Subtask,
-    TargetSubtask,
-    Task,
-    TaskStack,
-    TaskTerm,
-    VirtualPoint,
-)
 
-__version__ = "0.1.0"
+if TYPE_CHECKING:
+    from redundik.kinematics import DHRow, RobotModel, dh_matrix, from_dh, from_urdf, load_example_robot
+    from redundik.resolvers import (
+        FeedbackResolver,
+        HierarchicalQPResolver,
+        JointLimits,
+        PinvResolver,
+        Resolver,
+        StepResult,
+        WeightedQPResolver,
+        make_resolver,
+        pseudo_inverse,
+    )
+    from redundik.simulation import SimulationLog, simulate
+    from redundik.tasks import (
+        Barrier,
+        BarrierTerm,
+        BestPosture,
+        BoundSubtask,
+        Circle,
+        Clearance,
+        FrameTask,
+        GradientSubtask,
+        Hold,
+        JointCentering,
+        JointCoupling,
+        JointSine2,
+        JointValue,
+        Line,
+        Manipulability,
+        PoseInterpolation,
+        PostureTask,
+        Potential,
+        PotentialTask,
+        Subtask,
+        TargetSubtask,
+        Task,
+        TaskStack,
+        TaskTerm,
+        VirtualPoint,
+    )
+
+
+#: Public name → the module that defines it (imported on first access).
+_LAZY: dict[str, str] = {
+    "DHRow": "redundik.kinematics",
+    "RobotModel": "redundik.kinematics",
+    "dh_matrix": "redundik.kinematics",
+    "from_dh": "redundik.kinematics",
+    "from_urdf": "redundik.kinematics",
+    "load_example_robot": "redundik.kinematics",
+    "FeedbackResolver": "redundik.resolvers",
+    "HierarchicalQPResolver": "redundik.resolvers",
+    "JointLimits": "redundik.resolvers",
+    "PinvResolver": "redundik.resolvers",
+    "Resolver": "redundik.resolvers",
+    "StepResult": "redundik.resolvers",
+    "WeightedQPResolver": "redundik.resolvers",
+    "make_resolver": "redundik.resolvers",
+    "pseudo_inverse": "redundik.resolvers",
+    "SimulationLog": "redundik.simulation",
+    "simulate": "redundik.simulation",
+    "Barrier": "redundik.tasks",
+    "BarrierTerm": "redundik.tasks",
+    "BestPosture": "redundik.tasks",
+    "BoundSubtask": "redundik.tasks",
+    "Circle": "redundik.tasks",
+    "Clearance": "redundik.tasks",
+    "FrameTask": "redundik.tasks",
+    "GradientSubtask": "redundik.tasks",
+    "Hold": "redundik.tasks",
+    "JointCentering": "redundik.tasks",
+    "JointCoupling": "redundik.tasks",
+    "JointSine2": "redundik.tasks",
+    "JointValue": "redundik.tasks",
+    "Line": "redundik.tasks",
+    "Manipulability": "redundik.tasks",
+    "PoseInterpolation": "redundik.tasks",
+    "PostureTask": "redundik.tasks",
+    "Potential": "redundik.tasks",
+    "PotentialTask": "redundik.tasks",
+    "Subtask": "redundik.tasks",
+    "TargetSubtask": "redundik.tasks",
+    "Task": "redundik.tasks",
+    "TaskStack": "redundik.tasks",
+    "TaskTerm": "redundik.tasks",
+    "VirtualPoint": "redundik.tasks",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'redundik' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # later accesses skip __getattr__
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = [
     "Barrier",

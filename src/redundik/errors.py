@@ -39,6 +39,10 @@ class MechanismError(RedundikError):
     """A parallel mechanism has bad geometry or cannot be assembled for the given inputs."""
 
 
+class MissingDependencyError(RedundikError, ImportError):
+    """An optional dependency is not installed; the message names the extra that provides it (``pip install ...``)."""
+
+
 class SimulationError(RedundikError):
     """A run could not be continued: a non-finite joint velocity or configuration (overflow, a huge gain)."""
 

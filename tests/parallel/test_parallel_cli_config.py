@@ -65,12 +65,12 @@ def _stewart66() -> dict:
 @pytest.mark.parametrize(
     ("patch", "message"),
     [
-        ({"top": {"radius": -0.8}}, "top.radius: expected a positive number"),
-        ({"top": {"radius": 0.8, "colour": "red"}}, "top.colour: unknown key"),
-        ({"legz": 1}, "legz: unknown key; allowed keys: kind, name"),
-        ({"layout": "hexagon"}, "layout: input should be"),
+        ({"top": {"radius": -0.8}}, "top.radius: must be > 0.0, got -0.8"),
+        ({"top": {"radius": 0.8, "colour": "red"}}, "top.colour: unknown key 'colour'; allowed keys: radius, side"),
+        ({"legz": 1}, "legz: unknown key 'legz'; allowed keys: kind, name"),
+        ({"layout": "hexagon"}, "layout: expected one of 'symmetric_33'"),
         ({"beta_deg": None}, "beta_deg: required for layout symmetric_66"),
-        ({"base": {"radius": float("nan")}}, "base.radius: expected a finite number"),
+        ({"base": {"radius": float("nan")}}, "base.radius: expected a finite number, got nan"),
         ({"kind": "robot"}, "kind: expected one of"),
         ({"beta_deg": 0.0}, "beta_deg: invalid geometry: top points 0 and 1 coincide"),
     ],
@@ -94,10 +94,10 @@ def test_config_file_errors(tmp_path: Path) -> None:
         load_config(bad)
     data = yaml.safe_load((CONFIGS / "hybrid33_rect.yaml").read_text())
     data["d5"] = -0.2
-    with pytest.raises(ConfigError, match=r"^d5: expected a non-negative number"):
+    with pytest.raises(ConfigError, match=r"^d5: must be ≥ 0.0, got -0.2"):
         parse_config(data)
     data["d5"], data["path"] = 0.2, {"n": 1}
-    with pytest.raises(ConfigError, match=r"path.n: input should be greater than or equal to 2"):
+    with pytest.raises(ConfigError, match=r"path.n: must be ≥ 2, got 1"):
         parse_config(data)
 
 
@@ -221,5 +221,5 @@ def test_main_entry_point_reports_errors_in_one_line(capsys: pytest.CaptureFixtu
     assert code == 0
     assert json.loads(capsys.readouterr().out)["m"] == 6
     code = main_mod.main(["stewart", "ik", str(CONFIGS / "stewart66.yaml"), "--p", "0", "0", "nan"])
-    assert code == 2
+    assert code == 3
     assert capsys.readouterr().err.strip().startswith("error: --p: non-finite value")

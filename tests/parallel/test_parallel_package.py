@@ -52,5 +52,5 @@ def test_console_script() -> None:
         capture_output=True,
         text=True,
     )
-    assert res.returncode == 2
+    assert res.returncode == 3
     assert res.stderr.strip().startswith("error: legs 1 and 2") and len(res.stderr.strip().splitlines()) == 1

@@ -64,7 +64,7 @@ def test_view_writes_html_from_an_output_folder(tmp_path) -> None:
     assert main(["view", str(out), "--html", str(page)]) == 0
     text = page.read_text(encoding="utf-8")
     assert "replay-data" in text and "planar3r_line" in text
-    assert main(["view", str(tmp_path)]) == 2  # no summary.json: a one-line error
+    assert main(["view", str(tmp_path)]) == 3  # no summary.json: a one-line error
 
 
 def test_gif_and_split_error_figure(tmp_path) -> None:

@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
-import numpy as np
 import typer
-from scipy.spatial.transform import Rotation
+
+if TYPE_CHECKING:
+    import numpy as np
 
 from redundik.errors import ConfigError, MechanismError
 from redundik.reporting.paths import safe_path
@@ -49,6 +50,8 @@ def _load(path: Path, kind: str) -> Any:
 
 
 def _rotation(rpy: tuple[float, float, float] | None, rot: tuple[float, ...] | None) -> np.ndarray:
+    import numpy as np
+
     from redundik.parallel._linalg import as_rotation, rpy_matrix
 
     if rpy is not None and rot is not None:
@@ -56,6 +59,8 @@ def _rotation(rpy: tuple[float, float, float] | None, rot: tuple[float, ...] | N
     if rot is not None:
         # a matrix printed with 4 digits is within ~1e-4 of SO(3): accept up to 1e-3 and project onto SO(3)
         approx = as_rotation(np.reshape(rot, (3, 3)), "--R", tol=1e-3)
+        from scipy.spatial.transform import Rotation
+
         return Rotation.from_matrix(approx).as_matrix()
     if rpy is not None:
         if not np.all(np.isfinite(rpy)):
@@ -70,6 +75,8 @@ def _out_file(out: Path) -> Path:
 
 
 def _vec(values: tuple[float, ...], name: str) -> np.ndarray:
+    import numpy as np
+
     arr = np.asarray(values, dtype=float)
     if not np.all(np.isfinite(arr)):
         raise MechanismError(f"{name}: non-finite value {arr.tolist()}")
@@ -93,6 +100,8 @@ def _emit(payload: dict[str, Any], as_json: bool, title: str, rows: list[tuple[s
 
 
 def _fmt(values: Any, digits: int = 6) -> str:
+    import numpy as np
+
     arr = np.asarray(values, dtype=float)
     if arr.ndim == 2:
         return "\n".join(_fmt(row, digits) for row in arr)
@@ -221,6 +230,8 @@ def stewart_animate(
 
 # ---------------------------------------------------------------------------------------------- hybrid33
 def _hybrid_payload(sol: Any) -> dict[str, Any]:
+    import numpy as np
+
     return {
         "lengths": sol.lengths.tolist(),
         "theta": sol.theta.tolist(),
@@ -246,6 +257,8 @@ def hybrid_ik(
     as_json: JsonOpt = False,
 ) -> None:
     """Leg lengths, wrist angles θ4..θ6 [rad] and the passive R03 for a tool pose."""
+    import numpy as np
+
     cfg = _load(config, "hybrid33")
     arm = cfg.build()
     b = branch or cfg.branch
@@ -276,6 +289,8 @@ def hybrid_fk(
     as_json: JsonOpt = False,
 ) -> None:
     """Every tool pose for leg lengths and wrist angles (platform FK, then the wrist)."""
+    import numpy as np
+
     arm = _load(config, "hybrid33").build()
     poses = arm.forward_kinematics(_vec(legs, "--legs"), np.radians(_vec(theta, "--theta")))
     payload = {
@@ -296,6 +311,8 @@ def hybrid_path(
     as_json: JsonOpt = False,
 ) -> None:
     """Computer project 2: home → destination, book (lagged) and exact joint profiles and round-trip errors."""
+    import numpy as np
+
     from redundik.parallel.hybrid33 import run_path
     from redundik.parallel.plots import plot_joint_profiles
 
@@ -340,6 +357,8 @@ def delta_ik(
     as_json: JsonOpt = False,
 ) -> None:
     """URR leg angles (θ1, θ2) [rad], knee points and leg frames for a Top point."""
+    import numpy as np
+
     delta = _load(config, "delta").build()
     res = delta.inverse_kinematics(_vec(top, "--top"))
     payload = {

@@ -13,43 +13,66 @@ import typer
 
 def validate(
     file: Annotated[
-        Path, typer.Argument(help="Task file, robot config or mechanism config (YAML).", show_default=False)
+        Path,
+        typer.Argument(
+            help="Task file, robot config or mechanism config (YAML), or the name of a shipped task.",
+            show_default=False,
+        ),
     ],
+    json_out: Annotated[
+        bool, typer.Option("--json", help="One JSON document on stdout: {ok, file, kind, description}.")
+    ] = False,
 ) -> None:
     """Check a task file (robot, tasks, potentials, every run), a robot config or a mechanism config."""
-    from rich.console import Console
-    from rich.markup import escape
-
+    from redundik.cli._console import JSON_MODE, console, emit_json
+    from redundik.cli.example_cmds import resolve_file
     from redundik.config.anyfile import validate_file
 
-    what = validate_file(file)
-    Console(soft_wrap=True).print(f"[green]ok[/green] {escape(str(file))}: {escape(what)}")
+    JSON_MODE["on"] = json_out
+    path = resolve_file(file)
+    what = validate_file(path)
+    if json_out:
+        emit_json({"ok": True, "file": str(path), "kind": what.split(" ", 1)[0], "description": what})
+        return
+    from rich.markup import escape
+
+    console().print(f"[green]ok[/green] {escape(str(file))}: {escape(what)}", highlight=False)
 
 
 def run(
-    file: Annotated[Path, typer.Argument(help="Task file (YAML).", show_default=False)],
+    file: Annotated[
+        Path, typer.Argument(help="Task file (YAML), or the name of a shipped task (`redundik examples list`).")
+    ],
     out: Annotated[Path | None, typer.Option("--out", "-o", help="Output folder [default: out/<task name>].")] = None,
-    runs: Annotated[str | None, typer.Option("--runs", help="Comma-separated run names (default: all).")] = None,
+    runs: Annotated[str | None, typer.Option("--runs", help="Comma-separated run names [default: all].")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No table, no progress bar.")] = False,
     figures: Annotated[bool, typer.Option("--figures/--no-figures", help="Write PNG figures.")] = True,
     html: Annotated[bool, typer.Option("--html", help="Write an offline 3-D replay, TASK.html.")] = False,
     gif: Annotated[bool, typer.Option("--gif", help="Write an animation of the runs, TASK.gif.")] = False,
     view: Annotated[bool, typer.Option("--view", help="Replay the first run in meshcat (extra `viewer`).")] = False,
+    json_out: Annotated[
+        bool,
+        typer.Option("--json", help="One JSON document on stdout (the summary, the files written); tables on stderr."),
+    ] = False,
 ) -> None:
     """Simulate every run of a task file; write summary.json, RUN.csv per run, PNG figures (and HTML, GIF)."""
-    from rich.console import Console
     from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 
+    from redundik.cli._console import JSON_MODE, console, emit_json
+    from redundik.cli.example_cmds import resolve_file
     from redundik.cli.view_cmds import output_steps, write_pictures
     from redundik.config import load_task
     from redundik.config.runner import run_task, select_runs
     from redundik.reporting.outputs import write_outputs
     from redundik.reporting.terminal import print_summary
 
+    JSON_MODE["on"] = json_out
+    file = resolve_file(file)
     plan = load_task(file)
     names = select_runs(plan, None if runs is None else runs.split(","))
     out_dir = out if out is not None else Path("out") / plan.name
-    console = Console(stderr=True)
+    human = console(stderr=json_out)  # tables and messages: stdout, or stderr when stdout carries the JSON
+    bar_console = console(stderr=True)
     pictures = output_steps(figures, html, gif)
     unit = max(plan.steps // 4, 1)  # progress units of one output step (figures, html, gif)
     total = plan.steps * len(names) + unit * len(pictures)
@@ -63,7 +86,7 @@ def run(
             BarColumn(),
             TextColumn("{task.completed}/{task.total} steps"),
             TimeRemainingColumn(),
-            console=console,
+            console=bar_console,
             transient=True,
         ) as bar:
             task_id = bar.add_task(plan.name, total=total)
@@ -86,16 +109,42 @@ def run(
             pictures_written = write_pictures(plan, results, out_dir, pictures, picture_done)
     written = ["summary.json", *(f"{n}.csv" for n in results), *(p.name for p in pictures_written)]
     if not quiet:
-        print_summary(summary, Console())
-        Console().print(f"wrote {out_dir}/: {', '.join(written)}")
+        print_summary(summary, human)
+        human.print(f"wrote {out_dir}/: {', '.join(written)}", highlight=False, markup=False)
+    if json_out:
+        emit_json({"ok": True, "task": plan.name, "out": str(out_dir), "files": written, "summary": summary})
     if view:
         from redundik.viewer.live import replay_meshcat
 
         first = next(iter(results.values()))
-        replay_meshcat(plan, first.name, first.log.t, first.log.q, console=Console())
+        replay_meshcat(plan, first.name, first.log.t, first.log.q, console=human)
+
+
+def schema(
+    robot: Annotated[bool, typer.Option("--robot", help="Schema of a robot config instead of a task file.")] = False,
+    out: Annotated[Path | None, typer.Option("--out", "-o", help="Write it to this file [default: stdout].")] = None,
+) -> None:
+    """Print the JSON Schema of task files (or robot configs), for editors: every type, key, default and unit."""
+    import json
+
+    from redundik.config.jsonschema import robot_schema, task_schema
+
+    text = json.dumps(robot_schema() if robot else task_schema(), indent=2, ensure_ascii=False) + "\n"
+    if out is None:
+        typer.echo(text, nl=False)
+        return
+    from redundik.errors import ConfigError
+
+    try:
+        out.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"cannot write '{out}': {exc.strerror or exc}") from None
 
 
 def register(app: typer.Typer) -> None:
     """Add ``run`` and ``validate`` to the ``redundik`` command."""
-    app.command("run")(run)
-    app.command("validate")(validate)
+    from redundik.cli.main import EPILOG
+
+    app.command("run", epilog=EPILOG)(run)
+    app.command("validate", epilog=EPILOG)(validate)
+    app.command("schema")(schema)

@@ -11,12 +11,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
 
-import numpy as np
 import typer
 
 from redundik.errors import ConfigError
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from redundik.config.loader import TaskPlan
     from redundik.config.runner import RunResult
 
@@ -64,6 +65,8 @@ def write_pictures(
 # ---------------------------------------------------------------------------------------------------- redundik view
 def read_run_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
     """Times [s] (N,) and configurations (N, nq) from a ``RUN.csv`` (columns ``t`` and ``q.*``/``q[i]``)."""
+    import numpy as np
+
     with path.open(encoding="utf-8") as fh:
         rows = list(csv.reader(fh))
     if not rows or "t" not in rows[0]:
@@ -74,7 +77,9 @@ def read_run_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
     return data[:, header.index("t")], data[:, qcols]
 
 
-def load_output(out_dir: Path, task: Path | None) -> tuple[TaskPlan, dict[str, tuple[np.ndarray, np.ndarray, dict]]]:
+def load_output(
+    out_dir: Path, task: Path | None
+) -> tuple[TaskPlan, dict[str, tuple[np.ndarray, np.ndarray, dict[str, Any]]]]:
     """The task plan and the logged runs of an output folder of ``redundik run``.
 
     Raises:

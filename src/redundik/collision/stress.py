@@ -8,6 +8,7 @@ distance over all candidate pairs is recorded. A penetration is a sample with d 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -101,7 +102,7 @@ def run_stress(
     tasks = [FrameTask(h, axes="position", gain=8.0) for h in hands]
     bound = BoundSubtask(avoid, priority=0 if resolver == "hqp" else None)
     stack = TaskStack([*tasks, PostureTask(gain=0.5)], [bound])
-    options = {"backend": backend}
+    options: dict[str, Any] = {"backend": backend}
     if resolver == "hqp":
         options["levels"] = {h: 1 for h in hands}
     res = make_resolver(resolver, **options)

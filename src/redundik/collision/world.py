@@ -473,10 +473,12 @@ class CollisionWorld:
         return out
 
     def _pair_joint_arrays(self) -> tuple[np.ndarray, np.ndarray]:
-        if getattr(self, "_pj", None) is None or len(self._pj[0]) != len(self.pair_joints):
+        pj: tuple[np.ndarray, np.ndarray] | None = getattr(self, "_pj", None)
+        if pj is None or len(pj[0]) != len(self.pair_joints):
             arr = np.array(self.pair_joints, dtype=int).reshape(-1, 2)
-            self._pj = (arr[:, 0].copy(), arr[:, 1].copy())
-        return self._pj
+            pj = (arr[:, 0].copy(), arr[:, 1].copy())
+            self._pj = pj
+        return pj
 
     def _joint_masks(self, robot: RobotModel) -> np.ndarray:
         """M[j, k] = 1 when velocity k belongs to a joint supporting joint j (M[0] = 0: the world), (njoints, nv)."""

@@ -30,11 +30,13 @@ def detect_kind(data: dict[str, Any]) -> FileKind:
 def validate_file(path: str | Path) -> str:
     """Check one file completely; returns a one-line description of what it is.
 
+    The shape of the file (keys, types, bounds) is checked first, with nothing heavier than pydantic imported, so
+    a malformed file is refused in milliseconds; only a well-formed one builds its robot (Pinocchio) and runs.
+
     Raises:
         ConfigError: the first problem, with its key path (one line).
     """
-    from redundik.config.robot import build_robot
-    from redundik.config.schema import RobotSpec
+    from redundik.config.schema import RobotSpec, TaskFileSpec
     from redundik.config.yamlio import validate
 
     path = Path(path)
@@ -49,8 +51,11 @@ def validate_file(path: str | Path) -> str:
     if kind == "robot":
         prefix = f"{path.name}: "
         spec = validate(RobotSpec, data, prefix)
+        from redundik.config.robot import build_robot
+
         robot = build_robot(spec, path.resolve().parent, prefix, str(path)).model
         return f"robot config '{robot.name}' ({robot.nv} joints)"
+    validate(TaskFileSpec, data)  # the shape, before the loader's imports (Pinocchio, the task types)
     from redundik.config.loader import load_task
 
     plan = load_task(path)

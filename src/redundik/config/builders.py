@@ -1,8 +1,11 @@
 """Typed YAML entries (``type: ...``) → core objects: main tasks, trajectories, potentials, monitors.
 
-Each registry maps a ``type`` name to a pydantic model and a builder. Builders check everything that needs the
-robot (frame and joint names, vector lengths) and raise :class:`~redundik.errors.ConfigError` with the key path.
-New types are added with :func:`register_potential`, :func:`register_task` or :func:`register_trajectory`.
+The registries (:data:`TASKS`, :data:`TRAJECTORIES`, :data:`POTENTIALS`, :data:`MONITORS`) map a ``type`` name
+to a model and a builder; the checks here (frame and joint names, axes, vector lengths) raise
+:class:`~redundik.errors.ConfigError` with the key path. Types are registered from the library's constructors by
+:func:`redundik.config.registry.register` (the library's own in :mod:`redundik.config.types`); a hand-written model
+and builder can still be added with :func:`register_potential`, :func:`register_task` or
+:func:`register_trajectory`.
 """
 
 from __future__ import annotations
@@ -14,27 +17,13 @@ from typing import Any, Generic, TypeVar
 import numpy as np
 from pydantic import BaseModel
 
-from redundik.config import schema as s
-from redundik.config.robot import angle_scale, configuration_from_file, rpy_matrix
+from redundik.config.robot import angle_scale
 from redundik.config.yamlio import join_path, validate
 from redundik.errors import ConfigError, RedundikError, short_repr
-from redundik.kinematics import AXES, RobotModel
+from redundik.kinematics import RobotModel
 from redundik.tasks import (
-    BestPosture,
-    Circle,
-    Clearance,
-    FrameTask,
-    Hold,
-    JointCentering,
-    JointSine2,
-    JointValue,
-    Line,
-    Manipulability,
-    PoseInterpolation,
-    PostureTask,
     Potential,
     Task,
-    VirtualPoint,
 )
 from redundik.tasks.frame import resolve_axes
 from redundik.tasks.trajectory import Trajectory
@@ -153,71 +142,15 @@ def build_typed(registry: dict[str, Kind[T]], raw: Any, name: str, ctx: Context,
     return entry.build(spec, name, ctx, path)
 
 
-# ---------------------------------------------------------------------------------------------------- trajectories
-def _traj_hold(spec: s.HoldSpec, name: str, ctx: Context, path: str) -> Trajectory:
-    return Hold()
-
-
-def _traj_line(spec: s.LineSpec, name: str, ctx: Context, path: str) -> Trajectory:
-    return _wrap(join_path(path, "velocity"), lambda: Line(spec.velocity))
-
-
-def _traj_circle(spec: s.CircleSpec, name: str, ctx: Context, path: str) -> Trajectory:
-    if spec.plane[0] == spec.plane[1]:
-        raise ConfigError(f"expected two different axes, got {spec.plane}", join_path(path, "plane"))
-    return _wrap(
-        path,
-        lambda: Circle(
-            spec.radius,
-            spec.omega * ctx.scale,
-            plane=(spec.plane[0], spec.plane[1]),
-            center=spec.center,
-            phase=spec.phase * ctx.scale,
-        ),
-    )
-
-
-def _traj_pose(spec: s.PoseSpec, name: str, ctx: Context, path: str) -> Trajectory:
-    rot = None if spec.rpy is None else rpy_matrix(np.asarray(spec.rpy) * ctx.scale)
-    return _wrap(path, lambda: PoseInterpolation(spec.position, spec.duration, rotation=rot))
-
-
-TRAJECTORIES: dict[str, Kind[Trajectory]] = {
-    "hold": Kind(s.HoldSpec, _traj_hold),
-    "line": Kind(s.LineSpec, _traj_line),
-    "circle": Kind(s.CircleSpec, _traj_circle),
-    "pose": Kind(s.PoseSpec, _traj_pose),
-}
-
-
-# ---------------------------------------------------------------------------------------------------- main tasks
-def _task_frame(spec: s.FrameTaskSpec, name: str, ctx: Context, path: str) -> Task:
-    frame = check_frame(ctx, spec.frame, join_path(path, "frame"))
-    axes = check_axes(spec.axes, join_path(path, "axes"))
-    traj = (
-        Hold()
-        if spec.trajectory is None
-        else build_typed(TRAJECTORIES, spec.trajectory, name, ctx, join_path(path, "trajectory"), "trajectory")
-    )
-    return _wrap(
-        path,
-        lambda: FrameTask(frame, traj, axes=axes, gain=spec.gain, weight=spec.weight, name=spec.name or name),
-    )
-
-
-def _task_posture(spec: s.PostureTaskSpec, name: str, ctx: Context, path: str) -> Task:
-    target = (
-        None
-        if spec.target is None
-        else configuration_from_file(spec.target, ctx.robot, ctx.angle_unit, join_path(path, "target"))
-    )
-    return _wrap(path, lambda: PostureTask(target, gain=spec.gain, weight=spec.weight, name=spec.name or name))
-
-
-TASKS: dict[str, Kind[Task]] = {
-    "frame": Kind(s.FrameTaskSpec, _task_frame),
-    "posture": Kind(s.PostureTaskSpec, _task_posture),
-}
+# ---------------------------------------------------------------------------------------------------- registries
+#: ``type:`` name → entry (a :class:`redundik.config.registry.YamlType`, or a hand-written :class:`Kind`), per section.
+#: Filled by :mod:`redundik.config.types` (imported at the end of this module) through
+#: :func:`redundik.config.registry.register`.
+TRAJECTORIES: dict[str, Kind[Trajectory]] = {}
+TASKS: dict[str, Kind[Task]] = {}
+POTENTIALS: dict[str, Kind[Potential]] = {}
+#: Monitor-only types (everything in :data:`POTENTIALS` can also be a monitor).
+MONITORS: dict[str, Kind[Any]] = {}
 
 
 def task_name(raw: Any, index: int) -> str:
@@ -230,68 +163,6 @@ def task_name(raw: Any, index: int) -> str:
         if isinstance(raw.get("type"), str):
             return str(raw["type"])
     return f"task{index}"
-
-
-# ---------------------------------------------------------------------------------------------------- potentials
-def _pot_sin2(spec: s.Sin2Spec, name: str, ctx: Context, path: str) -> Potential:
-    joint = check_joint(ctx, spec.joint, join_path(path, "joint"))
-    return JointSine2(joint, name=name)
-
-
-def _pot_joint_value(spec: s.JointValueSpec, name: str, ctx: Context, path: str) -> Potential:
-    joint = check_joint(ctx, spec.joint, join_path(path, "joint"))
-    scale = ctx.scale if ctx.robot.joint(joint).kind == "revolute" else 1.0
-    return _wrap(path, lambda: JointValue(joint, spec.value * scale, name=name))
-
-
-def _pot_centering(spec: s.JointCenteringSpec, name: str, ctx: Context, path: str) -> Potential:
-    center = (
-        None
-        if spec.center is None
-        else configuration_from_file(spec.center, ctx.robot, ctx.angle_unit, join_path(path, "center"))
-    )
-    weights = None
-    if spec.weights is not None:
-        weights = check_length(spec.weights, ctx.robot.nv, join_path(path, "weights"), " (one per joint)")
-    return _wrap(path, lambda: JointCentering(center, weights, name=name))
-
-
-def _pot_virtual_point(spec: s.VirtualPointSpec, name: str, ctx: Context, path: str) -> Potential:
-    frame = check_frame(ctx, spec.frame, join_path(path, "frame"))
-    axes = check_axes(spec.axes, join_path(path, "axes"), position_only=True)
-    return _wrap(path, lambda: VirtualPoint(frame, spec.point, axes=axes, name=name))
-
-
-def _pot_clearance(spec: s.ClearanceSpec, name: str, ctx: Context, path: str) -> Potential:
-    frame = check_frame(ctx, spec.frame, join_path(path, "frame"))
-    axes = check_axes(spec.axes, join_path(path, "axes"), position_only=True)
-    return _wrap(path, lambda: Clearance(frame, spec.center, spec.radius, axes=axes, name=name))
-
-
-def _pot_manipulability(spec: s.ManipulabilitySpec, name: str, ctx: Context, path: str) -> Potential:
-    frame = check_frame(ctx, spec.frame, join_path(path, "frame"))
-    axes = check_axes(spec.axes, join_path(path, "axes"))
-    return _wrap(path, lambda: Manipulability(frame, axes=axes, name=name))
-
-
-def _pot_best_posture(spec: s.BestPostureSpec, name: str, ctx: Context, path: str) -> Potential:
-    frames = frame_list(spec.frames, ctx, join_path(path, "frames"))
-    axes = check_axes(spec.axes, join_path(path, "axes"))
-    weights = None
-    if spec.weights is not None:
-        weights = check_length(spec.weights, ctx.robot.nv, join_path(path, "weights"), " (one per joint)")
-    return _wrap(path, lambda: BestPosture(frames, weights, axes=axes, name=name))
-
-
-POTENTIALS: dict[str, Kind[Potential]] = {
-    "sin2": Kind(s.Sin2Spec, _pot_sin2),
-    "joint_value": Kind(s.JointValueSpec, _pot_joint_value),
-    "joint_centering": Kind(s.JointCenteringSpec, _pot_centering),
-    "virtual_point": Kind(s.VirtualPointSpec, _pot_virtual_point),
-    "clearance": Kind(s.ClearanceSpec, _pot_clearance),
-    "manipulability": Kind(s.ManipulabilitySpec, _pot_manipulability),
-    "best_posture": Kind(s.BestPostureSpec, _pot_best_posture),
-}
 
 
 # ---------------------------------------------------------------------------------------------------- monitors
@@ -317,18 +188,8 @@ class TorqueMonitor:
         return J.T @ self.force
 
 
-def _mon_torques(spec: s.TorquesSpec, name: str, ctx: Context, path: str) -> TorqueMonitor:
-    frames = frame_list(spec.frames, ctx, join_path(path, "frames"))
-    axes = check_axes(spec.axes, join_path(path, "axes"))
-    n = len(frames) * len(axes)
-    force = check_length(spec.force, n, join_path(path, "force"), f" ({len(axes)} axes × {len(frames)} frames)")
-    return TorqueMonitor(name, frames, np.array([AXES[a] for a in axes]), force)
-
-
-#: Monitor-only types (everything in :data:`POTENTIALS` can also be a monitor).
-MONITORS: dict[str, Kind[Any]] = {"torques": Kind(s.TorquesSpec, _mon_torques)}
-
-
+#: Hand-written registrations (a pydantic model and a builder), for types whose YAML form cannot be derived from a
+#: constructor; :func:`redundik.config.registry.register` is the usual way.
 def register_potential(type_name: str, model: type[BaseModel], build: Callable[..., Potential]) -> None:
     """Make ``type: type_name`` available under ``potentials:`` and ``monitors:``."""
     POTENTIALS[type_name] = Kind(model, build)
@@ -342,3 +203,7 @@ def register_task(type_name: str, model: type[BaseModel], build: Callable[..., T
 def register_trajectory(type_name: str, model: type[BaseModel], build: Callable[..., Trajectory]) -> None:
     """Make ``type: type_name`` available as a frame task's ``trajectory``."""
     TRAJECTORIES[type_name] = Kind(model, build)
+
+
+# the library's own types (at the end: redundik.config.types uses the checks above)
+from redundik.config import types as _types  # noqa: E402, F401

@@ -15,10 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from redundik.config import (
-    chapter_types,  # noqa: F401 - registers the chapter robots' YAML types (issue 4)
-    world_types,  # registers collision / balance YAML types (issue 12)
-)
+from redundik.config import world_types  # registers collision / balance YAML types (issue 12)
 from redundik.config.builders import (
     MONITORS,
     POTENTIALS,
@@ -346,11 +343,11 @@ def _build_run(spec: TaskFileSpec, ctx: Context, name: str, run: RunSpec, q0_fil
             if key == "gains":
                 if value < 0:
                     raise ConfigError(f"must be ≥ 0, got {value}", where)
-                task.gain = float(value)  # type: ignore[attr-defined]
+                task.gain = float(value)
             else:
                 if value <= 0:
                     raise ConfigError(f"must be > 0, got {value}", where)
-                task.weight = float(value)  # type: ignore[attr-defined]
+                task.weight = float(value)
     # subtasks: named potentials of the file
     subtasks: list[Subtask] = []
     for pname, sub in run.subtasks.items():

@@ -124,6 +124,7 @@ def _example_robot(name: str, free_flyer: bool | None, path: str, source: str) -
     if name not in EXAMPLE_ROBOTS:
         raise ConfigError(f"unknown example robot '{name}'; available: {', '.join(sorted(EXAMPLE_ROBOTS))}", path)
     rel, ff_default = EXAMPLE_ROBOTS[name]
+    example_robot_data_dir()  # not installed: MissingDependencyError (exit code 5), not an invalid file
     try:
         robot = from_urdf(example_robot_data_dir() / rel, free_flyer=ff_default if free_flyer is None else free_flyer)
     except RedundikError as exc:

@@ -12,6 +12,7 @@ from redundik.config.loader import RunPlan, TaskPlan
 from redundik.config.world_types import world_clock, world_summary
 from redundik.errors import ConfigError, SimulationError
 from redundik.simulation import SimulationLog, simulate
+from redundik.tasks.subtasks import TargetSubtask
 
 
 @dataclass
@@ -158,7 +159,7 @@ def summarise(plan: TaskPlan, result: RunResult) -> dict[str, Any]:
                     if s.name in log.potentials
                     else {}
                 ),
-                **({"target": float(s.target)} if getattr(s, "target", None) is not None else {}),
+                **({"target": float(s.target)} if isinstance(s, TargetSubtask) else {}),
             }
             for s in run.stack.subtasks
         },

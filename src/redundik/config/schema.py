@@ -6,8 +6,8 @@ integer is accepted where a float is meant), finiteness (NaN and ±inf rejected)
 turns every error into a one-line :class:`~redundik.errors.ConfigError` naming the YAML key path.
 
 Typed entries (``main`` tasks, ``potentials``, ``monitors``, trajectories) are mappings with a ``type`` key; their
-models live in the registries of :mod:`redundik.config.builders`, so new types can be added without touching this
-file.
+models are derived from the library's constructors by :mod:`redundik.config.registry` (registered in
+:mod:`redundik.config.types`), so they are not written here.
 
 The reference of the format is ``docs/task-files.md``.
 """
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, model_validator
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, WithJsonSchema, model_validator
 
 from redundik.errors import short_repr
 from redundik.reporting.paths import name_problem
@@ -30,7 +30,7 @@ def _name(value: Any) -> Any:
 
 
 #: A frame / joint / task name: a string (an integer in the YAML is taken as its decimal text).
-Name = Annotated[str, BeforeValidator(_name)]
+Name = Annotated[str, BeforeValidator(_name), WithJsonSchema({"type": ["string", "integer"]})]
 
 
 def _safe_name(value: str) -> str:
@@ -259,127 +259,3 @@ class TaskFileSpec(StrictModel):
             return self.steps
         assert self.duration is not None  # guaranteed by the validator
         return max(1, round(self.duration / self.dt))
-
-
-# ---------------------------------------------------------------------------------------------------- typed entries
-class FrameTaskSpec(StrictModel):
-    """Main task ``type: frame`` (:class:`redundik.tasks.FrameTask`)."""
-
-    type: Literal["frame"]
-    name: Name | None = None
-    frame: Name
-    axes: Any = "pose"
-    trajectory: dict[str, Any] | None = None
-    gain: float = Field(default=0.0, ge=0)
-    weight: float = Field(default=1.0, gt=0)
-
-
-class PostureTaskSpec(StrictModel):
-    """Main task ``type: posture`` (:class:`redundik.tasks.PostureTask`); ``target`` in the task file's angle unit."""
-
-    type: Literal["posture"]
-    name: Name = "posture"
-    target: list[float] | None = None
-    gain: float = Field(default=1.0, ge=0)
-    weight: float = Field(default=1.0, gt=0)
-
-
-class HoldSpec(StrictModel):
-    """Trajectory ``type: hold``."""
-
-    type: Literal["hold"]
-
-
-class LineSpec(StrictModel):
-    """Trajectory ``type: line``: constant velocity [length/s], 2 (x, y) or 3 numbers."""
-
-    type: Literal["line"]
-    velocity: Annotated[list[float], Field(min_length=2, max_length=3)]
-
-
-class CircleSpec(StrictModel):
-    """Trajectory ``type: circle``: ``omega`` [angle unit/s] and ``phase`` [angle unit]."""
-
-    type: Literal["circle"]
-    radius: float = Field(gt=0)
-    omega: float
-    plane: Annotated[list[Axis], Field(min_length=2, max_length=2)] = Field(default_factory=lambda: ["x", "y"])
-    center: Vec3 | None = None
-    phase: float = 0.0
-
-
-class PoseSpec(StrictModel):
-    """Trajectory ``type: pose``: straight-line interpolation to ``position`` (and ``rpy``) over ``duration``."""
-
-    type: Literal["pose"]
-    position: Vec3
-    duration: float = Field(gt=0)
-    rpy: Vec3 | None = None
-
-
-class Sin2Spec(StrictModel):
-    """Potential ``type: sin2``: p = sin²θ_j."""
-
-    type: Literal["sin2"]
-    joint: Name
-
-
-class JointValueSpec(StrictModel):
-    """Potential ``type: joint_value``: p = (q_j − c)²; ``value`` in the angle unit for a revolute joint."""
-
-    type: Literal["joint_value"]
-    joint: Name
-    value: float
-
-
-class JointCenteringSpec(StrictModel):
-    """Potential ``type: joint_centering``: p = ½ Σ w_i (q_i − q_c,i)²; ``center`` (size nq, angle unit)."""
-
-    type: Literal["joint_centering"]
-    center: list[float] | None = None
-    weights: list[float] | None = None
-
-
-class VirtualPointSpec(StrictModel):
-    """Potential ``type: virtual_point``: p = ½‖S(p_f − p_v)‖²."""
-
-    type: Literal["virtual_point"]
-    frame: Name
-    point: Vec3
-    axes: Any = "position"
-
-
-class ClearanceSpec(StrictModel):
-    """Potential ``type: clearance``: p = ‖S(p_f − c)‖ − r."""
-
-    type: Literal["clearance"]
-    frame: Name
-    center: Vec3
-    radius: float = Field(default=0.0, ge=0)
-    axes: Any = "position"
-
-
-class ManipulabilitySpec(StrictModel):
-    """Potential ``type: manipulability``: p = √det(JJᵀ)."""
-
-    type: Literal["manipulability"]
-    frame: Name
-    axes: Any = "pose"
-
-
-class BestPostureSpec(StrictModel):
-    """Potential ``type: best_posture``: p = tr(JWJᵀ) (5.12)."""
-
-    type: Literal["best_posture"]
-    frames: Name | list[Name]
-    weights: list[float] | None = None
-    axes: Any = "pose"
-
-
-class TorquesSpec(StrictModel):
-    """Monitor ``type: torques``: τ = JᵀF of the stacked frame Jacobians, logged as max/min/mean |τ|."""
-
-    type: Literal["torques"]
-    frames: Name | list[Name]
-    force: list[float]
-    axes: Any = "pose"

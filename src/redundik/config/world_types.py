@@ -27,11 +27,11 @@ from pydantic import Field
 
 from redundik.collision import CollisionAvoidance, CollisionWorld, Motion, Obstacle, make_shape
 from redundik.config import schema as s
-from redundik.config.builders import Context, _wrap, check_axes, check_frame, register_potential, register_task
+from redundik.config.builders import Context, _wrap, check_frame
+from redundik.config.registry import As, OptVec3, register
 from redundik.config.robot import LoadedRobot, rpy_matrix
 from redundik.config.yamlio import join_path, validate
 from redundik.errors import ConfigError, RedundikError
-from redundik.tasks import Potential, Task
 from redundik.tasks.balance import CoMTask, ContactTask, SupportPolygon
 
 Positive = Annotated[float, Field(gt=0)]
@@ -164,48 +164,9 @@ def build_world(
 
 
 # ---------------------------------------------------------------------------------------------------- typed entries
-class CollisionPotentialSpec(s.StrictModel):
-    """Potential ``type: collision``: d_i (``influence``), d_s (``safety``) [m], ξ (``xi``) [m/s]."""
-
-    type: Literal["collision"]
-    influence: Positive = 0.1
-    safety: Annotated[float, Field(ge=0)] = 0.01
-    xi: Positive = 0.2
-
-
-class SupportPolygonSpec(s.StrictModel):
-    """Potential ``type: support_polygon``: the feet's sole frames, sole ``size`` [m], ``margin`` [m], ``rate``."""
-
-    type: Literal["support_polygon"]
-    feet: list[s.Name] = Field(min_length=1)
-    size: Annotated[list[Positive], Field(min_length=2, max_length=2)] = Field(default_factory=lambda: [0.2, 0.13])
-    margin: Annotated[float, Field(ge=0)] = 0.01
-    rate: Positive | None = None
-
-
-class CoMTaskSpec(s.StrictModel):
-    """Main task ``type: com``: ``target`` [m] (default: hold the start CoM), ``axes`` among x, y, z."""
-
-    type: Literal["com"]
-    name: s.Name = "com"
-    target: s.Vec3 | None = None
-    axes: list[s.Axis] = Field(default_factory=lambda: ["x", "y", "z"], min_length=1, max_length=3)
-    gain: Annotated[float, Field(ge=0)] = 10.0
-    weight: Positive = 1.0
-
-
-class ContactTaskSpec(s.StrictModel):
-    """Main task ``type: contact``: ``frame`` held at its start pose."""
-
-    type: Literal["contact"]
-    name: s.Name | None = None
-    frame: s.Name
-    axes: Any = "pose"
-    gain: Annotated[float, Field(ge=0)] = 10.0
-    weight: Positive = 1.0
-
-
-def _pot_collision(spec: CollisionPotentialSpec, name: str, ctx: Context, path: str) -> Potential:
+# Registered from the constructors (redundik.config.registry): the YAML keys, defaults, bounds and descriptions are
+# derived from CollisionAvoidance, SupportPolygon, CoMTask and ContactTask; only what the file adds is written here.
+def _world(value: Any, ctx: Context, path: str, spec: Any) -> CollisionWorld:
     world = getattr(ctx, "world", None)
     if world is None:
         raise ConfigError("a collision potential needs a 'collision:' or 'obstacles:' section in the task file", path)
@@ -213,38 +174,45 @@ def _pot_collision(spec: CollisionPotentialSpec, name: str, ctx: Context, path: 
         raise ConfigError(
             f"influence ({spec.influence}) must be > safety ({spec.safety})", join_path(path, "influence")
         )
-    return _wrap(
-        path,
-        lambda: CollisionAvoidance(world, influence=spec.influence, safety=spec.safety, xi=spec.xi, name=name),
-    )
+    return world
 
 
-def _pot_support(spec: SupportPolygonSpec, name: str, ctx: Context, path: str) -> Potential:
-    feet = [check_frame(ctx, f, join_path(path, "feet", i)) for i, f in enumerate(spec.feet)]
-    return _wrap(path, lambda: SupportPolygon(feet, spec.size, margin=spec.margin, rate=spec.rate, name=name))
+def _feet(value: Any, ctx: Context, path: str, spec: Any) -> list[str]:
+    return [check_frame(ctx, f, join_path(path, i)) for i, f in enumerate(value)]
 
 
-def _task_com(spec: CoMTaskSpec, name: str, ctx: Context, path: str) -> Task:
-    if len(set(spec.axes)) != len(spec.axes):
-        raise ConfigError(f"expected distinct axes, got {spec.axes}", join_path(path, "axes"))
-    return _wrap(
-        path,
-        lambda: CoMTask(spec.target, axes=spec.axes, gain=spec.gain, weight=spec.weight, name=spec.name or name),
-    )
+def _distinct_axes(value: Any, ctx: Context, path: str, spec: Any) -> list[str]:
+    if len(set(value)) != len(value):
+        raise ConfigError(f"expected distinct axes, got {value}", path)
+    return list(value)
 
 
-def _task_contact(spec: ContactTaskSpec, name: str, ctx: Context, path: str) -> Task:
-    frame = check_frame(ctx, spec.frame, join_path(path, "frame"))
-    axes = check_axes(spec.axes, join_path(path, "axes"))
-    return _wrap(
-        path, lambda: ContactTask(frame, axes=axes, gain=spec.gain, weight=spec.weight, name=spec.name or name)
-    )
-
-
-register_potential("collision", CollisionPotentialSpec, _pot_collision)
-register_potential("support_polygon", SupportPolygonSpec, _pot_support)
-register_task("com", CoMTaskSpec, _task_com)
-register_task("contact", ContactTaskSpec, _task_contact)
+Positive2 = Annotated[list[Positive], Field(min_length=2, max_length=2)]
+register(
+    "collision",
+    "potential",
+    CollisionAvoidance,
+    params={"world": As(hidden=True, convert=_world), "influence": As(bounds={"gt": 0}), "xi": As(bounds={"gt": 0})},
+)
+register(
+    "support_polygon",
+    "potential",
+    SupportPolygon,
+    params={
+        "feet": As(annotation=Annotated[list[s.Name], Field(min_length=1)], convert=_feet),
+        "size": As(annotation=Positive2),
+    },
+)
+register(
+    "com",
+    "task",
+    CoMTask,
+    params={
+        "target": As(annotation=OptVec3),
+        "axes": As(annotation=Annotated[list[s.Axis], Field(min_length=1, max_length=3)], convert=_distinct_axes),
+    },
+)
+register("contact", "task", ContactTask, params={"gain": As(default=10.0, bounds={"ge": 0})})
 
 
 # ---------------------------------------------------------------------------------------------------- run summary

@@ -51,16 +51,16 @@ class BoundedLoader(yaml.SafeLoader):
             raise yaml.scanner.ScannerError(None, None, f"nesting deeper than {MAX_DEPTH} levels", self.get_mark())
         super().fetch_flow_collection_start(TokenClass)
 
-    def compose_node(self, parent: yaml.Node | None, index: object) -> yaml.Node | None:
+    def compose_node(self, parent: yaml.Node | None, index: int) -> yaml.Node | None:
         if self.check_event(yaml.AliasEvent):
-            event = self.peek_event()
+            event = self.peek_event()  # type: ignore[no-untyped-call]  # untyped in types-PyYAML
             target = self.anchors.get(event.anchor)
             if target is not None and id(target) not in self._weights:
                 raise yaml.composer.ComposerError(
                     None, None, f"recursive alias *{short_repr(event.anchor, 40)}", event.start_mark
                 )
             return super().compose_node(parent, index)
-        event = self.peek_event()
+        event = self.peek_event()  # type: ignore[no-untyped-call]  # untyped in types-PyYAML
         self._depth += 1
         try:
             if self._depth > MAX_DEPTH:

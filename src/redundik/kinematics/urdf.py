@@ -31,7 +31,7 @@ def example_robot_data_dir() -> Path:
     """The ``robots`` folder of the installed ``example-robot-data`` package.
 
     Raises:
-        ModelError: if the package is not installed.
+        MissingDependencyError: the package is not installed (``pip install 'redundik[robots]'``).
     """
     candidates = [Path(p) / "cmeel.prefix/share/example-robot-data/robots" for p in sys.path if p]
     candidates.append(Path(sys.prefix) / "share/example-robot-data/robots")
@@ -41,10 +41,9 @@ def example_robot_data_dir() -> Path:
     for c in candidates:
         if c.is_dir():
             return c
-    raise ModelError(
-        "example-robot-data is not installed (its URDFs were not found); install it with "
-        "`pip install example-robot-data`"
-    )
+    from redundik._extras import missing
+
+    raise missing("example_robot_data", "loading an example robot (its URDFs were not found)")
 
 
 #: Largest URDF file parsed [bytes].
@@ -126,7 +125,8 @@ def load_example_robot(name: str) -> RobotModel:
     Humanoids (talos, g1) get a free-flyer base, as in their upstream loaders.
 
     Raises:
-        ModelError: unknown name (lists the known ones) or missing data package.
+        ModelError: unknown name (lists the known ones).
+        MissingDependencyError: example-robot-data is not installed (`pip install 'redundik[robots]'`).
     """
     if name not in EXAMPLE_ROBOTS:
         raise ModelError(f"unknown example robot '{name}'; known: {sorted(EXAMPLE_ROBOTS)}")

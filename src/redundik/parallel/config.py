@@ -12,9 +12,9 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field
 
-from redundik.config.yamlio import read_yaml
+from redundik.config.yamlio import read_yaml, validate
 from redundik.errors import ConfigError, MechanismError, short_repr
 from redundik.parallel.delta import DeltaRobot
 from redundik.parallel.hybrid33 import Hybrid33Arm
@@ -54,6 +54,10 @@ def _points(disc: Disc, key: str) -> list[Vec3]:
     if disc.points is None:
         raise ConfigError("expected a list of [x, y, z] 'points' for layout 'points'", path=key)
     return disc.points
+
+
+def _array(points: list[Vec3]) -> np.ndarray:
+    return np.asarray(points, dtype=float)
 
 
 def _geometry(build: Any, key: str) -> Any:
@@ -97,7 +101,7 @@ class StewartConfig(_Model):
             return _geometry(lambda: StewartPlatform.symmetric_66(r0, r6, beta, gamma, self.unit), "beta_deg")
         if self.legs is None:
             raise ConfigError("required for layout 'points'", path="legs")
-        base, top, legs = _points(self.base, "base"), _points(self.top, "top"), self.legs
+        base, top, legs = _array(_points(self.base, "base")), _array(_points(self.top, "top")), self.legs
         return _geometry(lambda: StewartPlatform(base, top, tuple(legs), self.name, self.unit), "legs")
 
 
@@ -118,8 +122,9 @@ class PathConfig(_Model):
 
 def _upr(layout: str, base: Disc, top: Disc, axes: list[Vec3] | None, d4: float, unit: str) -> UPRPlatform:
     if layout == "points":
-        b, t = _points(base, "base"), _points(top, "top")
-        return _geometry(lambda: UPRPlatform(b, t, axes, d4, unit), "axes" if axes else "top.points")
+        b, t = _array(_points(base, "base")), _array(_points(top, "top"))
+        ax = None if axes is None else _array(axes)
+        return _geometry(lambda: UPRPlatform(b, t, ax, d4, unit), "axes" if axes else "top.points")
     rb, rt = _radius(base, "base", False), _radius(top, "top", False)
     return _geometry(lambda: UPRPlatform.book_layout(layout, rb, rt, d4, unit), "layout")  # type: ignore[arg-type]
 
@@ -205,31 +210,6 @@ MODELS: dict[str, type[BaseModel]] = {
 }
 
 
-def _message(err: dict[str, Any]) -> str:
-    kind, ctx = err["type"], err.get("ctx") or {}
-    if kind == "greater_than" and ctx.get("gt") == 0:
-        return "expected a positive number"
-    if kind == "greater_than_equal" and ctx.get("ge") == 0:
-        return "expected a non-negative number"
-    if kind == "missing":
-        return "required key is missing"
-    if kind == "extra_forbidden":
-        return "unknown key"
-    if kind == "finite_number":
-        return "expected a finite number"
-    msg: str = " ".join(str(err["msg"]).split())[:200]
-    return msg[0].lower() + msg[1:] if msg else kind
-
-
-def _key_path(loc: tuple[Any, ...]) -> str:
-    out = ""
-    for part in loc:
-        if isinstance(part, str) and (len(part) > 40 or not part.isprintable()):
-            part = short_repr(part, 40)
-        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
-    return out
-
-
 def parse_config(data: Any, source: str = "<config>") -> AnyConfig:
     """Validate already-parsed YAML data.
 
@@ -241,16 +221,9 @@ def parse_config(data: Any, source: str = "<config>") -> AnyConfig:
     kind = data.get("kind")
     if not isinstance(kind, str) or kind not in MODELS:
         raise ConfigError(f"expected one of {sorted(MODELS)}, got {short_repr(kind)}", path="kind")
-    try:
-        return MODELS[kind].model_validate(data)  # type: ignore[return-value]
-    except ValidationError as exc:
-        errors = exc.errors()
-        first = errors[0]
-        extra = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
-        allowed = ""
-        if first["type"] == "extra_forbidden" and len(first["loc"]) == 1:
-            allowed = f"; allowed keys: {', '.join(MODELS[kind].model_fields)}"
-        raise ConfigError(_message(first) + allowed + extra, path=_key_path(first["loc"]) or "<root>") from exc
+    # the same validation and one-line key-path messages as task files and robot configs
+    config: AnyConfig = validate(MODELS[kind], data)
+    return config
 
 
 def load_config(path: str | Path) -> AnyConfig:

@@ -115,7 +115,7 @@ class DeltaRobot:
         thetas, frames, knees, tips = [], [], [], []
         for i in range(3):
             t1, t2 = urr_angles(float(pose.lengths[i]), self.a1, self.a2)
-            H = leg_frame(pose.vectors[i], pose.R03 @ self.platform.axes[i], self.platform.base_points[i])
+            H = leg_frame(pose.vectors[i], pose.R03 @ self.platform.joint_axes[i], self.platform.base_points[i])
             A1 = planar_link(t1, self.a1)
             thetas.append((t1, t2))
             frames.append(H)

@@ -156,7 +156,7 @@ def follow_leg_profile(
         pe[j + 1], Re[j + 1] = best.p, best.R
     leg_err = np.array([np.linalg.norm(platform._legs(ps[j], Rs[j]).lengths - q[j]) for j in range(n)])
     return Trajectory(
-        t=np.arange(n) * dt,
+        t=np.arange(n, dtype=float) * dt,
         p=ps,
         R=Rs,
         p_exact=pe,

@@ -24,6 +24,7 @@ Step 6 is evaluated as θ4 = atan2(b R23, b R13), θ5 = atan2(b·√(R13² + R23
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
 
@@ -133,8 +134,8 @@ class Hybrid33Arm:
     def project2(cls) -> Hybrid33Arm:
         """The rectangle-configuration arm of computer project 2 (section 5.5.1), lengths in m."""
         platform = UPRPlatform(
-            base_points=[[1.2, 0.0, 0.0], [0.0, 0.8, 0.0], [0.0, -0.8, 0.0]],
-            top_points=[[0.6, 0.0, 0.0], [0.0, 0.4, 0.0], [0.0, -0.4, 0.0]],
+            base_points=np.array([[1.2, 0.0, 0.0], [0.0, 0.8, 0.0], [0.0, -0.8, 0.0]]),
+            top_points=np.array([[0.6, 0.0, 0.0], [0.0, 0.4, 0.0], [0.0, -0.4, 0.0]]),
             d4=0.6,
         )
         return cls(platform, d5=0.2, d6=0.4)
@@ -201,7 +202,7 @@ class Hybrid33Arm:
         R06 = as_rotation(R06, "R06")
         return self._solve(p06, R06, float(theta6_prev), branch, orientation)
 
-    def _residual(self, p06: FloatArray, R06: FloatArray, branch: Branch) -> object:
+    def _residual(self, p06: FloatArray, R06: FloatArray, branch: Branch) -> Callable[[float], float]:
         def g(theta6: float) -> float:
             return float(self._solve(p06, R06, theta6, branch, "exact").lag)
 
@@ -234,7 +235,8 @@ class Hybrid33Arm:
                     root = brentq(g, lo, hi, xtol=1e-15, rtol=1e-15) if g_lo != g_hi else lo
                     sol = self._solve(p06, R06, root, b, "exact")
                     if abs(sol.lag) < 1e-10 and not any(
-                        abs(wrap_angle(s.theta6_used - root)) < 1e-8 and np.sign(s.theta[1]) == np.sign(sol.theta[1])
+                        abs(float(wrap_angle(s.theta6_used - root))) < 1e-8
+                        and np.sign(s.theta[1]) == np.sign(sol.theta[1])
                         for s in out
                     ):
                         out.append(sol)
@@ -265,7 +267,7 @@ class Hybrid33Arm:
                     return self._solve(p06, R06, float(wrap_angle(root)), branch, "exact")
         sols = self.ik_all(p06, R06, branch)
         ref = 0.0 if theta6_hint is None else theta6_hint
-        return min(sols, key=lambda s: abs(wrap_angle(s.theta6_used - ref)))
+        return min(sols, key=lambda s: abs(float(wrap_angle(s.theta6_used - ref))))
 
     # ------------------------------------------------------------------ forward kinematics
     def forward_kinematics(
@@ -396,4 +398,4 @@ def run_path(
     je[:, 3:] = np.unwrap(je[:, 3:], axis=0)
     if home_book is None or home_exact is None:  # n >= 2 guarantees both; keeps the types exact
         raise MechanismError("empty path")
-    return PathResult(np.arange(n) * dt, ps, Rs, jb, je, lag, rb, rba, re, rea, home_book, home_exact)
+    return PathResult(np.arange(n, dtype=float) * dt, ps, Rs, jb, je, lag, rb, rba, re, rea, home_book, home_exact)

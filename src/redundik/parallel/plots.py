@@ -22,7 +22,9 @@ if TYPE_CHECKING:
 
 
 def _pyplot() -> Any:
-    import matplotlib
+    from redundik._extras import require
+
+    matplotlib = require("matplotlib", "plotting")
 
     matplotlib.use("Agg", force=True)
     import matplotlib.pyplot as plt

@@ -90,7 +90,7 @@ class StewartPlatform:
                 raise MechanismError(f"{label} points {unused} are not connected to any leg")
             gaps = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2) + np.eye(len(pts))
             if gaps.min() < 1e-12:
-                i, j = sorted(np.unravel_index(int(np.argmin(gaps)), gaps.shape))
+                i, j = sorted(int(k) for k in np.unravel_index(int(np.argmin(gaps)), gaps.shape))
                 raise MechanismError(f"{label} points {i} and {j} coincide")
             centred = pts - pts.mean(axis=0)
             if len(pts) < 3 or np.linalg.matrix_rank(centred, tol=1e-9 * max(1.0, np.abs(pts).max())) < 2:
@@ -298,7 +298,7 @@ class StewartPlatform:
         """
         J0 = self.jacobian(p, R)
         _check_conditioning(J0)
-        return np.linalg.solve(J0, as_vector(F0, 6, "F0"))
+        return np.asarray(np.linalg.solve(J0, as_vector(F0, 6, "F0")), dtype=float)
 
 
 def _check_conditioning(J0: FloatArray) -> None:

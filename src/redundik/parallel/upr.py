@@ -147,6 +147,13 @@ class UPRPlatform:
         object.__setattr__(self, "axes", axes)
         object.__setattr__(self, "d4", float(self.d4))
 
+    @property
+    def joint_axes(self) -> FloatArray:
+        """The revolute axes of the top joints, shape (3, 3) (always set once constructed)."""
+        if self.axes is None:  # unreachable after __post_init__
+            raise MechanismError("the platform's joint axes are not set")
+        return self.axes
+
     @classmethod
     def book_layout(
         cls, layout: Layout, base_radius: float, top_radius: float, d4: float = 0.0, unit: str = "m"
@@ -197,7 +204,7 @@ class UPRPlatform:
                 singular 2×2 system.
         """
         top = as_vector(top, 3, "top point")
-        a = self.axes[:, :2]
+        a = self.joint_axes[:, :2]
         eta = self._eta(top)
         rows_x = [i for i in range(3) if abs(a[i, 1]) < 1e-12]
         if not rows_x:

@@ -8,7 +8,7 @@ Example::
 
     robot = rk.load_example_robot("panda")
     mj_model = mujoco_from_urdf(urdf_path, robot, ["panda_hand"])
-    configuration = mink.Configuration(mj_model)
+    configuration = Any(mj_model)
     up = MinkManipulabilityTask(robot, "panda_hand", dt=0.01, speed=0.05, cost=0.1)
     mink.solve_ik(configuration, [frame_task, posture_task, up], 0.01, "daqp")
 """
@@ -16,6 +16,7 @@ Example::
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -30,7 +31,7 @@ mink = require("mink")
 require("mujoco")
 
 
-class MinkPotentialTask(mink.Task):
+class MinkPotentialTask(mink.Task):  # type: ignore[misc,name-defined]  # mink is untyped
     """Any redundik potential p(q) as a 1-row mink task (J = ηᵀ, error per ``mode``).
 
     Args:
@@ -82,7 +83,7 @@ class MinkPotentialTask(mink.Task):
         super().__init__(cost=np.array([float(cost)]), gain=self.term.gain, lm_damping=lm_damping)
         self.term.joint_map = joint_map
 
-    def _bind(self, configuration: mink.Configuration) -> tuple[float, np.ndarray]:
+    def _bind(self, configuration: Any) -> tuple[float, np.ndarray]:
         if self.term.joint_map is None:
             self.term.joint_map = JointMap.from_mujoco(self.term.robot, configuration.model)
         return self.term.evaluate(configuration.data.qpos)
@@ -91,15 +92,15 @@ class MinkPotentialTask(mink.Task):
         """Move p_d (and ṗ_d) of mode ``"target"``."""
         self.term.set_target(target, target_rate)
 
-    def value(self, configuration: mink.Configuration) -> float:
+    def value(self, configuration: Any) -> float:
         """p at the configuration."""
         return self._bind(configuration)[0]
 
-    def compute_error(self, configuration: mink.Configuration) -> np.ndarray:
+    def compute_error(self, configuration: Any) -> np.ndarray:
         """e, shape (1,) (see :mod:`redundik.peers.potential_term`)."""
         return self.term.error(self._bind(configuration)[0])
 
-    def compute_jacobian(self, configuration: mink.Configuration) -> np.ndarray:
+    def compute_jacobian(self, configuration: Any) -> np.ndarray:
         """ηᵀ in MuJoCo's tangent coordinates, shape (1, nv)."""
         return self._bind(configuration)[1][None, :].copy()
 

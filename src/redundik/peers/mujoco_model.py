@@ -166,7 +166,8 @@ def mujoco_from_robot(robot: RobotModel, frames: Sequence[str] = ()) -> Any:
             kind, axis = _AXIS_JOINTS[short]
         elif short in ("JointModelRevoluteUnaligned", "JointModelPrismaticUnaligned"):
             kind = "hinge" if "Revolute" in short else "slide"
-            axis = tuple(float(a) for a in jm.extract().axis)
+            ax = [float(a) for a in jm.extract().axis]
+            axis = (ax[0], ax[1], ax[2])
         else:
             raise ModelError(f"robot '{robot.name}': joint '{name}' ({short}) has no MuJoCo counterpart here")
         iq = jm.idx_q

@@ -8,7 +8,7 @@ gradient is exact, computed on a redundik :class:`RobotModel` of the same robot,
 Example::
 
     robot = rk.load_example_robot("panda")
-    configuration = pink.Configuration(model, data, q)      # model: the same URDF in Pinocchio
+    configuration = Any(model, data, q)      # model: the same URDF in Pinocchio
     low = PinkBestPostureTask(robot, "panda_hand", dt=0.01, speed=0.1, cost=0.1)
     pink.solve_ik(configuration, [frame_task, posture_task, low], 0.01, solver="daqp")
 """
@@ -16,6 +16,7 @@ Example::
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -30,7 +31,7 @@ pink = require("pink")
 from pink.tasks import Task as _PinkTask  # noqa: E402 - after the guarded import
 
 
-class PinkPotentialTask(_PinkTask):
+class PinkPotentialTask(_PinkTask):  # type: ignore[misc]  # pink is untyped
     """Any redundik potential p(q) as a 1-row pink task (J = ηᵀ, error per ``mode``).
 
     Args:
@@ -82,7 +83,7 @@ class PinkPotentialTask(_PinkTask):
         super().__init__(cost=np.array([float(cost)]), gain=self.term.gain, lm_damping=lm_damping)
         self.term.joint_map = joint_map
 
-    def _bind(self, configuration: pink.Configuration) -> tuple[float, np.ndarray]:
+    def _bind(self, configuration: Any) -> tuple[float, np.ndarray]:
         if self.term.joint_map is None:
             self.term.joint_map = JointMap.from_pinocchio(self.term.robot, configuration.model)
         return self.term.evaluate(configuration.q)
@@ -91,15 +92,15 @@ class PinkPotentialTask(_PinkTask):
         """Move p_d (and ṗ_d) of mode ``"target"``."""
         self.term.set_target(target, target_rate)
 
-    def value(self, configuration: pink.Configuration) -> float:
+    def value(self, configuration: Any) -> float:
         """p at the configuration."""
         return self._bind(configuration)[0]
 
-    def compute_error(self, configuration: pink.Configuration) -> np.ndarray:
+    def compute_error(self, configuration: Any) -> np.ndarray:
         """e, shape (1,) (see :mod:`redundik.peers.potential_term`)."""
         return self.term.error(self._bind(configuration)[0])
 
-    def compute_jacobian(self, configuration: pink.Configuration) -> np.ndarray:
+    def compute_jacobian(self, configuration: Any) -> np.ndarray:
         """ηᵀ in pink's tangent coordinates, shape (1, nv)."""
         return self._bind(configuration)[1][None, :].copy()
 

@@ -18,12 +18,15 @@ import numpy as np
 from redundik.config.loader import TaskPlan
 from redundik.config.runner import RunResult
 from redundik.reporting.paths import safe_path
+from redundik.tasks.subtasks import BoundSubtask, TargetSubtask
 
 _AXIS = {"x": 0, "y": 1, "z": 2}
 
 
 def _plt() -> Any:
-    import matplotlib
+    from redundik._extras import require
+
+    matplotlib = require("matplotlib", "plotting")
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -220,13 +223,13 @@ def plot_potentials(plan: TaskPlan, results: dict[str, RunResult], path: Path) -
                 label = name if monitor else f"{name} (not controlled)" if sub is None else f"{name} ({sub.kind})"
                 t, p = r.log.t, r.log.potentials[pname]
                 ax.plot(t, p, color=c, ls=style, label=label, lw=_lw(i, len(results)))
-                if sub is not None and sub.kind == "target":
+                if isinstance(sub, TargetSubtask):
                     ax.axhline(sub.target, color=c, ls=":", lw=1)
                     ideal = sub.target + (p[0] - sub.target) * np.exp(-sub.rate * (t - t[0]))
                     ax.plot(
                         t, ideal, color="k", ls=":", lw=1.2, label=f"{name}: p_d + (p₀ − p_d)e^(−Kt), K = {sub.rate:g}"
                     )
-                for bound in (sub.lower, sub.upper) if sub is not None and sub.kind == "bound" else ():
+                for bound in (sub.lower, sub.upper) if isinstance(sub, BoundSubtask) else ():
                     if bound is not None:
                         ax.axhline(bound, color=c, ls=":", lw=1)
             elif pname in torque_names and f"m.{pname}.max" in r.series:

@@ -6,6 +6,8 @@ The contract of :meth:`Resolver.step` (the call a control loop makes once per ti
 * the stack is checked on first use and whenever its membership changes (:meth:`TaskStack.signature`): subtask
   kinds the resolver does not accept are refused with an error that names the subtask and lists what it accepts;
 * a task gain K with K·dt > 2 is refused (the first-order loop e ← (1 − K dt) e diverges);
+* ‖q̇‖ or the task error growing geometrically over consecutive steps is flagged (``info["diverging"]``, a
+  :class:`~redundik.resolvers.divergence.DivergenceWarning`; :mod:`redundik.resolvers.divergence`);
 * the returned q̇ is always finite; when an intermediate is not, the step says so in ``fallback`` with the terms
   that caused it, and q̇ is the safest value the resolver has (zero, clipped to the limits).
 """
@@ -18,12 +20,13 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable
 from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass, field
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
 from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
+from redundik.resolvers.divergence import DivergenceWatch
 from redundik.tasks.base import TaskTerm
 from redundik.tasks.stack import TaskStack
 
@@ -34,7 +37,7 @@ STABLE_GAIN_DT = 2.0
 #: nv = 38, toggling the BLAS pool cost more, +20 µs, than it saved).
 BLAS_LIMIT_NV = 64
 _USER_CHOSE_THREADS = any(os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"))
-_CONTROLLER: object | None = None
+_CONTROLLER: Any = None  # threadpoolctl.ThreadpoolController (untyped), built on first use
 
 
 def _blas_threads(n: int) -> AbstractContextManager[object]:
@@ -44,7 +47,7 @@ def _blas_threads(n: int) -> AbstractContextManager[object]:
 
     if _CONTROLLER is None:
         _CONTROLLER = ThreadpoolController()
-    return _CONTROLLER.limit(limits=n, user_api="blas")  # type: ignore[attr-defined]
+    return _CONTROLLER.limit(limits=n, user_api="blas")
 
 
 @dataclass
@@ -118,7 +121,7 @@ class LazyInfo(dict):  # type: ignore[type-arg]
             self._fill()
         return dict.__getitem__(self, key)
 
-    def get(self, key: str, default: object = None) -> object:  # type: ignore[override]
+    def get(self, key: str, default: object = None) -> object:
         if self._pending is not None and not dict.__contains__(self, key):
             self._fill()
         return dict.get(self, key, default)
@@ -148,7 +151,7 @@ class LazyInfo(dict):  # type: ignore[type-arg]
         self._fill()
         return dict.items(self)
 
-    def copy(self) -> dict[str, object]:  # type: ignore[override]
+    def copy(self) -> dict[str, object]:
         self._fill()
         return dict(dict.items(self))
 
@@ -156,7 +159,7 @@ class LazyInfo(dict):  # type: ignore[type-arg]
         self._fill()
         return dict.__eq__(self, other)
 
-    __hash__ = None  # type: ignore[assignment]
+    __hash__ = None
 
     def __repr__(self) -> str:
         self._fill()
@@ -184,7 +187,7 @@ class LazyStepResult(StepResult):
                 info._pending = None
             dict.update(info, extra)
 
-    @property  # type: ignore[override]
+    @property
     def sigma_min(self) -> float:
         self._resolve()
         return self.__dict__.get("_sigma_min", math.inf)
@@ -193,7 +196,7 @@ class LazyStepResult(StepResult):
     def sigma_min(self, value: float) -> None:
         self.__dict__["_sigma_min"] = value
 
-    @property  # type: ignore[override]
+    @property
     def damped(self) -> bool:
         self._resolve()
         return self.__dict__.get("_damped", False)
@@ -202,7 +205,7 @@ class LazyStepResult(StepResult):
     def damped(self, value: bool) -> None:
         self.__dict__["_damped"] = value
 
-    @property  # type: ignore[override]
+    @property
     def info(self) -> dict[str, object]:
         return self.__dict__["_info"]
 
@@ -237,7 +240,8 @@ class Resolver(ABC):
     accepts: ClassVar[tuple[str, ...]] = ()
 
     _checked: tuple[int, ...] | None = None
-    _gain_members: tuple[tuple, tuple] = ((), ())
+    _watch: DivergenceWatch | None = None
+    _gain_members: tuple[tuple[Any, ...], tuple[Any, ...]] = ((), ())
     #: BLAS threads inside a step: an int, or ``None`` to leave the process's setting alone. The default ``"auto"``
     #: limits BLAS to one thread for robots with nv ≥ :data:`BLAS_LIMIT_NV` = 64 (threaded products on small matrices
     #: stall on busy cores) unless the user set ``OMP_NUM_THREADS``/``OPENBLAS_NUM_THREADS``/``MKL_NUM_THREADS``.
@@ -267,8 +271,9 @@ class Resolver(ABC):
         }.get(kind, "")
 
     def reset(self) -> None:
-        """Forget any state kept between steps (warm starts, previous q̇, the checked stack)."""
+        """Forget any state kept between steps (warm starts, previous q̇, the checked stack, the divergence watch)."""
         self._checked = None
+        self._watch = None
 
     @abstractmethod
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
@@ -303,7 +308,15 @@ class Resolver(ABC):
         if any(task.gain > limit for task in tasks) or any(sub.rate > limit for sub in targets):
             check_gains(stack, dt, self.name)  # raises with the offending member named
         with self._blas_limit(robot):
-            return self.solve(robot, stack, float(t), float(dt))
+            res = self.solve(robot, stack, float(t), float(dt))
+        watch = self._watch
+        if watch is None:
+            watch = self._watch = DivergenceWatch()
+        norm = float(np.linalg.norm(res.dq))
+        factor = watch.update(norm, res.task_error)
+        if factor is not None:
+            watch.flag(self.name, norm, factor, res.info)
+        return res
 
     def _blas_limit(self, robot: RobotModel) -> AbstractContextManager[object]:
         """The BLAS thread limit of a step (a no-op context below :data:`BLAS_LIMIT_NV` or when the user chose)."""

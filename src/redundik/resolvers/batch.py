@@ -24,6 +24,7 @@ Agreement with the loop: ≤ 1e-9 in q̇ (tested); the differences are rounding 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 import pinocchio as pin
@@ -34,6 +35,7 @@ from redundik.resolvers.base import Resolver
 from redundik.resolvers.linalg import RCOND, K
 from redundik.resolvers.pinv import PinvResolver
 from redundik.resolvers.qp.wqp import WeightedQPResolver
+from redundik.tasks.base import Task
 from redundik.tasks.frame import FrameTask, PostureTask, resolve_axes
 from redundik.tasks.stack import TaskStack
 
@@ -129,7 +131,7 @@ class BatchResolver:
         """The stack problem i means, for the loop: frame task towards ``target`` (4×4), posture (if any)."""
         task = FrameTask(self.frame, axes=self.axes, gain=self.gain)
         task.set_target(target)
-        tasks: list = [task]
+        tasks: list[Task] = [task]
         if self.posture_gain > 0:
             tasks.append(PostureTask(self.posture_target, gain=self.posture_gain))
         return TaskStack(tasks)
@@ -209,7 +211,7 @@ class BatchResolver:
                 np.ascontiguousarray(J), V, z, self.posture_gain > 0, r.epsilon, r.max_damping, RCOND
             )
             return BatchResult(dq_r + dq_n, err, np.zeros(N, dtype=bool), [None] * N)
-        return self._solve_wqp(r, q, targets, J, V, z, e, err, dt)
+        return self._solve_wqp(cast(WeightedQPResolver, r), q, targets, J, V, z, e, err, dt)
 
     def _solve_wqp(
         self,

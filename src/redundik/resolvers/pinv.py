@@ -76,7 +76,7 @@ class PinvResolver(Resolver):
         dq_r, dq_n, rank, sigma_min, damping = K.closed_form(  # one compiled call: J⁺V and (I − J⁺J) z (5.8)
             contiguous(J),
             contiguous(V),
-            contiguous(z) if has_z else V[:0].copy(),
+            contiguous(z) if z is not None else V[:0].copy(),
             has_z,
             self.epsilon,
             self.max_damping,

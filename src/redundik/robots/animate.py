@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -47,7 +48,9 @@ def animate_planar(
     Raises:
         ConfigError: unknown frame in ``segments``/``trace`` or ``every`` < 1.
     """
-    import matplotlib
+    from redundik._extras import require
+
+    matplotlib = require("matplotlib", "plotting")
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -76,7 +79,7 @@ def animate_planar(
     n = next(iter(frames.values())).shape[0]
     samples = list(range(0, n, every))
 
-    def draw(k: int) -> list:
+    def draw(k: int) -> list[Any]:
         for line, (a, b) in zip(lines, segments, strict=True):
             line.set_data([frames[a][k, i], frames[b][k, i]], [frames[a][k, j], frames[b][k, j]])
         if trace:

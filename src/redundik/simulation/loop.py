@@ -10,6 +10,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -84,7 +85,7 @@ def simulate(
     dt: float,
     steps: int,
     log_frames: tuple[str, ...] = (),
-    extra_potentials: tuple = (),
+    extra_potentials: tuple[Any, ...] = (),
     progress: Callable[[int], None] | None = None,
     plant: Plant | None = None,
     integrator: str = "euler",

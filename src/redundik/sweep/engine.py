@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from redundik._optional import require_extra
+from redundik._extras import require
 from redundik.errors import RedundikError
 from redundik.sweep.plan import SweepPlan, load_sweep
 from redundik.sweep.solve import STATUSES, run_chunk
@@ -115,11 +115,11 @@ def dask_client(local: int | None = None, scheduler: str | None = None, processe
 
     Raises:
         SweepError: neither or both given, or the scheduler cannot be reached.
-        ExtraImportError: ``dask.distributed`` is not installed (extra ``sweep``).
+        MissingDependencyError: ``dask.distributed`` is not installed (extra ``sweep``).
     """
     if (local is None) == (scheduler is None):
         raise SweepError("give exactly one of a local cluster size (--dask local:N) or a scheduler address")
-    distributed = require_extra("distributed", "sweep")
+    distributed = require("distributed", "a sweep on Dask")
     import logging
 
     if local is not None:
@@ -200,7 +200,7 @@ def _run_on(
     progress: Callable[[int, int], None] | None,
     engine: str,
 ) -> SweepResult:
-    distributed = require_extra("distributed", "sweep")
+    distributed = require("distributed", "a sweep on Dask")
     workers = len(client.scheduler_info().get("workers", {})) or 1
     key, payload = plan.key, plan.payload
     t0 = time.perf_counter()

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from redundik._optional import require_extra
+from redundik._extras import require
 from redundik.reporting.paths import safe_path
 from redundik.sweep.engine import SweepResult
 from redundik.sweep.plan import SweepPlan
@@ -26,15 +26,15 @@ def write_table(columns: dict[str, np.ndarray], out_dir: Path, stem: str, fmt: s
     """Write the result table as ``STEM.parquet`` or ``STEM.csv`` in ``out_dir``; its path.
 
     Raises:
-        ExtraImportError: Parquet without pyarrow (extra ``sweep``).
+        MissingDependencyError: Parquet without pyarrow (extra ``sweep``).
         ValueError: an unknown format.
     """
     if fmt not in FORMATS:
         raise ValueError(f"format must be one of {FORMATS}, got {fmt!r}")
     path = safe_path(out_dir, f"{stem}.{fmt}")
     if fmt == "parquet":
-        pa = require_extra("pyarrow", "sweep")
-        pq = require_extra("pyarrow.parquet", "sweep", "pyarrow")
+        pa = require("pyarrow", "Parquet output")
+        pq = require("pyarrow.parquet", "Parquet output")
         table = pa.table({k: pa.array(list(v) if v.dtype == object else v) for k, v in columns.items()})
         pq.write_table(table, path)
         return path
@@ -52,7 +52,7 @@ def read_table(path: Path) -> dict[str, np.ndarray]:
     """Read a table written by :func:`write_table` back into columns (for checks and notebooks)."""
     path = Path(path)
     if path.suffix == ".parquet":
-        pq = require_extra("pyarrow.parquet", "sweep", "pyarrow")
+        pq = require("pyarrow.parquet", "Parquet output")
         table = pq.read_table(path)
         return {
             name: np.array(col.to_pylist(), dtype=object) if col.type == "string" else col.to_numpy()

@@ -97,8 +97,8 @@ class JointCentering(Potential):
 
     def __init__(
         self,
-        center: Sequence[float] | None = None,
-        weights: Sequence[float] | None = None,
+        center: Sequence[float] | np.ndarray | None = None,
+        weights: Sequence[float] | np.ndarray | None = None,
         name: str = "joint_centering",
     ) -> None:
         self.name = name
@@ -130,7 +130,10 @@ class JointCentering(Potential):
     def _delta(self, robot: RobotModel) -> np.ndarray:
         if self._c is None:
             self.check(robot)
-        return robot.difference(self._c, robot.q)
+        c = self._c
+        if c is None:  # check() sets it; a robot without finite limits leaves nothing to centre on
+            raise TaskError(f"subtask '{self.name}': no centre configuration")
+        return robot.difference(c, robot.q)
 
     def value(self, robot: RobotModel) -> float:
         d = self._delta(robot)

@@ -166,7 +166,7 @@ def run_obstacles(run: RunPlan, length_scale: float = 1.0) -> list[Obstacle]:
     from redundik.tasks.potentials import Clearance
 
     out: list[Obstacle] = []
-    pots = [s.potential for s in run.stack.subtasks] + list(run.watched) + list(run.monitors)
+    pots = [getattr(s, "potential", None) for s in run.stack.subtasks] + list(run.watched) + list(run.monitors)
     for p in pots:
         if isinstance(p, Clearance) and p.name not in {o.name for o in out}:
             vertical = set(p.axes) == {"x", "y"}  # distance in x-y only: an infinite post along z

@@ -200,7 +200,7 @@ def _geometry_mesh(geom: object, max_triangles: int) -> tuple[np.ndarray, np.nda
         t = np.array([[tri_at(i)[0], tri_at(i)[1], tri_at(i)[2]] for i in range(n)], dtype=np.int64)
         return decimate(v, t, max_triangles)
     if kind == "Box":
-        return box_mesh(np.asarray(geom.halfSide))  # type: ignore[attr-defined]
+        return box_mesh(np.asarray(geom.halfSide).tolist())  # type: ignore[attr-defined]
     if kind == "Cylinder":
         h = float(geom.halfLength)  # type: ignore[attr-defined]
         return cylinder_mesh(float(geom.radius), -h, h)  # type: ignore[attr-defined]

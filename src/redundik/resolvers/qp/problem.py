@@ -11,6 +11,7 @@ on presence.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -108,7 +109,7 @@ class QPProblem:
         if np.any(np.isnan(self.h)) or np.any(np.isnan(self.lb)) or np.any(np.isnan(self.ub)):
             raise ValueError(f"{self.label}: bounds contain NaN")
 
-    def to_qpsolvers(self) -> object:
+    def to_qpsolvers(self) -> Any:
         """The same problem as a ``qpsolvers.Problem`` (infinite bounds kept; qpsolvers handles them)."""
         import qpsolvers
 
