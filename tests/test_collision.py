@@ -277,3 +277,18 @@ def test_panda_shelf_run() -> None:
         assert s[name]["min_collision_distance"] >= 0.005  # the damper keeps d ≥ d_s (1 cm) to first order
         assert s[name]["max_active_pairs"] >= 1
     assert "min_distance" in res["wqp"].series
+
+
+@pytest.mark.parametrize("backend", ["daqp", "quadprog"])
+def test_stress_random_targets_do_not_penetrate(backend: str) -> None:
+    """300 steps of random targets through the obstacles and across the body (seed 3): the plain damper (one row
+    per pair) penetrates, the capsule witness jumping between the ends of a capsule nearly parallel to the other
+    body; with the end-sphere and look-ahead rows d stays ≥ 0 (and near d_s = 1 cm)."""
+    from redundik.collision.stress import run_stress
+
+    out = run_stress("panda", "wqp", backend, episodes=3, steps=100, seed=3)
+    assert out.steps == 300 and out.fallbacks == 0
+    assert out.penetrations == 0 and out.min_distance > 0.005
+    if backend == "daqp":
+        plain = run_stress("panda", "wqp", backend, episodes=3, steps=100, seed=3, lookahead=0.0, end_spheres=False)
+        assert plain.penetrations > 0

@@ -125,21 +125,23 @@ class CollisionAvoidance(Barrier, Potential):
         bound subtask caps it at 1/dt, so the row is d + (H q̇) dt ≥ d_s: the robot's own motion does not cross d_s
         within one step; it binds only for approach speeds above (d − d_s)/dt, and an obstacle's motion, which
         needs dt to be folded in, is left to the damper once the pair is within d_i). Rows are the pairs first (pair
-        order), then the end-sphere branches.
+        order), then the end-sphere branches (ends within d_i + lookahead; each row by its own distance).
         """
         reach = self.influence + self.lookahead
         dist = self.world.compute(robot, reach)
         self._report(dist)
         rows = dist.near
-        H = self.world.jacobian(robot, dist, rows)
         d, rate = dist.d[rows], dist.rate[rows]
         names = [self.world.pair_names[k] for k in rows]
+        pairs, n, p1, p2 = rows, dist.n[rows], dist.p1[rows], dist.p2[rows]
         if self.end_spheres and rows.size:
             br = self.world.end_spheres(dist, rows, reach)
             if br.pair.size:
-                H = np.vstack([H, self.world.point_jacobian(robot, br.pair, br.n, br.p1, br.p2)])
+                pairs, n = np.concatenate([pairs, br.pair]), np.vstack([n, br.n])
+                p1, p2 = np.vstack([p1, br.p1]), np.vstack([p2, br.p2])
                 d, rate = np.concatenate([d, br.d]), np.concatenate([rate, br.rate])
                 names += br.names
+        H = self.world.point_jacobian(robot, pairs, n, p1, p2)
         g = self.gamma
         inside = d < self.influence
         h = np.where(inside, d - self.safety + rate / g, d - self.safety)

@@ -218,6 +218,15 @@ class Branches:
         return Branches(np.zeros(0, dtype=int), np.zeros(0), z, z.copy(), z.copy(), np.zeros(0))
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise a × b of (k, 3) arrays (np.cross's axis handling costs more than the product at this size)."""
+    out = np.empty_like(b)
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
+
+
 def _unit(v: np.ndarray) -> tuple[np.ndarray, float] | None:
     n = math.sqrt(float(v @ v))
     return (v / n, n) if n > 1e-12 else None
@@ -228,7 +237,7 @@ _SPHERE_REQ.enable_signed_distance = True
 
 
 def _sphere_to(
-    c: np.ndarray, r: float, info: tuple, M: pin.SE3, shape: object
+    c: np.ndarray, r: float, info: tuple, M: pin.SE3
 ) -> tuple[float, np.ndarray, np.ndarray, np.ndarray] | None:
     """Signed distance [m] of the ball (centre c, radius r) to a shape at pose M: (d, point on the ball, point on the
     shape, unit normal u from the ball to the shape, with p_shape − p_ball = d u), or ``None`` when undefined (the
@@ -269,7 +278,7 @@ def _sphere_to(
         u = -nw
         return h - r, c + r * u, c - h * nw, u
     res = coal.DistanceResult()
-    coal.distance(coal.Sphere(r), coal.Transform3s(np.eye(3), c), shape, coal.Transform3s(M.rotation, M.translation),
+    coal.distance(coal.Sphere(r), coal.Transform3s(np.eye(3), c), info[1], coal.Transform3s(M.rotation, M.translation),
                   _SPHERE_REQ, res)  # fmt: skip
     p1, p2 = np.asarray(res.getNearestPoint1()), np.asarray(res.getNearestPoint2())
     d = float(res.min_distance)
@@ -558,8 +567,8 @@ class CollisionWorld:
         ja, jb = self._pair_joint_arrays()
         mask = self._joint_masks(robot)
         A = n @ Js[:3]
-        out = mask[jb[rows]] * (A + np.cross(p2, n) @ Js[3:])
-        out -= mask[ja[rows]] * (A + np.cross(p1, n) @ Js[3:])
+        out = mask[jb[rows]] * (A + _cross(p2, n) @ Js[3:])
+        out -= mask[ja[rows]] * (A + _cross(p1, n) @ Js[3:])
         return out
 
     def point_jacobian(
@@ -577,8 +586,8 @@ class CollisionWorld:
         ja, jb = self._pair_joint_arrays()
         mask = self._joint_masks(robot)
         A = n @ Js[:3]
-        out = mask[jb[pairs]] * (A + np.cross(p2, n) @ Js[3:])
-        out -= mask[ja[pairs]] * (A + np.cross(p1, n) @ Js[3:])
+        out = mask[jb[pairs]] * (A + _cross(p2, n) @ Js[3:])
+        out -= mask[ja[pairs]] * (A + _cross(p1, n) @ Js[3:])
         return out
 
     def end_spheres(self, dist: Distances, rows: np.ndarray, influence: float) -> Branches:
@@ -601,7 +610,7 @@ class CollisionWorld:
         info = self._shape_info()
         oMg = self.data.oMg
         pk, dd, pp1, pp2, nn, rr, labels = [], [], [], [], [], [], []
-        objs = self.geometry.geometryObjects
+        gnames = self._geom_names
         for k in np.asarray(rows, dtype=int).tolist():
             i, j = self.pairs[k]
             for b, o, first in ((i, j, True), (j, i, False)):
@@ -611,7 +620,7 @@ class CollisionWorld:
                 Mb, Mo = oMg[b], oMg[o]
                 axis = Mb.rotation[:, 2] * kb[2]
                 for c, sign in ((Mb.translation + axis, "+"), (Mb.translation - axis, "-")):
-                    hit = _sphere_to(c, kb[1], info[o], Mo, self.geometry.geometryObjects[o].geometry)
+                    hit = _sphere_to(c, kb[1], info[o], Mo)
                     if hit is None or hit[0] >= influence:
                         continue
                     d_e, ps, po, u = hit
@@ -619,7 +628,7 @@ class CollisionWorld:
                     if abs(d_e - dist.d[k]) < 1e-9 and np.abs(q1 - dist.p1[k]).max() < 1e-7:
                         continue  # the pair's own witness
                     pk.append(k)
-                    labels.append(f"{self.pair_names[k]}@{objs[b].name}{sign}")
+                    labels.append(f"{self.pair_names[k]}@{gnames[b]}{sign}")
                     mo = self.obstacles[j - self.n_links].motion if j in self._moving else None
                     rr.append(float(nrm @ mo.rate(self.time)) if mo is not None else 0.0)
                     dd.append(d_e)
@@ -632,7 +641,7 @@ class CollisionWorld:
 
     def _shape_info(self) -> list[tuple]:
         """Per geometry: ("capsule", R, half length) | ("sphere", R) | ("box", half sides) | ("halfspace", n, d) |
-        ("other",)."""
+        ("other", shape) (read once: pinocchio copies ``geometryObjects`` on every access)."""
         if getattr(self, "_info", None) is None or len(self._info) != self.geometry.ngeoms:
             info: list[tuple] = []
             for go in self.geometry.geometryObjects:
@@ -646,8 +655,9 @@ class CollisionWorld:
                 elif isinstance(g, coal.Halfspace):
                     info.append(("halfspace", np.asarray(g.n, dtype=float).copy(), float(g.d)))
                 else:
-                    info.append(("other",))
+                    info.append(("other", g))
             self._info = info
+            self._geom_names = [go.name for go in self.geometry.geometryObjects]
         return self._info
 
     def _pair_joint_arrays(self) -> tuple[np.ndarray, np.ndarray]:
