@@ -165,12 +165,15 @@ def build_world(
 
 # ---------------------------------------------------------------------------------------------------- typed entries
 class CollisionPotentialSpec(s.StrictModel):
-    """Potential ``type: collision``: d_i (``influence``), d_s (``safety``) [m], ξ (``xi``) [m/s]."""
+    """Potential ``type: collision``: d_i (``influence``), d_s (``safety``), ``lookahead`` [m], ξ (``xi``) [m/s],
+    ``end_spheres`` (rows for the capsules' end spheres)."""
 
     type: Literal["collision"]
     influence: Positive = 0.1
     safety: Annotated[float, Field(ge=0)] = 0.01
     xi: Positive = 0.2
+    lookahead: Annotated[float, Field(ge=0)] = 0.05
+    end_spheres: bool = True
 
 
 class SupportPolygonSpec(s.StrictModel):
@@ -215,7 +218,15 @@ def _pot_collision(spec: CollisionPotentialSpec, name: str, ctx: Context, path: 
         )
     return _wrap(
         path,
-        lambda: CollisionAvoidance(world, influence=spec.influence, safety=spec.safety, xi=spec.xi, name=name),
+        lambda: CollisionAvoidance(
+            world,
+            influence=spec.influence,
+            safety=spec.safety,
+            xi=spec.xi,
+            lookahead=spec.lookahead,
+            end_spheres=spec.end_spheres,
+            name=name,
+        ),
     )
 
 
