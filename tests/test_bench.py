@@ -17,8 +17,21 @@ import pytest
 from redundik.cli.main import main as cli_main
 from redundik.errors import ConfigError
 from redundik.peers import available
-from redundik.peers.bench import METHODS, BenchConfig, markdown, run_benchmark, write_all
+from redundik.peers.bench import (
+    METHODS,
+    BenchConfig,
+    BenchResult,
+    CaseResult,
+    markdown,
+    ratio_lines,
+    readme_table,
+    run_benchmark,
+    summarise,
+    write_all,
+)
+from redundik.peers.bench.runners import RedundikRunner, Runner
 from redundik.peers.bench.scenarios import SCENARIOS, ActuatedPostureTask
+from redundik.resolvers.pinv import PinvResolver
 
 REQUIRED = {
     "robot": str,
@@ -28,6 +41,7 @@ REQUIRED = {
     "p90_us": float,
     "max_task_error": float,
     "limit_violations": int,
+    "status": str,
 }
 PEERS_INSTALLED = available("mink") and available("mujoco") and available("pink")
 ROOT = Path(__file__).resolve().parents[1]
@@ -74,6 +88,7 @@ def test_json_schema_and_reports(tiny, tmp_path: Path) -> None:
     for case in doc["cases"]:
         for key, typ in REQUIRED.items():
             assert isinstance(case[key], typ), (key, case)
+        assert case["status"] == "ok" or case["status"].startswith("failed: "), case["status"]
         assert case["method"] in METHODS
         assert case["robot"] in SCENARIOS
     assert {t["target"] for t in doc["targets"]} and all("met" in t for t in doc["targets"])
@@ -128,3 +143,93 @@ def test_actuated_posture_leaves_the_floating_base_free() -> None:
     np.testing.assert_allclose(term.J @ robot.difference(q, sc.q0), term.error)  # J picks the actuated rows
     np.testing.assert_allclose(np.abs(term.error).max(), 0.1)
     np.testing.assert_allclose(term.v, 2.0 * term.error)
+
+
+# ---------------------------------------------------------------------------------------------- honest statuses
+class _FrozenRunner(Runner):
+    """A deliberately broken method: the robot never moves."""
+
+    method, backend = "pinv", "-"
+
+    def _step(self, t: float) -> tuple[int, np.ndarray]:
+        return 1000, self.q.copy()
+
+
+class _DriftingRunner(Runner):
+    """A deliberately broken method: the robot moves, but away from the line (a constant joint drift)."""
+
+    method, backend = "pinv", "-"
+
+    def _step(self, t: float) -> tuple[int, np.ndarray]:
+        return 1000, self.q + 2e-3
+
+
+class _FlakyPinv(PinvResolver):
+    """pinv that tracks, but reports a fallback on every third step."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.calls = 0
+
+    def solve(self, robot, stack, t, dt):  # type: ignore[no-untyped-def]
+        res = super().solve(robot, stack, t, dt)
+        self.calls += 1
+        if self.calls % 3 == 0:
+            res.fallback = "test: deliberately reported fallback"
+        return res
+
+
+def _run(runner: Runner, steps: int = 40) -> CaseResult:
+    runner.run(steps)
+    return summarise(runner)
+
+
+def test_a_frozen_robot_is_failed() -> None:
+    case = _run(_FrozenRunner(SCENARIOS["planar3r"]()))
+    assert case.frozen_steps == case.steps == 40
+    assert not case.ok and case.status.startswith("failed: ")
+    assert "robot does not move on 40 of 40 steps" in case.status
+    assert case.as_json()["status"] == case.status
+
+
+def test_a_large_tracking_error_is_failed() -> None:
+    case = _run(_DriftingRunner(SCENARIOS["planar3r"]()))
+    assert case.frozen_steps == 0 and case.fallback_steps == 0  # it moves and never falls back ...
+    assert case.max_task_error > case.error_tolerance == 1e-3  # ... but misses the line
+    assert "tracking error" in case.status and "tolerance 0.001" in case.status
+    assert "does not move" not in case.status
+
+
+def test_frequent_fallbacks_are_failed_and_a_clean_run_is_ok() -> None:
+    sc = SCENARIOS["planar3r"]()
+    clean = _run(RedundikRunner(sc, "pinv", None, {}))
+    assert clean.status == "ok", clean.status  # the same method without the fallbacks tracks: ok
+    flaky = RedundikRunner(sc, "pinv", None, {})
+    flaky.resolver = _FlakyPinv()
+    case = _run(flaky)
+    assert case.fallback_steps == 13 and case.max_task_error <= 1e-3  # it tracks, yet falls back on 1/3 of steps
+    assert "falls back or raises on 13 of 40 steps" in case.status
+    assert "deliberately reported fallback" in case.status
+
+
+def test_failed_cases_are_left_out_of_ratios_and_targets() -> None:
+    sc = SCENARIOS["planar3r"]()
+    good = _run(RedundikRunner(sc, "pinv", None, {}))
+    frozen = _run(_FrozenRunner(sc))
+    frozen.method = "wqp"
+    peer = _run(RedundikRunner(sc, "pinv", None, {}))
+    peer.method, peer.backend = "pink", "daqp"
+    bad_peer = _run(_FrozenRunner(sc))
+    bad_peer.method, bad_peer.backend, bad_peer.median_us = "mink", "daqp", 1e-3  # "fastest", but frozen
+    meta = {"robots": ["planar3r"], "steps": 40, "warmup": 0, "chunk": 40, "python": "", "platform": "",
+            "processor": "", "wall_time_s": 0.0}  # fmt: skip
+    result = BenchResult([good, frozen, peer, bad_peer], [], meta)
+    assert result.faster_peer("planar3r") is peer  # the frozen peer is not the reference
+    ratios = result.ratios()
+    assert [(r["method"], r["peer"]) for r in ratios] == [("pinv", "pink/daqp")]
+    md = markdown(result)
+    assert md.count("**FAILED**") == 2 and "robot does not move" in md
+    table = readme_table(result)
+    assert "| planar3r | wqp | - |" in table and "**FAILED**: tracking error" in table
+    assert "robot does not move" in table.split("| planar3r | wqp | - |")[1].splitlines()[0]
+    assert any("FAILED" in line for line in ratio_lines(result))

@@ -6,7 +6,7 @@ import numpy as np
 
 import redundik as rk
 from redundik.kinematics import DHRow
-from redundik.resolvers.qp import available_backends
+from redundik.resolvers.qp import TOLERANCE, available_backends
 
 BACKENDS = available_backends()
 
@@ -57,3 +57,15 @@ def random_robot(rng: np.random.Generator, n: int, velocity: float = np.inf, lim
 def tip(robot: rk.RobotModel) -> str:
     """Name of the last D-H frame."""
     return robot.joint_names[-1]
+
+
+#: The one per-backend tolerance table of the property tests: largest |x − x_ref| against an exact active-set answer,
+#: relative to max(1, ‖x_ref‖∞) [unit of x]. It is the backends' documented accuracy
+#: (:data:`redundik.resolvers.qp.TOLERANCE`), with the settings of :mod:`redundik.resolvers.qp.backends` (osqp
+#: eps 1e-8 and polishing, also from a stalled iterate; proxsuite eps_abs 1e-9 with the duality-gap check).
+QP_TOLERANCE: dict[str, float] = dict(TOLERANCE)
+
+
+def qp_tolerance(backend: str, reference: np.ndarray | float = 1.0) -> float:
+    """Tolerance of ``backend`` for an answer of the size of ``reference`` (see :data:`QP_TOLERANCE`)."""
+    return QP_TOLERANCE[backend] * max(1.0, float(np.max(np.abs(reference))))

@@ -6,6 +6,8 @@ The contract of :meth:`Resolver.step` (the call a control loop makes once per ti
 * the stack is checked on first use and whenever its membership changes (:meth:`TaskStack.signature`): subtask
   kinds the resolver does not accept are refused with an error that names the subtask and lists what it accepts;
 * a task gain K with K·dt > 2 is refused (the first-order loop e ← (1 − K dt) e diverges);
+* ‖q̇‖ or the task error growing geometrically over consecutive steps is flagged (``info["diverging"]``, a
+  :class:`~redundik.resolvers.divergence.DivergenceWarning`; :mod:`redundik.resolvers.divergence`);
 * the returned q̇ is always finite; when an intermediate is not, the step says so in ``fallback`` with the terms
   that caused it, and q̇ is the safest value the resolver has (zero, clipped to the limits).
 """
@@ -24,6 +26,7 @@ import numpy as np
 
 from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
+from redundik.resolvers.divergence import DivergenceWatch
 from redundik.tasks.base import TaskTerm
 from redundik.tasks.stack import TaskStack
 
@@ -237,6 +240,7 @@ class Resolver(ABC):
     accepts: ClassVar[tuple[str, ...]] = ()
 
     _checked: tuple[int, ...] | None = None
+    _watch: DivergenceWatch | None = None
     _gain_members: tuple[tuple, tuple] = ((), ())
     #: BLAS threads inside a step: an int, or ``None`` to leave the process's setting alone. The default ``"auto"``
     #: limits BLAS to one thread for robots with nv ≥ :data:`BLAS_LIMIT_NV` = 64 (threaded products on small matrices
@@ -267,8 +271,9 @@ class Resolver(ABC):
         }.get(kind, "")
 
     def reset(self) -> None:
-        """Forget any state kept between steps (warm starts, previous q̇, the checked stack)."""
+        """Forget any state kept between steps (warm starts, previous q̇, the checked stack, the divergence watch)."""
         self._checked = None
+        self._watch = None
 
     @abstractmethod
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
@@ -303,7 +308,15 @@ class Resolver(ABC):
         if any(task.gain > limit for task in tasks) or any(sub.rate > limit for sub in targets):
             check_gains(stack, dt, self.name)  # raises with the offending member named
         with self._blas_limit(robot):
-            return self.solve(robot, stack, float(t), float(dt))
+            res = self.solve(robot, stack, float(t), float(dt))
+        watch = self._watch
+        if watch is None:
+            watch = self._watch = DivergenceWatch()
+        norm = float(np.linalg.norm(res.dq))
+        factor = watch.update(norm, res.task_error)
+        if factor is not None:
+            watch.flag(self.name, norm, factor, res.info)
+        return res
 
     def _blas_limit(self, robot: RobotModel) -> AbstractContextManager[object]:
         """The BLAS thread limit of a step (a no-op context below :data:`BLAS_LIMIT_NV` or when the user chose)."""

@@ -5,18 +5,29 @@ It lives in :mod:`redundik.peers` because it is the one place, with the task ada
 ``redundik bench``. See ``docs/benchmark.md``.
 """
 
-from redundik.peers.bench.harness import METHODS, BenchConfig, BenchResult, CaseResult, run_benchmark
-from redundik.peers.bench.report import markdown, plot, ratio_lines, to_json, write_all, write_json
+from redundik.peers.bench.harness import (
+    METHODS,
+    BenchConfig,
+    BenchResult,
+    CaseResult,
+    case_status,
+    run_benchmark,
+    summarise,
+)
+from redundik.peers.bench.report import markdown, plot, ratio_lines, readme_table, to_json, write_all, write_json
 
 __all__ = [
     "METHODS",
     "BenchConfig",
     "BenchResult",
     "CaseResult",
+    "case_status",
     "markdown",
     "plot",
     "ratio_lines",
+    "readme_table",
     "run_benchmark",
+    "summarise",
     "to_json",
     "write_all",
     "write_json",

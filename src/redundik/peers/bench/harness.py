@@ -28,6 +28,10 @@ METHODS: tuple[str, ...] = ("pinv", "feedback", "wqp", "hqp", "mink", "pink")
 QP_BACKENDS: tuple[str, ...] = ("osqp", "proxsuite", "daqp", "quadprog")
 #: Backends tried for the peers (their fastest is used in the ratios).
 PEER_BACKENDS: tuple[str, ...] = ("daqp", "quadprog")
+#: Largest fraction of steps that may fall back (or raise) or leave the robot frozen before a case is FAILED.
+MAX_BAD_FRACTION = 0.01
+#: Largest joint-limit violation a case may reach [rad or m] (numerical round-off of the peers' integrators).
+LIMIT_TOLERANCE = 1e-5
 
 
 @dataclass
@@ -98,10 +102,20 @@ class CaseResult:
     qp_fraction: float | None = None
     first_failure: str | None = None
     stages_us: dict[str, float] | None = None
+    fallback_steps: int = 0
+    first_fallback: str | None = None
+    frozen_steps: int = 0
+    error_tolerance: float = 1e-3
+    status: str = "ok"
+
+    @property
+    def ok(self) -> bool:
+        """True when the case tracks, moves, keeps the limits and rarely falls back (:func:`case_status`)."""
+        return self.status == "ok"
 
     def as_json(self) -> dict[str, Any]:
         """The JSON record (keys ``robot``, ``method``, ``backend``, ``median_us``, ``p90_us``,
-        ``max_task_error``, ``limit_violations`` first — other tools read them — then the extras)."""
+        ``max_task_error``, ``limit_violations``, ``status`` first — other tools read them — then the extras)."""
         return {
             "robot": self.robot,
             "method": self.method,
@@ -110,6 +124,11 @@ class CaseResult:
             "p90_us": self.p90_us,
             "max_task_error": self.max_task_error,
             "limit_violations": self.limit_violations,
+            "status": self.status,
+            "error_tolerance": self.error_tolerance,
+            "fallback_steps": self.fallback_steps,
+            "first_fallback": self.first_fallback,
+            "frozen_steps": self.frozen_steps,
             "mean_task_error": self.mean_task_error,
             "max_violation": self.max_violation,
             "subtask": self.subtask_label,
@@ -141,8 +160,9 @@ class BenchResult:
         ]
 
     def fastest(self, robot: str, method: str) -> CaseResult | None:
-        """The case of ``method`` on ``robot`` with the lowest median (its fastest backend), if any ran cleanly."""
-        found = [c for c in self.find(robot, method) if c.failures < c.steps]
+        """The case of ``method`` on ``robot`` with the lowest median (its fastest backend) among the cases that did
+        not fail (:func:`case_status`), if any."""
+        found = [c for c in self.find(robot, method) if c.ok]
         return min(found, key=lambda c: c.median_us) if found else None
 
     def default(self, robot: str, method: str) -> CaseResult | None:
@@ -159,10 +179,10 @@ class BenchResult:
         return min(peers, key=lambda c: c.median_us) if peers else None
 
     def ratios(self) -> list[dict[str, Any]]:
-        """Median of every redundik case over the faster peer's median, per robot."""
+        """Median of every redundik case that did not fail over the faster (non-failed) peer's median, per robot."""
         out = []
         for c in self.cases:
-            if c.method in ("mink", "pink"):
+            if c.method in ("mink", "pink") or not c.ok:
                 continue
             peer = self.faster_peer(c.robot)
             if peer is None or peer.median_us <= 0:
@@ -187,7 +207,7 @@ class BenchResult:
             out.append({"target": name, "value": value, "limit": limit, "unit": unit, "met": met, "detail": detail})
 
         peer = self.faster_peer("panda")
-        wqp = self.default("panda", "wqp")
+        wqp = _ok(self.default("panda", "wqp"))
         add(
             "panda: wqp (default backend) ≤ ¼ faster peer",
             None if wqp is None or peer is None else wqp.median_us / peer.median_us,
@@ -195,9 +215,9 @@ class BenchResult:
             "ratio",
             _detail(wqp, peer),
         )
-        pinv = self.default("panda", "pinv")
+        pinv = _ok(self.default("panda", "pinv"))
         add("panda: pinv with null-space subtask < 25 µs", None if pinv is None else pinv.median_us, 25.0, "µs", "")
-        hqp = self.default("panda", "hqp")
+        hqp = _ok(self.default("panda", "hqp"))
         add(
             "panda: 3-level hqp ≤ one weighted QP step of the faster peer",
             None if hqp is None or peer is None else hqp.median_us / peer.median_us,
@@ -206,7 +226,7 @@ class BenchResult:
             _detail(hqp, peer),
         )
         pink = self.fastest("talos", "pink")
-        wqp_h = self.default("talos", "wqp")
+        wqp_h = _ok(self.default("talos", "wqp"))
         add(
             "humanoid: wqp ≤ ⅓ pink",
             None if wqp_h is None or pink is None else wqp_h.median_us / pink.median_us,
@@ -217,9 +237,13 @@ class BenchResult:
         return out
 
 
+def _ok(c: CaseResult | None) -> CaseResult | None:
+    return c if c is not None and c.ok else None
+
+
 def _detail(a: CaseResult | None, b: CaseResult | None) -> str:
     if a is None or b is None:
-        return "not measured"
+        return "not measured (or FAILED)"
     return f"{a.method}/{a.backend} {a.median_us:.1f} µs vs {b.method}/{b.backend} {b.median_us:.1f} µs"
 
 
@@ -337,7 +361,7 @@ def _summarise(r: Runner, warmup: int, defaults: dict[str, str]) -> CaseResult:
     err = np.asarray(rec.task_error)
     mon = np.asarray(rec.monitor)
     backend = r.backend
-    return CaseResult(
+    case = CaseResult(
         robot=r.scenario.key,
         method=r.method,
         backend=backend,
@@ -355,7 +379,43 @@ def _summarise(r: Runner, warmup: int, defaults: dict[str, str]) -> CaseResult:
         default_backend=defaults.get(f"{r.scenario.key}/{r.method}") == backend,
         first_failure=rec.first_failure,
         qp_fraction=rec.qp_steps / max(len(rec.step_ns), 1) if r.method in ("wqp", "hqp") else None,
+        fallback_steps=rec.fallbacks,
+        first_fallback=rec.first_fallback,
+        frozen_steps=rec.frozen,
+        error_tolerance=r.scenario.error_tolerance,
     )
+    case.status = case_status(case)
+    return case
+
+
+def summarise(r: Runner, warmup: int = 0, defaults: dict[str, str] | None = None) -> CaseResult:
+    """The :class:`CaseResult` of a runner that has run (timings after ``warmup`` steps), with its status."""
+    return _summarise(r, warmup, defaults or {})
+
+
+def case_status(c: CaseResult) -> str:
+    """``"ok"``, or ``"failed: "`` and every reason, for a case whose numbers cannot be compared honestly:
+
+    * its stacked frame-task error exceeds the scenario's tolerance (``error_tolerance``, 1 mm / 1 mrad);
+    * its robot does not move on more than 1 % of the steps (q unchanged to 1e-12; every reference moves);
+    * it falls back (``StepResult.fallback``) or raises on more than 1 % of the steps;
+    * it breaks the joint limits by more than 1e-5 rad (the limits are part of every scenario's task).
+
+    A failed case keeps its row in the reports but is left out of the ratios and the targets.
+    """
+    reasons = []
+    n = max(c.steps, 1)
+    if not c.max_task_error <= c.error_tolerance:  # NaN fails too
+        reasons.append(f"tracking error {c.max_task_error:.2e} > tolerance {c.error_tolerance:g}")
+    if c.frozen_steps > MAX_BAD_FRACTION * n:
+        reasons.append(f"robot does not move on {c.frozen_steps} of {c.steps} steps")
+    bad = c.fallback_steps + c.failures
+    if bad > MAX_BAD_FRACTION * n:
+        first = c.first_failure or c.first_fallback or ""
+        reasons.append(f"falls back or raises on {bad} of {c.steps} steps" + (f" ({first[:120]})" if first else ""))
+    if c.max_violation > LIMIT_TOLERANCE:
+        reasons.append(f"breaks the joint limits on {c.limit_violations} steps (by up to {c.max_violation:.1e})")
+    return "ok" if not reasons else "failed: " + "; ".join(reasons)
 
 
 def _versions() -> dict[str, str]:

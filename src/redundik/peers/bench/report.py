@@ -59,17 +59,18 @@ def markdown(result: BenchResult, command: str = "") -> str:
         f"{m['wall_time_s']:.0f} s.",
         "",
         "| robot | method | backend | median µs | p90 µs | × faster peer | max task error | subtask (final) "
-        "| limit viol. | failures |",
-        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|",
+        "| limit viol. | fallbacks | status |",
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
     for c in cases:
         peer = result.faster_peer(c.robot)
-        ratio = "–" if peer is None else _num(c.median_us / peer.median_us, 2)
+        ratio = "–" if peer is None or not c.ok else _num(c.median_us / peer.median_us, 2)
         star = " (default)" if c.default_backend else ""
         lines.append(
             f"| {c.robot} | {c.method} | {c.backend}{star} | {_num(c.median_us)} | {_num(c.p90_us)} | {ratio} "
             f"| {_sci(c.max_task_error)} | {c.subtask_label} = {c.subtask_final:.4g} | {c.limit_violations}"
-            f"{'' if not c.limit_violations else f' (max {c.max_violation:.1e})'} | {c.failures} |"
+            f"{'' if not c.limit_violations else f' (max {c.max_violation:.1e})'} | {c.fallback_steps + c.failures} "
+            f"| {_status(c.status)} |"
         )
     lines += ["", "Targets (issue 3, measured in this run):", ""]
     lines += ["| target | measured | limit | met | detail |", "|---|---:|---:|---|---|"]
@@ -105,11 +106,48 @@ def markdown(result: BenchResult, command: str = "") -> str:
     return "\n".join(lines) + "\n"
 
 
+def _status(status: str) -> str:
+    return "ok" if status == "ok" else "**FAILED**: " + status.removeprefix("failed: ")
+
+
+def readme_table(result: BenchResult) -> str:
+    """The README's compact table: per robot and method, the default backend (wqp/hqp) or the fastest (peers),
+    median µs, ratio to the faster peer (only for cases that did not fail), max error and status."""
+    order = {m: i for i, m in enumerate(METHODS)}
+    robots = list(result.meta["robots"])
+    lines = [
+        "| robot | method | backend | median µs | × faster peer | max task error | status |",
+        "|---|---|---|---:|---:|---:|---|",
+    ]
+    shown: list[int] = []
+    for robot in robots:
+        peer = result.faster_peer(robot)
+        for method in sorted({c.method for c in result.cases if c.robot == robot}, key=order.__getitem__):
+            if method in ("mink", "pink"):
+                c = result.fastest(robot, method) or min(result.find(robot, method), key=lambda c: c.median_us)
+            else:
+                c = result.default(robot, method) or result.find(robot, method)[0]
+            shown.append(id(c))
+            ratio = "–" if peer is None or not c.ok else f"{c.median_us / peer.median_us:.2f}"
+            lines.append(
+                f"| {robot} | {method} | {c.backend} | {_num(c.median_us, 0)} | {ratio} | {_sci(c.max_task_error)} "
+                f"| {_status(c.status)} |"
+            )
+    failed = [c for c in result.cases if not c.ok and id(c) not in shown]
+    if failed:
+        lines += ["", "Other cases (backends) that FAILED:", ""]
+        lines += [f"- {c.robot}/{c.method}/{c.backend}: {c.status.removeprefix('failed: ')}" for c in failed]
+    return "\n".join(lines) + "\n"
+
+
 def ratio_lines(result: BenchResult) -> list[str]:
-    """One line per redundik case: its median over the faster peer's."""
-    return [
+    """One line per redundik case: its median over the faster peer's; then one line per FAILED case."""
+    lines = [
         f"{r['robot']:>9} {r['method']:>8}/{r['backend']:<10} = {r['ratio']:.2f} × {r['peer']}" for r in result.ratios()
     ]
+    lines += [f"{c.robot:>9} {c.method:>8}/{c.backend:<10} FAILED: {c.status.removeprefix('failed: ')}"
+              for c in result.cases if not c.ok]  # fmt: skip
+    return lines
 
 
 def plot(result: BenchResult, path: str | Path) -> Path:
@@ -149,6 +187,7 @@ def write_all(result: BenchResult, out_dir: str | Path, command: str = "", json_
 
     md = safe_path(out_dir, "compare_resolvers.md")
     md.write_text(markdown(result, command))
+    safe_path(out_dir, "readme_table.md").write_text(readme_table(result))
     paths = {"markdown": md, "json": write_json(result, safe_path(out_dir, "compare_resolvers.json")), "plot": None}
     if json_path is not None:
         paths["json_requested"] = write_json(result, json_path)

@@ -27,6 +27,9 @@ from redundik.tasks.subtasks import Subtask
 
 _ns = time.perf_counter_ns
 
+#: A step that changes no coordinate of q by more than this counts as "the robot did not move" [rad or m].
+FROZEN_STEP = 1e-12
+
 
 @dataclass
 class Record:
@@ -39,6 +42,9 @@ class Record:
     failures: int = 0
     qp_steps: int = 0
     first_failure: str | None = None
+    fallbacks: int = 0
+    first_fallback: str | None = None
+    frozen: int = 0
     stages: dict[str, list[int]] = field(default_factory=dict)
 
 
@@ -109,6 +115,8 @@ class Runner(ABC):
                     rec.first_failure = f"{type(exc).__name__}: {exc}"
                 elapsed, q_next = 0, self.q
             rec.step_ns.append(elapsed)
+            if float(np.max(np.abs(q_next - self.q), initial=0.0)) <= FROZEN_STEP:
+                rec.frozen += 1  # the robot did not move this step (every scenario's references move)
             rec.task_error.append(self.metrics.task_error(self.q, t))
             value, viol = self.metrics.after_step(q_next)
             rec.monitor.append(value)
@@ -155,6 +163,10 @@ class RedundikRunner(Runner):
         t1 = _ns()
         if res.info.get("qp", 0):  # wqp/hqp: a backend was called (0 = closed-form shortcut, no active constraint)
             self.record.qp_steps += 1
+        if res.fallback is not None:
+            self.record.fallbacks += 1
+            if self.record.first_fallback is None:
+                self.record.first_fallback = f"t = {t:.3f} s: {res.fallback}"
         return t1 - t0, self.robot.integrate(self.q, res.dq, dt)
 
     def profile(self, steps: int) -> dict[str, float]:

@@ -3,15 +3,32 @@
 Three scenarios (see ``docs/benchmark.md``):
 
 * ``planar3r``: the chapter's 3R arm (D-H, a = 1 m), tip on the line v = (0.2, −0.4) m/s from q0 = (110°, −40°, −30°)
-  for 5 s (the chapter's episode, repeated), subtask p = sin²θ3 raised (gradient k = 1, or target 1 with K = 1/s).
+  for 5 s (the chapter's episode, repeated), subtask p = sin²θ3 raised (target 1 with K = 1/s; gradient k = 1 for
+  ``pinv``).
 * ``panda``: Franka Panda (example-robot-data), pose task on ``panda_hand`` along a 5 cm circle in the y–z plane
   (period 4 s, orientation held), posture subtask, joint position and velocity limits; the 3-level ``hqp`` is
   [hand pose] > [elbow ≥ 10 cm from a post, an inequality] > [posture].
 * ``talos``: Talos (``talos_reduced.urdf``, free flyer), both grippers on 5 cm circles (pose tasks), posture on the
   actuated joints, limits; the 3-level ``hqp`` puts a left-elbow clearance inequality between hands and posture.
 
-Subtasks per closed form: ``pinv`` takes the posture as the null-space gradient −K_p(q − q0) (eq. 5.8),
-``feedback`` as p = ½‖q − q0‖² driven to 0 at K = 1/s.
+What each method's stack means (the same task as the peers': frame tasks + posture + limits):
+
+* ``wqp``: frame tasks and :class:`ActuatedPostureTask` (weight 0.01, a main task of the same level) in one QP with
+  the limits — literally the peers' weighted QP (their cost c weighs rows by c²). The posture is *not* the library's
+  :class:`~redundik.tasks.frame.PostureTask`: that one is a regularisation task lying below every level, which is
+  redundik's meaning of a posture but not the peers' weighted-sum one.
+* ``hqp``: frames (level 0) > post clearance, an inequality inactive on the circle (level 1) > the same posture
+  rows (level 2), limits above all: the hierarchy whose null-space optimum is the closed forms' posture.
+* ``pinv``: the posture as the null-space gradient z = −K_p(q − q0) on the actuated joints (eq. 5.8; the floating
+  base of Talos is left free, as in :class:`ActuatedPostureTask` and the peers); no limits (pinv has none, so its
+  rows on ``panda_tight`` and ``talos`` break them and are reported FAILED).
+* ``feedback``: the posture as p = ½‖q − q0‖² (actuated joints) driven to 0 at K = 1/s; no limits either.
+* ``planar3r``: no posture; sin²θ3 → 1 at 1/s as a target subtask (``feedback``, ``wqp``, ``hqp`` and the peers'
+  1-row task), as the gradient k = 1 under ``pinv`` (which refuses target subtasks).
+
+Each case is FAILED (and left out of the ratios) when its frame-task error exceeds :data:`ERROR_TOLERANCE`, its
+robot does not move, it falls back on more than 1 % of the steps, or it breaks the joint limits
+(:func:`redundik.peers.bench.harness.case_status`).
 
 Every frame task tracks its reference with feed-forward plus the error gain K = 1/dt, which is exactly the peers'
 dead-beat task (gain α = 1 towards the pose of the next sample): J Δq = p_d(t + dt) − p(t) ≈ dt (ṗ_d + e/dt).
@@ -37,6 +54,9 @@ from redundik.tasks.subtasks import BoundSubtask, GradientSubtask, Subtask, Targ
 from redundik.tasks.trajectory import Circle, Line, Trajectory
 
 POSTURE_GAIN = 1.0  # K_p [1/s]
+#: Tracking tolerance of every scenario: 1 mm (and 1 mrad) on the stacked frame-task error, the contract's figure
+#: for the control loop; a case above it is reported FAILED [m, rad].
+ERROR_TOLERANCE = 1e-3
 POSTURE_WEIGHT = 0.01  # against 1 for frame tasks (peer cost 0.1)
 
 
@@ -97,6 +117,8 @@ class Scenario:
         urdf: (path, free_flyer) for the peers' models, or ``None`` for a D-H robot.
         posture: Whether the posture task is part of the set (QP methods and peers).
         peer_potential: For the peers: (potential factory, keyword arguments of the adapter task), or ``None``.
+        error_tolerance: Largest stacked frame-task error a case may reach and still count as tracking [m and rad
+            stacked]; above it the case is FAILED (see :func:`redundik.peers.bench.harness.case_status`).
     """
 
     key: str
@@ -111,6 +133,7 @@ class Scenario:
     urdf: tuple[str, bool] | None = None
     posture: bool = True
     peer_potential: tuple[Callable[[], Potential], dict] | None = None
+    error_tolerance: float = ERROR_TOLERANCE
     stacks: dict[str, Callable[[RobotModel], TaskStack]] = field(default_factory=dict)
 
     def frame_tasks(self, gain: float | None = None) -> list[FrameTask]:
@@ -153,7 +176,7 @@ def planar3r_scenario() -> Scenario:
         "pinv": lambda r: TaskStack(sc.frame_tasks(), [GradientSubtask(JointSine2("3"), gain=1.0)]),
         "feedback": lambda r: TaskStack(sc.frame_tasks(), [TargetSubtask(JointSine2("3"), target=1.0)]),
         "wqp": lambda r: TaskStack(sc.frame_tasks(), [TargetSubtask(JointSine2("3"), target=1.0)]),
-        "hqp": lambda r: TaskStack(sc.frame_tasks(), [GradientSubtask(JointSine2("3"), gain=1.0)]),
+        "hqp": lambda r: TaskStack(sc.frame_tasks(), [TargetSubtask(JointSine2("3"), target=1.0)]),
     }
     return sc
 
@@ -178,10 +201,8 @@ def panda_scenario() -> Scenario:
         urdf=EXAMPLE_ROBOTS["panda"],
     )
     sc.stacks = {
-        "pinv": lambda r: TaskStack(
-            sc.frame_tasks(), [GradientSubtask(JointCentering(center=PANDA_Q0), gain=-POSTURE_GAIN)]
-        ),
-        "feedback": lambda r: TaskStack(sc.frame_tasks(), [_posture_target(PANDA_Q0)]),
+        "pinv": lambda r: TaskStack(sc.frame_tasks(), [_posture_gradient(r, PANDA_Q0)]),
+        "feedback": lambda r: TaskStack(sc.frame_tasks(), [_posture_target(r, PANDA_Q0)]),
         "wqp": lambda r: TaskStack([*sc.frame_tasks(), sc.posture_task()]),
         "hqp": lambda r: TaskStack(
             [*sc.frame_tasks(), sc.posture_task(priority=2)], [_post_clearance(r, "panda_link4", PANDA_Q0)]
@@ -190,9 +211,25 @@ def panda_scenario() -> Scenario:
     return sc
 
 
-def _posture_target(q0: np.ndarray) -> Subtask:
-    """The state-feedback twin of the posture: p = ½‖q − q0‖² driven to 0 at K = 1/s."""
-    return TargetSubtask(JointCentering(center=q0), target=0.0, rate=POSTURE_GAIN)
+def actuated_weights(robot: RobotModel) -> np.ndarray:
+    """Per-q̇ weights (nv,): 1 on the actuated 1-dof joints, 0 on a floating base — the rows of
+    :class:`ActuatedPostureTask`, so that the closed forms' posture potential is the same posture."""
+    w = np.zeros(robot.nv)
+    for j in robot.joints:
+        if j.idx_q >= 0 and j.kind != "other":
+            w[j.idx_v] = 1.0
+    return w
+
+
+def _posture_gradient(robot: RobotModel, q0: np.ndarray) -> Subtask:
+    """The closed forms' posture: z = −K_p ∇½‖q − q0‖²_W on the actuated joints (eq. 5.8), the null-space twin of
+    :class:`ActuatedPostureTask` (whose null-space optimum is the same −K_p(q − q0)_a)."""
+    return GradientSubtask(JointCentering(center=q0, weights=actuated_weights(robot)), gain=-POSTURE_GAIN)
+
+
+def _posture_target(robot: RobotModel, q0: np.ndarray) -> Subtask:
+    """The state-feedback twin of the posture: p = ½‖q − q0‖²_W (actuated joints) driven to 0 at K = 1/s."""
+    return TargetSubtask(JointCentering(center=q0, weights=actuated_weights(robot)), target=0.0, rate=POSTURE_GAIN)
 
 
 def _post_clearance(robot: RobotModel, frame: str, q0: np.ndarray, side: float = 0.25) -> Subtask:
@@ -288,8 +325,8 @@ def talos_scenario() -> Scenario:
         urdf=EXAMPLE_ROBOTS["talos"],
     )
     sc.stacks = {
-        "pinv": lambda r: TaskStack(sc.frame_tasks(), [GradientSubtask(JointCentering(center=q0), gain=-POSTURE_GAIN)]),
-        "feedback": lambda r: TaskStack(sc.frame_tasks(), [_posture_target(q0)]),
+        "pinv": lambda r: TaskStack(sc.frame_tasks(), [_posture_gradient(r, q0)]),
+        "feedback": lambda r: TaskStack(sc.frame_tasks(), [_posture_target(r, q0)]),
         "wqp": lambda r: TaskStack([*sc.frame_tasks(), sc.posture_task()]),
         "hqp": lambda r: TaskStack(
             [*sc.frame_tasks(), sc.posture_task(priority=2)], [_post_clearance(r, "arm_left_4_link", q0)]

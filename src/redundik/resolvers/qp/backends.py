@@ -12,7 +12,8 @@ no third-party exception leaks into a control loop.
   daqp and quadprog agree to 1e-8, proxsuite to 1e-6 and osqp to 1e-4 with the tolerances set here.
 * ``quadprog``: Goldfarb–Idnani dual active set through ``quadprog.solve_qp`` (exact; bounds as rows).
 * ``proxsuite``: ProxQP (augmented Lagrangian) through a cached ``proxsuite.proxqp.dense.QP`` object per problem
-  size, updated in place and warm-started from the previous result; tolerances tightened to ``eps_abs = 1e-9``
+  size, updated in place and warm-started from the previous result, at most 200 outer × 40 inner iterations (a
+  stalled iterate is polished, ``polish``, or kept when feasible); tolerances tightened to ``eps_abs = 1e-9``
   (its default 1e-5 gives answers up to ~1 off the active-set ones on ill-conditioned steps) and the infeasibility
   thresholds to 1e-10 (the default 1e-4 declared a plainly feasible 1-variable, 14-row level QP infeasible), with
   the duality-gap check on (without it a "solved" answer was 1e-5 off on a 2-variable QP).
@@ -71,10 +72,106 @@ class Backend(ABC):
         return f"{type(self).__name__}()"
 
 
+def _rows(M: np.ndarray, n: int) -> np.ndarray:
+    """``M`` as a (rows, n) float array: a block without rows, of shape (0, n), (0, 0) or (0,), becomes (0, n)."""
+    M = np.asarray(M, dtype=float)
+    if M.size == 0:
+        return np.zeros((0, n))
+    return M.reshape(-1, n) if M.ndim == 1 else M
+
+
+def _vec(v: np.ndarray, size: int) -> np.ndarray:
+    """``v`` as a float vector; an empty one of any shape becomes (0,) when ``size`` is 0."""
+    v = np.asarray(v, dtype=float).reshape(-1)
+    return np.zeros(0) if size == 0 and v.size == 0 else v
+
+
 def _checked(x: np.ndarray | None, problem: QPProblem, backend: str, status: object = "") -> np.ndarray:
     if x is None or not np.all(np.isfinite(x)):
         raise SolverError(f"{backend}: no finite solution for {problem.label} (status {status})", problem)
     return np.asarray(x, dtype=float)
+
+
+def polish(problem: QPProblem, x: np.ndarray | None, tol: float = 1e-9, rounds: int = 12) -> np.ndarray | None:
+    """The exact optimum near an approximate one, verified, or ``None``.
+
+    From the constraints that an iterative solver (ADMM, augmented Lagrangian) left within δ of their bound at
+    ``x`` (δ = 1e-9 … 1e-5, relative to max(1, ‖x‖∞)), solve the equality-constrained QP of that active set (its
+    KKT system, by least squares so that dependent rows are allowed), then correct the set a few ``rounds`` as a
+    primal-dual active-set method does (add the violated rows, drop the most negative multiplier). An answer is
+    kept only if it satisfies the KKT conditions of the whole problem — stationarity, primal feasibility and
+    non-negative multipliers within ``tol`` — so a wrong guess can cost time, never accuracy. This is OSQP's own
+    polishing, but also from an iterate that stopped at the iteration limit (OSQP polishes only solved problems).
+    """
+    n = problem.n
+    if x is None or np.shape(x) != (n,) or not np.all(np.isfinite(x)):
+        return None
+    G, A = _rows(problem.G, n), _rows(problem.A, n)
+    h, b = _vec(problem.h, G.shape[0]), _vec(problem.b, A.shape[0])
+    eye = np.eye(n)
+    fh, fl, fu = np.isfinite(h), np.isfinite(problem.lb), np.isfinite(problem.ub)
+    C = np.vstack([G[fh], eye[fu], -eye[fl]])
+    d = np.concatenate([h[fh], problem.ub[fu], -problem.lb[fl]])
+    e = A.shape[0]
+    scale = max(1.0, float(np.max(np.abs(x))))
+    k_scale = max(1.0, float(np.max(np.abs(problem.P))), float(np.max(np.abs(C), initial=0.0)))
+    slack = d - C @ x
+    tried: set[bytes] = set()
+    for delta in (1e-9, 1e-8, 1e-7, 1e-6, 1e-5):
+        act = slack <= delta * scale
+        for _ in range(rounds):
+            key = act.tobytes()
+            if key in tried:
+                break
+            tried.add(key)
+            M = np.vstack([A, C[act]])
+            m = M.shape[0]
+            K = np.block([[problem.P, M.T], [M, np.zeros((m, m))]])
+            rhs = np.concatenate([-problem.q, b, d[act]])
+            sol = np.linalg.lstsq(K, rhs, rcond=None)[0]
+            xs, lam = sol[:n], sol[n + e :]
+            s2 = max(1.0, float(np.max(np.abs(sol))))
+            if np.max(np.abs(K @ sol - rhs)) > tol * s2 * k_scale:
+                break  # inconsistent active set: try the next δ
+            over = C @ xs - d > tol * scale
+            neg = lam < -tol * s2
+            if e and np.max(np.abs(A @ xs - b)) > tol * scale:
+                break
+            if not over.any() and not neg.any():
+                return xs
+            act = act.copy()
+            act[over] = True
+            if neg.any():
+                act[np.flatnonzero(act)[int(np.argmin(lam))]] = False
+    return None
+
+
+#: Largest constraint violation of a stalled iterate that an iterative backend may still return, relative to
+#: max(1, ‖x‖∞) [unit of x]: the iteration limit on a degenerate but feasible QP leaves ADMM / ProxQP within their
+#: accuracy of the optimum (osqp 1e-4, proxsuite 1e-6, see :data:`TOLERANCE`); the resolvers clip q̇ to the joint
+#: limits afterwards in any case.
+ITERATE_VIOLATION = 1e-6
+
+
+def _stalled(problem: QPProblem, x: np.ndarray | None) -> np.ndarray | None:
+    """The exact optimum polished from a stalled iterate (``polish``), else the iterate itself when it violates
+    no constraint by more than :data:`ITERATE_VIOLATION`, else ``None``."""
+    xp = polish(problem, x)
+    if xp is not None or x is None:
+        return xp
+    x = np.asarray(x, dtype=float)
+    if x.shape != (problem.n,) or not np.all(np.isfinite(x)):
+        return None
+    n = problem.n
+    G, A = _rows(problem.G, n), _rows(problem.A, n)
+    h, b = _vec(problem.h, G.shape[0]), _vec(problem.b, A.shape[0])
+    viol = max(
+        float(np.max(G @ x - h, initial=0.0)),
+        float(np.max(np.abs(A @ x - b), initial=0.0)),
+        float(np.max(problem.lb - x, initial=0.0)),
+        float(np.max(x - problem.ub, initial=0.0)),
+    )
+    return x if viol <= ITERATE_VIOLATION * max(1.0, float(np.max(np.abs(x), initial=0.0))) else None
 
 
 class DaqpBackend(Backend):
@@ -89,10 +186,13 @@ class DaqpBackend(Backend):
         self.iter_limit, self.primal_tol = int(iter_limit), float(primal_tol)
 
     def solve(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
-        p, e = problem.G.shape[0], problem.A.shape[0]
-        M = problem.G if not e else (problem.A if not p else np.vstack([problem.G, problem.A]))
-        bu = np.concatenate([problem.ub, problem.h, problem.b])
-        bl = np.concatenate([problem.lb, np.full(p, -np.inf), problem.b])
+        n = problem.n
+        G, A = _rows(problem.G, n), _rows(problem.A, n)
+        p, e = G.shape[0], A.shape[0]
+        h, b = _vec(problem.h, p), _vec(problem.b, e)
+        M = G if not e else (A if not p else np.vstack([G, A]))
+        bu = np.concatenate([problem.ub, h, b])
+        bl = np.concatenate([problem.lb, np.full(p, -np.inf), b])
         sense = np.zeros(bu.shape[0], dtype=np.int32)
         if e:
             sense[-e:] = 5
@@ -101,6 +201,8 @@ class DaqpBackend(Backend):
             x, _, flag, info = self._solve(
                 problem.P, problem.q, M, bu, bl, sense, iter_limit=self.iter_limit, primal_tol=self.primal_tol
             )
+            if x is not None and np.shape(x) != (n,):
+                raise ValueError(f"returned x of shape {np.shape(x)} for {n} variables")
         except Exception as exc:
             raise SolverError(f"daqp raised on {problem.label}: {exc}", problem) from exc
         if flag not in (1, 2):
@@ -120,21 +222,37 @@ class QuadprogBackend(Backend):
         self._solve = quadprog.solve_qp
 
     def solve(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
+        """Solve with equalities first, then finite inequality and bound rows as Cᵀx ≥ b.
+
+        Zero-row blocks of any shape ((0, n), (0, 0)) are skipped; with no constraint row at all the trivial row
+        0·x ≥ −1 is passed (quadprog needs at least one column in C).
+        """
         n = problem.n
-        fh = np.isfinite(problem.h)
-        fl, fu = np.flatnonzero(np.isfinite(problem.lb)), np.flatnonzero(np.isfinite(problem.ub))
-        blocks = [problem.A, -problem.G[fh]]
-        rhs = [problem.b, -problem.h[fh]]
-        if fl.size:
-            blocks.append(np.eye(n)[fl])
-            rhs.append(problem.lb[fl])
-        if fu.size:
-            blocks.append(-np.eye(n)[fu])
-            rhs.append(-problem.ub[fu])
-        C = np.vstack(blocks)
         t0 = time.perf_counter()
         try:
-            out = self._solve(problem.P, -problem.q, C.T.copy(), np.concatenate(rhs), problem.A.shape[0])
+            G, A = _rows(problem.G, n), _rows(problem.A, n)
+            h, b = _vec(problem.h, G.shape[0]), _vec(problem.b, A.shape[0])
+            fh = np.isfinite(h)
+            lb, ub = problem.lb, problem.ub
+            # a bound with lb = ub (a rate window squeezed onto one velocity) is an equality: as two opposite rows
+            # quadprog's dual steps can call it "inconsistent" through rounding
+            pinned = np.flatnonzero(np.isfinite(lb) & np.isfinite(ub) & (ub - lb <= 1e-12 * np.maximum(1.0, abs(ub))))
+            fl = np.flatnonzero(np.isfinite(lb) & ~np.isin(np.arange(n), pinned))
+            fu = np.flatnonzero(np.isfinite(ub) & ~np.isin(np.arange(n), pinned))
+            blocks = [A, np.eye(n)[pinned], -G[fh]]
+            rhs = [b, 0.5 * (lb[pinned] + ub[pinned]), -h[fh]]
+            meq = A.shape[0] + pinned.size
+            if fl.size:
+                blocks.append(np.eye(n)[fl])
+                rhs.append(lb[fl])
+            if fu.size:
+                blocks.append(-np.eye(n)[fu])
+                rhs.append(-ub[fu])
+            C = np.vstack(blocks)
+            d = np.concatenate(rhs)
+            if not C.shape[0]:
+                C, d = np.zeros((1, n)), np.array([-1.0])
+            out = self._solve(problem.P, -problem.q, C.T.copy(), d, meq)
         except Exception as exc:
             raise SolverError(f"quadprog failed on {problem.label}: {exc}", problem) from exc
         x = _checked(out[0], problem, self.name)
@@ -146,25 +264,27 @@ class ProxsuiteBackend(Backend):
 
     name = "proxsuite"
 
-    def __init__(self, eps_abs: float = 1e-9, max_iter: int = 10000) -> None:
+    def __init__(self, eps_abs: float = 1e-9, max_iter: int = 200, max_iter_in: int = 40) -> None:
         import proxsuite
 
         self._px = proxsuite.proxqp
-        self.eps_abs, self.max_iter = float(eps_abs), int(max_iter)
+        self.eps_abs, self.max_iter, self.max_iter_in = float(eps_abs), int(max_iter), int(max_iter_in)
         self._cache: dict[tuple[int, int, int], object] = {}
 
     def reset(self) -> None:
         self._cache.clear()
 
     def solve(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
-        n, p, e = problem.n, problem.G.shape[0], problem.A.shape[0]
+        n = problem.n
+        G, Aeq = _rows(problem.G, n), _rows(problem.A, n)
+        p, e = G.shape[0], Aeq.shape[0]
         key = (n, e, p)
         l_in = np.full(p, -_INF)
-        u_in = np.minimum(problem.h, _INF)
+        u_in = np.minimum(_vec(problem.h, p), _INF)
         lb, ub = np.maximum(problem.lb, -_INF), np.minimum(problem.ub, _INF)
-        A = problem.A if e else None
-        b = problem.b if e else None
-        C = problem.G if p else None
+        A = Aeq if e else None
+        b = _vec(problem.b, e) if e else None
+        C = G if p else None
         t0 = time.perf_counter()
         try:
             qp = self._cache.get(key)
@@ -173,6 +293,10 @@ class ProxsuiteBackend(Backend):
                 qp.settings.eps_abs = self.eps_abs
                 qp.settings.eps_rel = 0.0
                 qp.settings.max_iter = self.max_iter
+                # bounded effort: on a level whose u-part is fixed only by the 1e-9 regulariser (a pure bound level
+                # of hqp) ProxQP at eps_abs 1e-9 ran 2.9e6 inner iterations (45 s); stopped earlier, the iterate is
+                # polished or kept when feasible (_stalled)
+                qp.settings.max_iter_in = self.max_iter_in
                 # the default 1e-4 declares small feasible QPs "primal infeasible" (seen on 1-variable hqp levels)
                 qp.settings.eps_primal_inf = 1e-10
                 qp.settings.eps_dual_inf = 1e-10
@@ -192,7 +316,11 @@ class ProxsuiteBackend(Backend):
         status = qp.results.info.status
         if status != self._px.QPSolverOutput.PROXQP_SOLVED:
             self._cache.pop(key, None)
-            raise SolverError(f"proxsuite: {problem.label} not solved ({status})", problem)
+            # a degenerate feasible QP can stall (iteration limit) or trip the infeasibility test: polish the iterate
+            xp = _stalled(problem, np.array(qp.results.x))
+            if xp is None:
+                raise SolverError(f"proxsuite: {problem.label} not solved ({status})", problem)
+            return QPSolution(xp, int(qp.results.info.iter), self.name, time.perf_counter() - t0)
         x = _checked(np.array(qp.results.x), problem, self.name, status)
         return QPSolution(x, int(qp.results.info.iter), self.name, time.perf_counter() - t0)
 
@@ -232,7 +360,13 @@ class QpsolversBackend(Backend):
 
 
 class OsqpBackend(QpsolversBackend):
-    """OSQP through qpsolvers, with sparse matrices built here (no conversion warnings) and tight tolerances."""
+    """OSQP through qpsolvers, with sparse matrices built here (no conversion warnings) and tight tolerances.
+
+    ADMM stalls on degenerate QPs (several constraints active at a 1e-7 margin, seen on hqp levels): whatever OSQP
+    stops with that is not "solved" — the iteration limit, "solved inaccurate", a spurious infeasibility — is
+    polished (``polish``, kept only if the polished point verifies the KKT conditions), else kept if it
+    violates no constraint by more than :data:`ITERATE_VIOLATION`, else a :class:`SolverError`.
+    """
 
     def __init__(self) -> None:
         super().__init__(
@@ -240,20 +374,39 @@ class OsqpBackend(QpsolversBackend):
         )
 
     def solve(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
+        import warnings
+
         import scipy.sparse as sp
 
+        n = problem.n
+        G, A = _rows(problem.G, n), _rows(problem.A, n)
         sparse = QPProblem(
             sp.csc_matrix(problem.P),
             problem.q,
-            sp.csc_matrix(problem.G),
-            problem.h,
-            sp.csc_matrix(problem.A),
-            problem.b,
+            sp.csc_matrix(G),
+            _vec(problem.h, G.shape[0]),
+            sp.csc_matrix(A),
+            _vec(problem.b, A.shape[0]),
             problem.lb,
             problem.ub,
             problem.label,
         )
-        return super().solve(sparse, warm)
+        t0 = time.perf_counter()
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # qpsolvers warns on every non-solved status: handled here
+                sol = self._qps.solve_problem(sparse.to_qpsolvers(), solver="osqp", initvals=warm, **self.settings)
+        except Exception as exc:
+            raise SolverError(f"osqp raised on {problem.label}: {exc}", problem) from exc
+        info = getattr(sol, "extras", {}).get("info")
+        iters = int(getattr(info, "iter", -1)) if info is not None else -1
+        if sol.found and sol.x is not None and np.all(np.isfinite(sol.x)):
+            return QPSolution(np.asarray(sol.x, dtype=float), iters, self.name, time.perf_counter() - t0)
+        x = _stalled(problem, sol.x)
+        if x is None:
+            status = getattr(info, "status", "?")
+            raise SolverError(f"osqp: {problem.label} not solved ({status})", problem)
+        return QPSolution(x, iters, self.name, time.perf_counter() - t0)
 
     def __repr__(self) -> str:
         return "OsqpBackend()"

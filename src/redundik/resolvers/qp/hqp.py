@@ -191,21 +191,24 @@ class HierarchicalQPResolver(QPResolverBase):
         if p:  # C(x + Zu) − d ≤ w
             rows.append(np.hstack([lv.C @ Zm, -np.eye(p)]))
             rhs_rows.append(lv.d - lv.C @ x)
+        # Below level 0, rows that carry the levels above and the limits get the margin max(·, 0) + tol: x (the
+        # answer so far, from a backend's finite tolerance) may sit up to that tolerance outside them, and without
+        # the clamp a level could be declared primal-infeasible (proxsuite, osqp) though u = 0 always solves it.
         for C, d in fixed:  # levels above keep their slack
             rows.append(np.hstack([C @ Zm, np.zeros((C.shape[0], p))]))
-            rhs_rows.append(d - C @ x)
+            rhs_rows.append(np.maximum(d - C @ x, 0.0))
         lb, ub = np.full(nvar, -np.inf), np.full(nvar, np.inf)
         if Z is None:
-            lb[:r], ub[:r] = box.lb - x, box.ub - x
+            lb[:r], ub[:r] = box.lb - x, box.ub - x  # hard (never empty: limits.py)
         else:
             tol = self.slack_tolerance
             fu, fl = np.isfinite(box.ub), np.isfinite(box.lb)
             if fu.any():
                 rows.append(np.hstack([Z[fu], np.zeros((int(fu.sum()), p))]))
-                rhs_rows.append(box.ub[fu] - x[fu] + tol)
+                rhs_rows.append(np.maximum(box.ub[fu] - x[fu], 0.0) + tol)
             if fl.any():
                 rows.append(np.hstack([-Z[fl], np.zeros((int(fl.sum()), p))]))
-                rhs_rows.append(x[fl] - box.lb[fl] + tol)
+                rhs_rows.append(np.maximum(x[fl] - box.lb[fl], 0.0) + tol)
         G = np.vstack(rows) if rows else np.zeros((0, nvar))
         h = np.concatenate(rhs_rows) if rhs_rows else np.zeros(0)
         prob = QPProblem(P, q, G, h, np.zeros((0, nvar)), np.zeros(0), lb, ub, f"hqp level {lv.priority}")
@@ -235,6 +238,14 @@ class HierarchicalQPResolver(QPResolverBase):
                 break
             if not lv.m and lv.z is None and not lv.p:
                 continue
+            if lv.pure_null_objective and not lv.p and Z is not None:
+                # the closed form P_Z(z − x) needs no QP when it keeps the limits and the levels above
+                assert lv.z is not None
+                cand = x + Z @ (Z.T @ (lv.z - x))
+                tol = self.slack_tolerance
+                if box.contains(cand, tol) and all(bool(np.all(C @ cand <= d + tol)) for C, d in fixed):
+                    x, Z, r = cand, np.zeros((n, 0)), 0
+                    continue
             try:
                 u, lsq, A = self._level_qp(lv, x, Z, r, box, fixed, diag)
             except SolverError as exc:

@@ -11,10 +11,12 @@ so that q_i + q̇_i·dt stays in [q_lo, q_hi] whenever it starts there; with a r
 joint slow enough near a limit to stop in time, so the rate window never has to be broken to respect a limit. From a
 start *outside* a limit (q_i > q_hi) the upper bound is negative: the joint may only move back inside, as fast as
 the velocity limit allows (−v_max when g·(q_hi − q_i)/dt < −v_max), and it is back inside after ⌈(q_i −
-q_hi)/(v_max·dt)⌉ steps. Position and velocity bounds are hard; a rate window that does not meet them is moved onto
-the nearest feasible velocity (the rate limit is the one relaxed), so the box is never empty and the QP over it is
-always feasible. Only 1-dof joints (``JointInfo.idx_q ≥ 0``) carry position limits; free-flyer and unbounded (cos,
-sin) joints have none. Defaults come from the model (D-H rows' ``lower``/``upper``/``velocity``, URDF ``<limit>``);
+q_hi)/(v_max·dt)⌉ steps. Position and velocity bounds are hard; a rate window that does not meet them is moved
+onto the nearest feasible velocity (the rate limit is the one relaxed), and from outside a limit a braking bound of
+the other limit that would cut off the way back yields to it, so the box is never empty (lb ≤ ub on every joint,
+from any finite start, with or without rate limits) and the QP over it is always feasible. Only 1-dof joints
+(``JointInfo.idx_q ≥ 0``) carry position limits; free-flyer and unbounded (cos, sin) joints have none.
+Defaults come from the model (D-H rows' ``lower``/``upper``/``velocity``, URDF ``<limit>``);
 a limit with magnitude ≥ 1e10 or infinite means "no limit"; a URDF velocity of 0 (missing) means none too.
 """
 
@@ -271,6 +273,14 @@ class JointLimits:
             np.maximum(pu, nvmax, out=pu)
             lb = np.maximum(pl, nvmax)
             ub = np.minimum(pu, vmax)
+            if self._has_rate:
+                # the braking bound of the far limit can cut off the way back in from outside the near one (a
+                # short range, a small a_max): the way back (position and velocity, hard) wins, braking yields
+                empty = lb > ub
+                if empty.any():
+                    above, below = empty & (qv > self._hi), empty & (qv < self._lo)
+                    lb[above] = pl[above] = ub[above]
+                    ub[below] = pu[below] = lb[below]
         else:
             pl, pu = np.full(vmax.shape[0], -np.inf), np.full(vmax.shape[0], np.inf)
             lb, ub = nvmax.copy(), vmax.copy()

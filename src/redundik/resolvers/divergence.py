@@ -1,0 +1,85 @@
+"""A divergence watch on the control loop: geometric growth of ‖q̇‖ or of the task error is flagged, never silent.
+
+A first-order loop e ← (1 − K dt) e is stable for K·dt < 2 (``Resolver.step`` refuses more), but a loop can still
+diverge for reasons no single step sees — the plant integrated with a longer step than the ``dt`` the resolver was
+given, a reference that runs away, a wrong sign in a custom task. The watch flags a step when either
+
+* the main-task error has grown by at least :data:`ERROR_GROWTH` per step for :data:`ERROR_STREAK` steps in a row
+  (×8.9) while ‖q̇‖ grew too (×2 at least over the streak) — the signature of e ← (1 − K dt) e with |1 − K dt| > 1
+  (a reference moving away from rest grows the error as t or t², by (1 + 1/n)^k per step, under 1.2 after 12
+  steps for k ≤ 2); or
+* ‖q̇‖ has grown by at least :data:`GROWTH` per step for :data:`STREAK` steps in a row (×17).
+
+A flagged step carries ``StepResult.info["diverging"]`` (the growth factor of the streak) and a
+:class:`DivergenceWarning` is issued once per streak.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+#: Smallest per-step growth of ‖q̇‖ counted towards a q̇ streak.
+GROWTH = 1.1
+#: Consecutive growing steps of ‖q̇‖ that make a divergence.
+STREAK = 30
+#: Smallest per-step growth of the task error counted towards an error streak.
+ERROR_GROWTH = 1.2
+#: Consecutive growing steps of the task error (with ‖q̇‖ growing too) that make a divergence.
+ERROR_STREAK = 12
+#: Values below which nothing is counted (a loop at rest) [rad/s or m/s; unit of the error].
+FLOOR = 1e-9
+
+
+class DivergenceWarning(RuntimeWarning):
+    """‖q̇‖ or the task error grows geometrically over consecutive control steps: the loop diverges."""
+
+
+class _Streak:
+    def __init__(self, growth: float) -> None:
+        self.growth, self.last, self.count, self.start = growth, math.nan, 0, math.nan
+
+    def update(self, value: float) -> None:
+        if value >= FLOOR and self.last >= FLOOR and value >= self.growth * self.last:
+            if self.count == 0:
+                self.start = self.last
+            self.count += 1
+        else:
+            self.count = 0
+        self.last = value
+
+
+class DivergenceWatch:
+    """Counts consecutive growing steps of ‖q̇‖ and of the task error; see the module docstring."""
+
+    def __init__(self) -> None:
+        self.dq = _Streak(GROWTH)
+        self.error = _Streak(ERROR_GROWTH)
+        self.dq_at_error_start = math.nan
+        self.warned = False
+
+    def update(self, norm: float, error: float = 0.0) -> float | None:
+        """Feed ‖q̇‖ and the task error of a step; returns the growth factor of a streak that is a divergence."""
+        before = self.error.count
+        self.error.update(error)
+        if self.error.count == 1 or (self.error.count and not before):
+            self.dq_at_error_start = self.dq.last
+        self.dq.update(norm)
+        if self.error.count >= ERROR_STREAK and norm >= 2.0 * self.dq_at_error_start:
+            return error / self.error.start
+        if self.dq.count >= STREAK:
+            return norm / self.dq.start
+        self.warned = self.warned and bool(self.error.count or self.dq.count)
+        return None
+
+    def flag(self, who: str, norm: float, factor: float, info: dict[str, object]) -> None:
+        """Record a divergence in ``info`` and warn (once per streak)."""
+        info["diverging"] = factor
+        if not self.warned:
+            self.warned = True
+            warnings.warn(
+                f"{who}: the control loop diverges (growth ×{factor:.3g} over consecutive steps, |q̇| now "
+                f"{norm:.3g}): is the plant integrated with the dt given to step()? K·dt must be < 2",
+                DivergenceWarning,
+                stacklevel=3,
+            )
