@@ -54,6 +54,8 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--episodes", type=int, default=25)
     ap.add_argument("--steps", type=int, default=100)
+    ap.add_argument("--scene", choices=["panda", "talos"], action="append", help="default: both")
+    ap.add_argument("--no-ratio", action="store_true", help="skip the step-time ratio")
     args = ap.parse_args()
     backends = []
     for b in ("daqp", "quadprog", "proxsuite", "osqp"):
@@ -63,7 +65,7 @@ def main() -> None:
         except Exception:  # not installed
             pass
     total = 0
-    for scene in ("panda", "talos"):
+    for scene in args.scene or ("panda", "talos"):
         for resolver in ("wqp", "hqp"):
             for backend in backends:
                 t = time.time()
@@ -72,10 +74,13 @@ def main() -> None:
                 print(
                     f"{scene:6s} {resolver} {backend:9s} steps {out.steps:6d} penetrations {out.penetrations:5d} "
                     f"min d {out.min_distance * 1e3:7.2f} mm ({out.closest}) fallbacks {out.fallbacks} "
+                    f"(penetrating after one: {out.fallback_penetrations}) "
                     f"[{time.time() - t:.1f} s]",
                     flush=True,
                 )
     print(f"total steps {total}")
+    if args.no_ratio:
+        return
     a, b, pairs = step_ratio()
     print(f"wqp step: {a:.0f} µs without, {b:.0f} µs with {pairs} candidate pairs: ratio {b / a:.2f}")
 

@@ -88,7 +88,8 @@ def test_distance_jacobian_matches_finite_differences(seed: int) -> None:
 
 def test_barrier_rows_are_the_velocity_damper() -> None:
     robot, world = panda_world()
-    avoid = CollisionAvoidance(world, influence=0.3, safety=0.02, xi=0.5)
+    # the plain damper: one row per pair within d_i (no look-ahead rows, no capsule end-sphere branches)
+    avoid = CollisionAvoidance(world, influence=0.3, safety=0.02, xi=0.5, lookahead=0.0, end_spheres=False)
     robot.update(PANDA_Q0)
     term = avoid.evaluate(robot)
     dist = world.compute(robot, np.inf)
@@ -102,6 +103,50 @@ def test_barrier_rows_are_the_velocity_damper() -> None:
     assert len(rep.active) == term.h.size
 
 
+def test_lookahead_and_end_sphere_rows() -> None:
+    """Pairs in [d_i, d_i + lookahead) get h = d − d_s at γ = 1/dt; capsule end spheres get their own exact rows."""
+    robot, world = panda_world()
+    world.set_time(0.0)
+    di, ds, la = 0.15, 0.02, 0.1
+    avoid = CollisionAvoidance(world, influence=di, safety=ds, xi=0.5, lookahead=la)
+    q = PANDA_Q0 + np.array([0.3, 0.2, -0.1, 0.2, 0.1, -0.2, 0.3, 0.0, 0.0])
+    robot.update(q)
+    term = avoid.evaluate(robot)
+    dist = world.compute(robot, np.inf)
+    pairs = [n for n in term.names if "@" not in n]
+    assert pairs == [world.pair_names[k] for k in np.flatnonzero(dist.d < di + la)]
+    ends = [n for n in term.names if "@" in n]
+    assert ends and len(set(term.names)) == len(term.names)
+    _, d, _ = BoundSubtask(avoid).rows(robot, 0.01)
+    for r, name in enumerate(term.names):
+        dr = term.h[r] + ds  # the row's own distance (a static world)
+        if dr < di:
+            assert term.gamma[r] == pytest.approx(avoid.gamma) and d[r] == pytest.approx(avoid.gamma * term.h[r])
+        else:
+            assert d[r] == pytest.approx(term.h[r] / 0.01)  # γ capped at 1/dt: no crossing of d_s within one step
+        if "@" not in name:
+            assert dr == pytest.approx(dist.d[world.pair_names.index(name)])
+        else:  # an end sphere is a part of the capsule: never closer than the pair
+            assert dr >= dist.d[world.pair_names.index(name.split("@")[0])] - 1e-12
+    # the end-sphere rows' Jacobians against finite differences of their distances
+    eps = 1e-6
+
+    def branch_d(qq: np.ndarray) -> dict[str, float]:
+        robot.update(qq)
+        t = avoid.evaluate(robot)
+        return {n: t.h[i] for i, n in enumerate(t.names) if "@" in n}
+
+    robot.update(q)
+    base = dict(zip(term.names, term.H, strict=True))
+    for i in range(7):
+        dq = np.zeros(robot.nv)
+        dq[i] = eps
+        hp, hm = branch_d(pin.integrate(robot.model, q, dq)), branch_d(pin.integrate(robot.model, q, -dq))
+        for n in ends:
+            if n in hp and n in hm:
+                assert (hp[n] - hm[n]) / (2 * eps) == pytest.approx(base[n][i], abs=1e-6)
+
+
 def test_moving_obstacle_rate_is_folded_into_h() -> None:
     robot = load_example_robot("panda")
     urdf = example_robot_data_dir() / "panda_description/urdf/panda.urdf"
@@ -112,7 +157,7 @@ def test_moving_obstacle_rate_is_folded_into_h() -> None:
         Motion(velocity=(-0.1, 0.0, 0.0)),
     )
     world = CollisionWorld.from_urdf(robot, urdf, [ball], self_collision=False)
-    avoid = CollisionAvoidance(world, influence=0.5, safety=0.0, xi=1.0)
+    avoid = CollisionAvoidance(world, influence=0.5, safety=0.0, xi=1.0, lookahead=0.0, end_spheres=False)
     robot.update(PANDA_Q0)
     world.set_time(0.0)
     d0 = world.compute(robot, np.inf).d.copy()
@@ -124,6 +169,16 @@ def test_moving_obstacle_rate_is_folded_into_h() -> None:
     rate = (d1 - d0)[k] / 1e-4
     np.testing.assert_allclose(term.h, d0[k] + rate / avoid.gamma, atol=1e-5)
     assert np.all(rate[rate != 0] < 0)  # the ball approaches
+    # the capsules' end-sphere branches carry their own exact ∂d/∂t
+    dist = world.compute(robot, 0.5)
+    b0 = world.end_spheres(dist, dist.near, 0.5)
+    world.set_time(1e-4)
+    dist = world.compute(robot, 0.5)
+    b1 = world.end_spheres(dist, dist.near, 0.5)
+    world.set_time(0.0)
+    assert b0.names and b0.names == b1.names
+    np.testing.assert_allclose((b1.d - b0.d) / 1e-4, b0.rate, atol=1e-5)
+    assert np.all(b0.rate[b0.rate != 0] < 0)
 
 
 @pytest.mark.parametrize("resolver", ["wqp", "hqp"])
@@ -222,3 +277,18 @@ def test_panda_shelf_run() -> None:
         assert s[name]["min_collision_distance"] >= 0.005  # the damper keeps d ≥ d_s (1 cm) to first order
         assert s[name]["max_active_pairs"] >= 1
     assert "min_distance" in res["wqp"].series
+
+
+@pytest.mark.parametrize("backend", ["daqp", "quadprog"])
+def test_stress_random_targets_do_not_penetrate(backend: str) -> None:
+    """300 steps of random targets through the obstacles and across the body (seed 3): the plain damper (one row
+    per pair) penetrates, the capsule witness jumping between the ends of a capsule nearly parallel to the other
+    body; with the end-sphere and look-ahead rows d stays ≥ 0 (and near d_s = 1 cm)."""
+    from redundik.collision.stress import run_stress
+
+    out = run_stress("panda", "wqp", backend, episodes=3, steps=100, seed=3)
+    assert out.steps == 300 and out.fallbacks == 0
+    assert out.penetrations == 0 and out.min_distance > 0.005
+    if backend == "daqp":
+        plain = run_stress("panda", "wqp", backend, episodes=3, steps=100, seed=3, lookahead=0.0, end_spheres=False)
+        assert plain.penetrations > 0

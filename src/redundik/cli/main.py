@@ -10,6 +10,7 @@ kind of failure it was (:data:`EXIT_CODES`). Nothing numerical is imported here:
 from __future__ import annotations
 
 import sys
+import warnings
 from typing import Any
 
 from redundik._extras import is_installed, missing
@@ -109,7 +110,12 @@ def main(argv: list[str] | None = None) -> int:
     JSON_MODE["on"] = False
     try:
         app = _app()
-        app(args=argv, standalone_mode=False)
+        with warnings.catch_warnings():
+            # numpy's floating-point warnings (overflow on hostile numbers such as a radius of 1e308) would print
+            # ahead of the one-line error: every result is checked for finiteness and reported, so mute them here
+            warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"numpy(\..*)?")
+            warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"redundik(\..*)?")
+            app(args=argv, standalone_mode=False)
     except RedundikError as exc:
         return _report(exc)
     except KeyboardInterrupt:

@@ -27,10 +27,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from redundik.collision.world import CollisionWorld
+from redundik.collision.world import CollisionWorld, Distances
 from redundik.errors import ModelError, TaskError
 from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import Barrier, BarrierTerm, Potential, check_name, check_number
+
+#: γ of the look-ahead rows: "infinite", i.e. the bound subtask's cap 1/dt.
+_NO_CAP = 1e12
 
 
 @dataclass
@@ -71,6 +74,8 @@ class CollisionAvoidance(Barrier, Potential):
         influence: float = 0.1,
         safety: float = 0.01,
         xi: float = 0.2,
+        lookahead: float = 0.05,
+        end_spheres: bool = True,
         name: str = "collision",
     ) -> None:
         if not isinstance(world, CollisionWorld):
@@ -80,6 +85,8 @@ class CollisionAvoidance(Barrier, Potential):
         self.safety = check_number(safety, f"subtask '{name}': safety (d_s) [m]", low=0.0)
         self.influence = check_number(influence, f"subtask '{name}': influence (d_i) [m]", low=self.safety, strict=True)
         self.xi = check_number(xi, f"subtask '{name}': xi [m/s]", low=0.0, strict=True)
+        self.lookahead = check_number(lookahead, f"subtask '{name}': lookahead [m]", low=0.0)
+        self.end_spheres = bool(end_spheres)
         self.report = CollisionReport()
 
     @property
@@ -96,7 +103,11 @@ class CollisionAvoidance(Barrier, Potential):
     def _near(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(indices of the pairs within d_i, their distances, the full distance vector) and the report."""
         dist = self.world.compute(robot, self.influence)
+        self._report(dist)
         rows = dist.near
+        return rows, dist.d[rows], dist.d
+
+    def _report(self, dist: Distances) -> None:
         rep = self.report
         rep.candidates = self.world.n_pairs
         if dist.d.size:
@@ -104,19 +115,37 @@ class CollisionAvoidance(Barrier, Potential):
             rep.closest_pair, rep.distance = self.world.pair_names[k], float(dist.d[k])
         else:
             rep.closest_pair, rep.distance = "", math.inf
-        rep.active = [self.world.pair_names[k] for k in rows]
-        return rows, dist.d[rows], dist.d
+        rep.active = [self.world.pair_names[k] for k in np.flatnonzero(dist.d < self.influence)]
 
     # ------------------------------------------------------------------ barrier
     def evaluate(self, robot: RobotModel) -> BarrierTerm:
-        """h = d − d_s (+ ∂d/∂t / γ), H = ∂d/∂q, γ = ξ/(d_i − d_s) for every pair within d_i."""
-        rows, d, _ = self._near(robot)
-        dist = self.world.compute(robot, self.influence)
-        H = self.world.jacobian(robot, dist, rows)
-        g = self.gamma
-        h = d - self.safety + dist.rate[rows] / g
+        """The damper rows (module docstring): per pair and per capsule end sphere at distance d (module docstring).
+
+        d < d_i: h = d − d_s + (∂d/∂t)/γ, γ = ξ/(d_i − d_s); d_i ≤ d < d_i + lookahead: h = d − d_s, γ = ∞ (the
+        bound subtask caps it at 1/dt, so the row is d + (H q̇) dt ≥ d_s: the robot's own motion does not cross d_s
+        within one step; it binds only for approach speeds above (d − d_s)/dt, and an obstacle's motion, which
+        needs dt to be folded in, is left to the damper once the pair is within d_i). Rows are the pairs first (pair
+        order), then the end-sphere branches (ends within d_i + lookahead; each row by its own distance).
+        """
+        reach = self.influence + self.lookahead
+        dist = self.world.compute(robot, reach)
+        self._report(dist)
+        rows = dist.near
+        d, rate = dist.d[rows], dist.rate[rows]
         names = [self.world.pair_names[k] for k in rows]
-        return BarrierTerm(h, H, names, np.full(len(rows), g))
+        pairs, n, p1, p2 = rows, dist.n[rows], dist.p1[rows], dist.p2[rows]
+        if self.end_spheres and rows.size:
+            br = self.world.end_spheres(dist, rows, reach)
+            if br.pair.size:
+                pairs, n = np.concatenate([pairs, br.pair]), np.vstack([n, br.n])
+                p1, p2 = np.vstack([p1, br.p1]), np.vstack([p2, br.p2])
+                d, rate = np.concatenate([d, br.d]), np.concatenate([rate, br.rate])
+                names += br.names
+        H = self.world.point_jacobian(robot, pairs, n, p1, p2)
+        g = self.gamma
+        inside = d < self.influence
+        h = np.where(inside, d - self.safety + rate / g, d - self.safety)
+        return BarrierTerm(h, H, names, np.where(inside, g, _NO_CAP))
 
     # ------------------------------------------------------------------ potential
     def value(self, robot: RobotModel) -> float:

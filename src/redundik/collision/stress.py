@@ -32,6 +32,8 @@ class StressResult:
         min_distance: Smallest signed distance seen [m].
         fallbacks: Steps the resolver reported a fallback.
         closest: Pair of the smallest distance.
+        fallback_penetrations: Penetrating samples right after a fallback step (a relaxed QP drops the rows).
+        reasons: The fallback notes seen (first 80 characters).
     """
 
     steps: int = 0
@@ -39,6 +41,7 @@ class StressResult:
     min_distance: float = np.inf
     fallbacks: int = 0
     closest: str = ""
+    fallback_penetrations: int = 0
     reasons: set[str] = field(default_factory=set)
 
 
@@ -93,12 +96,17 @@ def run_stress(
     steps: int = 100,
     dt: float = 0.01,
     seed: int = 0,
+    lookahead: float = 0.05,
+    end_spheres: bool = True,
 ) -> StressResult:
-    """``episodes`` random-target episodes of ``steps`` steps each (module docstring)."""
+    """``episodes`` random-target episodes of ``steps`` steps each (module docstring).
+
+    ``lookahead`` and ``end_spheres`` are :class:`CollisionAvoidance`'s (``0.0``, ``False``: the plain damper).
+    """
     robot, world, hands = panda_scene() if scene == "panda" else talos_scene()
     q_home = PANDA_Q0 if scene == "panda" else talos_q0(robot)
     rng = np.random.default_rng(seed)
-    avoid = CollisionAvoidance(world, influence=0.08, safety=0.01, xi=0.3)
+    avoid = CollisionAvoidance(world, influence=0.08, safety=0.01, xi=0.3, lookahead=lookahead, end_spheres=end_spheres)
     tasks = [FrameTask(h, axes="position", gain=8.0) for h in hands]
     bound = BoundSubtask(avoid, priority=0 if resolver == "hqp" else None)
     stack = TaskStack([*tasks, PostureTask(gain=0.5)], [bound])
@@ -133,6 +141,7 @@ def run_stress(
             out.steps += 1
             if d < 0:
                 out.penetrations += 1
+                out.fallback_penetrations += bool(step.fallback)
             if d < out.min_distance:
                 out.min_distance, out.closest = d, name
         if rng.random() < 0.3:

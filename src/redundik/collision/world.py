@@ -26,6 +26,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import coal
 import numpy as np
@@ -187,6 +188,105 @@ class Distances:
     n: np.ndarray
     rate: np.ndarray
     near: np.ndarray
+
+
+@dataclass
+class Branches:
+    """Sub-shape distances of some pairs (:meth:`CollisionWorld.end_spheres`), one entry per branch.
+
+    Attributes:
+        pair: The pair index of each branch, shape (m,).
+        d: Signed distances [m], shape (m,).
+        p1: Nearest points on (the sub-shape of) body 1 [m], shape (m, 3).
+        p2: Nearest points on (the sub-shape of) body 2 [m], shape (m, 3).
+        n: Unit normals from body 1 to body 2 (p₂ − p₁ = d n), shape (m, 3).
+        rate: ∂d/∂t from a moving obstacle (body 2) [m/s], shape (m,).
+        names: ``body1|body2@body+`` / ``@body-``: the pair and the end (local +z or −z) of which capsule.
+    """
+
+    pair: np.ndarray
+    d: np.ndarray
+    p1: np.ndarray
+    p2: np.ndarray
+    n: np.ndarray
+    rate: np.ndarray
+    names: list[str] = field(default_factory=list)
+
+    @staticmethod
+    def empty() -> Branches:
+        """No branch."""
+        z = np.zeros((0, 3))
+        return Branches(np.zeros(0, dtype=int), np.zeros(0), z, z.copy(), z.copy(), np.zeros(0))
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise a × b of (k, 3) arrays (np.cross's axis handling costs more than the product at this size)."""
+    out = np.empty_like(b)
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
+
+
+def _unit(v: np.ndarray) -> tuple[np.ndarray, float] | None:
+    n = math.sqrt(float(v @ v))
+    return (v / n, n) if n > 1e-12 else None
+
+
+_SPHERE_REQ = coal.DistanceRequest()
+_SPHERE_REQ.enable_signed_distance = True
+
+
+def _sphere_to(
+    c: np.ndarray, r: float, info: tuple[Any, ...], M: pin.SE3
+) -> tuple[float, np.ndarray, np.ndarray, np.ndarray] | None:
+    """Signed distance [m] of the ball (centre c, radius r) to a shape at pose M: (d, point on the ball, point on the
+    shape, unit normal u from the ball to the shape, with p_shape − p_ball = d u), or ``None`` when undefined (the
+    centre on a sphere's centre or a capsule's axis)."""
+    kind = info[0]
+    if kind in ("sphere", "capsule"):
+        x = M.translation
+        if kind == "capsule":
+            ax = M.rotation[:, 2] * info[2]
+            a, ab = x - ax, 2 * ax
+            s = min(1.0, max(0.0, float((c - a) @ ab) / float(ab @ ab))) if info[2] > 0 else 0.0
+            x = a + s * ab
+        un = _unit(x - c)
+        if un is None:
+            return None
+        u, L = un
+        return L - r - info[1], c + r * u, x - info[1] * u, u
+    if kind == "box":
+        R, t, hs = M.rotation, M.translation, info[1]
+        cl = R.T @ (c - t)
+        cb = np.clip(cl, -hs, hs)
+        un = _unit(cb - cl)
+        if un is not None:  # outside the box
+            ul, L = un
+            u = R @ ul
+            return L - r, c + r * u, t + R @ cb, u
+        depth = hs - np.abs(cl)
+        a = int(np.argmin(depth))
+        out_l = np.zeros(3)
+        out_l[a] = 1.0 if cl[a] >= 0 else -1.0
+        u = -(R @ out_l)  # the distance grows when the centre moves outwards (along −u)
+        face = cl.copy()
+        face[a] = out_l[a] * hs[a]
+        return -float(depth[a]) - r, c + r * u, t + R @ face, u
+    if kind == "halfspace":  # the solid {x : nᵀx ≤ d} of the shape's frame
+        nw = M.rotation @ info[1]
+        h = float(nw @ (c - M.translation)) - info[2]
+        u = -nw
+        return h - r, c + r * u, c - h * nw, u
+    res = coal.DistanceResult()
+    coal.distance(coal.Sphere(r), coal.Transform3s(np.eye(3), c), info[1], coal.Transform3s(M.rotation, M.translation),
+                  _SPHERE_REQ, res)  # fmt: skip
+    p1, p2 = np.asarray(res.getNearestPoint1()), np.asarray(res.getNearestPoint2())
+    d = float(res.min_distance)
+    diff = p2 - p1
+    nd = math.sqrt(float(diff @ diff))
+    u = diff / (nd if d >= 0 else -nd) if nd > 1e-9 else np.asarray(res.normal)
+    return d, p1, p2, u
 
 
 def read_srdf_pairs(path: str | Path) -> list[tuple[str, str]]:
@@ -468,9 +568,100 @@ class CollisionWorld:
         ja, jb = self._pair_joint_arrays()
         mask = self._joint_masks(robot)
         A = n @ Js[:3]
-        out = mask[jb[rows]] * (A + np.cross(p2, n) @ Js[3:])
-        out -= mask[ja[rows]] * (A + np.cross(p1, n) @ Js[3:])
+        out = mask[jb[rows]] * (A + _cross(p2, n) @ Js[3:])
+        out -= mask[ja[rows]] * (A + _cross(p1, n) @ Js[3:])
         return out
+
+    def point_jacobian(
+        self, robot: RobotModel, pairs: np.ndarray, n: np.ndarray, p1: np.ndarray, p2: np.ndarray
+    ) -> np.ndarray:
+        """nᵀ(v_{p₂} − v_{p₁}) / q̇ for the body points p₁ (on body 1 of ``pairs[r]``), p₂ (body 2), shape (k, nv).
+
+        :meth:`jacobian` with given points and normals (world frame, shapes (k, 3)): the rate of the gap along n
+        between the two body-fixed points, the exact Jacobian of a sub-shape distance (:meth:`end_spheres`).
+        """
+        pairs = np.asarray(pairs, dtype=int)
+        if not pairs.size:
+            return np.zeros((0, robot.nv))
+        Js = np.asarray(robot.data.J)
+        ja, jb = self._pair_joint_arrays()
+        mask = self._joint_masks(robot)
+        A = n @ Js[:3]
+        out = mask[jb[pairs]] * (A + _cross(p2, n) @ Js[3:])
+        out -= mask[ja[pairs]] * (A + _cross(p1, n) @ Js[3:])
+        return out
+
+    def end_spheres(self, dist: Distances, rows: np.ndarray, influence: float) -> Branches:
+        """The distances of the end spheres of every capsule of the pairs ``rows`` to the pair's other body.
+
+        A capsule is the set of points within R of a segment [a, b], so its distance to a convex body B is
+        d = min_{s∈[0,1]} dist(ball(a + s(b − a), R), B); s ↦ dist(·) is convex, and the minimum is either interior
+        (the pair's own witness, smooth there) or at an end, s = 0 or 1: the ball of radius R at a or b. Each
+        end-sphere distance d_e ≥ d is a C¹ function of q (point-to-convex distance), so the barrier's rows on the
+        pair and on its end spheres bound every branch of d from below to first order: when the capsule's axis is
+        nearly parallel to the other body's surface the witness point jumps between the ends within one step, and
+        the row of the pair alone (the derivative of the current branch) would not see the other end approach.
+
+        Called after :meth:`compute` at the same state (uses its placements). Ends whose distance is ≥ ``influence``
+        [m] or equal to the pair's own witness (same point within 1e-7 m) are left out.
+        """
+        out = Branches.empty()
+        if not len(rows):
+            return out
+        info = self._shape_info()
+        oMg = self.data.oMg
+        pk, dd, pp1, pp2, nn, rr, labels = [], [], [], [], [], [], []
+        gnames = self._geom_names
+        for k in np.asarray(rows, dtype=int).tolist():
+            i, j = self.pairs[k]
+            for b, o, first in ((i, j, True), (j, i, False)):
+                kb = info[b]
+                if kb[0] != "capsule":
+                    continue
+                Mb, Mo = oMg[b], oMg[o]
+                axis = Mb.rotation[:, 2] * kb[2]
+                for c, sign in ((Mb.translation + axis, "+"), (Mb.translation - axis, "-")):
+                    hit = _sphere_to(c, kb[1], info[o], Mo)
+                    if hit is None or hit[0] >= influence:
+                        continue
+                    d_e, ps, po, u = hit
+                    q1, q2, nrm = (ps, po, u) if first else (po, ps, -u)
+                    if abs(d_e - dist.d[k]) < 1e-9 and np.abs(q1 - dist.p1[k]).max() < 1e-7:
+                        continue  # the pair's own witness
+                    pk.append(k)
+                    labels.append(f"{self.pair_names[k]}@{gnames[b]}{sign}")
+                    mo = self.obstacles[j - self.n_links].motion if j in self._moving else None
+                    rr.append(float(nrm @ mo.rate(self.time)) if mo is not None else 0.0)
+                    dd.append(d_e)
+                    pp1.append(q1)
+                    pp2.append(q2)
+                    nn.append(nrm)
+        if pk:
+            out = Branches(np.array(pk), np.array(dd), np.array(pp1), np.array(pp2), np.array(nn), np.array(rr), labels)
+        return out
+
+    _info: list[tuple[Any, ...]] | None = None
+
+    def _shape_info(self) -> list[tuple[Any, ...]]:
+        """Per geometry: ("capsule", R, half length) | ("sphere", R) | ("box", half sides) | ("halfspace", n, d) |
+        ("other", shape) (read once: pinocchio copies ``geometryObjects`` on every access)."""
+        if self._info is None or len(self._info) != self.geometry.ngeoms:
+            info: list[tuple[Any, ...]] = []
+            for go in self.geometry.geometryObjects:
+                g = go.geometry
+                if isinstance(g, coal.Capsule):
+                    info.append(("capsule", float(g.radius), float(g.halfLength)))
+                elif isinstance(g, coal.Sphere):
+                    info.append(("sphere", float(g.radius)))
+                elif isinstance(g, coal.Box):
+                    info.append(("box", np.asarray(g.halfSide, dtype=float).copy()))
+                elif isinstance(g, coal.Halfspace):
+                    info.append(("halfspace", np.asarray(g.n, dtype=float).copy(), float(g.d)))
+                else:
+                    info.append(("other", g))
+            self._info = info
+            self._geom_names = [go.name for go in self.geometry.geometryObjects]
+        return self._info
 
     def _pair_joint_arrays(self) -> tuple[np.ndarray, np.ndarray]:
         pj: tuple[np.ndarray, np.ndarray] | None = getattr(self, "_pj", None)
