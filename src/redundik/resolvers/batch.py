@@ -23,6 +23,7 @@ Agreement with the loop: ≤ 1e-9 in q̇ (tested); the differences are rounding 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import cast
 
@@ -106,7 +107,7 @@ class BatchResolver:
         robot: RobotModel,
         frame: str,
         *,
-        axes: str = "pose",
+        axes: str | Sequence[str] = "pose",
         gain: float = 1.0,
         posture_gain: float = 1.0,
         posture_target: np.ndarray | None = None,

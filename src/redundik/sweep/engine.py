@@ -139,6 +139,7 @@ def dask_client(local: int | None = None, scheduler: str | None = None, processe
         finally:
             cluster.close()
         return
+    assert scheduler is not None  # one of local / scheduler is given (checked by the caller)
     try:
         client = distributed.Client(scheduler, timeout="10s")
     except (OSError, TimeoutError, ValueError) as exc:

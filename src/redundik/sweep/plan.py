@@ -241,7 +241,7 @@ def load_sweep(source: str | Path | dict[str, Any], base_dir: Path | None = None
     if task.posture.target == "home":
         posture = home.copy()
     else:
-        posture = configuration_from_file(task.posture.target, model, spec.angle_unit, "task.posture.target")  # type: ignore[arg-type]
+        posture = configuration_from_file(task.posture.target, model, spec.angle_unit, "task.posture.target")
     if spec.targets.orientation is not None:
         rpy = np.array(spec.targets.orientation) * angle_scale(spec.angle_unit)
         R = rpy_matrix(rpy)
