@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import Potential, Task, TaskTerm
+from redundik.tasks.subtasks import TargetSubtask
 
 
 class PotentialTask(Task):
@@ -39,26 +39,37 @@ class PotentialTask(Task):
         priority: int | None = None,
         name: str | None = None,
     ) -> None:
-        self.name = name or potential.name
-        for key, val in (("target", target), ("rate", rate), ("target_rate", target_rate), ("weight", weight)):
-            if not np.isfinite(val):
-                raise TaskError(f"task '{self.name}': {key} must be finite, got {val}")
-        if rate < 0:
-            raise TaskError(f"task '{self.name}': rate (K) must be ≥ 0, got {rate}")
-        if weight <= 0:
-            raise TaskError(f"task '{self.name}': weight must be > 0, got {weight}")
+        # the one formula of "drive p to p_d" (and its validation) is the target subtask's; this task places it
+        # among the tasks, at any level
+        self._row = TargetSubtask(potential, target, rate=rate, target_rate=target_rate, weight=weight, name=name)
+        self._init_task(self._row.name, weight=weight, gain=0.0, priority=priority)
         self.potential = potential
-        self.target, self.rate, self.target_rate = float(target), float(rate), float(target_rate)
-        self.weight, self.priority = float(weight), priority
+
+    @property
+    def target(self) -> float:
+        """p_d [unit of p]."""
+        return self._row.target
+
+    @property
+    def rate(self) -> float:
+        """K [1/s]."""
+        return self._row.rate
+
+    @property
+    def target_rate(self) -> float:
+        """ṗ_d [unit of p / s]."""
+        return self._row.target_rate
+
+    def set_target(self, target: float, target_rate: float = 0.0) -> None:
+        """Move p_d (and ṗ_d) at run time, between ticks."""
+        self._row.set_target(target, target_rate)
 
     def reset(self, robot: RobotModel) -> None:
         self.potential.check(robot)
 
     def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
-        eta = self.potential.gradient(robot)
-        e = np.array([self.target - self.potential.value(robot)])
-        v = self.target_rate + self.rate * e
-        return TaskTerm(self.name, eta.reshape(1, -1), v, e, self.weight)
+        eta, v, e = self._row.row(robot)
+        return TaskTerm(self.name, eta.reshape(1, -1), np.array([v]), np.array([e]), self.weight)
 
     def __repr__(self) -> str:
         return f"PotentialTask({self.potential!r}, target={self.target}, rate={self.rate})"
