@@ -11,9 +11,9 @@ import typer
 import yaml
 from typer.testing import CliRunner
 
+from redundik.config.parallel import load_config, parse_config
 from redundik.errors import ConfigError, MechanismError
 from redundik.parallel import StewartPlatform, book_66_pose
-from redundik.parallel.config import load_config, parse_config
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 RUNNER = CliRunner()

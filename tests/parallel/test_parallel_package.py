@@ -19,7 +19,7 @@ def test_every_public_name_is_defined() -> None:
 
 def test_math_does_not_import_matplotlib() -> None:
     code = (
-        "import sys, redundik.parallel, redundik.parallel.config, redundik.cli.parallel_cmds; "
+        "import sys, redundik.parallel, redundik.config.parallel, redundik.cli.parallel_cmds; "
         "print('matplotlib' in sys.modules)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout

@@ -11,9 +11,10 @@ import pinocchio as pin
 import pytest
 
 from redundik.config import load_robot, load_task
+from redundik.config.dh_tables import read_dh_table
 from redundik.config.runner import RunResult, run_task
 from redundik.kinematics import dh_matrix
-from redundik.robots import RelativePoseTask, augmented_jacobian, joint_variables, numeric_rank, read_dh_table
+from redundik.robots import RelativePoseTask, augmented_jacobian, joint_variables, numeric_rank
 
 ROOT = Path(__file__).resolve().parents[2]
 CONFIG = ROOT / "configs/dualarm17.yaml"

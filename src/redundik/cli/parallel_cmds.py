@@ -41,7 +41,7 @@ ROpt = Annotated[
 
 # ---------------------------------------------------------------------------------------------- helpers
 def _load(path: Path, kind: str) -> Any:
-    from redundik.parallel.config import load_config
+    from redundik.config.parallel import load_config
 
     cfg = load_config(path)
     if cfg.kind != kind:

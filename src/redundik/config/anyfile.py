@@ -1,7 +1,7 @@
 """``redundik validate`` for any YAML file of the project: task files, robot configs, parallel-mechanism configs.
 
 The kind of file is told from its top-level keys: ``kind`` → a parallel-mechanism config
-(:mod:`redundik.parallel.config`); ``dh`` or ``urdf`` without ``runs`` / ``robot`` → a robot config
+(:mod:`redundik.config.parallel`); ``dh`` or ``urdf`` without ``runs`` / ``robot`` → a robot config
 (:mod:`redundik.config.robot`); anything else is checked as a task file (:mod:`redundik.config.loader`).
 Each is checked as fully as the commands that use it would check it at load time.
 """
@@ -43,7 +43,7 @@ def validate_file(path: str | Path) -> str:
     data = read_yaml(path, "file")
     kind = detect_kind(data)
     if kind == "mechanism":
-        from redundik.parallel.config import parse_config
+        from redundik.config.parallel import parse_config
 
         cfg = parse_config(data, str(path))
         cfg.build()

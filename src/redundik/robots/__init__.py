@@ -5,7 +5,6 @@
 * :mod:`.relative`: the coordination task of two end-effectors (relative pose held);
 * :mod:`.potentials`: a joint visiting waypoints (the (6+1) robot's round trip);
 * :mod:`.snake`: the hyper-redundant snake generator;
-* :mod:`.tables`: D-H rows read straight from a config file.
 """
 
 from redundik.robots.jacobians import (
@@ -19,7 +18,6 @@ from redundik.robots.jacobians import (
 from redundik.robots.potentials import JointWaypoints
 from redundik.robots.relative import RelativePoseTask
 from redundik.robots.snake import snake, snake_config, snake_rows
-from redundik.robots.tables import read_dh_table
 
 __all__ = [
     "JointWaypoints",
@@ -30,7 +28,6 @@ __all__ = [
     "dh_forward",
     "joint_variables",
     "numeric_rank",
-    "read_dh_table",
     "snake",
     "snake_config",
     "snake_rows",
