@@ -15,18 +15,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-FLAGS = [
-    "--headless",
-    "--no-sandbox",
-    "--use-gl=swiftshader",
-    "--enable-unsafe-swiftshader",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-    "--hide-scrollbars",
-]
+from redundik.viewer.snapshot import CHROMIUM_FLAGS
+
+FLAGS = list(CHROMIUM_FLAGS)  # the flags the product uses for its own screenshots (one list)
 
 
 def chromium() -> str:
