@@ -55,10 +55,12 @@ def main() -> None:
     ap.add_argument("--episodes", type=int, default=25)
     ap.add_argument("--steps", type=int, default=100)
     ap.add_argument("--scene", choices=["panda", "talos"], action="append", help="default: both")
+    ap.add_argument("--backend", action="append", help="default: every installed one")
+    ap.add_argument("--resolver", choices=["wqp", "hqp"], action="append", help="default: both")
     ap.add_argument("--no-ratio", action="store_true", help="skip the step-time ratio")
     args = ap.parse_args()
     backends = []
-    for b in ("daqp", "quadprog", "proxsuite", "osqp"):
+    for b in args.backend or ("daqp", "quadprog", "proxsuite", "osqp"):
         try:
             make_resolver("wqp", backend=b)
             backends.append(b)
@@ -66,7 +68,7 @@ def main() -> None:
             pass
     total = 0
     for scene in args.scene or ("panda", "talos"):
-        for resolver in ("wqp", "hqp"):
+        for resolver in args.resolver or ("wqp", "hqp"):
             for backend in backends:
                 t = time.time()
                 out = run_stress(scene, resolver, backend, episodes=args.episodes, steps=args.steps, seed=7)

@@ -292,3 +292,71 @@ def test_stress_random_targets_do_not_penetrate(backend: str) -> None:
     if backend == "daqp":
         plain = run_stress("panda", "wqp", backend, episodes=3, steps=100, seed=3, lookahead=0.0, end_spheres=False)
         assert plain.penetrations > 0
+
+
+def _press_against_the_ball(resolver: object, extra: list) -> tuple[float, list[str]]:
+    """150 steps of the hand driven into the ball's centre with the collision damper (and ``extra`` bounds):
+    (smallest distance, fallback notes)."""
+    robot, world = panda_world()
+    world.set_time(0.0)
+    avoid = CollisionAvoidance(world, influence=0.1, safety=0.01, xi=0.3)
+    hand = FrameTask("panda_hand", axes="position", gain=5.0)
+    hand.set_target([0.45, -0.2, 0.4])
+    stack = TaskStack([hand, PostureTask(gain=1.0)], [BoundSubtask(avoid, priority=0), *extra])
+    q, dmin, notes = PANDA_Q0.copy(), np.inf, []
+    for k in range(150):
+        step = resolver.step(robot, stack, q, k * 0.01, 0.01)  # type: ignore[attr-defined]
+        if step.fallback:
+            notes.append(step.fallback)
+        q = robot.integrate(q, step.dq, 0.01)
+        robot.update(q)
+        dmin = min(dmin, world.closest(robot)[1])
+    return dmin, notes
+
+
+def test_wqp_relaxed_step_keeps_the_collision_rows() -> None:
+    """An infeasible bound (joint 1 to ≥ 3 rad away within one step, γ = 1/dt, against its velocity limit) makes
+    wqp relax its QP at every step while the hand presses against the ball: the relaxed problem drops that bound
+    and keeps the collision damper's rows, so the distance stays ≥ 0 (and near d_s)."""
+    from redundik.tasks import JointValue
+
+    far = BoundSubtask(JointValue("panda_joint1", -10.0, name="far"), lower=13.0**2, priority=0)
+    dmin, notes = _press_against_the_ball(make_resolver("wqp"), [far])
+    assert len(notes) >= 100
+    assert all("relaxed" in n and "['far'] dropped" in n and "safety rows of ['collision'] kept" in n for n in notes)
+    assert 0.005 <= dmin < 0.03
+
+
+class _FailingBackend:
+    """A backend that never solves: every QP step falls back to the closed form."""
+
+    name = "failing"
+
+    def solve(self, problem: object, warm: object = None) -> object:
+        from redundik.errors import SolverError
+
+        raise SolverError("never solves")
+
+    def reset(self) -> None:
+        pass
+
+
+@pytest.mark.parametrize("resolver", ["wqp", "hqp"])
+def test_closed_form_fallback_is_scaled_to_keep_the_collision_rows(resolver: str) -> None:
+    from redundik.resolvers.qp.backends import Backend
+
+    backend = type("Failing", (_FailingBackend, Backend), {})()
+    dmin, notes = _press_against_the_ball(make_resolver(resolver, backend=backend), [])
+    assert notes and any("scaled by" in n and "safety rows" in n for n in notes)
+    assert dmin >= 0.0
+
+
+def test_keep_safe_scales_to_the_tightest_row() -> None:
+    from redundik.resolvers.qp.base import keep_safe
+
+    C, d = np.array([[1.0, 0.0], [0.0, 1.0]]), np.array([0.5, 2.0])
+    dq, alpha = keep_safe(np.array([1.0, 1.0]), C, d)
+    assert alpha == pytest.approx(0.5, abs=1e-5) and np.all(C @ dq <= d + 1e-6 + 1e-12)
+    assert keep_safe(np.array([0.1, 0.1]), C, d)[1] == 1.0
+    assert keep_safe(np.array([1.0, 0.0]), C, np.array([-0.1, 1.0]))[1] < 1e-5
+    assert keep_safe(np.array([1e-7, 0.0]), C, np.array([0.0, 1.0]))[1] == 1.0  # within a backend's tolerance

@@ -67,6 +67,9 @@ class CollisionAvoidance(Barrier, Potential):
         TaskError: non-finite or out-of-range numbers (d_i ≤ d_s, ξ ≤ 0, d_s < 0).
     """
 
+    #: Collision rows are safety rows: a relaxed QP keeps them (:attr:`~redundik.tasks.base.Barrier.safety`).
+    safety = True
+
     def __init__(
         self,
         world: CollisionWorld,

@@ -193,6 +193,11 @@ class BoundSubtask(Subtask):
         """The potential, or ``None`` for a barrier source."""
         return self.source if isinstance(self.source, Potential) else None
 
+    @property
+    def safety(self) -> bool:
+        """True for a safety barrier's rows (:attr:`~redundik.tasks.base.Barrier.safety`): never relaxed."""
+        return isinstance(self.source, Barrier) and self.source.safety
+
     def check(self, robot: RobotModel) -> None:
         self.source.check(robot)
 

@@ -136,6 +136,24 @@ class QPDiagnostics:
         return info
 
 
+def keep_safe(dq: np.ndarray, C: np.ndarray, d: np.ndarray, tol: float = 1e-6) -> tuple[np.ndarray, float]:
+    """(α q̇, α): the largest α ∈ [0, 1] with C (α q̇) ≤ d + tol, when ``dq`` violates a row by more than ``tol``.
+
+    The last guard of the safety rows (collision dampers, d = γh ≥ 0 [m/s] while the pair is apart): whatever
+    produced q̇ (the closed-form fallback, a backend stopped early), α q̇ keeps every row, since q̇ = 0 does. ``tol``
+    [row units; m/s for the dampers, i.e. 1e-8 m over a 10 ms step] leaves a backend's own tolerance alone. A row
+    with d < 0 (a moving obstacle already closer than d_s) gives α ≈ 0, the best a scaling can do.
+    """
+    if not C.shape[0]:
+        return dq, 1.0
+    v = C @ dq
+    over = v > d + tol
+    if not over.any():
+        return dq, 1.0
+    alpha = float(np.clip(np.min((np.maximum(d[over], 0.0) + tol) / v[over]), 0.0, 1.0))
+    return alpha * dq, alpha
+
+
 class QPResolverBase(Resolver):
     """Shared machinery of the QP resolvers (not registered itself): the template :meth:`solve`.
 
@@ -218,6 +236,12 @@ class QPResolverBase(Resolver):
             x = np.zeros(robot.nv)
             diag.backend = "fallback"
         dq = box.clip(x)  # the limits hold whatever happened (solver tolerance, fallback); a new array
+        safe = self._safety_rows(built, stack)
+        if safe is not None:
+            dq, alpha = keep_safe(dq, *safe)
+            if alpha < 1.0 and fallback is not None:
+                fallback += f"; q̇ scaled by {alpha:.3g} to keep the safety rows (collision distances)"
+            dq = box.clip(dq)
         dq_kept = dq.copy()
         self._dq_prev = dq_kept
         t2 = time.perf_counter()
@@ -238,6 +262,10 @@ class QPResolverBase(Resolver):
         )
         res.pending = diagnostics
         return res
+
+    def _safety_rows(self, built: Any, stack: TaskStack) -> tuple[np.ndarray, np.ndarray] | None:
+        """The built step's safety rows (C, d) of C q̇ ≤ d (:attr:`BoundSubtask.safety`), or ``None`` without any."""
+        return None
 
     def _solve_qp(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
         """The backend's answer; anything it raises (also a user backend's own exception) becomes SolverError."""

@@ -284,6 +284,18 @@ class HierarchicalQPResolver(QPResolverBase):
         x, notes = self._qp_cascade(levels, box, n, diag)
         return x, ("hqp: " + "; ".join(notes)) if notes else None
 
+    def _safety_rows(self, built: HQPBuild, stack: TaskStack) -> tuple[np.ndarray, np.ndarray] | None:
+        names = {b.name for b in stack.bound_subtasks if b.safety}
+        if not names:
+            return None
+        Cs, ds = [], []
+        for lv in built.levels:
+            if lv.p:
+                keep = np.array([r.split(":", 1)[0] in names for r in lv.c_names], dtype=bool)
+                Cs.append(lv.C[keep])
+                ds.append(lv.d[keep])
+        return (np.vstack(Cs), np.concatenate(ds)) if Cs else None
+
     def _diagnose(self, built: HQPBuild, dq: np.ndarray, diag: QPDiagnostics) -> None:
         for lv in built.levels:
             diag.level_residuals[lv.priority] = lv.residual(dq)

@@ -15,8 +15,9 @@ Sugihara 2011) keeps the optimum unique and bounded near singularities.
 Hot loop: when the unconstrained optimum P⁻¹(−q) already satisfies every constraint it is the QP's optimum and is
 returned without calling the backend (a Cholesky solve instead of a QP, flagged ``info["qp"] = 0``); otherwise the
 backend solves the QP, warm-started at the previous q̇. A backend failure or an infeasible QP (bound subtasks that the
-limits do not allow) is relaxed first (bound subtasks dropped), then replaced by the damped closed form clipped to
-the limits; ``StepResult.fallback`` says which.
+limits do not allow) is relaxed first (the bound subtasks dropped, except safety rows — collision distances — which
+stay hard), then replaced by the damped closed form clipped to the limits and scaled down until the safety rows hold
+(q̇ = 0 always does); ``StepResult.fallback`` says which.
 """
 
 from __future__ import annotations
@@ -45,12 +46,14 @@ class WQPBuild:
         box: The joint-limit box of the step.
         main_terms: The main tasks' terms (for the level-0 residual).
         damping: λ of the step.
+        safe: Per row of ``problem.G``, whether it is a safety row (kept by the relaxed problem).
     """
 
     problem: QPProblem
     box: LimitBox
     main_terms: list[TaskTerm]
     damping: float = 0.0
+    safe: np.ndarray | None = None
 
 
 class WeightedQPResolver(QPResolverBase):
@@ -113,7 +116,7 @@ class WeightedQPResolver(QPResolverBase):
         P.fill(0.0)
         q.fill(0.0)
         diag = P.reshape(-1)[:: n + 1]  # a view on P's diagonal
-        Cs, ds, names = [], [], []
+        Cs, ds, names, safe = [], [], [], []
         scale = 1.0
         for k, plan in enumerate(layout.levels):
             scale = self.level_ratio**k
@@ -136,6 +139,7 @@ class WeightedQPResolver(QPResolverBase):
                 Cs.append(C)
                 ds.append(d)
                 names += rn
+                safe += [bsub.safety] * len(rn)
             if plan.null_objective:
                 z = stack.null_target(robot, terms, layout)
                 diag += scale
@@ -153,7 +157,7 @@ class WeightedQPResolver(QPResolverBase):
             G, h = np.zeros((0, n)), np.zeros(0)
         box = self._box(robot, dt)
         prob = QPProblem(P, q, G, h, np.zeros((0, n)), np.zeros(0), box.lb, box.ub, "wqp", names)
-        return WQPBuild(prob, box, main_terms, lam)
+        return WQPBuild(prob, box, main_terms, lam, np.array(safe, dtype=bool))
 
     def _resolve(self, built: WQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
         prob, box = built.problem, built.box
@@ -169,14 +173,25 @@ class WeightedQPResolver(QPResolverBase):
         except SolverError as exc:
             if not prob.G.shape[0]:
                 raise
-            n = prob.n
-            relaxed = QPProblem(prob.P, prob.q, np.zeros((0, n)), np.zeros(0), prob.A, prob.b, prob.lb, prob.ub, "wqp")
+            keep = built.safe if built.safe is not None else np.zeros(prob.G.shape[0], dtype=bool)
+            if keep.all():
+                raise  # nothing to relax: the base falls back to the closed form, scaled to keep the safety rows
+            kept = [r for r, k in zip(prob.row_names, keep, strict=True) if k]
+            relaxed = QPProblem(
+                prob.P, prob.q, prob.G[keep], prob.h[keep], prob.A, prob.b, prob.lb, prob.ub, "wqp relaxed", kept
+            )
             sol = self._solve_qp(relaxed, self._dq_prev)  # a SolverError here goes to the closed form
             diag.backend, diag.iterations, diag.qp = sol.backend, sol.iterations, 2
-            return (
-                sol.x,
-                f"wqp relaxed (bound subtasks {sorted(set(r.split(':')[0] for r in prob.row_names))} dropped): {exc}",
-            )
+            dropped = sorted({r.split(":")[0] for r, k in zip(prob.row_names, keep, strict=True) if not k})
+            note = f"wqp relaxed (bound subtasks {dropped} dropped"
+            if kept:
+                note += f"; safety rows of {sorted({r.split(':')[0] for r in kept})} kept"
+            return sol.x, f"{note}): {exc}"
+
+    def _safety_rows(self, built: WQPBuild, stack: TaskStack) -> tuple[np.ndarray, np.ndarray] | None:
+        if built.safe is None or not built.safe.any():
+            return None
+        return built.problem.G[built.safe], built.problem.h[built.safe]
 
     def _diagnose(self, built: WQPBuild, dq: np.ndarray, diag: QPDiagnostics) -> None:
         """Level-0 residual, bound violation, and σ_min of the main-task Jacobian (eigenvalues of the small JJᵀ);
