@@ -67,8 +67,8 @@ class CollisionAvoidance(Barrier, Potential):
         TaskError: non-finite or out-of-range numbers (d_i ≤ d_s, ξ ≤ 0, d_s < 0).
     """
 
-    #: Collision rows are safety rows: a relaxed QP keeps them (:attr:`~redundik.tasks.base.Barrier.safety`).
-    safety = True
+    #: Collision rows are safety rows: a relaxed QP keeps them (:attr:`~redundik.tasks.base.Barrier.critical`).
+    critical = True
 
     def __init__(
         self,

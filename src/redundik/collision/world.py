@@ -32,6 +32,7 @@ import coal
 import numpy as np
 import pinocchio as pin
 
+from redundik.collision import kernels as KC
 from redundik.collision.geometry import approximate, load_collision_model
 from redundik.errors import ModelError
 from redundik.kinematics.model import RobotModel
@@ -217,15 +218,6 @@ class Branches:
         """No branch."""
         z = np.zeros((0, 3))
         return Branches(np.zeros(0, dtype=int), np.zeros(0), z, z.copy(), z.copy(), np.zeros(0))
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise a × b of (k, 3) arrays (np.cross's axis handling costs more than the product at this size)."""
-    out = np.empty_like(b)
-    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
-    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
-    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    return out
 
 
 def _unit(v: np.ndarray) -> tuple[np.ndarray, float] | None:
@@ -470,6 +462,51 @@ class CollisionWorld:
         for req in self.data.distanceRequests:
             req.enable_signed_distance = True
         self._cache = None
+        self._pj: tuple[np.ndarray, np.ndarray] | None = None
+        self._tables()
+
+    def _tables(self) -> None:
+        """The per-tick kernels' static data: shape codes, capsule pairs (computed by
+        :func:`~redundik.collision.kernels.capsule_pairs`, deactivated in coal), coal's pairs, end-sphere branches."""
+        info = self._shape_info()
+        G = len(info)
+        kind = np.full(G, KC.OTHER, dtype=np.int64)
+        prm = np.zeros((G, 4))
+        for g, inf in enumerate(info):
+            if inf[0] == "capsule":
+                kind[g], prm[g, :2] = KC.CAPSULE, (inf[1], inf[2])
+            elif inf[0] == "sphere":
+                kind[g], prm[g, :2] = KC.CAPSULE, (inf[1], 0.0)
+            elif inf[0] == "box":
+                kind[g], prm[g, :3] = KC.BOX, inf[1]
+            elif inf[0] == "halfspace":
+                kind[g], prm[g, :3], prm[g, 3] = KC.HALFSPACE, inf[1], inf[2]
+        self._kind, self._prm = kind, prm
+        pa = np.array([i for i, _ in self.pairs], dtype=np.int64)
+        pb = np.array([j for _, j in self.pairs], dtype=np.int64)
+        caps = (kind[pa] == KC.CAPSULE) & (kind[pb] == KC.CAPSULE) if self.pairs else np.zeros(0, dtype=bool)
+        self._cap = np.flatnonzero(caps)
+        self._coal = np.flatnonzero(~caps)
+        for k in self._cap.tolist():
+            self.data.deactivateCollisionPair(k)
+        self._live = sorted({g for pair in self.pairs for g in pair if g < self.n_links})
+        self._T = np.tile(np.eye(4), (G, 1, 1))  # world poses of the geometries (obstacles: set here and by set_time)
+        objs = self.geometry.geometryObjects
+        for g in range(self.n_links, G):
+            self._T[g] = objs[g].placement.homogeneous
+        self._cap_a, self._cap_b = pa[self._cap].copy(), pb[self._cap].copy()
+        # end-sphere branches: (pair, capsule geometry, other geometry, capsule is body 1, end ±1)
+        rows: list[tuple[int, int, int, bool, float]] = []
+        for k, (i, j) in enumerate(self.pairs):
+            for b, o, first in ((i, j, True), (j, i, False)):
+                if kind[b] == KC.CAPSULE and prm[b, 1] > 0:
+                    rows += [(k, b, o, first, 1.0), (k, b, o, first, -1.0)]
+        tab = np.array([r[:3] for r in rows], dtype=np.int64).reshape(-1, 3)
+        self._br_pair, self._br_b, self._br_o = tab[:, 0].copy(), tab[:, 1].copy(), tab[:, 2].copy()
+        self._br_first = np.array([r[3] for r in rows], dtype=np.bool_)
+        self._br_sign = np.array([r[4] for r in rows], dtype=float)
+        self._br_other = kind[self._br_o] == KC.OTHER
+        self._pa, self._pb = pa, pb
 
     def exclude_colliding_at(self, robot: RobotModel, q: np.ndarray, threshold: float = 0.0) -> list[str]:
         """Drop the self pairs closer than ``threshold`` [m] at ``q`` (structural overlaps of the approximation).
@@ -498,7 +535,9 @@ class CollisionWorld:
         self.time = t
         for k, ob in enumerate(self.obstacles):
             if ob.motion is not None:
-                self.geometry.geometryObjects[self.n_links + k].placement = ob.placement_at(t)
+                M = ob.placement_at(t)
+                self.geometry.geometryObjects[self.n_links + k].placement = M
+                self._T[self.n_links + k] = M.homogeneous
 
     # ------------------------------------------------------------------ distances
     @property
@@ -528,30 +567,47 @@ class CollisionWorld:
         ):
             return self._dist
         pin.updateGeometryPlacements(self.model, robot.data, self.geometry, self.data)
-        pin.computeDistances(self.geometry, self.data)
-        results = self.data.distanceResults
+        oMg = self.data.oMg
+        if self._live:
+            self._T[self._live] = [oMg[g].homogeneous for g in self._live]
         P = len(self.pairs)
         d = np.empty(P)
-        for k in range(P):
-            d[k] = results[k].min_distance
-        near = np.flatnonzero(d < influence)
         p1, p2, nrm, rate = np.zeros((P, 3)), np.zeros((P, 3)), np.zeros((P, 3)), np.zeros(P)
-        for k in near.tolist():
-            r = results[k]
-            a, b = r.getNearestPoint1(), r.getNearestPoint2()
-            p1[k], p2[k] = a, b
-            diff = b - a
-            nd = math.sqrt(float(diff @ diff))
-            # p2 − p1 = d n (coal's convention, also when penetrating); coal's own normal where the points coincide
-            nrm[k] = diff / (nd if d[k] >= 0 else -nd) if nd > 1e-9 else r.normal
-            ib = self.pairs[k][1]
-            if ib in self._moving:
-                motion = self.obstacles[ib - self.n_links].motion
-                assert motion is not None
-                rate[k] = float(nrm[k] @ motion.rate(self.time))
+        cap = self._cap
+        if cap.size:  # capsule/sphere pairs: one compiled call
+            dc, a, b, nc, ok = KC.capsule_pairs(self._T, self._prm, self._cap_a, self._cap_b)
+            d[cap], p1[cap], p2[cap], nrm[cap] = dc, a, b, nc
+            for k in cap[~ok].tolist():  # axes meeting: coal's normal
+                self._from_coal(k, pin.computeDistance(self.geometry, self.data, k), d, p1, p2, nrm)
+        if self._coal.size:
+            pin.computeDistances(self.geometry, self.data)  # the capsule pairs are deactivated
+            results = self.data.distanceResults
+            for k in self._coal.tolist():
+                d[k] = results[k].min_distance
+            for k in self._coal[d[self._coal] < influence].tolist():
+                self._from_coal(k, results[k], d, p1, p2, nrm)
+        near = np.flatnonzero(d < influence)
+        if self._moving:
+            for k in near.tolist():
+                ib = self.pairs[k][1]
+                if ib in self._moving:
+                    motion = self.obstacles[ib - self.n_links].motion
+                    if motion is not None:
+                        rate[k] = float(nrm[k] @ motion.rate(self.time))
         self._dist = Distances(d, p1, p2, nrm, rate, near)
         self._cache = ((id(robot), self.time, influence), q.copy())
         return self._dist
+
+    @staticmethod
+    def _from_coal(k: int, r: Any, d: np.ndarray, p1: np.ndarray, p2: np.ndarray, nrm: np.ndarray) -> None:
+        """Pair k's distance, witness points and normal from coal's result ``r``."""
+        d[k] = r.min_distance
+        a, b = r.getNearestPoint1(), r.getNearestPoint2()
+        p1[k], p2[k] = a, b
+        diff = b - a
+        nd = math.sqrt(float(diff @ diff))
+        # p2 − p1 = d n (coal's convention, also when penetrating); coal's own normal where the points coincide
+        nrm[k] = diff / (nd if d[k] >= 0 else -nd) if nd > 1e-9 else r.normal
 
     def jacobian(self, robot: RobotModel, dist: Distances, rows: np.ndarray) -> np.ndarray:
         """∂d/∂q of the pairs ``rows`` (pair indices), shape (k, nv) (module docstring).
@@ -560,17 +616,8 @@ class CollisionWorld:
         at p is v_p = M_j ⊙ (J^s_v − [p]× J^s_ω) q̇ with M_j the columns of the joints supporting body j, so
         nᵀ v_p = M_j ⊙ (nᵀJ^s_v + (p × n)ᵀ J^s_ω) — equal to the base-aligned form of the module docstring.
         """
-        rows = np.asarray(rows, dtype=int)
-        if not rows.size:
-            return np.zeros((0, robot.nv))
-        Js = np.asarray(robot.data.J)  # (6, nv), spatial Jacobian in the world frame
-        n, p1, p2 = dist.n[rows], dist.p1[rows], dist.p2[rows]
-        ja, jb = self._pair_joint_arrays()
-        mask = self._joint_masks(robot)
-        A = n @ Js[:3]
-        out = mask[jb[rows]] * (A + _cross(p2, n) @ Js[3:])
-        out -= mask[ja[rows]] * (A + _cross(p1, n) @ Js[3:])
-        return out
+        rows = np.asarray(rows, dtype=np.int64)
+        return self.point_jacobian(robot, rows, dist.n[rows], dist.p1[rows], dist.p2[rows])
 
     def point_jacobian(
         self, robot: RobotModel, pairs: np.ndarray, n: np.ndarray, p1: np.ndarray, p2: np.ndarray
@@ -580,16 +627,14 @@ class CollisionWorld:
         :meth:`jacobian` with given points and normals (world frame, shapes (k, 3)): the rate of the gap along n
         between the two body-fixed points, the exact Jacobian of a sub-shape distance (:meth:`end_spheres`).
         """
-        pairs = np.asarray(pairs, dtype=int)
+        pairs = np.asarray(pairs, dtype=np.int64)
         if not pairs.size:
             return np.zeros((0, robot.nv))
-        Js = np.asarray(robot.data.J)
+        Js = np.asarray(robot.data.J)  # (6, nv), spatial Jacobian in the world frame
         ja, jb = self._pair_joint_arrays()
         mask = self._joint_masks(robot)
-        A = n @ Js[:3]
-        out = mask[jb[pairs]] * (A + _cross(p2, n) @ Js[3:])
-        out -= mask[ja[pairs]] * (A + _cross(p1, n) @ Js[3:])
-        return out
+        f = np.ascontiguousarray
+        return KC.distance_rows(f(Js), mask, ja[pairs], jb[pairs], f(n, float), f(p1, float), f(p2, float))
 
     def end_spheres(self, dist: Distances, rows: np.ndarray, influence: float) -> Branches:
         """The distances of the end spheres of every capsule of the pairs ``rows`` to the pair's other body.
@@ -606,39 +651,69 @@ class CollisionWorld:
         [m] or equal to the pair's own witness (same point within 1e-7 m) are left out.
         """
         out = Branches.empty()
-        if not len(rows):
+        rows = np.asarray(rows, dtype=np.int64)
+        if not rows.size or not self._br_pair.size:
             return out
+        sel = np.zeros(len(self.pairs), dtype=np.bool_)
+        sel[rows] = True
+        parts = [
+            KC.end_spheres(
+                self._T, self._kind, self._prm, self._br_pair, self._br_b, self._br_o, self._br_first,
+                self._br_sign, sel, dist.d, dist.p1, float(influence),
+            )
+        ]  # fmt: skip
+        if self._br_other.any():
+            slow = np.flatnonzero(sel[self._br_pair] & self._br_other)
+            if slow.size:  # a capsule end against a mesh/convex hull: coal, per branch
+                parts.append(self._slow_end_spheres(dist, slow, influence))
+        if len(parts) == 1:
+            idx, d, p1, p2, nn = parts[0]
+        else:
+            idx, d = np.concatenate([q[0] for q in parts]), np.concatenate([q[1] for q in parts])
+            p1, p2, nn = (np.vstack([q[i] for q in parts]) for i in (2, 3, 4))
+        if not idx.size:
+            return out
+        pair = self._br_pair[idx]
+        rate = np.zeros(idx.size)
+        if self._moving:
+            for r, k in enumerate(pair.tolist()):
+                j = self.pairs[k][1]
+                mo = self.obstacles[j - self.n_links].motion if j in self._moving else None
+                if mo is not None:
+                    rate[r] = float(nn[r] @ mo.rate(self.time))
+        names = self._geom_names
+        labels = [
+            f"{self.pair_names[k]}@{names[b]}{'+' if sg > 0 else '-'}"
+            for k, b, sg in zip(pair.tolist(), self._br_b[idx].tolist(), self._br_sign[idx].tolist(), strict=True)
+        ]
+        return Branches(pair, d, p1, p2, nn, rate, labels)
+
+    def _slow_end_spheres(
+        self, dist: Distances, branches: np.ndarray, influence: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`end_spheres` for the branches whose other body only coal handles: (branch indices, d, p1, p2, n)."""
         info = self._shape_info()
-        oMg = self.data.oMg
-        pk, dd, pp1, pp2, nn, rr, labels = [], [], [], [], [], [], []
-        gnames = self._geom_names
-        for k in np.asarray(rows, dtype=int).tolist():
-            i, j = self.pairs[k]
-            for b, o, first in ((i, j, True), (j, i, False)):
-                kb = info[b]
-                if kb[0] != "capsule":
-                    continue
-                Mb, Mo = oMg[b], oMg[o]
-                axis = Mb.rotation[:, 2] * kb[2]
-                for c, sign in ((Mb.translation + axis, "+"), (Mb.translation - axis, "-")):
-                    hit = _sphere_to(c, kb[1], info[o], Mo)
-                    if hit is None or hit[0] >= influence:
-                        continue
-                    d_e, ps, po, u = hit
-                    q1, q2, nrm = (ps, po, u) if first else (po, ps, -u)
-                    if abs(d_e - dist.d[k]) < 1e-9 and np.abs(q1 - dist.p1[k]).max() < 1e-7:
-                        continue  # the pair's own witness
-                    pk.append(k)
-                    labels.append(f"{self.pair_names[k]}@{gnames[b]}{sign}")
-                    mo = self.obstacles[j - self.n_links].motion if j in self._moving else None
-                    rr.append(float(nrm @ mo.rate(self.time)) if mo is not None else 0.0)
-                    dd.append(d_e)
-                    pp1.append(q1)
-                    pp2.append(q2)
-                    nn.append(nrm)
-        if pk:
-            out = Branches(np.array(pk), np.array(dd), np.array(pp1), np.array(pp2), np.array(nn), np.array(rr), labels)
-        return out
+        keep, dd, pp1, pp2, nn = [], [], [], [], []
+        for r in branches.tolist():
+            k, b, o = int(self._br_pair[r]), int(self._br_b[r]), int(self._br_o[r])
+            Mo = pin.SE3(self._T[o])
+            c = self._T[b, :3, 3] + self._br_sign[r] * self._prm[b, 1] * self._T[b, :3, 2]
+            hit = _sphere_to(c, float(self._prm[b, 0]), info[o], Mo)
+            if hit is None or hit[0] >= influence:
+                continue
+            d_e, ps, po, u = hit
+            q1, q2, nrm = (ps, po, u) if self._br_first[r] else (po, ps, -u)
+            if abs(d_e - dist.d[k]) < 1e-9 and np.abs(q1 - dist.p1[k]).max() < 1e-7:
+                continue  # the pair's own witness
+            keep.append(r)
+            dd.append(d_e)
+            pp1.append(q1)
+            pp2.append(q2)
+            nn.append(nrm)
+        z = np.zeros((0, 3))
+        if not keep:
+            return np.zeros(0, dtype=np.int64), np.zeros(0), z, z, z
+        return np.array(keep, dtype=np.int64), np.array(dd), np.array(pp1), np.array(pp2), np.array(nn)
 
     _info: list[tuple[Any, ...]] | None = None
 
@@ -666,7 +741,7 @@ class CollisionWorld:
     def _pair_joint_arrays(self) -> tuple[np.ndarray, np.ndarray]:
         pj: tuple[np.ndarray, np.ndarray] | None = getattr(self, "_pj", None)
         if pj is None or len(pj[0]) != len(self.pair_joints):
-            arr = np.array(self.pair_joints, dtype=int).reshape(-1, 2)
+            arr = np.array(self.pair_joints, dtype=np.int64).reshape(-1, 2)
             pj = (arr[:, 0].copy(), arr[:, 1].copy())
             self._pj = pj
         return pj

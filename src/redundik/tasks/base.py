@@ -224,12 +224,12 @@ class Barrier(ABC):
     """A vector-valued constraint h(q) ≥ 0 with its Jacobian (pink's barriers; Kanoun et al. 2011 inequalities).
 
     Attributes:
-        safety: ``True`` for a safety constraint (a collision distance): a QP resolver that has to relax its problem
-            keeps these rows, and a fallback velocity is scaled down until they hold.
+        critical: ``True`` for a safety constraint (a collision distance): a QP resolver that has to relax its
+            problem keeps these rows, and a fallback velocity is scaled down until they hold.
     """
 
     name: str
-    safety: ClassVar[bool] = False
+    critical: ClassVar[bool] = False
 
     def check(self, robot: RobotModel) -> None:  # noqa: B027 - optional hook
         """Validate against a robot; raise :class:`TaskError` if not."""

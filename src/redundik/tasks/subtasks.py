@@ -194,9 +194,9 @@ class BoundSubtask(Subtask):
         return self.source if isinstance(self.source, Potential) else None
 
     @property
-    def safety(self) -> bool:
-        """True for a safety barrier's rows (:attr:`~redundik.tasks.base.Barrier.safety`): never relaxed."""
-        return isinstance(self.source, Barrier) and self.source.safety
+    def critical(self) -> bool:
+        """True for a safety barrier's rows (:attr:`~redundik.tasks.base.Barrier.critical`): never relaxed."""
+        return isinstance(self.source, Barrier) and self.source.critical
 
     def check(self, robot: RobotModel) -> None:
         self.source.check(robot)

@@ -264,7 +264,7 @@ class QPResolverBase(Resolver):
         return res
 
     def _safety_rows(self, built: Any, stack: TaskStack) -> tuple[np.ndarray, np.ndarray] | None:
-        """The built step's safety rows (C, d) of C q̇ ≤ d (:attr:`BoundSubtask.safety`), or ``None`` without any."""
+        """The built step's safety rows (C, d) of C q̇ ≤ d (:attr:`BoundSubtask.critical`), or ``None`` without any."""
         return None
 
     def _solve_qp(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:

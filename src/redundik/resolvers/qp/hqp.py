@@ -285,7 +285,7 @@ class HierarchicalQPResolver(QPResolverBase):
         return x, ("hqp: " + "; ".join(notes)) if notes else None
 
     def _safety_rows(self, built: HQPBuild, stack: TaskStack) -> tuple[np.ndarray, np.ndarray] | None:
-        names = {b.name for b in stack.bound_subtasks if b.safety}
+        names = {b.name for b in stack.bound_subtasks if b.critical}
         if not names:
             return None
         Cs, ds = [], []

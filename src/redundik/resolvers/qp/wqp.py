@@ -139,7 +139,7 @@ class WeightedQPResolver(QPResolverBase):
                 Cs.append(C)
                 ds.append(d)
                 names += rn
-                safe += [bsub.safety] * len(rn)
+                safe += [bsub.critical] * len(rn)
             if plan.null_objective:
                 z = stack.null_target(robot, terms, layout)
                 diag += scale
