@@ -263,10 +263,20 @@ def test_bad_world_input_is_a_one_line_config_error(tmp_path: Path, edit: dict, 
     assert "\n" not in str(info.value) and "Traceback" not in str(info.value)
 
 
-def test_panda_shelf_run() -> None:
+def test_panda_shelf_run(tmp_path: Path) -> None:
+    from redundik.reporting.world_plots import closest_segments, plot_world
+
     plan = load_task(TASKS / "panda_shelf.yaml")
     res = run_task(plan)
     s = {name: r.summary for name, r in res.items()}
+    # the figure: obstacles, closest-pair segments, distance over time; its witness points are the summary's
+    png = plot_world(plan, {"no_avoidance": res["no_avoidance"], "wqp": res["wqp"]}, tmp_path / "world.png")
+    assert png is not None and png.stat().st_size > 20_000
+    log = res["no_avoidance"].log
+    idx, d, p1, p2, pairs = closest_segments(plan.world, plan.robot.model, log.t, log.q, max_samples=60)
+    assert np.allclose(np.linalg.norm(p2 - p1, axis=1), np.abs(d), atol=1e-9)
+    assert np.allclose(d, res["no_avoidance"].series["min_distance"][idx], atol=1e-12)
+    assert "panda_link5|post" in pairs
     assert s["no_avoidance"]["min_collision_distance"] < -0.03  # the forearm goes through the post
     assert s["no_avoidance"]["closest_pair"] == "panda_link5|post"
     for name in ("pinv_repulsive", "wqp", "hqp"):

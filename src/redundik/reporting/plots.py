@@ -3,6 +3,8 @@
 * ``joints.png``: joint profiles q(t), one panel per joint, the runs overlaid;
 * ``task_error.png``: main-task error norms (log scale), one panel per task;
 * ``potentials.png``: subtask / watched potential / monitor values over time, with targets;
+* ``world.png`` (tasks with a collision world, :mod:`redundik.reporting.world_plots`): obstacles, closest-pair
+  segments and the smallest distance over time;
 * ``configurations.png``: the arm drawn every k samples with the tip path, one panel per run — the chapter's
   Figs. 5.7 and 5.8 for a planar arm (a 3-D stick drawing for spatial robots).
 """
@@ -414,4 +416,7 @@ def write_figures(plan: TaskPlan, results: dict[str, RunResult], out_dir: Path) 
         plot_potentials(plan, results, safe_path(out_dir, "potentials.png")),
         plot_configurations(plan, results, safe_path(out_dir, "configurations.png")),
     ]
+    from redundik.reporting.world_plots import plot_world  # obstacles, closest pairs, distance over time
+
+    written.append(plot_world(plan, results, safe_path(out_dir, "world.png")))
     return [p for p in written if p is not None]
