@@ -84,7 +84,7 @@ def draw_obstacles(ax: Any, world: CollisionWorld) -> None:
             r, hl = float(g.radius), float(g.halfLength)
             ring = np.stack([r * np.cos(a), r * np.sin(a), np.zeros_like(a)], axis=1)
             for z in (-hl, hl):
-                pts = (ring + [0.0, 0.0, z]) @ R.T + c
+                pts = (ring + np.array([0.0, 0.0, z])) @ R.T + c
                 ax.plot(pts[:, 0], pts[:, 1], pts[:, 2], **style)
             for ang in np.linspace(0, 2 * np.pi, 4, endpoint=False):
                 side = np.array([[r * np.cos(ang), r * np.sin(ang), -hl], [r * np.cos(ang), r * np.sin(ang), hl]])
