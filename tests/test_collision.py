@@ -255,9 +255,24 @@ def _shelf(tmp_path: Path, **edit: object) -> dict:
         ({"collision": {"obstacle_links": ["hand"]}}, r"collision\.obstacle_links: unknown link"),
         ({"collision": {"approximation": "voxels"}}, r"collision\.approximation"),
         ({"potentials/avoid": {"type": "collision", "influence": 0.01, "safety": 0.02}}, r"potentials\.avoid"),
+        (
+            {"obstacles/post": {"type": "mesh", "path": "garbage.stl"}},
+            r"obstacles\.post\.path: mesh file '.*garbage\.stl' could not be read: Could not load resource",
+        ),
+        ({"obstacles/bay_floor/size": [0.3, -0.4, 0.03]}, r"obstacles\.bay_floor\.size\[1\]: must be > 0"),
+        ({"obstacles/bay_floor/rpy": [0.0, float("nan"), 0.0]}, r"obstacles\.bay_floor\.rpy\[1\]: expected a finite"),
+        ({"obstacles/post/motion": {"velocity": [0.0, float("nan"), 0.0]}}, r"obstacles\.post\.motion\.velocity\[1\]"),
+        ({"obstacles/post/motion": {"amplitude": [0.1, 0, 0], "frequency": -1}}, r"obstacles\.post\.motion\.frequency"),
+        ({"obstacles/post/motion": {"velocity": [0.0, 1.0]}}, r"obstacles\.post\.motion\.velocity: expected 3 values"),
+        ({"obstacles/post/motion": {"speed": 1.0}}, r"obstacles\.post\.motion\.speed: unknown key 'speed'"),
+        (
+            {"collision": {"links": ["panda_link3", "panda_wrist"]}},
+            r"collision\.links: unknown link\(s\) 'panda_wrist'",
+        ),
     ],
 )
 def test_bad_world_input_is_a_one_line_config_error(tmp_path: Path, edit: dict, match: str) -> None:
+    (tmp_path / "garbage.stl").write_bytes(b"not a mesh\x00\x01" * 4)  # exists, unreadable
     with pytest.raises(ConfigError, match=match) as info:
         load_task(_shelf(tmp_path, **edit), base_dir=tmp_path)
     assert "\n" not in str(info.value) and "Traceback" not in str(info.value)
@@ -287,6 +302,17 @@ def test_panda_shelf_run(tmp_path: Path) -> None:
         assert s[name]["min_collision_distance"] >= 0.005  # the damper keeps d ≥ d_s (1 cm) to first order
         assert s[name]["max_active_pairs"] >= 1
     assert "min_distance" in res["wqp"].series
+    # per-step diagnostics reach the CSV: closest pair (an index into summary's names), rows present, rows binding
+    from redundik.reporting.outputs import write_outputs
+
+    write_outputs(plan, res, tmp_path)
+    header = (tmp_path / "wqp.csv").read_text().splitlines()[0].split(",")
+    for col in ("min_distance", "closest_pair_id", "active_pairs", "binding_rows"):
+        assert col in header, col
+    w = s["wqp"]
+    ids = res["wqp"].series["closest_pair_id"].astype(int)
+    assert w["collision_pair_names"][ids[int(np.argmin(res["wqp"].series["min_distance"]))]] == w["closest_pair"]
+    assert w["max_binding_rows"] >= 1 and "avoid:panda_link5|post" in w["binding_constraints"]
 
 
 @pytest.mark.parametrize("backend", ["daqp", "quadprog"])
@@ -417,3 +443,25 @@ def test_compiled_distances_match_coal_and_the_python_end_spheres(seed: int) -> 
         ref = _sphere_to(c, info[b][1], info[o], pin.SE3(T[o]))
         assert ref is not None
         assert br.d[r] == pytest.approx(ref[0], abs=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("edit", "path"),
+    [
+        ({"obstacles/post": {"type": "mesh", "path": "garbage.stl"}}, "obstacles.post.path"),
+        ({"obstacles/post/xyz": [0.1, float("nan"), 0.2]}, "obstacles.post.xyz[1]"),
+        ({"obstacles/post/radius": -0.03}, "obstacles.post.radius"),
+        ({"obstacles/post/motion": {"amplitude": [0.1, 0, 0], "frequency": -1}}, "obstacles.post.motion.frequency"),
+        ({"collision": {"obstacle_links": ["hand"]}}, "collision.obstacle_links"),
+    ],
+)
+def test_bad_world_input_exits_3_with_the_key_path(tmp_path: Path, cli: object, edit: dict, path: str) -> None:
+    import yaml
+
+    (tmp_path / "garbage.stl").write_bytes(b"not a mesh\x00\x01" * 4)
+    file = tmp_path / "task.yaml"
+    file.write_text(yaml.safe_dump(_shelf(tmp_path, **edit)))
+    code, out, err = cli("validate", file)  # type: ignore[operator]
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert code == 3 and len(lines) == 1 and lines[0].startswith(f"error: {path}: "), err
+    assert "Traceback" not in err + out

@@ -135,10 +135,17 @@ def make_shape(
             bvh.buildConvexHull(True, "Qt")
             return bvh.convex
         except Exception as exc:
-            raise ModelError(
-                f"mesh file '{p}' could not be read: {str(exc).strip()[:120] or type(exc).__name__}"
-            ) from exc
+            raise ModelError(f"mesh file '{p}' could not be read: {_loader_message(exc)}") from exc
     raise ModelError(f"unknown obstacle type '{kind}'; available: {', '.join(OBSTACLE_KINDS)}")
+
+
+def _loader_message(exc: Exception) -> str:
+    """The reason in a coal loader error, without its C++ source location (one line, ≤ 160 characters)."""
+    text = str(exc).strip()
+    if "message:" in text:
+        text = text.split("message:", 1)[1]
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip() and not ln.strip().startswith("Hint:")]
+    return " ".join(lines)[:160] or type(exc).__name__
 
 
 @dataclass

@@ -33,6 +33,7 @@ from redundik.config.robot import LoadedRobot, rpy_matrix
 from redundik.config.yamlio import join_path, validate
 from redundik.errors import ConfigError, RedundikError
 from redundik.tasks.balance import CoMTask, ContactTask, SupportPolygon
+from redundik.tasks.subtasks import BoundSubtask
 
 Positive = Annotated[float, Field(gt=0)]
 
@@ -231,8 +232,11 @@ def world_summary(plan: Any, run: Any, log: Any) -> tuple[dict[str, Any], dict[s
     """The world numbers of ``summary.json`` for one run, and their per-sample CSV series.
 
     * ``min_collision_distance`` [m]: the smallest signed distance over every candidate pair and sample (negative:
-      penetration), with ``closest_pair``, ``penetrating_samples`` and, per sample, ``min_distance`` and
-      ``active_pairs`` (pairs within the run's collision influence distance, the barrier's rows);
+      penetration), with ``closest_pair``, ``penetrating_samples`` and, per sample, ``min_distance``,
+      ``closest_pair_id`` (index into ``collision_pair_names``), ``active_pairs`` (pairs within the run's collision
+      influence distance, the barrier's rows) and ``binding_rows`` (damper rows the step's q̇ holds at their bound,
+      C q̇ ≥ d − 1e-6: the active constraints; empty on the last sample), with the names of the rows that were
+      binding at some step in ``binding_constraints``;
     * ``com_support_margin`` [m]: the smallest signed distance of the CoM projection to the support polygon's
       edges (positive inside; the margin of the barrier not subtracted);
     * ``max_contact_drift`` [m]: the largest ‖p − p₀‖ of a contact task's frame.
@@ -255,14 +259,29 @@ def world_summary(plan: Any, run: Any, log: Any) -> tuple[dict[str, Any], dict[s
     margin = np.full(n, np.inf)
     drift = np.zeros(n)
     influence = max((a.influence for a in avoid), default=None)
+    closest_id = np.full(n, np.nan)
+    binding = np.full(n, np.nan)
+    bound_avoid = [
+        (sub, sub.source)
+        for sub in run.stack.subtasks
+        if isinstance(sub, BoundSubtask) and isinstance(sub.source, CollisionAvoidance)
+    ]
+    binding_names: set[str] = set()
     for k in range(n):
         robot.update(log.q[k])
         if world is not None and world.n_pairs:
             world.set_time(float(log.t[k]))
             dist = world.compute(robot, influence if influence is not None else -np.inf)
             j = int(np.argmin(dist.d))
-            dmin[k], closest[k] = float(dist.d[j]), world.pair_names[j]
+            dmin[k], closest[k], closest_id[k] = float(dist.d[j]), world.pair_names[j], j
             active[k] = dist.near.size if influence is not None else 0
+            if bound_avoid and k < n - 1:
+                binding[k] = 0
+                for sub, _src in bound_avoid:
+                    C, d, names = sub.rows(robot, float(log.t[k + 1] - log.t[k]))
+                    hit = np.flatnonzero(C @ log.dq[k] >= d - 1e-6)
+                    binding[k] += hit.size
+                    binding_names.update(names[i] for i in hit.tolist())
         for sp in supports:
             margin[k] = min(margin[k], sp.value(robot))
         for c in contacts:
@@ -274,10 +293,16 @@ def world_summary(plan: Any, run: Any, log: Any) -> tuple[dict[str, Any], dict[s
         out["closest_pair"] = closest[k]
         out["penetrating_samples"] = int(np.count_nonzero(dmin < 0))
         out["collision_pairs"] = world.n_pairs
+        out["collision_pair_names"] = list(world.pair_names)
         series["min_distance"] = dmin
+        series["closest_pair_id"] = closest_id
         if influence is not None:
             out["max_active_pairs"] = int(active.max())
             series["active_pairs"] = active
+        if bound_avoid:
+            out["max_binding_rows"] = int(np.nanmax(binding)) if np.isfinite(binding).any() else 0
+            out["binding_constraints"] = sorted(binding_names)
+            series["binding_rows"] = binding
     if supports:
         out["com_support_margin"] = float(np.min(margin))
         series["com_support_margin"] = margin
