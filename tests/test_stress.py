@@ -16,6 +16,7 @@ import redundik as rk
 from redundik.errors import ResolverError
 from redundik.kinematics.urdf import EXAMPLE_ROBOTS, example_robot_data_dir, from_urdf
 from redundik.resolvers.divergence import ERROR_STREAK, DivergenceWarning
+from redundik.resolvers.linalg import damped_svd
 from redundik.resolvers.qp import QPProblem, make_backend
 from redundik.resolvers.qp.limits import JointLimits, LimitBox
 from tests.test_qp_helpers import BACKENDS, CASE2_Q0, case2_robot, case2_stack, prepared, qp_tolerance
@@ -202,3 +203,28 @@ def test_pinned_joints_of_a_box() -> None:
     inf = np.full(5, np.inf)
     box = LimitBox(lb, ub, -inf, inf, inf)
     assert box.pinned().tolist() == [True, False, True, False, False]
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_hqp_with_every_joint_pinned_still_reports_a_contradicted_bound(backend: str) -> None:
+    """Every joint's box is one value (position limits squeezed onto q): no unknown is left, q̇ = 0 exactly, and
+    the bound level below still reports its contradiction instead of being skipped unseen (an empty SVD raised
+    here before, and a level with inequalities after the degrees of freedom ran out was never checked)."""
+    robot = rk.from_dh([rk.DHRow(str(i + 1), a=1.0, lower=-2, upper=2, velocity=1.0) for i in range(3)])
+    q = np.radians([30.0, 60.0, -30.0])
+    pin = {str(i + 1): float(q[i]) for i in range(3)}
+    res = rk.make_resolver("hqp", backend=backend, limits={"lower": pin, "upper": pin})
+    stack = rk.TaskStack(
+        [rk.FrameTask("3", rk.Line([0.2, -0.4]), axes="planar")], [rk.BoundSubtask(rk.JointSine2("3"), lower=0.9)]
+    )
+    robot.update(q)
+    stack.reset(robot)
+    step = res.step(robot, stack, q, 0.0, 0.01)
+    assert np.array_equal(step.dq, np.zeros(3))
+    assert step.fallback is not None and "level 1 contradicted" in step.fallback
+
+
+def test_damped_svd_of_a_matrix_without_columns() -> None:
+
+    d = damped_svd(np.zeros((3, 0)), epsilon=1e-2, max_damping=5e-2)
+    assert d.solve(np.ones(3)).shape == (0,) and d.null_basis.shape == (0, 0) and d.rank == 0

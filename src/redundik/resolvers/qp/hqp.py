@@ -262,7 +262,7 @@ class HierarchicalQPResolver(QPResolverBase):
             Z, r = np.eye(n)[:, selection], int(selection.size)
         for lv in levels:
             if r == 0 and not lv.p:
-                break
+                continue  # nothing left to move, but a lower level's inequalities are still checked (and reported)
             if not lv.m and lv.z is None and not lv.p:
                 continue
             if lv.pure_null_objective and not lv.p and Z is not None:
