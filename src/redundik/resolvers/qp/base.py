@@ -1,6 +1,11 @@
 """What ``wqp`` and ``hqp`` share: limits, the backend, and one solve skeleton — build → solve → fallback →
 diagnostics — with a typed diagnostics record (:class:`QPDiagnostics`) that the run's CSV reads through
-``StepResult.info``."""
+``StepResult.info``.
+
+Safety rows (the rows of a bound subtask whose barrier is ``critical``: collision distances) are guarded last: a
+q̇ that violates one by more than 1e-6 — a closed-form fallback, an early-stopped backend, a contradicted ``hqp``
+level — is scaled down until it keeps them all (:func:`keep_safe`; q̇ = 0 always does while the pairs are apart),
+and the step's fallback note says so."""
 
 from __future__ import annotations
 
@@ -239,8 +244,9 @@ class QPResolverBase(Resolver):
         safe = self._safety_rows(built, stack)
         if safe is not None:
             dq, alpha = keep_safe(dq, *safe)
-            if alpha < 1.0 and fallback is not None:
-                fallback += f"; q̇ scaled by {alpha:.3g} to keep the safety rows (collision distances)"
+            if alpha < 1.0:
+                note = f"q̇ scaled by {alpha:.3g} to keep the safety rows (collision distances)"
+                fallback = note if fallback is None else f"{fallback}; {note}"
             dq = box.clip(dq)
         dq_kept = dq.copy()
         self._dq_prev = dq_kept
