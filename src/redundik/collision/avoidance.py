@@ -90,7 +90,8 @@ class CollisionAvoidance(Barrier, Potential):
         self.xi = check_number(xi, f"subtask '{name}': xi [m/s]", low=0.0, strict=True)
         self.lookahead = check_number(lookahead, f"subtask '{name}': lookahead [m]", low=0.0)
         self.end_spheres = bool(end_spheres)
-        self.report = CollisionReport()
+        self._report_of: Distances | None = None  # the distances the report is read from (built on demand)
+        self._rep = CollisionReport()
 
     @property
     def gamma(self) -> float:
@@ -110,8 +111,19 @@ class CollisionAvoidance(Barrier, Potential):
         rows = dist.near
         return rows, dist.d[rows], dist.d
 
+    @property
+    def report(self) -> CollisionReport:
+        """Diagnostics of the last evaluation (:class:`CollisionReport`), built when first read."""
+        if self._report_of is not None:
+            self._fill_report(self._report_of)
+            self._report_of = None
+        return self._rep
+
     def _report(self, dist: Distances) -> None:
-        rep = self.report
+        self._report_of = dist
+
+    def _fill_report(self, dist: Distances) -> None:
+        rep = self._rep
         rep.candidates = self.world.n_pairs
         if dist.d.size:
             k = int(np.argmin(dist.d))

@@ -30,21 +30,29 @@ _jit = nb.njit(cache=True, nogil=True)
 
 
 @_jit
-def _segment_params(p1: np.ndarray, d1: np.ndarray, p2: np.ndarray, d2: np.ndarray) -> tuple[float, float]:
+def _dot(a: tuple[float, float, float], b: tuple[float, float, float]) -> float:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@_jit
+def _segment_params(
+    p1: tuple[float, float, float], d1: tuple[float, float, float], p2: tuple[float, float, float],
+    d2: tuple[float, float, float],
+) -> tuple[float, float]:  # fmt: skip
     """(s, u) ∈ [0, 1]² minimising |(p1 + s d1) − (p2 + u d2)| (Ericson, Real-Time Collision Detection, §5.1.9)."""
-    r = p1 - p2
-    a = d1 @ d1
-    e = d2 @ d2
-    f = d2 @ r
+    r = (p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2])
+    a = _dot(d1, d1)
+    e = _dot(d2, d2)
+    f = _dot(d2, r)
     eps = 1e-18
     if a <= eps and e <= eps:
         return 0.0, 0.0
     if a <= eps:
         return 0.0, min(1.0, max(0.0, f / e))
-    c = d1 @ r
+    c = _dot(d1, r)
     if e <= eps:
         return min(1.0, max(0.0, -c / a)), 0.0
-    b = d1 @ d2
+    b = _dot(d1, d2)
     den = a * e - b * b
     s = min(1.0, max(0.0, (b * f - c * e) / den)) if den > eps * a * e else 0.0
     u = (b * s + f) / e
@@ -65,7 +73,7 @@ def capsule_pairs(
 
     d = |c₂ − c₁| − R₁ − R₂ between the closest axis points c₁, c₂; n = (c₂ − c₁)/|c₂ − c₁|, p₁ = c₁ + R₁n,
     p₂ = c₂ − R₂n, so p₂ − p₁ = d n also when penetrating (coal's convention). ``ok`` is False where the axes meet
-    (|c₂ − c₁| < 1e-12: n undefined; the caller asks coal).
+    (|c₂ − c₁| < 1e-12: n undefined; the caller asks coal). Scalar arithmetic only (no temporary arrays).
     """
     m = ia.shape[0]
     d = np.empty(m)
@@ -76,68 +84,102 @@ def capsule_pairs(
     for k in range(m):
         a, b = ia[k], ib[k]
         ra, ha, rb, hb = prm[a, 0], prm[a, 1], prm[b, 0], prm[b, 1]
-        za = T[a, :3, 2] * ha
-        zb = T[b, :3, 2] * hb
-        sa = T[a, :3, 3] - za
-        sb = T[b, :3, 3] - zb
-        s, u = _segment_params(sa, 2.0 * za, sb, 2.0 * zb)
-        ca = sa + 2.0 * s * za
-        cb = sb + 2.0 * u * zb
-        diff = cb - ca
-        L = math.sqrt(diff @ diff)
+        za = (T[a, 0, 2] * ha, T[a, 1, 2] * ha, T[a, 2, 2] * ha)
+        zb = (T[b, 0, 2] * hb, T[b, 1, 2] * hb, T[b, 2, 2] * hb)
+        sa = (T[a, 0, 3] - za[0], T[a, 1, 3] - za[1], T[a, 2, 3] - za[2])
+        sb = (T[b, 0, 3] - zb[0], T[b, 1, 3] - zb[1], T[b, 2, 3] - zb[2])
+        s, u = _segment_params(sa, (2 * za[0], 2 * za[1], 2 * za[2]), sb, (2 * zb[0], 2 * zb[1], 2 * zb[2]))
+        ca = (sa[0] + 2 * s * za[0], sa[1] + 2 * s * za[1], sa[2] + 2 * s * za[2])
+        cb = (sb[0] + 2 * u * zb[0], sb[1] + 2 * u * zb[1], sb[2] + 2 * u * zb[2])
+        dx, dy, dz = cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2]
+        L = math.sqrt(dx * dx + dy * dy + dz * dz)
         if L < 1e-12:
             ok[k] = False
             d[k] = -ra - rb
             continue
-        nk = diff / L
+        nx, ny, nz = dx / L, dy / L, dz / L
         d[k] = L - ra - rb
-        n[k] = nk
-        p1[k] = ca + ra * nk
-        p2[k] = cb - rb * nk
+        n[k, 0], n[k, 1], n[k, 2] = nx, ny, nz
+        p1[k, 0], p1[k, 1], p1[k, 2] = ca[0] + ra * nx, ca[1] + ra * ny, ca[2] + ra * nz
+        p2[k, 0], p2[k, 1], p2[k, 2] = cb[0] - rb * nx, cb[1] - rb * ny, cb[2] - rb * nz
     return d, p1, p2, n, ok
 
 
 @_jit
 def _ball_to(
-    c: np.ndarray, r: float, kind: int, prm: np.ndarray, Ro: np.ndarray, to: np.ndarray
-) -> tuple[float, np.ndarray, np.ndarray, np.ndarray, bool]:
-    """Ball (centre c, radius r) to a shape: (d, point on the ball, point on the shape, unit u ball → shape, ok)."""
-    z3 = np.zeros(3)
+    c: tuple[float, float, float], r: float, kind: int, prm: np.ndarray, T: np.ndarray, o: int
+) -> tuple[float, tuple[float, float, float], tuple[float, float, float], tuple[float, float, float], bool]:
+    """Ball (centre c, radius r) to shape ``o`` (pose ``T[o]``): (d, point on the ball, point on the shape, unit u
+    from the ball to the shape, ok); scalar arithmetic only."""
+    z3 = (0.0, 0.0, 0.0)
     if kind == CAPSULE:
-        ax = Ro[:, 2] * prm[1]
-        a = to - ax
-        ab = 2.0 * ax
-        L2 = ab @ ab
-        s = min(1.0, max(0.0, ((c - a) @ ab) / L2)) if prm[1] > 0.0 else 0.0
-        x = a + s * ab
-        v = x - c
-        L = math.sqrt(v @ v)
+        h = prm[1]
+        ax = (T[o, 0, 2] * h, T[o, 1, 2] * h, T[o, 2, 2] * h)
+        a = (T[o, 0, 3] - ax[0], T[o, 1, 3] - ax[1], T[o, 2, 3] - ax[2])
+        s = 0.0
+        if h > 0.0:
+            L2 = 4.0 * _dot(ax, ax)
+            s = min(1.0, max(0.0, 2.0 * ((c[0] - a[0]) * ax[0] + (c[1] - a[1]) * ax[1] + (c[2] - a[2]) * ax[2]) / L2))
+        x = (a[0] + 2 * s * ax[0], a[1] + 2 * s * ax[1], a[2] + 2 * s * ax[2])
+        v = (x[0] - c[0], x[1] - c[1], x[2] - c[2])
+        L = math.sqrt(_dot(v, v))
         if L <= 1e-12:
             return 0.0, z3, z3, z3, False
-        u = v / L
-        return L - r - prm[0], c + r * u, x - prm[0] * u, u, True
+        u = (v[0] / L, v[1] / L, v[2] / L)
+        R0 = prm[0]
+        pb = (c[0] + r * u[0], c[1] + r * u[1], c[2] + r * u[2])
+        ps = (x[0] - R0 * u[0], x[1] - R0 * u[1], x[2] - R0 * u[2])
+        return L - r - R0, pb, ps, u, True
     if kind == BOX:
-        hs = prm[:3]
-        cl = Ro.T @ (c - to)
-        cb = np.minimum(np.maximum(cl, -hs), hs)
-        v = cb - cl
-        L = math.sqrt(v @ v)
-        if L > 1e-12:  # outside the box
-            u = Ro @ (v / L)
-            return L - r, c + r * u, to + Ro @ cb, u, True
-        depth = hs - np.abs(cl)
-        ax = int(np.argmin(depth))
-        out = np.zeros(3)
-        out[ax] = 1.0 if cl[ax] >= 0.0 else -1.0
-        u = -(Ro @ out)  # the distance grows when the centre moves outwards (along −u)
-        face = cl.copy()
-        face[ax] = out[ax] * hs[ax]
-        return -depth[ax] - r, c + r * u, to + Ro @ face, u, True
+        w = (c[0] - T[o, 0, 3], c[1] - T[o, 1, 3], c[2] - T[o, 2, 3])
+        cl0 = T[o, 0, 0] * w[0] + T[o, 1, 0] * w[1] + T[o, 2, 0] * w[2]  # Rᵀ(c − t)
+        cl1 = T[o, 0, 1] * w[0] + T[o, 1, 1] * w[1] + T[o, 2, 1] * w[2]
+        cl2 = T[o, 0, 2] * w[0] + T[o, 1, 2] * w[1] + T[o, 2, 2] * w[2]
+        h0, h1, h2 = prm[0], prm[1], prm[2]
+        b0, b1, b2 = min(max(cl0, -h0), h0), min(max(cl1, -h1), h1), min(max(cl2, -h2), h2)
+        v0, v1, v2 = b0 - cl0, b1 - cl1, b2 - cl2
+        L = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+        if L <= 1e-12:  # inside: the nearest face
+            d0, d1, d2 = h0 - abs(cl0), h1 - abs(cl1), h2 - abs(cl2)
+            if d0 <= d1 and d0 <= d2:
+                sg = 1.0 if cl0 >= 0.0 else -1.0
+                depth, o0, o1, o2 = d0, sg, 0.0, 0.0
+                b0 = sg * h0
+            elif d1 <= d2:
+                sg = 1.0 if cl1 >= 0.0 else -1.0
+                depth, o0, o1, o2 = d1, 0.0, sg, 0.0
+                b1 = sg * h1
+            else:
+                sg = 1.0 if cl2 >= 0.0 else -1.0
+                depth, o0, o1, o2 = d2, 0.0, 0.0, sg
+                b2 = sg * h2
+            # the distance grows when the centre moves outwards (along −u)
+            v0, v1, v2, L, dist = -o0, -o1, -o2, 1.0, -depth - r
+        else:
+            dist = L - r
+        ul = (v0 / L, v1 / L, v2 / L)
+        u = (
+            T[o, 0, 0] * ul[0] + T[o, 0, 1] * ul[1] + T[o, 0, 2] * ul[2],
+            T[o, 1, 0] * ul[0] + T[o, 1, 1] * ul[1] + T[o, 1, 2] * ul[2],
+            T[o, 2, 0] * ul[0] + T[o, 2, 1] * ul[1] + T[o, 2, 2] * ul[2],
+        )
+        ps = (
+            T[o, 0, 3] + T[o, 0, 0] * b0 + T[o, 0, 1] * b1 + T[o, 0, 2] * b2,
+            T[o, 1, 3] + T[o, 1, 0] * b0 + T[o, 1, 1] * b1 + T[o, 1, 2] * b2,
+            T[o, 2, 3] + T[o, 2, 0] * b0 + T[o, 2, 1] * b1 + T[o, 2, 2] * b2,
+        )
+        return dist, (c[0] + r * u[0], c[1] + r * u[1], c[2] + r * u[2]), ps, u, True
     if kind == HALFSPACE:
-        nw = Ro @ prm[:3]
-        h = nw @ (c - to) - prm[3]
-        u = -nw
-        return h - r, c + r * u, c - h * nw, u, True
+        nw = (
+            T[o, 0, 0] * prm[0] + T[o, 0, 1] * prm[1] + T[o, 0, 2] * prm[2],
+            T[o, 1, 0] * prm[0] + T[o, 1, 1] * prm[1] + T[o, 1, 2] * prm[2],
+            T[o, 2, 0] * prm[0] + T[o, 2, 1] * prm[1] + T[o, 2, 2] * prm[2],
+        )
+        h = nw[0] * (c[0] - T[o, 0, 3]) + nw[1] * (c[1] - T[o, 1, 3]) + nw[2] * (c[2] - T[o, 2, 3]) - prm[3]
+        u = (-nw[0], -nw[1], -nw[2])
+        pb = (c[0] + r * u[0], c[1] + r * u[1], c[2] + r * u[2])
+        ps = (c[0] - h * nw[0], c[1] - h * nw[1], c[2] - h * nw[2])
+        return h - r, pb, ps, u, True
     return 0.0, z3, z3, z3, False
 
 
@@ -180,17 +222,21 @@ def end_spheres(
         b, o = br_b[r], br_o[r]
         if not sel[k] or kind[o] == OTHER:
             continue
-        c = T[b, :3, 3] + br_sign[r] * prm[b, 1] * T[b, :3, 2]
-        de, ps, po, u, ok = _ball_to(c, prm[b, 0], kind[o], prm[o], np.ascontiguousarray(T[o, :3, :3]), T[o, :3, 3])
+        e = br_sign[r] * prm[b, 1]
+        c = (T[b, 0, 3] + e * T[b, 0, 2], T[b, 1, 3] + e * T[b, 1, 2], T[b, 2, 3] + e * T[b, 2, 2])
+        de, ps, po, u, ok = _ball_to(c, prm[b, 0], kind[o], prm[o], T, o)
         if not ok or de >= influence:
             continue
         if br_first[r]:
             q1, q2, nr = ps, po, u
         else:
-            q1, q2, nr = po, ps, -u
-        if abs(de - pair_d[k]) < 1e-9 and np.max(np.abs(q1 - pair_p1[k])) < 1e-7:
+            q1, q2, nr = po, ps, (-u[0], -u[1], -u[2])
+        same = max(abs(q1[0] - pair_p1[k, 0]), abs(q1[1] - pair_p1[k, 1]), abs(q1[2] - pair_p1[k, 2])) < 1e-7
+        if abs(de - pair_d[k]) < 1e-9 and same:
             continue  # the pair's own witness
-        idx[c_], d[c_], p1[c_], p2[c_], n[c_] = r, de, q1, q2, nr
+        idx[c_], d[c_] = r, de
+        for i in range(3):
+            p1[c_, i], p2[c_, i], n[c_, i] = q1[i], q2[i], nr[i]
         c_ += 1
     return idx[:c_], d[:c_], p1[:c_], p2[:c_], n[:c_]
 

@@ -578,12 +578,18 @@ class CollisionWorld:
         if self._live:
             self._T[self._live] = [oMg[g].homogeneous for g in self._live]
         P = len(self.pairs)
-        d = np.empty(P)
-        p1, p2, nrm, rate = np.zeros((P, 3)), np.zeros((P, 3)), np.zeros((P, 3)), np.zeros(P)
         cap = self._cap
-        if cap.size:  # capsule/sphere pairs: one compiled call
+        rate = np.zeros(P)
+        if cap.size == P:  # only capsule/sphere pairs: the kernel's arrays are the pairs'
+            d, p1, p2, nrm, ok = KC.capsule_pairs(self._T, self._prm, self._cap_a, self._cap_b)
+        else:
+            d = np.empty(P)
+            p1, p2, nrm = np.zeros((P, 3)), np.zeros((P, 3)), np.zeros((P, 3))
+            ok = np.ones(0, dtype=bool)
+        if cap.size and cap.size < P:  # capsule/sphere pairs: one compiled call
             dc, a, b, nc, ok = KC.capsule_pairs(self._T, self._prm, self._cap_a, self._cap_b)
             d[cap], p1[cap], p2[cap], nrm[cap] = dc, a, b, nc
+        if cap.size and not ok.all():
             for k in cap[~ok].tolist():  # axes meeting: coal's normal
                 self._from_coal(k, pin.computeDistance(self.geometry, self.data, k), d, p1, p2, nrm)
         if self._coal.size:
@@ -657,10 +663,9 @@ class CollisionWorld:
         Called after :meth:`compute` at the same state (uses its placements). Ends whose distance is ≥ ``influence``
         [m] or equal to the pair's own witness (same point within 1e-7 m) are left out.
         """
-        out = Branches.empty()
         rows = np.asarray(rows, dtype=np.int64)
         if not rows.size or not self._br_pair.size:
-            return out
+            return Branches.empty()
         sel = np.zeros(len(self.pairs), dtype=np.bool_)
         sel[rows] = True
         parts = [
@@ -679,7 +684,7 @@ class CollisionWorld:
             idx, d = np.concatenate([q[0] for q in parts]), np.concatenate([q[1] for q in parts])
             p1, p2, nn = (np.vstack([q[i] for q in parts]) for i in (2, 3, 4))
         if not idx.size:
-            return out
+            return Branches.empty()
         pair = self._br_pair[idx]
         rate = np.zeros(idx.size)
         if self._moving:
