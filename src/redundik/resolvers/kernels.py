@@ -281,3 +281,88 @@ def first_run_cost() -> dict[str, float]:
     spd_solve_batch(P, np.ones((1, 3)), -np.ones((1, 3)), np.ones((1, 3)), 0.0)
     out["spd_solve_batch"] = time.perf_counter() - t0
     return out
+
+
+@_jit
+def limit_box(
+    q: np.ndarray,
+    iq: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    vmax: np.ndarray,
+    amax: np.ndarray,
+    position: bool,
+    has_rate: bool,
+    gain: float,
+    dt: float,
+    dq_prev: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The joint-limit box of :meth:`redundik.resolvers.qp.limits.JointLimits.box` for N configurations q (N, nq).
+
+    ``iq`` (nv,) maps each q̇ coordinate to its q index, ``lo``/``hi`` (nv,) are the position limits (±inf where
+    none), ``vmax``/``amax`` (nv,) the velocity and rate limits (inf where none), ``gain`` the position gain g;
+    ``dq_prev`` (N, nv) is the previous q̇ (zero rows: no rate window). The rules are those of the limits module's
+    docstring (position through dt, velocity, braking with a rate limit, the way back from outside, the rate
+    window moved onto the nearest feasible velocity).
+
+    Returns:
+        (lb, ub, pos_lo, pos_hi), each (N, nv).
+    """
+    N = q.shape[0]
+    nv = lo.shape[0]
+    lb = np.empty((N, nv))
+    ub = np.empty((N, nv))
+    pl = np.empty((N, nv))
+    pu = np.empty((N, nv))
+    g = gain / dt
+    window = has_rate and dq_prev.shape[0] == N
+    for k in range(N):
+        for i in range(nv):
+            vm = vmax[i]
+            if position:
+                qv = q[k, iq[i]]
+                a = amax[i]
+                lo_i, hi_i = lo[i], hi[i]
+                l_pos = (lo_i - qv) * g  # ≤ 0 inside the range, −inf without a limit
+                u_pos = (hi_i - qv) * g
+                if has_rate and math.isfinite(a):
+                    adt = a * dt
+                    if hi_i >= qv:  # braking: q̇ ≤ B(δ) = −a·dt + √((a·dt)² + 2aδ)
+                        u_pos = min(u_pos, -adt + math.sqrt(adt * adt + 2.0 * a * max(hi_i - qv, 0.0)))
+                    if lo_i <= qv:
+                        l_pos = max(l_pos, adt - math.sqrt(adt * adt + 2.0 * a * max(qv - lo_i, 0.0)))
+                l_pos = min(l_pos, vm)  # outside a limit: back at most as fast as the velocity limit allows
+                u_pos = max(u_pos, -vm)
+                lo_k = max(l_pos, -vm)
+                up_k = min(u_pos, vm)
+                if has_rate and lo_k > up_k:  # braking of the far limit yields to the way back (hard)
+                    if qv > hi_i:
+                        lo_k = up_k
+                        l_pos = up_k
+                    elif qv < lo_i:
+                        up_k = lo_k
+                        u_pos = lo_k
+            else:
+                l_pos, u_pos = -np.inf, np.inf
+                lo_k, up_k = -vm, vm
+            if window:  # the rate window, moved onto the box where it does not meet it
+                step = amax[i] * dt
+                rl = min(max(dq_prev[k, i] - step, lo_k), up_k)
+                ru = min(max(dq_prev[k, i] + step, lo_k), up_k)
+                lo_k, up_k = rl, ru
+            lb[k, i], ub[k, i], pl[k, i], pu[k, i] = lo_k, up_k, l_pos, u_pos
+    return lb, ub, pl, pu
+
+
+@_jit
+def gram_update(P: np.ndarray, q: np.ndarray, J: np.ndarray, v: np.ndarray, w: float) -> None:
+    """P += w JᵀJ and q −= w Jᵀv in place (P (n, n), q (n,), J (m, n), v (m,)): one task's rows of a weighted QP."""
+    m, n = J.shape
+    for a in range(m):
+        va = w * v[a]
+        for i in range(n):
+            ji = w * J[a, i]
+            if ji != 0.0:
+                q[i] -= J[a, i] * va
+                for j in range(n):
+                    P[i, j] += ji * J[a, j]

@@ -61,10 +61,11 @@ class PinvResolver(Resolver):
         self._layout: tuple[tuple[int, ...], StackLayout] | None = None
 
     def _stack_layout(self, stack: TaskStack) -> StackLayout:
-        sig = stack.signature()
-        if self._layout is None or self._layout[0] != sig:
-            self._layout = (sig, stack.layout())
-        return self._layout[1]
+        sig = self.stack_key(stack)
+        cached = self._layout
+        if cached is None or (cached[0] is not sig and cached[0] != sig):
+            self._layout = cached = (sig, stack.layout())
+        return cached[1]
 
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
         t0 = time.perf_counter()

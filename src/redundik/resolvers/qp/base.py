@@ -180,10 +180,11 @@ class QPResolverBase(Resolver):
 
     def layout(self, stack: TaskStack) -> StackLayout:
         """The stack's levels with this resolver's overrides (cached while the stack's membership is unchanged)."""
-        sig = stack.signature()
-        if self._layout is None or self._layout[0] != sig:
-            self._layout = (sig, stack.layout(self.levels))
-        return self._layout[1]
+        sig = self.stack_key(stack)
+        cached = self._layout
+        if cached is None or (cached[0] is not sig and cached[0] != sig):
+            self._layout = cached = (sig, stack.layout(self.levels))
+        return cached[1]
 
     @abstractmethod
     def build(
