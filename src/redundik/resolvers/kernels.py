@@ -33,6 +33,120 @@ FAST_PATH_RCOND = 1e-6
 _jit = nb.njit(cache=True, nogil=True)
 
 
+#: Largest matrix size solved by the Jacobi routines below (larger ones go to LAPACK).
+JACOBI_MAX = 32
+_JACOBI_TOL = 1e-15
+_JACOBI_SWEEPS = 60
+
+
+@_jit
+def _rotation(app: float, aqq: float, apq: float) -> tuple[float, float]:
+    """(c, s) of the Jacobi rotation that zeroes the off-diagonal apq of [[app, apq], [apq, aqq]]."""
+    theta = (aqq - app) / (2.0 * apq)
+    if abs(theta) > 1e150:
+        t = 0.5 / theta
+    else:
+        t = (1.0 if theta >= 0.0 else -1.0) / (abs(theta) + math.sqrt(theta * theta + 1.0))
+    c = 1.0 / math.sqrt(t * t + 1.0)
+    return c, t * c
+
+
+@_jit
+def sym_eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues (ascending) and eigenvectors (columns) of a small symmetric A (m, m), m ≤ :data:`JACOBI_MAX`:
+    the cyclic Jacobi method (LAPACK's ``dsyevd`` costs ~10 µs of call overhead at these sizes; this ~1 µs), to
+    full relative accuracy; ``np.linalg.eigh`` above that size."""
+    m = A.shape[0]
+    if m > JACOBI_MAX:
+        return np.linalg.eigh(A)
+    a = A.copy()
+    V = np.eye(m)
+    for _ in range(_JACOBI_SWEEPS):
+        rotated = False
+        for p in range(m - 1):
+            for q in range(p + 1, m):
+                apq = a[p, q]
+                if apq == 0.0 or abs(apq) <= _JACOBI_TOL * math.sqrt(abs(a[p, p] * a[q, q])):
+                    continue
+                rotated = True
+                c, s = _rotation(a[p, p], a[q, q], apq)
+                for k in range(m):
+                    akp, akq = a[k, p], a[k, q]
+                    a[k, p], a[k, q] = c * akp - s * akq, s * akp + c * akq
+                for k in range(m):
+                    apk, aqk = a[p, k], a[q, k]
+                    a[p, k], a[q, k] = c * apk - s * aqk, s * apk + c * aqk
+                a[p, q] = 0.0  # zero by construction (rounding left aside)
+                a[q, p] = 0.0
+                for k in range(m):
+                    vkp, vkq = V[k, p], V[k, q]
+                    V[k, p], V[k, q] = c * vkp - s * vkq, s * vkp + c * vkq
+        if not rotated:
+            break
+    w = np.empty(m)
+    for i in range(m):
+        w[i] = a[i, i]
+    order = np.argsort(w)
+    return w[order], np.ascontiguousarray(V[:, order])
+
+
+@_jit
+def svd_full(M: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """U (m, k), σ (k,) descending, Vt (n, n) of M (m, n), k = min(m, n): one-sided (Hestenes) Jacobi for
+    n ≤ :data:`JACOBI_MAX` (orthogonalises the columns of M V; V is the full right basis, the null space included),
+    LAPACK (``np.linalg.svd``) above. Columns of U for σ = 0 are zero (they multiply a zero inverse value)."""
+    m, n = M.shape
+    k = min(m, n)
+    if n > JACOBI_MAX:
+        U0, s0, Vt0 = np.linalg.svd(np.ascontiguousarray(M))
+        return np.ascontiguousarray(U0[:, :k]), s0, Vt0
+    W = np.ascontiguousarray(M).copy()
+    V = np.eye(n)
+    for _ in range(_JACOBI_SWEEPS):
+        rotated = False
+        for p in range(n - 1):
+            for q in range(p + 1, n):
+                alpha = 0.0
+                beta = 0.0
+                gamma = 0.0
+                for r in range(m):
+                    alpha += W[r, p] * W[r, p]
+                    beta += W[r, q] * W[r, q]
+                    gamma += W[r, p] * W[r, q]
+                if gamma == 0.0 or abs(gamma) <= _JACOBI_TOL * math.sqrt(alpha * beta):
+                    continue
+                rotated = True
+                c, s = _rotation(alpha, beta, gamma)
+                for r in range(m):
+                    wp, wq = W[r, p], W[r, q]
+                    W[r, p], W[r, q] = c * wp - s * wq, s * wp + c * wq
+                for r in range(n):
+                    vp, vq = V[r, p], V[r, q]
+                    V[r, p], V[r, q] = c * vp - s * vq, s * vp + c * vq
+        if not rotated:
+            break
+    norms = np.empty(n)
+    for j in range(n):
+        t = 0.0
+        for r in range(m):
+            t += W[r, j] * W[r, j]
+        norms[j] = math.sqrt(t)
+    order = np.argsort(-norms)
+    s = np.empty(k)
+    U = np.zeros((m, k))
+    Vt = np.empty((n, n))
+    for i in range(n):
+        j = order[i]
+        for r in range(n):
+            Vt[i, r] = V[r, j]
+        if i < k:
+            s[i] = norms[j]
+            if norms[j] > 0.0:
+                for r in range(m):
+                    U[r, i] = W[r, j] / norms[j]
+    return U, s, Vt
+
+
 @_jit
 def damped_inverse_values(s: np.ndarray, epsilon: float, max_damping: float, rcond: float) -> tuple[np.ndarray, int]:
     """The per-direction inverse of singular values ``s`` (descending) by the damping rule, and the numerical rank.
@@ -72,14 +186,13 @@ def damped_svd_factors(
 
     damping = λ at σ_min, √(1 − (σ_min/ε)²)·λ_max, when σ_min < ε (else 0); σ_min = ∞ when M = 0.
     """
-    U, s, Vt = np.linalg.svd(np.ascontiguousarray(M))
-    k = s.shape[0]
+    U, s, Vt = svd_full(M)
     inv, rank = damped_inverse_values(s, epsilon, max_damping, rcond)
     sigma_min = s[rank - 1] if rank else np.inf
     damping = 0.0
     if rank and sigma_min < epsilon and epsilon > 0.0:
         damping = math.sqrt(1.0 - (sigma_min / epsilon) ** 2) * max_damping
-    return np.ascontiguousarray(U[:, :k]), s, Vt, inv, rank, sigma_min, damping
+    return U, s, Vt, inv, rank, sigma_min, damping
 
 
 @_jit
@@ -97,12 +210,44 @@ def factor(
     if m == 0:
         return False, np.zeros((0, 0)), np.zeros(0), np.eye(n), np.zeros(0), 0, np.inf, 0.0
     if m <= n:
-        A = J @ J.T
-        lam, U = np.linalg.eigh(A)
+        A = np.empty((m, m))
+        for i in range(m):  # JJᵀ (m, m), symmetric by construction
+            for j in range(i, m):
+                t = 0.0
+                for k in range(n):
+                    t += J[i, k] * J[j, k]
+                A[i, j] = t
+                A[j, i] = t
+        lam, U = sym_eig(A)
         if lam[m - 1] > 0.0 and lam[0] > FAST_PATH_RCOND * lam[m - 1] and lam[0] >= epsilon * epsilon:
             return True, np.ascontiguousarray(U), lam, np.zeros((0, n)), 1.0 / lam, m, math.sqrt(lam[0]), 0.0
     U, s, Vt, inv, rank, sigma_min, damping = damped_svd_factors(J, epsilon, max_damping, rcond)
     return False, U, s, Vt, inv, rank, sigma_min, damping
+
+
+@_jit
+def _jt_ainv(J: np.ndarray, U: np.ndarray, inv: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Jᵀ U diag(inv) Uᵀ b = Jᵀ(JJᵀ)⁻¹ b (n,) from the eigenvectors U (m, m) of JJᵀ, in plain loops (small sizes:
+    four BLAS calls would cost more than the arithmetic)."""
+    m, n = J.shape
+    y = np.zeros(m)
+    for k in range(m):
+        t = 0.0
+        for i in range(m):
+            t += U[i, k] * b[i]
+        y[k] = t * inv[k]
+    w = np.zeros(m)
+    for i in range(m):
+        t = 0.0
+        for k in range(m):
+            t += U[i, k] * y[k]
+        w[i] = t
+    out = np.zeros(n)
+    for i in range(m):
+        wi = w[i]
+        for j in range(n):
+            out[j] += J[i, j] * wi
+    return out
 
 
 @_jit
@@ -111,7 +256,7 @@ def solve_factored(
 ) -> np.ndarray:
     """x = J⁺_λ rhs (n,) from the factors of :func:`factor`: Jᵀ U Λ⁻¹ Uᵀ rhs, or V_k diag(inv) U_kᵀ rhs."""
     if fast:
-        return J.T @ (U @ ((U.T @ rhs) * inv))
+        return _jt_ainv(J, U, inv, rhs)
     k = inv.shape[0]
     n = J.shape[1]
     if k == 0:
@@ -125,7 +270,12 @@ def null_project_factored(
 ) -> np.ndarray:
     """P_n z = (I − V_r V_rᵀ) z from the factors (on the fast path V_r V_rᵀ = J⁺J)."""
     if fast:
-        return z - J.T @ (U @ ((U.T @ (J @ z)) * inv))
+        m, n = J.shape
+        Jz = np.zeros(m)
+        for i in range(m):
+            for j in range(n):
+                Jz[i] += J[i, j] * z[j]
+        return z - _jt_ainv(J, U, inv, Jz)
     if rank == 0:
         return z.copy()
     Vr = np.ascontiguousarray(Vt[:rank])
@@ -133,22 +283,47 @@ def null_project_factored(
 
 
 @_jit
-def closed_form(
-    J: np.ndarray, V: np.ndarray, z: np.ndarray, has_z: bool, epsilon: float, max_damping: float, rcond: float
-) -> tuple[np.ndarray, np.ndarray, int, float, float]:
-    """q̇_r = J⁺_λ V and q̇_n = (I − J⁺J) z (eq. 5.8) in one call.
+def closed_form_into(
+    J: np.ndarray,
+    V: np.ndarray,
+    z: np.ndarray,
+    has_z: bool,
+    epsilon: float,
+    max_damping: float,
+    rcond: float,
+    out: np.ndarray,
+) -> tuple[int, float, float]:
+    """q̇_r = J⁺_λ V, q̇_n = (I − J⁺J) z (eq. 5.8) and q̇ = q̇_r + q̇_n written into ``out`` (3, n), in one call.
+
+    q̇_n is zero when ``has_z`` is false. (Results go into a buffer the caller owns: returning arrays from a compiled
+    call costs about a microsecond each.)
 
     Returns:
-        (q̇_r (n,), q̇_n (n,) — zeros when ``has_z`` is false —, rank, σ_min, damping).
+        (rank, σ_min, damping).
     """
     fast, U, _, Vt, inv, rank, sigma_min, damping = factor(J, epsilon, max_damping, rcond)
     n = J.shape[1]
     if J.shape[0] == 0:
-        dq_r = np.zeros(n)
+        out[0, :] = 0.0
     else:
-        dq_r = solve_factored(fast, J, U, inv, Vt, V)
-    dq_n = null_project_factored(fast, J, U, inv, Vt, rank, z) if has_z else np.zeros(n)
-    return dq_r, dq_n, rank, sigma_min, damping
+        out[0, :] = solve_factored(fast, J, U, inv, Vt, V)
+    if has_z:
+        out[1, :] = null_project_factored(fast, J, U, inv, Vt, rank, z)
+    else:
+        out[1, :] = 0.0
+    for i in range(n):
+        out[2, i] = out[0, i] + out[1, i]
+    return rank, sigma_min, damping
+
+
+@_jit
+def closed_form(
+    J: np.ndarray, V: np.ndarray, z: np.ndarray, has_z: bool, epsilon: float, max_damping: float, rcond: float
+) -> tuple[np.ndarray, np.ndarray, int, float, float]:
+    """:func:`closed_form_into` returning (q̇_r (n,), q̇_n (n,), rank, σ_min, damping)."""
+    out = np.empty((3, J.shape[1]))
+    rank, sigma_min, damping = closed_form_into(J, V, z, has_z, epsilon, max_damping, rcond, out)
+    return out[0].copy(), out[1].copy(), rank, sigma_min, damping
 
 
 @_jit
@@ -167,12 +342,13 @@ def closed_form_batch(
     rank = np.empty(N, dtype=np.int64)
     smin = np.empty(N)
     damp = np.empty(N)
+    buf = np.empty((3, n))
     for i in range(N):
-        a, b, r, s, d = closed_form(
-            np.ascontiguousarray(J[i]), V[i].copy(), z[i].copy(), has_z, epsilon, max_damping, rcond
+        r, s, d = closed_form_into(
+            np.ascontiguousarray(J[i]), V[i].copy(), z[i].copy(), has_z, epsilon, max_damping, rcond, buf
         )
-        dq_r[i] = a
-        dq_n[i] = b
+        dq_r[i] = buf[0]
+        dq_n[i] = buf[1]
         rank[i], smin[i], damp[i] = r, s, d
     return dq_r, dq_n, rank, smin, damp
 
@@ -187,8 +363,9 @@ def in_box(x: np.ndarray, lb: np.ndarray, ub: np.ndarray, tol: float) -> bool:
 
 
 @_jit
-def spd_solve(P: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, bool]:
-    """x = −P⁻¹ q by Cholesky (P (n, n) symmetric positive definite); ``ok`` false when P is not numerically SPD.
+def spd_solve_into(P: np.ndarray, q: np.ndarray, x: np.ndarray) -> bool:
+    """x = −P⁻¹ q by Cholesky into ``x`` (P (n, n) symmetric positive definite); false when P is not numerically SPD
+    (x is then zero).
 
     Unblocked loops up to n = 32 (no call overhead), LAPACK ``dpotrf`` (``np.linalg.cholesky``) above.
     """
@@ -197,7 +374,8 @@ def spd_solve(P: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, bool]:
         try:
             L = np.linalg.cholesky(P)
         except Exception:  # not positive definite
-            return np.zeros(n), False
+            x[:] = 0.0
+            return False
     else:
         L = np.zeros((n, n))
         for j in range(n):
@@ -205,7 +383,8 @@ def spd_solve(P: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, bool]:
             for k in range(j):
                 s -= L[j, k] * L[j, k]
             if not (s > 0.0):
-                return np.zeros(n), False
+                x[:] = 0.0
+                return False
             ljj = math.sqrt(s)
             L[j, j] = ljj
             for i in range(j + 1, n):
@@ -219,7 +398,6 @@ def spd_solve(P: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, bool]:
         for k in range(i):
             t -= L[i, k] * y[k]
         y[i] = t / L[i, i]
-    x = np.empty(n)
     for i in range(n - 1, -1, -1):  # Lᵀ x = y
         t = y[i]
         for k in range(i + 1, n):
@@ -229,16 +407,35 @@ def spd_solve(P: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, bool]:
     for i in range(n):
         if not math.isfinite(x[i]):
             ok = False
+    return ok
+
+
+@_jit
+def spd_solve(P: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, bool]:
+    """x = −P⁻¹ q by Cholesky (:func:`spd_solve_into`); ``ok`` false when P is not numerically SPD."""
+    x = np.empty(q.shape[0])
+    ok = spd_solve_into(P, q, x)
     return x, ok
+
+
+@_jit
+def spd_solve_box_into(
+    P: np.ndarray, q: np.ndarray, lb: np.ndarray, ub: np.ndarray, tol: float, x: np.ndarray
+) -> tuple[bool, bool]:
+    """x = −P⁻¹q into ``x``; returns (Cholesky succeeded, lb − tol ≤ x ≤ ub + tol): ``wqp``'s unconstrained
+    optimum and its box test."""
+    ok = spd_solve_into(P, q, x)
+    return ok, ok and in_box(x, lb, ub, tol)
 
 
 @_jit
 def spd_solve_box(
     P: np.ndarray, q: np.ndarray, lb: np.ndarray, ub: np.ndarray, tol: float
 ) -> tuple[np.ndarray, bool, bool]:
-    """(x = −P⁻¹q, Cholesky succeeded, lb − tol ≤ x ≤ ub + tol): ``wqp``'s unconstrained optimum and its test."""
-    x, ok = spd_solve(P, q)
-    return x, ok, ok and in_box(x, lb, ub, tol)
+    """(x = −P⁻¹q, Cholesky succeeded, lb − tol ≤ x ≤ ub + tol) (:func:`spd_solve_box_into`)."""
+    x = np.empty(q.shape[0])
+    ok, inside = spd_solve_box_into(P, q, lb, ub, tol, x)
+    return x, ok, inside
 
 
 @_jit
@@ -296,7 +493,8 @@ def limit_box(
     gain: float,
     dt: float,
     dq_prev: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    out: np.ndarray,
+) -> None:
     """The joint-limit box of :meth:`redundik.resolvers.qp.limits.JointLimits.box` for N configurations q (N, nq).
 
     ``iq`` (nv,) maps each q̇ coordinate to its q index, ``lo``/``hi`` (nv,) are the position limits (±inf where
@@ -305,15 +503,11 @@ def limit_box(
     docstring (position through dt, velocity, braking with a rate limit, the way back from outside, the rate
     window moved onto the nearest feasible velocity).
 
-    Returns:
-        (lb, ub, pos_lo, pos_hi), each (N, nv).
+    Writes (lb, ub, pos_lo, pos_hi) into ``out`` (4, N, nv).
     """
     N = q.shape[0]
     nv = lo.shape[0]
-    lb = np.empty((N, nv))
-    ub = np.empty((N, nv))
-    pl = np.empty((N, nv))
-    pu = np.empty((N, nv))
+    lb, ub, pl, pu = out[0], out[1], out[2], out[3]
     g = gain / dt
     window = has_rate and dq_prev.shape[0] == N
     for k in range(N):
@@ -351,7 +545,6 @@ def limit_box(
                 ru = min(max(dq_prev[k, i] + step, lo_k), up_k)
                 lo_k, up_k = rl, ru
             lb[k, i], ub[k, i], pl[k, i], pu[k, i] = lo_k, up_k, l_pos, u_pos
-    return lb, ub, pl, pu
 
 
 @_jit

@@ -8,7 +8,7 @@ import numpy as np
 import pinocchio as pin
 
 from redundik.errors import TaskError
-from redundik.kinematics.model import AXES, RobotModel
+from redundik.kinematics.model import AXES, LWA, RobotModel
 from redundik.tasks.base import Task, TaskTerm
 from redundik.tasks.trajectory import Hold, Trajectory
 
@@ -190,12 +190,11 @@ class FrameTask(Task):
             self._pending_position = None
         p_d, R_d, twist_d = self.trajectory.reference(t)
         self._last_R = R_d
-        J = robot.frame_jacobian(fid)
+        J = pin.getFrameJacobian(robot.model, robot.data, fid, LWA)  # robot.frame_jacobian without its checks
         if self._all_rows:
-            e = np.empty(6)
-            e[:3] = p_d - pose.translation
-            e[3:] = pin.log3(R_d @ pose.rotation.T)
-            return TaskTerm(self.name, J, twist_d + self.gain * e if self.gain else twist_d, e, self.weight)
+            e = np.concatenate((p_d - pose.translation, pin.log3(R_d @ pose.rotation.T)))
+            gain = self._gain
+            return TaskTerm(self._name, J, twist_d + gain * e if gain else twist_d, e, self._weight)
         err6 = np.zeros(6)
         err6[:3] = p_d - pose.translation
         if self._rotation_rows:

@@ -213,7 +213,7 @@ class QPResolverBase(Resolver):
             x = self._closed_form(robot, stack, terms)
             fallback = f"{self.name} failed, damped closed form clipped to the limits: {exc}"
             diag.backend = "fallback"
-        if not np.isfinite(x).all():
+        if not math.isfinite(x @ x) and not np.isfinite(x).all():  # the dot first: one call when all is well
             bad = nonfinite_sources(terms)
             fallback = f"non-finite q̇ (from {', '.join(bad) or 'the solver'}): q̇ = 0 clipped to the limits"
             x = np.zeros(robot.nv)

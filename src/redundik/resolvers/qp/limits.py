@@ -260,8 +260,10 @@ class JointLimits:
         prev = self._no_prev
         if self._has_rate and dq_prev is not None:
             prev = np.asarray(dq_prev, dtype=float).reshape(1, -1) if single else np.asarray(dq_prev, dtype=float)
-        lb, ub, pl, pu = K.limit_box(  # one compiled call: the rules of the module docstring
-            q.reshape(1, -1) if single else q,
+        qq = q.reshape(1, -1) if single else q
+        out = np.empty((4, qq.shape[0], self._lo.shape[0]))
+        K.limit_box(  # one compiled call: the rules of the module docstring
+            qq,
             self._iq,
             self._lo,
             self._hi,
@@ -272,9 +274,9 @@ class JointLimits:
             self.position_gain,
             float(dt),
             prev,
+            out,
         )
-        if single:
-            lb, ub, pl, pu = lb[0], ub[0], pl[0], pu[0]
+        lb, ub, pl, pu = out[:, 0] if single else out
         if prev is not self._no_prev:
             return LimitBox(lb, ub, pl, pu, self._vmax, lb, ub)
         return LimitBox(lb, ub, pl, pu, self._vmax)

@@ -185,7 +185,8 @@ class WeightedQPResolver(QPResolverBase):
     def _resolve(self, built: WQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
         prob, box = built.problem, built.box
         # the unconstrained optimum by Cholesky (P is SPD when λ > 0) and its box test, in one compiled call
-        x, _, inside = K.spd_solve_box(prob.P, prob.q, box.lb, box.ub, 1e-12)
+        x = np.empty(prob.n)
+        _, inside = K.spd_solve_box_into(prob.P, prob.q, box.lb, box.ub, 1e-12, x)
         if inside and not (prob.G.shape[0] and (prob.G @ x > prob.h + 1e-12).any()):
             return x, None
         diag.qp = 1
