@@ -326,7 +326,7 @@ class HierarchicalQPResolver(QPResolverBase):
         levels, box, n = built.levels, built.box, built.n
         x = self._closed_form_cascade(levels, n, diag)
         tol = 1e-12
-        if box.contains(x, tol) and all(not lv.p or bool(np.all(lv.C @ x <= lv.d + tol)) for lv in levels):
+        if box.contains(x, tol) and all(not lv.p or bool((lv.C @ x <= lv.d + tol).all()) for lv in levels):
             return x, None
         diag.level_sigma_min.clear()
         diag.damped_levels.clear()

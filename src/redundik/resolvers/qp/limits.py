@@ -95,6 +95,8 @@ class LimitBox:
 
     def contains(self, dq: np.ndarray, tol: float = 0.0) -> bool:
         """True when lb − tol ≤ q̇ ≤ ub + tol."""
+        if dq.ndim == 1 and self.lb.ndim == 1:
+            return bool(K.in_box(dq, self.lb, self.ub, float(tol)))  # one compiled call
         if tol:
             return not ((dq < self.lb - tol).any() or (dq > self.ub + tol).any())
         return not ((dq < self.lb).any() or (dq > self.ub).any())
