@@ -599,3 +599,50 @@ def lsq_level(
         return np.ascontiguousarray(Z @ null), sigma_min, damping, rank
     x_out[:] = u
     return null, sigma_min, damping, rank
+
+
+#: cos θ above which :func:`frame_error` takes the rotation error log3(R_d Rᵀ) itself (θ < 0.45 rad: the atan2 form
+#: is exact to rounding there); below it the caller uses Pinocchio's ``log3`` (robust up to θ = π).
+SMALL_ROTATION_COS = 0.9
+
+
+@_jit
+def frame_error(
+    p_d: np.ndarray,
+    R_d: np.ndarray,
+    T: np.ndarray,
+    twist: np.ndarray,
+    gain: float,
+    rows: np.ndarray,
+    rotation: bool,
+    e: np.ndarray,
+    v: np.ndarray,
+) -> bool:
+    """A frame task's error e = (p_d − p, log3(R_d Rᵀ))[rows] and velocity v = twist[rows] + K e into ``e``, ``v``.
+
+    T is the frame's 4×4 pose in the world; ``rotation`` false skips the rotation rows (none selected). For a
+    rotation error up to θ = acos(:data:`SMALL_ROTATION_COS`) the axis-angle vector is θ/sin θ · vee(M − Mᵀ)/2 with
+    M = R_d Rᵀ and θ = atan2(sin θ, cos θ); beyond it nothing is written and False is returned (the caller then
+    uses Pinocchio's ``log3``).
+    """
+    err = np.zeros(6)
+    for i in range(3):
+        err[i] = p_d[i] - T[i, 3]
+    if rotation:
+        M = np.empty((3, 3))
+        for i in range(3):
+            for j in range(3):
+                M[i, j] = R_d[i, 0] * T[j, 0] + R_d[i, 1] * T[j, 1] + R_d[i, 2] * T[j, 2]
+        c = 0.5 * (M[0, 0] + M[1, 1] + M[2, 2] - 1.0)
+        if not (c > SMALL_ROTATION_COS):
+            return False
+        wx = 0.5 * (M[2, 1] - M[1, 2])
+        wy = 0.5 * (M[0, 2] - M[2, 0])
+        wz = 0.5 * (M[1, 0] - M[0, 1])
+        s = math.sqrt(wx * wx + wy * wy + wz * wz)
+        f = math.atan2(s, min(c, 1.0)) / s if s > 0.0 else 1.0
+        err[3], err[4], err[5] = f * wx, f * wy, f * wz
+    for k in range(rows.shape[0]):
+        e[k] = err[rows[k]]
+        v[k] = twist[rows[k]] + gain * e[k]
+    return True
