@@ -374,10 +374,11 @@ def spd_solve_into(P: np.ndarray, q: np.ndarray, x: np.ndarray) -> bool:
     """x = −P⁻¹ q by Cholesky into ``x`` (P (n, n) symmetric positive definite); false when P is not numerically SPD
     (x is then zero).
 
-    Unblocked loops up to n = 32 (no call overhead), LAPACK ``dpotrf`` (``np.linalg.cholesky``) above.
+    Unblocked loops up to n = 48 (measured 6.2 vs 9.4 µs at n = 38, 30 vs 21 at n = 64), LAPACK ``dpotrf``
+    (``np.linalg.cholesky``) above.
     """
     n = q.shape[0]
-    if n > 32:
+    if n > 48:
         try:
             L = np.linalg.cholesky(P)
         except Exception:  # not positive definite
