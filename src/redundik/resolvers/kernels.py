@@ -139,7 +139,7 @@ def svd_full(M: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             t += W[r, j] * W[r, j]
         norms[j] = math.sqrt(t)
     order = np.argsort(-norms)
-    s = np.empty(k)
+    sig = np.empty(k)
     U = np.zeros((m, k))
     Vt = np.empty((n, n))
     for i in range(n):
@@ -147,11 +147,11 @@ def svd_full(M: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         for r in range(n):
             Vt[i, r] = V[r, j]
         if i < k:
-            s[i] = norms[j]
+            sig[i] = norms[j]
             if norms[j] > 0.0:
                 for r in range(m):
                     U[r, i] = W[r, j] / norms[j]
-    return U, s, Vt
+    return U, sig, Vt
 
 
 @_jit

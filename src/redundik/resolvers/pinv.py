@@ -81,7 +81,7 @@ class PinvResolver(Resolver):
         rank, sigma_min, damping = K.closed_form_into(  # one compiled call: J⁺V, (I − J⁺J) z (5.8) and their sum
             contiguous(J),
             contiguous(V),
-            contiguous(z) if has_z else _NO_Z,
+            _NO_Z if z is None else contiguous(z),
             has_z,
             self.epsilon,
             self.max_damping,
