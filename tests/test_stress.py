@@ -176,6 +176,7 @@ def test_small_stress_run_every_backend() -> None:
     for r in results:
         assert r.steps == 200
         assert r.violations == 0 and r.nans == 0, (r.resolver, r.backend, r.max_violation)
+        assert r.silent == 0, (r.resolver, r.backend, r.first)
         assert r.fallbacks.get(stress.FAILURE, 0) == 0, (r.resolver, r.backend, r.first)
         assert set(r.fallbacks) <= {stress.INFEASIBLE, stress.CONTRADICTED, stress.FAILURE}
     assert any(r.fallbacks for r in results)  # the episodes do contain infeasible problems (the counts are real)
