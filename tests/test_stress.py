@@ -13,9 +13,10 @@ import numpy as np
 import pytest
 
 import redundik as rk
-from redundik.errors import ResolverError
+from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.urdf import EXAMPLE_ROBOTS, example_robot_data_dir, from_urdf
 from redundik.resolvers.divergence import ERROR_STREAK, DivergenceWarning
+from redundik.resolvers.linalg import damped_svd
 from redundik.resolvers.qp import QPProblem, make_backend
 from redundik.resolvers.qp.limits import JointLimits, LimitBox
 from tests.test_qp_helpers import BACKENDS, CASE2_Q0, case2_robot, case2_stack, prepared, qp_tolerance
@@ -175,6 +176,7 @@ def test_small_stress_run_every_backend() -> None:
     for r in results:
         assert r.steps == 200
         assert r.violations == 0 and r.nans == 0, (r.resolver, r.backend, r.max_violation)
+        assert r.silent == 0, (r.resolver, r.backend, r.first)
         assert r.fallbacks.get(stress.FAILURE, 0) == 0, (r.resolver, r.backend, r.first)
         assert set(r.fallbacks) <= {stress.INFEASIBLE, stress.CONTRADICTED, stress.FAILURE}
     assert any(r.fallbacks for r in results)  # the episodes do contain infeasible problems (the counts are real)
@@ -185,10 +187,10 @@ def test_hqp_levels_the_stress_run_found_hard_are_solved(backend: str) -> None:
     """Stress episodes whose hqp levels every backend once failed on although they are feasible by construction:
     joints whose box is one value (episode 14: proxsuite "primal infeasible" on a 3e-7-wide window), a slack of
     19.5 against a 1e-6 window for u (episode 25, step 9: proxsuite), a slack of 267 (episode 158, step 6: daqp
-    exit flag 4 at primal_tol 1e-10). Fallbacks there must be true infeasibility or contradiction, never a
-    backend failure."""
+    exit flag 4 at primal_tol 1e-10), a degenerate vertex, 5 rows active in 4 unknowns (episode 209, step 37:
+    daqp "infeasible"). Fallbacks there must be true infeasibility or contradiction, never a backend failure."""
     stress = _stress_module()
-    episodes = [stress.make_episode(14, 3), stress.make_episode(25, 12), stress.make_episode(158, 9)]
+    episodes = [stress.make_episode(s, k) for s, k in ((14, 3), (25, 12), (158, 9), (209, 40))]
     r = stress.run_pair("hqp", backend, episodes)
     assert r.violations == 0 and r.nans == 0
     assert r.fallbacks.get(stress.FAILURE, 0) == 0, r.first
@@ -202,3 +204,47 @@ def test_pinned_joints_of_a_box() -> None:
     inf = np.full(5, np.inf)
     box = LimitBox(lb, ub, -inf, inf, inf)
     assert box.pinned().tolist() == [True, False, True, False, False]
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_hqp_with_every_joint_pinned_still_reports_a_contradicted_bound(backend: str) -> None:
+    """Every joint's box is one value (position limits squeezed onto q): no unknown is left, q̇ = 0 exactly, and
+    the bound level below still reports its contradiction instead of being skipped unseen (an empty SVD raised
+    here before, and a level with inequalities after the degrees of freedom ran out was never checked)."""
+    robot = rk.from_dh([rk.DHRow(str(i + 1), a=1.0, lower=-2, upper=2, velocity=1.0) for i in range(3)])
+    q = np.radians([30.0, 60.0, -30.0])
+    pin = {str(i + 1): float(q[i]) for i in range(3)}
+    res = rk.make_resolver("hqp", backend=backend, limits={"lower": pin, "upper": pin})
+    stack = rk.TaskStack(
+        [rk.FrameTask("3", rk.Line([0.2, -0.4]), axes="planar")], [rk.BoundSubtask(rk.JointSine2("3"), lower=0.9)]
+    )
+    robot.update(q)
+    stack.reset(robot)
+    step = res.step(robot, stack, q, 0.0, 0.01)
+    assert np.array_equal(step.dq, np.zeros(3))
+    assert step.fallback is not None and "level 1 contradicted" in step.fallback
+
+
+def test_damped_svd_of_a_matrix_without_columns() -> None:
+
+    d = damped_svd(np.zeros((3, 0)), epsilon=1e-2, max_damping=5e-2)
+    assert d.solve(np.ones(3)).shape == (0,) and d.null_basis.shape == (0, 0) and d.rank == 0
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_primal_infeasible_qp_is_never_returned_as_solved(backend: str) -> None:
+    """The box 1.6 ≤ x₀ ≤ 1.6 against the row x₀ + x₁ ≤ −2 with |x₁| ≤ 0.1: infeasible. OSQP's answer is an
+    infeasibility certificate (‖x‖ ≈ 1e9); verified on its scale, the polish accepted a point 1.3 outside (a
+    silent wrong answer in the stress run's episode 161, where wqp then reported no fallback)."""
+    lb, ub = np.array([1.6, -0.1, -1.0]), np.array([1.6, 0.1, 1.0])
+    G, h = np.array([[1.0, 1.0, 0.0]]), np.array([-2.0])
+    prob = QPProblem(np.eye(3), np.zeros(3), G, h, np.zeros((0, 3)), np.zeros(0), lb, ub, "infeasible")
+    with pytest.raises(SolverError):
+        make_backend(backend).solve(prob)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_wqp_reports_the_relaxation_of_an_infeasible_bound_on_every_backend(backend: str) -> None:
+    stress = _stress_module()
+    r = stress.run_pair("wqp", backend, [stress.make_episode(161, 1)])
+    assert r.fallbacks.get(stress.INFEASIBLE, 0) == 1 and r.violations == 0, (r.fallbacks, r.first)

@@ -590,6 +590,9 @@ def lsq_level(
         (the new basis (n, r'), σ_min, damping, rank of A Z).
     """
     M = A @ Z if projected else A
+    if M.shape[0] == 0 or M.shape[1] == 0:  # no rows, or no directions left: nothing to solve, the basis stays
+        x_out[:] = x
+        return (Z.copy() if projected else np.eye(M.shape[1])), np.inf, 0.0, 0
     rhs = b - A @ x
     U, _, Vt, inv, rank, sigma_min, damping = damped_svd_factors(M, epsilon, max_damping, rcond)
     k = inv.shape[0]
