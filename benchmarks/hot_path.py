@@ -6,6 +6,7 @@ Usage::
     python benchmarks/hot_path.py                       # Panda circle and Talos, pinv/wqp/hqp vs mink/pink (daqp)
     python benchmarks/hot_path.py --robots panda --chunks 20 --chunk 100
     python benchmarks/hot_path.py --profile             # plus the per-stage profile of each redundik case
+    python benchmarks/hot_path.py --snake 10 20 40 80 160   # the snake's growth exponent and p90/median (wqp, hqp)
 
 Every case is one runner of the benchmark harness (same robots, task sets and timed region as
 ``benchmarks/compare_resolvers.py``: the kinematics update, the references, building and solving). The cases advance
@@ -75,6 +76,44 @@ def run(robots: list[str], methods: list[str], chunks: int, chunk: int, warmup: 
     return 0
 
 
+def snake(sizes: list[int], resolvers: list[str], steps: int, rounds: int) -> int:
+    """Median and p90 per step of the snake (``benchmarks/snake_scaling.py``'s stacks) as n grows, interleaved, and
+    the growth exponent of the median (least-squares slope of log t against log n)."""
+    import time
+
+    sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parent))
+    from snake_scaling import build
+
+    cases = {(n, r): build(n, r) for n in sizes for r in resolvers}
+    samples: dict[tuple[int, str], list[float]] = {key: [] for key in cases}
+    qs = {key: case[3].copy() for key, case in cases.items()}
+    dt = 0.02
+    for rnd in range(rounds + 1):  # round 0 warms up (JIT, caches) and is not kept
+        for key, (robot, stack, resolver, q0) in cases.items():
+            if rnd == 0:
+                robot.update(q0)
+                stack.reset(robot)
+            q = qs[key]
+            for k in range(steps):
+                t = (rnd * steps + k) * dt
+                t0 = time.perf_counter()
+                res = resolver.step(robot, stack, q, t, dt)
+                t1 = time.perf_counter()
+                q = robot.integrate(q, res.dq, dt)
+                if rnd:
+                    samples[key].append(t1 - t0)
+            qs[key] = q
+    for r in resolvers:
+        med = np.array([np.median(samples[(n, r)]) for n in sizes])
+        p90 = np.array([np.percentile(samples[(n, r)], 90) for n in sizes])
+        slope = float(np.polyfit(np.log(sizes), np.log(med), 1)[0])
+        rows = ", ".join(
+            f"n={n}: {m * 1e6:.0f} µs (p90/median {p / m:.2f})" for n, m, p in zip(sizes, med, p90, strict=True)
+        )
+        print(f"snake {r}: growth exponent {slope:.2f}; {rows}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Parse the arguments and run."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
@@ -84,7 +123,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--chunk", type=int, default=50, help="steps per case per turn")
     parser.add_argument("--warmup", type=int, default=100, help="untimed steps per case first (JIT, caches)")
     parser.add_argument("--profile", type=int, nargs="?", const=500, default=0, help="per-stage profile steps")
+    parser.add_argument("--snake", type=int, nargs="+", default=None, help="snake sizes n (instead of the robots)")
     args = parser.parse_args(argv)
+    if args.snake:
+        return snake(args.snake, [m for m in args.methods if m in ("pinv", "wqp", "hqp")], args.chunk, args.chunks)
     return run(args.robots, args.methods, args.chunks, args.chunk, args.warmup, args.profile)
 
 
