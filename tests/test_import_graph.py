@@ -15,7 +15,7 @@ import ast
 from pathlib import Path
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "redundik"
-LIBRARY = ["kinematics", "tasks", "resolvers", "simulation", "collision", "parallel", "robots"]
+LIBRARY = ["kinematics", "tasks", "resolvers", "simulation", "collision", "parallel"]
 APPLICATION = ("config", "cli", "reporting", "viewer", "peers", "sweep")
 
 KNOWN = {
@@ -23,11 +23,6 @@ KNOWN = {
     ("simulation/mujoco_plant.py", "redundik.peers.mujoco_model"),  # the URDF → MuJoCo builder
     ("simulation/plant.py", "redundik.config.loader"),
     ("simulation/plant.py", "redundik.config.schema"),
-    ("robots/animate.py", "redundik.reporting.paths"),  # a main() script: belongs in cli/
-    ("robots/animate.py", "redundik.config"),
-    ("robots/animate.py", "redundik.config.runner"),
-    ("robots/exercises.py", "redundik.config"),  # a main() script: belongs in cli/
-    ("robots/exercises.py", "redundik.config.runner"),
 }
 
 
