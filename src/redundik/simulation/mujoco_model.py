@@ -1,7 +1,7 @@
 """MuJoCo models of redundik robots: from the same URDF, or built from the Pinocchio model (D-H robots).
 
 The MuJoCo plant (:mod:`redundik.simulation.mujoco_plant`) loads the robot's URDF through :func:`strip_urdf`; the
-mink interop (:mod:`redundik.peers`) and the benchmark build their MuJoCo models here too.
+mink interop (``redundik.peers``) and the benchmark build their MuJoCo models here too.
 
 MuJoCo cannot open the URDFs' ``package://`` meshes, so :func:`mujoco_from_urdf` strips every ``<visual>`` and
 ``<collision>`` element (kinematics only). MuJoCo's URDF import fuses links attached by fixed joints into their
