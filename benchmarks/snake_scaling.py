@@ -14,8 +14,8 @@ import time
 
 import numpy as np
 
+from redundik.kinematics import snake
 from redundik.resolvers import make_resolver
-from redundik.robots import snake
 from redundik.simulation import simulate
 from redundik.tasks import BoundSubtask, Circle, Clearance, FrameTask, GradientSubtask, JointCentering, TaskStack
 

@@ -285,7 +285,10 @@ def test_panda_shelf_run(tmp_path: Path) -> None:
     res = run_task(plan)
     s = {name: r.summary for name, r in res.items()}
     # the figure: obstacles, closest-pair segments, distance over time; its witness points are the summary's
-    png = plot_world(plan, {"no_avoidance": res["no_avoidance"], "wqp": res["wqp"]}, tmp_path / "world.png")
+    from redundik.cli.view_cmds import figure_inputs
+
+    runs, options = figure_inputs(plan, {"no_avoidance": res["no_avoidance"], "wqp": res["wqp"]})
+    png = plot_world(runs, plan.robot.model, tmp_path / "world.png", options)
     assert png is not None and png.stat().st_size > 20_000
     log = res["no_avoidance"].log
     idx, d, p1, p2, pairs = closest_segments(plan.world, plan.robot.model, log.t, log.q, max_samples=60)

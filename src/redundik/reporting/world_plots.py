@@ -4,8 +4,9 @@ Left: the smallest signed distance over every candidate pair against time, one c
 (penetration below) and the runs' safety distances d_s. Right: a 3-D view of the obstacles at t = 0 (boxes,
 spheres, capsules, cylinders, convex meshes as their vertices; planes as a patch), each run's logged frame path,
 the closest pair's segment p₁ → p₂ every few samples (thin) and at the run's closest sample (thick, labelled with
-the pair and its distance). Witness points are recomputed from the logged configurations with the run's
-:class:`~redundik.collision.CollisionWorld` (at most :data:`MAX_SAMPLES` samples per run).
+the pair and its distance). Witness points are recomputed from the logged configurations with the
+:class:`~redundik.collision.CollisionWorld` of the runs' collision subtasks (:func:`run_world`; at most
+:data:`MAX_SAMPLES` samples per run).
 """
 
 from __future__ import annotations
@@ -17,9 +18,8 @@ import coal
 import numpy as np
 
 from redundik.collision import CollisionAvoidance, CollisionWorld
-from redundik.config.loader import TaskPlan
-from redundik.config.runner import RunResult
-from redundik.reporting.plots import _colors, _plt, frame_task_paths
+from redundik.kinematics.model import RobotModel
+from redundik.reporting.plots import FigureOptions, LoggedRun, Runs, _colors, _plt, frame_task_paths, logged_runs
 from redundik.tasks.subtasks import BoundSubtask
 
 #: Samples per run at which the witness points are recomputed.
@@ -101,13 +101,27 @@ def draw_obstacles(ax: Any, world: CollisionWorld) -> None:
                 ax.scatter(pts[:, 0], pts[:, 1], pts[:, 2], s=2, color="tab:red", alpha=0.4, **label)
 
 
-def plot_world(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Path | None:
-    """Write ``world.png`` (module docstring); ``None`` when the task has no collision world or no run."""
-    world: CollisionWorld | None = getattr(plan, "world", None)
+def _avoidance(r: LoggedRun) -> list[CollisionAvoidance]:
+    subs = list(r.stack.subtasks) if r.stack is not None else []
+    sources = [getattr(sub, "source", getattr(sub, "potential", None)) for sub in subs] + list(r.watched)
+    return [p for p in sources if isinstance(p, CollisionAvoidance)]
+
+
+def run_world(runs: dict[str, LoggedRun]) -> CollisionWorld | None:
+    """The collision world of the runs' collision subtasks or watched collision potentials (the first), or ``None``."""
+    for r in runs.values():
+        for avoid in _avoidance(r):
+            return avoid.world
+    return None
+
+
+def plot_world(runs: Runs, robot: RobotModel, path: Path, options: FigureOptions | None = None) -> Path | None:
+    """Write ``world.png`` (module docstring); ``None`` without a collision world or a run."""
+    results, options = logged_runs(runs), options or FigureOptions()
+    world = run_world(results)
     if world is None or not world.n_pairs or not results:
         return None
     plt = _plt()
-    robot = plan.robot.model
     fig = plt.figure(figsize=(14, 6))
     ax_d = fig.add_subplot(1, 2, 1)
     ax_3 = fig.add_subplot(1, 2, 2, projection="3d")
@@ -124,11 +138,11 @@ def plot_world(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Pat
             ax_d.plot(t, dmin, color=col, lw=1.6, label=name)
         else:
             ax_d.plot(t[idx], d, color=col, lw=1.6, label=name)
-        for sub in r.plan.stack.subtasks:
+        for sub in r.stack.subtasks if r.stack is not None else []:
             src = getattr(sub, "source", None)
             if isinstance(src, CollisionAvoidance) and isinstance(sub, BoundSubtask):
                 safeties.add(src.safety)
-        for _frame, _desired, actual in frame_task_paths(plan, r):
+        for _frame, _desired, actual in frame_task_paths(robot, r):
             ax_3.plot(actual[:, 0], actual[:, 1], actual[:, 2], color=col, lw=1.2, alpha=0.8)
         for k in range(0, idx.size, max(1, idx.size // 25)):
             ax_3.plot(*np.stack([p1[k], p2[k]], axis=1), color=col, lw=0.6, alpha=0.35)
@@ -158,7 +172,7 @@ def plot_world(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Pat
     ax_3.set_zlabel("z [m]")
     ax_3.set_title("obstacles, frame paths, closest-pair segments (thick: closest sample)")
     ax_3.legend(fontsize=7, loc="upper left")
-    fig.suptitle(f"{plan.name}: collision world", fontsize=12)
+    fig.suptitle(f"{options.title}: collision world", fontsize=12)
     fig.tight_layout(rect=(0, 0, 1, 0.95))
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -301,7 +301,7 @@ class MinkRunner(_PeerRunner):
     def _build(self) -> None:
         from redundik.peers._deps import require
         from redundik.peers.joint_map import JointMap
-        from redundik.peers.mujoco_model import mujoco_from_robot, mujoco_from_urdf
+        from redundik.simulation.mujoco_model import mujoco_from_robot, mujoco_from_urdf
 
         mink = require("mink")
         self.mink = mink
