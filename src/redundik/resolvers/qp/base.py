@@ -4,7 +4,7 @@ diagnostics — with a typed diagnostics record (:class:`QPDiagnostics`) that th
 
 Safety rows (the rows of a bound subtask whose barrier is ``critical``: collision distances) are guarded last: a
 q̇ that violates one by more than 1e-6 — a closed-form fallback, an early-stopped backend, a contradicted ``hqp``
-level — is scaled down until it keeps them all (:func:`keep_safe`; q̇ = 0 always does while the pairs are apart),
+level — is scaled down until it keeps them all (``keep_safe``; q̇ = 0 always does while the pairs are apart),
 and the step's fallback note says so."""
 
 from __future__ import annotations
