@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from redundik.kinematics.model import RobotModel
-from redundik.peers.bench.scenarios import POSTURE_GAIN, POSTURE_WEIGHT, Scenario, urdf_path
+from benchmarks.bench.scenarios import POSTURE_GAIN, POSTURE_WEIGHT, Scenario, urdf_path
 from redundik.resolvers.base import Resolver
 from redundik.resolvers.registry import make_resolver
 from redundik.tasks.base import Potential, Task, TaskTerm
@@ -115,15 +115,23 @@ class Runner(ABC):
                 if rec.first_failure is None:
                     rec.first_failure = f"{type(exc).__name__}: {exc}"
                 elapsed, q_next = 0, self.q
-            rec.step_ns.append(elapsed)
-            if float(np.max(np.abs(q_next - self.q), initial=0.0)) <= FROZEN_STEP:
-                rec.frozen += 1  # the robot did not move this step (every scenario's references move)
-            rec.task_error.append(self.metrics.task_error(self.q, t))
-            value, viol = self.metrics.after_step(q_next)
-            rec.monitor.append(value)
-            rec.violation.append(viol)
-            self.q = q_next
-            self.k += 1
+            self.record_step(t, elapsed, q_next)
+
+    def record_step(self, t: float, elapsed: int, q_next: np.ndarray) -> None:
+        """Record one step taken at time t from self.q to ``q_next`` in ``elapsed`` ns (the common ruler)."""
+        rec = self.record
+        rec.step_ns.append(elapsed)
+        if float(np.max(np.abs(q_next - self.q), initial=0.0)) <= FROZEN_STEP:
+            rec.frozen += 1  # the robot did not move this step (every scenario's references move)
+        rec.task_error.append(self.metrics.task_error(self.q, t))
+        value, viol = self.metrics.after_step(q_next)
+        rec.monitor.append(value)
+        rec.violation.append(viol)
+        self.q = q_next
+        self.k += 1
+
+    def close(self) -> None:  # noqa: B027 - optional hook
+        """Release what the runner holds (a worker process)."""
 
     @abstractmethod
     def _step(self, t: float) -> tuple[int, np.ndarray]:
