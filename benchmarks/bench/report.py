@@ -231,12 +231,14 @@ def plot(result: BenchResult, path: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    robots = list(result.meta["robots"])
+    robots = [r for r in result.meta["robots"] if any(c.robot == r and c.median_us > 0 for c in result.cases)]
     order = {m: i for i, m in enumerate(METHODS)}
     fig, axes = plt.subplots(len(robots), 1, figsize=(8, 1.2 + 0.32 * len(result.cases)), squeeze=False)
     colors = {"pinv": "C0", "feedback": "C1", "wqp": "C2", "hqp": "C3", "mink": "C7", "pink": "C8", "placo": "C4"}
     for ax, robot in zip(axes[:, 0], robots, strict=True):
-        cs = sorted([c for c in result.cases if c.robot == robot], key=lambda c: (order[c.method], c.median_us))
+        cs = sorted(
+            [c for c in result.cases if c.robot == robot and c.median_us > 0], key=lambda c: (order[c.method], c.median_us)
+        )
         y = list(range(len(cs)))
         med = [c.median_us for c in cs]
         err = [max(c.p90_us - c.median_us, 0.0) for c in cs]

@@ -21,7 +21,7 @@ from redundik.kinematics.model import RobotModel
 from benchmarks.bench.scenarios import POSTURE_GAIN, POSTURE_WEIGHT, Scenario, urdf_path
 from redundik.resolvers.base import Resolver
 from redundik.resolvers.registry import make_resolver
-from redundik.tasks.base import Potential, Task, TaskTerm
+from redundik.tasks.base import Barrier, Potential, Task, TaskTerm
 from redundik.tasks.frame import FrameTask
 from redundik.tasks.stack import TaskStack
 from redundik.tasks.subtasks import Subtask
@@ -154,7 +154,7 @@ class RedundikRunner(Runner):
         self.resolver: Resolver = make_resolver(method, **self.options)
         used = getattr(self.resolver, "backend", None)
         self.backend = backend or str(getattr(used, "name", used) or "-")
-        self.robot = scenario.robot()
+        self.robot = scenario.robot() if scenario.runner_robot is None else scenario.runner_robot()
         self.stack = scenario.stack(method, self.robot)
         self._restart()
 
@@ -228,7 +228,7 @@ def _timed_subtask(sub: Subtask, probe: _Probe) -> Subtask:
     """A shallow copy of ``sub`` whose potential is timed (barriers are left as they are)."""
     out = copy.copy(sub)
     if hasattr(out, "source"):
-        if isinstance(out.source, Potential):
+        if isinstance(out.source, Potential) and not isinstance(out.source, Barrier):  # a barrier stays as it is
             out.source = _TimedPotential(out.source, probe)
     elif getattr(out, "potential", None) is not None:
         out.potential = _TimedPotential(out.potential, probe)  # type: ignore[attr-defined]

@@ -153,6 +153,9 @@ class Scenario:
     final_tolerance: float | None = None
     #: Gain of the frame tasks (``None``: 1/dt, the peers' dead-beat task).
     frame_gain: float | None = None
+    #: The model the method's stack is bound to (``None``: a fresh :attr:`robot`): a collision world is built for
+    #: one model object, so the runner takes that one and the common ruler another (with its own world).
+    runner_robot: Callable[[], RobotModel] | None = None
 
     def frame_tasks(self, gain: float | None = None) -> list[Task]:
         """Fresh frame tasks with gain K = 1/dt (or ``gain``)."""
@@ -467,7 +470,7 @@ def panda_shelf_scenario() -> Scenario:
     sc = Scenario(
         key="panda_shelf",
         title="Panda reaching into a shelf past a post, collision damper (60 pairs), posture, limits",
-        robot=lambda: RobotModel(base.model.copy(), name=base.name),
+        robot=lambda: metrics_plan.robot.model,
         q0=run.q0.copy(),
         dt=plan.dt,
         frames=[FrameSpec(hand.frame, "pose", lambda: copy.deepcopy(trajectory))],
@@ -479,6 +482,8 @@ def panda_shelf_scenario() -> Scenario:
         methods=("wqp",),
         all_backends=False,
     )
+    sc.runner_robot = lambda: base
+    sc.pairs = plan.world.n_pairs  # type: ignore[attr-defined]
     sc.final_tolerance = ERROR_TOLERANCE
     sc.frame_gain = float(hand.gain)
     sc.stacks = {"wqp": lambda r: run.stack}
