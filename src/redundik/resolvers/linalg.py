@@ -123,8 +123,8 @@ class DampedSVD:
 def damped_svd(M: np.ndarray, *, epsilon: float, max_damping: float, rcond: float = RCOND) -> DampedSVD:
     """The damped SVD of ``M`` by this module's rule (the one kernel of ``pinv``, ``feedback`` and ``hqp``)."""
     m, n = M.shape
-    if m == 0:
-        return DampedSVD(np.zeros((0, 0)), np.zeros(0), np.eye(n), np.zeros(0), 0, np.inf, 0.0)
+    if m == 0 or n == 0:  # no rows, or no unknowns left (every joint pinned by its limits): nothing to factor
+        return DampedSVD(np.zeros((m, 0)), np.zeros(0), np.eye(n), np.zeros(0), 0, np.inf, 0.0)
     U, s, Vt, inv, rank, sigma_min, damping = K.damped_svd_factors(contiguous(M), epsilon, max_damping, rcond)
     return DampedSVD(U, s, Vt, inv, int(rank), float(sigma_min), float(damping))
 

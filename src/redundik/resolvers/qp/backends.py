@@ -206,6 +206,16 @@ class DaqpBackend(Backend):
             )
             if x is not None and np.shape(x) != (n,):
                 raise ValueError(f"returned x of shape {np.shape(x)} for {n} variables")
+            if flag not in (1, 2) and self.primal_tol < 1e-6:
+                # at primal_tol 1e-10 daqp stopped (exit flag 4) on a feasible 2-variable hqp level whose slack is
+                # 267 while u has a 3e-7 window; at its default 1e-6 it solves it in 3 iterations. The retry's
+                # answer is kept only as the verified exact optimum (polish checks the KKT conditions to 1e-9).
+                x2, _, flag2, info2 = self._solve(
+                    problem.P, problem.q, M, bu, bl, sense, iter_limit=self.iter_limit, primal_tol=1e-6
+                )
+                xp = polish(problem, x2) if flag2 in (1, 2) and x2 is not None else None
+                if xp is not None:
+                    x, flag, info = xp, flag2, info2
         except Exception as exc:
             raise SolverError(f"daqp raised on {problem.label}: {exc}", problem) from exc
         if flag not in (1, 2):
@@ -277,6 +287,24 @@ class ProxsuiteBackend(Backend):
     def reset(self) -> None:
         self._cache.clear()
 
+    def _new_qp(self, n: int, e: int, p: int, duality_gap: bool) -> Any:
+        qp = self._px.dense.QP(n, e, p, True)
+        qp.settings.eps_abs = self.eps_abs
+        qp.settings.eps_rel = 0.0
+        qp.settings.max_iter = self.max_iter
+        # bounded effort: on a level whose u-part is fixed only by the 1e-9 regulariser (a pure bound level of hqp)
+        # ProxQP at eps_abs 1e-9 ran 2.9e6 inner iterations (45 s); stopped earlier, the iterate is polished or
+        # kept when feasible (_stalled)
+        qp.settings.max_iter_in = self.max_iter_in
+        # the default 1e-4 declares small feasible QPs "primal infeasible" (seen on 1-variable hqp levels)
+        qp.settings.eps_primal_inf = 1e-10
+        qp.settings.eps_dual_inf = 1e-10
+        # without the duality-gap check "solved" can be 1e-5 off in x on a 2-variable QP
+        qp.settings.check_duality_gap = duality_gap
+        qp.settings.eps_duality_gap_abs = 1e-10
+        qp.settings.eps_duality_gap_rel = 0.0
+        return qp
+
     def solve(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
         n = problem.n
         G, Aeq = _rows(problem.G, n), _rows(problem.A, n)
@@ -292,38 +320,37 @@ class ProxsuiteBackend(Backend):
         try:
             qp = self._cache.get(key)
             if qp is None:
-                qp = self._px.dense.QP(n, e, p, True)
-                qp.settings.eps_abs = self.eps_abs
-                qp.settings.eps_rel = 0.0
-                qp.settings.max_iter = self.max_iter
-                # bounded effort: on a level whose u-part is fixed only by the 1e-9 regulariser (a pure bound level
-                # of hqp) ProxQP at eps_abs 1e-9 ran 2.9e6 inner iterations (45 s); stopped earlier, the iterate is
-                # polished or kept when feasible (_stalled)
-                qp.settings.max_iter_in = self.max_iter_in
-                # the default 1e-4 declares small feasible QPs "primal infeasible" (seen on 1-variable hqp levels)
-                qp.settings.eps_primal_inf = 1e-10
-                qp.settings.eps_dual_inf = 1e-10
-                # without the duality-gap check "solved" can be 1e-5 off in x on a 2-variable QP
-                qp.settings.check_duality_gap = True
-                qp.settings.eps_duality_gap_abs = 1e-10
-                qp.settings.eps_duality_gap_rel = 0.0
+                qp = self._new_qp(n, e, p, duality_gap=True)
                 qp.init(problem.P, problem.q, A, b, C, l_in if p else None, u_in if p else None, lb, ub)
                 self._cache[key] = qp
             else:
                 qp.settings.initial_guess = self._px.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
                 qp.update(problem.P, problem.q, A, b, C, l_in if p else None, u_in if p else None, lb, ub)
             qp.solve()
+            status = qp.results.info.status
+            if status != self._px.QPSolverOutput.PROXQP_SOLVED:
+                self._cache.pop(key, None)
+                # a degenerate feasible QP can stall (iteration limit) or trip the infeasibility test: polish the
+                # iterate; failing that, solve once more from scratch without the duality-gap check, which on a
+                # 2-variable hqp level whose feasible window is 3e-7 wide made ProxQP report a plainly feasible QP
+                # "primal infeasible" (it solves it in 10 iterations without the check, and daqp agrees)
+                xp = _stalled(problem, np.array(qp.results.x))
+                if xp is not None:
+                    return QPSolution(xp, int(qp.results.info.iter), self.name, time.perf_counter() - t0)
+                qp = self._new_qp(n, e, p, duality_gap=False)
+                qp.init(problem.P, problem.q, A, b, C, l_in if p else None, u_in if p else None, lb, ub)
+                qp.solve()
+                retry = qp.results.info.status
+                if retry != self._px.QPSolverOutput.PROXQP_SOLVED:
+                    raise SolverError(f"proxsuite: {problem.label} not solved ({status}, then {retry})", problem)
+                x = polish(problem, np.array(qp.results.x))
+                x = _checked(np.array(qp.results.x) if x is None else x, problem, self.name, retry)
+                return QPSolution(x, int(qp.results.info.iter), self.name, time.perf_counter() - t0)
+        except SolverError:
+            raise
         except Exception as exc:
             self._cache.pop(key, None)
             raise SolverError(f"proxsuite raised on {problem.label}: {exc}", problem) from exc
-        status = qp.results.info.status
-        if status != self._px.QPSolverOutput.PROXQP_SOLVED:
-            self._cache.pop(key, None)
-            # a degenerate feasible QP can stall (iteration limit) or trip the infeasibility test: polish the iterate
-            xp = _stalled(problem, np.array(qp.results.x))
-            if xp is None:
-                raise SolverError(f"proxsuite: {problem.label} not solved ({status})", problem)
-            return QPSolution(xp, int(qp.results.info.iter), self.name, time.perf_counter() - t0)
         x = _checked(np.array(qp.results.x), problem, self.name, status)
         return QPSolution(x, int(qp.results.info.iter), self.name, time.perf_counter() - t0)
 

@@ -15,6 +15,10 @@ and slacks w:
 then x ← x + Z u*, w_k* = max(C_k x − d_k, 0), and Z ← Z·null(A_k Z): the optimum set of a least-squares level is
 {A_k q̇ = A_k x*}, so its equalities are enforced exactly by shrinking the basis instead of adding rows. ε (default
 1e-9, raised to the closed-form damping λ² near a singularity of A_k Z) only picks the minimum-norm optimum.
+Two exact reformulations keep every backend's level QP well posed: a joint whose box is a single value (a rate
+window squeezed to a point, a joint held at its limit) is fixed in x before level 0 and left out of Z, and the slack
+is measured from its value at u = 0 (w = w₀ + w', w₀ = max(C_k x − d_k, 0)), so that u = 0, w' = 0 is feasible and
+w' lives on the scale of u. Without them proxsuite called ~3 % of feasible stress-run levels "primal infeasible".
 
 Shortcut (exact, and the common case): the same cascade without constraints is solved in closed form — level by
 level u = (A_k Z)⁺(b_k − A_k x), with the damped pseudo-inverse of :mod:`redundik.resolvers.linalg` — and kept when
@@ -168,8 +172,15 @@ class HierarchicalQPResolver(QPResolverBase):
         box: LimitBox,
         fixed: list[tuple[np.ndarray, np.ndarray]],
         diag: QPDiagnostics,
+        pinned: np.ndarray,
+        selection: np.ndarray | None,
     ) -> tuple[np.ndarray, DampedSVD | None, np.ndarray | None]:
-        """Solve level ``lv`` over q̇ = x + Z u (module docstring); returns (u, the level's least squares, A)."""
+        """Solve level ``lv`` over q̇ = x + Z u (module docstring); returns (u, the level's least squares, A).
+
+        ``pinned`` marks the joints whose box is a single value (their q̇ is in x, their rows of Z are zero);
+        ``selection`` is the index array of the free joints while Z is still I restricted to them (the first level
+        after pinning), so that the box stays native bounds on u.
+        """
         n = x.shape[0]
         Zm = np.eye(n) if Z is None else Z
         p = lv.p
@@ -185,12 +196,17 @@ class HierarchicalQPResolver(QPResolverBase):
             P[:r, :r] = M.T @ M
             q[:r] = -(M.T @ rhs)
         P[:r, :r] += eps * np.eye(r)
-        if p:
-            P[r:, r:] = np.eye(p)
         rows, rhs_rows = [], []
-        if p:  # C(x + Zu) − d ≤ w
+        if p:  # C(x + Zu) − d ≤ w, with w = w₀ + w' measured from its value at u = 0
+            # w₀ = max(Cx − d, 0) makes u = 0, w' = 0 feasible and keeps w' on the scale of u: a level whose slack
+            # is 19.5 while the limits leave u a 1e-6-wide window was otherwise called infeasible by proxsuite;
+            # the change of variables is exact (½‖w₀ + w'‖² = ½‖w'‖² + w₀ᵀw' + const)
+            slack0 = lv.d - lv.C @ x
+            w0 = np.maximum(-slack0, 0.0)
+            P[r:, r:] = np.eye(p)
+            q[r:] = w0
             rows.append(np.hstack([lv.C @ Zm, -np.eye(p)]))
-            rhs_rows.append(lv.d - lv.C @ x)
+            rhs_rows.append(slack0 + w0)
         # Below level 0, rows that carry the levels above and the limits get the margin max(·, 0) + tol: x (the
         # answer so far, from a backend's finite tolerance) may sit up to that tolerance outside them, and without
         # the clamp a level could be declared primal-infeasible (proxsuite, osqp) though u = 0 always solves it.
@@ -200,9 +216,11 @@ class HierarchicalQPResolver(QPResolverBase):
         lb, ub = np.full(nvar, -np.inf), np.full(nvar, np.inf)
         if Z is None:
             lb[:r], ub[:r] = box.lb - x, box.ub - x  # hard (never empty: limits.py)
+        elif selection is not None:
+            lb[:r], ub[:r] = box.lb[selection] - x[selection], box.ub[selection] - x[selection]
         else:
             tol = self.slack_tolerance
-            fu, fl = np.isfinite(box.ub), np.isfinite(box.lb)
+            fu, fl = np.isfinite(box.ub) & ~pinned, np.isfinite(box.lb) & ~pinned
             if fu.any():
                 rows.append(np.hstack([Z[fu], np.zeros((int(fu.sum()), p))]))
                 rhs_rows.append(np.maximum(box.ub[fu] - x[fu], 0.0) + tol)
@@ -233,9 +251,18 @@ class HierarchicalQPResolver(QPResolverBase):
         r = n
         fixed: list[tuple[np.ndarray, np.ndarray]] = []
         notes: list[str] = []
+        # joints whose box is one value (a rate window squeezed to a point, a joint held at its limit) are not
+        # unknowns: fixed first and removed from the basis, so no level QP carries a window of zero width (as the
+        # pair of rows ±Z_j u ≤ tol, it left proxsuite a 1e-7-wide feasible set that it declared infeasible)
+        pinned = box.pinned()
+        selection: np.ndarray | None = None
+        if pinned.any():
+            x[pinned] = 0.5 * (box.lb[pinned] + box.ub[pinned])
+            selection = np.flatnonzero(~pinned)
+            Z, r = np.eye(n)[:, selection], int(selection.size)
         for lv in levels:
             if r == 0 and not lv.p:
-                break
+                continue  # nothing left to move, but a lower level's inequalities are still checked (and reported)
             if not lv.m and lv.z is None and not lv.p:
                 continue
             if lv.pure_null_objective and not lv.p and Z is not None:
@@ -247,7 +274,7 @@ class HierarchicalQPResolver(QPResolverBase):
                     x, Z, r = cand, np.zeros((n, 0)), 0
                     continue
             try:
-                u, lsq, A = self._level_qp(lv, x, Z, r, box, fixed, diag)
+                u, lsq, A = self._level_qp(lv, x, Z, r, box, fixed, diag, pinned, selection)
             except SolverError as exc:
                 if lv is levels[0]:
                     raise  # nothing of the cascade is worth keeping: the base falls back to the closed form
@@ -266,9 +293,10 @@ class HierarchicalQPResolver(QPResolverBase):
                         f"up to {worst:.3g}"
                     )
             if lsq is not None and A is not None:
-                self._note(lv, A, lsq, r, Z is not None, diag)
+                self._note(lv, A, lsq, r, Z is not None and selection is None, diag)
                 Z = lsq.null_basis if Z is None else Z @ lsq.null_basis
                 r = Z.shape[1]
+                selection = None
         return x, notes
 
     # ------------------------------------------------------------------ the step (skeleton in QPResolverBase.solve)

@@ -59,6 +59,12 @@ class LimitBox:
     rate_lo: np.ndarray | None = None
     rate_hi: np.ndarray | None = None
 
+    def pinned(self) -> np.ndarray:
+        """Mask of the joints whose box is a single value, ub − lb ≤ 1e-12·max(1, |ub|) (q̇_j is fixed)."""
+        both = np.isfinite(self.lb) & np.isfinite(self.ub)
+        width = np.where(both, self.ub - self.lb, np.inf)
+        return both & (width <= 1e-12 * np.maximum(1.0, np.abs(np.where(both, self.ub, 0.0))))
+
     @property
     def bounded(self) -> bool:
         """True when at least one bound is finite."""
