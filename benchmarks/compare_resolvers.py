@@ -23,9 +23,35 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))  # the harness is the checkout's package benchmarks.bench, not in the wheel
 
 from benchmarks.bench import KNOWN_ROBOTS, METHODS, BenchConfig, ratio_lines, run_benchmark, write_all  # noqa: E402
+from benchmarks.bench.report import markdown, readme_table, targets_table  # noqa: E402
 from redundik.errors import RedundikError  # noqa: E402
 
 DEFAULT_OUT = ROOT / "benchmarks" / "results"
+
+
+def _replace_between(path: Path, tag: str, body: str) -> Path:
+    text = path.read_text(encoding="utf-8")
+    start, end = f"<!-- {tag}:start -->", f"<!-- {tag}:end -->"
+    i, j = text.index(start) + len(start), text.index(end)
+    path.write_text(text[:i] + "\n" + body.strip() + "\n" + text[j:], encoding="utf-8")
+    return path
+
+
+def update_docs(result: object, command: str) -> list[Path]:
+    """This run's full report into docs/benchmark.md and the compact table + targets into README.md."""
+    readme = (
+        f"Last full run (`{command}`, one interleaved run on this 2-core shared machine: absolute µs are inflated "
+        "by the load, the ratios come from the same run); `wqp`/`hqp` on their default backend, each peer on its "
+        "fastest; × faster peer = median over the faster non-failed of mink and pink.\n\n"
+        + readme_table(result)  # type: ignore[arg-type]
+        + "\nTargets (issue 11), measured in this run:\n\n"
+        + "\n".join(targets_table(result))  # type: ignore[arg-type]
+        + "\n"
+    )
+    return [
+        _replace_between(ROOT / "docs" / "benchmark.md", "results", markdown(result, command)),  # type: ignore[arg-type]
+        _replace_between(ROOT / "README.md", "readme-results", readme),
+    ]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -41,6 +67,9 @@ def main(argv: list[str] | None = None) -> int:
         "--placo-python", default=None, help="PlaCo's interpreter (default $REDUNDIK_PLACO_PYTHON or .venv-placo)"
     )
     parser.add_argument("--batch-steps", type=int, default=None, help="timed calls of the batch case")
+    parser.add_argument(
+        "--update-docs", action="store_true", help="write this run's tables into docs/benchmark.md and README.md"
+    )
     args = parser.parse_args(argv)
     config = BenchConfig.quick() if args.quick else BenchConfig()
     if args.steps is not None:
@@ -59,6 +88,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     paths = write_all(result, args.out, command.strip(), args.json)
+    if args.update_docs:
+        for p in update_docs(result, command.strip()):
+            print(f"updated: {p}")
     print("\nmedian step time / the faster of mink and pink (fastest backend), and / PlaCo:")
     for line in ratio_lines(result):
         print("  " + line)

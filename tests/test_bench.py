@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from benchmarks.bench import (
     BATCH_METHODS,
     KNOWN_ROBOTS,
@@ -33,6 +32,7 @@ from benchmarks.bench import (
 from benchmarks.bench.placo_peer import PlacoRunner, find_placo_python
 from benchmarks.bench.runners import RedundikRunner, Runner
 from benchmarks.bench.scenarios import SCENARIOS, ActuatedPostureTask
+
 from redundik.cli.main import main as cli_main
 from redundik.errors import ConfigError
 from redundik.peers import available

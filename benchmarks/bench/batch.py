@@ -5,8 +5,9 @@
 Problem i: one control step (dt = 10 ms, frame gain K = 1/dt, posture K_p = 1/s towards q0) from q_i towards the
 hand pose at q_i + δ_i, where q_i is uniform in the joint ranges (2 cm/rad inside them) and δ_i uniform in ±0.01
 rad per joint — a reachable target, so one dead-beat step lands within a second-order residual. 5 % of the
-problems start 1e-5 rad inside ``panda_joint4``'s upper limit (δ moving that joint only, inwards) so wqp's limits bind there and
-the batch calls the QP backend for them, as the loop does. Fixed seed: every method solves the same 1000 problems.
+problems start 1e-5 rad inside ``panda_joint4``'s upper limit (δ moving that joint only, inwards) so wqp's limits
+bind there and the batch calls the QP backend for them, as the loop does. Fixed seed: every method solves the
+same 1000 problems.
 
 A "step" of these cases is one call resolving all 1000; ``median_us``/``p90_us`` are per call and
 ``problems_per_s`` = 1000 / median. ``max_task_error`` is the largest pose error after the step over the 1000

@@ -304,7 +304,9 @@ class BenchResult:
                 "not measured (or FAILED)" if speed is None
                 else f"{b.problems_per_s:.0f} vs {lo.problems_per_s:.0f} problems/s"  # type: ignore[union-attr]
             )  # fmt: skip
-            add(f"{batch_case.ROBOT_KEY}: {res} batch ≥ 10 × the loop's problems/s", speed, 10.0, "ratio", detail, "min")
+            add(
+                f"{batch_case.ROBOT_KEY}: {res} batch ≥ 10 × the loop's problems/s", speed, 10.0, "ratio", detail, "min"
+            )
         return out
 
 
@@ -412,7 +414,7 @@ def _plan(r: AnyRunner, config: BenchConfig) -> tuple[int, int]:
     if isinstance(r, batch_case.BatchRunner):
         return BATCH_WARMUP, config.batch_steps
     f = r.scenario.step_factor
-    return max(int(round(config.warmup * f)), 1 if config.warmup else 0), max(int(round(config.steps * f)), 1)
+    return max(round(config.warmup * f), 1 if config.warmup else 0), max(round(config.steps * f), 1)
 
 
 # ---------------------------------------------------------------------------------------------------------- running
@@ -468,7 +470,9 @@ def run_benchmark(config: BenchConfig, log: Callable[[str], None] = print) -> Be
     return BenchResult(cases, skipped, meta)
 
 
-def _profile(runners: list[AnyRunner], cases: list[CaseResult], config: BenchConfig, log: Callable[[str], None]) -> None:
+def _profile(
+    runners: list[AnyRunner], cases: list[CaseResult], config: BenchConfig, log: Callable[[str], None]
+) -> None:
     """The per-stage profile of redundik's methods (separate probed steps, round-robin) into ``stages_us``."""
     log(f"profiling redundik's methods ({config.profile_steps} steps each, round-robin)")
     prof = [(r, c) for r, c in zip(runners, cases, strict=True) if isinstance(r, RedundikRunner)]
@@ -573,6 +577,7 @@ def _summarise_batch(r: batch_case.BatchRunner, warmup: int, defaults: dict[str,
 def summarise(r: Runner, warmup: int = 0, defaults: dict[str, str] | None = None) -> CaseResult:
     """The :class:`CaseResult` of a runner that has run (timings after ``warmup`` steps), with its status."""
     return _summarise(r, warmup, defaults or {})
+
 
 def case_status(c: CaseResult) -> str:
     """``"ok"``, or ``"failed: "`` and every reason, for a case whose numbers cannot be compared honestly:

@@ -139,7 +139,7 @@ class PlacoRunner(_PeerRunner):
 
     def run(self, steps: int) -> None:
         """One chunk in the worker, then the common ruler on each configuration it returned."""
-        sc, rec = self.scenario, self.record
+        sc = self.scenario
         ts = [(self.k + i) * sc.dt for i in range(steps)]
         targets = []
         for t in ts:

@@ -56,8 +56,8 @@ def markdown(result: BenchResult, command: str = "") -> str:
     m = result.meta
     lines += [
         f"{m['steps']} timed steps per case after {m['warmup']} warm-up steps (fewer on the slow snakes; the batch "
-        f"case {m.get('batch_steps', '–')} calls of its problems), round-robin in chunks of {m['chunk']}; Python {m['python']} on {m['platform']} ({m['processor']}); wall time "
-        f"{m['wall_time_s']:.0f} s.",
+        f"case {m.get('batch_steps', '–')} calls of its problems), round-robin in chunks of {m['chunk']}; "
+        f"Python {m['python']} on {m['platform']} ({m['processor']}); wall time {m['wall_time_s']:.0f} s.",
         "",
         "| robot | method | backend | median µs | p90 µs | × faster peer | max task error | subtask (final) "
         "| limit viol. | fallbacks | status |",
@@ -127,7 +127,8 @@ def batch_table(result: BenchResult) -> list[str]:
         "",
         f"Batch ({cases[0].extra.get('problems', '?')} Panda pose problems per call):",
         "",
-        "| method | backend | median µs per call | p90 µs | problems/s | QP called | max task error | vs loop | status |",
+        "| method | backend | median µs per call | p90 µs | problems/s | QP called | max task error | vs loop "
+        "| status |",
         "|---|---|---:|---:|---:|---:|---:|---:|---|",
     ]
     for c in sorted(cases, key=lambda c: BATCH_METHODS.index(c.method)):
@@ -196,7 +197,9 @@ def readme_table(result: BenchResult) -> str:
             else:
                 c = result.default(robot, method) or result.find(robot, method)[0]
             shown.append(id(c))
-            ratio = "–" if peer is None or not c.ok or method in BATCH_METHODS else f"{c.median_us / peer.median_us:.2f}"
+            ratio = (
+                "–" if peer is None or not c.ok or method in BATCH_METHODS else f"{c.median_us / peer.median_us:.2f}"
+            )
             pps = "" if c.problems_per_s is None else f" ({c.problems_per_s:.0f} problems/s)"
             lines.append(
                 f"| {robot} | {method} | {c.backend} | {_num(c.median_us, 0)}{pps} | {ratio} | "
@@ -237,7 +240,8 @@ def plot(result: BenchResult, path: str | Path) -> Path:
     colors = {"pinv": "C0", "feedback": "C1", "wqp": "C2", "hqp": "C3", "mink": "C7", "pink": "C8", "placo": "C4"}
     for ax, robot in zip(axes[:, 0], robots, strict=True):
         cs = sorted(
-            [c for c in result.cases if c.robot == robot and c.median_us > 0], key=lambda c: (order[c.method], c.median_us)
+            [c for c in result.cases if c.robot == robot and c.median_us > 0],
+            key=lambda c: (order[c.method], c.median_us),
         )
         y = list(range(len(cs)))
         med = [c.median_us for c in cs]

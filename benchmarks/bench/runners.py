@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from redundik.kinematics.model import RobotModel
 from benchmarks.bench.scenarios import POSTURE_GAIN, POSTURE_WEIGHT, Scenario, urdf_path
+from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver
 from redundik.resolvers.registry import make_resolver
 from redundik.tasks.base import Barrier, Potential, Task, TaskTerm
