@@ -240,12 +240,14 @@ class BenchResult:
         for n in SNAKE_SIZES:
             c = _ok(self.default(f"snake{n}", method))
             if c is not None and c.median_us > 0:
-                pts.append((n, c.median_us, c.p90_us / c.median_us))
+                pts.append((n, c.median_us, c.p90_us, c.qp_fraction))
         out: dict[str, Any] = {"method": method, "n": [p[0] for p in pts], "median_us": [p[1] for p in pts]}
-        out["p90_over_median"] = [p[2] for p in pts]
-        out["exponent"] = (
-            float(np.polyfit(np.log([p[0] for p in pts]), np.log([p[1] for p in pts]), 1)[0]) if len(pts) >= 2 else None
-        )
+        out["p90_us"] = [p[2] for p in pts]
+        out["p90_over_median"] = [p[2] / p[1] for p in pts]
+        out["qp_fraction"] = [p[3] for p in pts]
+        logn = np.log([p[0] for p in pts])
+        out["exponent"] = float(np.polyfit(logn, np.log(out["median_us"]), 1)[0]) if len(pts) >= 2 else None
+        out["exponent_p90"] = float(np.polyfit(logn, np.log(out["p90_us"]), 1)[0]) if len(pts) >= 2 else None
         return out
 
     def targets(self) -> list[dict[str, Any]]:
@@ -290,6 +292,8 @@ class BenchResult:
         for method in ("wqp", "hqp"):
             fit = self.snake_fit(method)
             sizes = ", ".join(f"n={n}: {m:.0f} µs" for n, m in zip(fit["n"], fit["median_us"], strict=True))
+            if fit["exponent_p90"] is not None:
+                sizes += f" (p90 grows as n^{fit['exponent_p90']:.2f})"
             add(f"snake: {method} growth exponent ≤ 1.3", fit["exponent"], 1.3, "exponent", sizes or "not measured")
         for method in ("pinv", "wqp", "hqp"):
             fit = self.snake_fit(method)

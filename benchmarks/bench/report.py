@@ -159,19 +159,30 @@ def snake_table(result: BenchResult) -> list[str]:
     sizes = sorted({n for f in fits for n in f["n"]})
     if not sizes:
         return []
-    lines = ["", "Snake scaling (median µs per step, p90/median in brackets; exponent b of median ∝ nᵇ):", ""]
-    lines += ["| method | " + " | ".join(f"n = {n}" for n in sizes) + " | exponent |"]
-    lines += ["|---|" + "---:|" * len(sizes) + "---:|"]
+    lines = [
+        "",
+        "Snake scaling (median µs per step, p90/median and the fraction of steps that called the QP backend in "
+        "brackets; exponent b of median ∝ nᵇ, and of p90):",
+        "",
+    ]
+    lines += ["| method | " + " | ".join(f"n = {n}" for n in sizes) + " | exponent | exponent of p90 |"]
+    lines += ["|---|" + "---:|" * len(sizes) + "---:|---:|"]
     for f in fits:
         cells = []
         for n in sizes:
             if n in f["n"]:
                 i = f["n"].index(n)
-                cells.append(f"{f['median_us'][i]:.0f} ({f['p90_over_median'][i]:.2f})")
+                qp = f["qp_fraction"][i]
+                cells.append(
+                    f"{f['median_us'][i]:.0f} ({f['p90_over_median'][i]:.2f}"
+                    + ("" if qp is None else f"; QP {100 * qp:.0f} %")
+                    + ")"
+                )
             else:
                 cells.append("–")
         exp = "–" if f["exponent"] is None else f"{f['exponent']:.2f}"
-        lines.append(f"| {f['method']} | " + " | ".join(cells) + f" | {exp} |")
+        exp90 = "–" if f["exponent_p90"] is None else f"{f['exponent_p90']:.2f}"
+        lines.append(f"| {f['method']} | " + " | ".join(cells) + f" | {exp} | {exp90} |")
     return lines
 
 
