@@ -74,7 +74,7 @@ def test_every_method_runs_on_every_robot(tiny) -> None:
         "talos": {"pinv", "feedback", "wqp", "hqp"} | peers,
         "snake10": {"pinv", "wqp", "hqp"},
         "panda_batch1000": set(BATCH_METHODS),
-        "panda_shelf": {"wqp"},
+        "panda_shelf": {"wqp"} | ({"pink"} if PEERS_INSTALLED else set()),
     }
     for robot, methods in expected.items():
         ran = {c.method for c in result.cases if c.robot == robot}

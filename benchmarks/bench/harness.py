@@ -18,7 +18,7 @@ import numpy as np
 
 from benchmarks.bench import batch as batch_case
 from benchmarks.bench.placo_peer import PlacoRunner, find_placo_python
-from benchmarks.bench.runners import MinkRunner, PinkRunner, RedundikRunner, Runner
+from benchmarks.bench.runners import MinkRunner, PinkRunner, PinkShelfRunner, RedundikRunner, Runner
 from benchmarks.bench.scenarios import SCENARIOS, SNAKE_SIZES
 from redundik.errors import ConfigError, RedundikError
 from redundik.peers._deps import available
@@ -404,11 +404,22 @@ def build_cases(
                         runners.append(MinkRunner(sc, b) if method == "mink" else PinkRunner(sc, b))
                     except Exception as exc:  # a peer that cannot be set up is reported, not fatal
                         skipped.append(f"{key}/{method}/{b}: {type(exc).__name__}: {exc}")
-        if key == "panda_shelf" and any(m in config.methods for m in PEERS):
-            skipped.append(
-                "panda_shelf/mink, panda_shelf/pink: not set up (the same capsules and obstacles would have to be "
-                "rebuilt as MuJoCo geoms / a pink barrier; see docs/benchmark.md)"
-            )
+        if key == "panda_shelf":
+            if "pink" in config.methods and available("pink"):
+                import qpsolvers
+
+                for b in config.peer_backends:
+                    if b not in qpsolvers.available_solvers:
+                        continue
+                    try:
+                        runners.append(PinkShelfRunner(sc, b))
+                    except Exception as exc:  # a peer that cannot be set up is reported, not fatal
+                        skipped.append(f"panda_shelf/pink/{b}: {type(exc).__name__}: {exc}")
+            if "mink" in config.methods:
+                skipped.append(
+                    "panda_shelf/mink: not set up (its CollisionAvoidanceLimit needs redundik's fitted capsules and "
+                    "obstacles rebuilt as MuJoCo geoms; see docs/benchmark.md)"
+                )
         log(f"  {key}: {len(runners) - n_before} cases")
     return runners, skipped, {f"{k[0]}/{k[1]}": v for k, v in defaults.items()}
 

@@ -416,3 +416,88 @@ class PinkRunner(_PeerRunner):
         )
         t1 = _ns()
         return t1 - t0, self.jmap.to_robot_q(self.conf.integrate(v, dt))
+
+
+class PinkShelfRunner(_PeerRunner):
+    """pink on ``panda_shelf``: the same collision geometry as redundik's world (its fitted capsules, the four
+    obstacles and its 60 candidate pairs, as a Pinocchio ``GeometryModel``) under pink's ``SelfCollisionBarrier``.
+
+    What is matched and what is pink's own:
+
+    * geometry and pairs: identical (a copy of :attr:`CollisionWorld.geometry` with the world's pairs);
+    * the barrier: pink's control-barrier function ḣ ≥ −γ h on h = d − d_min, with γ = ξ/(d_i − d_s) and
+      d_min = d_s, is redundik's velocity damper ḋ ≥ −ξ (d − d_s)/(d_i − d_s) written the other way round; pink
+      applies it to every pair at every step (redundik only within d_i plus a look-ahead, where it binds), and its
+      "safe displacement" cost is off (``safe_displacement_gain=0``: an extra regularisation towards a backup
+      motion that redundik's stack does not have, and with it pink's hand stalls 1.8 cm short of the target);
+    * the hand: pink's dead-beat ``FrameTask`` (gain 1) towards T_eff = the pose our K = 5/s + feed-forward task
+      asks for one step ahead (position p + Δp_d + K·dt·(p_d − p), rotation likewise), computed outside the timed
+      region (which favours pink);
+    * posture: ``PostureTask`` to the task file's centre with α = K_p·dt, cost √ρ (ρ = wqp's level ratio);
+    * limits: configuration and velocity limits.
+    """
+
+    method = "pink"
+
+    def _build(self) -> None:
+        import pinocchio as pin
+
+        from redundik.peers._deps import require
+        from redundik.peers.joint_map import JointMap
+
+        pink = require("pink")
+        self.pink, self.pin = pink, pin
+        sc = self.scenario
+        world = sc.world  # type: ignore[attr-defined]
+        self.model = pin.Model(sc.runner_robot().model)  # type: ignore[misc]
+        self.data = self.model.createData()
+        self.jmap = JointMap.from_pinocchio(self.robot, self.model)
+        gm = world.geometry.copy()
+        for i, j in world.pairs:
+            gm.addCollisionPair(pin.CollisionPair(int(i), int(j)))
+        self.geometry = gm
+        self.geometry_data = pin.GeometryData(gm)
+        avoid = sc.avoid  # type: ignore[attr-defined]
+        self.barrier = pink.barriers.SelfCollisionBarrier(
+            n_collision_pairs=len(world.pairs), gain=avoid.gamma, safe_displacement_gain=0.0, d_min=avoid.safety
+        )
+        self.hand = pink.tasks.FrameTask(sc.frames[0].frame, position_cost=1.0, orientation_cost=1.0, gain=1.0)
+        self.posture = pink.tasks.PostureTask(cost=float(np.sqrt(sc.level_ratio)), gain=sc.posture_gain * sc.dt)  # type: ignore[attr-defined]
+        self.tasks: list[Any] = [self.hand, self.posture]
+        self.conf = pink.Configuration(
+            self.model, self.data, self.jmap.to_peer_q(self.q), collision_model=gm, collision_data=self.geometry_data
+        )
+        self.limits: list[Any] = [self.model.configuration_limit, self.model.velocity_limit]
+        self.gain = float(sc.frame_gain or 1.0 / sc.dt)
+        logging.getLogger().setLevel(logging.ERROR)
+
+    def _reset_peer(self) -> None:
+        self.conf.update(self.jmap.to_peer_q(self.q))
+        self.posture.set_target(self.jmap.to_peer_q(self.scenario.posture_center))  # type: ignore[attr-defined]
+
+    def _target(self, t: float) -> Any:
+        """T_eff: the pose one step ahead that redundik's feed-forward + K task asks for (module docstring)."""
+        pin, dt, k = self.pin, self.scenario.dt, self.gain
+        ref = self.refs[0].trajectory
+        now, _ = ref.sample(t)
+        nxt, _ = ref.sample(t + dt)
+        self.robot.update(self.q)
+        cur = self.robot.frame_pose(self.scenario.frames[0].frame)
+        p = cur.translation + (nxt.translation - now.translation) + k * dt * (now.translation - cur.translation)
+        R_err = pin.exp3(k * dt * pin.log3(now.rotation @ cur.rotation.T))
+        R = (nxt.rotation @ now.rotation.T) @ R_err @ cur.rotation
+        return pin.SE3(R, p)
+
+    def _step(self, t: float) -> tuple[int, np.ndarray]:
+        dt = self.scenario.dt
+        target = self._target(t)  # untimed: the reference re-expressed as pink's dead-beat target
+        q_peer = self.jmap.to_peer_q(self.q)
+        t0 = _ns()
+        self.conf.update(q_peer)
+        self.hand.set_target(target)
+        v = self.pink.solve_ik(
+            self.conf, self.tasks, dt, solver=self.backend, damping=1e-12, limits=self.limits,
+            barriers=[self.barrier], safety_break=False,
+        )  # fmt: skip
+        t1 = _ns()
+        return t1 - t0, self.jmap.to_robot_q(self.conf.integrate(v, dt))

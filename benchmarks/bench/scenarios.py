@@ -51,7 +51,7 @@ import numpy as np
 from redundik.kinematics.dh import DHRow, from_dh
 from redundik.kinematics.model import RobotModel
 from redundik.kinematics.urdf import EXAMPLE_ROBOTS, example_robot_data_dir, load_example_robot
-from redundik.tasks.base import Potential, Task, TaskTerm
+from redundik.tasks.base import Barrier, Potential, Task, TaskTerm
 from redundik.tasks.frame import FrameTask
 from redundik.tasks.potentials import Clearance, JointCentering, JointSine2
 from redundik.tasks.stack import TaskStack
@@ -482,6 +482,13 @@ def panda_shelf_scenario() -> Scenario:
         all_backends=False,
     )
     sc.runner_robot = lambda: base
+    # for pink's barrier on the same geometry (runners.PinkShelfRunner)
+    avoid = next(s.source for s in run.stack.subtasks if isinstance(getattr(s, "source", None), Barrier))
+    posture = next(s for s in run.stack.subtasks if isinstance(s, GradientSubtask))
+    sc.world, sc.avoid = plan.world, avoid  # type: ignore[attr-defined]
+    sc.posture_center = np.asarray(posture.potential.center, dtype=float)  # type: ignore[attr-defined]
+    sc.posture_gain = -float(posture.gain)  # type: ignore[attr-defined]
+    sc.level_ratio = float(getattr(run.resolver, "level_ratio", 1e-4))  # type: ignore[attr-defined]
     sc.pairs = plan.world.n_pairs  # type: ignore[attr-defined]
     sc.final_tolerance = ERROR_TOLERANCE
     sc.frame_gain = float(hand.gain)
