@@ -74,7 +74,7 @@ def test_every_method_runs_on_every_robot(tiny) -> None:
         "talos": {"pinv", "feedback", "wqp", "hqp"} | peers,
         "snake10": {"pinv", "wqp", "hqp"},
         "panda_batch1000": set(BATCH_METHODS),
-        "panda_shelf": {"wqp"} | ({"pink"} if PEERS_INSTALLED else set()),
+        "panda_shelf": {"wqp"} | peers,
     }
     for robot, methods in expected.items():
         ran = {c.method for c in result.cases if c.robot == robot}
@@ -84,8 +84,6 @@ def test_every_method_runs_on_every_robot(tiny) -> None:
         assert len(qp) >= 2 and "osqp" in qp  # every installed backend, osqp at least among them
         assert sum(c.default_backend for c in result.cases if c.robot == robot and c.method == "wqp") == 1
     assert len([c for c in result.cases if c.robot == "snake10" and c.method == "wqp"]) == 1  # default backend only
-    if PEERS_INSTALLED:
-        assert any(s.startswith("panda_shelf/mink") for s in result.skipped)  # said, not silently left out
 
 
 def test_records_are_complete_and_finite(tiny) -> None:

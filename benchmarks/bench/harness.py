@@ -18,7 +18,14 @@ import numpy as np
 
 from benchmarks.bench import batch as batch_case
 from benchmarks.bench.placo_peer import PlacoRunner, find_placo_python
-from benchmarks.bench.runners import MinkRunner, PinkRunner, PinkShelfRunner, RedundikRunner, Runner
+from benchmarks.bench.runners import (
+    MinkRunner,
+    MinkShelfRunner,
+    PinkRunner,
+    PinkShelfRunner,
+    RedundikRunner,
+    Runner,
+)
 from benchmarks.bench.scenarios import SCENARIOS, SNAKE_SIZES
 from redundik.errors import ConfigError, RedundikError
 from redundik.peers._deps import available
@@ -404,22 +411,22 @@ def build_cases(
                         runners.append(MinkRunner(sc, b) if method == "mink" else PinkRunner(sc, b))
                     except Exception as exc:  # a peer that cannot be set up is reported, not fatal
                         skipped.append(f"{key}/{method}/{b}: {type(exc).__name__}: {exc}")
-        if key == "panda_shelf":
-            if "pink" in config.methods and available("pink"):
-                import qpsolvers
+        if key == "panda_shelf":  # the peers on the same collision geometry (runners.PinkShelfRunner/MinkShelfRunner)
+            import qpsolvers
 
+            for method, cls in (("mink", MinkShelfRunner), ("pink", PinkShelfRunner)):
+                if method not in config.methods:
+                    continue
+                if not (available(method) and (method != "mink" or available("mujoco"))):
+                    skipped.append(f"{key}/{method}: not installed (install redundik[peers])")
+                    continue
                 for b in config.peer_backends:
                     if b not in qpsolvers.available_solvers:
                         continue
                     try:
-                        runners.append(PinkShelfRunner(sc, b))
+                        runners.append(cls(sc, b))
                     except Exception as exc:  # a peer that cannot be set up is reported, not fatal
-                        skipped.append(f"panda_shelf/pink/{b}: {type(exc).__name__}: {exc}")
-            if "mink" in config.methods:
-                skipped.append(
-                    "panda_shelf/mink: not set up (its CollisionAvoidanceLimit needs redundik's fitted capsules and "
-                    "obstacles rebuilt as MuJoCo geoms; see docs/benchmark.md)"
-                )
+                        skipped.append(f"{key}/{method}/{b}: {type(exc).__name__}: {exc}")
         log(f"  {key}: {len(runners) - n_before} cases")
     return runners, skipped, {f"{k[0]}/{k[1]}": v for k, v in defaults.items()}
 
@@ -546,6 +553,8 @@ def _summarise(r: AnyRunner, warmup: int, defaults: dict[str, str]) -> CaseResul
     if sc.key == "panda_shelf" and mon.size:
         case.extra["min_collision_distance"] = float(np.min(mon))
         case.extra["collision_pairs"] = int(getattr(sc, "pairs", 0)) or None
+    if isinstance(r, MinkShelfRunner):
+        case.extra["collision_pairs"] = r.pairs_used  # mink drops pairs of welded / parent-child bodies
     if r.method == "placo":
         case.extra["placo_version"] = getattr(r, "version", None)
         case.extra["out_of_process"] = True

@@ -501,3 +501,84 @@ class PinkShelfRunner(_PeerRunner):
         )  # fmt: skip
         t1 = _ns()
         return t1 - t0, self.jmap.to_robot_q(self.conf.integrate(v, dt))
+
+
+class MinkShelfRunner(PinkShelfRunner):
+    """mink on ``panda_shelf``: MuJoCo model of the same URDF with redundik's collision shapes added as geoms (each
+    capsule on the body carrying its link, the obstacles in the world body) and ``CollisionAvoidanceLimit`` on the
+    world's 60 pairs. mink's limit, −ḋ ≤ g·(d − d_min)/dt within the detection distance, is our damper with
+    g = γ·dt, d_min = d_s and detection distance d_i. Hand and posture as in :class:`PinkShelfRunner`."""
+
+    method = "mink"
+
+    def _build(self) -> None:
+        import coal
+        import pinocchio as pin
+
+        from redundik.peers._deps import require
+        from redundik.peers.joint_map import JointMap
+        from redundik.peers.mujoco_model import _compile, _host_body, _wxyz, add_frame_sites, strip_urdf
+
+        mink = require("mink")
+        mujoco = require("mujoco")
+        self.mink, self.pin = mink, pin
+        sc = self.scenario
+        world, avoid = sc.world, sc.avoid  # type: ignore[attr-defined]
+        spec = mujoco.MjSpec.from_string(strip_urdf(sc.urdf_file))  # type: ignore[attr-defined]
+        spec.compiler.discardvisual = False  # keep every added geom
+        add_frame_sites(spec, self.robot, [f.frame for f in sc.frames])
+        bodies = {b.name for b in spec.bodies}
+        robot = self.robot
+        robot.update(robot.neutral())
+        data = robot.data
+        names = []
+        for go in world.geometry.geometryObjects:
+            g = go.geometry
+            if isinstance(g, coal.Capsule):
+                kind, size = mujoco.mjtGeom.mjGEOM_CAPSULE, [g.radius, g.halfLength, 0.0]
+            elif isinstance(g, coal.Box):
+                kind, size = mujoco.mjtGeom.mjGEOM_BOX, list(np.asarray(g.halfSide))
+            elif isinstance(g, coal.Sphere):
+                kind, size = mujoco.mjtGeom.mjGEOM_SPHERE, [g.radius, 0.0, 0.0]
+            else:
+                raise RuntimeError(f"geometry {go.name}: {type(g).__name__} has no MuJoCo twin here")
+            name = f"rk_{go.name}"
+            if go.parentJoint == 0:
+                body, rel = spec.worldbody, go.placement
+            else:
+                host = _host_body(robot, go.parentFrame, bodies)
+                body = spec.body(robot.model.frames[host].name)
+                rel = robot.frame_pose(host).actInv(data.oMi[go.parentJoint] * go.placement)
+            body.add_geom(
+                name=name, type=kind, size=size, pos=np.asarray(rel.translation), quat=_wxyz(rel.rotation),
+                contype=1, conaffinity=1,  # mink keeps only pairs that pass this check (no simulation here)
+            )  # fmt: skip
+            names.append(name)
+        self.model = _compile(spec, sc.urdf_file)  # type: ignore[attr-defined]
+        self.jmap = JointMap.from_mujoco(self.robot, self.model)
+        self.conf = mink.Configuration(self.model)
+        pairs = [([names[i]], [names[j]]) for i, j in world.pairs]
+        self.collision = mink.CollisionAvoidanceLimit(
+            self.model, pairs, gain=avoid.gamma * sc.dt, minimum_distance_from_collisions=avoid.safety,
+            collision_detection_distance=avoid.influence,
+        )  # fmt: skip
+        self.limits: list[Any] = [mink.ConfigurationLimit(self.model), self.collision]
+        vel = {j.name: j.velocity for j in self.robot.joints if j.idx_q >= 0 and np.isfinite(j.velocity)}
+        if vel:
+            self.limits.append(mink.VelocityLimit(self.model, vel))
+        self.hand = mink.FrameTask(sc.frames[0].frame, "site", position_cost=1.0, orientation_cost=1.0, gain=1.0)
+        self.posture = mink.PostureTask(self.model, cost=float(np.sqrt(sc.level_ratio)), gain=sc.posture_gain * sc.dt)  # type: ignore[attr-defined]
+        self.tasks = [self.hand, self.posture]
+        self.gain = float(sc.frame_gain or 1.0 / sc.dt)
+        self.pairs_used = int(self.collision.max_num_contacts)
+
+    def _step(self, t: float) -> tuple[int, np.ndarray]:
+        dt = self.scenario.dt
+        target = self._target(t)  # untimed, as for pink
+        q_peer = self.jmap.to_peer_q(self.q)
+        t0 = _ns()
+        self.conf.update(q_peer)
+        self.hand.set_target(self.mink.SE3.from_matrix(target.homogeneous))
+        v = self.mink.solve_ik(self.conf, self.tasks, dt, self.backend, damping=1e-12, limits=self.limits)
+        t1 = _ns()
+        return t1 - t0, self.jmap.to_robot_q(self.conf.integrate(v, dt))

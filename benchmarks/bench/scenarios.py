@@ -486,6 +486,7 @@ def panda_shelf_scenario() -> Scenario:
     avoid = next(s.source for s in run.stack.subtasks if isinstance(getattr(s, "source", None), Barrier))
     posture = next(s for s in run.stack.subtasks if isinstance(s, GradientSubtask))
     sc.world, sc.avoid = plan.world, avoid  # type: ignore[attr-defined]
+    sc.urdf_file = str(plan.robot.urdf)  # type: ignore[attr-defined]
     sc.posture_center = np.asarray(posture.potential.center, dtype=float)  # type: ignore[attr-defined]
     sc.posture_gain = -float(posture.gain)  # type: ignore[attr-defined]
     sc.level_ratio = float(getattr(run.resolver, "level_ratio", 1e-4))  # type: ignore[attr-defined]
