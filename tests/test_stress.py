@@ -186,10 +186,10 @@ def test_hqp_levels_the_stress_run_found_hard_are_solved(backend: str) -> None:
     """Stress episodes whose hqp levels every backend once failed on although they are feasible by construction:
     joints whose box is one value (episode 14: proxsuite "primal infeasible" on a 3e-7-wide window), a slack of
     19.5 against a 1e-6 window for u (episode 25, step 9: proxsuite), a slack of 267 (episode 158, step 6: daqp
-    exit flag 4 at primal_tol 1e-10). Fallbacks there must be true infeasibility or contradiction, never a
-    backend failure."""
+    exit flag 4 at primal_tol 1e-10), a degenerate vertex, 5 rows active in 4 unknowns (episode 209, step 37:
+    daqp "infeasible"). Fallbacks there must be true infeasibility or contradiction, never a backend failure."""
     stress = _stress_module()
-    episodes = [stress.make_episode(14, 3), stress.make_episode(25, 12), stress.make_episode(158, 9)]
+    episodes = [stress.make_episode(s, k) for s, k in ((14, 3), (25, 12), (158, 9), (209, 40))]
     r = stress.run_pair("hqp", backend, episodes)
     assert r.violations == 0 and r.nans == 0
     assert r.fallbacks.get(stress.FAILURE, 0) == 0, r.first

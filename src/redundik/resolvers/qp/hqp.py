@@ -44,17 +44,17 @@ projected Jacobian lost rank while the task's own did not — an algorithmic sin
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.linalg import DampedSVD, damped_svd
-from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend
+from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, polish
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
 from redundik.resolvers.qp.limits import LimitBox
-from redundik.resolvers.qp.problem import QPProblem
+from redundik.resolvers.qp.problem import QPProblem, QPSolution
 from redundik.resolvers.qp.terms import Level, build_levels
 from redundik.tasks.base import TaskTerm
 from redundik.tasks.stack import TaskStack
@@ -233,15 +233,38 @@ class HierarchicalQPResolver(QPResolverBase):
         try:
             sol = self._solve_qp(prob)
         except SolverError:
-            # dual active-set solvers (daqp) work with P⁻¹ and can misjudge a 1e-9-regularised level as infeasible:
-            # retry once with a stronger minimum-norm regulariser (still far below the slack's unit weight)
-            diag.regularization_retry = 1
-            P[:r, :r] += (max(1e-6, 1e3 * eps) - eps) * np.eye(r)
-            sol = self._solve_qp(prob)
+            sol = self._regularized_retry(prob, r, eps, diag)
         diag.qp += 1
         diag.iterations += max(sol.iterations, 0)
         diag.backend = sol.backend
         return sol.x[:r], lsq, A
+
+    def _regularized_retry(self, prob: QPProblem, r: int, eps: float, diag: QPDiagnostics) -> QPSolution:
+        """Solve a level QP the backend refused, with a stronger minimum-norm regulariser on u.
+
+        Dual active-set solvers (daqp) work with P⁻¹ and can misjudge a level whose u-block is regularised by 1e-9
+        only as infeasible (every level below 0 is feasible by construction: u = 0, w' = 0). First ε = 1e-6, kept as
+        solved (far below the slack's unit weight); then ε = 1e-4, kept only as the verified exact optimum of the
+        level as posed (``polish`` from its active set: on a degenerate vertex of the stress run, 5 rows active in
+        4 unknowns, daqp needed it and quadprog agrees).
+        """
+        diag.regularization_retry = 1
+        last: SolverError | None = None
+        for boost, verify in ((max(1e-6, 1e3 * eps), False), (1e-4, True)):
+            P = prob.P.copy()
+            P[:r, :r] += (boost - eps) * np.eye(r)
+            try:
+                sol = self._solve_qp(replace(prob, P=P))
+            except SolverError as exc:
+                last = exc
+                continue
+            if not verify:
+                return sol
+            exact = polish(prob, sol.x)
+            if exact is not None:
+                return replace(sol, x=exact)
+        assert last is not None
+        raise last
 
     def _qp_cascade(
         self, levels: list[Level], box: LimitBox, n: int, diag: QPDiagnostics
