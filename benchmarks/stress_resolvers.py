@@ -18,6 +18,8 @@ q̇):
 * ``violations``: q̇ outside the box (beyond 1e-9), |q̇| above a velocity limit, or a joint that started inside
   its range leaving it (beyond 1e-9 rad), or one that started outside moving further out — must be 0;
 * ``nans``: a non-finite q̇ — must be 0 (and a "non-finite" fallback counts here too);
+* ``silent``: a step that reports no fallback while a bound row C q̇ ≤ d is violated beyond max(the backend's
+  tolerance, 1e-6) relative to max(1, ‖d‖∞) — a silent wrong answer, must be 0;
 * ``fallbacks`` by class:
   - ``infeasible: bound subtasks vs limits``: the bound rows C q̇ ≤ d have no solution inside the box (checked by
     a linear program) — a truly infeasible problem;
@@ -47,6 +49,7 @@ from scipy.optimize import linprog
 import redundik as rk
 from redundik.kinematics import DHRow
 from redundik.resolvers.qp import available_backends
+from redundik.resolvers.qp.backends import TOLERANCE
 from redundik.resolvers.qp.limits import JointLimits
 
 #: Tolerance of every check [rad/s for q̇, rad or m for q].
@@ -84,6 +87,8 @@ class PairResult:
     violations: int = 0
     max_violation: float = 0.0
     nans: int = 0
+    silent: int = 0
+    max_silent: float = 0.0
     fallbacks: Counter = field(default_factory=Counter)
     first: dict[str, str] = field(default_factory=dict)
     qp_steps: int = 0
@@ -98,6 +103,8 @@ class PairResult:
             "violations": self.violations,
             "max_violation": self.max_violation,
             "nans": self.nans,
+            "silent_bound_violations": self.silent,
+            "max_silent_bound_violation": self.max_silent,
             "fallbacks": dict(self.fallbacks),
             "fallback_total": int(sum(self.fallbacks.values())),
             "first_fallback_per_class": self.first,
@@ -267,6 +274,15 @@ def run_pair(resolver: str, backend: str, episodes: list[Episode]) -> PairResult
             if not np.all(np.isfinite(dq)):
                 out.nans += 1
                 break
+            if step.fallback is None and stack.bound_subtasks:
+                # no fallback reported: every bound row must hold (within the backend's accuracy), else the step
+                # was a silent wrong answer
+                C, d = _bound_rows(robot, stack, ep.dt)
+                over = float(np.max(C @ dq - d, initial=0.0))
+                if over > max(TOLERANCE[backend], 1e-6) * max(1.0, float(np.max(np.abs(d), initial=0.0))):
+                    out.silent += 1
+                    out.max_silent = max(out.max_silent, over)
+                    out.first.setdefault("silent", f"episode {ep.seed} step {k}: bound rows violated by {over:.3g}")
             if step.fallback is not None:
                 C, d = _bound_rows(robot, stack, ep.dt)
                 note = None
@@ -304,6 +320,7 @@ def run(steps_per_pair: int, episode_steps: int = 50, backends: list[str] | None
             r = run_pair(resolver, backend, episodes)
             log(
                 f"{resolver:>4}/{backend:<10} steps {r.steps:>7}  violations {r.violations}  nans {r.nans}  "
+                f"silent {r.silent}  "
                 f"fallbacks {dict(r.fallbacks) or 0}  QP steps {r.qp_steps}  ({r.wall_s:.0f} s)"
             )
             results.append(r)
@@ -321,8 +338,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     results = run(args.steps, args.episode, args.backends, seed=args.seed)
     total = sum(r.steps for r in results)
-    bad = sum(r.violations + r.nans + r.fallbacks.get(FAILURE, 0) for r in results)
-    print(f"total steps {total}; violations + NaNs + backend failures = {bad}")
+    bad = sum(r.violations + r.nans + r.silent + r.fallbacks.get(FAILURE, 0) for r in results)
+    print(f"total steps {total}; violations + NaNs + silent bound violations + backend failures = {bad}")
     if args.json is not None:
         args.json.parent.mkdir(parents=True, exist_ok=True)
         args.json.write_text(json.dumps({"pairs": [r.as_json() for r in results], "total_steps": total}, indent=2))

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import redundik as rk
-from redundik.errors import ResolverError
+from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.urdf import EXAMPLE_ROBOTS, example_robot_data_dir, from_urdf
 from redundik.resolvers.divergence import ERROR_STREAK, DivergenceWarning
 from redundik.resolvers.linalg import damped_svd
@@ -176,6 +176,7 @@ def test_small_stress_run_every_backend() -> None:
     for r in results:
         assert r.steps == 200
         assert r.violations == 0 and r.nans == 0, (r.resolver, r.backend, r.max_violation)
+        assert r.silent == 0, (r.resolver, r.backend, r.first)
         assert r.fallbacks.get(stress.FAILURE, 0) == 0, (r.resolver, r.backend, r.first)
         assert set(r.fallbacks) <= {stress.INFEASIBLE, stress.CONTRADICTED, stress.FAILURE}
     assert any(r.fallbacks for r in results)  # the episodes do contain infeasible problems (the counts are real)
@@ -228,3 +229,22 @@ def test_damped_svd_of_a_matrix_without_columns() -> None:
 
     d = damped_svd(np.zeros((3, 0)), epsilon=1e-2, max_damping=5e-2)
     assert d.solve(np.ones(3)).shape == (0,) and d.null_basis.shape == (0, 0) and d.rank == 0
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_primal_infeasible_qp_is_never_returned_as_solved(backend: str) -> None:
+    """The box 1.6 ≤ x₀ ≤ 1.6 against the row x₀ + x₁ ≤ −2 with |x₁| ≤ 0.1: infeasible. OSQP's answer is an
+    infeasibility certificate (‖x‖ ≈ 1e9); verified on its scale, the polish accepted a point 1.3 outside (a
+    silent wrong answer in the stress run's episode 161, where wqp then reported no fallback)."""
+    lb, ub = np.array([1.6, -0.1, -1.0]), np.array([1.6, 0.1, 1.0])
+    G, h = np.array([[1.0, 1.0, 0.0]]), np.array([-2.0])
+    prob = QPProblem(np.eye(3), np.zeros(3), G, h, np.zeros((0, 3)), np.zeros(0), lb, ub, "infeasible")
+    with pytest.raises(SolverError):
+        make_backend(backend).solve(prob)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_wqp_reports_the_relaxation_of_an_infeasible_bound_on_every_backend(backend: str) -> None:
+    stress = _stress_module()
+    r = stress.run_pair("wqp", backend, [stress.make_episode(161, 1)])
+    assert r.fallbacks.get(stress.INFEASIBLE, 0) == 1 and r.violations == 0, (r.fallbacks, r.first)

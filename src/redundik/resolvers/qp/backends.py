@@ -136,9 +136,12 @@ def polish(problem: QPProblem, x: np.ndarray | None, tol: float = 1e-9, rounds: 
             s2 = max(1.0, float(np.max(np.abs(sol))))
             if np.max(np.abs(K @ sol - rhs)) > tol * s2 * k_scale:
                 break  # inconsistent active set: try the next δ
-            over = C @ xs - d > tol * scale
+            # verified on the scale of the candidate, never of the iterate: an infeasibility certificate (OSQP's
+            # iterate of ‖x‖ = 2e9 on a primal-infeasible wqp step) would otherwise excuse violations of 2
+            vscale = max(1.0, float(np.max(np.abs(xs), initial=0.0)))
+            over = C @ xs - d > tol * vscale
             neg = lam < -tol * s2
-            if e and np.max(np.abs(A @ xs - b)) > tol * scale:
+            if e and np.max(np.abs(A @ xs - b)) > tol * vscale:
                 break
             if not over.any() and not neg.any():
                 return xs
@@ -150,7 +153,8 @@ def polish(problem: QPProblem, x: np.ndarray | None, tol: float = 1e-9, rounds: 
 
 
 #: Largest constraint violation of a stalled iterate that an iterative backend may still return, relative to
-#: max(1, ‖x‖∞) [unit of x]: the iteration limit on a degenerate but feasible QP leaves ADMM / ProxQP within their
+#: max(1, the largest finite bound or right-hand side of the problem) [unit of x] (not to ‖x‖∞: an infeasibility
+#: certificate is huge): the iteration limit on a degenerate but feasible QP leaves ADMM / ProxQP within their
 #: accuracy of the optimum (osqp 1e-4, proxsuite 1e-6, see :data:`TOLERANCE`); the resolvers clip q̇ to the joint
 #: limits afterwards in any case.
 ITERATE_VIOLATION = 1e-6
@@ -174,7 +178,9 @@ def _stalled(problem: QPProblem, x: np.ndarray | None) -> np.ndarray | None:
         float(np.max(problem.lb - x, initial=0.0)),
         float(np.max(x - problem.ub, initial=0.0)),
     )
-    return x if viol <= ITERATE_VIOLATION * max(1.0, float(np.max(np.abs(x), initial=0.0))) else None
+    data = np.concatenate([h, b, problem.lb, problem.ub])
+    data = data[np.isfinite(data)]
+    return x if viol <= ITERATE_VIOLATION * max(1.0, float(np.max(np.abs(data), initial=0.0))) else None
 
 
 class DaqpBackend(Backend):
