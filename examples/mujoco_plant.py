@@ -18,9 +18,9 @@ import time
 import numpy as np
 
 import redundik as rk
-from redundik.config.schema import PlantSpec
 from redundik.kinematics import EXAMPLE_ROBOTS, example_robot_data_dir
 from redundik.simulation.mujoco_plant import MujocoPlant
+from redundik.simulation.plant import PlantOptions
 
 DT = 0.005  # control period [s]
 TICKS = 800  # 4 s: two turns
@@ -56,7 +56,7 @@ def run(plant: MujocoPlant | None, viewer: object | None = None) -> tuple[float,
 def main(argv: list[str]) -> int:
     robot = rk.load_example_robot("panda")
     urdf = example_robot_data_dir() / EXAMPLE_ROBOTS["panda"][0]
-    spec = PlantSpec(type="mujoco", actuator="position", kp=2000.0, kv=100.0, sim_dt=0.001)
+    spec = PlantOptions(type="mujoco", actuator="position", kp=2000.0, kv=100.0, sim_dt=0.001)
     plant = MujocoPlant(robot, urdf, spec, control_dt=DT)
     viewer = None
     if "--view" in argv:

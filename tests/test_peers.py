@@ -24,13 +24,13 @@ from redundik.peers.mink_tasks import (  # noqa: E402 - after the skips
     MinkPotentialTask,
     MinkVirtualPointTask,
 )
-from redundik.peers.mujoco_model import mujoco_from_robot, mujoco_from_urdf  # noqa: E402
 from redundik.peers.pink_tasks import (  # noqa: E402
     PinkBestPostureTask,
     PinkManipulabilityTask,
     PinkPotentialTask,
     PinkVirtualPointTask,
 )
+from redundik.simulation.mujoco_model import mujoco_from_robot, mujoco_from_urdf  # noqa: E402
 
 pytestmark = pytest.mark.peers
 

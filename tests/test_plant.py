@@ -107,3 +107,27 @@ def test_core_imports_no_mujoco_and_no_viewer() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == ""
+
+
+def test_plant_options_are_a_plain_record_checked_in_the_constructor() -> None:
+    from redundik.config.schema import PlantSpec
+    from redundik.simulation.plant import PlantOptions
+
+    options = PlantSpec(type="mujoco", actuator="velocity", kv={"panda_joint1": 50.0}).options()
+    assert options == PlantOptions(actuator="velocity", kv={"panda_joint1": 50.0})
+    assert not hasattr(options, "model_dump")  # the library's record, not the YAML model
+    with pytest.raises(ConfigError, match=r"actuator: actuator must be one of position, velocity, got 'torque'"):
+        PlantOptions(actuator="torque")
+    with pytest.raises(ConfigError, match=r"sim_dt: sim_dt must be a finite number > 0 \[s\], got 0.0"):
+        PlantOptions(sim_dt=0.0)
+    with pytest.raises(ConfigError, match=r"unknown plant type 'gazebo'; available: mujoco"):
+        PlantOptions(type="gazebo")
+
+
+def test_a_mujoco_plant_refuses_a_dh_robot() -> None:
+    import redundik as rk
+    from redundik.simulation.plant import PlantOptions, make_plant
+
+    robot = rk.from_dh([rk.DHRow("1", a=1.0), rk.DHRow("2", a=1.0)])
+    with pytest.raises(ConfigError, match=r"runs.a.plant: a MuJoCo plant needs a URDF robot"):
+        make_plant(PlantOptions(), robot, None, control_dt=0.01, where="runs.a.plant")

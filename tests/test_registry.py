@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 import yaml
 
-import redundik.robots as robots_pkg
 import redundik.tasks as tasks_pkg
 from redundik.config import load_task, run_task
 from redundik.config.builders import MONITORS, POTENTIALS, TASKS, TRAJECTORIES
@@ -25,11 +24,10 @@ from tests.conftest import TASKS as TASK_DIR
 
 def _public_types() -> list[type]:
     out = []
-    for pkg in (tasks_pkg, robots_pkg):
-        for name in pkg.__all__:
-            obj = getattr(pkg, name)
-            if inspect.isclass(obj) and issubclass(obj, (Task, Potential, Trajectory)) and not inspect.isabstract(obj):
-                out.append(obj)
+    for name in tasks_pkg.__all__:
+        obj = getattr(tasks_pkg, name)
+        if inspect.isclass(obj) and issubclass(obj, (Task, Potential, Trajectory)) and not inspect.isabstract(obj):
+            out.append(obj)
     return out
 
 

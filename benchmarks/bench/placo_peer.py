@@ -101,7 +101,7 @@ class PlacoRunner(_PeerRunner):
         super().__init__(scenario, "qpmad")
 
     def _build(self) -> None:
-        from redundik.peers.mujoco_model import strip_urdf
+        from redundik.simulation.mujoco_model import strip_urdf
 
         sc = self.scenario
         if sc.urdf is None:

@@ -309,7 +309,7 @@ class MinkRunner(_PeerRunner):
     def _build(self) -> None:
         from redundik.peers._deps import require
         from redundik.peers.joint_map import JointMap
-        from redundik.peers.mujoco_model import mujoco_from_robot, mujoco_from_urdf
+        from redundik.simulation.mujoco_model import mujoco_from_robot, mujoco_from_urdf
 
         mink = require("mink")
         self.mink = mink
@@ -517,7 +517,7 @@ class MinkShelfRunner(PinkShelfRunner):
 
         from redundik.peers._deps import require
         from redundik.peers.joint_map import JointMap
-        from redundik.peers.mujoco_model import _compile, _host_body, _wxyz, add_frame_sites, strip_urdf
+        from redundik.simulation.mujoco_model import _compile, _host_body, _wxyz, add_frame_sites, strip_urdf
 
         mink = require("mink")
         mujoco = require("mujoco")

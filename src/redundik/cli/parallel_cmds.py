@@ -199,7 +199,7 @@ def stewart_draw(
     rot: ROpt = None,
 ) -> None:
     """3-D drawing of a platform pose (PNG)."""
-    from redundik.parallel.plots import draw_stewart
+    from redundik.reporting.parallel_plots import draw_stewart
 
     platform = _load(config, "stewart").build()
     target = _out_file(out)
@@ -219,7 +219,7 @@ def stewart_animate(
 ) -> None:
     """GIF of a straight-line move between two poses (orientation by slerp)."""
     from redundik.parallel.hybrid33 import linear_path
-    from redundik.parallel.plots import animate_stewart
+    from redundik.reporting.parallel_plots import animate_stewart
 
     platform = _load(config, "stewart").build()
     ps, Rs = linear_path(_vec(p, "--p"), _rotation(rpy, None), _vec(to_p, "--to-p"), _rotation(to_rpy, None), frames)
@@ -314,7 +314,7 @@ def hybrid_path(
     import numpy as np
 
     from redundik.parallel.hybrid33 import run_path
-    from redundik.parallel.plots import plot_joint_profiles
+    from redundik.reporting.parallel_plots import plot_joint_profiles
 
     cfg = _load(config, "hybrid33")
     if cfg.home is None or cfg.destination is None:

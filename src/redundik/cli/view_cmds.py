@@ -20,6 +20,28 @@ if TYPE_CHECKING:
 
     from redundik.config.loader import TaskPlan
     from redundik.config.runner import RunResult
+    from redundik.reporting.plots import FigureOptions, LoggedRun
+
+
+def figure_inputs(plan: TaskPlan, results: dict[str, RunResult]) -> tuple[dict[str, LoggedRun], FigureOptions]:
+    """What the figures take of a task run: each run's log with its stack and labels, and the file's options."""
+    from redundik.reporting.plots import FigureOptions, LoggedRun
+
+    runs = {
+        name: LoggedRun(
+            r.log,
+            r.plan.stack,
+            label=r.plan.resolver_name,
+            watched=[*r.plan.watched, *r.plan.monitors],
+            monitors=frozenset(m.name for m in r.plan.monitors),
+            torque_monitors=[m.name for m in r.plan.torque_monitors],
+            series=r.series,
+        )
+        for name, r in results.items()
+    }
+    draw = plan.draw
+    options = FigureOptions(plan.name, draw.segments, draw.plane, draw.every, draw.path_frame, plan.potential_types)
+    return runs, options
 
 
 def output_steps(figures: bool, html: bool, gif: bool) -> list[str]:
@@ -44,11 +66,12 @@ def write_pictures(
         done: Called with each step's name once written (for a progress bar).
     """
     written: list[Path] = []
+    runs, options = figure_inputs(plan, results) if {"figures", "gif"} & set(steps) else ({}, None)
     for step in steps:
         if step == "figures":
             from redundik.reporting.plots import write_figures
 
-            written += write_figures(plan, results, out_dir)
+            written += write_figures(runs, plan.robot.model, out_dir, options)
         elif step == "html":
             from redundik.viewer.html import write_html
 
@@ -56,7 +79,7 @@ def write_pictures(
         elif step == "gif":
             from redundik.reporting.gif import write_gif
 
-            written.append(write_gif(plan, results, out_dir / f"{plan.name}.gif"))
+            written.append(write_gif(runs, plan.robot.model, out_dir / f"{plan.name}.gif", options))
         if done is not None:
             done(step)
     return written

@@ -27,11 +27,12 @@ from redundik.config.builders import (
     task_name,
 )
 from redundik.config.robot import LoadedRobot, angle_scale, configuration_from_file, load_robot
-from redundik.config.schema import MAX_STEPS, PlantSpec, RunSpec, SubtaskSpec, TaskFileSpec
+from redundik.config.schema import MAX_STEPS, RunSpec, SubtaskSpec, TaskFileSpec
 from redundik.config.yamlio import join_path, read_yaml, validate
 from redundik.errors import ConfigError, RedundikError
 from redundik.resolvers import RESOLVERS, Resolver, make_resolver
 from redundik.resolvers.base import check_gains
+from redundik.simulation.plant import PlantOptions
 from redundik.tasks import BoundSubtask, GradientSubtask, Potential, Subtask, TargetSubtask, Task, TaskStack
 
 
@@ -61,7 +62,7 @@ class RunPlan:
     watched: list[Potential] = field(default_factory=list)
     monitors: list[Potential] = field(default_factory=list)
     torque_monitors: list[TorqueMonitor] = field(default_factory=list)
-    plant: PlantSpec | None = None
+    plant: PlantOptions | None = None
     integrator: str = "euler"
     rtol: float = 1e-10
     atol: float = 1e-12
@@ -395,7 +396,8 @@ def _build_run(spec: TaskFileSpec, ctx: Context, name: str, run: RunSpec, q0_fil
         stack.evaluate(robot, 0.0)
     except RedundikError as exc:
         raise ConfigError(str(exc), path) from None
-    plant = run.plant if run.plant is not None else spec.plant
+    given = run.plant if run.plant is not None else spec.plant
+    plant = given.options() if given is not None else None
     return RunPlan(name, run.description, run.resolver, resolver, stack, q0, watched, monitors, torques, plant)
 
 

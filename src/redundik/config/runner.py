@@ -12,6 +12,7 @@ from redundik.config.loader import RunPlan, TaskPlan
 from redundik.config.world_types import world_clock, world_summary
 from redundik.errors import ConfigError, SimulationError
 from redundik.simulation import SimulationLog, simulate
+from redundik.simulation.plant import Plant
 from redundik.tasks.subtasks import TargetSubtask
 
 
@@ -84,7 +85,8 @@ def run_one(plan: TaskPlan, run: RunPlan, progress: Callable[[str, int], None] |
     if run.plant is not None:
         from redundik.simulation.plant import make_plant
 
-        plant = make_plant(run.plant, plan, f"runs.{run.name}.plant")
+        where = f"runs.{run.name}.plant"
+        plant = make_plant(run.plant, robot, plan.robot.urdf, control_dt=plan.dt, where=where)
     log = simulate(
         robot,
         run.stack,
@@ -129,10 +131,22 @@ def run_one(plan: TaskPlan, run: RunPlan, progress: Callable[[str, int], None] |
     result = RunResult(run.name, run, log, series, violation)
     result.summary = summarise(plan, result) | world_stats
     if plant is not None:
-        from redundik.simulation.plant import plant_summary
-
         result.summary.update(plant_summary(plan, run, plant, log))
     return result
+
+
+def plant_summary(plan: TaskPlan, run: RunPlan, plant: Plant, log: SimulationLog) -> dict[str, Any]:
+    """The plant's entries of a run's ``summary.json``: ``plant``, the error under the plant and, when
+    ``kinematic_reference`` is on, the same run's error with the perfect integrator (``kinematic_max_task_error``)."""
+    out: dict[str, Any] = {"plant": plant.name, **plant.summary()}
+    out["plant_max_task_error"] = log.max_task_error
+    options = run.plant
+    if options is not None and options.kinematic_reference:
+        ref = simulate(plan.robot.model, run.stack, run.resolver, run.q0, dt=plan.dt, steps=plan.steps)
+        out["kinematic_max_task_error"] = ref.max_task_error
+        out["error_ratio_plant_vs_kinematic"] = log.max_task_error / max(ref.max_task_error, 1e-15)
+        out["max_q_deviation_from_kinematic"] = float(np.max(np.abs(log.q - ref.q)))
+    return out
 
 
 def _stats(x: np.ndarray) -> dict[str, float]:

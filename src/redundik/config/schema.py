@@ -14,12 +14,15 @@ The reference of the format is ``docs/task-files.md``.
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, WithJsonSchema, model_validator
 
 from redundik.errors import short_repr
 from redundik.reporting.paths import name_problem
+
+if TYPE_CHECKING:
+    from redundik.simulation.plant import PlantOptions
 
 
 def _name(value: Any) -> Any:
@@ -172,6 +175,12 @@ class PlantSpec(StrictModel):
     effort_limits: bool = True
     armature: float = Field(default=0.1, ge=0)
     kinematic_reference: bool = True
+
+    def options(self) -> PlantOptions:
+        """The plant's options record (:class:`redundik.simulation.plant.PlantOptions`)."""
+        from redundik.simulation.plant import PlantOptions  # lazy: validation imports nothing numerical
+
+        return PlantOptions(**self.model_dump())
 
 
 #: Integrators of a run (:mod:`redundik.simulation.integrators`).

@@ -23,8 +23,6 @@ from redundik.config.registry import POSITIVE, As, OptVec3, configuration, joint
 from redundik.config.robot import rpy_matrix
 from redundik.errors import ConfigError
 from redundik.kinematics import AXES
-from redundik.robots.potentials import JointWaypoints
-from redundik.robots.relative import RelativePoseTask
 from redundik.tasks import (
     BestPosture,
     Circle,
@@ -35,11 +33,13 @@ from redundik.tasks import (
     JointCoupling,
     JointSine2,
     JointValue,
+    JointWaypoints,
     Line,
     Manipulability,
     PoseInterpolation,
     PostureTask,
     PotentialTask,
+    RelativePoseTask,
     VirtualPoint,
 )
 

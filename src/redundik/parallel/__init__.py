@@ -1,9 +1,10 @@
 """Parallel and hybrid mechanisms of chapter section 5.4: Stewart platforms, the 3+3 hybrid arm, Delta, mobility.
 
-The math modules import only numpy / scipy; plotting lives in :mod:`redundik.parallel.plots` and imports
-matplotlib lazily. Deviations from the printed chapter are listed in the docstrings of
-:mod:`~redundik.parallel.stewart_fk`, :mod:`~redundik.parallel.differential`, :mod:`~redundik.parallel.upr`,
-:mod:`~redundik.parallel.hybrid33` and :mod:`~redundik.parallel.mobility`.
+The math modules import only numpy / scipy; their figures live in the application layer
+(:mod:`redundik.reporting.parallel_plots`, matplotlib imported lazily), their YAML in :mod:`redundik.config.parallel`.
+Deviations from the printed chapter are listed in the docstrings of :mod:`~redundik.parallel.stewart_fk`,
+:mod:`~redundik.parallel.differential`, :mod:`~redundik.parallel.upr`, :mod:`~redundik.parallel.hybrid33` and
+:mod:`~redundik.parallel.mobility`.
 """
 
 from __future__ import annotations

@@ -3,8 +3,8 @@
 * :mod:`redundik.peers.mink_tasks` / :mod:`redundik.peers.pink_tasks`: the chapter's subtasks they lack
   (manipulability with exact gradient, best posture tr(JWJᵀ), virtual point, state-feedback-driven potentials)
   as their ``Task`` subclasses, to add to existing mink / pink stacks.
-* :mod:`redundik.peers.mujoco_model`: the same robot in MuJoCo (from its URDF, or built from a D-H model), with a
-  site per task frame.
+* ``mujoco_from_urdf`` / ``mujoco_from_robot`` (from :mod:`redundik.simulation.mujoco_model`): the same robot in
+  MuJoCo (from its URDF, or built from a D-H model), with a site per task frame.
 * :mod:`redundik.peers.joint_map`: configurations and gradients between redundik's and a peer's coordinates.
 
 Nothing here imports mink, MuJoCo or pink until asked: ``from redundik.peers import MinkPotentialTask`` raises a
@@ -28,8 +28,8 @@ _LAZY: dict[str, str] = {
     "PinkManipulabilityTask": "redundik.peers.pink_tasks",
     "PinkBestPostureTask": "redundik.peers.pink_tasks",
     "PinkVirtualPointTask": "redundik.peers.pink_tasks",
-    "mujoco_from_urdf": "redundik.peers.mujoco_model",
-    "mujoco_from_robot": "redundik.peers.mujoco_model",
+    "mujoco_from_urdf": "redundik.simulation.mujoco_model",
+    "mujoco_from_robot": "redundik.simulation.mujoco_model",
 }
 
 __all__ = ["JointMap", "PeerImportError", "PotentialTerm", "available", "require", *sorted(_LAZY)]

@@ -5,22 +5,88 @@
 * ``potentials.png``: subtask / watched potential / monitor values over time, with targets;
 * ``configurations.png``: the arm drawn every k samples with the tip path, one panel per run — the chapter's
   Figs. 5.7 and 5.8 for a planar arm (a 3-D stick drawing for spatial robots).
+
+Every figure takes the runs as :class:`LoggedRun` records (a :class:`~redundik.simulation.SimulationLog` and the
+task stack it ran; a bare log is accepted too), the robot and plain :class:`FigureOptions` — not a task file: a
+control loop written in Python draws its logs the same way ``redundik run`` does.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from redundik.config.loader import TaskPlan
-from redundik.config.runner import RunResult
+from redundik.kinematics.model import RobotModel
 from redundik.reporting.paths import safe_path
+from redundik.simulation.loop import SimulationLog
+from redundik.tasks.base import Potential
+from redundik.tasks.stack import TaskStack
 from redundik.tasks.subtasks import BoundSubtask, TargetSubtask
 
 _AXIS = {"x": 0, "y": 1, "z": 2}
+
+
+@dataclass(frozen=True)
+class LoggedRun:
+    """One run as the figures see it: its simulation log and the library objects it ran with.
+
+    Attributes:
+        log: The simulation log (t, q, task errors, potentials, frame origins).
+        stack: The task stack it ran: its frame tasks give the desired paths and the split pose errors, its
+            subtasks the kind, target and bounds drawn with each potential; ``None``: the log alone.
+        label: Shown after the run's name in panel titles (e.g. the resolver name).
+        watched: Potentials logged but not controlled (watched and monitors; clearances are drawn as obstacles).
+        monitors: Names of the logged potentials that are monitors.
+        torque_monitors: Names of the torque monitors τ = JᵀF whose ``m.NAME.max|mean|min`` are in ``series``.
+        series: Extra per-sample series by name, shape (N,).
+    """
+
+    log: SimulationLog
+    stack: TaskStack | None = None
+    label: str = ""
+    watched: Sequence[Potential] = ()
+    monitors: frozenset[str] = frozenset()
+    torque_monitors: Sequence[str] = ()
+    series: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class FigureOptions:
+    """Plain options of the figures (a task file's ``name`` and ``draw:`` entry, and its potentials' types).
+
+    Attributes:
+        title: Figure title prefix (the task name).
+        segments: Links drawn in ``configurations.png``, as (frame, frame) pairs of logged frames; none: no drawing.
+        plane: The two world axes of a planar drawing (``("x", "y")``); ``None``: found from the logged motion.
+        every: Samples between two drawn configurations; ``None``: about 20 drawings.
+        path_frame: Frame whose path is drawn (besides the frame tasks' paths).
+        kinds: Type of each potential by name, shown in the panel titles (``"clearance"``).
+    """
+
+    title: str = "run"
+    segments: Sequence[tuple[str, str]] = ()
+    plane: tuple[str, str] | None = None
+    every: int | None = None
+    path_frame: str | None = None
+    kinds: Mapping[str, str] = field(default_factory=dict)
+
+
+#: Runs by name: :class:`LoggedRun` records or bare simulation logs.
+Runs = Mapping[str, LoggedRun | SimulationLog]
+
+
+def logged_runs(runs: Runs) -> dict[str, LoggedRun]:
+    """The runs as :class:`LoggedRun` records (a bare log becomes one without a stack), in order."""
+    return {name: r if isinstance(r, LoggedRun) else LoggedRun(r) for name, r in runs.items()}
+
+
+def _subtasks(r: LoggedRun) -> list[Any]:
+    return list(r.stack.subtasks) if r.stack is not None else []
 
 
 def _plt() -> Any:
@@ -57,10 +123,10 @@ def _finish(fig: Any, path: Path) -> Path:
     return path
 
 
-def plot_joints(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Path:
+def plot_joints(runs: Runs, robot: RobotModel, path: Path, options: FigureOptions | None = None) -> Path:
     """Joint profiles: q_j(t) in degrees (revolute) or the length unit (prismatic), runs overlaid."""
     plt = _plt()
-    robot = plan.robot.model
+    results, options = logged_runs(runs), options or FigureOptions()
     joints = [j for j in robot.joints if j.idx_q >= 0]
     colors = _colors(len(results))
     shown = joints[:12]
@@ -109,19 +175,20 @@ def plot_joints(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Pa
         ax.set_xlabel("t [s]")
     axes.flat[0].legend(fontsize=8)
     more = f" (first 12 of {len(joints)})" if len(joints) > 12 else ""
-    fig.suptitle(f"{plan.name}: joint profiles{more}", fontsize=12)
+    fig.suptitle(f"{options.title}: joint profiles{more}", fontsize=12)
     return _finish(fig, path)
 
 
-def plot_task_errors(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Path:
+def plot_task_errors(runs: Runs, robot: RobotModel, path: Path, options: FigureOptions | None = None) -> Path:
     """Main-task errors on a log scale, runs overlaid: one panel per task and unit (a pose task gets a position
     panel [length unit] and an orientation panel [rad], recomputed from the logged q), so no axis mixes units."""
     plt = _plt()
-    unit = plan.robot.model.length_unit
+    results, options = logged_runs(runs), options or FigureOptions()
+    unit = robot.length_unit
     panels: dict[str, tuple[str, str]] = {}  # key → (title, y label)
     curves: dict[str, list[tuple[str, np.ndarray, np.ndarray]]] = {}
     for name, r in results.items():
-        split = split_task_errors(plan, r)
+        split = split_task_errors(robot, r)
         for tname, e in r.log.task_errors.items():
             parts = split.get(tname)
             if parts is None:
@@ -161,23 +228,26 @@ def plot_task_errors(plan: TaskPlan, results: dict[str, RunResult], path: Path) 
             ax.legend(fontsize=8)
     for ax in axes.flat[len(panels) :]:
         ax.set_visible(False)
-    fig.suptitle(f"{plan.name}: main-task error", fontsize=12)
+    fig.suptitle(f"{options.title}: main-task error", fontsize=12)
     return _finish(fig, path)
 
 
-def split_task_errors(plan: TaskPlan, r: RunResult) -> dict[str, tuple[np.ndarray | None, np.ndarray | None]]:
+def split_task_errors(
+    robot: RobotModel, r: LoggedRun | SimulationLog
+) -> dict[str, tuple[np.ndarray | None, np.ndarray | None]]:
     """Per frame task that mixes position and orientation rows: (position error norm, orientation error norm)
     at every sample, recomputed from the logged q and the task's reference; other tasks are left out."""
     from redundik.tasks.frame import FrameTask
 
-    tasks = [t for t in r.plan.stack.tasks if isinstance(t, FrameTask)]
+    r = r if isinstance(r, LoggedRun) else LoggedRun(r)
+    tasks = [t for t in (r.stack.tasks if r.stack is not None else []) if isinstance(t, FrameTask)]
     tasks = [t for t in tasks if any(a.startswith("r") for a in t.axes) and any(not a.startswith("r") for a in t.axes)]
     if not tasks:
         return {}
     import pinocchio as pin
 
     out: dict[str, tuple[np.ndarray | None, np.ndarray | None]] = {}
-    model = plan.robot.model
+    model = robot
     model.update(r.log.q[0])
     for t in tasks:
         t.reset(model)
@@ -198,15 +268,16 @@ def split_task_errors(plan: TaskPlan, r: RunResult) -> dict[str, tuple[np.ndarra
     return out
 
 
-def plot_potentials(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Path | None:
+def plot_potentials(runs: Runs, path: Path, options: FigureOptions | None = None) -> Path | None:
     """Potential and monitor values over time, runs overlaid; controlled subtasks solid, watched ones dashed."""
     plt = _plt()
+    results, options = logged_runs(runs), options or FigureOptions()
     series: list[str] = []
     for r in results.values():
         series += [k for k in r.log.potentials if k not in series]
     torque_names: list[str] = []
     for r in results.values():
-        torque_names += [m.name for m in r.plan.torque_monitors if m.name not in torque_names]
+        torque_names += [m for m in r.torque_monitors if m not in torque_names]
     panels = series + torque_names
     if not panels:
         return None
@@ -214,11 +285,11 @@ def plot_potentials(plan: TaskPlan, results: dict[str, RunResult], path: Path) -
     rows, cols = _grid(len(panels), 2)
     fig, axes = plt.subplots(rows, cols, figsize=(6.0 * cols, 3.4 * rows), squeeze=False)
     for ax, pname in zip(axes.flat, panels, strict=False):
-        kind = plan.potential_types.get(pname, "")
-        monitor = any(pname in {m.name for m in r.plan.monitors} for r in results.values())
+        kind = options.kinds.get(pname, "")
+        monitor = any(pname in r.monitors for r in results.values())
         for i, ((name, r), c) in enumerate(zip(results.items(), colors, strict=True)):
             if pname in r.log.potentials:
-                sub = next((s for s in r.plan.stack.subtasks if s.name == pname), None)
+                sub = next((s for s in _subtasks(r) if s.name == pname), None)
                 style = "-" if sub is not None or monitor else "--"
                 label = name if monitor else f"{name} (not controlled)" if sub is None else f"{name} ({sub.kind})"
                 t, p = r.log.t, r.log.potentials[pname]
@@ -245,14 +316,14 @@ def plot_potentials(plan: TaskPlan, results: dict[str, RunResult], path: Path) -
         ax.legend(fontsize=8)
     for ax in axes.flat[len(panels) :]:
         ax.set_visible(False)
-    fig.suptitle(f"{plan.name}: subtask potentials and monitors", fontsize=12)
+    fig.suptitle(f"{options.title}: subtask potentials and monitors", fontsize=12)
     return _finish(fig, path)
 
 
-def _desired_path(r: RunResult, frame: str | None) -> np.ndarray | None:
-    if frame is None:
+def _desired_path(r: LoggedRun, frame: str | None) -> np.ndarray | None:
+    if frame is None or r.stack is None:
         return None
-    for task in r.plan.stack.tasks:
+    for task in r.stack.tasks:
         traj = getattr(task, "trajectory", None)
         if getattr(task, "frame", None) == frame and traj is not None:
             try:
@@ -262,9 +333,9 @@ def _desired_path(r: RunResult, frame: str | None) -> np.ndarray | None:
     return None
 
 
-def _plane(plan: TaskPlan, results: dict[str, RunResult]) -> tuple[str, str] | None:
-    if plan.draw.plane is not None:
-        return plan.draw.plane
+def _plane(options: FigureOptions, results: Mapping[str, LoggedRun]) -> tuple[str, str] | None:
+    if options.plane is not None:
+        return options.plane
     pts = [xyz for r in results.values() for xyz in r.log.frame_positions.values()]
     if not pts:
         return None
@@ -278,18 +349,21 @@ def _plane(plan: TaskPlan, results: dict[str, RunResult]) -> tuple[str, str] | N
     return rest[0], rest[1]
 
 
-def frame_task_paths(plan: TaskPlan, r: RunResult) -> list[tuple[str, np.ndarray, np.ndarray]]:
+def frame_task_paths(robot: RobotModel, r: LoggedRun) -> list[tuple[str, np.ndarray, np.ndarray]]:
     """(frame, desired positions, actual positions) of every frame task of a run, from the logged q (≤ 1500 points)."""
-    from redundik.viewer.html import run_paths
+    from redundik.viewer.html import stack_paths
 
-    return [(p.frame, p.desired, p.actual) for p in run_paths(plan.robot.model, r.plan, r.log.t, r.log.q)]
+    if r.stack is None:
+        return []
+    return [(p.frame, p.desired, p.actual) for p in stack_paths(robot, r.stack, r.log.t, r.log.q)]
 
 
-def _draw_obstacles(ax: Any, r: RunResult, ids: list[int], spatial: bool) -> None:
+def _draw_obstacles(ax: Any, r: LoggedRun, ids: list[int], spatial: bool) -> None:
     """Round obstacles of the run's clearance potentials: circles (posts) in a plane, wire spheres / posts in 3-D."""
-    from redundik.viewer.html import run_obstacles
+    from redundik.viewer.html import clearance_obstacles
 
-    for k, ob in enumerate(run_obstacles(r.plan)):
+    potentials = [getattr(s, "potential", None) for s in _subtasks(r)] + list(r.watched)
+    for k, ob in enumerate(clearance_obstacles(potentials)):
         label = "obstacle" if k == 0 else None
         c = ob.center
         a = np.linspace(0, 2 * np.pi, 60)
@@ -327,28 +401,30 @@ def _draw_obstacles(ax: Any, r: RunResult, ids: list[int], spatial: bool) -> Non
             )
 
 
-def plot_configurations(plan: TaskPlan, results: dict[str, RunResult], path: Path) -> Path | None:
+def plot_configurations(runs: Runs, robot: RobotModel, path: Path, options: FigureOptions | None = None) -> Path | None:
     """The arm every k samples (links between logged frame origins), the tip path and the desired path.
 
-    One panel per run. Planar robots (or ``draw.plane``) are drawn in that plane, others as 3-D sticks.
+    One panel per run. Planar robots (or ``options.plane``) are drawn in that plane, others as 3-D sticks.
     """
-    segments = plan.draw.segments
+    results, options = logged_runs(runs), options or FigureOptions()
+    segments = options.segments
     if not segments:
         return None
     plt = _plt()
-    plane = _plane(plan, results)
+    plane = _plane(options, results)
     n_runs = len(results)
     rows, cols = _grid(n_runs, 2 if n_runs == 4 else 3)
     size = 5.0 if plane is not None else 5.5
     kw: dict[str, Any] = {} if plane is not None else {"subplot_kw": {"projection": "3d"}}
     fig, axes = plt.subplots(rows, cols, figsize=(size * cols, size * rows), squeeze=False, **kw)
-    unit = plan.robot.model.length_unit
+    unit = robot.length_unit
     all_pts = np.vstack([xyz for r in results.values() for xyz in r.log.frame_positions.values()])
     lo, hi = all_pts.min(axis=0), all_pts.max(axis=0)
     for ax, (name, r) in zip(axes.flat, results.items(), strict=False):
         fp = r.log.frame_positions
         n = r.log.t.shape[0]
-        every = plan.draw.every or max(1, math.ceil((n - 1) / 20))
+        every = options.every or max(1, math.ceil((n - 1) / 20))
+        dt = float(r.log.t[1] - r.log.t[0]) if n > 1 else 0.0
         idx = list(range(0, n, every))
         if idx[-1] != n - 1:
             idx.append(n - 1)
@@ -364,8 +440,8 @@ def plot_configurations(plan: TaskPlan, results: dict[str, RunResult], path: Pat
                 ax.plot(*coords, color=color, lw=lw, alpha=alpha, solid_capstyle="round")
             joints = np.array([fp[f][k] for f in dict.fromkeys([s for seg in segments for s in seg])])
             ax.plot(*[joints[:, i] for i in ids], "o", color=color, ms=3.5 if (first or last) else 2, alpha=alpha)
-        tip = plan.draw.path_frame
-        task_paths = frame_task_paths(plan, r)
+        tip = options.path_frame
+        task_paths = frame_task_paths(robot, r)
         drawn = {frame for frame, _, _ in task_paths}
         if tip is not None and tip in fp and tip not in drawn:
             ax.plot(*[fp[tip][:, i] for i in ids], color="tab:orange", lw=2.0, label=f"path of frame {tip}")
@@ -380,8 +456,8 @@ def plot_configurations(plan: TaskPlan, results: dict[str, RunResult], path: Pat
         _draw_obstacles(ax, r, ids, plane is None)
         ax.plot([], [], color="tab:blue", lw=2.4, label="t = 0")
         ax.plot([], [], color="tab:red", lw=2.4, label=f"t = {r.log.t[-1]:.3g} s")
-        ax.plot([], [], color="0.55", lw=1.0, label=f"every {every * plan.dt:.3g} s")
-        ax.set_title(f"{name} ({r.plan.resolver_name})", fontsize=10)
+        ax.plot([], [], color="0.55", lw=1.0, label=f"every {every * dt:.3g} s")
+        ax.set_title(f"{name} ({r.label})" if r.label else name, fontsize=10)
         if plane is not None:
             ax.set_xlabel(f"{plane[0]} [{unit}]")
             ax.set_ylabel(f"{plane[1]} [{unit}]")
@@ -399,19 +475,19 @@ def plot_configurations(plan: TaskPlan, results: dict[str, RunResult], path: Pat
     fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 4), fontsize=9, frameon=False)
     for ax in axes.flat[n_runs:]:
         ax.set_visible(False)
-    fig.suptitle(f"{plan.name}: configurations over time", fontsize=12)
+    fig.suptitle(f"{options.title}: configurations over time", fontsize=12)
     fig.tight_layout(rect=(0, 0.07, 1, 0.95))
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
 
 
-def write_figures(plan: TaskPlan, results: dict[str, RunResult], out_dir: Path) -> list[Path]:
+def write_figures(runs: Runs, robot: RobotModel, out_dir: Path, options: FigureOptions | None = None) -> list[Path]:
     """Write every figure into ``out_dir``; returns the files written."""
     written = [
-        plot_joints(plan, results, safe_path(out_dir, "joints.png")),
-        plot_task_errors(plan, results, safe_path(out_dir, "task_error.png")),
-        plot_potentials(plan, results, safe_path(out_dir, "potentials.png")),
-        plot_configurations(plan, results, safe_path(out_dir, "configurations.png")),
+        plot_joints(runs, robot, safe_path(out_dir, "joints.png"), options),
+        plot_task_errors(runs, robot, safe_path(out_dir, "task_error.png"), options),
+        plot_potentials(runs, safe_path(out_dir, "potentials.png"), options),
+        plot_configurations(runs, robot, safe_path(out_dir, "configurations.png"), options),
     ]
     return [p for p in written if p is not None]

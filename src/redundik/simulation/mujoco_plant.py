@@ -16,6 +16,7 @@ actuator force limits, and an armature (reflected rotor inertia). MuJoCo steps a
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -26,11 +27,11 @@ from redundik.errors import ConfigError, ModelError
 from redundik.kinematics.model import RobotModel
 
 if TYPE_CHECKING:
-    from redundik.config.schema import PlantSpec
+    from redundik.simulation.plant import PlantOptions
 
 
-def _per_joint(value: float | dict[str, float], names: list[str], key: str, where: str) -> np.ndarray:
-    if isinstance(value, dict):
+def _per_joint(value: float | Mapping[str, float], names: list[str], key: str, where: str) -> np.ndarray:
+    if isinstance(value, Mapping):
         bad = [n for n in value if n not in names]
         if bad:
             raise ConfigError(f"unknown joint '{bad[0]}'; joints: {', '.join(names)}", f"{where}.{key}.{bad[0]}")
@@ -49,7 +50,7 @@ class MujocoPlant:
     Args:
         robot: The redundik model of the URDF (joints matched by name).
         urdf: The URDF file.
-        spec: The ``plant:`` entry.
+        spec: The plant's options (a task file's ``plant:`` entry).
         control_dt: The control period [s]; a multiple of ``spec.sim_dt``.
         where: Key path for errors.
 
@@ -65,13 +66,13 @@ class MujocoPlant:
         self,
         robot: RobotModel,
         urdf: str | os.PathLike[str],
-        spec: PlantSpec,
+        spec: PlantOptions,
         *,
         control_dt: float,
         where: str = "plant",
     ) -> None:
         mujoco = require_extra("mujoco", "sim")
-        from redundik.peers.mujoco_model import strip_urdf
+        from redundik.simulation.mujoco_model import strip_urdf
 
         self._mj = mujoco
         self.robot = robot

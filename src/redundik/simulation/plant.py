@@ -3,10 +3,17 @@
 A :class:`Plant` receives the resolver's q̇ once per control tick, advances its own simulation (at its own rate)
 for one control period and returns the *measured* configuration the next tick starts from. The only plant here is
 MuJoCo (:mod:`redundik.simulation.mujoco_plant`, optional extra ``sim``), imported when one is made.
+
+A plant's options are one plain record, :class:`PlantOptions`; a task file's ``plant:`` entry is validated by the
+YAML layer (``redundik.config.schema.PlantSpec``) and turned into this record.
 """
 
 from __future__ import annotations
 
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -14,9 +21,11 @@ import numpy as np
 from redundik.errors import ConfigError
 
 if TYPE_CHECKING:
-    from redundik.config.loader import RunPlan, TaskPlan
-    from redundik.config.schema import PlantSpec
-    from redundik.simulation.loop import SimulationLog
+    from redundik.kinematics.model import RobotModel
+
+#: Plant types and their actuator modes.
+PLANT_TYPES = ("mujoco",)
+ACTUATORS = ("position", "velocity")
 
 
 @runtime_checkable
@@ -42,33 +51,73 @@ class Plant(Protocol):
         ...
 
 
-def make_plant(spec: PlantSpec, plan: TaskPlan, where: str = "plant") -> Plant:
-    """The plant a ``plant:`` entry describes, for the task file's robot.
+@dataclass(frozen=True)
+class PlantOptions:
+    """How a plant is built and driven (the ``plant:`` entry of a task file, see ``docs/task-files.md``).
+
+    Attributes:
+        type: Plant type (:data:`PLANT_TYPES`: ``"mujoco"``).
+        actuator: ``"position"`` (τ = kp·(q_ref − q) − kv·q̇) or ``"velocity"`` (τ = kv·(q̇_cmd − q̇)).
+        kp: Position gain, one number for every joint or joint name → value [N·m/rad or N/m].
+        kv: Damping (position actuators) or velocity gain (velocity actuators), likewise [N·m·s/rad or N·s/m].
+        sim_dt: Physics step [s] > 0; it must divide the control period.
+        gravity: Gravity on.
+        gravity_compensation: Gravity compensated through the actuators (counts in the effort and the limits).
+        effort_limits: The URDF effort limits as actuator force limits.
+        armature: Reflected rotor inertia added to every joint [kg·m²] ≥ 0.
+        kinematic_reference: Also run the perfect integrator, to report the error under the plant against it.
+
+    Raises:
+        ConfigError: an unknown type or actuator, a non-finite or non-positive ``sim_dt``, a negative armature.
+    """
+
+    type: str = "mujoco"
+    actuator: str = "position"
+    kp: float | Mapping[str, float] = 2000.0
+    kv: float | Mapping[str, float] = 100.0
+    sim_dt: float = 0.001
+    gravity: bool = True
+    gravity_compensation: bool = True
+    effort_limits: bool = True
+    armature: float = 0.1
+    kinematic_reference: bool = True
+
+    def __post_init__(self) -> None:
+        if self.type not in PLANT_TYPES:
+            raise ConfigError(f"unknown plant type {self.type!r}; available: {', '.join(PLANT_TYPES)}", "type")
+        if self.actuator not in ACTUATORS:
+            raise ConfigError(f"actuator must be one of {', '.join(ACTUATORS)}, got {self.actuator!r}", "actuator")
+        if not (math.isfinite(self.sim_dt) and self.sim_dt > 0):
+            raise ConfigError(f"sim_dt must be a finite number > 0 [s], got {self.sim_dt}", "sim_dt")
+        if not (math.isfinite(self.armature) and self.armature >= 0):
+            raise ConfigError(f"armature must be a finite number ≥ 0 [kg·m²], got {self.armature}", "armature")
+
+
+def make_plant(
+    options: PlantOptions,
+    robot: RobotModel,
+    urdf: str | os.PathLike[str] | None,
+    *,
+    control_dt: float,
+    where: str = "plant",
+) -> Plant:
+    """The plant ``options`` describe, for ``robot`` loaded from ``urdf``.
+
+    Args:
+        options: The plant's options.
+        robot: The redundik model (joints matched by name).
+        urdf: The robot's URDF file; ``None`` for a D-H robot (refused by MuJoCo).
+        control_dt: The control period [s].
+        where: Key path for errors.
 
     Raises:
         ConfigError: a robot MuJoCo cannot load from a URDF (D-H tables), or inconsistent rates.
-        PlantImportError: the ``sim`` extra is not installed.
+        ExtraImportError: the ``sim`` extra is not installed.
     """
-    if spec.type == "mujoco":
+    if options.type == "mujoco":
         from redundik.simulation.mujoco_plant import MujocoPlant
 
-        if plan.robot.urdf is None:
+        if urdf is None:
             raise ConfigError("a MuJoCo plant needs a URDF robot (this one is a D-H table)", where)
-        return MujocoPlant(plan.robot.model, plan.robot.urdf, spec, control_dt=plan.dt, where=where)
-    raise ConfigError(f"unknown plant type '{spec.type}'", where)  # pragma: no cover - schema restricts it
-
-
-def plant_summary(plan: TaskPlan, run: RunPlan, plant: Plant, log: SimulationLog) -> dict[str, Any]:
-    """The plant's entries of a run's ``summary.json``: ``plant``, the error under the plant and, when
-    ``kinematic_reference`` is on, the same run's error with the perfect integrator (``kinematic_max_task_error``)."""
-    from redundik.simulation.loop import simulate
-
-    out: dict[str, Any] = {"plant": plant.name, **plant.summary()}
-    out["plant_max_task_error"] = log.max_task_error
-    spec = run.plant
-    if spec is not None and spec.kinematic_reference:
-        ref = simulate(plan.robot.model, run.stack, run.resolver, run.q0, dt=plan.dt, steps=plan.steps)
-        out["kinematic_max_task_error"] = ref.max_task_error
-        out["error_ratio_plant_vs_kinematic"] = log.max_task_error / max(ref.max_task_error, 1e-15)
-        out["max_q_deviation_from_kinematic"] = float(np.max(np.abs(log.q - ref.q)))
-    return out
+        return MujocoPlant(robot, urdf, options, control_dt=control_dt, where=where)
+    raise ConfigError(f"unknown plant type '{options.type}'", where)  # pragma: no cover - PlantOptions checks it

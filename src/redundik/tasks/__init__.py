@@ -1,4 +1,8 @@
-"""The task API: tasks (J, V, e), potentials (p, η), barriers (h, H), typed subtasks, the stack, trajectories."""
+"""The task API: tasks (J, V, e), potentials (p, η), barriers (h, H), typed subtasks, the stack, trajectories.
+
+Besides the frame, posture, coupling and balance tasks: the relative pose of two end-effectors (:mod:`.relative`,
+section 5.3) and a joint visiting waypoints (:mod:`.waypoints`, the (6+1) robot's round trip).
+"""
 
 from redundik.tasks.balance import CoMTask, ContactTask, SupportPolygon
 from redundik.tasks.base import Barrier, BarrierTerm, Potential, Task, TaskTerm, stack_terms
@@ -14,9 +18,11 @@ from redundik.tasks.potentials import (
     Manipulability,
     VirtualPoint,
 )
+from redundik.tasks.relative import RelativePoseTask
 from redundik.tasks.stack import LevelPlan, StackLayout, TaskStack
 from redundik.tasks.subtasks import BoundSubtask, GradientSubtask, Subtask, TargetSubtask
 from redundik.tasks.trajectory import Circle, Hold, Line, PoseInterpolation, Trajectory
+from redundik.tasks.waypoints import JointWaypoints
 
 __all__ = [
     "AXIS_SETS",
@@ -36,6 +42,7 @@ __all__ = [
     "JointCoupling",
     "JointSine2",
     "JointValue",
+    "JointWaypoints",
     "LevelPlan",
     "Line",
     "Manipulability",
@@ -43,6 +50,7 @@ __all__ = [
     "PostureTask",
     "Potential",
     "PotentialTask",
+    "RelativePoseTask",
     "StackLayout",
     "Subtask",
     "SupportPolygon",

@@ -13,7 +13,7 @@ from __future__ import annotations
 import base64
 import html
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -36,6 +36,7 @@ from redundik.viewer.scene import (
 if TYPE_CHECKING:
     from redundik.config.loader import RunPlan, TaskPlan
     from redundik.config.runner import RunResult
+    from redundik.tasks.stack import TaskStack
 
 _PAGE = """<!doctype html>
 <html lang="en"><head><meta charset="utf-8"><title>{title}</title>
@@ -155,19 +156,24 @@ def render_page(doc: Mapping[str, Any]) -> str:
 
 
 # ---------------------------------------------------------------------------------------------------- task runs
-def _frame_tasks(run: RunPlan) -> list[Any]:
+def _frame_tasks(stack: TaskStack) -> list[Any]:
     from redundik.tasks.frame import FrameTask
 
-    return [t for t in run.stack.tasks if isinstance(t, FrameTask)]
+    return [t for t in stack.tasks if isinstance(t, FrameTask)]
 
 
 def run_obstacles(run: RunPlan, length_scale: float = 1.0) -> list[Obstacle]:
     """Round obstacles of a run's clearance potentials (controlled, watched or monitored)."""
+    pots = [getattr(s, "potential", None) for s in run.stack.subtasks] + list(run.watched) + list(run.monitors)
+    return clearance_obstacles(pots, length_scale)
+
+
+def clearance_obstacles(potentials: Iterable[Any], length_scale: float = 1.0) -> list[Obstacle]:
+    """Round obstacles of the clearance potentials among ``potentials`` (others and ``None`` skipped), once each."""
     from redundik.tasks.potentials import Clearance
 
     out: list[Obstacle] = []
-    pots = [getattr(s, "potential", None) for s in run.stack.subtasks] + list(run.watched) + list(run.monitors)
-    for p in pots:
+    for p in potentials:
         if isinstance(p, Clearance) and p.name not in {o.name for o in out}:
             vertical = set(p.axes) == {"x", "y"}  # distance in x-y only: an infinite post along z
             center = np.array(p.center, dtype=float)
@@ -177,7 +183,14 @@ def run_obstacles(run: RunPlan, length_scale: float = 1.0) -> list[Obstacle]:
 
 def run_paths(robot: RobotModel, run: RunPlan, t: np.ndarray, q: np.ndarray, max_points: int = 1500) -> list[PathSet]:
     """Desired (from the task's trajectory, anchored at q[0]) and actual positions of each frame task's frame."""
-    tasks = _frame_tasks(run)
+    return stack_paths(robot, run.stack, t, q, max_points)
+
+
+def stack_paths(
+    robot: RobotModel, stack: TaskStack, t: np.ndarray, q: np.ndarray, max_points: int = 1500
+) -> list[PathSet]:
+    """:func:`run_paths` of a task stack: the paths of its frame tasks over a logged run (≤ ``max_points`` each)."""
+    tasks = _frame_tasks(stack)
     if not tasks:
         return []
     robot.update(q[0])
@@ -197,7 +210,7 @@ def run_paths(robot: RobotModel, run: RunPlan, t: np.ndarray, q: np.ndarray, max
 
 def _desired_matrices(run: RunPlan, t: np.ndarray) -> list[np.ndarray]:
     out = []
-    for task in _frame_tasks(run):
+    for task in _frame_tasks(run.stack):
         mats = np.empty((t.shape[0], 12))
         for k, tk in enumerate(t):
             p, R, _ = task.trajectory.reference(float(tk))
@@ -234,7 +247,7 @@ def build_task_replay(
         rf.info = dict(info)
         n = t.shape[0]
         path_times[name] = t[np.unique(np.linspace(0, n - 1, min(n, 1500)).round().astype(int))]
-        tasks = _frame_tasks(rp)
+        tasks = _frame_tasks(rp.stack)
         desired = _desired_matrices(rp, rf.t)
         task_frames[name] = [
             (tk.name, _frame_matrices(robot, tk.frame, rf.q), d) for tk, d in zip(tasks, desired, strict=True)

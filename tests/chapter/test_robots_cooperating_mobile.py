@@ -11,7 +11,8 @@ import pytest
 
 from redundik.config import load_robot, load_task
 from redundik.config.runner import run_task
-from redundik.robots import RelativePoseTask, degree_of_redundancy, numeric_rank
+from redundik.kinematics import degree_of_redundancy, numeric_rank
+from redundik.tasks import RelativePoseTask
 
 ROOT = Path(__file__).resolve().parents[2]
 RNG = np.random.default_rng(5)

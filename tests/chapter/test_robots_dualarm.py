@@ -13,8 +13,8 @@ import pytest
 from redundik.config import load_robot, load_task
 from redundik.config.dh_tables import read_dh_table
 from redundik.config.runner import RunResult, run_task
-from redundik.kinematics import dh_matrix
-from redundik.robots import RelativePoseTask, augmented_jacobian, joint_variables, numeric_rank
+from redundik.kinematics import augmented_jacobian, dh_matrix, joint_variables, numeric_rank
+from redundik.tasks import RelativePoseTask
 
 ROOT = Path(__file__).resolve().parents[2]
 CONFIG = ROOT / "configs/dualarm17.yaml"

@@ -1,13 +1,13 @@
-"""2-D animation (GIF) of a planar task run, e.g. computer project 1 (``tasks/rpr_corner.yaml``).
+"""2-D animation (GIF) of one planar run from its logged frame origins, e.g. computer project 1 (``rpr_corner``).
 
-A plotting module: matplotlib (Agg) and Pillow are imported inside the functions. Usage::
-
-    python -m redundik.robots.animate tasks/rpr_corner.yaml --run avoid_hqp --out rpr.gif --wall x=-0.6 --wall y=-0.4
+A plotting module: matplotlib (Agg) and Pillow are imported inside the function. It takes the simulation log's
+``frame_positions`` and plain options (links, walls, traced frame), not a task file; ``examples/animate_planar.py``
+runs ``tasks/rpr_corner.yaml`` and animates it. ``redundik run FILE --gif`` animates every run of a file side by side
+(:mod:`redundik.reporting.gif`).
 """
 
 from __future__ import annotations
 
-import argparse
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from redundik.errors import ConfigError
+from redundik.reporting.paths import safe_path
 
 
 def animate_planar(
@@ -86,48 +87,8 @@ def animate_planar(
             path_line.set_data(frames[trace][: k + 1, i], frames[trace][: k + 1, j])
         return [*lines, path_line]
 
-    from redundik.reporting.paths import safe_path
-
     anim = FuncAnimation(fig, draw, frames=samples, blit=True)
     out = safe_path(Path(path).parent, Path(path).name)
     anim.save(out, writer=PillowWriter(fps=fps))
     plt.close(fig)
     return out
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Command line: run one run of a planar task file and animate it."""
-    from redundik.config import load_task
-    from redundik.config.runner import run_task
-
-    parser = argparse.ArgumentParser(description="2-D GIF of a planar task run")
-    parser.add_argument("task")
-    parser.add_argument("--run", required=True)
-    parser.add_argument("--out", default="animation.gif")
-    parser.add_argument("--every", type=int, default=8)
-    parser.add_argument("--wall", action="append", default=[], help="x=VALUE or y=VALUE (repeatable)")
-    args = parser.parse_args(argv)
-    plan = load_task(args.task)
-    result = run_task(plan, [args.run])[args.run]
-    walls = []
-    for w in args.wall:
-        axis, _, value = w.partition("=")
-        walls.append((axis.strip(), float(value)))
-    axes = plan.draw.plane or ("x", "y")
-    idx = {"x": 0, "y": 1, "z": 2}
-    animate_planar(
-        result.log.frame_positions,
-        plan.draw.segments,
-        args.out,
-        plane=(idx[axes[0]], idx[axes[1]]),
-        every=args.every,
-        walls=walls,
-        trace=plan.draw.path_frame,
-        title=f"{plan.name}: {args.run}",
-    )
-    print(args.out)
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,4 +1,7 @@
-"""MuJoCo models of redundik robots, for mink: from the same URDF, or built from the Pinocchio model (D-H robots).
+"""MuJoCo models of redundik robots: from the same URDF, or built from the Pinocchio model (D-H robots).
+
+The MuJoCo plant (:mod:`redundik.simulation.mujoco_plant`) loads the robot's URDF through :func:`strip_urdf`; the
+mink interop (``redundik.peers``) and the benchmark build their MuJoCo models here too.
 
 MuJoCo cannot open the URDFs' ``package://`` meshes, so :func:`mujoco_from_urdf` strips every ``<visual>`` and
 ``<collision>`` element (kinematics only). MuJoCo's URDF import fuses links attached by fixed joints into their
@@ -21,9 +24,9 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from redundik._optional import require_extra
 from redundik.errors import ModelError
 from redundik.kinematics.model import RobotModel
-from redundik.peers._deps import require
 
 #: Pinocchio joint short names → (MuJoCo joint type name, axis).
 _AXIS_JOINTS: dict[str, tuple[str, tuple[float, float, float]]] = {
@@ -112,10 +115,10 @@ def mujoco_from_urdf(
         free_flyer: Give the root body a free joint (as redundik's ``free_flyer=True``).
 
     Raises:
-        PeerImportError: MuJoCo is not installed.
+        ExtraImportError: MuJoCo is not installed (``pip install 'redundik[sim]'``).
         ModelError: unreadable URDF or a frame MuJoCo cannot carry.
     """
-    mujoco = require("mujoco")
+    mujoco = require_extra("mujoco", "sim")
     text = strip_urdf(path)
     try:
         spec = mujoco.MjSpec.from_string(text)
@@ -138,10 +141,10 @@ def mujoco_from_robot(robot: RobotModel, frames: Sequence[str] = ()) -> Any:
     not depend on it). Joint and site names are the redundik joint and frame names.
 
     Raises:
-        PeerImportError: MuJoCo is not installed.
+        ExtraImportError: MuJoCo is not installed (``pip install 'redundik[sim]'``).
         ModelError: a joint type MuJoCo has no counterpart for.
     """
-    mujoco = require("mujoco")
+    mujoco = require_extra("mujoco", "sim")
     model = robot.model
     spec = mujoco.MjSpec()
     spec.modelname = robot.name

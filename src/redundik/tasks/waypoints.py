@@ -1,4 +1,4 @@
-"""Potentials for the chapter's robot examples that the core set does not cover."""
+"""A joint visiting values in turn: the potential of the (6+1) robot's round trip (section 5.2)."""
 
 from __future__ import annotations
 

@@ -9,7 +9,7 @@ import pytest
 
 from redundik.config import load_task
 from redundik.config.runner import run_task
-from redundik.robots.animate import animate_planar
+from redundik.reporting.animate import animate_planar
 
 ROOT = Path(__file__).resolve().parents[2]
 A3, L2, WALL, FLOOR = 0.8, 1.8, -0.6, -0.4

@@ -11,8 +11,7 @@ import yaml
 from redundik.config import load_robot, load_task
 from redundik.config.runner import run_task
 from redundik.errors import ModelError
-from redundik.kinematics import dh_matrix
-from redundik.robots import numeric_rank, snake, snake_config, snake_rows
+from redundik.kinematics import dh_matrix, numeric_rank, snake, snake_config, snake_rows
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -16,7 +16,7 @@ import pytest
 from redundik.config import load_task
 from redundik.config.runner import run_task
 from redundik.errors import MechanismError, TaskError
-from redundik.robots import exercises as ex
+from redundik.kinematics import analysis as ex
 
 ROOT = Path(__file__).resolve().parents[2]
 DEG = np.pi / 180

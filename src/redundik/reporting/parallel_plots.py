@@ -1,5 +1,7 @@
 """Figures of parallel mechanisms (matplotlib with the Agg backend, imported only inside these functions).
 
+They take the mechanism objects of :mod:`redundik.parallel` and their results; ``redundik parallel ...`` writes them.
+
 * :func:`draw_stewart` — 3-D drawing of a Stewart pose (base, top disc, legs).
 * :func:`animate_stewart` — GIF of a sequence of poses (PillowWriter).
 * :func:`plot_joint_profiles` — the six joint profiles of computer project 2, book vs exact scheme.
@@ -14,8 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from redundik.parallel.hybrid33 import PathResult
-from redundik.parallel.stewart import StewartPlatform
+from redundik.parallel import PathResult, StewartPlatform
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
