@@ -242,6 +242,7 @@ class Resolver(ABC):
     _checked: tuple[int, ...] | None = None
     _watch: DivergenceWatch | None = None
     _gain_members: tuple[tuple[Any, ...], tuple[Any, ...]] = ((), ())
+    _stepping: TaskStack | None = None
     #: BLAS threads inside a step: an int, or ``None`` to leave the process's setting alone. The default ``"auto"``
     #: limits BLAS to one thread for robots with nv ≥ :data:`BLAS_LIMIT_NV` = 64 (threaded products on small matrices
     #: stall on busy cores) unless the user set ``OMP_NUM_THREADS``/``OPENBLAS_NUM_THREADS``/``MKL_NUM_THREADS``.
@@ -305,18 +306,39 @@ class Resolver(ABC):
             self._gain_members = (tuple(stack.tasks), tuple(stack.target_subtasks))
         tasks, targets = self._gain_members
         limit = STABLE_GAIN_DT / dt
-        if any(task.gain > limit for task in tasks) or any(sub.rate > limit for sub in targets):
-            check_gains(stack, dt, self.name)  # raises with the offending member named
-        with self._blas_limit(robot):
-            res = self.solve(robot, stack, float(t), float(dt))
+        for member in tasks:
+            if member.gain > limit:
+                check_gains(stack, dt, self.name)  # raises with the offending member named
+        for sub in targets:
+            if sub.rate > limit:
+                check_gains(stack, dt, self.name)
+        self._stepping = stack  # the stack whose membership was just checked (``stack_key``)
+        try:
+            if self.blas_threads == "auto" and (robot.nv < BLAS_LIMIT_NV or _USER_CHOSE_THREADS):
+                res = self.solve(robot, stack, float(t), float(dt))
+            else:
+                with self._blas_limit(robot):
+                    res = self.solve(robot, stack, float(t), float(dt))
+        finally:
+            self._stepping = None
         watch = self._watch
         if watch is None:
             watch = self._watch = DivergenceWatch()
-        norm = float(np.linalg.norm(res.dq))
+        dq = res.dq
+        norm = math.sqrt(float(dq @ dq))
         factor = watch.update(norm, res.task_error)
         if factor is not None:
             watch.flag(self.name, norm, factor, res.info)
         return res
+
+    def stack_key(self, stack: TaskStack) -> tuple[int, ...]:
+        """The membership key of ``stack`` (its :meth:`TaskStack.signature`), for caches of what depends on it.
+
+        Inside :meth:`step` the key checked at the start of the step is returned without recomputing it.
+        """
+        if stack is self._stepping and self._checked is not None:
+            return self._checked
+        return (-1, *stack.signature())
 
     def _blas_limit(self, robot: RobotModel) -> AbstractContextManager[object]:
         """The BLAS thread limit of a step (a no-op context below :data:`BLAS_LIMIT_NV` or when the user chose)."""

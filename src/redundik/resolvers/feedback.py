@@ -71,10 +71,11 @@ class FeedbackResolver(Resolver):
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
         t0 = time.perf_counter()
         terms = stack.evaluate(robot, t)
-        sig = stack.signature()
-        if self._layout is None or self._layout[0] != sig:
-            self._layout = (sig, stack.layout())
-        layout = self._layout[1]
+        sig = self.stack_key(stack)
+        cached = self._layout
+        if cached is None or (cached[0] is not sig and cached[0] != sig):
+            self._layout = cached = (sig, stack.layout())
+        layout = cached[1]
         J, V, z = main_system(robot, stack, terms, layout)
         subs = stack.target_subtasks
         r = len(subs)

@@ -6,6 +6,7 @@ posture: the stack's null-space objective, :mod:`redundik.tasks.stack`).
 
 from __future__ import annotations
 
+import math
 import time
 from typing import ClassVar
 
@@ -17,6 +18,8 @@ from redundik.resolvers.base import Resolver, StepResult, nonfinite_sources
 from redundik.resolvers.linalg import RCOND, K, contiguous
 from redundik.tasks.base import TaskTerm, stack_terms
 from redundik.tasks.stack import StackLayout, TaskStack
+
+_NO_Z = np.zeros(0)
 
 
 def check_damping_options(who: str, epsilon: float, max_damping: float) -> tuple[float, float]:
@@ -61,10 +64,11 @@ class PinvResolver(Resolver):
         self._layout: tuple[tuple[int, ...], StackLayout] | None = None
 
     def _stack_layout(self, stack: TaskStack) -> StackLayout:
-        sig = stack.signature()
-        if self._layout is None or self._layout[0] != sig:
-            self._layout = (sig, stack.layout())
-        return self._layout[1]
+        sig = self.stack_key(stack)
+        cached = self._layout
+        if cached is None or (cached[0] is not sig and cached[0] != sig):
+            self._layout = cached = (sig, stack.layout())
+        return cached[1]
 
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
         t0 = time.perf_counter()
@@ -73,18 +77,20 @@ class PinvResolver(Resolver):
         J, V, z = main_system(robot, stack, terms, layout)
         t1 = time.perf_counter()
         has_z = z is not None
-        dq_r, dq_n, rank, sigma_min, damping = K.closed_form(  # one compiled call: J⁺V and (I − J⁺J) z (5.8)
+        out = np.empty((3, robot.nv))
+        rank, sigma_min, damping = K.closed_form_into(  # one compiled call: J⁺V, (I − J⁺J) z (5.8) and their sum
             contiguous(J),
             contiguous(V),
-            contiguous(z) if z is not None else V[:0].copy(),
+            _NO_Z if z is None else contiguous(z),
             has_z,
             self.epsilon,
             self.max_damping,
             RCOND,
+            out,
         )
-        dq = dq_r + dq_n
+        dq_r, dq_n, dq = out
         fallback = None
-        if not np.isfinite(dq).all():
+        if not math.isfinite(dq @ dq) and not np.isfinite(dq).all():  # the dot first: one call when all is well
             bad = nonfinite_sources(terms, z=z)
             fallback = f"non-finite q̇ (from {', '.join(bad) or 'the pseudo-inverse'}): q̇ = 0 this step"
             dq = np.zeros(robot.nv)

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
 from redundik.errors import TaskError
-from redundik.kinematics.model import AXES, RobotModel
+from redundik.kinematics.model import AXES, LWA, RobotModel
 from redundik.tasks.base import Task, TaskTerm
 from redundik.tasks.trajectory import Hold, Trajectory
 
@@ -36,6 +37,18 @@ def resolve_axes(axes: str | Sequence[str]) -> tuple[str, ...]:
     if bad or not out or len(set(out)) != len(out):
         raise TaskError(f"axes {list(out)}: expected distinct names among {list(AXES)}")
     return out
+
+
+_K: Any = None  # the compiled kernels (redundik.resolvers.linalg.K), bound at the first evaluation
+
+
+def _kernels() -> Any:
+    """The compiled kernels, imported on first use (the resolvers package imports this module)."""
+    global _K
+    from redundik.resolvers.linalg import K
+
+    _K = K
+    return K
 
 
 #: Gain [1/s] of a frame task built without a trajectory (hold the start pose, or track targets set at run time).
@@ -190,12 +203,18 @@ class FrameTask(Task):
             self._pending_position = None
         p_d, R_d, twist_d = self.trajectory.reference(t)
         self._last_R = R_d
-        J = robot.frame_jacobian(fid)
-        if self._all_rows:
-            e = np.empty(6)
-            e[:3] = p_d - pose.translation
-            e[3:] = pin.log3(R_d @ pose.rotation.T)
-            return TaskTerm(self.name, J, twist_d + self.gain * e if self.gain else twist_d, e, self.weight)
+        J = pin.getFrameJacobian(robot.model, robot.data, fid, LWA)  # robot.frame_jacobian without its checks
+        m = self.rows.shape[0]
+        e, v = np.empty(m), np.empty(m)
+        # one compiled call for e = (p_d − p, log3(R_d Rᵀ))[rows] and v = V_d[rows] + K e (rotations under 0.45 rad)
+        if (_K or _kernels()).frame_error(
+            p_d, R_d, pose.homogeneous, twist_d, self._gain, self.rows, self._rotation_rows, e, v
+        ):
+            return TaskTerm(self._name, J if self._all_rows else J[self.rows], v, e, self._weight)
+        if self._all_rows:  # a large rotation error: Pinocchio's log3, robust up to π
+            e = np.concatenate((p_d - pose.translation, pin.log3(R_d @ pose.rotation.T)))
+            gain = self._gain
+            return TaskTerm(self._name, J, twist_d + gain * e if gain else twist_d, e, self._weight)
         err6 = np.zeros(6)
         err6[:3] = p_d - pose.translation
         if self._rotation_rows:

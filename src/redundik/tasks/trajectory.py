@@ -165,15 +165,18 @@ class Circle(Trajectory):
         self._c = self.center
         self._re1 = self.radius * self.e1
         self._re2 = self.radius * self.e2
-        self._twist = np.zeros(6)
+        # the same arithmetic on plain floats (three coordinates: cheaper than eight small-array operations)
+        self._rows = tuple(zip(self._c.tolist(), self._re1.tolist(), self._re2.tolist(), strict=True))
 
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        self.start_pose  # noqa: B018 - raises if start() was never called
-        a = self.omega * t + self.phase
+        if self._start is None:
+            self.start_pose  # noqa: B018 - raises: start() was never called
+        w = self.omega
+        a = w * t + self.phase
         c, s = math.cos(a), math.sin(a)
-        p = self._c + c * self._re1 + s * self._re2
-        twist = self._twist.copy()
-        twist[:3] = self.omega * (c * self._re2 - s * self._re1)
+        (c0, a0, b0), (c1, a1, b1), (c2, a2, b2) = self._rows
+        p = np.array((c0 + c * a0 + s * b0, c1 + c * a1 + s * b1, c2 + c * a2 + s * b2))
+        twist = np.array((w * (c * b0 - s * a0), w * (c * b1 - s * a1), w * (c * b2 - s * a2), 0.0, 0.0, 0.0))
         return p, self._R0, twist
 
     def __repr__(self) -> str:

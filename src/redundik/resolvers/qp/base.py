@@ -180,10 +180,11 @@ class QPResolverBase(Resolver):
 
     def layout(self, stack: TaskStack) -> StackLayout:
         """The stack's levels with this resolver's overrides (cached while the stack's membership is unchanged)."""
-        sig = stack.signature()
-        if self._layout is None or self._layout[0] != sig:
-            self._layout = (sig, stack.layout(self.levels))
-        return self._layout[1]
+        sig = self.stack_key(stack)
+        cached = self._layout
+        if cached is None or (cached[0] is not sig and cached[0] != sig):
+            self._layout = cached = (sig, stack.layout(self.levels))
+        return cached[1]
 
     @abstractmethod
     def build(
@@ -212,7 +213,7 @@ class QPResolverBase(Resolver):
             x = self._closed_form(robot, stack, terms)
             fallback = f"{self.name} failed, damped closed form clipped to the limits: {exc}"
             diag.backend = "fallback"
-        if not np.isfinite(x).all():
+        if not math.isfinite(x @ x) and not np.isfinite(x).all():  # the dot first: one call when all is well
             bad = nonfinite_sources(terms)
             fallback = f"non-finite q̇ (from {', '.join(bad) or 'the solver'}): q̇ = 0 clipped to the limits"
             x = np.zeros(robot.nv)

@@ -50,7 +50,7 @@ import numpy as np
 
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
-from redundik.resolvers.linalg import DampedSVD, damped_svd
+from redundik.resolvers.linalg import DampedSVD, K, contiguous, damped_svd
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, polish
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
 from redundik.resolvers.qp.limits import LimitBox
@@ -58,6 +58,8 @@ from redundik.resolvers.qp.problem import QPProblem, QPSolution
 from redundik.resolvers.qp.terms import Level, build_levels
 from redundik.tasks.base import TaskTerm
 from redundik.tasks.stack import TaskStack
+
+_NO_BASIS = np.zeros((0, 0))
 
 #: Slack above which a level's bound rows count as contradicted (reported as a fallback).
 CONTRADICTION_TOLERANCE = 1e-6
@@ -128,14 +130,27 @@ class HierarchicalQPResolver(QPResolverBase):
         return damped_svd(M, epsilon=self.epsilon, max_damping=self.max_damping, rcond=self.rcond)
 
     def _note(self, lv: Level, A: np.ndarray, lsq: DampedSVD, r: int, projected: bool, diag: QPDiagnostics) -> None:
-        diag.level_sigma_min[lv.priority] = lsq.sigma_min
-        if lsq.damped:
+        self._record(lv, A, lsq.sigma_min, lsq.damping, lsq.rank, r, projected, diag)
+
+    def _record(
+        self,
+        lv: Level,
+        A: np.ndarray,
+        sigma_min: float,
+        damping: float,
+        rank: int,
+        r: int,
+        projected: bool,
+        diag: QPDiagnostics,
+    ) -> None:
+        diag.level_sigma_min[lv.priority] = sigma_min
+        if damping > 0.0:
             diag.damped_levels.append(lv.priority)
         if not diag.level_sigma_min or len(diag.level_sigma_min) == 1:
-            diag.sigma_min = lsq.sigma_min
+            diag.sigma_min = sigma_min
         # algorithmic singularity: the projected Jacobian A Z lost rank while A itself did not
-        if projected and not lv.pure_null_objective and lsq.rank < min(A.shape[0], r):
-            if lsq.rank < min(int(np.linalg.matrix_rank(A)), r):
+        if projected and not lv.pure_null_objective and rank < min(A.shape[0], r):
+            if rank < min(int(np.linalg.matrix_rank(A)), r):
                 diag.rank_loss_levels.append(lv.priority)
 
     def _closed_form_cascade(self, levels: list[Level], n: int, diag: QPDiagnostics) -> np.ndarray:
@@ -152,15 +167,22 @@ class HierarchicalQPResolver(QPResolverBase):
                 continue
             if not lv.m:
                 continue
-            A, M, rhs = self._project(lv, x, Z)
-            lsq = self._lsq(M)
-            self._note(lv, A, lsq, r, Z is not None, diag)
-            u = lsq.solve(rhs)
-            if Z is None:
-                x, Z = u, lsq.null_basis
-            else:
-                x, Z = x + Z @ u, Z @ lsq.null_basis
-            r = Z.shape[1]
+            A, b = lv.ls_rows()
+            x_new = np.empty(n)
+            projected = Z is not None
+            Z, smin, damping, rank = K.lsq_level(  # one compiled call: (A Z)⁺_λ(b − A x), x + Z u, Z·null(A Z)
+                contiguous(A),
+                contiguous(b),
+                x,
+                _NO_BASIS if Z is None else Z,
+                Z is not None,
+                self.epsilon,
+                self.max_damping,
+                self.rcond,
+                x_new,
+            )
+            self._record(lv, A, float(smin), float(damping), int(rank), r, projected, diag)
+            x, r = x_new, Z.shape[1]
         return x
 
     def _level_qp(
@@ -327,7 +349,7 @@ class HierarchicalQPResolver(QPResolverBase):
         levels, box, n = built.levels, built.box, built.n
         x = self._closed_form_cascade(levels, n, diag)
         tol = 1e-12
-        if box.contains(x, tol) and all(not lv.p or bool(np.all(lv.C @ x <= lv.d + tol)) for lv in levels):
+        if box.contains(x, tol) and all(not lv.p or bool((lv.C @ x <= lv.d + tol).all()) for lv in levels):
             return x, None
         diag.level_sigma_min.clear()
         diag.damped_levels.clear()

@@ -29,6 +29,7 @@ import numpy as np
 
 from redundik.errors import ResolverError, short_repr
 from redundik.kinematics.model import RobotModel
+from redundik.resolvers.linalg import K
 
 #: Codes of what sets a bound, in :attr:`LimitBox.lower_src` / :attr:`LimitBox.upper_src`.
 NONE, POSITION, VELOCITY, RATE = 0, 1, 2, 3
@@ -94,6 +95,8 @@ class LimitBox:
 
     def contains(self, dq: np.ndarray, tol: float = 0.0) -> bool:
         """True when lb − tol ≤ q̇ ≤ ub + tol."""
+        if dq.ndim == 1 and self.lb.ndim == 1:
+            return bool(K.in_box(dq, self.lb, self.ub, float(tol)))  # one compiled call
         if tol:
             return not ((dq < self.lb - tol).any() or (dq > self.ub + tol).any())
         return not ((dq < self.lb).any() or (dq > self.ub).any())
@@ -225,11 +228,10 @@ class JointLimits:
             amax = np.full(nv, np.inf if self.acceleration is None else float(self.acceleration))
         self._iq = np.maximum(iq, 0)  # q index per q̇ coordinate (0 where none: its limits are ±inf anyway)
         self._lo, self._hi = lo, hi
-        self._pos_k = np.flatnonzero(np.isfinite(lo) | np.isfinite(hi))
         self._vmax = vmax if self.velocity else np.full(nv, np.inf)
-        self._neg_vmax = -self._vmax
         self._amax = amax
         self._has_rate = bool(np.isfinite(amax).any())
+        self._no_prev = np.zeros((0, nv))
         self._names = names
         self._robot_id = id(robot)
 
@@ -255,47 +257,31 @@ class JointLimits:
         """
         if self._robot_id != id(robot):
             self.bind(robot)
-        vmax, nvmax = self._vmax, self._neg_vmax
-        if self.position and self._pos_k.size:
-            qv = q[..., self._iq]
-            g = self.position_gain / dt
-            with np.errstate(invalid="ignore"):  # inf − inf cannot occur: q is finite
-                pl = (self._lo - qv) * g  # ≤ 0 inside the range, −inf without a limit
-                pu = (self._hi - qv) * g  # ≥ 0 inside the range, +inf without a limit
-            if self._has_rate:
-                # braking distance: with |Δq̇| ≤ a·dt per step, a joint at distance δ from its limit must keep
-                # q̇ ≤ B(δ) = −a·dt + √((a·dt)² + 2aδ) (covers v²/2a + v·dt ≥ the discrete stopping distance), so
-                # the next step's rate window always meets the position window and neither limit is ever broken
-                a = self._amax
-                adt = a * dt
-                with np.errstate(invalid="ignore"):
-                    bu = -adt + np.sqrt(adt * adt + 2.0 * a * np.maximum(self._hi - qv, 0.0))
-                    bl = adt - np.sqrt(adt * adt + 2.0 * a * np.maximum(qv - self._lo, 0.0))
-                fin = np.isfinite(a)
-                pu = np.where(fin & (self._hi >= qv), np.minimum(pu, bu), pu)
-                pl = np.where(fin & (self._lo <= qv), np.maximum(pl, bl), pl)
-            # outside a limit: move back at most as fast as the velocity limit allows
-            np.minimum(pl, vmax, out=pl)
-            np.maximum(pu, nvmax, out=pu)
-            lb = np.maximum(pl, nvmax)
-            ub = np.minimum(pu, vmax)
-            if self._has_rate:
-                # the braking bound of the far limit can cut off the way back in from outside the near one (a
-                # short range, a small a_max): the way back (position and velocity, hard) wins, braking yields
-                empty = lb > ub
-                if empty.any():
-                    above, below = empty & (qv > self._hi), empty & (qv < self._lo)
-                    lb[above] = pl[above] = ub[above]
-                    ub[below] = pu[below] = lb[below]
-        else:
-            pl, pu = np.full(vmax.shape[0], -np.inf), np.full(vmax.shape[0], np.inf)
-            lb, ub = nvmax.copy(), vmax.copy()
+        q = np.asarray(q, dtype=float)
+        single = q.ndim == 1
+        prev = self._no_prev
         if self._has_rate and dq_prev is not None:
-            step = self._amax * dt
-            rl = np.clip(dq_prev - step, lb, ub)
-            ru = np.clip(dq_prev + step, lb, ub)
-            return LimitBox(rl, ru, pl, pu, vmax, rl, ru)
-        return LimitBox(lb, ub, pl, pu, vmax)
+            prev = np.asarray(dq_prev, dtype=float).reshape(1, -1) if single else np.asarray(dq_prev, dtype=float)
+        qq = q.reshape(1, -1) if single else q
+        out = np.empty((4, qq.shape[0], self._lo.shape[0]))
+        K.limit_box(  # one compiled call: the rules of the module docstring
+            qq,
+            self._iq,
+            self._lo,
+            self._hi,
+            self._vmax,
+            self._amax,
+            self.position,
+            self._has_rate,
+            self.position_gain,
+            float(dt),
+            prev,
+            out,
+        )
+        lb, ub, pl, pu = out[:, 0] if single else out
+        if prev is not self._no_prev:
+            return LimitBox(lb, ub, pl, pu, self._vmax, lb, ub)
+        return LimitBox(lb, ub, pl, pu, self._vmax)
 
     def __repr__(self) -> str:
         return (

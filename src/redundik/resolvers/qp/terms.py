@@ -62,7 +62,7 @@ class Level:
     def ls_rows(self, weighted: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """All least-squares rows of the level, null-space objective included, as (A, b): minimise ‖A q̇ − b‖²."""
         A, b = self.J, self.v
-        if weighted and self.m and not np.all(self.w == 1.0):
+        if weighted and self.m and not (self.w == 1.0).all():
             s = np.sqrt(self.w)
             A, b = A * s[:, None], b * s
         if self.z is not None:

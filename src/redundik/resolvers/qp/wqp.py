@@ -33,7 +33,8 @@ from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem
 from redundik.tasks.base import TaskTerm
-from redundik.tasks.stack import TaskStack
+from redundik.tasks.stack import StackLayout, TaskStack
+from redundik.tasks.subtasks import BoundSubtask, TargetSubtask
 
 
 @dataclass
@@ -51,6 +52,18 @@ class WQPBuild:
     box: LimitBox
     main_terms: list[TaskTerm]
     damping: float = 0.0
+
+
+class _Plan:
+    """What a ``wqp`` build does per member, fixed while the stack's membership is (see ``_plan_for``)."""
+
+    def __init__(self, layout: StackLayout) -> None:
+        self.layout = layout
+        self.tasks: list[tuple[int, float, bool]] = []  # (task index, ρ^k, identity Jacobian)
+        self.targets: list[tuple[TargetSubtask, float]] = []
+        self.bounds: list[BoundSubtask] = []
+        self.null_scale = 0.0  # ρ^k of the null-space objective's level (0: none)
+        self.last_scale = 1.0  # ρ^(L−1)
 
 
 class WeightedQPResolver(QPResolverBase):
@@ -93,6 +106,8 @@ class WeightedQPResolver(QPResolverBase):
         self.damping, self.lm_damping, self.level_ratio = float(damping), float(lm_damping), float(level_ratio)
         self._P: np.ndarray | None = None
         self._q: np.ndarray | None = None
+        self._plan: _Plan | None = None
+        self._no_rows, self._no_rhs = np.zeros((0, 0)), np.zeros(0)
 
     def build(
         self, robot: RobotModel, stack: TaskStack, t: float, dt: float, terms: list[TaskTerm] | None = None
@@ -105,60 +120,73 @@ class WeightedQPResolver(QPResolverBase):
         if terms is None:
             terms = stack.evaluate(robot, t)
         layout = self.layout(stack)
+        plan = self._plan_for(stack, layout)
         n = robot.nv
         if self._P is None or self._q is None or self._P.shape[0] != n:
             self._P, self._q = np.empty((n, n)), np.empty(n)
+            self._no_rows, self._no_rhs = np.zeros((0, n)), np.zeros(0)
         P: np.ndarray = self._P
         q: np.ndarray = self._q
         P.fill(0.0)
         q.fill(0.0)
         diag = P.reshape(-1)[:: n + 1]  # a view on P's diagonal
-        Cs, ds, names = [], [], []
-        scale = 1.0
-        for k, plan in enumerate(layout.levels):
-            scale = self.level_ratio**k
-            for i in plan.tasks:
-                term, w = terms[i], scale * terms[i].weight
-                if stack.tasks[i].identity_jacobian:
-                    diag += w
-                    q -= w * term.v
-                else:
-                    Jw = w * term.J.T  # (n, m)
-                    P += Jw @ term.J
-                    q -= Jw @ term.v
-            for sub in plan.targets:
-                eta, v, _ = sub.row(robot)
-                w = scale * sub.weight
-                P += w * np.outer(eta, eta)
-                q -= (w * v) * eta
+        for i, scale, identity in plan.tasks:
+            term = terms[i]
+            w = scale * term.weight
+            if identity:
+                diag += w
+                q -= w * term.v
+            else:
+                K.gram_update(P, q, term.J, term.v, w)  # P += w JᵀJ, q −= w Jᵀv in one compiled call
+        for sub, scale in plan.targets:
+            eta, v, _ = sub.row(robot)
+            w = scale * sub.weight
+            P += w * np.outer(eta, eta)
+            q -= (w * v) * eta
+        G, h, names = self._no_rows, self._no_rhs, []
+        if plan.bounds:
+            Cs, ds = [], []
             for bsub in plan.bounds:
                 C, d, rn = bsub.rows(robot, dt)
                 Cs.append(C)
                 ds.append(d)
                 names += rn
-            if plan.null_objective:
-                z = stack.null_target(robot, terms, layout)
-                diag += scale
-                if z is not None:
-                    q -= scale * z
-        lam = self.damping * scale
+            G, h = np.vstack(Cs), np.concatenate(ds)
+        if plan.null_scale:
+            z = stack.null_target(robot, terms, layout)
+            diag += plan.null_scale
+            if z is not None:
+                q -= plan.null_scale * z
+        lam = self.damping * plan.last_scale
         main_terms = [terms[i] for i in layout.main]
         if self.lm_damping and main_terms:
             lam += self.lm_damping * sum(float(tm.error @ tm.error) for tm in main_terms)
         if lam:
             diag += lam
-        if Cs:
-            G, h = np.vstack(Cs), np.concatenate(ds)
-        else:
-            G, h = np.zeros((0, n)), np.zeros(0)
         box = self._box(robot, dt)
-        prob = QPProblem(P, q, G, h, np.zeros((0, n)), np.zeros(0), box.lb, box.ub, "wqp", names)
+        prob = QPProblem(P, q, G, h, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp", names)
         return WQPBuild(prob, box, main_terms, lam)
+
+    def _plan_for(self, stack: TaskStack, layout: StackLayout) -> _Plan:
+        """The level weights ρ^k of every member, laid out once per stack membership (the layout object)."""
+        plan = self._plan
+        if plan is None or plan.layout is not layout:
+            plan = self._plan = _Plan(layout)
+            for k, level in enumerate(layout.levels):
+                scale = self.level_ratio**k
+                plan.last_scale = scale
+                plan.tasks += [(i, scale, bool(stack.tasks[i].identity_jacobian)) for i in level.tasks]
+                plan.targets += [(sub, scale) for sub in level.targets]
+                plan.bounds += level.bounds
+                if level.null_objective:
+                    plan.null_scale = scale
+        return plan
 
     def _resolve(self, built: WQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
         prob, box = built.problem, built.box
         # the unconstrained optimum by Cholesky (P is SPD when λ > 0) and its box test, in one compiled call
-        x, _, inside = K.spd_solve_box(prob.P, prob.q, box.lb, box.ub, 1e-12)
+        x = np.empty(prob.n)
+        _, inside = K.spd_solve_box_into(prob.P, prob.q, box.lb, box.ub, 1e-12, x)
         if inside and not (prob.G.shape[0] and (prob.G @ x > prob.h + 1e-12).any()):
             return x, None
         diag.qp = 1

@@ -1,0 +1,145 @@
+"""The hot path's compiled kernels equal slow references (no timing here): the joint-limit box, the Jacobi
+eigen/SVD routines, the Gram update of ``wqp``, the frame-task error and one ``hqp`` level."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import redundik as rk
+from redundik.resolvers import kernels
+from redundik.resolvers.qp.limits import JointLimits
+
+
+def _reference_box(
+    lim: JointLimits, q: np.ndarray, dt: float, dq_prev: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The rules of the limits module's docstring, written out joint by joint (slow)."""
+    lo, hi, vmax, amax = lim._lo, lim._hi, lim._vmax, lim._amax
+    nv = lo.shape[0]
+    lb, ub, pl, pu = (np.empty(nv) for _ in range(4))
+    g = lim.position_gain / dt
+    for i in range(nv):
+        vm, a = vmax[i], amax[i]
+        if lim.position:
+            qv = q[lim._iq[i]]
+            lpos, upos = (lo[i] - qv) * g, (hi[i] - qv) * g
+            if np.isfinite(a):
+                adt = a * dt
+                if hi[i] >= qv:
+                    upos = min(upos, -adt + np.sqrt(adt**2 + 2 * a * max(hi[i] - qv, 0.0)))
+                if lo[i] <= qv:
+                    lpos = max(lpos, adt - np.sqrt(adt**2 + 2 * a * max(qv - lo[i], 0.0)))
+            lpos, upos = min(lpos, vm), max(upos, -vm)
+            low, up = max(lpos, -vm), min(upos, vm)
+            if lim._has_rate and low > up:
+                if qv > hi[i]:
+                    low = lpos = up
+                elif qv < lo[i]:
+                    up = upos = low
+        else:
+            lpos, upos, low, up = -np.inf, np.inf, -vm, vm
+        if lim._has_rate and dq_prev is not None:
+            step = a * dt
+            low, up = min(max(dq_prev[i] - step, low), up), min(max(dq_prev[i] + step, low), up)
+        lb[i], ub[i], pl[i], pu[i] = low, up, lpos, upos
+    return lb, ub, pl, pu
+
+
+@pytest.mark.parametrize(
+    "options",
+    [{}, {"acceleration": 5.0}, {"acceleration": 0.5, "position_gain": 0.5}, {"position": False, "acceleration": 2.0}],
+)
+def test_limit_box_equals_the_rules(options: dict) -> None:
+    robot = rk.load_example_robot("panda")
+    lim = JointLimits(**options)
+    rng = np.random.default_rng(1)
+    for k in range(60):
+        q = robot.random_configuration(rng) + rng.normal(0.0, 0.05, robot.nq) * (k % 3 == 0)  # some start outside
+        dt = (0.01, 0.001, 0.1)[k % 3]
+        prev = rng.uniform(-3.0, 3.0, robot.nv) if k % 2 else None
+        box = lim.box(robot, q, dt, prev)
+        for got, want in zip((box.lb, box.ub, box.pos_lo, box.pos_hi), _reference_box(lim, q, dt, prev), strict=True):
+            np.testing.assert_allclose(got, want, rtol=1e-15, atol=0)
+        assert np.all(box.lb <= box.ub)
+    Q = np.stack([robot.random_configuration(rng) for _ in range(4)])
+    batch = lim.box(robot, Q, 0.01)
+    for i in range(4):
+        np.testing.assert_array_equal(batch.lb[i], lim.box(robot, Q[i], 0.01).lb)
+
+
+def test_jacobi_eigen_and_svd_match_lapack() -> None:
+    rng = np.random.default_rng(2)
+    for trial in range(400):
+        m, n = int(rng.integers(1, 10)), int(rng.integers(1, 12))
+        M = rng.normal(size=(m, n))
+        if trial % 4 == 1 and m > 1:
+            M[-1] = M[0]  # a duplicated row: rank deficient
+        elif trial % 4 == 2:
+            M[:, 0] *= 1e-6
+        elif trial % 4 == 3:
+            M[0] = 0.0
+        U, s, Vt = kernels.svd_full(M)
+        k = min(m, n)
+        np.testing.assert_allclose(s, np.linalg.svd(M, compute_uv=False), atol=1e-13 * max(1.0, s[0]))
+        np.testing.assert_allclose(Vt @ Vt.T, np.eye(n), atol=1e-13)
+        np.testing.assert_allclose((U * s) @ Vt[:k], M, atol=1e-12)
+        A = M @ M.T
+        w, V = kernels.sym_eig(A)
+        np.testing.assert_allclose(w, np.linalg.eigvalsh(A), atol=1e-12 * max(1.0, abs(w).max()))
+        np.testing.assert_allclose(V @ np.diag(w) @ V.T, A, atol=1e-12 * max(1.0, abs(w).max()))
+
+
+def test_gram_update_equals_numpy() -> None:
+    rng = np.random.default_rng(3)
+    P, q = rng.normal(size=(9, 9)), rng.normal(size=9)
+    J, v = rng.normal(size=(6, 9)), rng.normal(size=6)
+    P0, q0 = P.copy(), q.copy()
+    kernels.gram_update(P, q, np.asfortranarray(J), v, 0.3)  # Pinocchio's Jacobians are column-major
+    np.testing.assert_allclose(P, P0 + 0.3 * J.T @ J, atol=1e-13)
+    np.testing.assert_allclose(q, q0 - 0.3 * J.T @ v, atol=1e-13)
+
+
+def test_frame_error_equals_pinocchio_log3() -> None:
+    rng = np.random.default_rng(4)
+    rows = np.arange(6)
+    taken = 0
+    for k in range(2000):
+        angle = (1e-12, 1e-7, 1e-3, 0.1, 0.44, 0.5, 2.0, np.pi - 1e-6)[k % 8]
+        axis = rng.normal(size=3)
+        R = pin.exp3(rng.normal(size=3))
+        R_d = pin.exp3(axis / np.linalg.norm(axis) * angle) @ R
+        T = np.eye(4)
+        T[:3, :3], T[:3, 3] = R, rng.normal(size=3)
+        p_d, twist = rng.normal(size=3), rng.normal(size=6)
+        e, v = np.empty(6), np.empty(6)
+        if kernels.frame_error(p_d, R_d, T, twist, 3.0, rows, True, e, v):
+            taken += 1
+            ref = np.concatenate((p_d - T[:3, 3], pin.log3(R_d @ R.T)))
+            np.testing.assert_allclose(e, ref, atol=1e-14)
+            np.testing.assert_allclose(v, twist + 3.0 * ref, atol=1e-13)
+        else:
+            assert angle > 0.45  # only large rotations are left to Pinocchio's log3
+    assert taken >= 1000
+    sel = np.array([0, 1, 5])
+    e, v = np.empty(3), np.empty(3)
+    assert kernels.frame_error(p_d, R, T, twist, 2.0, sel, True, e, v)
+    np.testing.assert_allclose(e[:2], (p_d - T[:3, 3])[:2], atol=1e-15)
+
+
+def test_lsq_level_equals_the_damped_pseudo_inverse() -> None:
+    rng = np.random.default_rng(5)
+    A, b, x = rng.normal(size=(6, 9)), rng.normal(size=6), rng.normal(size=9)
+    out = np.empty(9)
+    Z, smin, damping, rank = kernels.lsq_level(A, b, x, np.zeros((0, 0)), False, 1e-2, 5e-2, 1e-10, out)
+    np.testing.assert_allclose(out, np.linalg.pinv(A) @ (b - A @ x), atol=1e-12)
+    assert rank == 6 and damping == 0.0 and Z.shape == (9, 3)
+    np.testing.assert_allclose(A @ Z, 0.0, atol=1e-12)
+    np.testing.assert_allclose(smin, np.linalg.svd(A, compute_uv=False)[-1], rtol=1e-12)
+    A2, b2 = rng.normal(size=(7, 9)), rng.normal(size=7)
+    out2 = np.empty(9)
+    Z2, *_ = kernels.lsq_level(A2, b2, out, Z, True, 1e-2, 5e-2, 1e-10, out2)
+    u = np.linalg.pinv(A2 @ Z) @ (b2 - A2 @ out)
+    np.testing.assert_allclose(out2, out + Z @ u, atol=1e-11)
+    assert Z2.shape == (9, 0)
