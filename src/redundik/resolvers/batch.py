@@ -68,18 +68,14 @@ class BatchResult:
 def batch_log3(R: np.ndarray) -> np.ndarray:
     """log(R) ∈ so(3) as rotation vectors for R of shape (N, 3, 3) [rad], shape (N, 3).
 
-    θ = acos((tr R − 1)/2), ω = θ/(2 sin θ)·(R₃₂ − R₂₃, R₁₃ − R₃₁, R₂₁ − R₁₂); near θ = 0 the series θ/(2 sin θ) ≈ ½ +
-    θ²/12; near θ = π the axis is taken from the diagonal (as ``pinocchio.log3``).
+    The frame task's one formula (:func:`redundik.resolvers.kernels.batch_log3_small`, the atan2 form below
+    θ = 0.45 rad) for every problem it covers, Pinocchio's ``log3`` for the others (robust up to θ = π).
     """
-    tr = np.clip((np.einsum("nii->n", R) - 1.0) * 0.5, -1.0, 1.0)
-    theta = np.arccos(tr)
-    vee = np.stack([R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]], axis=1)
-    s = np.sin(theta)
-    small = theta < 1e-4
-    k = np.where(small, 0.5 + theta**2 / 12.0, theta / (2.0 * np.where(small, 1.0, s)))
-    out = vee * k[:, None]
-    near_pi = np.pi - theta < 1e-6
-    for i in np.flatnonzero(near_pi):  # rare: the generic formula loses the axis
+    R = np.ascontiguousarray(R, dtype=float)
+    out = np.empty((R.shape[0], 3))
+    done = np.empty(R.shape[0], dtype=np.bool_)
+    K.batch_log3_small(R, out, done)
+    for i in np.flatnonzero(~done):
         out[i] = pin.log3(R[i])
     return out
 

@@ -611,6 +611,33 @@ SMALL_ROTATION_COS = 0.9
 
 
 @_jit
+def _log3_small(M: np.ndarray, out: np.ndarray, o: int) -> bool:
+    """log3(M) ∈ so(3) into out[o:o+3] [rad] when θ < acos(:data:`SMALL_ROTATION_COS`), else False, nothing written.
+
+    ω = θ/sin θ · vee(M − Mᵀ)/2 with θ = atan2(sin θ, cos θ), cos θ = (tr M − 1)/2 (exact to rounding in this range,
+    θ → 0 included).
+    """
+    c = 0.5 * (M[0, 0] + M[1, 1] + M[2, 2] - 1.0)
+    if not (c > SMALL_ROTATION_COS):
+        return False
+    wx = 0.5 * (M[2, 1] - M[1, 2])
+    wy = 0.5 * (M[0, 2] - M[2, 0])
+    wz = 0.5 * (M[1, 0] - M[0, 1])
+    s = math.sqrt(wx * wx + wy * wy + wz * wz)
+    f = math.atan2(s, min(c, 1.0)) / s if s > 0.0 else 1.0
+    out[o], out[o + 1], out[o + 2] = f * wx, f * wy, f * wz
+    return True
+
+
+@_jit
+def batch_log3_small(R: np.ndarray, out: np.ndarray, done: np.ndarray) -> None:
+    """:func:`_log3_small` of each R[k] (N, 3, 3) into out[k] (N, 3); done[k] is False where θ is too large (the
+    caller uses Pinocchio's ``log3`` there)."""
+    for k in range(R.shape[0]):
+        done[k] = _log3_small(R[k], out[k], 0)
+
+
+@_jit
 def frame_error(
     p_d: np.ndarray,
     R_d: np.ndarray,
@@ -637,15 +664,8 @@ def frame_error(
         for i in range(3):
             for j in range(3):
                 M[i, j] = R_d[i, 0] * T[j, 0] + R_d[i, 1] * T[j, 1] + R_d[i, 2] * T[j, 2]
-        c = 0.5 * (M[0, 0] + M[1, 1] + M[2, 2] - 1.0)
-        if not (c > SMALL_ROTATION_COS):
+        if not _log3_small(M, err, 3):
             return False
-        wx = 0.5 * (M[2, 1] - M[1, 2])
-        wy = 0.5 * (M[0, 2] - M[2, 0])
-        wz = 0.5 * (M[1, 0] - M[0, 1])
-        s = math.sqrt(wx * wx + wy * wy + wz * wz)
-        f = math.atan2(s, min(c, 1.0)) / s if s > 0.0 else 1.0
-        err[3], err[4], err[5] = f * wx, f * wy, f * wz
     for k in range(rows.shape[0]):
         e[k] = err[rows[k]]
         v[k] = twist[rows[k]] + gain * e[k]
