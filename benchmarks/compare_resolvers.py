@@ -1,14 +1,15 @@
 #!/usr/bin/env python3
-"""Compare redundik's resolvers with mink and pink on identical robots and tasks (issue 3, item 6).
+"""Compare redundik's resolvers with mink, pink and PlaCo on identical robots and tasks (issues 3, 11, 12).
 
-Usage::
+Usage (from a checkout, with ``pip install -e ".[test,peers]"``)::
 
     python benchmarks/compare_resolvers.py                  # full run: ≥ 2000 timed steps per case
-    python benchmarks/compare_resolvers.py --quick          # within a minute
+    python benchmarks/compare_resolvers.py --quick          # under a minute
     python benchmarks/compare_resolvers.py --json out.json --out benchmarks/results/
+    python benchmarks/compare_resolvers.py --placo-python .venv-placo/bin/python
 
-Writes ``compare_resolvers.md`` (table), ``.json`` and ``.png`` to ``--out`` and prints the ratios to the faster
-peer. The same run is ``redundik bench``. Method, robots and timing rules: ``docs/benchmark.md``.
+Writes ``compare_resolvers.md`` (tables and targets), ``.json`` and ``.png`` to ``--out`` and prints the ratios.
+Method, robots, PlaCo's own interpreter and timing rules: ``docs/benchmark.md``.
 """
 
 from __future__ import annotations
@@ -17,21 +18,58 @@ import argparse
 import sys
 from pathlib import Path
 
-from redundik.errors import RedundikError
-from redundik.peers.bench import BenchConfig, ratio_lines, run_benchmark, write_all
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))  # the harness is the checkout's package benchmarks.bench, not in the wheel
 
-DEFAULT_OUT = Path(__file__).resolve().parent / "results"
+from benchmarks.bench import KNOWN_ROBOTS, METHODS, BenchConfig, ratio_lines, run_benchmark, write_all  # noqa: E402
+from benchmarks.bench.report import markdown, readme_table, targets_table  # noqa: E402
+from redundik.errors import RedundikError  # noqa: E402
+
+DEFAULT_OUT = ROOT / "benchmarks" / "results"
+
+
+def _replace_between(path: Path, tag: str, body: str) -> Path:
+    text = path.read_text(encoding="utf-8")
+    start, end = f"<!-- {tag}:start -->", f"<!-- {tag}:end -->"
+    i, j = text.index(start) + len(start), text.index(end)
+    path.write_text(text[:i] + "\n" + body.strip() + "\n" + text[j:], encoding="utf-8")
+    return path
+
+
+def update_docs(result: object, command: str) -> list[Path]:
+    """This run's full report into docs/benchmark.md and the compact table + targets into README.md."""
+    readme = (
+        f"Last full run (`{command}`, one interleaved run on this 2-core shared machine: absolute µs are inflated "
+        "by the load, the ratios come from the same run); `wqp`/`hqp` on their default backend, each peer on its "
+        "fastest; × faster peer = median over the faster non-failed of mink and pink.\n\n"
+        + readme_table(result)  # type: ignore[arg-type]
+        + "\nTargets (issue 11), measured in this run:\n\n"
+        + "\n".join(targets_table(result))  # type: ignore[arg-type]
+        + "\n"
+    )
+    return [
+        _replace_between(ROOT / "docs" / "benchmark.md", "results", markdown(result, command)),  # type: ignore[arg-type]
+        _replace_between(ROOT / "README.md", "readme-results", readme),
+    ]
 
 
 def main(argv: list[str] | None = None) -> int:
     """Parse arguments, run, write the reports; returns the exit code."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--quick", action="store_true", help="short run (within a minute)")
+    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="short run (under a minute)")
     parser.add_argument("--steps", type=int, default=None, help="timed steps per case (default 2000, quick 300)")
     parser.add_argument("--json", type=Path, default=None, help="also write the JSON summary here")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help="output folder (default benchmarks/results)")
-    parser.add_argument("--robots", nargs="+", default=None, help="subset of planar3r panda panda_tight talos")
-    parser.add_argument("--methods", nargs="+", default=None, help="subset of pinv feedback wqp hqp mink pink")
+    parser.add_argument("--robots", nargs="+", default=None, help="subset of " + " ".join(KNOWN_ROBOTS))
+    parser.add_argument("--methods", nargs="+", default=None, help="subset of " + " ".join(METHODS))
+    parser.add_argument(
+        "--placo-python", default=None, help="PlaCo's interpreter (default $REDUNDIK_PLACO_PYTHON or .venv-placo)"
+    )
+    parser.add_argument("--batch-steps", type=int, default=None, help="timed calls of the batch case")
+    parser.add_argument(
+        "--update-docs", action="store_true", help="write this run's tables into docs/benchmark.md and README.md"
+    )
     args = parser.parse_args(argv)
     config = BenchConfig.quick() if args.quick else BenchConfig()
     if args.steps is not None:
@@ -40,6 +78,9 @@ def main(argv: list[str] | None = None) -> int:
         config.robots = tuple(args.robots)
     if args.methods:
         config.methods = tuple(args.methods)
+    if args.batch_steps is not None:
+        config.batch_steps = args.batch_steps
+    config.placo_python = args.placo_python
     command = "python benchmarks/compare_resolvers.py " + " ".join(argv if argv is not None else sys.argv[1:])
     try:
         result = run_benchmark(config)
@@ -47,11 +88,18 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {exc}", file=sys.stderr)
         return 2
     paths = write_all(result, args.out, command.strip(), args.json)
-    print("\nmedian step time / faster peer's (mink or pink, fastest backend):")
+    if args.update_docs:
+        for p in update_docs(result, command.strip()):
+            print(f"updated: {p}")
+    print("\nmedian step time / the faster of mink and pink (fastest backend), and / PlaCo:")
     for line in ratio_lines(result):
         print("  " + line)
     for t in result.targets():
-        print(f"  target {t['target']}: {t['value'] if t['value'] is None else round(t['value'], 3)} → met={t['met']}")
+        val = "–" if t["value"] is None else f"{t['value']:.3g}"
+        met = {True: "met", False: "NOT met", None: "not measured"}[t["met"]]
+        print(f"  target {t['target']}: {val} → {met}")
+    for s in result.skipped:
+        print(f"  skipped: {s}")
     for key, p in paths.items():
         if p is not None:
             print(f"{key}: {p}")

@@ -4,7 +4,7 @@
 Usage::
 
     python benchmarks/hot_path.py                       # Panda circle and Talos, pinv/wqp/hqp vs mink/pink (daqp)
-    python benchmarks/hot_path.py --robots panda --chunks 20 --chunk 100
+    python benchmarks/hot_path.py --robots panda_circle --chunks 20 --chunk 100
     python benchmarks/hot_path.py --profile             # plus the per-stage profile of each redundik case
     python benchmarks/hot_path.py --snake 10 20 40 80 160   # the snake's growth exponent and p90/median (wqp, hqp)
 
@@ -29,10 +29,10 @@ def _harness() -> tuple[Any, Any, Any, Any]:
     try:
         from redundik.peers.bench.runners import MinkRunner, PinkRunner, RedundikRunner
         from redundik.peers.bench.scenarios import SCENARIOS
-    except ImportError:  # the harness moved out of the package, next to this script
-        sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parent))
-        from bench.runners import MinkRunner, PinkRunner, RedundikRunner  # type: ignore[no-redef]
-        from bench.scenarios import SCENARIOS  # type: ignore[no-redef]
+    except ImportError:  # the harness moved out of the package: the checkout's benchmarks/bench
+        sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parents[1]))
+        from benchmarks.bench.runners import MinkRunner, PinkRunner, RedundikRunner  # type: ignore[no-redef]
+        from benchmarks.bench.scenarios import SCENARIOS  # type: ignore[no-redef]
     return SCENARIOS, RedundikRunner, MinkRunner, PinkRunner
 
 
@@ -77,17 +77,24 @@ def run(robots: list[str], methods: list[str], chunks: int, chunk: int, warmup: 
 
 
 def snake(sizes: list[int], resolvers: list[str], steps: int, rounds: int) -> int:
-    """Median and p90 per step of the snake (``benchmarks/snake_scaling.py``'s stacks) as n grows, interleaved, and
-    the growth exponent of the median (least-squares slope of log t against log n)."""
+    """Median and p90 per step of the snake (the benchmark's ``snakeN`` scenarios, which replaced
+    ``benchmarks/snake_scaling.py``) as n grows, interleaved, and the growth exponent of the median (least-squares
+    slope of log t against log n)."""
     import time
 
-    sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parent))
-    from snake_scaling import build
+    from redundik.resolvers import make_resolver
+
+    scenarios = _harness()[0]
+
+    def build(n: int, r: str) -> tuple[Any, Any, Any, np.ndarray]:
+        sc = scenarios[f"snake{n}"]()
+        robot = sc.robot()
+        return robot, sc.stack(r, robot), make_resolver(r), sc.q0.copy()
 
     cases = {(n, r): build(n, r) for n in sizes for r in resolvers}
     samples: dict[tuple[int, str], list[float]] = {key: [] for key in cases}
     qs = {key: case[3].copy() for key, case in cases.items()}
-    dt = 0.02
+    dt = 0.01  # the scenarios' step (their frame task's gain is 1/dt)
     for rnd in range(rounds + 1):  # round 0 warms up (JIT, caches) and is not kept
         for key, (robot, stack, resolver, q0) in cases.items():
             if rnd == 0:
@@ -117,7 +124,9 @@ def snake(sizes: list[int], resolvers: list[str], steps: int, rounds: int) -> in
 def main(argv: list[str] | None = None) -> int:
     """Parse the arguments and run."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--robots", nargs="+", default=["panda", "talos"], help="scenario keys (panda talos ...)")
+    parser.add_argument(
+        "--robots", nargs="+", default=["panda_circle", "talos"], help="scenario keys (panda_circle talos ...)"
+    )
     parser.add_argument("--methods", nargs="+", default=["pinv", "wqp", "hqp", "mink", "pink"])
     parser.add_argument("--chunks", type=int, default=20, help="round-robin turns")
     parser.add_argument("--chunk", type=int, default=50, help="steps per case per turn")

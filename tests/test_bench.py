@@ -1,4 +1,5 @@
-"""The resolver benchmark in a tiny mode: schema, coverage of every method on every robot, finite numbers.
+"""The resolver benchmark (``benchmarks/bench``, in the checkout, not the wheel) in a tiny mode: schema, coverage of
+every method on every robot kind, finite numbers, honest statuses, the PlaCo worker when a PlaCo interpreter exists.
 
 No timing assertions (speed is reported by ``benchmarks/compare_resolvers.py``, never asserted).
 """
@@ -13,12 +14,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
-from redundik.cli.main import main as cli_main
-from redundik.errors import ConfigError
-from redundik.peers import available
-from redundik.peers.bench import (
+from benchmarks.bench import (
+    BATCH_METHODS,
+    KNOWN_ROBOTS,
     METHODS,
+    QUICK_ROBOTS,
     BenchConfig,
     BenchResult,
     CaseResult,
@@ -29,8 +29,13 @@ from redundik.peers.bench import (
     summarise,
     write_all,
 )
-from redundik.peers.bench.runners import RedundikRunner, Runner
-from redundik.peers.bench.scenarios import SCENARIOS, ActuatedPostureTask
+from benchmarks.bench.placo_peer import PlacoRunner, find_placo_python
+from benchmarks.bench.runners import RedundikRunner, Runner
+from benchmarks.bench.scenarios import SCENARIOS, ActuatedPostureTask
+
+from redundik.cli.main import main as cli_main
+from redundik.errors import ConfigError
+from redundik.peers import available
 from redundik.resolvers.pinv import PinvResolver
 
 REQUIRED = {
@@ -47,26 +52,48 @@ PEERS_INSTALLED = available("mink") and available("mujoco") and available("pink"
 ROOT = Path(__file__).resolve().parents[1]
 
 
+TINY_ROBOTS = ("panda_circle", "talos", "snake10", "panda_batch1000", "panda_shelf")
+#: The default suite never depends on PlaCo (its own interpreter): the tiny run leaves it out.
+TINY_METHODS = tuple(m for m in METHODS if m != "placo")
+
+
 @pytest.fixture(scope="module")
 def tiny():
-    config = BenchConfig(steps=20, warmup=5, chunk=7, profile_steps=10, peer_backends=("daqp",))
+    config = BenchConfig(
+        robots=TINY_ROBOTS, methods=TINY_METHODS, steps=20, warmup=5, chunk=7, profile_steps=10,
+        peer_backends=("daqp",), batch_steps=2, batch_problems=40,
+    )  # fmt: skip
     return config, run_benchmark(config, log=lambda msg: None)
 
 
 def test_every_method_runs_on_every_robot(tiny) -> None:
-    config, result = tiny
-    expected = {m for m in METHODS if m not in ("mink", "pink") or PEERS_INSTALLED}
-    for robot in config.robots:
+    _, result = tiny
+    peers = {"mink", "pink"} if PEERS_INSTALLED else set()
+    expected = {
+        "panda_circle": {"pinv", "feedback", "wqp", "hqp"} | peers,
+        "talos": {"pinv", "feedback", "wqp", "hqp"} | peers,
+        "snake10": {"pinv", "wqp", "hqp"},
+        "panda_batch1000": set(BATCH_METHODS),
+        "panda_shelf": {"wqp"} | peers,
+    }
+    for robot, methods in expected.items():
         ran = {c.method for c in result.cases if c.robot == robot}
-        assert ran == expected, (robot, ran, result.skipped)
+        assert ran == methods, (robot, ran, result.skipped)
+    for robot in ("panda_circle", "talos"):
         qp = {c.backend for c in result.cases if c.robot == robot and c.method == "wqp"}
         assert len(qp) >= 2 and "osqp" in qp  # every installed backend, osqp at least among them
         assert sum(c.default_backend for c in result.cases if c.robot == robot and c.method == "wqp") == 1
+    assert len([c for c in result.cases if c.robot == "snake10" and c.method == "wqp"]) == 1  # default backend only
 
 
 def test_records_are_complete_and_finite(tiny) -> None:
     config, result = tiny
     for c in result.cases:
+        if c.method in BATCH_METHODS:
+            assert c.steps == (2 + config.batch_steps) * config.batch_problems  # warm-up + timed calls
+            assert c.problems_per_s is not None and c.problems_per_s > 0
+            assert c.extra["problems"] == config.batch_problems
+            continue
         assert c.steps == config.warmup + config.steps  # round-robin ran every case to the end
         for key in ("median_us", "p90_us", "max_task_error", "mean_task_error", "max_violation", "subtask_final"):
             assert math.isfinite(getattr(c, key)), (c, key)
@@ -77,6 +104,19 @@ def test_records_are_complete_and_finite(tiny) -> None:
             assert c.stages_us is not None and set(c.stages_us) >= {"kinematics", "tasks", "build", "solve"}
         if c.method in ("wqp", "hqp"):
             assert c.limit_violations == 0, c  # the QP resolvers keep the limits
+
+
+def test_batch_cases_agree_with_the_loop_and_shelf_reports_distances(tiny) -> None:
+    _, result = tiny
+    for method in ("wqp_batch", "pinv_batch"):
+        (c,) = result.find("panda_batch1000", method)
+        assert c.extra["loop_agreement"] <= 1e-9 and c.status == "ok", c.status
+    (shelf,) = result.find("panda_shelf", "wqp")
+    assert shelf.extra["min_collision_distance"] >= 0.0 and shelf.status == "ok", shelf.status
+    names = {t["target"] for t in result.targets()}
+    assert {"talos: wqp ≤ 1 × PlaCo", "snake: wqp growth exponent ≤ 1.3"} <= names
+    assert any("batch ≥ 10 ×" in n for n in names)
+    assert all(t["met"] is None for t in result.targets() if "PlaCo" in t["target"])  # not measured here
 
 
 def test_json_schema_and_reports(tiny, tmp_path: Path) -> None:
@@ -90,43 +130,82 @@ def test_json_schema_and_reports(tiny, tmp_path: Path) -> None:
             assert isinstance(case[key], typ), (key, case)
         assert case["status"] == "ok" or case["status"].startswith("failed: "), case["status"]
         assert case["method"] in METHODS
-        assert case["robot"] in SCENARIOS
+        assert case["robot"] in KNOWN_ROBOTS
+        assert ("problems_per_s" in case) == (case["method"] in BATCH_METHODS)
     assert {t["target"] for t in doc["targets"]} and all("met" in t for t in doc["targets"])
     if PEERS_INSTALLED:
-        assert doc["ratios"] and all(r["ratio"] > 0 for r in doc["ratios"])
+        assert doc["ratios"] and all(r["ratio"] > 0 for r in doc["ratios"] if r["ratio"] is not None)
     assert paths["plot"].stat().st_size > 1000
     md = markdown(result)
     assert md.count("\n| ") >= len(result.cases) and "Targets" in md
 
 
-def test_cli_bench_writes_the_json(tmp_path: Path) -> None:
-    out = tmp_path / "res"
-    code = cli_main(
-        ["bench", "--quick", "--steps", "5", "--robots", "planar3r", "--methods", "pinv,wqp", "--out", str(out),
-         "--json", str(tmp_path / "b.json")]
-    )  # fmt: skip
-    assert code == 0
-    doc = json.loads((tmp_path / "b.json").read_text())
-    assert {c["method"] for c in doc["cases"]} == {"pinv", "wqp"}
-    assert (out / "compare_resolvers.md").is_file() and (out / "compare_resolvers.png").is_file()
+def test_cli_bench_explains_that_the_benchmark_runs_from_a_checkout(capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli_main(["bench", "--quick", "--json", "x.json"]) == 5  # the CLI's "not installed" code
+    err = capsys.readouterr().err
+    assert "not part of the installed package" in err and "python benchmarks/compare_resolvers.py" in err
 
 
-def test_cli_rejects_unknown_robot(capsys: pytest.CaptureFixture[str]) -> None:
-    assert cli_main(["bench", "--quick", "--robots", "icub"]) == 3
-    assert "unknown robots ['icub']" in capsys.readouterr().err
+def test_the_harness_is_not_in_the_wheel() -> None:
+    assert importlib.util.find_spec("redundik.peers.bench") is None
+    assert not (ROOT / "src" / "redundik" / "peers" / "bench").exists()
+
+
+def test_unknown_robot_or_method_is_refused() -> None:
+    with pytest.raises(ConfigError, match=r"unknown robots \['icub'\]"):
+        BenchConfig(robots=("icub",)).check()
     with pytest.raises(ConfigError, match="methods"):
         BenchConfig(methods=("ik",)).check()
 
 
-def test_script_runs(tmp_path: Path) -> None:
+def _script():
     spec = importlib.util.spec_from_file_location("compare_resolvers", ROOT / "benchmarks" / "compare_resolvers.py")
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     sys.modules["compare_resolvers"] = module
     spec.loader.exec_module(module)
-    args = ["--quick", "--steps", "5", "--robots", "panda", "--methods", "pinv", "feedback", "--out", str(tmp_path)]
+    return module
+
+
+def test_script_quick_smoke(tmp_path: Path) -> None:
+    """``--quick`` (cut to a few steps, PlaCo left out): the quick robots, the JSON keys, honest statuses."""
+    module = _script()
+    methods = [m for m in METHODS if m != "placo"]
+    args = ["--quick", "--steps", "5", "--batch-steps", "1", "--methods", *methods, "--out", str(tmp_path),
+            "--json", str(tmp_path / "quick.json")]  # fmt: skip
     assert module.main(args) == 0
-    assert json.loads((tmp_path / "compare_resolvers.json").read_text())["cases"]
+    doc = json.loads((tmp_path / "quick.json").read_text())
+    assert {c["robot"] for c in doc["cases"]} == set(QUICK_ROBOTS)
+    for case in doc["cases"]:
+        assert set(REQUIRED) <= set(case)
+        assert case["status"] == "ok" or case["status"].startswith("failed: ")
+    batch = {c["method"]: c for c in doc["cases"] if c["robot"] == "panda_batch1000"}
+    assert set(batch) == set(BATCH_METHODS) and all(c["problems_per_s"] > 0 for c in batch.values())
+    assert module.main(["--robots", "icub", "--out", str(tmp_path)]) == 2
+
+
+PLACO_PYTHON, _PLACO_WHY = find_placo_python()
+
+
+@pytest.mark.peers
+@pytest.mark.skipif(PLACO_PYTHON is None, reason="no PlaCo interpreter (.venv-placo or $REDUNDIK_PLACO_PYTHON)")
+def test_placo_worker_protocol_matches_wqp() -> None:
+    """The PlaCo worker over its pipes, chunk by chunk: per-step times, q's measured by the common ruler, and the
+    same motion as redundik's wqp on the identical task set (its position-level tasks matched)."""
+    assert PLACO_PYTHON is not None
+    sc = SCENARIOS["panda_circle"]()
+    placo = PlacoRunner(sc, PLACO_PYTHON)
+    wqp = RedundikRunner(sc, "wqp", None, {})
+    try:
+        for _ in range(3):
+            placo.run(20)
+            wqp.run(20)
+        case = summarise(placo)
+        assert case.steps == 60 and case.status == "ok", case.status
+        assert all(ns > 0 for ns in placo.record.step_ns)
+        np.testing.assert_allclose(placo.q, wqp.q, atol=1e-3)
+    finally:
+        placo.close()
 
 
 def test_actuated_posture_leaves_the_floating_base_free() -> None:

@@ -631,8 +631,8 @@ def _log3_small(M: np.ndarray, out: np.ndarray, o: int) -> bool:
 
 @_jit
 def batch_log3_small(R: np.ndarray, out: np.ndarray, done: np.ndarray) -> None:
-    """``_log3_small`` of each R[k] (N, 3, 3) into out[k] (N, 3); done[k] is False where θ is too large (the
-    caller uses Pinocchio's ``log3`` there)."""
+    """``_log3_small`` (the frame task's small-angle log3) of each R[k] (N, 3, 3) into out[k] (N, 3); done[k] is
+    False where θ is too large (the caller uses Pinocchio's ``log3`` there)."""
     for k in range(R.shape[0]):
         done[k] = _log3_small(R[k], out[k], 0)
 

@@ -5,7 +5,7 @@ Three scenarios (see ``docs/benchmark.md``):
 * ``planar3r``: the chapter's 3R arm (D-H, a = 1 m), tip on the line v = (0.2, −0.4) m/s from q0 = (110°, −40°, −30°)
   for 5 s (the chapter's episode, repeated), subtask p = sin²θ3 raised (target 1 with K = 1/s; gradient k = 1 for
   ``pinv``).
-* ``panda``: Franka Panda (example-robot-data), pose task on ``panda_hand`` along a 5 cm circle in the y–z plane
+* ``panda_circle``: Franka Panda (example-robot-data), pose task on ``panda_hand`` along a 5 cm circle in the y–z plane
   (period 4 s, orientation held), posture subtask, joint position and velocity limits; the 3-level ``hqp`` is
   [hand pose] > [elbow ≥ 10 cm from a post, an inequality] > [posture].
 * ``talos``: Talos (``talos_reduced.urdf``, free flyer), both grippers on 5 cm circles (pose tasks), posture on the
@@ -22,13 +22,15 @@ What each method's stack means (the same task as the peers': frame tasks + postu
 * ``pinv``: the posture as the null-space gradient z = −K_p(q − q0) on the actuated joints (eq. 5.8; the floating
   base of Talos is left free, as in :class:`ActuatedPostureTask` and the peers); no limits (pinv has none, so its
   rows on ``panda_tight`` and ``talos`` break them and are reported FAILED).
-* ``feedback``: the posture as p = ½‖q − q0‖² (actuated joints) driven to 0 at K = 1/s; no limits either.
+* ``feedback``: the posture as the same gradient subtask as ``pinv`` (the state-feedback law passes gradient
+  subtasks through the null space, eq. 5.8); no limits either. The earlier target form p = ½‖q − q0‖² → 0 is
+  unreachable while the frames move, and its decoupling gain ‖η‖/‖Pη‖ made Euler drift (:func:`_posture_target`).
 * ``planar3r``: no posture; sin²θ3 → 1 at 1/s as a target subtask (``feedback``, ``wqp``, ``hqp`` and the peers'
   1-row task), as the gradient k = 1 under ``pinv`` (which refuses target subtasks).
 
 Each case is FAILED (and left out of the ratios) when its frame-task error exceeds :data:`ERROR_TOLERANCE`, its
 robot does not move, it falls back on more than 1 % of the steps, or it breaks the joint limits
-(:func:`redundik.peers.bench.harness.case_status`).
+(:func:`benchmarks.bench.harness.case_status`).
 
 Every frame task tracks its reference with feed-forward plus the error gain K = 1/dt, which is exactly the peers'
 dead-beat task (gain α = 1 towards the pose of the next sample): J Δq = p_d(t + dt) − p(t) ≈ dt (ṗ_d + e/dt).
@@ -38,8 +40,10 @@ its rows by c², and its gain α = K_p·dt).
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -47,7 +51,7 @@ import numpy as np
 from redundik.kinematics.dh import DHRow, from_dh
 from redundik.kinematics.model import RobotModel
 from redundik.kinematics.urdf import EXAMPLE_ROBOTS, example_robot_data_dir, load_example_robot
-from redundik.tasks.base import Potential, Task, TaskTerm
+from redundik.tasks.base import Barrier, Potential, Task, TaskTerm
 from redundik.tasks.frame import FrameTask
 from redundik.tasks.potentials import Clearance, JointCentering, JointSine2
 from redundik.tasks.stack import TaskStack
@@ -119,7 +123,7 @@ class Scenario:
         posture: Whether the posture task is part of the set (QP methods and peers).
         peer_potential: For the peers: (potential factory, keyword arguments of the adapter task), or ``None``.
         error_tolerance: Largest stacked frame-task error a case may reach and still count as tracking [m and rad
-            stacked]; above it the case is FAILED (see :func:`redundik.peers.bench.harness.case_status`).
+            stacked]; above it the case is FAILED (see :func:`benchmarks.bench.harness.case_status`).
     """
 
     key: str
@@ -136,10 +140,25 @@ class Scenario:
     peer_potential: tuple[Callable[[], Potential], dict[str, Any]] | None = None
     error_tolerance: float = ERROR_TOLERANCE
     stacks: dict[str, Callable[[RobotModel], TaskStack]] = field(default_factory=dict)
+    #: Methods that apply (``None``: every method); the others are not built for this robot.
+    methods: tuple[str, ...] | None = None
+    #: Whether wqp/hqp run with every installed QP backend (else the default backend only).
+    all_backends: bool = True
+    #: Timed steps (and chunk) of this robot relative to the configured ones (slow robots run fewer).
+    step_factor: float = 1.0
+    #: Whether PlaCo runs this task set (the same URDF; see :mod:`benchmarks.bench.placo_peer`).
+    placo: bool = False
+    #: Largest frame-task error at the last step of every episode (``None``: not checked) [m and rad stacked].
+    final_tolerance: float | None = None
+    #: Gain of the frame tasks (``None``: 1/dt, the peers' dead-beat task).
+    frame_gain: float | None = None
+    #: The model the method's stack is bound to (``None``: a fresh :attr:`robot`): a collision world is built for
+    #: one model object, so the runner takes that one and the common ruler another (with its own world).
+    runner_robot: Callable[[], RobotModel] | None = None
 
     def frame_tasks(self, gain: float | None = None) -> list[Task]:
         """Fresh frame tasks with gain K = 1/dt (or ``gain``)."""
-        k = 1.0 / self.dt if gain is None else gain
+        k = (1.0 / self.dt if self.frame_gain is None else self.frame_gain) if gain is None else gain
         return [FrameTask(f.frame, f.trajectory(), axes=f.axes, gain=k, name=f.frame) for f in self.frames]
 
     def posture_task(self, priority: int = 0) -> ActuatedPostureTask:
@@ -190,7 +209,7 @@ def panda_scenario() -> Scenario:
     """Panda hand on a 5 cm circle (orientation held) + posture + limits; hqp has 3 levels."""
     omega = 2.0 * np.pi / 4.0
     sc = Scenario(
-        key="panda",
+        key="panda_circle",
         title="Panda, hand on a 5 cm circle, posture, limits",
         robot=lambda: load_example_robot("panda"),
         q0=PANDA_Q0.copy(),
@@ -200,10 +219,11 @@ def panda_scenario() -> Scenario:
         monitor=lambda: JointCentering(center=PANDA_Q0, name="posture_dist"),
         monitor_label="½‖q − q0‖²",
         urdf=EXAMPLE_ROBOTS["panda"],
+        placo=True,
     )
     sc.stacks = {
         "pinv": lambda r: TaskStack(sc.frame_tasks(), [_posture_gradient(r, PANDA_Q0)]),
-        "feedback": lambda r: TaskStack(sc.frame_tasks(), [_posture_target(r, PANDA_Q0)]),
+        "feedback": lambda r: TaskStack(sc.frame_tasks(), [_posture_gradient(r, PANDA_Q0)]),
         "wqp": lambda r: TaskStack([*sc.frame_tasks(), sc.posture_task()]),
         "hqp": lambda r: TaskStack(
             [*sc.frame_tasks(), sc.posture_task(priority=2)], [_post_clearance(r, "panda_link4", PANDA_Q0)]
@@ -229,7 +249,13 @@ def _posture_gradient(robot: RobotModel, q0: np.ndarray) -> Subtask:
 
 
 def _posture_target(robot: RobotModel, q0: np.ndarray) -> Subtask:
-    """The state-feedback twin of the posture: p = ½‖q − q0‖²_W (actuated joints) driven to 0 at K = 1/s."""
+    """The posture as a *target* subtask p = ½‖q − q0‖²_W → 0 at K = 1/s (no longer used for ``feedback``).
+
+    Kept to show why not: while the hands move, p = 0 is unreachable, and the decoupling law scales the null-space
+    speed by ‖η‖/‖Pη‖ (η = ∇p, P the frame tasks' null-space projector), which grows large where η is nearly in
+    the range of Jᵀ; the explicit Euler step then drifts off the frames (Talos: 2.3–3.9 mm > 1 mm). The posture
+    is a regularisation, not a goal, so ``feedback`` takes it as the gradient subtask of :func:`_posture_gradient`.
+    """
     return TargetSubtask(JointCentering(center=q0, weights=actuated_weights(robot)), target=0.0, rate=POSTURE_GAIN)
 
 
@@ -265,6 +291,7 @@ def panda_tight_scenario() -> Scenario:
     sc.key = "panda_tight"
     sc.title = "Panda circle with panda_joint1 limited to ±0.02 rad (an active limit)"
     sc.robot = _panda_tight
+    sc.placo = False  # PlaCo reads the URDF's limits
     sc.urdf = None  # peers: MuJoCo model built from the modified redundik model (same kinematics, new limits)
     return sc
 
@@ -324,10 +351,11 @@ def talos_scenario() -> Scenario:
         monitor=lambda: JointCentering(center=q0, name="posture_dist"),
         monitor_label="½‖q − q0‖²",
         urdf=EXAMPLE_ROBOTS["talos"],
+        placo=True,
     )
     sc.stacks = {
         "pinv": lambda r: TaskStack(sc.frame_tasks(), [_posture_gradient(r, q0)]),
-        "feedback": lambda r: TaskStack(sc.frame_tasks(), [_posture_target(r, q0)]),
+        "feedback": lambda r: TaskStack(sc.frame_tasks(), [_posture_gradient(r, q0)]),
         "wqp": lambda r: TaskStack([*sc.frame_tasks(), sc.posture_task()]),
         "hqp": lambda r: TaskStack(
             [*sc.frame_tasks(), sc.posture_task(priority=2)], [_post_clearance(r, "arm_left_4_link", q0)]
@@ -336,11 +364,146 @@ def talos_scenario() -> Scenario:
     return sc
 
 
+# ---------------------------------------------------------------------------------------------------------- snake
+#: Joint counts of the snake scaling cases (``snake10`` … ``snake160``).
+SNAKE_SIZES: tuple[int, ...] = (10, 20, 40, 80, 160)
+
+
+def _snake(n: int) -> RobotModel:
+    """The n-joint yaw–pitch snake of section 5.2 (D-H, links 4/n m, ±90°, 2 rad/s), built here from its rows."""
+    rows = [
+        DHRow(str(i + 1), a=4.0 / n, alpha=np.pi / 2 if i % 2 == 0 else -np.pi / 2, lower=-np.pi / 2,
+              upper=np.pi / 2, velocity=2.0)
+        for i in range(n)
+    ]  # fmt: skip
+    return from_dh(rows, name=f"snake{n}")
+
+
+def snake_scenario(n: int) -> Scenario:
+    """The snake of n joints: tip pose on a 15 cm circle (x–y, period 5 s), joint centering, three link
+    clearances from points 12 cm beside the links at n/4, n/2, 3n/4 (section 5.2's scaling run).
+
+    ``pinv`` descends the clearances and the centering in the null space (gradients, eq. 5.15); ``wqp`` and
+    ``hqp`` keep the clearances ≥ 3 cm as inequalities (hqp: level 1) with the centering gradient below.
+    Not a peer comparison (pinv, wqp, hqp only, default backend): the growth of the step time with n.
+    """
+    q0 = np.array([np.deg2rad(15 * np.sin(0.35 * i)) if i % 2 == 0 else np.deg2rad(10) for i in range(n)])
+    frames = [str(n // 4), str(n // 2), str(3 * n // 4)]
+    robot0 = _snake(n)
+    robot0.update(q0)
+    centers = [robot0.frame_position(f) + np.array([0.0, 0.12, 0.0]) for f in frames]
+
+    def clearances() -> list[Clearance]:
+        return [Clearance(f, c, 0.06, name=f"clear{f}") for f, c in zip(frames, centers, strict=True)]
+
+    def closed_form(r: RobotModel) -> TaskStack:
+        subs: list[Subtask] = [GradientSubtask(JointCentering(), gain=-1.0)]
+        subs += [GradientSubtask(c, gain=0.3) for c in clearances()]
+        return TaskStack(sc.frame_tasks(), subs)
+
+    def qp(r: RobotModel) -> TaskStack:
+        subs: list[Subtask] = [BoundSubtask(c, lower=0.03, rate=2.0, priority=1) for c in clearances()]
+        subs.append(GradientSubtask(JointCentering(), gain=-1.0))
+        return TaskStack(sc.frame_tasks(), subs)
+
+    step_factor = {10: 1.0, 20: 1.0, 40: 0.5, 80: 0.25, 160: 0.1}.get(n, 0.1)
+    sc = Scenario(
+        key=f"snake{n}",
+        title=f"snake, {n} joints (D-H), tip pose on a 15 cm circle, centering, 3 clearances",
+        robot=lambda: _snake(n),
+        q0=q0,
+        dt=0.01,
+        frames=[FrameSpec(str(n), "pose", lambda: Circle(0.15, 2.0 * np.pi / 5.0, ("x", "y")))],
+        episode=None,
+        monitor=lambda: JointCentering(name="centering"),
+        monitor_label="½‖q‖²",
+        posture=False,
+        methods=("pinv", "wqp", "hqp"),
+        all_backends=False,
+        step_factor=step_factor,
+    )
+    sc.stacks = {"pinv": closed_form, "wqp": qp, "hqp": qp}
+    return sc
+
+
+# ---------------------------------------------------------------------------------------------------------- shelf
+#: The task file of the collision case (issue 12 item 5).
+SHELF_TASK = Path(__file__).resolve().parents[2] / "tasks" / "panda_shelf.yaml"
+
+
+class MinCollisionDistance(Potential):
+    """Monitor: the signed distance of the closest pair of a collision world [m] (negative: penetration)."""
+
+    def __init__(self, world: Any) -> None:
+        self.world, self.name = world, "min_collision_distance"
+
+    def check(self, robot: RobotModel) -> None:
+        self.world.check(robot)
+
+    def value(self, robot: RobotModel) -> float:
+        return float(self.world.closest(robot)[1])
+
+    def gradient(self, robot: RobotModel) -> np.ndarray:  # a monitor only
+        raise NotImplementedError
+
+
+def panda_shelf_scenario() -> Scenario:
+    """``tasks/panda_shelf.yaml``'s ``wqp`` run, as the config loader builds it: the hand on a 2 s line into a shelf
+    bay past a post, posture, the collision velocity damper on 60 candidate pairs (capsules fitted to the Panda's
+    collision meshes, SRDF-filtered self pairs, four obstacles), joint limits; 3 s episodes from q0.
+
+    Status: the hand may leave its line while the damper bends the arm around the post (tolerance 2 cm during the
+    motion), must end within 1 mm of the target at the end of every episode, and no pair may penetrate
+    (``min_collision_distance`` ≥ 0).
+    """
+    from redundik.config.loader import load_task
+
+    plan = load_task(SHELF_TASK)
+    run = plan.runs["wqp"]
+    base = plan.robot.model
+    hand = run.stack.tasks[0]
+    assert isinstance(hand, FrameTask)
+    trajectory = hand.trajectory
+    metrics_plan = load_task(SHELF_TASK)  # its own world for the common ruler
+
+    sc = Scenario(
+        key="panda_shelf",
+        title="Panda reaching into a shelf past a post, collision damper (60 pairs), posture, limits",
+        robot=lambda: metrics_plan.robot.model,
+        q0=run.q0.copy(),
+        dt=plan.dt,
+        frames=[FrameSpec(hand.frame, "pose", lambda: copy.deepcopy(trajectory))],
+        episode=plan.steps,
+        monitor=lambda: MinCollisionDistance(metrics_plan.world),
+        monitor_label="min collision distance [m]",
+        posture=False,
+        error_tolerance=0.02,
+        methods=("wqp",),
+        all_backends=False,
+    )
+    sc.runner_robot = lambda: base
+    # for pink's barrier on the same geometry (runners.PinkShelfRunner)
+    avoid = next(s.source for s in run.stack.subtasks if isinstance(getattr(s, "source", None), Barrier))
+    posture = next(s for s in run.stack.subtasks if isinstance(s, GradientSubtask))
+    sc.world, sc.avoid = plan.world, avoid  # type: ignore[attr-defined]
+    sc.urdf_file = str(plan.robot.urdf)  # type: ignore[attr-defined]
+    sc.posture_center = np.asarray(posture.potential.center, dtype=float)  # type: ignore[attr-defined]
+    sc.posture_gain = -float(posture.gain)  # type: ignore[attr-defined]
+    sc.level_ratio = float(getattr(run.resolver, "level_ratio", 1e-4))  # type: ignore[attr-defined]
+    sc.pairs = plan.world.n_pairs  # type: ignore[attr-defined]
+    sc.final_tolerance = ERROR_TOLERANCE
+    sc.frame_gain = float(hand.gain)
+    sc.stacks = {"wqp": lambda r: run.stack}
+    return sc
+
+
 SCENARIOS: dict[str, Callable[[], Scenario]] = {
     "planar3r": planar3r_scenario,
-    "panda": panda_scenario,
+    "panda_circle": panda_scenario,
     "panda_tight": panda_tight_scenario,
     "talos": talos_scenario,
+    **{f"snake{n}": (lambda n=n: snake_scenario(n)) for n in SNAKE_SIZES},  # type: ignore[misc]
+    "panda_shelf": panda_shelf_scenario,
 }
 
 

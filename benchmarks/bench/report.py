@@ -7,7 +7,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from redundik.peers.bench.harness import METHODS, BenchResult
+from benchmarks.bench.harness import BATCH_METHODS, METHODS, PEERS, BenchResult
 
 
 def _num(x: float, digits: int = 1) -> str:
@@ -48,21 +48,24 @@ def _json_default(obj: object) -> object:
 def markdown(result: BenchResult, command: str = "") -> str:
     """The Markdown report: main table, ratios to the faster peer, targets, per-stage profile, skipped cases."""
     order = {m: i for i, m in enumerate(METHODS)}
-    cases = sorted(result.cases, key=lambda c: (list(result.meta["robots"]).index(c.robot), order[c.method]))
+    robots = list(result.meta["robots"])
+    cases = sorted(result.cases, key=lambda c: (robots.index(c.robot), order[c.method]))
     lines: list[str] = []
     if command:
         lines += [f"Command: `{command}`", ""]
     m = result.meta
     lines += [
-        f"{m['steps']} timed steps per case after {m['warmup']} warm-up steps, round-robin in chunks of "
-        f"{m['chunk']}; Python {m['python']} on {m['platform']} ({m['processor']}); wall time "
-        f"{m['wall_time_s']:.0f} s.",
+        f"{m['steps']} timed steps per case after {m['warmup']} warm-up steps (fewer on the slow snakes; the batch "
+        f"case {m.get('batch_steps', '–')} calls of its problems), round-robin in chunks of {m['chunk']}; "
+        f"Python {m['python']} on {m['platform']} ({m['processor']}); wall time {m['wall_time_s']:.0f} s.",
         "",
         "| robot | method | backend | median µs | p90 µs | × faster peer | max task error | subtask (final) "
         "| limit viol. | fallbacks | status |",
         "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
     for c in cases:
+        if c.method in BATCH_METHODS:
+            continue
         peer = result.faster_peer(c.robot)
         ratio = "–" if peer is None or not c.ok else _num(c.median_us / peer.median_us, 2)
         star = " (default)" if c.default_backend else ""
@@ -72,13 +75,11 @@ def markdown(result: BenchResult, command: str = "") -> str:
             f"{'' if not c.limit_violations else f' (max {c.max_violation:.1e})'} | {c.fallback_steps + c.failures} "
             f"| {_status(c.status)} |"
         )
-    lines += ["", "Targets (issue 3, measured in this run):", ""]
-    lines += ["| target | measured | limit | met | detail |", "|---|---:|---:|---|---|"]
-    for t in result.targets():
-        val = "–" if t["value"] is None else (f"{t['value']:.3f}" if t["unit"] == "ratio" else f"{t['value']:.1f} µs")
-        lim = f"{t['limit']:.3f}" if t["unit"] == "ratio" else f"{t['limit']:.0f} µs"
-        met = {True: "yes", False: "**no**", None: "–"}[t["met"]]
-        lines.append(f"| {t['target']} | {val} | {lim} | {met} | {t['detail']} |")
+    lines += batch_table(result)
+    lines += placo_table(result)
+    lines += snake_table(result)
+    lines += ["", "Targets (issue 11, measured in this run):", ""]
+    lines += targets_table(result)
     prof = [c for c in cases if c.stages_us]
     if prof:
         lines += [
@@ -106,6 +107,85 @@ def markdown(result: BenchResult, command: str = "") -> str:
     return "\n".join(lines) + "\n"
 
 
+def targets_table(result: BenchResult) -> list[str]:
+    """The targets as Markdown rows: measured value, limit, met (yes / **no** / – not measured), detail."""
+    lines = ["| target | measured | limit | met | detail |", "|---|---:|---:|---|---|"]
+    for t in result.targets():
+        val = "–" if t["value"] is None else f"{t['value']:.3g}"
+        lim = ("≤ " if t.get("kind", "max") == "max" else "≥ ") + f"{t['limit']:g}"
+        met = {True: "yes", False: "**no**", None: "–"}[t["met"]]
+        lines.append(f"| {t['target']} | {val} | {lim} | {met} | {t['detail']} |")
+    return lines
+
+
+def batch_table(result: BenchResult) -> list[str]:
+    """The batch case: per method the time per call of all problems, problems/s, the QP fraction, status."""
+    cases = [c for c in result.cases if c.method in BATCH_METHODS]
+    if not cases:
+        return []
+    lines = [
+        "",
+        f"Batch ({cases[0].extra.get('problems', '?')} Panda pose problems per call):",
+        "",
+        "| method | backend | median µs per call | p90 µs | problems/s | QP called | max task error | vs loop "
+        "| status |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---|",
+    ]
+    for c in sorted(cases, key=lambda c: BATCH_METHODS.index(c.method)):
+        agree = c.extra.get("loop_agreement")
+        lines.append(
+            f"| {c.method} | {c.backend} | {_num(c.median_us, 0)} | {_num(c.p90_us, 0)} | "
+            f"{_num(c.problems_per_s or float('nan'), 0)} | "
+            + ("–" if c.qp_fraction is None else f"{100 * c.qp_fraction:.1f} %")
+            + f" | {_sci(c.max_task_error)} | {'–' if agree is None else f'{agree:.1e}'} | {_status(c.status)} |"
+        )
+    return lines
+
+
+def placo_table(result: BenchResult) -> list[str]:
+    """redundik's methods over PlaCo's median, per robot where PlaCo ran."""
+    rows = [r for r in result.ratios() if r.get("ratio_placo") is not None]
+    if not rows:
+        return []
+    lines = ["", "× PlaCo (its median per step, measured in its own process in the same run):", ""]
+    lines += ["| robot | method | backend | × PlaCo |", "|---|---|---|---:|"]
+    lines += [f"| {r['robot']} | {r['method']} | {r['backend']} | {r['ratio_placo']:.2f} |" for r in rows]
+    return lines
+
+
+def snake_table(result: BenchResult) -> list[str]:
+    """Snake scaling: median and p90/median per n and method, and the fitted growth exponent."""
+    fits = [result.snake_fit(m) for m in ("pinv", "wqp", "hqp")]
+    sizes = sorted({n for f in fits for n in f["n"]})
+    if not sizes:
+        return []
+    lines = [
+        "",
+        "Snake scaling (median µs per step, p90/median and the fraction of steps that called the QP backend in "
+        "brackets; exponent b of median ∝ nᵇ, and of p90):",
+        "",
+    ]
+    lines += ["| method | " + " | ".join(f"n = {n}" for n in sizes) + " | exponent | exponent of p90 |"]
+    lines += ["|---|" + "---:|" * len(sizes) + "---:|---:|"]
+    for f in fits:
+        cells = []
+        for n in sizes:
+            if n in f["n"]:
+                i = f["n"].index(n)
+                qp = f["qp_fraction"][i]
+                cells.append(
+                    f"{f['median_us'][i]:.0f} ({f['p90_over_median'][i]:.2f}"
+                    + ("" if qp is None else f"; QP {100 * qp:.0f} %")
+                    + ")"
+                )
+            else:
+                cells.append("–")
+        exp = "–" if f["exponent"] is None else f"{f['exponent']:.2f}"
+        exp90 = "–" if f["exponent_p90"] is None else f"{f['exponent_p90']:.2f}"
+        lines.append(f"| {f['method']} | " + " | ".join(cells) + f" | {exp} | {exp90} |")
+    return lines
+
+
 def _status(status: str) -> str:
     return "ok" if status == "ok" else "**FAILED**: " + status.removeprefix("failed: ")
 
@@ -123,15 +203,18 @@ def readme_table(result: BenchResult) -> str:
     for robot in robots:
         peer = result.faster_peer(robot)
         for method in sorted({c.method for c in result.cases if c.robot == robot}, key=order.__getitem__):
-            if method in ("mink", "pink"):
+            if method in PEERS:
                 c = result.fastest(robot, method) or min(result.find(robot, method), key=lambda c: c.median_us)
             else:
                 c = result.default(robot, method) or result.find(robot, method)[0]
             shown.append(id(c))
-            ratio = "–" if peer is None or not c.ok else f"{c.median_us / peer.median_us:.2f}"
+            ratio = (
+                "–" if peer is None or not c.ok or method in BATCH_METHODS else f"{c.median_us / peer.median_us:.2f}"
+            )
+            pps = "" if c.problems_per_s is None else f" ({c.problems_per_s:.0f} problems/s)"
             lines.append(
-                f"| {robot} | {method} | {c.backend} | {_num(c.median_us, 0)} | {ratio} | {_sci(c.max_task_error)} "
-                f"| {_status(c.status)} |"
+                f"| {robot} | {method} | {c.backend} | {_num(c.median_us, 0)}{pps} | {ratio} | "
+                f"{_sci(c.max_task_error)} | {_status(c.status)} |"
             )
     failed = [c for c in result.cases if not c.ok and id(c) not in shown]
     if failed:
@@ -142,9 +225,12 @@ def readme_table(result: BenchResult) -> str:
 
 def ratio_lines(result: BenchResult) -> list[str]:
     """One line per redundik case: its median over the faster peer's; then one line per FAILED case."""
-    lines = [
-        f"{r['robot']:>9} {r['method']:>8}/{r['backend']:<10} = {r['ratio']:.2f} × {r['peer']}" for r in result.ratios()
-    ]
+    lines = []
+    for r in result.ratios():
+        parts = [] if r["ratio"] is None else [f"{r['ratio']:.2f} × {r['peer']}"]
+        if r.get("ratio_placo") is not None:
+            parts.append(f"{r['ratio_placo']:.2f} × placo")
+        lines.append(f"{r['robot']:>12} {r['method']:>8}/{r['backend']:<10} = " + ", ".join(parts))
     lines += [f"{c.robot:>9} {c.method:>8}/{c.backend:<10} FAILED: {c.status.removeprefix('failed: ')}"
               for c in result.cases if not c.ok]  # fmt: skip
     return lines
@@ -159,22 +245,25 @@ def plot(result: BenchResult, path: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    robots = list(result.meta["robots"])
+    robots = [r for r in result.meta["robots"] if any(c.robot == r and c.median_us > 0 for c in result.cases)]
     order = {m: i for i, m in enumerate(METHODS)}
     fig, axes = plt.subplots(len(robots), 1, figsize=(8, 1.2 + 0.32 * len(result.cases)), squeeze=False)
-    colors = {"pinv": "C0", "feedback": "C1", "wqp": "C2", "hqp": "C3", "mink": "C7", "pink": "C8"}
+    colors = {"pinv": "C0", "feedback": "C1", "wqp": "C2", "hqp": "C3", "mink": "C7", "pink": "C8", "placo": "C4"}
     for ax, robot in zip(axes[:, 0], robots, strict=True):
-        cs = sorted([c for c in result.cases if c.robot == robot], key=lambda c: (order[c.method], c.median_us))
+        cs = sorted(
+            [c for c in result.cases if c.robot == robot and c.median_us > 0],
+            key=lambda c: (order[c.method], c.median_us),
+        )
         y = list(range(len(cs)))
         med = [c.median_us for c in cs]
         err = [max(c.p90_us - c.median_us, 0.0) for c in cs]
-        ax.barh(y, med, xerr=[[0.0] * len(cs), err], color=[colors[c.method] for c in cs])
+        ax.barh(y, med, xerr=[[0.0] * len(cs), err], color=[colors.get(c.method.split("_")[0], "C9") for c in cs])
         ax.set_yticks(y, [f"{c.method}/{c.backend}" for c in cs], fontsize=8)
         ax.invert_yaxis()
         ax.set_xscale("log")
         ax.set_title(robot, fontsize=9)
         ax.grid(axis="x", which="both", alpha=0.3)
-    axes[-1, 0].set_xlabel("time per IK step [µs] (median, whisker to p90)")
+    axes[-1, 0].set_xlabel("time per IK step [µs] (batch: per call) (median, whisker to p90)")
     fig.tight_layout()
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)

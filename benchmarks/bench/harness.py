@@ -1,0 +1,658 @@
+"""Run the comparison: build the cases from a robot and method list, step them round-robin in chunks, summarise.
+
+The machine is noisy (shared cores), so cases are never run one after the other: every case advances by a chunk
+of steps in turn (the order rotating each round), so slow drifts of the machine hit all cases alike, and the
+medians, p90 and ratios all come from one run.
+"""
+
+from __future__ import annotations
+
+import platform
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from benchmarks.bench import batch as batch_case
+from benchmarks.bench.placo_peer import PlacoRunner, find_placo_python
+from benchmarks.bench.runners import (
+    MinkRunner,
+    MinkShelfRunner,
+    PinkRunner,
+    PinkShelfRunner,
+    RedundikRunner,
+    Runner,
+)
+from benchmarks.bench.scenarios import SCENARIOS, SNAKE_SIZES
+from redundik.errors import ConfigError, RedundikError
+from redundik.peers._deps import available
+from redundik.resolvers.registry import RESOLVERS
+
+#: Methods in report order; ``method`` values of the JSON.
+METHODS: tuple[str, ...] = (
+    "pinv", "feedback", "wqp", "hqp", "mink", "pink", "placo", "wqp_batch", "wqp_loop", "pinv_batch", "pinv_loop"
+)  # fmt: skip
+#: Methods of the batch case (only there).
+BATCH_METHODS: tuple[str, ...] = ("wqp_batch", "wqp_loop", "pinv_batch", "pinv_loop")
+#: Robots (``robot`` values of the JSON) in report order: every case of a full run.
+ROBOTS: tuple[str, ...] = (
+    "panda_circle", "panda_tight", "talos", *(f"snake{n}" for n in SNAKE_SIZES), batch_case.ROBOT_KEY, "panda_shelf"
+)  # fmt: skip
+#: The robots of ``--quick``.
+QUICK_ROBOTS: tuple[str, ...] = ("panda_circle", "talos", "snake10", "snake80", batch_case.ROBOT_KEY)
+#: Every robot the harness knows (``planar3r``, the chapter's 3R arm, only on request).
+KNOWN_ROBOTS: tuple[str, ...] = (*ROBOTS, "planar3r")
+#: Steps (calls of 1000 problems) of the batch case, warm-up excluded, and its warm-up.
+BATCH_STEPS, BATCH_WARMUP = 20, 2
+#: The peers (not redundik's methods).
+PEERS: tuple[str, ...] = ("mink", "pink", "placo")
+#: QP backends tried for wqp/hqp (each one that the resolver accepts and is installed becomes a case).
+QP_BACKENDS: tuple[str, ...] = ("osqp", "proxsuite", "daqp", "quadprog")
+#: Backends tried for the peers (their fastest is used in the ratios).
+PEER_BACKENDS: tuple[str, ...] = ("daqp", "quadprog")
+#: Largest fraction of steps that may fall back (or raise) or leave the robot frozen before a case is FAILED.
+MAX_BAD_FRACTION = 0.01
+#: Largest joint-limit violation a case may reach [rad or m] (numerical round-off of the peers' integrators).
+LIMIT_TOLERANCE = 1e-5
+
+
+@dataclass
+class BenchConfig:
+    """What to run.
+
+    Attributes:
+        robots: Scenario keys (``planar3r``, ``panda``, ``panda_tight``, ``talos``).
+        methods: Methods among :data:`METHODS`.
+        steps: Timed steps per case after warm-up (≥ 2000 for the reported numbers).
+        warmup: Steps run before timing starts.
+        chunk: Steps per case per round-robin turn.
+        qp_backends: Backends for wqp/hqp; ``None`` = every one of :data:`QP_BACKENDS` that works.
+        peer_backends: Backends for mink/pink.
+        profile_steps: Steps of the per-stage profile of redundik's methods (0 = off).
+        resolver_options: Extra options per redundik method (e.g. tolerances).
+        placo_python: PlaCo's interpreter (``None``: ``$REDUNDIK_PLACO_PYTHON`` or the checkout's ``.venv-placo``).
+        batch_steps: Timed calls of the batch case (each resolving 1000 problems).
+        batch_problems: Problems of the batch case.
+    """
+
+    robots: Sequence[str] = ROBOTS
+    methods: Sequence[str] = METHODS
+    steps: int = 2000
+    warmup: int = 200
+    chunk: int = 50
+    qp_backends: Sequence[str] | None = None
+    peer_backends: Sequence[str] = PEER_BACKENDS
+    profile_steps: int = 400
+    resolver_options: dict[str, dict[str, Any]] = field(default_factory=dict)
+    placo_python: str | None = None
+    batch_steps: int = BATCH_STEPS
+    batch_problems: int = batch_case.N_PROBLEMS
+
+    @classmethod
+    def quick(cls, steps: int = 300) -> BenchConfig:
+        """A run that finishes within a minute: the quick robots, fewer steps, the default QP backend, the peers on
+        daqp only."""
+        return cls(
+            robots=QUICK_ROBOTS, steps=steps, warmup=30, chunk=50, qp_backends=("daqp",), peer_backends=("daqp",),
+            profile_steps=100, batch_steps=4,
+        )  # fmt: skip
+
+    def check(self) -> None:
+        """Raise :class:`ConfigError` on unknown robots/methods or non-positive counts."""
+        bad = [r for r in self.robots if r not in KNOWN_ROBOTS]
+        if bad:
+            raise ConfigError(f"unknown robots {bad}; available: {list(KNOWN_ROBOTS)}", "robots")
+        bad = [m for m in self.methods if m not in METHODS]
+        if bad:
+            raise ConfigError(f"unknown methods {bad}; available: {list(METHODS)}", "methods")
+        for key in ("steps", "chunk", "batch_steps", "batch_problems"):
+            if getattr(self, key) < 1:
+                raise ConfigError(f"must be ≥ 1, got {getattr(self, key)}", key)
+        if self.warmup < 0 or self.profile_steps < 0:
+            raise ConfigError("must be ≥ 0", "warmup/profile_steps")
+
+
+@dataclass
+class CaseResult:
+    """The summary of one case (robot, method, backend)."""
+
+    robot: str
+    method: str
+    backend: str
+    median_us: float
+    p90_us: float
+    max_task_error: float
+    mean_task_error: float
+    limit_violations: int
+    max_violation: float
+    subtask_final: float
+    subtask_mean: float
+    subtask_label: str
+    failures: int
+    steps: int
+    default_backend: bool = False
+    qp_fraction: float | None = None
+    first_failure: str | None = None
+    stages_us: dict[str, float] | None = None
+    fallback_steps: int = 0
+    first_fallback: str | None = None
+    frozen_steps: int = 0
+    error_tolerance: float = 1e-3
+    status: str = "ok"
+    problems_per_s: float | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        """True when the case tracks, moves, keeps the limits and rarely falls back (:func:`case_status`)."""
+        return self.status == "ok"
+
+    def as_json(self) -> dict[str, Any]:
+        """The JSON record (keys ``robot``, ``method``, ``backend``, ``median_us``, ``p90_us``,
+        ``max_task_error``, ``limit_violations``, ``status`` first — other tools read them — then the extras)."""
+        return {
+            "robot": self.robot,
+            "method": self.method,
+            "backend": self.backend,
+            "median_us": self.median_us,
+            "p90_us": self.p90_us,
+            "max_task_error": self.max_task_error,
+            "limit_violations": self.limit_violations,
+            "status": self.status,
+            **({} if self.problems_per_s is None else {"problems_per_s": self.problems_per_s}),
+            "error_tolerance": self.error_tolerance,
+            "fallback_steps": self.fallback_steps,
+            "first_fallback": self.first_fallback,
+            "frozen_steps": self.frozen_steps,
+            "mean_task_error": self.mean_task_error,
+            "max_violation": self.max_violation,
+            "subtask": self.subtask_label,
+            "subtask_final": self.subtask_final,
+            "subtask_mean": self.subtask_mean,
+            "failures": self.failures,
+            "first_failure": self.first_failure,
+            "steps": self.steps,
+            "default_backend": self.default_backend,
+            "qp_fraction": self.qp_fraction,
+            "stages_us": self.stages_us,
+            **self.extra,
+        }
+
+
+@dataclass
+class BenchResult:
+    """Everything one run produced."""
+
+    cases: list[CaseResult]
+    skipped: list[str]
+    meta: dict[str, Any]
+
+    def find(self, robot: str, method: str, backend: str | None = None) -> list[CaseResult]:
+        """Cases of a robot and method (and backend)."""
+        return [
+            c
+            for c in self.cases
+            if c.robot == robot and c.method == method and (backend is None or c.backend == backend)
+        ]
+
+    def fastest(self, robot: str, method: str) -> CaseResult | None:
+        """The case of ``method`` on ``robot`` with the lowest median (its fastest backend) among the cases that did
+        not fail (:func:`case_status`), if any."""
+        found = [c for c in self.find(robot, method) if c.ok]
+        return min(found, key=lambda c: c.median_us) if found else None
+
+    def default(self, robot: str, method: str) -> CaseResult | None:
+        """The case of ``method`` with its default backend (or the only one)."""
+        found = self.find(robot, method)
+        for c in found:
+            if c.default_backend:
+                return c
+        return found[0] if len(found) == 1 else None
+
+    def faster_peer(self, robot: str) -> CaseResult | None:
+        """The faster of mink and pink (each with its fastest backend) on ``robot``."""
+        peers = [c for c in (self.fastest(robot, "mink"), self.fastest(robot, "pink")) if c is not None]
+        return min(peers, key=lambda c: c.median_us) if peers else None
+
+    def ratios(self) -> list[dict[str, Any]]:
+        """Median of every redundik case that did not fail over the faster (non-failed) of mink and pink, per robot,
+        and over PlaCo's where it ran (``ratio_placo``)."""
+        out = []
+        for c in self.cases:
+            if c.method in PEERS or not c.ok or c.method in BATCH_METHODS:
+                continue
+            peer = self.faster_peer(c.robot)
+            placo = self.fastest(c.robot, "placo")
+            if (peer is None or peer.median_us <= 0) and placo is None:
+                continue
+            out.append(
+                {
+                    "robot": c.robot,
+                    "method": c.method,
+                    "backend": c.backend,
+                    "peer": None if peer is None else f"{peer.method}/{peer.backend}",
+                    "ratio": None if peer is None else c.median_us / peer.median_us,
+                    "ratio_placo": None if placo is None else c.median_us / placo.median_us,
+                }
+            )
+        return out
+
+    def snake_fit(self, method: str) -> dict[str, Any]:
+        """Growth exponent b of median ∝ n^b (least squares in log–log over the snake cases that did not fail) and
+        p90/median at every n."""
+        pts = []
+        for n in SNAKE_SIZES:
+            c = _ok(self.default(f"snake{n}", method))
+            if c is not None and c.median_us > 0:
+                pts.append((n, c.median_us, c.p90_us, c.qp_fraction))
+        out: dict[str, Any] = {"method": method, "n": [p[0] for p in pts], "median_us": [p[1] for p in pts]}
+        out["p90_us"] = [p[2] for p in pts]
+        out["p90_over_median"] = [p[2] / p[1] for p in pts]
+        out["qp_fraction"] = [p[3] for p in pts]
+        logn = np.log([p[0] for p in pts])
+        out["exponent"] = float(np.polyfit(logn, np.log(out["median_us"]), 1)[0]) if len(pts) >= 2 else None
+        out["exponent_p90"] = float(np.polyfit(logn, np.log(out["p90_us"]), 1)[0]) if len(pts) >= 2 else None
+        return out
+
+    def targets(self) -> list[dict[str, Any]]:
+        """The issue's performance targets (issue 11), each with the value measured in this run and whether it is met
+        (``None``: not measured here, or a case it needs failed)."""
+        out: list[dict[str, Any]] = []
+
+        def add(name: str, value: float | None, limit: float, unit: str, detail: str, kind: str = "max") -> None:
+            met = None if value is None else bool(value <= limit if kind == "max" else value >= limit)
+            out.append(
+                {"target": name, "value": value, "limit": limit, "unit": unit, "kind": kind, "met": met,
+                 "detail": detail}
+            )  # fmt: skip
+
+        def ratio(a: CaseResult | None, b: CaseResult | None) -> float | None:
+            return None if a is None or b is None or b.median_us <= 0 else a.median_us / b.median_us
+
+        peer = self.faster_peer("panda_circle")
+        placo = self.fastest("panda_circle", "placo")
+        wqp = _ok(self.default("panda_circle", "wqp"))
+        add("panda_circle: wqp ≤ 0.20 × faster of mink/pink", ratio(wqp, peer), 0.20, "ratio", _detail(wqp, peer))
+        add("panda_circle: wqp ≤ 2 × PlaCo", ratio(wqp, placo), 2.0, "ratio", _detail(wqp, placo))
+        pinv = _ok(self.default("panda_circle", "pinv"))
+        add(
+            "panda_circle: pinv (null-space subtask) ≤ 0.12 × faster of mink/pink",
+            ratio(pinv, peer), 0.12, "ratio", _detail(pinv, peer),
+        )  # fmt: skip
+        hqp = _ok(self.default("panda_circle", "hqp"))
+        add(
+            "panda_circle: 3-level hqp, inequality inactive ≤ 0.30 × faster of mink/pink",
+            ratio(hqp, peer), 0.30, "ratio", _detail(hqp, peer),
+        )  # fmt: skip
+        peer_t = self.faster_peer("panda_tight")
+        hqp_t = _ok(self.default("panda_tight", "hqp"))
+        add(
+            "panda_tight: 3-level hqp, a limit active ≤ 0.60 × faster of mink/pink",
+            ratio(hqp_t, peer_t), 0.60, "ratio", _detail(hqp_t, peer_t),
+        )  # fmt: skip
+        wqp_h = _ok(self.default("talos", "wqp"))
+        placo_h = self.fastest("talos", "placo")
+        add("talos: wqp ≤ 1 × PlaCo", ratio(wqp_h, placo_h), 1.0, "ratio", _detail(wqp_h, placo_h))
+        for method in ("wqp", "hqp"):
+            fit = self.snake_fit(method)
+            sizes = ", ".join(f"n={n}: {m:.0f} µs" for n, m in zip(fit["n"], fit["median_us"], strict=True))
+            if fit["exponent_p90"] is not None:
+                sizes += f" (p90 grows as n^{fit['exponent_p90']:.2f})"
+            add(f"snake: {method} growth exponent ≤ 1.3", fit["exponent"], 1.3, "exponent", sizes or "not measured")
+        for method in ("pinv", "wqp", "hqp"):
+            fit = self.snake_fit(method)
+            worst = max(fit["p90_over_median"]) if fit["p90_over_median"] else None
+            each = ", ".join(f"{n}: {r:.2f}" for n, r in zip(fit["n"], fit["p90_over_median"], strict=True))
+            add(f"snake: {method} p90/median ≤ 2.5 at every n", worst, 2.5, "ratio", each or "not measured")
+        for res in ("wqp", "pinv"):
+            b = _ok(self.fastest(batch_case.ROBOT_KEY, f"{res}_batch"))
+            lo = _ok(self.fastest(batch_case.ROBOT_KEY, f"{res}_loop"))
+            speed = None if b is None or lo is None or not lo.problems_per_s else b.problems_per_s / lo.problems_per_s  # type: ignore[operator]
+            detail = (
+                "not measured (or FAILED)" if speed is None
+                else f"{b.problems_per_s:.0f} vs {lo.problems_per_s:.0f} problems/s"  # type: ignore[union-attr]
+            )  # fmt: skip
+            add(
+                f"{batch_case.ROBOT_KEY}: {res} batch ≥ 10 × the loop's problems/s", speed, 10.0, "ratio", detail, "min"
+            )
+        return out
+
+
+def _ok(c: CaseResult | None) -> CaseResult | None:
+    return c if c is not None and c.ok else None
+
+
+def _detail(a: CaseResult | None, b: CaseResult | None) -> str:
+    if a is None or b is None:
+        return "not measured (or FAILED)"
+    return f"{a.method}/{a.backend} {a.median_us:.1f} µs vs {b.method}/{b.backend} {b.median_us:.1f} µs"
+
+
+# ---------------------------------------------------------------------------------------------------------- building
+AnyRunner = Any  # a Runner, or a batch_case.BatchRunner (duck-typed: run, close, label, method, backend)
+
+
+def build_cases(
+    config: BenchConfig, log: Callable[[str], None] = print
+) -> tuple[list[AnyRunner], list[str], dict[str, Any]]:
+    """One runner per (robot, method, backend) that can run here; the rest is listed as skipped with why."""
+    runners: list[AnyRunner] = []
+    skipped: list[str] = []
+    defaults: dict[tuple[str, str], str] = {}
+    placo_python: str | None = None
+    placo_why = ""
+    if "placo" in config.methods:
+        placo_python, placo_why = find_placo_python(config.placo_python)
+        if placo_python is not None:
+            log(f"  PlaCo interpreter: {placo_python} ({placo_why})")
+    for key in config.robots:
+        n_before = len(runners)
+        if key == batch_case.ROBOT_KEY:
+            for method in BATCH_METHODS:
+                if method in config.methods:
+                    runners.append(batch_case.BatchRunner(method, config.batch_problems))
+                    defaults[(key, method)] = runners[-1].backend
+            log(f"  {key}: {len(runners) - n_before} cases")
+            continue
+        sc = SCENARIOS[key]()
+        for method in config.methods:
+            if method in BATCH_METHODS or (sc.methods is not None and method not in sc.methods):
+                continue
+            opts = dict(config.resolver_options.get(method, {}))
+            if method in ("pinv", "feedback"):
+                runners.append(RedundikRunner(sc, method, None, opts))
+            elif method in ("wqp", "hqp"):
+                if method not in RESOLVERS:
+                    skipped.append(f"{key}/{method}: resolver '{method}' is not registered (QP resolvers missing)")
+                    continue
+                try:
+                    default = RedundikRunner(sc, method, None, opts)
+                except RedundikError as exc:
+                    skipped.append(f"{key}/{method}: {exc}")
+                    continue
+                defaults[(key, method)] = default.backend
+                backends = config.qp_backends if config.qp_backends is not None else QP_BACKENDS
+                if not sc.all_backends:
+                    backends = (default.backend,)
+                for b in backends:
+                    if b == default.backend:
+                        runners.append(default)
+                        continue
+                    try:
+                        runners.append(RedundikRunner(sc, method, b, opts))
+                    except RedundikError as exc:
+                        skipped.append(f"{key}/{method}/{b}: {exc}")
+                if not any(r is default for r in runners):
+                    runners.append(default)
+            elif method == "placo":
+                if not sc.placo:
+                    continue
+                if placo_python is None:
+                    skipped.append(f"{key}/placo: {placo_why}")
+                    continue
+                try:
+                    runners.append(PlacoRunner(sc, placo_python))
+                except Exception as exc:  # a peer that cannot be set up is reported, not fatal
+                    skipped.append(f"{key}/placo: {type(exc).__name__}: {exc}")
+            else:
+                if not (available(method) and (method != "mink" or available("mujoco"))):
+                    skipped.append(f"{key}/{method}: not installed (install redundik[peers])")
+                    continue
+                import qpsolvers
+
+                for b in config.peer_backends:
+                    if b not in qpsolvers.available_solvers:
+                        skipped.append(f"{key}/{method}/{b}: qpsolvers backend not installed")
+                        continue
+                    try:
+                        runners.append(MinkRunner(sc, b) if method == "mink" else PinkRunner(sc, b))
+                    except Exception as exc:  # a peer that cannot be set up is reported, not fatal
+                        skipped.append(f"{key}/{method}/{b}: {type(exc).__name__}: {exc}")
+        if key == "panda_shelf":  # the peers on the same collision geometry (runners.PinkShelfRunner/MinkShelfRunner)
+            import qpsolvers
+
+            for method, cls in (("mink", MinkShelfRunner), ("pink", PinkShelfRunner)):
+                if method not in config.methods:
+                    continue
+                if not (available(method) and (method != "mink" or available("mujoco"))):
+                    skipped.append(f"{key}/{method}: not installed (install redundik[peers])")
+                    continue
+                for b in config.peer_backends:
+                    if b not in qpsolvers.available_solvers:
+                        continue
+                    try:
+                        runners.append(cls(sc, b))
+                    except Exception as exc:  # a peer that cannot be set up is reported, not fatal
+                        skipped.append(f"{key}/{method}/{b}: {type(exc).__name__}: {exc}")
+        log(f"  {key}: {len(runners) - n_before} cases")
+    return runners, skipped, {f"{k[0]}/{k[1]}": v for k, v in defaults.items()}
+
+
+def _plan(r: AnyRunner, config: BenchConfig) -> tuple[int, int]:
+    """(warm-up, timed) steps of a runner: the batch case's own counts, the scenario's step factor otherwise."""
+    if isinstance(r, batch_case.BatchRunner):
+        return BATCH_WARMUP, config.batch_steps
+    f = r.scenario.step_factor
+    return max(round(config.warmup * f), 1 if config.warmup else 0), max(round(config.steps * f), 1)
+
+
+# ---------------------------------------------------------------------------------------------------------- running
+def run_benchmark(config: BenchConfig, log: Callable[[str], None] = print) -> BenchResult:
+    """Build every case, run warm-up and timed steps round-robin, profile redundik's methods, summarise.
+
+    Every case advances by its chunk in turn (the order rotating each round); a case with fewer steps (the slow
+    snakes, the batch calls) gets a proportionally smaller chunk, so all cases run over the same rounds.
+
+    Raises:
+        ConfigError: a bad configuration.
+    """
+    config.check()
+    t_start = time.perf_counter()
+    log(f"building cases for {list(config.robots)} × {list(config.methods)}")
+    runners, skipped, defaults = build_cases(config, log)
+    try:
+        plans = [_plan(r, config) for r in runners]
+        totals = [w + s for w, s in plans]
+        rounds = max(-(-(config.warmup + config.steps) // config.chunk), 1)
+        chunks = [max(-(-t // rounds), 1) for t in totals]
+        done = [0] * len(runners)
+        log(f"running {len(runners)} cases round-robin over {rounds} rounds (chunk {config.chunk} steps)")
+        rnd = 0
+        while any(d < t for d, t in zip(done, totals, strict=True)):
+            k = rnd % len(runners)
+            for i in list(range(k, len(runners))) + list(range(k)):
+                n = min(chunks[i], totals[i] - done[i])
+                if n > 0:
+                    runners[i].run(n)
+                    done[i] += n
+            rnd += 1
+        cases = [_summarise(r, w, defaults) for r, (w, _) in zip(runners, plans, strict=True)]
+        if config.profile_steps > 0:
+            _profile(runners, cases, config, log)
+    finally:
+        for r in runners:
+            r.close()
+    meta = {
+        "python": sys.version.split()[0],
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+        "steps": config.steps,
+        "warmup": config.warmup,
+        "chunk": config.chunk,
+        "batch_steps": config.batch_steps,
+        "robots": list(config.robots),
+        "methods": list(config.methods),
+        "default_backends": defaults,
+        "wall_time_s": time.perf_counter() - t_start,
+        "versions": _versions(runners),
+    }
+    return BenchResult(cases, skipped, meta)
+
+
+def _profile(
+    runners: list[AnyRunner], cases: list[CaseResult], config: BenchConfig, log: Callable[[str], None]
+) -> None:
+    """The per-stage profile of redundik's methods (separate probed steps, round-robin) into ``stages_us``."""
+    log(f"profiling redundik's methods ({config.profile_steps} steps each, round-robin)")
+    prof = [(r, c) for r, c in zip(runners, cases, strict=True) if isinstance(r, RedundikRunner)]
+    stages: dict[int, dict[str, list[float]]] = {id(r): {} for r, _ in prof}
+    for _ in range(5):
+        for r, _ in prof:
+            per = max(int(config.profile_steps * r.scenario.step_factor) // 5, 1)
+            try:
+                for key, val in r.profile(per).items():
+                    stages[id(r)].setdefault(key, []).append(val)
+            except Exception as exc:  # profiling must not kill the report
+                log(f"  profile of {r.label} failed: {exc}")
+    for r, c in prof:
+        if stages[id(r)]:
+            c.stages_us = {k: float(np.median(v)) for k, v in stages[id(r)].items()}
+
+
+def _summarise(r: AnyRunner, warmup: int, defaults: dict[str, str]) -> CaseResult:
+    if isinstance(r, batch_case.BatchRunner):
+        return _summarise_batch(r, warmup, defaults)
+    rec = r.record
+    times = np.asarray(rec.step_ns[warmup:], dtype=float) / 1e3
+    ok = times[times > 0] if np.any(times > 0) else times
+    viol = np.asarray(rec.violation)
+    err = np.asarray(rec.task_error)
+    mon = np.asarray(rec.monitor)
+    backend = r.backend
+    sc = r.scenario
+    case = CaseResult(
+        robot=sc.key,
+        method=r.method,
+        backend=backend,
+        median_us=float(np.median(ok)) if ok.size else float("nan"),
+        p90_us=float(np.percentile(ok, 90)) if ok.size else float("nan"),
+        max_task_error=float(np.max(err)) if err.size else 0.0,
+        mean_task_error=float(np.mean(err)) if err.size else 0.0,
+        limit_violations=int(np.sum(viol > 0.0)),
+        max_violation=float(np.max(viol, initial=0.0)),
+        subtask_final=float(mon[-1]) if mon.size else 0.0,
+        subtask_mean=float(np.mean(mon)) if mon.size else 0.0,
+        subtask_label=sc.monitor_label,
+        failures=rec.failures,
+        steps=len(rec.step_ns),
+        default_backend=defaults.get(f"{sc.key}/{r.method}") == backend,
+        first_failure=rec.first_failure,
+        qp_fraction=rec.qp_steps / max(len(rec.step_ns), 1) if r.method in ("wqp", "hqp") else None,
+        fallback_steps=rec.fallbacks,
+        first_fallback=rec.first_fallback,
+        frozen_steps=rec.frozen,
+        error_tolerance=sc.error_tolerance,
+    )
+    if sc.final_tolerance is not None and sc.episode is not None and err.size:
+        ends = np.arange(sc.episode - 1, err.size, sc.episode)
+        case.extra["final_task_error"] = float(np.max(err[ends])) if ends.size else None
+        case.extra["final_tolerance"] = sc.final_tolerance
+    if sc.key == "panda_shelf" and mon.size:
+        case.extra["min_collision_distance"] = float(np.min(mon))
+        case.extra["collision_pairs"] = int(getattr(sc, "pairs", 0)) or None
+    if isinstance(r, MinkShelfRunner):
+        case.extra["collision_pairs"] = r.pairs_used  # mink drops pairs of welded / parent-child bodies
+    if r.method == "placo":
+        case.extra["placo_version"] = getattr(r, "version", None)
+        case.extra["out_of_process"] = True
+    case.status = case_status(case)
+    return case
+
+
+def _summarise_batch(r: batch_case.BatchRunner, warmup: int, defaults: dict[str, str]) -> CaseResult:
+    times = np.asarray(r.step_ns[warmup:], dtype=float) / 1e3
+    ok = times[times > 0] if np.any(times > 0) else times
+    m = r.measure()
+    median = float(np.median(ok)) if ok.size else float("nan")
+    case = CaseResult(
+        robot=batch_case.ROBOT_KEY,
+        method=r.method,
+        backend=r.backend,
+        median_us=median,
+        p90_us=float(np.percentile(ok, 90)) if ok.size else float("nan"),
+        max_task_error=m["max_task_error"],
+        mean_task_error=m.get("mean_task_error", float("nan")),
+        limit_violations=m["limit_violations"],
+        max_violation=m["max_violation"],
+        subtask_final=0.0,
+        subtask_mean=0.0,
+        subtask_label="–",
+        failures=r.failures,
+        steps=len(r.step_ns) * r.q.shape[0],
+        default_backend=True,
+        first_failure=r.first_failure,
+        qp_fraction=m.get("qp_fraction"),
+        fallback_steps=m["fallbacks"],
+        first_fallback=m.get("first_fallback"),
+        error_tolerance=1e-3,
+        problems_per_s=r.q.shape[0] / (median * 1e-6) if median > 0 else None,
+    )
+    case.extra["problems"] = int(r.q.shape[0])
+    case.extra["calls"] = len(r.step_ns)
+    if "loop_agreement" in m:
+        case.extra["loop_agreement"] = m["loop_agreement"]
+    case.status = case_status(case)
+    return case
+
+
+def summarise(r: Runner, warmup: int = 0, defaults: dict[str, str] | None = None) -> CaseResult:
+    """The :class:`CaseResult` of a runner that has run (timings after ``warmup`` steps), with its status."""
+    return _summarise(r, warmup, defaults or {})
+
+
+def case_status(c: CaseResult) -> str:
+    """``"ok"``, or ``"failed: "`` and every reason, for a case whose numbers cannot be compared honestly:
+
+    * its stacked frame-task error exceeds the scenario's tolerance (``error_tolerance``, 1 mm / 1 mrad);
+    * its robot does not move on more than 1 % of the steps (q unchanged to 1e-12; every reference moves);
+    * it falls back (``StepResult.fallback``) or raises on more than 1 % of the steps;
+    * it breaks the joint limits by more than 1e-5 rad (the limits are part of every scenario's task);
+    * ``panda_shelf``: its final error exceeds the scenario's ``final_tolerance`` or a pair penetrates;
+    * a batch case: its q̇ differs from the one-by-one loop's by more than 1e-9.
+
+    A failed case keeps its row in the reports but is left out of the ratios and the targets.
+    """
+    reasons = []
+    n = max(c.steps, 1)
+    if not c.max_task_error <= c.error_tolerance:  # NaN fails too
+        reasons.append(f"tracking error {c.max_task_error:.2e} > tolerance {c.error_tolerance:g}")
+    if c.frozen_steps > MAX_BAD_FRACTION * n:
+        reasons.append(f"robot does not move on {c.frozen_steps} of {c.steps} steps")
+    bad = c.fallback_steps + c.failures
+    if bad > MAX_BAD_FRACTION * n:
+        first = c.first_failure or c.first_fallback or ""
+        reasons.append(f"falls back or raises on {bad} of {c.steps} steps" + (f" ({first[:120]})" if first else ""))
+    if c.max_violation > LIMIT_TOLERANCE:
+        reasons.append(f"breaks the joint limits on {c.limit_violations} steps (by up to {c.max_violation:.1e})")
+    final, final_tol = c.extra.get("final_task_error"), c.extra.get("final_tolerance")
+    if final is not None and final_tol is not None and not final <= final_tol:
+        reasons.append(f"final task error {final:.2e} > tolerance {final_tol:g}")
+    dmin = c.extra.get("min_collision_distance")
+    if dmin is not None and not dmin >= 0.0:
+        reasons.append(f"penetrates (min collision distance {dmin:.2e} m)")
+    agree = c.extra.get("loop_agreement")
+    if agree is not None and not agree <= batch_case.AGREEMENT:
+        reasons.append(f"differs from the one-by-one loop by {agree:.1e} > {batch_case.AGREEMENT:g}")
+    return "ok" if not reasons else "failed: " + "; ".join(reasons)
+
+
+def _versions(runners: Sequence[Any] = ()) -> dict[str, str]:
+    from importlib import metadata
+
+    out = {}
+    for dist in ("redundik", "pin", "numpy", "qpsolvers", "osqp", "proxsuite", "daqp", "quadprog", "mink", "mujoco"):
+        try:
+            out[dist] = metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            continue
+    try:
+        out["pin-pink"] = metadata.version("pin-pink")
+    except metadata.PackageNotFoundError:
+        pass
+    for r in runners:
+        if getattr(r, "method", "") == "placo":
+            out["placo"] = f"{getattr(r, 'version', '?')} (own interpreter {getattr(r, 'python', '?')})"
+    return out
