@@ -14,8 +14,9 @@ Vectorised over problems:
 * ``wqp``: P = w JᵀJ + ρ I + λ I and q = −w JᵀV − ρ z for all N (batched products), the unconstrained optimum and its
   box test by :func:`redundik.resolvers.kernels.spd_solve_batch` (the kernel of the single ``wqp`` step), the
   joint-limit boxes of all N by one call of :meth:`JointLimits.box` on a (N, nq) array. Only the problems whose
-  optimum leaves the box (a limit binds) call the QP backend — through the single-problem ``wqp`` step itself, so
-  they get exactly the loop's answer.
+  optimum leaves the box (a limit binds) call the QP backend, with the single step's QP (the same P, q and box,
+  so the loop's answer); a problem the backend refuses goes through the single-problem ``wqp`` step itself (its
+  relaxation and fallback, exactly as the loop).
 
 Agreement with the loop: ≤ 1e-9 in q̇ (tested); the differences are rounding in the kinematics (Pinocchio's
 ``computeFrameJacobian`` vs ``computeJointJacobians``) and in batched products.
@@ -30,11 +31,12 @@ from typing import cast
 import numpy as np
 import pinocchio as pin
 
-from redundik.errors import ResolverError
+from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver
 from redundik.resolvers.linalg import RCOND, K
 from redundik.resolvers.pinv import PinvResolver
+from redundik.resolvers.qp.problem import QPProblem
 from redundik.resolvers.qp.wqp import WeightedQPResolver
 from redundik.tasks.base import Task
 from redundik.tasks.frame import FrameTask, PostureTask, resolve_axes
@@ -244,11 +246,19 @@ class BatchResolver:
         dq = np.minimum(np.maximum(x, lb), ub)
         notes: list[str | None] = [None] * N
         bind = np.flatnonzero(~inside)
-        if bind.size:  # a limit binds: the single-problem step (its backend, its fallbacks), exactly as the loop
-            sub = self.solve_loop(q[bind], targets[bind], dt)
-            dq[bind] = sub.dq
-            for k, i in enumerate(bind):
-                notes[i] = sub.fallback[k]
+        empty_rows, empty = np.zeros((0, nv)), np.zeros(0)
+        hard: list[int] = []
+        for i in bind:  # a limit binds: the single step's QP (same P, q, box), straight to its backend
+            prob = QPProblem(P[i], qv[i], empty_rows, empty, empty_rows, empty, lb[i], ub[i], "wqp")
+            try:
+                dq[i] = np.minimum(np.maximum(r._solve_qp(prob).x, lb[i]), ub[i])
+            except SolverError:
+                hard.append(int(i))
+        if hard:  # the backend refused: the single-problem step (its fallbacks), exactly as the loop
+            sub = self.solve_loop(q[hard], targets[hard], dt)
+            dq[hard] = sub.dq
+            for k, j in enumerate(hard):
+                notes[j] = sub.fallback[k]
         used = ~inside
         return BatchResult(dq, err, used, notes)
 
