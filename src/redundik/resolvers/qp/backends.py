@@ -215,11 +215,12 @@ class DaqpBackend(Backend):
             if flag not in (1, 2) and self.primal_tol < 1e-6:
                 # at primal_tol 1e-10 daqp stopped (exit flag 4) on a feasible 2-variable hqp level whose slack is
                 # 267 while u has a 3e-7 window; at its default 1e-6 it solves it in 3 iterations. The retry's
-                # answer is kept only as the verified exact optimum (polish checks the KKT conditions to 1e-9).
+                # answer is polished to the verified exact optimum (KKT conditions to 1e-9) where its active set
+                # allows, else kept only if it violates no constraint by more than ITERATE_VIOLATION.
                 x2, _, flag2, info2 = self._solve(
                     problem.P, problem.q, M, bu, bl, sense, iter_limit=self.iter_limit, primal_tol=1e-6
                 )
-                xp = polish(problem, x2) if flag2 in (1, 2) and x2 is not None else None
+                xp = _stalled(problem, x2) if flag2 in (1, 2) and x2 is not None else None
                 if xp is not None:
                     x, flag, info = xp, flag2, info2
         except Exception as exc:
