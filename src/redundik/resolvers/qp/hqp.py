@@ -251,15 +251,6 @@ class HierarchicalQPResolver(QPResolverBase):
                 rhs_rows.append(np.maximum(x[fl] - box.lb[fl], 0.0) + tol)
         G = np.vstack(rows) if rows else np.zeros((0, nvar))
         h = np.concatenate(rhs_rows) if rhs_rows else np.zeros(0)
-        if G.shape[0] > p:
-            # the carried rows (levels above, limits) scaled to unit norm in u, and the ones with no component left
-            # in the basis dropped (0·u ≤ h holds: h > 0): the same set, but a projected row of norm 0.0016 beside
-            # unit rows made daqp call a feasible posture level infeasible (collision stress run)
-            norms = np.linalg.norm(G[p:, :r], axis=1)
-            keep = norms > 1e-12
-            scale = np.where(keep, norms, 1.0)
-            G = np.vstack([G[:p], G[p:][keep] / scale[keep, None]])
-            h = np.concatenate([h[:p], h[p:][keep] / scale[keep]])
         prob = QPProblem(P, q, G, h, np.zeros((0, nvar)), np.zeros(0), lb, ub, f"hqp level {lv.priority}")
         try:
             sol = self._solve_qp(prob)
