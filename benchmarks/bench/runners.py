@@ -297,8 +297,11 @@ class _PeerRunner(Runner):
     @abstractmethod
     def _build(self) -> None: ...
 
-    @abstractmethod
-    def _reset_peer(self) -> None: ...
+    def _reset_peer(self) -> None:
+        """mink and pink: the peer's configuration from q, its posture target from q0 (other peers override)."""
+        self.conf.update(self.jmap.to_peer_q(self.q))
+        if self.scenario.posture:
+            self.posture.set_target(self.jmap.to_peer_q(self.scenario.q0))
 
 
 class MinkRunner(_PeerRunner):
@@ -339,11 +342,6 @@ class MinkRunner(_PeerRunner):
         if vel:
             self.limits.append(mink.VelocityLimit(self.model, vel))
         self.SE3, self.SO3 = mink.SE3, mink.SO3
-
-    def _reset_peer(self) -> None:
-        self.conf.update(self.jmap.to_peer_q(self.q))
-        if self.scenario.posture:
-            self.posture.set_target(self.jmap.to_peer_q(self.scenario.q0))
 
     def _step(self, t: float) -> tuple[int, np.ndarray]:
         dt = self.scenario.dt
@@ -396,11 +394,6 @@ class PinkRunner(_PeerRunner):
         if np.any(np.isfinite(self.robot.velocity_limits) & (self.robot.velocity_limits < 1e9)):
             self.limits.append(self.model.velocity_limit)
         logging.getLogger().setLevel(logging.ERROR)  # pink logs each out-of-limit step (counted here instead)
-
-    def _reset_peer(self) -> None:
-        self.conf.update(self.jmap.to_peer_q(self.q))
-        if self.scenario.posture:
-            self.posture.set_target(self.jmap.to_peer_q(self.scenario.q0))
 
     def _step(self, t: float) -> tuple[int, np.ndarray]:
         dt = self.scenario.dt
