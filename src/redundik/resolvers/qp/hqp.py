@@ -50,16 +50,15 @@ import numpy as np
 
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
-from redundik.resolvers.linalg import DampedSVD, K, contiguous, damped_svd
+from redundik.resolvers import hqp_kernels as HK
+from redundik.resolvers.linalg import DampedSVD, damped_svd
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, polish
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
-from redundik.resolvers.qp.terms import Level, build_levels
+from redundik.resolvers.qp.terms import Level, StepRows, gather_rows
 from redundik.tasks.base import TaskTerm
-from redundik.tasks.stack import TaskStack
-
-_NO_BASIS = np.zeros((0, 0))
+from redundik.tasks.stack import StackLayout, TaskStack
 
 #: Slack above which a level's bound rows count as contradicted (reported as a fallback).
 CONTRADICTION_TOLERANCE = 1e-6
@@ -67,11 +66,91 @@ CONTRADICTION_TOLERANCE = 1e-6
 
 @dataclass
 class HQPBuild:
-    """A built ``hqp`` step: its levels (rows) and the joint-limit box."""
+    """A built ``hqp`` step: its rows as evaluated, the joint-limit box, and what the lean cascade left.
 
-    levels: list[Level]
+    Attributes:
+        rows: Every level's rows (:class:`~redundik.resolvers.qp.terms.StepRows`); :attr:`levels` stacks them.
+        box: The joint-limit box of the step.
+        n: Number of velocity coordinates.
+        stats: Per level (σ_min, λ, rank, free directions before it) of the unconstrained cascade when its answer
+            was kept (:func:`redundik.resolvers.hqp_kernels.closed_cascade`), else ``None``; read by the
+            diagnostics only.
+    """
+
+    rows: StepRows
     box: LimitBox
     n: int
+    stats: np.ndarray | None = None
+
+    @property
+    def levels(self) -> list[Level]:
+        """The levels as :class:`~redundik.resolvers.qp.terms.Level` records (built on first access)."""
+        return self.rows.levels
+
+
+class _Plan:
+    """What the lean cascade does per level, fixed while the stack's membership is (see ``_plan_for``): the level
+    kinds, the offsets table and the buffers the rows are copied into (grown when a level brings more rows)."""
+
+    def __init__(self, layout: StackLayout, n: int, params: np.ndarray) -> None:
+        self.layout, self.n, self.params = layout, n, params
+        L = len(layout.levels)
+        self.meta = np.zeros((3, L + 1), dtype=np.int64)
+        self.mixed: list[bool] = []  # a level with rows of its own and the null-space objective: + identity rows
+        for k, plan in enumerate(layout.levels):
+            has_rows = bool(plan.tasks or plan.targets)
+            has_z = plan.null_objective and layout.has_null_objective
+            self.meta[2, k] = HK.LEAST_SQUARES if has_rows else (HK.NULL_OBJECTIVE if has_z else HK.SKIP)
+            self.mixed.append(has_rows and has_z)
+        self.A, self.b, self.w = np.zeros((16, n)), np.zeros(16), np.ones(16)
+        self.C, self.d = np.zeros((4, n)), np.zeros(4)
+        self.eye, self.zero = np.eye(n), np.zeros(n)
+
+    def fill(self, rows: StepRows) -> None:
+        """Copy the step's rows into the buffers and write the offsets table (row 0: A, row 1: C)."""
+        meta, n = self.meta, self.n
+        A, b, w, C, d = self.A, self.b, self.w, self.C, self.d
+        ms = cs = 0
+        for k, (blocks, ineq) in enumerate(zip(rows.ls, rows.ineq, strict=True)):
+            meta[0, k], meta[1, k] = ms, cs
+            for J, v, weight in blocks:
+                e = ms + J.shape[0]
+                if e > A.shape[0]:
+                    A, b, w = self._grow_ls(e)
+                A[ms:e] = J
+                b[ms:e] = v
+                w[ms:e] = weight
+                ms = e
+            if self.mixed[k] and rows.z is not None:
+                e = ms + n
+                if e > A.shape[0]:
+                    A, b, w = self._grow_ls(e)
+                A[ms:e] = self.eye
+                b[ms:e] = rows.z
+                w[ms:e] = 1.0
+                ms = e
+            for Ci, di, _, _ in ineq:
+                e = cs + Ci.shape[0]
+                if e > C.shape[0]:
+                    C, d = self._grow_ineq(e)
+                C[cs:e] = Ci
+                d[cs:e] = di
+                cs = e
+        L = meta.shape[1] - 1
+        meta[0, L], meta[1, L] = ms, cs
+
+    def _grow_ls(self, rows: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        cap = max(rows, 2 * self.A.shape[0])
+        self.A = np.concatenate([self.A, np.zeros((cap - self.A.shape[0], self.n))])
+        self.b = np.concatenate([self.b, np.zeros(cap - self.b.shape[0])])
+        self.w = np.concatenate([self.w, np.ones(cap - self.w.shape[0])])
+        return self.A, self.b, self.w
+
+    def _grow_ineq(self, rows: int) -> tuple[np.ndarray, np.ndarray]:
+        cap = max(rows, 2 * self.C.shape[0])
+        self.C = np.concatenate([self.C, np.zeros((cap - self.C.shape[0], self.n))])
+        self.d = np.concatenate([self.d, np.zeros(cap - self.d.shape[0])])
+        return self.C, self.d
 
 
 class HierarchicalQPResolver(QPResolverBase):
@@ -110,6 +189,7 @@ class HierarchicalQPResolver(QPResolverBase):
             raise ResolverError(f"hqp: rcond must be in (0, 1), got {rcond!r}")
         self.regularization, self.rcond = float(regularization), float(rcond)
         self.slack_tolerance = 1e-7  # feasibility margin of the rows that carry higher levels and limits
+        self._plan: _Plan | None = None
 
     def build(
         self, robot: RobotModel, stack: TaskStack, t: float, dt: float, terms: list[TaskTerm] | None = None
@@ -117,72 +197,65 @@ class HierarchicalQPResolver(QPResolverBase):
         """Evaluate the stack (unless ``terms`` are given) and lay out its levels as rows, without solving."""
         if terms is None:
             terms = stack.evaluate(robot, t)
-        levels = build_levels(robot, stack, terms, self.layout(stack), dt)
-        return HQPBuild(levels, self._box(robot, dt), robot.nv)
+        rows = gather_rows(robot, stack, terms, self.layout(stack), dt)
+        return HQPBuild(rows, self._box(robot, dt), robot.nv)
+
+    def reset(self) -> None:
+        super().reset()
+        self._plan = None
+
+    def _plan_for(self, layout: StackLayout, n: int) -> _Plan:
+        """The lean cascade's plan and buffers, laid out once per stack membership (the layout object) and size."""
+        plan = self._plan
+        if plan is None or plan.layout is not layout or plan.n != n:
+            params = np.array([self.epsilon, self.max_damping, self.rcond, 1e-12, 0.0])
+            plan = self._plan = _Plan(layout, n, params)
+        return plan
 
     # ------------------------------------------------------------------ the two cascades
-    def _project(self, lv: Level, x: np.ndarray, Z: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _project(self, lv: Level, x: np.ndarray, Z: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """(A_k Z, b_k − A_k x) of a level's weighted least-squares rows (Z = I when ``None``)."""
         A, b = lv.ls_rows()
         M = A if Z is None else A @ Z
-        return A, M, b - A @ x
+        return M, b - A @ x
 
     def _lsq(self, M: np.ndarray) -> DampedSVD:
         return damped_svd(M, epsilon=self.epsilon, max_damping=self.max_damping, rcond=self.rcond)
 
-    def _note(self, lv: Level, A: np.ndarray, lsq: DampedSVD, r: int, projected: bool, diag: QPDiagnostics) -> None:
-        self._record(lv, A, lsq.sigma_min, lsq.damping, lsq.rank, r, projected, diag)
+    def _note(self, lv: Level, lsq: DampedSVD, r: int, projected: bool, diag: QPDiagnostics) -> None:
+        self._record(lv, lsq.sigma_min, lsq.damping, lsq.rank, r, projected, diag)
 
     def _record(
-        self,
-        lv: Level,
-        A: np.ndarray,
-        sigma_min: float,
-        damping: float,
-        rank: int,
-        r: int,
-        projected: bool,
-        diag: QPDiagnostics,
+        self, lv: Level, sigma_min: float, damping: float, rank: int, r: int, projected: bool, diag: QPDiagnostics
     ) -> None:
+        """Record a solved level: σ_min and damping of A_k Z, and a rank loss of A_k Z that A_k itself has not
+        (an algorithmic singularity; A_k's own rank is computed only then)."""
         diag.level_sigma_min[lv.priority] = sigma_min
         if damping > 0.0:
             diag.damped_levels.append(lv.priority)
         if not diag.level_sigma_min or len(diag.level_sigma_min) == 1:
             diag.sigma_min = sigma_min
-        # algorithmic singularity: the projected Jacobian A Z lost rank while A itself did not
-        if projected and not lv.pure_null_objective and rank < min(A.shape[0], r):
-            if rank < min(int(np.linalg.matrix_rank(A)), r):
+        rows = lv.m + (lv.z.shape[0] if lv.z is not None else 0)
+        if projected and not lv.pure_null_objective and rank < min(rows, r):
+            if rank < min(int(np.linalg.matrix_rank(lv.ls_rows()[0])), r):
                 diag.rank_loss_levels.append(lv.priority)
 
-    def _closed_form_cascade(self, levels: list[Level], n: int, diag: QPDiagnostics) -> np.ndarray:
-        x = np.zeros(n)
-        Z: np.ndarray | None = None
-        r = n
-        for lv in levels:
-            if r == 0:
-                break
-            if lv.pure_null_objective:  # rows = I: u = Zᵀ(z − x) exactly, nothing left below
-                assert lv.z is not None
-                x = lv.z.copy() if Z is None else x + Z @ (Z.T @ (lv.z - x))
-                Z, r = np.zeros((n, 0)), 0
-                continue
-            if not lv.m:
-                continue
-            A, b = lv.ls_rows()
-            x_new = np.empty(n)
-            projected = Z is not None
-            Z, smin, damping, rank = K.lsq_level(  # one compiled call: (A Z)⁺_λ(b − A x), x + Z u, Z·null(A Z)
-                contiguous(A),
-                contiguous(b),
-                x,
-                _NO_BASIS if Z is None else Z,
-                Z is not None,
-                self.epsilon,
-                self.max_damping,
-                self.rcond,
-                x_new,
-            )
-            self._record(lv, A, float(smin), float(damping), int(rank), r, projected, diag)
-            x, r = x_new, Z.shape[1]
+    def _lean_cascade(self, built: HQPBuild, layout: StackLayout) -> np.ndarray | None:
+        """The unconstrained cascade (the module docstring's shortcut) in one compiled call, its per-level
+        statistics kept on ``built`` for the diagnostics; ``None`` when its answer breaks a limit or an inequality."""
+        n = built.n
+        plan = self._plan_for(layout, n)
+        rows = built.rows
+        plan.fill(rows)
+        x = np.empty(n)
+        stats = np.empty((plan.meta.shape[1] - 1, 4))
+        z = rows.z if rows.z is not None else plan.zero
+        box = built.box
+        if not HK.closed_cascade(
+            plan.A, plan.b, plan.w, plan.C, plan.d, z, box.lb, box.ub, plan.meta, plan.params, x, stats
+        ):
+            return None
+        built.stats = stats
         return x
 
     def _level_qp(
@@ -196,8 +269,8 @@ class HierarchicalQPResolver(QPResolverBase):
         diag: QPDiagnostics,
         pinned: np.ndarray,
         selection: np.ndarray | None,
-    ) -> tuple[np.ndarray, DampedSVD | None, np.ndarray | None]:
-        """Solve level ``lv`` over q̇ = x + Z u (module docstring); returns (u, the level's least squares, A).
+    ) -> tuple[np.ndarray, DampedSVD | None]:
+        """Solve level ``lv`` over q̇ = x + Z u (module docstring); returns (u, the level's least squares).
 
         ``pinned`` marks the joints whose box is a single value (their q̇ is in x, their rows of Z are zero);
         ``selection`` is the index array of the free joints while Z is still I restricted to them (the first level
@@ -209,10 +282,10 @@ class HierarchicalQPResolver(QPResolverBase):
         nvar = r + p
         P = np.zeros((nvar, nvar))
         q = np.zeros(nvar)
-        lsq, A = None, None
+        lsq = None
         eps = self.regularization
         if lv.m or lv.z is not None:
-            A, M, rhs = self._project(lv, x, Z)
+            M, rhs = self._project(lv, x, Z)
             lsq = self._lsq(M)
             eps = max(eps, lsq.damping**2)
             P[:r, :r] = M.T @ M
@@ -259,7 +332,7 @@ class HierarchicalQPResolver(QPResolverBase):
         diag.qp += 1
         diag.iterations += max(sol.iterations, 0)
         diag.backend = sol.backend
-        return sol.x[:r], lsq, A
+        return sol.x[:r], lsq
 
     def _regularized_retry(self, prob: QPProblem, r: int, eps: float, diag: QPDiagnostics) -> QPSolution:
         """Solve a level QP the backend refused, with a stronger minimum-norm regulariser on u.
@@ -319,7 +392,7 @@ class HierarchicalQPResolver(QPResolverBase):
                     x, Z, r = cand, np.zeros((n, 0)), 0
                     continue
             try:
-                u, lsq, A = self._level_qp(lv, x, Z, r, box, fixed, diag, pinned, selection)
+                u, lsq = self._level_qp(lv, x, Z, r, box, fixed, diag, pinned, selection)
             except SolverError as exc:
                 if lv is levels[0]:
                     raise  # nothing of the cascade is worth keeping: the base falls back to the closed form
@@ -337,8 +410,8 @@ class HierarchicalQPResolver(QPResolverBase):
                         f"level {lv.priority} contradicted by the levels above and the limits: {rows} violated by "
                         f"up to {worst:.3g}"
                     )
-            if lsq is not None and A is not None:
-                self._note(lv, A, lsq, r, Z is not None and selection is None, diag)
+            if lsq is not None:
+                self._note(lv, lsq, r, Z is not None and selection is None, diag)
                 Z = lsq.null_basis if Z is None else Z @ lsq.null_basis
                 r = Z.shape[1]
                 selection = None
@@ -346,29 +419,47 @@ class HierarchicalQPResolver(QPResolverBase):
 
     # ------------------------------------------------------------------ the step (skeleton in QPResolverBase.solve)
     def _resolve(self, built: HQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
-        levels, box, n = built.levels, built.box, built.n
-        x = self._closed_form_cascade(levels, n, diag)
-        tol = 1e-12
-        if box.contains(x, tol) and all(not lv.p or bool((lv.C @ x <= lv.d + tol).all()) for lv in levels):
+        layout = built.rows.layout
+        x = self._lean_cascade(built, layout)
+        if x is not None:
             return x, None
-        diag.level_sigma_min.clear()
-        diag.damped_levels.clear()
-        diag.rank_loss_levels.clear()
-        x, notes = self._qp_cascade(levels, box, n, diag)
+        x, notes = self._qp_cascade(built.levels, built.box, built.n, diag)
         return x, ("hqp: " + "; ".join(notes)) if notes else None
 
     def _safety_rows(self, built: HQPBuild, stack: TaskStack) -> tuple[np.ndarray, np.ndarray] | None:
-        names = {b.name for b in stack.bound_subtasks if b.critical}
-        if not names:
-            return None
         Cs, ds = [], []
-        for lv in built.levels:
-            if lv.p:
-                keep = np.array([r.split(":", 1)[0] in names for r in lv.c_names], dtype=bool)
-                Cs.append(lv.C[keep])
-                ds.append(lv.d[keep])
-        return (np.vstack(Cs), np.concatenate(ds)) if Cs else None
+        for ineq in built.rows.ineq:
+            for C, d, _, bsub in ineq:
+                if bsub.critical:
+                    Cs.append(C)
+                    ds.append(d)
+        if not Cs:
+            return None
+        return (Cs[0], ds[0]) if len(Cs) == 1 else (np.vstack(Cs), np.concatenate(ds))
 
     def _diagnose(self, built: HQPBuild, dq: np.ndarray, diag: QPDiagnostics) -> None:
-        for lv in built.levels:
+        """Per-level residuals at q̇ and, when the unconstrained cascade's answer was kept, its per-level σ_min,
+        damping and rank loss (from the statistics the compiled cascade left; nothing of this runs on a step
+        whose diagnostics are never read)."""
+        levels = built.levels
+        stats = built.stats
+        if stats is not None and np.isnan(stats[:, HK.SIGMA_MIN]).any():
+            # a level solved by its certified QR has no σ_min yet: the cascade once more, by SVD at every level
+            plan = _Plan(built.rows.layout, built.n, np.array([self.epsilon, self.max_damping, self.rcond, 1e-12, 1.0]))
+            plan.fill(built.rows)
+            stats = np.empty_like(stats)
+            z = built.rows.z if built.rows.z is not None else plan.zero
+            box = built.box
+            HK.closed_cascade(plan.A, plan.b, plan.w, plan.C, plan.d, z, box.lb, box.ub, plan.meta, plan.params,
+                              np.empty(built.n), stats)  # fmt: skip
+        if stats is not None:
+            projected = False
+            for k, lv in enumerate(levels):
+                rank = int(stats[k, HK.RANK])
+                if rank < 0:
+                    continue
+                smin, damping, r = float(stats[k, HK.SIGMA_MIN]), float(stats[k, HK.DAMPING]), int(stats[k, HK.FREE])
+                self._record(lv, smin, damping, rank, r, projected, diag)
+                projected = True
+        for lv in levels:
             diag.level_residuals[lv.priority] = lv.residual(dq)
