@@ -419,6 +419,16 @@ def spd_solve_into(P: np.ndarray, q: np.ndarray, x: np.ndarray) -> bool:
 
 
 @_jit
+def clip_twice(x: np.ndarray, lb: np.ndarray, ub: np.ndarray, out: np.ndarray) -> None:
+    """x projected onto lb ≤ x ≤ ub, written into both rows of ``out`` (2, n): a step's q̇ and the copy the resolver
+    keeps (its warm start and rate-limit reference), in one call."""
+    for i in range(x.shape[0]):
+        v = min(max(x[i], lb[i]), ub[i])
+        out[0, i] = v
+        out[1, i] = v
+
+
+@_jit
 def spd_solve(P: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, bool]:
     """x = −P⁻¹ q by Cholesky (:func:`spd_solve_into`); ``ok`` false when P is not numerically SPD."""
     x = np.empty(q.shape[0])
