@@ -207,7 +207,9 @@ class BoundSubtask(Subtask):
         if isinstance(src, Barrier):
             term = src.evaluate(robot)
             return term.h, term.H, [f"{self.name}:{n}" for n in term.names], term.gamma
-        p, eta = src.value(robot), src.gradient(robot)
+        p, eta = src.value_and_gradient(robot)
+        if self.upper is None and self.lower is not None:  # the common one-sided bound: one row
+            return np.array([p - self.lower]), eta.reshape(1, -1), [f"{self.name}:lower"], None
         hs, Hs, names = [], [], []
         if self.lower is not None:
             hs.append(p - self.lower)
