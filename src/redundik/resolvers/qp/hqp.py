@@ -62,6 +62,15 @@ from redundik.tasks.stack import StackLayout, TaskStack
 
 #: Slack above which a level's bound rows count as contradicted (reported as a fallback).
 CONTRADICTION_TOLERANCE = 1e-6
+#: Violation up to which a level QP's unconstrained optimum counts as satisfying the QP's rows (kept without a QP).
+_FEASIBLE = 1e-12
+
+
+def _ridge(lsq: DampedSVD, rhs: np.ndarray, eps: float) -> np.ndarray:
+    """argmin ½‖M u − rhs‖² + ½ε‖u‖² = V diag(σ/(σ² + ε)) Uᵀ rhs from the SVD of M: the level QP's objective in u,
+    its unconstrained optimum (exact to rounding where ε ≪ σ², unlike a Cholesky of MᵀM + εI)."""
+    k = lsq.s.shape[0]
+    return lsq.Vt[:k].T @ ((lsq.s / (lsq.s * lsq.s + eps)) * (lsq.U.T @ rhs))
 
 
 @dataclass
@@ -105,12 +114,15 @@ class _Plan:
         self.A, self.b, self.w = np.zeros((16, n)), np.zeros(16), np.ones(16)
         self.C, self.d = np.zeros((4, n)), np.zeros(4)
         self.eye, self.zero = np.eye(n), np.zeros(n)
+        self._weights: list[tuple[int, int, float]] = []  # per block (first row, end, weight) last written into w
 
     def fill(self, rows: StepRows) -> None:
-        """Copy the step's rows into the buffers and write the offsets table (row 0: A, row 1: C)."""
-        meta, n = self.meta, self.n
+        """Copy the step's rows into the buffers and write the offsets table (row 0: A, row 1: C); the weights and
+        identity rows are rewritten only where they changed since the last step."""
+        meta, n, key = self.meta, self.n, self._weights
         A, b, w, C, d = self.A, self.b, self.w, self.C, self.d
         ms = cs = 0
+        blk = 0
         for k, (blocks, ineq) in enumerate(zip(rows.ls, rows.ineq, strict=True)):
             meta[0, k], meta[1, k] = ms, cs
             for J, v, weight in blocks:
@@ -119,15 +131,21 @@ class _Plan:
                     A, b, w = self._grow_ls(e)
                 A[ms:e] = J
                 b[ms:e] = v
-                w[ms:e] = weight
+                if blk >= len(key) or key[blk] != (ms, e, weight):
+                    w[ms:e] = weight
+                    key[blk:] = [(ms, e, weight)]
+                blk += 1
                 ms = e
             if self.mixed[k] and rows.z is not None:
                 e = ms + n
                 if e > A.shape[0]:
                     A, b, w = self._grow_ls(e)
-                A[ms:e] = self.eye
                 b[ms:e] = rows.z
-                w[ms:e] = 1.0
+                if blk >= len(key) or key[blk] != (ms, e, -1.0):
+                    A[ms:e] = self.eye
+                    w[ms:e] = 1.0
+                    key[blk:] = [(ms, e, -1.0)]
+                blk += 1
                 ms = e
             for Ci, di, _, _ in ineq:
                 e = cs + Ci.shape[0]
@@ -141,6 +159,7 @@ class _Plan:
 
     def _grow_ls(self, rows: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         cap = max(rows, 2 * self.A.shape[0])
+        # the rows written so far are copied: what ``_weights`` records still holds
         self.A = np.concatenate([self.A, np.zeros((cap - self.A.shape[0], self.n))])
         self.b = np.concatenate([self.b, np.zeros(cap - self.b.shape[0])])
         self.w = np.concatenate([self.w, np.ones(cap - self.w.shape[0])])
@@ -190,6 +209,9 @@ class HierarchicalQPResolver(QPResolverBase):
         self.regularization, self.rcond = float(regularization), float(rcond)
         self.slack_tolerance = 1e-7  # feasibility margin of the rows that carry higher levels and limits
         self._plan: _Plan | None = None
+        #: Keep a level QP's unconstrained optimum when it satisfies the level's rows (exact; ``False`` solves
+        #: every level by the backend, the reference the tests hold the shortcut to).
+        self.level_shortcut = True
 
     def build(
         self, robot: RobotModel, stack: TaskStack, t: float, dt: float, terms: list[TaskTerm] | None = None
@@ -269,25 +291,33 @@ class HierarchicalQPResolver(QPResolverBase):
         diag: QPDiagnostics,
         pinned: np.ndarray,
         selection: np.ndarray | None,
+        shortcut: bool = False,
     ) -> tuple[np.ndarray, DampedSVD | None]:
         """Solve level ``lv`` over q̇ = x + Z u (module docstring); returns (u, the level's least squares).
 
         ``pinned`` marks the joints whose box is a single value (their q̇ is in x, their rows of Z are zero);
         ``selection`` is the index array of the free joints while Z is still I restricted to them (the first level
-        after pinning), so that the box stays native bounds on u.
+        after pinning), so that the box stays native bounds on u. With ``shortcut`` the QP's unconstrained optimum
+        is returned without calling the backend when it satisfies every row of the QP (:meth:`_level_feasible`).
         """
         n = x.shape[0]
-        Zm = np.eye(n) if Z is None else Z
         p = lv.p
-        nvar = r + p
-        P = np.zeros((nvar, nvar))
-        q = np.zeros(nvar)
         lsq = None
         eps = self.regularization
+        M = rhs = None
         if lv.m or lv.z is not None:
             M, rhs = self._project(lv, x, Z)
             lsq = self._lsq(M)
             eps = max(eps, lsq.damping**2)
+        if shortcut:
+            u = np.zeros(r) if lsq is None or rhs is None else _ridge(lsq, rhs, eps)
+            if self._level_feasible(lv, u, x, Z, box, fixed, pinned, selection):
+                return u, lsq
+        Zm = np.eye(n) if Z is None else Z
+        nvar = r + p
+        P = np.zeros((nvar, nvar))
+        q = np.zeros(nvar)
+        if M is not None and rhs is not None:
             P[:r, :r] = M.T @ M
             q[:r] = -(M.T @ rhs)
         P[:r, :r] += eps * np.eye(r)
@@ -333,6 +363,46 @@ class HierarchicalQPResolver(QPResolverBase):
         diag.iterations += max(sol.iterations, 0)
         diag.backend = sol.backend
         return sol.x[:r], lsq
+
+    def _level_feasible(
+        self,
+        lv: Level,
+        u: np.ndarray,
+        x: np.ndarray,
+        Z: np.ndarray | None,
+        box: LimitBox,
+        fixed: list[tuple[np.ndarray, np.ndarray]],
+        pinned: np.ndarray,
+        selection: np.ndarray | None,
+    ) -> bool:
+        """Whether the level QP's unconstrained optimum u (with slack w = 0) satisfies every row of the level QP.
+
+        The rows are those :meth:`_level_qp` poses, to the same margins: the level's own inequalities
+        C(x + Z u) ≤ d (w = 0), the levels above C Z u ≤ max(d − C x, 0) + tol, and the limits (native bounds on u
+        at the first level, the rows ±Z_j u ≤ margin below it). Then (u, w = 0) meets the KKT conditions with every
+        multiplier zero: it is the QP's optimum, and the backend is not called.
+        """
+        tol = _FEASIBLE
+        step = u if Z is None else Z @ u
+        dq = x + step
+        if lv.p and bool(np.any(lv.C @ dq > lv.d + tol)):
+            return False
+        for C, d in fixed:
+            if bool(np.any(C @ step > np.maximum(d - C @ x, 0.0) + self.slack_tolerance + tol)):
+                return False
+        if Z is None:
+            return bool(np.all(u >= box.lb - x - tol) and np.all(u <= box.ub - x + tol))
+        if selection is not None:
+            s = selection
+            return bool(np.all(u >= box.lb[s] - x[s] - tol) and np.all(u <= box.ub[s] - x[s] + tol))
+        margin = self.slack_tolerance + tol
+        free = ~pinned
+        up = np.isfinite(box.ub) & free
+        lo = np.isfinite(box.lb) & free
+        return bool(
+            np.all(step[up] <= np.maximum(box.ub[up] - x[up], 0.0) + margin)
+            and np.all(-step[lo] <= np.maximum(x[lo] - box.lb[lo], 0.0) + margin)
+        )
 
     def _regularized_retry(self, prob: QPProblem, r: int, eps: float, diag: QPDiagnostics) -> QPSolution:
         """Solve a level QP the backend refused, with a stronger minimum-norm regulariser on u.
@@ -392,7 +462,10 @@ class HierarchicalQPResolver(QPResolverBase):
                     x, Z, r = cand, np.zeros((n, 0)), 0
                     continue
             try:
-                u, lsq = self._level_qp(lv, x, Z, r, box, fixed, diag, pinned, selection)
+                # below the top level (whose failure falls back to the closed form as a whole), a level whose
+                # unconstrained optimum keeps its rows needs no QP
+                short = self.level_shortcut and lv is not levels[0]
+                u, lsq = self._level_qp(lv, x, Z, r, box, fixed, diag, pinned, selection, short)
             except SolverError as exc:
                 if lv is levels[0]:
                     raise  # nothing of the cascade is worth keeping: the base falls back to the closed form

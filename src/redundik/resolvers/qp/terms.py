@@ -101,18 +101,18 @@ class StepRows:
         n: Number of velocity coordinates.
     """
 
-    __slots__ = ("_levels", "_names", "ineq", "layout", "ls", "n", "z")
+    __slots__ = ("_levels", "ineq", "layout", "ls", "n", "terms", "z")
 
     def __init__(
         self,
         layout: StackLayout,
+        terms: list[TaskTerm],
         ls: list[list[tuple[np.ndarray, np.ndarray, float]]],
         ineq: list[list[tuple[np.ndarray, np.ndarray, list[str], BoundSubtask]]],
         z: np.ndarray | None,
-        names: list[list[str]],
         n: int,
     ) -> None:
-        self.layout, self.ls, self.ineq, self.z, self._names, self.n = layout, ls, ineq, z, names, n
+        self.layout, self.terms, self.ls, self.ineq, self.z, self.n = layout, terms, ls, ineq, z, n
         self._levels: list[Level] | None = None
 
     @property
@@ -139,7 +139,11 @@ class StepRows:
             C, d = np.zeros((0, n)), np.zeros(0)
         c_names = [name for r in rows for name in r[2]]
         z = self.z if plan.null_objective else None
-        return Level(plan.priority, list(self._names[k]), J, v, w, C, d, c_names, z)
+        terms, layout = self.terms, self.layout
+        names = [terms[i].name for i in plan.tasks] + [s.name for s in plan.targets] + [b.name for b in plan.bounds]
+        if plan.null_objective:
+            names += [terms[i].name for i in layout.null_tasks] + [s.name for s in layout.gradients]
+        return Level(plan.priority, names, J, v, w, C, d, c_names, z)
 
 
 def gather_rows(robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], layout: StackLayout, dt: float) -> StepRows:
@@ -155,7 +159,6 @@ def gather_rows(robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], layo
     n = robot.nv
     ls: list[list[tuple[np.ndarray, np.ndarray, float]]] = []
     ineq: list[list[tuple[np.ndarray, np.ndarray, list[str], BoundSubtask]]] = []
-    names: list[list[str]] = []
     z = None
     for plan in layout.levels:
         blocks = [(terms[i].J, terms[i].v, terms[i].weight) for i in plan.tasks]
@@ -166,15 +169,11 @@ def gather_rows(robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], layo
         for bsub in plan.bounds:
             C, d, rn = bsub.rows(robot, dt)
             rows.append((C, d, rn, bsub))
-        level_names = [terms[i].name for i in plan.tasks] + [s.name for s in plan.targets]
-        level_names += [b.name for b in plan.bounds]
         if plan.null_objective:
             z = stack.null_target(robot, terms, layout)
-            level_names += [terms[i].name for i in layout.null_tasks] + [s.name for s in layout.gradients]
         ls.append(blocks)
         ineq.append(rows)
-        names.append(level_names)
-    return StepRows(layout, ls, ineq, z, names, n)
+    return StepRows(layout, terms, ls, ineq, z, n)
 
 
 def build_levels(
