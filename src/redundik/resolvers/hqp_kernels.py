@@ -308,6 +308,56 @@ def closed_cascade(
     return True
 
 
+@_jit
+def level_rows_ok(
+    step: np.ndarray,
+    x: np.ndarray,
+    lb: np.ndarray,
+    ub: np.ndarray,
+    free: np.ndarray,
+    native: bool,
+    C: np.ndarray,
+    d: np.ndarray,
+    F: np.ndarray,
+    f: np.ndarray,
+    margin: float,
+    tol: float,
+) -> bool:
+    """Whether q̇ = x + step keeps the rows of an ``hqp`` level QP (``HierarchicalQPResolver._level_feasible``).
+
+    The level's own inequalities C(x + step) ≤ d + tol (slack w = 0); the levels above F step ≤ max(f − F x, 0) +
+    margin + tol; the free joints' limits, as native bounds lb − x − tol ≤ step ≤ ub − x + tol (``native``: the
+    first level, Z = I on the free joints) or as the rows ±step_j ≤ max(±(ub_j or lb_j) − x_j), 0) + margin + tol.
+    """
+    n = x.shape[0]
+    for i in range(C.shape[0]):
+        acc = 0.0
+        for j in range(n):
+            acc += C[i, j] * (x[j] + step[j])
+        if acc > d[i] + tol:
+            return False
+    for i in range(F.shape[0]):
+        a = 0.0
+        b = 0.0
+        for j in range(n):
+            a += F[i, j] * step[j]
+            b += F[i, j] * x[j]
+        if a > max(f[i] - b, 0.0) + margin + tol:
+            return False
+    for j in range(n):
+        if not free[j]:
+            continue
+        if native:
+            if step[j] < lb[j] - x[j] - tol or step[j] > ub[j] - x[j] + tol:
+                return False
+        else:
+            if math.isfinite(ub[j]) and step[j] > max(ub[j] - x[j], 0.0) + margin + tol:
+                return False
+            if math.isfinite(lb[j]) and -step[j] > max(x[j] - lb[j], 0.0) + margin + tol:
+                return False
+    return True
+
+
 def first_run_cost() -> dict[str, float]:
     """Seconds :func:`closed_cascade` takes on its first call in this process (JIT compile or the on-disk cache)."""
     import time

@@ -24,6 +24,14 @@ Shortcut (exact, and the common case): the same cascade without constraints is s
 level u = (A_k Z)⁺(b_k − A_k x), with the damped pseudo-inverse of :mod:`redundik.resolvers.linalg` — and kept when
 it satisfies every inequality and limit, since a feasible unconstrained lexicographic optimum is the constrained one.
 For [main task, gradient subtask] this is q̇ = J⁺V + Z Zᵀ z = J⁺V + (I − J⁺J)z, the chapter's eq. (5.8), exactly.
+The whole of it is one compiled call (:func:`redundik.resolvers.hqp_kernels.closed_cascade`) on the step's rows
+copied into buffers kept while the stack's membership is unchanged; a level whose QR certifies σ_min ≥ ε (nothing
+damped, full rank: M⁺ exactly) skips its SVD, and the Level records, σ_min per level and the rank-loss test are
+computed only when the step's diagnostics are read (:class:`~redundik.resolvers.base.LazyStepResult`).
+Level shortcut (exact, below the top level): when the cascade is not feasible, a level QP whose unconstrained
+optimum — û = argmin ½‖A_k Z u − (b_k − A_k x)‖² + ½ε‖u‖² from the SVD of A_k Z, slack w = 0 — keeps every row of
+that QP (its inequalities, the levels above, the limits, to the same margins) is that QP's optimum (the KKT
+conditions hold with zero multipliers), and the backend is not called; ``info["qp"]`` counts the QPs solved.
 
 The levels are the stack's (:mod:`redundik.tasks.stack`): main tasks at their priority (0), target and bound
 subtasks below them, the null-space objective ½‖q̇ − z‖² (gradient subtasks and posture) last; restricted to Z it
@@ -382,26 +390,17 @@ class HierarchicalQPResolver(QPResolverBase):
         at the first level, the rows ±Z_j u ≤ margin below it). Then (u, w = 0) meets the KKT conditions with every
         multiplier zero: it is the QP's optimum, and the backend is not called.
         """
-        tol = _FEASIBLE
+        n = x.shape[0]
         step = u if Z is None else Z @ u
-        dq = x + step
-        if lv.p and bool(np.any(lv.C @ dq > lv.d + tol)):
-            return False
-        for C, d in fixed:
-            if bool(np.any(C @ step > np.maximum(d - C @ x, 0.0) + self.slack_tolerance + tol)):
-                return False
-        if Z is None:
-            return bool(np.all(u >= box.lb - x - tol) and np.all(u <= box.ub - x + tol))
-        if selection is not None:
-            s = selection
-            return bool(np.all(u >= box.lb[s] - x[s] - tol) and np.all(u <= box.ub[s] - x[s] + tol))
-        margin = self.slack_tolerance + tol
-        free = ~pinned
-        up = np.isfinite(box.ub) & free
-        lo = np.isfinite(box.lb) & free
+        if fixed:
+            F = fixed[0][0] if len(fixed) == 1 else np.vstack([c for c, _ in fixed])
+            f = fixed[0][1] if len(fixed) == 1 else np.concatenate([d for _, d in fixed])
+        else:
+            F, f = np.zeros((0, n)), np.zeros(0)
+        C, d = (lv.C, lv.d) if lv.p else (F[:0], f[:0])
+        native = Z is None or selection is not None
         return bool(
-            np.all(step[up] <= np.maximum(box.ub[up] - x[up], 0.0) + margin)
-            and np.all(-step[lo] <= np.maximum(x[lo] - box.lb[lo], 0.0) + margin)
+            HK.level_rows_ok(step, x, box.lb, box.ub, ~pinned, native, C, d, F, f, self.slack_tolerance, _FEASIBLE)
         )
 
     def _regularized_retry(self, prob: QPProblem, r: int, eps: float, diag: QPDiagnostics) -> QPSolution:
