@@ -194,6 +194,8 @@ class LazyStepResult(StepResult):
         solve_time: float,
         main: list[int] | None,
         pending: Callable[[], tuple[float, bool, dict[str, object]]],
+        dq_rank: np.ndarray | None = None,
+        dq_null: np.ndarray | None = None,
     ) -> LazyStepResult:
         """The result of a step whose diagnostics ``pending`` computes on first read (the hot path's constructor:
         the same object as the dataclass constructor plus ``pending`` would give, with the attributes set at once)."""
@@ -202,8 +204,8 @@ class LazyStepResult(StepResult):
         res.__dict__.update(
             dq=dq,
             terms=terms,
-            dq_rank=None,
-            dq_null=None,
+            dq_rank=dq_rank,
+            dq_null=dq_null,
             gains=None,
             damping=0.0,
             fallback=fallback,
