@@ -358,6 +358,125 @@ def level_rows_ok(
     return True
 
 
+@_jit
+def _project_row(row: np.ndarray, out: np.ndarray, mode: int, sel: np.ndarray, Z: np.ndarray, r: int) -> None:
+    """out[:r] = row Z for a row (n,): Z = I (mode 0), I on the joints ``sel`` (1), or the basis Z (2)."""
+    if mode == 0:
+        for j in range(r):
+            out[j] = row[j]
+    elif mode == 1:
+        for j in range(r):
+            out[j] = row[sel[j]]
+    else:
+        n = row.shape[0]
+        for j in range(r):
+            acc = 0.0
+            for i in range(n):
+                acc += row[i] * Z[i, j]
+            out[j] = acc
+
+
+@_jit
+def level_qp_arrays(
+    M: np.ndarray,
+    rhs: np.ndarray,
+    eps: float,
+    C: np.ndarray,
+    d: np.ndarray,
+    x: np.ndarray,
+    Z: np.ndarray,
+    mode: int,
+    sel: np.ndarray,
+    F: np.ndarray,
+    f: np.ndarray,
+    lb: np.ndarray,
+    ub: np.ndarray,
+    free: np.ndarray,
+    tol: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(P, q, G, h, l, u) of one ``hqp`` level QP over (u, w') (module docstring of :mod:`redundik.resolvers.qp.hqp`):
+
+        minimise  ½ uᵀ(MᵀM + εI)u − (Mᵀ rhs)ᵀu + ½‖w'‖² + w₀ᵀw'
+        subject to  C Z u − w' ≤ (d − C x) + w₀,  w₀ = max(C x − d, 0)          (the level's rows, w = w₀ + w')
+                    F Z u ≤ max(f − F x, 0) + tol                              (the levels above)
+                    l ≤ (u, w') ≤ u_b  and, below the first level, ±Z_j u ≤ max(±(ub_j or lb_j) − x_j), 0) + tol
+
+    ``mode``: 0 — Z = I (``Z`` not read), native bounds lb − x ≤ u ≤ ub − x; 1 — Z = I on the joints ``sel``
+    (native bounds on those); 2 — the limits of the ``free`` joints with a finite bound as rows of Z. M has r
+    columns (r = n in mode 0) and no rows for a level without least squares.
+    """
+    n = x.shape[0]
+    r = M.shape[1]
+    p = C.shape[0]
+    nvar = r + p
+    P = np.zeros((nvar, nvar))
+    q = np.zeros(nvar)
+    for a in range(M.shape[0]):
+        ra = rhs[a]
+        for i in range(r):
+            mi = M[a, i]
+            if mi != 0.0:
+                q[i] -= mi * ra
+                for j in range(r):
+                    P[i, j] += mi * M[a, j]
+    for i in range(r):
+        P[i, i] += eps
+    nfu = 0
+    nfl = 0
+    if mode == 2:
+        for j in range(n):
+            if free[j] and math.isfinite(ub[j]):
+                nfu += 1
+            if free[j] and math.isfinite(lb[j]):
+                nfl += 1
+    nf = F.shape[0]
+    G = np.zeros((p + nf + nfu + nfl, nvar))
+    h = np.empty(p + nf + nfu + nfl)
+
+    for k in range(p):
+        _project_row(C[k], G[k], mode, sel, Z, r)
+        G[k, r + k] = -1.0
+        cx = 0.0
+        for j in range(n):
+            cx += C[k, j] * x[j]
+        s0 = d[k] - cx
+        w0 = max(-s0, 0.0)
+        P[r + k, r + k] = 1.0
+        q[r + k] = w0
+        h[k] = s0 + w0
+    for k in range(nf):
+        _project_row(F[k], G[p + k], mode, sel, Z, r)
+        fx = 0.0
+        for j in range(n):
+            fx += F[k, j] * x[j]
+        h[p + k] = max(f[k] - fx, 0.0) + tol
+    lo = np.full(nvar, -np.inf)
+    hi = np.full(nvar, np.inf)
+    if mode == 0:
+        for j in range(r):
+            lo[j] = lb[j] - x[j]
+            hi[j] = ub[j] - x[j]
+    elif mode == 1:
+        for j in range(r):
+            lo[j] = lb[sel[j]] - x[sel[j]]
+            hi[j] = ub[sel[j]] - x[sel[j]]
+    else:
+        o = p + nf
+        for i in range(n):
+            if free[i] and math.isfinite(ub[i]):
+                for j in range(r):
+                    G[o, j] = Z[i, j]
+                h[o] = max(ub[i] - x[i], 0.0) + tol
+                o += 1
+        for i in range(n):
+            if free[i] and math.isfinite(lb[i]):
+                for j in range(r):
+                    G[o, j] = -Z[i, j]
+                h[o] = max(x[i] - lb[i], 0.0) + tol
+                o += 1
+    return P, q, G, h, lo, hi
+
+
 def first_run_cost() -> dict[str, float]:
     """Seconds :func:`closed_cascade` takes on its first call in this process (JIT compile or the on-disk cache)."""
     import time

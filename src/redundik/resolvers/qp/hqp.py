@@ -53,12 +53,12 @@ projected Jacobian lost rank while the task's own did not — an algorithmic sin
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
-from redundik.resolvers import hqp_kernels as HK
 from redundik.resolvers.linalg import DampedSVD, damped_svd
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, polish
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
@@ -70,6 +70,22 @@ from redundik.tasks.stack import StackLayout, TaskStack
 
 #: Slack above which a level's bound rows count as contradicted (reported as a fallback).
 CONTRADICTION_TOLERANCE = 1e-6
+
+
+class _HQPKernels:
+    """:mod:`redundik.resolvers.hqp_kernels`, imported on first use (numba loads then, not when redundik is
+    imported); after the first access every kernel and constant is a plain attribute."""
+
+    def __getattr__(self, name: str) -> Any:
+        from redundik.resolvers import hqp_kernels
+
+        self.__dict__.update({k: v for k, v in vars(hqp_kernels).items() if not k.startswith("__")})
+        return getattr(hqp_kernels, name)
+
+
+HK = _HQPKernels()
+_NO_BASIS = np.zeros((0, 0))
+_NO_SELECTION = np.zeros(0, dtype=np.int64)
 #: Violation up to which a level QP's unconstrained optimum counts as satisfying the QP's rows (kept without a QP).
 _FEASIBLE = 1e-12
 
@@ -321,47 +337,33 @@ class HierarchicalQPResolver(QPResolverBase):
             u = np.zeros(r) if lsq is None or rhs is None else _ridge(lsq, rhs, eps)
             if self._level_feasible(lv, u, x, Z, box, fixed, pinned, selection):
                 return u, lsq
-        Zm = np.eye(n) if Z is None else Z
+        # the QP's arrays in one compiled call (HK.level_qp_arrays): the level's rows C(x + Zu) − d ≤ w with the
+        # slack measured from its value at u = 0 (w = w₀ + w', w₀ = max(Cx − d, 0): u = 0, w' = 0 is feasible and
+        # w' lives on the scale of u; a level whose slack is 19.5 while the limits left u a 1e-6-wide window was
+        # otherwise called infeasible by proxsuite; exact, ½‖w₀ + w'‖² = ½‖w'‖² + w₀ᵀw' + const). Below level 0 the
+        # rows that carry the levels above and the limits get the margin max(·, 0) + tol: x (from a backend's finite
+        # tolerance) may sit up to that tolerance outside them, and without the clamp a level could be declared
+        # primal-infeasible (proxsuite, osqp) though u = 0 always solves it.
+        F, f = self._stacked(fixed, n)
+        mode = 0 if Z is None else (1 if selection is not None else 2)
+        P, q, G, h, lb, ub = HK.level_qp_arrays(
+            M if M is not None else np.zeros((0, r)),
+            rhs if rhs is not None else np.zeros(0),
+            eps,
+            lv.C if p else np.zeros((0, n)),
+            lv.d if p else np.zeros(0),
+            x,
+            Z if Z is not None else _NO_BASIS,
+            mode,
+            selection if selection is not None else _NO_SELECTION,
+            F,
+            f,
+            box.lb,
+            box.ub,
+            ~pinned,
+            self.slack_tolerance,
+        )
         nvar = r + p
-        P = np.zeros((nvar, nvar))
-        q = np.zeros(nvar)
-        if M is not None and rhs is not None:
-            P[:r, :r] = M.T @ M
-            q[:r] = -(M.T @ rhs)
-        P[:r, :r] += eps * np.eye(r)
-        rows, rhs_rows = [], []
-        if p:  # C(x + Zu) − d ≤ w, with w = w₀ + w' measured from its value at u = 0
-            # w₀ = max(Cx − d, 0) makes u = 0, w' = 0 feasible and keeps w' on the scale of u: a level whose slack
-            # is 19.5 while the limits leave u a 1e-6-wide window was otherwise called infeasible by proxsuite;
-            # the change of variables is exact (½‖w₀ + w'‖² = ½‖w'‖² + w₀ᵀw' + const)
-            slack0 = lv.d - lv.C @ x
-            w0 = np.maximum(-slack0, 0.0)
-            P[r:, r:] = np.eye(p)
-            q[r:] = w0
-            rows.append(np.hstack([lv.C @ Zm, -np.eye(p)]))
-            rhs_rows.append(slack0 + w0)
-        # Below level 0, rows that carry the levels above and the limits get the margin max(·, 0) + tol: x (the
-        # answer so far, from a backend's finite tolerance) may sit up to that tolerance outside them, and without
-        # the clamp a level could be declared primal-infeasible (proxsuite, osqp) though u = 0 always solves it.
-        for C, d in fixed:  # levels above keep their slack
-            rows.append(np.hstack([C @ Zm, np.zeros((C.shape[0], p))]))
-            rhs_rows.append(np.maximum(d - C @ x, 0.0) + self.slack_tolerance)
-        lb, ub = np.full(nvar, -np.inf), np.full(nvar, np.inf)
-        if Z is None:
-            lb[:r], ub[:r] = box.lb - x, box.ub - x  # hard (never empty: limits.py)
-        elif selection is not None:
-            lb[:r], ub[:r] = box.lb[selection] - x[selection], box.ub[selection] - x[selection]
-        else:
-            tol = self.slack_tolerance
-            fu, fl = np.isfinite(box.ub) & ~pinned, np.isfinite(box.lb) & ~pinned
-            if fu.any():
-                rows.append(np.hstack([Z[fu], np.zeros((int(fu.sum()), p))]))
-                rhs_rows.append(np.maximum(box.ub[fu] - x[fu], 0.0) + tol)
-            if fl.any():
-                rows.append(np.hstack([-Z[fl], np.zeros((int(fl.sum()), p))]))
-                rhs_rows.append(np.maximum(x[fl] - box.lb[fl], 0.0) + tol)
-        G = np.vstack(rows) if rows else np.zeros((0, nvar))
-        h = np.concatenate(rhs_rows) if rhs_rows else np.zeros(0)
         prob = QPProblem(P, q, G, h, np.zeros((0, nvar)), np.zeros(0), lb, ub, f"hqp level {lv.priority}")
         try:
             sol = self._solve_qp(prob)
@@ -392,16 +394,21 @@ class HierarchicalQPResolver(QPResolverBase):
         """
         n = x.shape[0]
         step = u if Z is None else Z @ u
-        if fixed:
-            F = fixed[0][0] if len(fixed) == 1 else np.vstack([c for c, _ in fixed])
-            f = fixed[0][1] if len(fixed) == 1 else np.concatenate([d for _, d in fixed])
-        else:
-            F, f = np.zeros((0, n)), np.zeros(0)
+        F, f = self._stacked(fixed, n)
         C, d = (lv.C, lv.d) if lv.p else (F[:0], f[:0])
         native = Z is None or selection is not None
         return bool(
             HK.level_rows_ok(step, x, box.lb, box.ub, ~pinned, native, C, d, F, f, self.slack_tolerance, _FEASIBLE)
         )
+
+    @staticmethod
+    def _stacked(fixed: list[tuple[np.ndarray, np.ndarray]], n: int) -> tuple[np.ndarray, np.ndarray]:
+        """The rows of the levels above, (C, d) stacked ((0, n) and (0,) without any)."""
+        if not fixed:
+            return np.zeros((0, n)), np.zeros(0)
+        if len(fixed) == 1:
+            return fixed[0]
+        return np.vstack([c for c, _ in fixed]), np.concatenate([d for _, d in fixed])
 
     def _regularized_retry(self, prob: QPProblem, r: int, eps: float, diag: QPDiagnostics) -> QPSolution:
         """Solve a level QP the backend refused, with a stronger minimum-norm regulariser on u.
