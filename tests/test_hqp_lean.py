@@ -190,3 +190,11 @@ def test_lean_diagnostics_are_computed_only_when_read(monkeypatch: pytest.Monkey
     J = robot.frame_jacobian(tip(robot))[:3]
     assert out.info["sigma_min_L0"] == pytest.approx(np.linalg.svd(J, compute_uv=False)[-1], rel=1e-10)
     assert built  # the Level records, built on the first read
+
+
+def test_hqp_kernels_report_their_first_run_cost() -> None:
+    from redundik.resolvers import hqp_kernels
+
+    cost = hqp_kernels.first_run_cost()
+    assert set(cost) == {"closed_cascade", "level_rows_ok", "level_qp_arrays"}
+    assert all(v >= 0.0 for v in cost.values())
