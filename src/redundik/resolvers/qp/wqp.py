@@ -50,6 +50,8 @@ class WQPBuild:
         main_terms: The main tasks' terms (for the level-0 residual).
         damping: λ of the step.
         safe: Per row of ``problem.G``, whether it is a safety row (kept by the relaxed problem).
+        free_outside: True when the unconstrained optimum is already known to leave the box (the lean path tested
+            it): the backend is called without testing it again.
     """
 
     problem: QPProblem
@@ -57,6 +59,7 @@ class WQPBuild:
     main_terms: list[TaskTerm]
     damping: float = 0.0
     safe: np.ndarray | None = None
+    free_outside: bool = False
 
 
 _NO_Z = np.zeros(0)
@@ -232,7 +235,7 @@ class WeightedQPResolver(QPResolverBase):
             assert P is not None and q is not None
             box = limits.box_from(out, windowed)
             prob = QPProblem(P, q, self._no_rows, self._no_rhs, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp")
-            built = WQPBuild(prob, box, [terms[i] for i in plan.main], lam)
+            built = WQPBuild(prob, box, [terms[i] for i in plan.main], lam, free_outside=True)
             return self._finish(robot, stack, terms, built, t0, t1)
         dq, kept = out[5], out[6]
         self._dq_prev = kept
@@ -273,10 +276,11 @@ class WeightedQPResolver(QPResolverBase):
     def _resolve(self, built: WQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
         prob, box = built.problem, built.box
         # the unconstrained optimum by Cholesky (P is SPD when λ > 0) and its box test, in one compiled call
-        x = np.empty(prob.n)
-        _, inside = K.spd_solve_box_into(prob.P, prob.q, box.lb, box.ub, 1e-12, x)
-        if inside and not (prob.G.shape[0] and (prob.G @ x > prob.h + 1e-12).any()):
-            return x, None
+        if not built.free_outside:
+            x = np.empty(prob.n)
+            _, inside = K.spd_solve_box_into(prob.P, prob.q, box.lb, box.ub, 1e-12, x)
+            if inside and not (prob.G.shape[0] and (prob.G @ x > prob.h + 1e-12).any()):
+                return x, None
         diag.qp = 1
         try:
             sol = self._solve_qp(prob, self._dq_prev)
