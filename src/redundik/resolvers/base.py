@@ -200,20 +200,20 @@ class LazyStepResult(StepResult):
         """The result of a step whose diagnostics ``pending`` computes on first read (the hot path's constructor:
         the same object as the dataclass constructor plus ``pending`` would give, with the attributes set at once)."""
         res = cls.__new__(cls)
-        res.__dict__.update(
-            dq=dq,
-            terms=terms,
-            dq_rank=dq_rank,
-            dq_null=dq_null,
-            gains=None,
-            damping=0.0,
-            fallback=fallback,
-            _info=info,  # a plain dict until first read (the ``info`` property wraps it then)
-            build_time=build_time,
-            solve_time=solve_time,
-            main=main,
-            pending=pending,
-        )
+        res.__dict__ = {
+            "dq": dq,
+            "terms": terms,
+            "dq_rank": dq_rank,
+            "dq_null": dq_null,
+            "gains": None,
+            "damping": 0.0,
+            "fallback": fallback,
+            "_info": info,  # a plain dict until first read (the ``info`` property wraps it then)
+            "build_time": build_time,
+            "solve_time": solve_time,
+            "main": main,
+            "pending": pending,
+        }
         return res
 
     def _resolve(self) -> None:
