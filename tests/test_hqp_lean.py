@@ -15,7 +15,7 @@ import pytest
 import redundik as rk
 from redundik.kinematics import DHRow
 from redundik.resolvers.kernels import lsq_level
-from redundik.resolvers.qp.base import QPDiagnostics
+from redundik.resolvers.qp.base import QPDiagnostics, QPResolverBase
 from redundik.resolvers.qp.hqp import HierarchicalQPResolver, HQPBuild
 from redundik.resolvers.qp.terms import Level
 from tests.test_qp_helpers import prepared, random_robot, tip
@@ -64,6 +64,9 @@ class _Reference(HierarchicalQPResolver):
         super().__init__(**kw)  # type: ignore[arg-type]
         self.level_shortcut = False
 
+    def solve(self, robot: rk.RobotModel, stack: rk.TaskStack, t: float, dt: float) -> rk.StepResult:
+        return QPResolverBase.solve(self, robot, stack, t, dt)  # the shared template, not hqp's lean step
+
     def _resolve(self, built: HQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
         levels, box, n = built.levels, built.box, built.n
         x = _reference_closed_cascade(self, levels, n, diag)
@@ -102,14 +105,25 @@ def _stack(robot: rk.RobotModel, rng: np.random.Generator, depth: int, bound: bo
     return rk.TaskStack(tasks, subs)
 
 
-def _compare(robot: rk.RobotModel, stack: rk.TaskStack, q: np.ndarray, tol: float = 1e-10, **kw: object) -> str:
-    """Step both resolvers from q; q̇, fallback and every numeric diagnostic agree to ``tol``; the path taken."""
+def _compare(
+    robot: rk.RobotModel, stack: rk.TaskStack, q: np.ndarray, tol: float = 1e-10, steps: int = 1, **kw: object
+) -> str:
+    """Step both resolvers from q (``steps`` steps, the reference's q̇ integrated); q̇, fallback and every numeric
+    diagnostic agree to ``tol`` at every step; the path taken at the last."""
     lean, ref = HierarchicalQPResolver(**kw), _Reference(**kw)  # type: ignore[arg-type]
-    out = {}
     for res in (lean, ref):
         prepared(res, robot, stack, q)
-        out[res] = res.step(robot, stack, q, 0.05, 0.01)
-    a, b = out[lean], out[ref]
+    path = ""
+    for k in range(steps):
+        a = lean.step(robot, stack, q, 0.05 + 0.01 * k, 0.01)
+        b = ref.step(robot, stack, q, 0.05 + 0.01 * k, 0.01)
+        path = _agree(a, b, tol)
+        q = robot.integrate(q, b.dq, 0.01)
+    return path
+
+
+def _agree(a: rk.StepResult, b: rk.StepResult, tol: float) -> str:
+    """q̇, fallback and diagnostics of the lean step ``a`` and the reference ``b`` agree; the reference's path."""
     scale = max(1.0, float(np.max(np.abs(b.dq))))
     np.testing.assert_allclose(a.dq, b.dq, rtol=0, atol=tol * scale)
     assert (a.fallback is None) == (b.fallback is None), (a.fallback, b.fallback)
@@ -123,6 +137,7 @@ def _compare(robot: rk.RobotModel, stack: rk.TaskStack, q: np.ndarray, tol: floa
         elif isinstance(vb, float):
             assert va == vb, (key, va, vb)
     assert a.info["rank_loss_levels"] == b.info["rank_loss_levels"]
+    assert a.info["active_limits"] == b.info["active_limits"]
     assert a.info.get("damped_levels") == b.info.get("damped_levels")
     assert a.sigma_min == pytest.approx(b.sigma_min, rel=tol, abs=tol) or a.sigma_min == b.sigma_min
     assert a.damped == b.damped
@@ -142,7 +157,10 @@ def test_lean_step_equals_the_general_path_on_random_robots(seed: int) -> None:
     if seed % 4 == 1:  # near a singularity: the tip frame's joints almost aligned
         q = q * 1e-4
     stack = _stack(robot, rng, depth=int(rng.integers(1, 5)), bound=bool(seed % 2))
-    _compare(robot, stack, q)
+    if seed % 5 == 2:  # a rate limit: the window of the previous q̇ in the box (three steps)
+        _compare(robot, stack, q, steps=3, limits=rk.JointLimits(acceleration=float(rng.uniform(2.0, 20.0))))
+    else:
+        _compare(robot, stack, q)
 
 
 @pytest.mark.parametrize("seed", range(12))

@@ -26,7 +26,7 @@ import math
 import numba as nb
 import numpy as np
 
-from redundik.resolvers.kernels import damped_svd_factors, in_box
+from redundik.resolvers.kernels import clip_twice, damped_svd_factors, in_box, limit_box
 
 _jit = nb.njit(cache=True, nogil=True)
 
@@ -303,9 +303,49 @@ def closed_cascade(
         acc = 0.0
         for j in range(n):
             acc += C[i, j] * x[j]
-        if acc > d[i] + tol:
+        if not (acc <= d[i] + tol):  # (a NaN row is not kept)
             return False
     return True
+
+
+@_jit
+def closed_step(
+    A: np.ndarray,
+    b: np.ndarray,
+    w: np.ndarray,
+    C: np.ndarray,
+    d: np.ndarray,
+    z: np.ndarray,
+    meta: np.ndarray,
+    params: np.ndarray,
+    q: np.ndarray,
+    iq: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    vmax: np.ndarray,
+    amax: np.ndarray,
+    position: bool,
+    has_rate: bool,
+    gain: float,
+    dt: float,
+    dq_prev: np.ndarray,
+    box: np.ndarray,
+    out: np.ndarray,
+    stats: np.ndarray,
+) -> bool:
+    """One ``hqp`` step's closed-form path in one call: the joint-limit box (``kernels.limit_box`` into ``box``
+    (4, 1, n): lb, ub, pos_lo, pos_hi), the unconstrained cascade and its feasibility test (:func:`closed_cascade`,
+    q̇ into out[0]), and q̇ clipped to the box (``kernels.clip_twice``: the q̇ returned and the copy kept, out[1:3]).
+
+    Returns:
+        True when the cascade is feasible (out[1] is then the step's q̇); False: the constrained cascade is needed.
+    """
+    limit_box(q, iq, lo, hi, vmax, amax, position, has_rate, gain, dt, dq_prev, box)
+    lb = box[0, 0]
+    ub = box[1, 0]
+    ok = closed_cascade(A, b, w, C, d, z, lb, ub, meta, params, out[0], stats)
+    clip_twice(out[0], lb, ub, out[1:3])
+    return ok
 
 
 @_jit

@@ -52,6 +52,8 @@ projected Jacobian lost rank while the task's own did not — an algorithmic sin
 
 from __future__ import annotations
 
+import math
+import time
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -59,6 +61,7 @@ import numpy as np
 
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
+from redundik.resolvers.base import LazyStepResult, StepResult
 from redundik.resolvers.linalg import DampedSVD, damped_svd
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, polish
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
@@ -114,6 +117,8 @@ class HQPBuild:
     box: LimitBox
     n: int
     stats: np.ndarray | None = None
+    #: True when the unconstrained cascade was already found infeasible (the lean step): straight to the QPs.
+    infeasible: bool = False
 
     @property
     def levels(self) -> list[Level]:
@@ -138,6 +143,7 @@ class _Plan:
         self.A, self.b, self.w = np.zeros((16, n)), np.zeros(16), np.ones(16)
         self.C, self.d = np.zeros((4, n)), np.zeros(4)
         self.eye, self.zero = np.eye(n), np.zeros(n)
+        self.critical = any(b.critical for level in layout.levels for b in level.bounds)  # safety rows: template
         self._weights: list[tuple[int, int, float]] = []  # per block (first row, end, weight) last written into w
 
     def fill(self, rows: StepRows) -> None:
@@ -497,11 +503,74 @@ class HierarchicalQPResolver(QPResolverBase):
         return x, notes
 
     # ------------------------------------------------------------------ the step (skeleton in QPResolverBase.solve)
+    def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
+        """One step. Without safety rows the closed-form path — limit box, unconstrained cascade, its feasibility
+        test and the clipping — is one compiled call (``hqp_kernels.closed_step``), and the step's result is the
+        template's (``QPResolverBase.solve``) without its glue; when the cascade is not feasible the built step goes
+        on through the template's second half to the constrained cascade."""
+        layout = self.layout(stack)
+        n = robot.nv
+        plan = self._plan_for(layout, n)
+        if plan.critical:
+            return super().solve(robot, stack, t, dt)
+        t0 = time.perf_counter()
+        terms = [task.evaluate(robot, t) for task in stack.tasks]  # stack.evaluate, inlined
+        rows = gather_rows(robot, stack, terms, layout, dt)
+        t1 = time.perf_counter()
+        limits = self.limits
+        prev = limits.previous(self._dq_prev)
+        plan.fill(rows)
+        boxes = np.empty((4, 1, n))
+        out = np.empty((3, n))
+        stats = np.empty((plan.meta.shape[1] - 1, 4))
+        ok = HK.closed_step(
+            plan.A,
+            plan.b,
+            plan.w,
+            plan.C,
+            plan.d,
+            rows.z if rows.z is not None else plan.zero,
+            plan.meta,
+            plan.params,
+            robot.q.reshape(1, -1),
+            *limits.kernel_args(robot),
+            float(dt),
+            prev,
+            boxes,
+            out,
+            stats,
+        )
+        box = limits.box_from(boxes[:, 0], prev.shape[0] > 0)
+        x = out[0]
+        built = HQPBuild(rows, box, n, infeasible=not ok)
+        if not ok or not math.isfinite(float(x @ x)):  # a constraint is active, or q̇ is not finite: the template
+            return self._finish(robot, stack, terms, built, t0, t1)
+        built.stats = stats
+        dq, kept = out[1], out[2]
+        self._dq_prev = kept
+
+        def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
+            diag = QPDiagnostics()
+            diag.active_limits = box.active(kept, limits.joint_names)
+            self._diagnose(built, kept, diag)
+            return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
+
+        return LazyStepResult.make(
+            dq,
+            terms,
+            None,
+            {"backend": "closed-form", "qp": 0, "iterations": 0},
+            t1 - t0,
+            time.perf_counter() - t1,
+            layout.main,
+            diagnostics,
+        )
+
     def _resolve(self, built: HQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
-        layout = built.rows.layout
-        x = self._lean_cascade(built, layout)
-        if x is not None:
-            return x, None
+        if not built.infeasible:
+            x = self._lean_cascade(built, built.rows.layout)
+            if x is not None:
+                return x, None
         x, notes = self._qp_cascade(built.levels, built.box, built.n, diag)
         return x, ("hqp: " + "; ".join(notes)) if notes else None
 
