@@ -335,7 +335,13 @@ class HierarchicalQPResolver(QPResolverBase):
         lsq = None
         eps = self.regularization
         M = rhs = None
-        if lv.m or lv.z is not None:
+        orthonormal = lv.pure_null_objective and lv.z is not None
+        if orthonormal:  # rows = I: M = Z has orthonormal columns, its SVD is (Z, 1, I) — no factorisation
+            assert lv.z is not None
+            rhs = lv.z - x
+            U = np.eye(n) if Z is None else Z
+            lsq = DampedSVD(U, np.ones(r), np.eye(r), np.ones(r), r, 1.0 if r else np.inf, 0.0)
+        elif lv.m or lv.z is not None:
             M, rhs = self._project(lv, x, Z)
             lsq = self._lsq(M)
             eps = max(eps, lsq.damping**2)
@@ -370,6 +376,9 @@ class HierarchicalQPResolver(QPResolverBase):
             self.slack_tolerance,
         )
         nvar = r + p
+        if orthonormal and lsq is not None and rhs is not None:  # ½‖Zu − (z − x)‖²: MᵀM = I, Mᵀ rhs = Zᵀ(z − x)
+            P.reshape(-1)[: r * (nvar + 1) : nvar + 1] += 1.0
+            q[:r] = -(lsq.U.T @ rhs)
         prob = QPProblem(P, q, G, h, np.zeros((0, nvar)), np.zeros(0), lb, ub, f"hqp level {lv.priority}")
         try:
             sol = self._solve_qp(prob)
