@@ -92,6 +92,9 @@ class CollisionAvoidance(Barrier, Potential):
         self.end_spheres = bool(end_spheres)
         self._report_of: Distances | None = None  # the distances the report is read from (built on demand)
         self._rep = CollisionReport()
+        self._names_key: bytes = b""  # the last compiled rows' ids, their names and the labels they were read from
+        self._names: list[str] = []
+        self._names_world: list[str] | None = None
 
     @property
     def gamma(self) -> float:
@@ -145,6 +148,11 @@ class CollisionAvoidance(Barrier, Potential):
         reach = self.influence + self.lookahead
         dist = self.world.compute(robot, reach)
         self._report(dist)
+        g = self.gamma
+        fused = self.world.damper_rows(robot, dist, reach, self.influence, self.safety, g, _NO_CAP, self.end_spheres)
+        if fused is not None:
+            h, H, gam, ids = fused
+            return BarrierTerm(h, H, self._row_names(ids), gam)
         rows = dist.near
         d, rate = dist.d[rows], dist.rate[rows]
         names = [self.world.pair_names[k] for k in rows]
@@ -157,10 +165,18 @@ class CollisionAvoidance(Barrier, Potential):
                 d, rate = np.concatenate([d, br.d]), np.concatenate([rate, br.rate])
                 names += br.names
         H = self.world.point_jacobian(robot, pairs, n, p1, p2)
-        g = self.gamma
         inside = d < self.influence
         h = np.where(inside, d - self.safety + rate / g, d - self.safety)
         return BarrierTerm(h, H, names, np.where(inside, g, _NO_CAP))
+
+    def _row_names(self, ids: np.ndarray) -> list[str]:
+        """The row names of the row ids ``ids`` (:meth:`CollisionWorld.damper_rows`): the list of the last call
+        while the rows are the same (the active pairs and end spheres unchanged), else built anew."""
+        key = ids.tobytes()
+        if key != self._names_key or self._names_world is not self.world.row_labels:
+            labels = self._names_world = self.world.row_labels
+            self._names_key, self._names = key, [labels[i] for i in ids.tolist()]
+        return self._names
 
     # ------------------------------------------------------------------ potential
     def value(self, robot: RobotModel) -> float:
