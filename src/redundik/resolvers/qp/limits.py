@@ -257,6 +257,24 @@ class JointLimits:
         """
         if self._robot_id != id(robot):
             self.bind(robot)
+        if type(q) is np.ndarray and q.dtype == np.float64 and q.ndim == 1 and (dq_prev is None or not self._has_rate):
+            # the control loop's case, in a few operations: one configuration, no rate window
+            out1 = np.empty((4, 1, self._lo.shape[0]))
+            K.limit_box(
+                q.reshape(1, -1),
+                self._iq,
+                self._lo,
+                self._hi,
+                self._vmax,
+                self._amax,
+                self.position,
+                self._has_rate,
+                self.position_gain,
+                float(dt),
+                self._no_prev,
+                out1,
+            )
+            return LimitBox(out1[0, 0], out1[1, 0], out1[2, 0], out1[3, 0], self._vmax)
         q = np.asarray(q, dtype=float)
         single = q.ndim == 1
         prev = self._no_prev

@@ -111,6 +111,7 @@ class WeightedQPResolver(QPResolverBase):
         self._q: np.ndarray | None = None
         self._plan: _Plan | None = None
         self._no_rows, self._no_rhs = np.zeros((0, 0)), np.zeros(0)
+        self._diag = np.zeros(0)
 
     def build(
         self, robot: RobotModel, stack: TaskStack, t: float, dt: float, terms: list[TaskTerm] | None = None
@@ -127,17 +128,19 @@ class WeightedQPResolver(QPResolverBase):
         n = robot.nv
         if self._P is None or self._q is None or self._P.shape[0] != n:
             self._P, self._q = np.empty((n, n)), np.empty(n)
+            self._diag = self._P.reshape(-1)[:: n + 1]  # a view on P's diagonal
             self._no_rows, self._no_rhs = np.zeros((0, n)), np.zeros(0)
         P: np.ndarray = self._P
         q: np.ndarray = self._q
+        diag: np.ndarray = self._diag
         P.fill(0.0)
         q.fill(0.0)
-        diag = P.reshape(-1)[:: n + 1]  # a view on P's diagonal
+        shift = 0.0  # what the diagonal gets in all: identity tasks, the null-space objective, λ
         for i, scale, identity in plan.tasks:
             term = terms[i]
             w = scale * term.weight
             if identity:
-                diag += w
+                shift += w
                 q -= w * term.v
             else:
                 K.gram_update(P, q, term.J, term.v, w)  # P += w JᵀJ, q −= w Jᵀv in one compiled call
@@ -146,30 +149,32 @@ class WeightedQPResolver(QPResolverBase):
             w = scale * sub.weight
             P += w * np.outer(eta, eta)
             q -= (w * v) * eta
-        G, h, names, safe = self._no_rows, self._no_rhs, [], []
+        G, h, names, safe = self._no_rows, self._no_rhs, [], None
         if plan.bounds:
-            Cs, ds = [], []
+            Cs, ds, critical = [], [], []
             for bsub in plan.bounds:
                 C, d, rn = bsub.rows(robot, dt)
                 Cs.append(C)
                 ds.append(d)
                 names += rn
-                safe += [bsub.critical] * len(rn)
+                critical += [bsub.critical] * len(rn)
             G, h = np.vstack(Cs), np.concatenate(ds)
+            safe = np.array(critical, dtype=bool)
         if plan.null_scale:
             z = stack.null_target(robot, terms, layout)
-            diag += plan.null_scale
+            shift += plan.null_scale
             if z is not None:
                 q -= plan.null_scale * z
         lam = self.damping * plan.last_scale
         main_terms = [terms[i] for i in layout.main]
         if self.lm_damping and main_terms:
             lam += self.lm_damping * sum(float(tm.error @ tm.error) for tm in main_terms)
-        if lam:
-            diag += lam
+        shift += lam
+        if shift:
+            diag += shift
         box = self._box(robot, dt)
         prob = QPProblem(P, q, G, h, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp", names)
-        return WQPBuild(prob, box, main_terms, lam, np.array(safe, dtype=bool))
+        return WQPBuild(prob, box, main_terms, lam, safe)
 
     def _plan_for(self, stack: TaskStack, layout: StackLayout) -> _Plan:
         """The level weights ρ^k of every member, laid out once per stack membership (the layout object)."""
