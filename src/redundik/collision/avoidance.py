@@ -146,10 +146,9 @@ class CollisionAvoidance(Barrier, Potential):
         order), then the end-sphere branches (ends within d_i + lookahead; each row by its own distance).
         """
         reach = self.influence + self.lookahead
-        dist = self.world.compute(robot, reach)
-        self._report(dist)
         g = self.gamma
-        fused = self.world.damper_rows(robot, dist, reach, self.influence, self.safety, g, _NO_CAP, self.end_spheres)
+        dist, fused = self.world.damper(robot, reach, self.influence, self.safety, g, _NO_CAP, self.end_spheres)
+        self._report(dist)
         if fused is not None:
             h, H, gam, ids = fused
             return BarrierTerm(h, H, self._row_names(ids), gam)

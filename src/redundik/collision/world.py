@@ -754,6 +754,36 @@ class CollisionWorld:
         labels = self._br_labels
         return Branches(pair, d, p1, p2, nn, rate, [labels[r] for r in idx.tolist()])
 
+    def damper(
+        self, robot: RobotModel, reach: float, influence: float, safety: float, gamma: float, no_cap: float,
+        ends: bool,
+    ) -> tuple[Distances, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None]:  # fmt: skip
+        """:meth:`compute` (``influence`` = ``reach``) and :meth:`damper_rows` at the robot's current state, in one
+        compiled call (:func:`~redundik.collision.kernels.capsule_damper`) where the world is capsules/spheres only
+        and static and the distances are not cached yet; the same results as the two calls.
+        """
+        c = self._cache
+        if (
+            (c is None or c[3] != robot.q.tobytes() or c[0] is not robot or c[1] != self.time or c[2] != reach)
+            and self._cap.size == len(self.pairs)
+            and not self._moving
+            and self._poses is not None
+            and self._poses_of is self.data
+        ):
+            key = robot.q.tobytes()
+            pin.updateGeometryPlacements(self.model, robot.data, self.geometry, self.data)
+            d, p1, p2, n, bad, near, h, H, gam, ids = KC.capsule_damper(
+                self._poses, self._live_arr, self._T, self._prm, self._cap_a, self._cap_b, self._kind, self._br_tab,
+                self._br_sign, np.asarray(robot.data.J), self._joint_masks(robot), self._pj2, float(reach),
+                float(influence), float(safety), float(gamma), float(no_cap), bool(ends),
+            )  # fmt: skip
+            if not bad:
+                self._dist = Distances(d, p1, p2, n, np.zeros(d.size), near)
+                self._cache = (robot, self.time, reach, key)
+                return self._dist, (h, H, gam, ids)
+        dist = self.compute(robot, reach)  # (axes meeting: coal's normals)
+        return dist, self.damper_rows(robot, dist, reach, influence, safety, gamma, no_cap, ends)
+
     def damper_rows(
         self, robot: RobotModel, dist: Distances, reach: float, influence: float, safety: float, gamma: float,
         no_cap: float, ends: bool,
