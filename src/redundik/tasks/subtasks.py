@@ -187,6 +187,8 @@ class BoundSubtask(Subtask):
             raise TaskError(f"subtask '{self.name}': lower ({self.lower}) > upper ({self.upper})")
         self.rate = check_number(rate, f"subtask '{self.name}': rate (K)", low=0.0)
         self.priority = check_priority(priority, f"subtask '{self.name}'")
+        self._names_of: tuple[str, list[str]] | None = None  # (name, a barrier's last row names), prefixed:
+        self._names: list[str] = []
 
     @property
     def potential(self) -> Potential | None:
@@ -206,7 +208,10 @@ class BoundSubtask(Subtask):
         src = self.source
         if isinstance(src, Barrier):
             term = src.evaluate(robot)
-            return term.h, term.H, [f"{self.name}:{n}" for n in term.names], term.gamma
+            if self._names_of != (self.name, term.names):  # prefixed once per set of rows (e.g. active pairs)
+                self._names_of = (self.name, list(term.names))
+                self._names = [f"{self.name}:{n}" for n in term.names]
+            return term.h, term.H, self._names, term.gamma
         p, eta = src.value(robot), src.gradient(robot)
         hs, Hs, names = [], [], []
         if self.lower is not None:
