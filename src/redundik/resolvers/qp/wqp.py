@@ -158,7 +158,7 @@ class WeightedQPResolver(QPResolverBase):
                 ds.append(d)
                 names += rn
                 critical += [bsub.critical] * len(rn)
-            G, h = np.vstack(Cs), np.concatenate(ds)
+            G, h = (Cs[0], ds[0]) if len(Cs) == 1 else (np.vstack(Cs), np.concatenate(ds))
             safe = np.array(critical, dtype=bool)
         if plan.null_scale:
             z = stack.null_target(robot, terms, layout)
@@ -222,9 +222,10 @@ class WeightedQPResolver(QPResolverBase):
             return sol.x, f"{note}): {exc}"
 
     def _safety_rows(self, built: WQPBuild, stack: TaskStack) -> tuple[np.ndarray, np.ndarray] | None:
-        if built.safe is None or not built.safe.any():
+        safe = built.safe
+        if safe is None or not safe.any():
             return None
-        return built.problem.G[built.safe], built.problem.h[built.safe]
+        return (built.problem.G, built.problem.h) if safe.all() else (built.problem.G[safe], built.problem.h[safe])
 
     def _diagnose(self, built: WQPBuild, dq: np.ndarray, diag: QPDiagnostics) -> None:
         """Level-0 residual, bound violation, and σ_min of the main-task Jacobian (eigenvalues of the small JJᵀ);
