@@ -422,29 +422,30 @@ def capsule_damper(
     kind: np.ndarray,
     br: np.ndarray,
     br_sign: np.ndarray,
-    Js: np.ndarray,
     mask: np.ndarray,
     pj: np.ndarray,
+    Js: np.ndarray,
     reach: float,
     influence: float,
     safety: float,
     gamma: float,
     no_cap: float,
     ends: bool,
-) -> tuple[
-    np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray
-]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, np.ndarray, np.ndarray, np.ndarray]:
     """A static world of capsule/sphere pairs in one call: :func:`load_poses`, :func:`capsule_pairs` (every pair,
     ``ia``/``ib``), the pairs within ``reach`` [m], then :func:`barrier_rows` on them (no obstacle rates).
 
     Returns:
-        (d, p1, p2, n of the pairs, the number of pairs whose axes meet, the pairs with d < ``reach``, then h, ∂h/∂q,
-        γ and the row ids of :func:`barrier_rows`). With axes meeting (count > 0) the rows are left empty: the
-        caller asks coal for those pairs and takes the general route.
+        (d (P,), the stacked p1, p2, n (3, P, 3), the pairs with d < ``reach``, the number of pairs whose axes meet,
+        the stacked h, γ (2, k), ∂h/∂q (k, nv), the row ids (k,)) — few arrays, since returning each costs as much
+        as the computation. With axes meeting (count > 0) the rows are left empty: the caller asks coal for those
+        pairs and takes the general route.
     """
     load_poses(src, live, T)
     d, p1, p2, n, ok = capsule_pairs(T, prm, ia, ib)
     P = d.shape[0]
+    pts = np.empty((3, P, 3))
+    pts[0], pts[1], pts[2] = p1, p2, n
     near = np.empty(P, dtype=np.int64)
     bad, c_ = 0, 0
     for k in range(P):
@@ -455,10 +456,11 @@ def capsule_damper(
             c_ += 1
     near = near[:c_]
     if bad:
-        z = np.zeros(0)
-        return d, p1, p2, n, bad, near, z, np.zeros((0, Js.shape[1])), z, np.zeros(0, dtype=np.int64)
+        return d, pts, near, bad, np.zeros((2, 0)), np.zeros((0, Js.shape[1])), np.zeros(0, dtype=np.int64)
     h, H, gam, ids = barrier_rows(
         T, kind, prm, br, br_sign, d, p1, p2, n, np.zeros(P), near, Js, mask, pj, reach, influence, safety, gamma,
         no_cap, ends,
     )  # fmt: skip
-    return d, p1, p2, n, bad, near, h, H, gam, ids
+    hg = np.empty((2, h.shape[0]))
+    hg[0], hg[1] = h, gam
+    return d, pts, near, bad, hg, H, ids

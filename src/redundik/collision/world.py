@@ -559,6 +559,14 @@ class CollisionWorld:
         #: Row labels by row id (:func:`~redundik.collision.kernels.barrier_rows`): the pairs, then the branches.
         self.row_labels = self.pair_names + self._br_labels
         self._pj2 = np.array(self.pair_joints, dtype=np.int64).reshape(-1, 2)
+        #: :func:`~redundik.collision.kernels.capsule_damper`'s fixed arguments, for a static world of capsules only
+        #: whose placements are read from oMg's memory (else ``None``).
+        self._static: tuple[Any, ...] | None = None
+        if self._cap.size == len(self.pairs) and not self._moving and self._poses is not None:
+            self._static = (
+                self._poses, self._live_arr, self._T, prm, self._cap_a, self._cap_b, kind, self._br_tab,
+                self._br_sign, self._joint_masks(), self._pj2,
+            )  # fmt: skip
         self._pa, self._pb = pa, pb
 
     def exclude_colliding_at(self, robot: RobotModel, q: np.ndarray, threshold: float = 0.0) -> list[str]:
@@ -762,25 +770,24 @@ class CollisionWorld:
         compiled call (:func:`~redundik.collision.kernels.capsule_damper`) where the world is capsules/spheres only
         and static and the distances are not cached yet; the same results as the two calls.
         """
+        key = robot.q.tobytes()
         c = self._cache
+        static = self._static
         if (
-            (c is None or c[3] != robot.q.tobytes() or c[0] is not robot or c[1] != self.time or c[2] != reach)
-            and self._cap.size == len(self.pairs)
-            and not self._moving
+            static is not None
             and self._poses is not None
             and self._poses_of is self.data
+            and (c is None or c[3] != key or c[0] is not robot or c[1] != self.time or c[2] != reach)
         ):
-            key = robot.q.tobytes()
             pin.updateGeometryPlacements(self.model, robot.data, self.geometry, self.data)
-            d, p1, p2, n, bad, near, h, H, gam, ids = KC.capsule_damper(
-                self._poses, self._live_arr, self._T, self._prm, self._cap_a, self._cap_b, self._kind, self._br_tab,
-                self._br_sign, np.asarray(robot.data.J), self._joint_masks(robot), self._pj2, float(reach),
-                float(influence), float(safety), float(gamma), float(no_cap), bool(ends),
+            d, pts, near, bad, hg, H, ids = KC.capsule_damper(
+                *static, np.asarray(robot.data.J), float(reach), float(influence), float(safety), float(gamma),
+                float(no_cap), bool(ends),
             )  # fmt: skip
             if not bad:
-                self._dist = Distances(d, p1, p2, n, np.zeros(d.size), near)
+                self._dist = Distances(d, pts[0], pts[1], pts[2], np.zeros(d.size), near)
                 self._cache = (robot, self.time, reach, key)
-                return self._dist, (h, H, gam, ids)
+                return self._dist, (hg[0], H, hg[1], ids)
         dist = self.compute(robot, reach)  # (axes meeting: coal's normals)
         return dist, self.damper_rows(robot, dist, reach, influence, safety, gamma, no_cap, ends)
 
@@ -866,7 +873,7 @@ class CollisionWorld:
             self._pj = pj
         return pj
 
-    def _joint_masks(self, robot: RobotModel) -> np.ndarray:
+    def _joint_masks(self, robot: RobotModel | None = None) -> np.ndarray:
         """M[j, k] = 1 when velocity k belongs to a joint supporting joint j (M[0] = 0: the world), (njoints, nv)."""
         if getattr(self, "_masks", None) is None:
             m = self.model
