@@ -780,10 +780,9 @@ class CollisionWorld:
             and (c is None or c[3] != key or c[0] is not robot or c[1] != self.time or c[2] != reach)
         ):
             pin.updateGeometryPlacements(self.model, robot.data, self.geometry, self.data)
-            d, pts, near, bad, hg, H, ids = KC.capsule_damper(
-                *static, np.asarray(robot.data.J), float(reach), float(influence), float(safety), float(gamma),
-                float(no_cap), bool(ends),
-            )  # fmt: skip
+            args = (*static, np.asarray(robot.data.J), float(reach), float(influence), float(safety), float(gamma),
+                    float(no_cap), bool(ends))  # fmt: skip
+            d, pts, near, bad, hg, H, ids = KC.capsule_damper(*args)
             if not bad:
                 self._dist = Distances(d, pts[0], pts[1], pts[2], np.zeros(d.size), near)
                 self._cache = (robot, self.time, reach, key)
