@@ -663,6 +663,51 @@ def limit_box(
 
 
 @_jit
+def wqp_free_step(
+    P: np.ndarray,
+    q: np.ndarray,
+    shift: float,
+    z: np.ndarray,
+    z_scale: float,
+    qconf: np.ndarray,
+    iq: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    vmax: np.ndarray,
+    amax: np.ndarray,
+    position: bool,
+    has_rate: bool,
+    gain: float,
+    dt: float,
+    dq_prev: np.ndarray,
+    out: np.ndarray,
+) -> bool:
+    """The rest of a ``wqp`` step once its task rows are in P and q, in one call: P += shift·I, q −= z_scale·z (the
+    null-space objective; ``z`` may be empty), the joint-limit box of :func:`limit_box` at ``qconf`` (1, nq) into
+    out[0:4] (lb, ub, pos_lo, pos_hi), the unconstrained optimum x = −P⁻¹q by Cholesky into out[4], and — when x
+    lies in the box (to 1e-12) — x clipped to it into out[5] and out[6] (q̇ and the copy the resolver keeps).
+
+    Returns:
+        True when x is finite and inside the box: it is then the QP's optimum (no constraint active).
+    """
+    n = q.shape[0]
+    for i in range(n):
+        P[i, i] += shift
+    if z.shape[0] == n and z_scale != 0.0:
+        for i in range(n):
+            q[i] -= z_scale * z[i]
+    limit_box(qconf, iq, lo, hi, vmax, amax, position, has_rate, gain, dt, dq_prev, out[0:4].reshape((4, 1, n)))
+    x = out[4]
+    if not spd_solve_into(P, q, x) or not in_box(x, out[0], out[1], 1e-12):
+        return False
+    for i in range(n):
+        v = min(max(x[i], out[0, i]), out[1, i])
+        out[5, i] = v
+        out[6, i] = v
+    return True
+
+
+@_jit
 def gram_update(P: np.ndarray, q: np.ndarray, J: np.ndarray, v: np.ndarray, w: float) -> None:
     """P += w JᵀJ and q −= w Jᵀv in place (P (n, n), q (n,), J (m, n), v (m,)): one task's rows of a weighted QP."""
     m, n = J.shape

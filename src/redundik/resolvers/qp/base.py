@@ -227,8 +227,14 @@ class QPResolverBase(Resolver):
         t0 = time.perf_counter()
         terms = stack.evaluate(robot, t)
         built = self.build(robot, stack, t, dt, terms)
+        return self._finish(robot, stack, terms, built, t0, time.perf_counter())
+
+    def _finish(
+        self, robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], built: Any, t0: float, t1: float
+    ) -> StepResult:
+        """Solve a built step, fall back if needed, clip to the limits, guard the safety rows, and report (the
+        template's second half; ``t0``/``t1`` [s]: when the step started and its build ended)."""
         box: LimitBox = built.box
-        t1 = time.perf_counter()
         diag = QPDiagnostics()
         try:
             x, fallback = self._resolve(built, diag)

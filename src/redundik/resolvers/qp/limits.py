@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -233,6 +234,16 @@ class JointLimits:
         self._has_rate = bool(np.isfinite(amax).any())
         self._no_prev = np.zeros((0, nv))
         self._names = names
+        self._kernel_args = (
+            self._iq,
+            self._lo,
+            self._hi,
+            self._vmax,
+            self._amax,
+            self.position,
+            self._has_rate,
+            self.position_gain,
+        )
         self._robot_id = id(robot)
 
     @property
@@ -249,6 +260,27 @@ class JointLimits:
     def upper_position(self) -> np.ndarray:
         """Effective upper position limits by q̇ coordinate (after :meth:`bind`; ``+inf`` where none)."""
         return self._hi.copy()
+
+    def kernel_args(self, robot: RobotModel) -> tuple[Any, ...]:
+        """(iq, lo, hi, vmax, amax, position, has_rate, gain): the arguments of ``K.limit_box`` between q and dt,
+        bound to ``robot`` (for a compiled step that computes its box inside, as ``wqp``'s)."""
+        if self._robot_id != id(robot):
+            self.bind(robot)
+        return self._kernel_args
+
+    def previous(self, dq_prev: np.ndarray | None) -> np.ndarray:
+        """The ``dq_prev`` argument of ``K.limit_box`` for one configuration: (1, nv) with a rate limit and a
+        previous q̇, else (0, nv) (no rate window)."""
+        if self._has_rate and dq_prev is not None:
+            return np.asarray(dq_prev, dtype=float).reshape(1, -1)
+        return self._no_prev
+
+    def box_from(self, rows: np.ndarray, windowed: bool) -> LimitBox:
+        """The :class:`LimitBox` of ``K.limit_box``'s output rows (lb, ub, pos_lo, pos_hi) of one configuration;
+        ``windowed``: a rate window was applied (``previous`` gave a row)."""
+        if windowed:
+            return LimitBox(rows[0], rows[1], rows[2], rows[3], self._vmax, rows[0], rows[1])
+        return LimitBox(rows[0], rows[1], rows[2], rows[3], self._vmax)
 
     def box(self, robot: RobotModel, q: np.ndarray, dt: float, dq_prev: np.ndarray | None = None) -> LimitBox:
         """Bounds on q̇ for a step dt [s] from q (see the module docstring).

@@ -22,12 +22,14 @@ stay hard), then replaced by the damped closed form clipped to the limits and sc
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
+from redundik.resolvers.base import LazyStepResult, StepResult
 from redundik.resolvers.linalg import K
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
@@ -57,6 +59,9 @@ class WQPBuild:
     safe: np.ndarray | None = None
 
 
+_NO_Z = np.zeros(0)
+
+
 class _Plan:
     """What a ``wqp`` build does per member, fixed while the stack's membership is (see ``_plan_for``)."""
 
@@ -67,6 +72,7 @@ class _Plan:
         self.bounds: list[BoundSubtask] = []
         self.null_scale = 0.0  # ρ^k of the null-space objective's level (0: none)
         self.last_scale = 1.0  # ρ^(L−1)
+        self.main: list[int] = layout.main
 
 
 class WeightedQPResolver(QPResolverBase):
@@ -125,6 +131,46 @@ class WeightedQPResolver(QPResolverBase):
             terms = stack.evaluate(robot, t)
         layout = self.layout(stack)
         plan = self._plan_for(stack, layout)
+        shift, z = self._accumulate(robot, stack, terms, plan)
+        G, h, names, safe = self._no_rows, self._no_rhs, [], None
+        if plan.bounds:
+            Cs, ds, critical = [], [], []
+            for bsub in plan.bounds:
+                C, d, rn = bsub.rows(robot, dt)
+                Cs.append(C)
+                ds.append(d)
+                names += rn
+                critical += [bsub.critical] * len(rn)
+            G, h = (Cs[0], ds[0]) if len(Cs) == 1 else (np.vstack(Cs), np.concatenate(ds))
+            safe = np.array(critical, dtype=bool)
+        P, q = self._P, self._q
+        assert P is not None and q is not None  # allocated by _accumulate
+        if shift:
+            self._diag += shift
+        if z is not None:
+            q -= plan.null_scale * z
+        lam = self._lambda(plan, terms)
+        box = self._box(robot, dt)
+        prob = QPProblem(P, q, G, h, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp", names)
+        return WQPBuild(prob, box, [terms[i] for i in plan.main], lam, safe)
+
+    def _lambda(self, plan: _Plan, terms: list[TaskTerm]) -> float:
+        """λ of the step: ``damping``·ρ^(L−1) + ``lm_damping``·‖e‖² (module docstring)."""
+        lam = self.damping * plan.last_scale
+        if self.lm_damping:
+            lam += self.lm_damping * sum(float(terms[i].error @ terms[i].error) for i in plan.main)
+        return lam
+
+    def _accumulate(
+        self, robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], plan: _Plan
+    ) -> tuple[float, np.ndarray | None]:
+        """The task and target rows into P = Σ ρ^k w JᵀJ and q = −Σ ρ^k w Jᵀv (zeroed first, preallocated); a task
+        that declares ``identity_jacobian`` adds its weight to the diagonal shift instead.
+
+        Returns:
+            (the diagonal shift still to add — identity tasks, the null-space objective's ρ^k, λ —, z of the
+            null-space objective or ``None``; it still has to be subtracted as ρ^k z).
+        """
         n = robot.nv
         if self._P is None or self._q is None or self._P.shape[0] != n:
             self._P, self._q = np.empty((n, n)), np.empty(n)
@@ -132,10 +178,9 @@ class WeightedQPResolver(QPResolverBase):
             self._no_rows, self._no_rhs = np.zeros((0, n)), np.zeros(0)
         P: np.ndarray = self._P
         q: np.ndarray = self._q
-        diag: np.ndarray = self._diag
         P.fill(0.0)
         q.fill(0.0)
-        shift = 0.0  # what the diagonal gets in all: identity tasks, the null-space objective, λ
+        shift = self._lambda(plan, terms)
         for i, scale, identity in plan.tasks:
             term = terms[i]
             w = scale * term.weight
@@ -149,32 +194,66 @@ class WeightedQPResolver(QPResolverBase):
             w = scale * sub.weight
             P += w * np.outer(eta, eta)
             q -= (w * v) * eta
-        G, h, names, safe = self._no_rows, self._no_rhs, [], None
-        if plan.bounds:
-            Cs, ds, critical = [], [], []
-            for bsub in plan.bounds:
-                C, d, rn = bsub.rows(robot, dt)
-                Cs.append(C)
-                ds.append(d)
-                names += rn
-                critical += [bsub.critical] * len(rn)
-            G, h = (Cs[0], ds[0]) if len(Cs) == 1 else (np.vstack(Cs), np.concatenate(ds))
-            safe = np.array(critical, dtype=bool)
+        z = None
         if plan.null_scale:
-            z = stack.null_target(robot, terms, layout)
             shift += plan.null_scale
-            if z is not None:
-                q -= plan.null_scale * z
-        lam = self.damping * plan.last_scale
-        main_terms = [terms[i] for i in layout.main]
-        if self.lm_damping and main_terms:
-            lam += self.lm_damping * sum(float(tm.error @ tm.error) for tm in main_terms)
-        shift += lam
-        if shift:
-            diag += shift
-        box = self._box(robot, dt)
-        prob = QPProblem(P, q, G, h, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp", names)
-        return WQPBuild(prob, box, main_terms, lam, safe)
+            z = stack.null_target(robot, terms, plan.layout)
+        return shift, z
+
+    def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
+        """One step; a stack of tasks only (no target or bound subtask) takes the lean path below: rows
+        accumulated, then box, null-space objective, unconstrained optimum and its box test in one compiled
+        call; the backend is called (through the shared template) only when that optimum leaves the box."""
+        plan = self._plan_for(stack, self.layout(stack))
+        if plan.targets or plan.bounds:
+            return super().solve(robot, stack, t, dt)
+        t0 = time.perf_counter()
+        terms = stack.evaluate(robot, t)
+        shift, z = self._accumulate(robot, stack, terms, plan)
+        t1 = time.perf_counter()
+        limits = self.limits
+        prev = limits.previous(self._dq_prev)
+        n = robot.nv
+        out = np.empty((7, n))
+        inside = K.wqp_free_step(
+            self._P,
+            self._q,
+            shift,
+            _NO_Z if z is None else z,
+            plan.null_scale,
+            robot.q.reshape(1, -1),
+            *limits.kernel_args(robot),
+            float(dt),
+            prev,
+            out,
+        )
+        box = limits.box_from(out, prev.shape[0] > 0)
+        P, q = self._P, self._q
+        assert P is not None and q is not None
+        main_terms = [terms[i] for i in plan.main]
+        lam = self._lambda(plan, terms)
+        if not inside:  # a constraint is active (or the optimum is not finite): the backend, through the template
+            prob = QPProblem(P, q, self._no_rows, self._no_rhs, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp")
+            return self._finish(robot, stack, terms, WQPBuild(prob, box, main_terms, lam), t0, t1)
+        dq, kept = out[5], out[6]
+        self._dq_prev = kept
+
+        def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
+            diag = QPDiagnostics()
+            diag.active_limits = box.active(kept, limits.joint_names)
+            self._diagnose_terms(main_terms, lam, kept, diag)
+            return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
+
+        return LazyStepResult.make(
+            dq,
+            terms,
+            None,
+            {"backend": "closed-form", "qp": 0, "iterations": 0},
+            t1 - t0,
+            time.perf_counter() - t1,
+            plan.main,
+            diagnostics,
+        )
 
     def _plan_for(self, stack: TaskStack, layout: StackLayout) -> _Plan:
         """The level weights ρ^k of every member, laid out once per stack membership (the layout object)."""
@@ -228,25 +307,28 @@ class WeightedQPResolver(QPResolverBase):
         return (built.problem.G, built.problem.h) if safe.all() else (built.problem.G[safe], built.problem.h[safe])
 
     def _diagnose(self, built: WQPBuild, dq: np.ndarray, diag: QPDiagnostics) -> None:
-        """Level-0 residual, bound violation, and σ_min of the main-task Jacobian (eigenvalues of the small JJᵀ);
-        the step counts as damped when λ ≥ 1e-3·σ_min² (the regulariser then bends the main-task solution)."""
-        if built.main_terms:
-            J = built.main_terms[0].J if len(built.main_terms) == 1 else np.vstack([t.J for t in built.main_terms])
+        self._diagnose_terms(built.main_terms, built.damping, dq, diag)
+        G = built.problem.G
+        if G.shape[0]:
+            diag.bound_violation = float(np.max(np.maximum(G @ dq - built.problem.h, 0.0)))
+
+    def _diagnose_terms(self, main_terms: list[TaskTerm], damping: float, dq: np.ndarray, diag: QPDiagnostics) -> None:
+        """Level-0 residual and σ_min of the main-task Jacobian (eigenvalues of the small JJᵀ); the step counts as
+        damped when λ ≥ 1e-3·σ_min² (the regulariser then bends the main-task solution)."""
+        if main_terms:
+            J = main_terms[0].J if len(main_terms) == 1 else np.vstack([t.J for t in main_terms])
             if J.shape[0]:
                 gram = J @ J.T if J.shape[0] <= J.shape[1] else J.T @ J
                 ev = np.linalg.eigvalsh(gram)
                 nz = ev[ev > 1e-20 * max(float(ev[-1]), 1e-300)]
                 diag.sigma_min = float(np.sqrt(nz[0])) if nz.size else np.inf
-                if built.damping >= 1e-3 * diag.sigma_min**2:
+                if damping >= 1e-3 * diag.sigma_min**2:
                     diag.damped_levels.append(0)
             res2 = 0.0
-            for tm in built.main_terms:
+            for tm in main_terms:
                 r = tm.J @ dq - tm.v
                 res2 += float(r @ r)
             diag.level_residuals[0] = res2**0.5
-        G = built.problem.G
-        if G.shape[0]:
-            diag.bound_violation = float(np.max(np.maximum(G @ dq - built.problem.h, 0.0)))
 
     def __repr__(self) -> str:
         return (
