@@ -152,6 +152,27 @@ class CollisionAvoidance(Barrier, Potential):
         if fused is not None:
             h, H, gam, ids = fused
             return BarrierTerm(h, H, self._row_names(ids), gam)
+        return self._term(robot, dist, reach)
+
+    def bound_rows(self, robot: RobotModel, rate_cap: float) -> tuple[np.ndarray, np.ndarray, list[str]]:
+        """The damper as QP rows C q̇ ≤ d (what :meth:`~redundik.tasks.subtasks.BoundSubtask.rows` makes of
+        :meth:`evaluate`: C = −H, d = min(γ, ``rate_cap``) h [m/s], ``rate_cap`` = 1/dt [1/s]), in the same
+        compiled call as the rows where the world allows it; the same numbers either way."""
+        reach = self.influence + self.lookahead
+        dist, fused = self.world.damper(
+            robot, reach, self.influence, self.safety, self.gamma, _NO_CAP, self.end_spheres, rate_cap
+        )
+        self._report(dist)
+        if fused is not None:
+            d, C, _, ids = fused
+            return C, d, self._row_names(ids)
+        term = self._term(robot, dist, reach)
+        assert term.gamma is not None
+        return -term.H, np.minimum(term.gamma, rate_cap) * term.h, term.names
+
+    def _term(self, robot: RobotModel, dist: Distances, reach: float) -> BarrierTerm:
+        """:meth:`evaluate` row by row (moving obstacles, capsule ends against meshes), from ``dist``."""
+        g = self.gamma
         rows = dist.near
         d, rate = dist.d[rows], dist.rate[rows]
         names = [self.world.pair_names[k] for k in rows]

@@ -340,6 +340,7 @@ def barrier_rows(
     gamma: float,
     no_cap: float,
     ends: bool,
+    qp_cap: float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The collision damper's rows in one call: the pairs ``near`` and (``ends``) their capsules' end spheres.
 
@@ -355,7 +356,9 @@ def barrier_rows(
         Js, mask, pj: The spatial Jacobian (6, nv), the joints' support masks (njoints, nv), the pairs' joints (P, 2).
 
     Returns:
-        (h (k,) [m], ∂h/∂q (k, nv), γ (k,) [1/s], row ids (k,): the pair index, or P + the branch index).
+        (h (k,) [m], ∂h/∂q (k, nv), γ (k,) [1/s], row ids (k,): the pair index, or P + the branch index); with
+        ``qp_cap`` > 0 [1/s] the first two are instead the QP rows C q̇ ≤ d of the damper,
+        d = min(γ, ``qp_cap``) h [m/s] and C = −∂h/∂q (:meth:`redundik.tasks.subtasks.BoundSubtask.rows`).
     """
     P = d.shape[0]
     k0 = near.shape[0]
@@ -408,6 +411,11 @@ def barrier_rows(
             h[c_], gam[c_] = de - safety, no_cap
         ids[c_] = P + r
         c_ += 1
+    if qp_cap > 0.0:
+        for r in range(c_):
+            h[r] = min(gam[r], qp_cap) * h[r]
+            for col in range(H.shape[1]):
+                H[r, col] = -H[r, col]
     return h[:c_], H[:c_], gam[:c_], ids[:c_]
 
 
@@ -431,15 +439,16 @@ def capsule_damper(
     gamma: float,
     no_cap: float,
     ends: bool,
+    qp_cap: float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, np.ndarray, np.ndarray, np.ndarray]:
     """A static world of capsule/sphere pairs in one call: :func:`load_poses`, :func:`capsule_pairs` (every pair,
     ``ia``/``ib``), the pairs within ``reach`` [m], then :func:`barrier_rows` on them (no obstacle rates).
 
     Returns:
         (d (P,), the stacked p1, p2, n (3, P, 3), the pairs with d < ``reach``, the number of pairs whose axes meet,
-        the stacked h, γ (2, k), ∂h/∂q (k, nv), the row ids (k,)) — few arrays, since returning each costs as much
-        as the computation. With axes meeting (count > 0) the rows are left empty: the caller asks coal for those
-        pairs and takes the general route.
+        the stacked h, γ (2, k), ∂h/∂q (k, nv), the row ids (k,); ``qp_cap`` as in :func:`barrier_rows`) — few
+        arrays, since returning each costs as much as the computation. With axes meeting (count > 0) the rows are
+        left empty: the caller asks coal for those pairs and takes the general route.
     """
     load_poses(src, live, T)
     d, p1, p2, n, ok = capsule_pairs(T, prm, ia, ib)
@@ -459,7 +468,7 @@ def capsule_damper(
         return d, pts, near, bad, np.zeros((2, 0)), np.zeros((0, Js.shape[1])), np.zeros(0, dtype=np.int64)
     h, H, gam, ids = barrier_rows(
         T, kind, prm, br, br_sign, d, p1, p2, n, np.zeros(P), near, Js, mask, pj, reach, influence, safety, gamma,
-        no_cap, ends,
+        no_cap, ends, qp_cap,
     )  # fmt: skip
     hg = np.empty((2, h.shape[0]))
     hg[0], hg[1] = h, gam

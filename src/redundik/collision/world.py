@@ -764,11 +764,12 @@ class CollisionWorld:
 
     def damper(
         self, robot: RobotModel, reach: float, influence: float, safety: float, gamma: float, no_cap: float,
-        ends: bool,
+        ends: bool, qp_cap: float = 0.0,
     ) -> tuple[Distances, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None]:  # fmt: skip
         """:meth:`compute` (``influence`` = ``reach``) and :meth:`damper_rows` at the robot's current state, in one
         compiled call (:func:`~redundik.collision.kernels.capsule_damper`) where the world is capsules/spheres only
-        and static and the distances are not cached yet; the same results as the two calls.
+        and static and the distances are not cached yet; the same results as the two calls (``qp_cap`` > 0 [1/s]:
+        the rows as (d, C) of C q̇ ≤ d, see :meth:`damper_rows`).
         """
         key = robot.q.tobytes()
         c = self._cache
@@ -781,18 +782,18 @@ class CollisionWorld:
         ):
             pin.updateGeometryPlacements(self.model, robot.data, self.geometry, self.data)
             args = (*static, np.asarray(robot.data.J), float(reach), float(influence), float(safety), float(gamma),
-                    float(no_cap), bool(ends))  # fmt: skip
+                    float(no_cap), bool(ends), float(qp_cap))  # fmt: skip
             d, pts, near, bad, hg, H, ids = KC.capsule_damper(*args)
             if not bad:
                 self._dist = Distances(d, pts[0], pts[1], pts[2], np.zeros(d.size), near)
                 self._cache = (robot, self.time, reach, key)
                 return self._dist, (hg[0], H, hg[1], ids)
         dist = self.compute(robot, reach)  # (axes meeting: coal's normals)
-        return dist, self.damper_rows(robot, dist, reach, influence, safety, gamma, no_cap, ends)
+        return dist, self.damper_rows(robot, dist, reach, influence, safety, gamma, no_cap, ends, qp_cap)
 
     def damper_rows(
         self, robot: RobotModel, dist: Distances, reach: float, influence: float, safety: float, gamma: float,
-        no_cap: float, ends: bool,
+        no_cap: float, ends: bool, qp_cap: float = 0.0,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:  # fmt: skip
         """The collision damper's rows on the pairs ``dist.near`` and (``ends``) their end spheres, in one compiled
         call (:func:`~redundik.collision.kernels.barrier_rows`): (h [m], ∂h/∂q (k, nv), γ [1/s], row ids, labels in
@@ -805,13 +806,14 @@ class CollisionWorld:
             influence: d_i [m]: rows closer than this have h = d − d_s + (∂d/∂t)/γ and gain ``gamma`` [1/s], the
                 others h = d − d_s and gain ``no_cap`` [1/s].
             safety: d_s [m].
+            qp_cap: > 0 [1/s]: (d, C) of the QP rows C q̇ ≤ d instead of (h, ∂h/∂q) (kernels.barrier_rows).
         """
         if self._moving or (ends and self._br_any_other):
             return None
         return KC.barrier_rows(
             self._T, self._kind, self._prm, self._br_tab, self._br_sign, dist.d, dist.p1, dist.p2, dist.n, dist.rate,
             dist.near, np.asarray(robot.data.J), self._joint_masks(robot), self._pj2, float(reach), float(influence),
-            float(safety), float(gamma), float(no_cap), bool(ends),
+            float(safety), float(gamma), float(no_cap), bool(ends), float(qp_cap),
         )  # fmt: skip
 
     def _slow_end_spheres(
