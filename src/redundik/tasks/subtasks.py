@@ -208,10 +208,7 @@ class BoundSubtask(Subtask):
         src = self.source
         if isinstance(src, Barrier):
             term = src.evaluate(robot)
-            if self._names_of != (self.name, term.names):  # prefixed once per set of rows (e.g. active pairs)
-                self._names_of = (self.name, list(term.names))
-                self._names = [f"{self.name}:{n}" for n in term.names]
-            return term.h, term.H, self._names, term.gamma
+            return term.h, term.H, self._prefixed(term.names), term.gamma
         p, eta = src.value(robot), src.gradient(robot)
         hs, Hs, names = [], [], []
         if self.lower is not None:
@@ -224,10 +221,20 @@ class BoundSubtask(Subtask):
             names.append(f"{self.name}:upper")
         return np.array(hs), np.vstack(Hs), names, None
 
+    def _prefixed(self, names: list[str]) -> list[str]:
+        """``name:row`` per row name, built once per set of rows (e.g. a collision barrier's active pairs)."""
+        if self._names_of != (self.name, names):
+            self._names_of, self._names = (self.name, list(names)), [f"{self.name}:{n}" for n in names]
+        return self._names
+
     def rows(self, robot: RobotModel, dt: float) -> tuple[np.ndarray, np.ndarray, list[str]]:
         """The damper ḣ ≥ −γh as QP rows C q̇ ≤ d: C = −H, d = γ h (module docstring), γ = min(K or 1/dt, 1/dt)."""
-        h, H, names, gamma_rows = self.values(robot)
         cap = 1.0 / dt
+        direct = getattr(self.source, "bound_rows", None)  # a barrier making its rows itself (collision avoidance)
+        if direct is not None:
+            C, d, rn = direct(robot, cap)
+            return C, d, self._prefixed(rn)
+        h, H, names, gamma_rows = self.values(robot)
         gamma: float | np.ndarray
         if gamma_rows is not None:
             gamma = np.minimum(gamma_rows, cap)
