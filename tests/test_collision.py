@@ -488,9 +488,9 @@ def _eager_damper(avoid: CollisionAvoidance, robot: object) -> tuple[list[str], 
 
 
 def test_cached_row_names_and_compiled_rows_equal_the_eager_ones() -> None:
-    """The damper's row names are reused while its rows are unchanged and its rows come from one compiled call;
-    along a motion whose active pairs and end spheres change, and after the pair set changes, names and rows equal
-    the ones built row by row (bitwise), also with the placements read through Pinocchio's objects."""
+    """The damper's row names are reused while its rows are unchanged and its rows (also as QP rows) come from one
+    compiled call; along a motion whose active pairs and end spheres change, and after the pair set changes, names
+    and rows equal the ones built row by row (bitwise), also with the placements read through Pinocchio's objects."""
     robot = load_example_robot("panda")
     urdf = example_robot_data_dir() / "panda_description/urdf/panda.urdf"
     world = CollisionWorld.from_urdf(robot, urdf, self_collision=True)
@@ -499,12 +499,14 @@ def test_cached_row_names_and_compiled_rows_equal_the_eager_ones() -> None:
     seen: set[tuple[str, ...]] = set()
 
     def check() -> None:
-        term = avoid.evaluate(robot)
-        _, _, names = bound.rows(robot, 0.01)
+        world._cache = None
+        C, d, names = bound.rows(robot, 0.01)  # distances and QP rows in one call
+        term = avoid.evaluate(robot)  # from the cached distances
         world._cache = None
         ref_names, h, H, gamma = _eager_damper(avoid, robot)
         assert term.names == ref_names and names == [f"collision:{n}" for n in ref_names]
         assert np.array_equal(term.h, h) and np.array_equal(term.H, H) and np.array_equal(term.gamma, gamma)
+        assert np.array_equal(C, -H) and np.array_equal(d, np.minimum(gamma, 1 / 0.01) * h)
         seen.add(tuple(ref_names))
         for g in world._live:
             assert np.array_equal(world._T[g], world.data.oMg[g].homogeneous)
