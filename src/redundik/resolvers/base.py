@@ -200,22 +200,20 @@ class LazyStepResult(StepResult):
         """The result of a step whose diagnostics ``pending`` computes on first read (the hot path's constructor:
         the same object as the dataclass constructor plus ``pending`` would give, with the attributes set at once)."""
         res = cls.__new__(cls)
-        lazy = LazyInfo(info, None)
-        res.__dict__.update(
-            dq=dq,
-            terms=terms,
-            dq_rank=dq_rank,
-            dq_null=dq_null,
-            gains=None,
-            damping=0.0,
-            fallback=fallback,
-            _info=lazy,
-            build_time=build_time,
-            solve_time=solve_time,
-            main=main,
-            pending=pending,
-        )
-        lazy._pending = res._info_pending
+        res.__dict__ = {
+            "dq": dq,
+            "terms": terms,
+            "dq_rank": dq_rank,
+            "dq_null": dq_null,
+            "gains": None,
+            "damping": 0.0,
+            "fallback": fallback,
+            "_info": info,  # a plain dict until first read (the ``info`` property wraps it then)
+            "build_time": build_time,
+            "solve_time": solve_time,
+            "main": main,
+            "pending": pending,
+        }
         return res
 
     def _resolve(self) -> None:
@@ -249,7 +247,11 @@ class LazyStepResult(StepResult):
 
     @property
     def info(self) -> dict[str, object]:
-        return self.__dict__["_info"]
+        d = self.__dict__
+        info = d["_info"]
+        if type(info) is dict:  # the eager entries of a step, wrapped on first read
+            info = d["_info"] = LazyInfo(info, self._info_pending if d.get("pending") is not None else None)
+        return info
 
     @info.setter
     def info(self, value: dict[str, object]) -> None:
@@ -340,6 +342,7 @@ class Resolver(ABC):
             and math.isfinite(float(np.add.reduce(q)))  # every entry finite (an overflow falls back to the full check)
         ):
             q = self.check_inputs(robot, q, t, dt)
+            t, dt = float(t), float(dt)
         robot.update(q)
         sig = (id(robot), *stack.signature())
         if sig != self._checked:
@@ -357,10 +360,10 @@ class Resolver(ABC):
         self._stepping = stack  # the stack whose membership was just checked (``stack_key``)
         try:
             if self.blas_threads == "auto" and (robot.nv < BLAS_LIMIT_NV or _USER_CHOSE_THREADS):
-                res = self.solve(robot, stack, float(t), float(dt))
+                res = self.solve(robot, stack, t, dt)
             else:
                 with self._blas_limit(robot):
-                    res = self.solve(robot, stack, float(t), float(dt))
+                    res = self.solve(robot, stack, t, dt)
         finally:
             self._stepping = None
         watch = self._watch

@@ -125,6 +125,8 @@ class FrameTask(Task):
         self._fid: int | None = None
         self._pending_position: np.ndarray | None = None
         self._last_R: np.ndarray | None = None  # the target orientation at the last evaluation
+        self._data: Any = None  # the robot data the task was reset on, and its live view of the frame's pose
+        self._pose: Any = None
 
     @property
     def dim(self) -> int:
@@ -188,6 +190,7 @@ class FrameTask(Task):
                 "never be met; choose a frame on a moving link"
             )
         pose = robot.frame_pose(fid)
+        self._data, self._pose = robot.data, pose  # the frame's placement, updated in place by every robot.update
         self.trajectory.start(pose)  # a Hold(pose) keeps its pose
         if self._pending_position is not None:
             self._hold(pin.SE3(np.array(pose.rotation), self._pending_position))
@@ -195,12 +198,14 @@ class FrameTask(Task):
 
     def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
         fid = self._fid
+        data = robot.data
         if fid is None or not self.trajectory.has_start:
             self.reset(robot)  # checks the frame, and that the robot was updated (robot.frame_pose)
             fid = self._fid
             assert fid is not None  # for the type checker; set by reset()
-        data = robot.data
-        pose = data.oMf[fid]  # robot.frame_pose without its checks, done at reset
+        elif data is not self._data:  # evaluated on another robot object than at reset: its own pose view
+            self._data, self._pose = data, robot.frame_pose(fid)
+        pose = self._pose  # a live view on data.oMf[fid] (robot.frame_pose without its checks, done at reset)
         if self._pending_position is not None:
             self._hold(pin.SE3(np.array(pose.rotation), self._pending_position))
             self._pending_position = None

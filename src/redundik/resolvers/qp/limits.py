@@ -234,16 +234,6 @@ class JointLimits:
         self._has_rate = bool(np.isfinite(amax).any())
         self._no_prev = np.zeros((0, nv))
         self._names = names
-        self._kernel_args = (
-            self._iq,
-            self._lo,
-            self._hi,
-            self._vmax,
-            self._amax,
-            self.position,
-            self._has_rate,
-            self.position_gain,
-        )
         self._robot_id = id(robot)
 
     @property
@@ -266,7 +256,16 @@ class JointLimits:
         bound to ``robot`` (for a compiled step that computes its box inside, as ``wqp``'s)."""
         if self._robot_id != id(robot):
             self.bind(robot)
-        return self._kernel_args
+        return (
+            self._iq,
+            self._lo,
+            self._hi,
+            self._vmax,
+            self._amax,
+            self.position,
+            self._has_rate,
+            self.position_gain,
+        )
 
     def previous(self, dq_prev: np.ndarray | None) -> np.ndarray:
         """The ``dq_prev`` argument of ``K.limit_box`` for one configuration: (1, nv) with a rate limit and a

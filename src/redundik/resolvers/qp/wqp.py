@@ -50,6 +50,8 @@ class WQPBuild:
         main_terms: The main tasks' terms (for the level-0 residual).
         damping: λ of the step.
         safe: Per row of ``problem.G``, whether it is a safety row (kept by the relaxed problem).
+        free_outside: True when the unconstrained optimum is already known to leave the box (the lean path tested
+            it): the backend is called without testing it again.
     """
 
     problem: QPProblem
@@ -57,6 +59,7 @@ class WQPBuild:
     main_terms: list[TaskTerm]
     damping: float = 0.0
     safe: np.ndarray | None = None
+    free_outside: bool = False
 
 
 _NO_Z = np.zeros(0)
@@ -131,7 +134,7 @@ class WeightedQPResolver(QPResolverBase):
             terms = stack.evaluate(robot, t)
         layout = self.layout(stack)
         plan = self._plan_for(stack, layout)
-        shift, z = self._accumulate(robot, stack, terms, plan)
+        shift, z, lam = self._accumulate(robot, stack, terms, plan)
         G, h, names, safe = self._no_rows, self._no_rhs, [], None
         if plan.bounds:
             Cs, ds, critical = [], [], []
@@ -149,7 +152,6 @@ class WeightedQPResolver(QPResolverBase):
             self._diag += shift
         if z is not None:
             q -= plan.null_scale * z
-        lam = self._lambda(plan, terms)
         box = self._box(robot, dt)
         prob = QPProblem(P, q, G, h, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp", names)
         return WQPBuild(prob, box, [terms[i] for i in plan.main], lam, safe)
@@ -163,13 +165,13 @@ class WeightedQPResolver(QPResolverBase):
 
     def _accumulate(
         self, robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], plan: _Plan
-    ) -> tuple[float, np.ndarray | None]:
+    ) -> tuple[float, np.ndarray | None, float]:
         """The task and target rows into P = Σ ρ^k w JᵀJ and q = −Σ ρ^k w Jᵀv (zeroed first, preallocated); a task
         that declares ``identity_jacobian`` adds its weight to the diagonal shift instead.
 
         Returns:
             (the diagonal shift still to add — identity tasks, the null-space objective's ρ^k, λ —, z of the
-            null-space objective or ``None``; it still has to be subtracted as ρ^k z).
+            null-space objective or ``None`` — it still has to be subtracted as ρ^k z —, λ).
         """
         n = robot.nv
         if self._P is None or self._q is None or self._P.shape[0] != n:
@@ -180,7 +182,7 @@ class WeightedQPResolver(QPResolverBase):
         q: np.ndarray = self._q
         P.fill(0.0)
         q.fill(0.0)
-        shift = self._lambda(plan, terms)
+        lam = shift = self._lambda(plan, terms)
         for i, scale, identity in plan.tasks:
             term = terms[i]
             w = scale * term.weight
@@ -198,7 +200,7 @@ class WeightedQPResolver(QPResolverBase):
         if plan.null_scale:
             shift += plan.null_scale
             z = stack.null_target(robot, terms, plan.layout)
-        return shift, z
+        return shift, z, lam
 
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
         """One step; a stack of tasks only (no target or bound subtask) takes the lean path below: rows
@@ -209,7 +211,7 @@ class WeightedQPResolver(QPResolverBase):
             return super().solve(robot, stack, t, dt)
         t0 = time.perf_counter()
         terms = stack.evaluate(robot, t)
-        shift, z = self._accumulate(robot, stack, terms, plan)
+        shift, z, lam = self._accumulate(robot, stack, terms, plan)
         t1 = time.perf_counter()
         limits = self.limits
         prev = limits.previous(self._dq_prev)
@@ -227,21 +229,22 @@ class WeightedQPResolver(QPResolverBase):
             prev,
             out,
         )
-        box = limits.box_from(out, prev.shape[0] > 0)
-        P, q = self._P, self._q
-        assert P is not None and q is not None
-        main_terms = [terms[i] for i in plan.main]
-        lam = self._lambda(plan, terms)
+        windowed = prev.shape[0] > 0
         if not inside:  # a constraint is active (or the optimum is not finite): the backend, through the template
+            P, q = self._P, self._q
+            assert P is not None and q is not None
+            box = limits.box_from(out, windowed)
             prob = QPProblem(P, q, self._no_rows, self._no_rhs, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp")
-            return self._finish(robot, stack, terms, WQPBuild(prob, box, main_terms, lam), t0, t1)
+            built = WQPBuild(prob, box, [terms[i] for i in plan.main], lam, free_outside=True)
+            return self._finish(robot, stack, terms, built, t0, t1)
         dq, kept = out[5], out[6]
         self._dq_prev = kept
+        main = plan.main
 
         def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
             diag = QPDiagnostics()
-            diag.active_limits = box.active(kept, limits.joint_names)
-            self._diagnose_terms(main_terms, lam, kept, diag)
+            diag.active_limits = limits.box_from(out, windowed).active(kept, limits.joint_names)
+            self._diagnose_terms([terms[i] for i in main], lam, kept, diag)
             return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
 
         return LazyStepResult.make(
@@ -273,10 +276,11 @@ class WeightedQPResolver(QPResolverBase):
     def _resolve(self, built: WQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
         prob, box = built.problem, built.box
         # the unconstrained optimum by Cholesky (P is SPD when λ > 0) and its box test, in one compiled call
-        x = np.empty(prob.n)
-        _, inside = K.spd_solve_box_into(prob.P, prob.q, box.lb, box.ub, 1e-12, x)
-        if inside and not (prob.G.shape[0] and (prob.G @ x > prob.h + 1e-12).any()):
-            return x, None
+        if not built.free_outside:
+            x = np.empty(prob.n)
+            _, inside = K.spd_solve_box_into(prob.P, prob.q, box.lb, box.ub, 1e-12, x)
+            if inside and not (prob.G.shape[0] and (prob.G @ x > prob.h + 1e-12).any()):
+                return x, None
         diag.qp = 1
         try:
             sol = self._solve_qp(prob, self._dq_prev)
