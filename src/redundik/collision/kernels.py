@@ -93,7 +93,17 @@ def capsule_pairs(
     p2 = np.zeros((m, 3))
     n = np.zeros((m, 3))
     ok = np.ones(m, dtype=np.bool_)
-    for k in range(m):
+    _capsule_pairs_into(T, prm, ia, ib, d, p1, p2, n, ok)
+    return d, p1, p2, n, ok
+
+
+@_jit
+def _capsule_pairs_into(
+    T: np.ndarray, prm: np.ndarray, ia: np.ndarray, ib: np.ndarray, d: np.ndarray, p1: np.ndarray, p2: np.ndarray,
+    n: np.ndarray, ok: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`capsule_pairs` into given arrays (p1, p2, n of the pairs whose axes meet: zeros)."""
+    for k in range(ia.shape[0]):
         a, b = ia[k], ib[k]
         ra, ha, rb, hb = prm[a, 0], prm[a, 1], prm[b, 0], prm[b, 1]
         za = (T[a, 0, 2] * ha, T[a, 1, 2] * ha, T[a, 2, 2] * ha)
@@ -108,13 +118,15 @@ def capsule_pairs(
         if L < 1e-12:
             ok[k] = False
             d[k] = -ra - rb
+            for i in range(3):
+                p1[k, i], p2[k, i], n[k, i] = 0.0, 0.0, 0.0
             continue
+        ok[k] = True
         nx, ny, nz = dx / L, dy / L, dz / L
         d[k] = L - ra - rb
         n[k, 0], n[k, 1], n[k, 2] = nx, ny, nz
         p1[k, 0], p1[k, 1], p1[k, 2] = ca[0] + ra * nx, ca[1] + ra * ny, ca[2] + ra * nz
         p2[k, 0], p2[k, 1], p2[k, 2] = cb[0] - rb * nx, cb[1] - rb * ny, cb[2] - rb * nz
-    return d, p1, p2, n, ok
 
 
 @_jit
@@ -374,6 +386,24 @@ def barrier_rows(
     h = np.empty(rows)
     gam = np.empty(rows)
     ids = np.empty(rows, dtype=np.int64)
+    c_ = _barrier_rows_into(
+        T, kind, prm, br, br_sign, d, p1, p2, n, rate, near, Js, mask, pj, reach, influence, safety, gamma, no_cap,
+        ends, qp_cap, sel, h, H, gam, ids,
+    )  # fmt: skip
+    return h[:c_], H[:c_], gam[:c_], ids[:c_]
+
+
+@_jit
+def _barrier_rows_into(
+    T: np.ndarray, kind: np.ndarray, prm: np.ndarray, br: np.ndarray, br_sign: np.ndarray, d: np.ndarray,
+    p1: np.ndarray, p2: np.ndarray, n: np.ndarray, rate: np.ndarray, near: np.ndarray, Js: np.ndarray,
+    mask: np.ndarray, pj: np.ndarray, reach: float, influence: float, safety: float, gamma: float, no_cap: float,
+    ends: bool, qp_cap: float, sel: np.ndarray, h: np.ndarray, H: np.ndarray, gam: np.ndarray, ids: np.ndarray,
+) -> int:  # fmt: skip
+    """:func:`barrier_rows` into given arrays (room for every row; ``sel``: the pairs of ``near``); the row count."""
+    P = d.shape[0]
+    k0 = near.shape[0]
+    m = br.shape[0] if ends and k0 else 0
     for i in range(k0):
         k = near[i]
         nr = (n[k, 0], n[k, 1], n[k, 2])
@@ -416,7 +446,7 @@ def barrier_rows(
             h[r] = min(gam[r], qp_cap) * h[r]
             for col in range(H.shape[1]):
                 H[r, col] = -H[r, col]
-    return h[:c_], H[:c_], gam[:c_], ids[:c_]
+    return c_
 
 
 @_jit
@@ -440,36 +470,42 @@ def capsule_damper(
     no_cap: float,
     ends: bool,
     qp_cap: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, np.ndarray, np.ndarray, np.ndarray]:
+    F: np.ndarray,
+    I: np.ndarray,
+) -> tuple[int, int, int]:
     """A static world of capsule/sphere pairs in one call: :func:`load_poses`, :func:`capsule_pairs` (every pair,
-    ``ia``/``ib``), the pairs within ``reach`` [m], then :func:`barrier_rows` on them (no obstacle rates).
+    ``ia``/``ib``), the pairs within ``reach`` [m], then :func:`barrier_rows` on them (no obstacle rates), written
+    into the caller's fresh arrays (returning arrays costs more than the computation):
+
+    * ``F`` (10 P + 2 R + R nv,): d (P,), p1, p2, n stacked (3, P, 3), then h (R,), γ (R,), ∂h/∂q (R, nv) (the first
+      k entries, rows), with R = P + the number of branches (room for every row);
+    * ``I`` (P + R,): the pairs with d < ``reach`` (the first k₀ of P), the row ids (the first k of R).
 
     Returns:
-        (d (P,), the stacked p1, p2, n (3, P, 3), the pairs with d < ``reach``, the number of pairs whose axes meet,
-        the stacked h, γ (2, k), ∂h/∂q (k, nv), the row ids (k,); ``qp_cap`` as in :func:`barrier_rows`) — few
-        arrays, since returning each costs as much as the computation. With axes meeting (count > 0) the rows are
-        left empty: the caller asks coal for those pairs and takes the general route.
+        (k₀, k, the number of pairs whose axes meet); with axes meeting the rows are left out (k = 0): the caller
+        asks coal for those pairs and takes the general route. ``qp_cap`` as in :func:`barrier_rows`.
     """
+    P, R, nv = ia.shape[0], br.shape[0] + ia.shape[0], Js.shape[1]
     load_poses(src, live, T)
-    d, p1, p2, n, ok = capsule_pairs(T, prm, ia, ib)
-    P = d.shape[0]
-    pts = np.empty((3, P, 3))
-    pts[0], pts[1], pts[2] = p1, p2, n
-    near = np.empty(P, dtype=np.int64)
-    bad, c_ = 0, 0
+    d = F[:P]
+    pts = F[P : 10 * P].reshape((3, P, 3))
+    ok = np.empty(P, dtype=np.bool_)
+    _capsule_pairs_into(T, prm, ia, ib, d, pts[0], pts[1], pts[2], ok)
+    sel = np.zeros(P, dtype=np.bool_)
+    bad, k0 = 0, 0
     for k in range(P):
         if not ok[k]:
             bad += 1
         if d[k] < reach:
-            near[c_] = k
-            c_ += 1
-    near = near[:c_]
+            I[k0] = k
+            sel[k] = True
+            k0 += 1
     if bad:
-        return d, pts, near, bad, np.zeros((2, 0)), np.zeros((0, Js.shape[1])), np.zeros(0, dtype=np.int64)
-    h, H, gam, ids = barrier_rows(
-        T, kind, prm, br, br_sign, d, p1, p2, n, np.zeros(P), near, Js, mask, pj, reach, influence, safety, gamma,
-        no_cap, ends, qp_cap,
+        return k0, 0, bad
+    o = 10 * P
+    k = _barrier_rows_into(
+        T, kind, prm, br, br_sign, d, pts[0], pts[1], pts[2], np.zeros(P), I[:k0], Js, mask, pj, reach, influence,
+        safety, gamma, no_cap, ends, qp_cap, sel, F[o : o + R], F[o + 2 * R :].reshape((R, nv)), F[o + R : o + 2 * R],
+        I[P:],
     )  # fmt: skip
-    hg = np.empty((2, h.shape[0]))
-    hg[0], hg[1] = h, gam
-    return d, pts, near, bad, hg, H, ids
+    return k0, k, 0

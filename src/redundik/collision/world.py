@@ -781,13 +781,22 @@ class CollisionWorld:
             and (c is None or c[3] != key or c[0] is not robot or c[1] != self.time or c[2] != reach)
         ):
             pin.updateGeometryPlacements(self.model, robot.data, self.geometry, self.data)
+            P, R, nv = len(self.pairs), len(self.pairs) + len(self._br_sign), self.model.nv
+            F, I = np.empty(10 * P + (2 + nv) * R), np.empty(P + R, dtype=np.int64)
             args = (*static, np.asarray(robot.data.J), float(reach), float(influence), float(safety), float(gamma),
-                    float(no_cap), bool(ends), float(qp_cap))  # fmt: skip
-            d, pts, near, bad, hg, H, ids = KC.capsule_damper(*args)
+                    float(no_cap), bool(ends), float(qp_cap), F, I)  # fmt: skip
+            k0, k, bad = KC.capsule_damper(*args)
             if not bad:
-                self._dist = Distances(d, pts[0], pts[1], pts[2], np.zeros(d.size), near)
+                pts = F[P : 10 * P].reshape(3, P, 3)
+                self._dist = Distances(F[:P], pts[0], pts[1], pts[2], np.zeros(P), I[:k0])
                 self._cache = (robot, self.time, reach, key)
-                return self._dist, (hg[0], H, hg[1], ids)
+                o = 10 * P
+                return self._dist, (
+                    F[o : o + k],
+                    F[o + 2 * R : o + 2 * R + k * nv].reshape(k, nv),
+                    F[o + R : o + R + k],
+                    I[P : P + k],
+                )
         dist = self.compute(robot, reach)  # (axes meeting: coal's normals)
         return dist, self.damper_rows(robot, dist, reach, influence, safety, gamma, no_cap, ends, qp_cap)
 
