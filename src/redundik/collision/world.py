@@ -435,6 +435,7 @@ class CollisionWorld:
         #: The state of the last :meth:`compute`: (robot, time [s], influence [m], the bytes of q).
         self._cache: tuple[RobotModel, float, float, bytes] | None = None
         self._dist: Distances | None = None
+        self._pending: tuple[np.ndarray, np.ndarray, int] | None = None  # capsule_damper's (F, I, k₀), unread
 
     # ------------------------------------------------------------------ construction helpers
     @classmethod
@@ -507,6 +508,7 @@ class CollisionWorld:
             req.enable_signed_distance = True
         self._poses, self._poses_of = _placements_view(self.data), self.data  # the view and the data it reads
         self._cache = None
+        self._pending = None
         self._pj: tuple[np.ndarray, np.ndarray] | None = None
         self._tables()
 
@@ -627,9 +629,9 @@ class CollisionWorld:
             and c[0] is robot
             and c[1] == self.time
             and c[2] == influence
-            and self._dist is not None
+            and (self._dist is not None or self._pending is not None)
         ):
-            return self._dist
+            return self._distances()
         pin.updateGeometryPlacements(self.model, robot.data, self.geometry, self.data)
         if self._poses is not None and self._poses_of is self.data:  # straight from oMg's memory
             KC.load_poses(self._poses, self._live_arr, self._T)
@@ -673,8 +675,18 @@ class CollisionWorld:
                     motion = self.obstacles[ib - self.n_links].motion
                     if motion is not None:
                         rate[k] = float(nrm[k] @ motion.rate(self.time))
-        self._dist = Distances(d, p1, p2, nrm, rate, near)
+        self._dist, self._pending = Distances(d, p1, p2, nrm, rate, near), None
         self._cache = (robot, self.time, influence, key)
+        return self._dist
+
+    def _distances(self) -> Distances:
+        """The cached :class:`Distances`, built from :meth:`damper`'s arrays on first use."""
+        if self._pending is not None:
+            F, I, k0 = self._pending
+            P = len(self.pairs)
+            pts = F[P : 10 * P].reshape(3, P, 3)
+            self._dist, self._pending = Distances(F[:P], pts[0], pts[1], pts[2], np.zeros(P), I[:k0]), None
+        assert self._dist is not None
         return self._dist
 
     @staticmethod
@@ -765,11 +777,12 @@ class CollisionWorld:
     def damper(
         self, robot: RobotModel, reach: float, influence: float, safety: float, gamma: float, no_cap: float,
         ends: bool, qp_cap: float = 0.0,
-    ) -> tuple[Distances, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None]:  # fmt: skip
-        """:meth:`compute` (``influence`` = ``reach``) and :meth:`damper_rows` at the robot's current state, in one
-        compiled call (:func:`~redundik.collision.kernels.capsule_damper`) where the world is capsules/spheres only
-        and static and the distances are not cached yet; the same results as the two calls (``qp_cap`` > 0 [1/s]:
-        the rows as (d, C) of C q̇ ≤ d, see :meth:`damper_rows`).
+    ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None]:  # fmt: skip
+        """(every pair's distance [m], :meth:`damper_rows`) at the robot's current state after :meth:`compute`
+        (``influence`` = ``reach``, cached as usual), in one compiled call
+        (:func:`~redundik.collision.kernels.capsule_damper`) where the world is capsules/spheres only and static and
+        the distances are not cached yet; the same results as the two calls (``qp_cap`` > 0 [1/s]: the rows as
+        (d, C) of C q̇ ≤ d, see :meth:`damper_rows`).
         """
         key = robot.q.tobytes()
         c = self._cache
@@ -787,18 +800,17 @@ class CollisionWorld:
                     float(no_cap), bool(ends), float(qp_cap), F, I)  # fmt: skip
             k0, k, bad = KC.capsule_damper(*args)
             if not bad:
-                pts = F[P : 10 * P].reshape(3, P, 3)
-                self._dist = Distances(F[:P], pts[0], pts[1], pts[2], np.zeros(P), I[:k0])
+                self._dist, self._pending = None, (F, I, k0)  # the Distances built when read (compute)
                 self._cache = (robot, self.time, reach, key)
                 o = 10 * P
-                return self._dist, (
+                return F[:P], (
                     F[o : o + k],
                     F[o + 2 * R : o + 2 * R + k * nv].reshape(k, nv),
                     F[o + R : o + R + k],
                     I[P : P + k],
                 )
         dist = self.compute(robot, reach)  # (axes meeting: coal's normals)
-        return dist, self.damper_rows(robot, dist, reach, influence, safety, gamma, no_cap, ends, qp_cap)
+        return dist.d, self.damper_rows(robot, dist, reach, influence, safety, gamma, no_cap, ends, qp_cap)
 
     def damper_rows(
         self, robot: RobotModel, dist: Distances, reach: float, influence: float, safety: float, gamma: float,

@@ -232,8 +232,7 @@ class BoundSubtask(Subtask):
         cap = 1.0 / dt
         direct = getattr(self.source, "bound_rows", None)  # a barrier making its rows itself (collision avoidance)
         if direct is not None:
-            C, d, rn = direct(robot, cap)
-            return C, d, self._prefixed(rn)
+            return direct(robot, cap, self.name)
         h, H, names, gamma_rows = self.values(robot)
         gamma: float | np.ndarray
         if gamma_rows is not None:
