@@ -76,6 +76,8 @@ class _Plan:
         self.null_scale = 0.0  # ρ^k of the null-space objective's level (0: none)
         self.last_scale = 1.0  # ρ^(L−1)
         self.main: list[int] = layout.main
+        #: The membership key (``Resolver.stack_key`` inside ``step``) this plan was looked up with, or ``None``.
+        self.key: tuple[int, ...] | None = None
 
 
 class WeightedQPResolver(QPResolverBase):
@@ -206,11 +208,14 @@ class WeightedQPResolver(QPResolverBase):
         """One step; a stack of tasks only (no target or bound subtask) takes the lean path below: rows
         accumulated, then box, null-space objective, unconstrained optimum and its box test in one compiled
         call; the backend is called (through the shared template) only when that optimum leaves the box."""
-        plan = self._plan_for(stack, self.layout(stack))
+        plan = self._plan
+        if plan is None or stack is not self._stepping or plan.key is not self._checked:  # else: the step's plan
+            plan = self._plan_for(stack, self.layout(stack))
+            plan.key = self._checked if stack is self._stepping else None
         if plan.targets or plan.bounds:
             return super().solve(robot, stack, t, dt)
         t0 = time.perf_counter()
-        terms = stack.evaluate(robot, t)
+        terms = [task.evaluate(robot, t) for task in stack.tasks]  # stack.evaluate, inlined
         shift, z, lam = self._accumulate(robot, stack, terms, plan)
         t1 = time.perf_counter()
         limits = self.limits
