@@ -569,6 +569,8 @@ class CollisionWorld:
                 self._poses, self._live_arr, self._T, prm, self._cap_a, self._cap_b, kind, self._br_tab,
                 self._br_sign, self._joint_masks(), self._pj2,
             )  # fmt: skip
+        #: (pairs P, rows at most R = P + branches, nv): the sizes of capsule_damper's arrays.
+        self._sizes = (len(self.pairs), len(self.pairs) + len(self._br_sign), int(self.model.nv))
         self._pa, self._pb = pa, pb
 
     def exclude_colliding_at(self, robot: RobotModel, q: np.ndarray, threshold: float = 0.0) -> list[str]:
@@ -794,7 +796,7 @@ class CollisionWorld:
             and (c is None or c[3] != key or c[0] is not robot or c[1] != self.time or c[2] != reach)
         ):
             pin.updateGeometryPlacements(self.model, robot.data, self.geometry, self.data)
-            P, R, nv = len(self.pairs), len(self.pairs) + len(self._br_sign), self.model.nv
+            P, R, nv = self._sizes
             F, I = np.empty(10 * P + (2 + nv) * R), np.empty(P + R, dtype=np.int64)
             args = (*static, np.asarray(robot.data.J), float(reach), float(influence), float(safety), float(gamma),
                     float(no_cap), bool(ends), float(qp_cap), F, I)  # fmt: skip
