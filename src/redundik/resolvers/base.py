@@ -350,9 +350,14 @@ class Resolver(ABC):
     def check_inputs(self, robot: RobotModel, q: np.ndarray, t: float, dt: float) -> np.ndarray:
         """Validated q (as a float array) after checking t and dt; raises :class:`ResolverError` otherwise."""
         try:
-            arr = np.asarray(q, dtype=float).reshape(-1)
+            raw = np.asarray(q)
+            if raw.dtype.kind not in "fiuO":  # bool, complex, strings: not joint values (no silent cast)
+                raise TypeError(f"got dtype {raw.dtype}")
+            if raw.ndim > 1 and max(raw.shape) != raw.size:  # (nq,), (1, nq) or (nq, 1); never a (2, 3) for nq = 6
+                raise ValueError(f"got shape {raw.shape}")
+            arr = np.asarray(raw, dtype=float).reshape(-1)
         except (TypeError, ValueError) as exc:
-            raise ResolverError(f"{self.name}: q must be an array of {robot.nq} numbers: {exc}") from None
+            raise ResolverError(f"{self.name}: q must be an array of {robot.nq} real numbers: {exc}") from None
         if arr.shape[0] != robot.nq:
             raise ResolverError(f"{self.name}: q has {arr.shape[0]} entries, the robot has nq = {robot.nq}")
         if not np.isfinite(arr).all():
