@@ -459,3 +459,46 @@ def test_simulate_refuses_a_bad_time_grid_before_allocating(kwargs: dict[str, ob
     assert expected in str(info.value)
     log = rk.simulate(robot, stack, rk.make_resolver("pinv"), q, dt=0.01, steps=2)
     assert log.q.shape == (3, 3) and np.isfinite(log.q).all()
+
+
+# ------------------------------------------------------------------------------------------------ parallel commands
+_FK = ["stewart", "fk", str(CONFIGS / "stewart33.yaml"), "--legs", *(["1.861", "1.5044"] * 3), "--method", "exact"]
+_STATICS = ["stewart", "statics", str(CONFIGS / "stewart66.yaml"), "--p", "0", "0", "1", "--wrench"]
+_ANIMATE = ["stewart", "animate", str(CONFIGS / "stewart33.yaml"), "--p", "0", "0", "1.5", "--to-p", "0", "0", "1.6"]
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (["stewart", "ik", CONFIGS / "stewart33.yaml", "--p", "0", "0", "1e308", "--json"], "--p: values must be"),
+        (["stewart", "ik", CONFIGS / "stewart33.yaml", "--p", "0", "0", "1", "--rpy", "0", "0", "1e308"], "--rpy"),
+        ([*_STATICS, "0", "0", "1e308", "0", "0", "1e308", "--json"], "--wrench: values must be"),
+        (["delta", "ik", CONFIGS / "delta.yaml", "--top", "0", "0", "1e300"], "--top: values must be"),
+        (["hybrid33", "ik", CONFIGS / "hybrid33_rect.yaml", "--p", "0", "0", "1e308", "--json"], "--p"),
+    ],
+)
+def test_parallel_commands_never_print_inf_or_nan(cli: Cli, args: list[object], expected: str) -> None:
+    code, out, err = cli(*args)
+    _one_line_error(code, err)
+    assert expected in err and out == ""  # no "Infinity" / "NaN" in a JSON document on stdout
+
+
+def test_a_non_finite_parallel_result_is_refused_not_printed() -> None:
+    from redundik.cli import parallel_cmds
+    from redundik.errors import MechanismError
+
+    with pytest.raises(MechanismError, match=r"not finite at 'lengths\[1\]'"):
+        parallel_cmds._emit({"lengths": [1.0, math.inf]}, True, "IK", [])
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        [*_FK, "--starts", "-5"],
+        [*_FK, "--starts", "100000000"],
+        [*_ANIMATE, "--frames", "100000000", "--out", "x.gif"],
+    ],
+)
+def test_parallel_counts_are_bounded(cli: Cli, args: list[object]) -> None:
+    code, _, err = cli(*args)
+    assert code == 2 and ("--starts" in err or "--frames" in err), err  # a usage error, before any work
