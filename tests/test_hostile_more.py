@@ -502,3 +502,20 @@ def test_a_non_finite_parallel_result_is_refused_not_printed() -> None:
 def test_parallel_counts_are_bounded(cli: Cli, args: list[object]) -> None:
     code, _, err = cli(*args)
     assert code == 2 and ("--starts" in err or "--frames" in err), err  # a usage error, before any work
+
+
+@pytest.mark.parametrize(
+    ("make", "expected"),
+    [
+        (lambda: rk.JointValue("3", True), "value must be a number, got bool"),
+        (lambda: rk.JointValue("3", "x"), "value must be a number, got str"),  # type: ignore[arg-type]
+        (lambda: rk.JointSine2(3), "JointSine2: joint must be a joint name (a string), got 3"),  # type: ignore[arg-type]
+        (lambda: rk.JointSine2(None), "got None"),  # type: ignore[arg-type]
+        (lambda: rk.VirtualPoint("3", ["a", "b", "c"]), "point: expected real numbers"),
+        (lambda: rk.Clearance(None, [0, 0, 0]), "frame must be a frame name"),  # type: ignore[arg-type]
+    ],
+)
+def test_potentials_refuse_values_that_are_not_numbers_or_names(make: Callable[[], object], expected: str) -> None:
+    with pytest.raises(TaskError) as info:
+        make()
+    assert expected in str(info.value)
