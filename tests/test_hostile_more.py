@@ -519,3 +519,54 @@ def test_potentials_refuse_values_that_are_not_numbers_or_names(make: Callable[[
     with pytest.raises(TaskError) as info:
         make()
     assert expected in str(info.value)
+
+
+# ------------------------------------------------------------------------------------------------ task files
+def _mutated(tmp_path: Path, change: Callable[[dict[str, object]], None]) -> Path:
+    import yaml
+
+    data = yaml.safe_load(TASK.replace("steps: 500", "steps: 5"))
+    change(data)
+    path = tmp_path / "m.yaml"
+    path.write_text(yaml.safe_dump(data, allow_unicode=True), encoding="utf-8")
+    return path
+
+
+def _potential_named_tip(d: dict[str, object]) -> None:
+    d["potentials"] = {"tip": {"type": "sin2", "joint": "2"}}
+    d["runs"] = {"a": {"resolver": "pinv", "subtasks": {"tip": {"gain": 1.0}}}}
+
+
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        (_potential_named_tip, "error: runs.a.subtasks.tip: potential 'tip' has the name of a main task"),
+        (lambda d: d.update(integrator="rk45", rtol=1e-300), "error: rtol: must be ≥ 1e-13"),
+        (
+            lambda d: d["main"][0].update(  # type: ignore[index]
+                trajectory={"type": "pose", "position": [1, 1, 0], "duration": 1e-300}
+            ),
+            "error: main[0].trajectory.duration: must be ≥ 1e-06",
+        ),
+    ],
+)
+def test_task_file_mistakes_are_invalid_input_with_their_key_path(
+    cli: Cli, tmp_path: Path, change: Callable[[dict[str, object]], None], expected: str
+) -> None:
+    path = _mutated(tmp_path, change)
+    for command in ("validate", "run"):
+        code, _, err = cli(command, path, *(["--out", tmp_path / "out", "--no-figures", "-q"] * (command == "run")))
+        _one_line_error(code, err)  # exit 3 (invalid input), not 4 (a run failure) nor a SciPy warning
+        assert err.startswith(expected), err
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_schema_and_the_integrator_agree_on_the_smallest_rtol() -> None:
+    from redundik.config.schema import RTOL_MIN
+    from redundik.simulation.integrators import RTOL_MIN as INTEGRATOR_RTOL_MIN
+    from redundik.simulation.integrators import check_tolerances
+
+    assert RTOL_MIN == INTEGRATOR_RTOL_MIN
+    with pytest.raises(ValueError, match="rtol must be in"):
+        check_tolerances(RTOL_MIN / 10, 1e-12)
+    check_tolerances(RTOL_MIN, 1e-300)

@@ -90,7 +90,6 @@ def _vec(values: tuple[float, ...], name: str) -> np.ndarray:
     return arr
 
 
-
 def _non_finite(node: Any, path: str = "") -> str | None:
     """The key path of the first non-finite number in a result, or ``None``."""
     import math

@@ -358,6 +358,12 @@ def _build_run(spec: TaskFileSpec, ctx: Context, name: str, run: RunSpec, q0_fil
             raise ConfigError(f"no potential named '{pname}' under 'potentials'; defined: {defined}", where)
         pot = build_typed(POTENTIALS, spec.potentials[pname], pname, ctx, join_path("potentials", pname), "potential")
         subtasks.append(_subtask(pot, sub or SubtaskSpec(), where))
+        if subtasks[-1].name in names:
+            raise ConfigError(
+                f"potential '{pname}' has the name of a main task: tasks and subtasks of a run need distinct names "
+                "(rename the potential or give the task a 'name')",
+                where,
+            )
     controlled = {s.name for s in subtasks}
     watched = [
         build_typed(POTENTIALS, raw, pname, ctx, join_path("potentials", pname), "potential")
@@ -383,9 +389,9 @@ def _build_run(spec: TaskFileSpec, ctx: Context, name: str, run: RunSpec, q0_fil
     except (ValueError, TypeError) as exc:
         raise ConfigError(f"resolver '{run.resolver}': bad options: {exc}", join_path(path, "options")) from None
     q0 = q0_file if run.q0 is None else configuration_from_file(run.q0, robot, ctx.angle_unit, join_path(path, "q0"))
-    stack = TaskStack(tasks, subtasks)
     # assemble at q0 exactly as the simulation will, so that a run that cannot start fails now
     try:
+        stack = TaskStack(tasks, subtasks)
         robot.update(q0)
         stack.reset(robot)
         for pot in [*watched, *monitors]:

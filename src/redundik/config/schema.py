@@ -188,6 +188,9 @@ IntegratorName = Literal["euler", "rk4", "rk45"]
 #: Bounds of a run's time grid: steps ≤ MAX_STEPS, DT_MIN ≤ dt ≤ DT_MAX [s] (see docs/task-files.md).
 MAX_STEPS = 1_000_000
 DT_MIN, DT_MAX = 1e-6, 1.0
+#: Smallest ``rtol`` of ``rk45`` (the value of :data:`redundik.simulation.integrators.RTOL_MIN`, repeated here so that
+#: the schema imports nothing numerical): SciPy raises smaller ones to 100 ε behind a warning.
+RTOL_MIN = 1e-13
 #: Longest ``duration`` [s] (duration / dt must also give at most MAX_STEPS steps).
 MAX_DURATION = 1e6
 
@@ -206,7 +209,7 @@ class RunSpec(StrictModel):
     q0: list[float] | None = None
     plant: PlantSpec | None = None
     integrator: IntegratorName | None = None
-    rtol: float | None = Field(default=None, gt=0, lt=1)
+    rtol: float | None = Field(default=None, ge=RTOL_MIN, lt=1)
     atol: float | None = Field(default=None, gt=0, lt=1)
 
 
@@ -236,7 +239,7 @@ class TaskFileSpec(StrictModel):
     steps: int | None = Field(default=None, ge=1, le=MAX_STEPS)
     duration: float | None = Field(default=None, gt=0, le=MAX_DURATION)
     integrator: IntegratorName = "euler"
-    rtol: float = Field(default=1e-10, gt=0, lt=1)
+    rtol: float = Field(default=1e-10, ge=RTOL_MIN, lt=1)
     atol: float = Field(default=1e-12, gt=0, lt=1)
     main: list[dict[str, Any]] = Field(default_factory=list)
     potentials: dict[Name, dict[str, Any]] = Field(default_factory=dict)
