@@ -570,3 +570,26 @@ def test_the_schema_and_the_integrator_agree_on_the_smallest_rtol() -> None:
     with pytest.raises(ValueError, match="rtol must be in"):
         check_tolerances(RTOL_MIN / 10, 1e-12)
     check_tolerances(RTOL_MIN, 1e-300)
+
+
+# ------------------------------------------------------------------------------------------------ examples copy
+@pytest.mark.parametrize("link", ["tasks/planar3r_line.yaml", "configs"])
+def test_examples_copy_never_writes_through_a_symlink(cli: Cli, tmp_path: Path, link: str) -> None:
+    target, outside = tmp_path / "ex", tmp_path / "outside"
+    (target / "tasks").mkdir(parents=True)
+    outside.mkdir()
+    (target / link).symlink_to(outside / "x" if link.endswith(".yaml") else outside)
+    code, _, err = cli("examples", "copy", target)
+    _one_line_error(code, err)
+    assert "refusing to copy into" in err and "symlink or resolves outside" in err
+    assert list(outside.iterdir()) == []
+    assert not (target / "tasks" / "rpr_corner.yaml").exists()  # checked before the first write: nothing copied
+
+
+def test_examples_copy_says_what_it_kept(cli: Cli, tmp_path: Path) -> None:
+    assert cli("examples", "copy", tmp_path / "ex")[0] == 0
+    mine = tmp_path / "ex" / "tasks" / "planar3r_line.yaml"
+    mine.write_text("# my edits\n")
+    code, _, err = cli("examples", "copy", tmp_path / "ex")
+    assert code == 0 and "copied 0 files" in err and "kept" in err and "--force" in err
+    assert mine.read_text() == "# my edits\n"
