@@ -143,3 +143,48 @@ def test_lsq_level_equals_the_damped_pseudo_inverse() -> None:
     u = np.linalg.pinv(A2 @ Z) @ (b2 - A2 @ out)
     np.testing.assert_allclose(out2, out + Z @ u, atol=1e-11)
     assert Z2.shape == (9, 0)
+
+
+def test_cholesky_closed_form_equals_the_svd_pseudo_inverse() -> None:
+    """``pinv``'s Cholesky route (well-conditioned J, σ_min left for later) gives the damped-SVD answer of
+    eqs. (5.7)/(5.8), and declines exactly where a direction would be damped or the conditioning is poor."""
+    rng = np.random.default_rng(11)
+    eps, lam_max = 1e-2, 5e-2
+    taken = declined = 0
+    for trial in range(300):
+        m, n = int(rng.integers(1, 7)), 7
+        J = rng.normal(size=(m, n))
+        if trial % 3 == 1:  # near-singular: one direction squeezed around ε
+            U, s, Vt = np.linalg.svd(J, full_matrices=False)
+            s[-1] = eps * rng.uniform(0.3, 3.0)
+            J = (U * s) @ Vt
+        V, z = rng.normal(size=m), rng.normal(size=n)
+        lazy, eager = np.empty((3, n)), np.empty((3, n))
+        r1, s1, d1 = kernels.closed_form_into(J, V, z, True, eps, lam_max, 1e-10, lazy, True)
+        r0, s0, d0 = kernels.closed_form_into(J, V, z, True, eps, lam_max, 1e-10, eager, False)
+        np.testing.assert_allclose(lazy, eager, atol=1e-10 * max(1.0, float(np.abs(eager).max())))
+        sv = np.linalg.svd(J, compute_uv=False)
+        if np.isnan(s1):
+            taken += 1
+            assert sv[-1] > eps and d1 == 0.0 and r1 == m  # never a damped direction on this route
+            Jp = np.linalg.pinv(J)
+            np.testing.assert_allclose(lazy[0], Jp @ V, atol=1e-9)
+            np.testing.assert_allclose(lazy[1], z - Jp @ (J @ z), atol=1e-9)
+        else:
+            declined += 1
+            assert (s1, d1, r1) == (s0, d0, r0)
+    assert taken > 50 and declined > 20
+
+
+def test_pinv_sigma_min_on_request_equals_the_singular_value() -> None:
+    robot = rk.load_example_robot("panda")
+    q = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.02, 0.02])  # away from singularities
+    robot.update(q)
+    stack = rk.TaskStack([rk.FrameTask("panda_hand", gain=1.0)])
+    stack.reset(robot)
+    res = rk.make_resolver("pinv").step(robot, stack, q, 0.0, 0.01)
+    J = robot.frame_jacobian("panda_hand")
+    smin = float(np.linalg.svd(J, compute_uv=False)[-1])
+    assert res.sigma_min == pytest.approx(smin, rel=1e-9)
+    assert res.info["sigma_min"] == pytest.approx(smin, rel=1e-9)
+    assert not res.damped and res.info["rank"] == 6

@@ -239,3 +239,45 @@ def test_resolver_options_are_validated_with_clear_messages() -> None:
     with pytest.raises(ResolverError, match="appears in level 0 and level 1"):
         rk.HierarchicalQPResolver(levels=[["a"], ["a"]])
     assert "wqp" in rk.resolvers.RESOLVERS and "hqp" in rk.resolvers.RESOLVERS
+
+
+@pytest.mark.parametrize("limits", [None, {"acceleration": 4.0}, {"position_gain": 0.5}])
+def test_wqp_lean_path_equals_the_general_template(limits: dict | None) -> None:
+    """The lean path of a stack of tasks (rows, box, optimum and box test in one compiled call) gives the step the
+    general build → resolve → clip template gives, with and without an active limit and a rate window."""
+    from redundik.resolvers.qp.base import QPResolverBase
+
+    robot = rk.load_example_robot("panda")
+    rng = np.random.default_rng(5)
+    lean, general = rk.make_resolver("wqp", limits=limits), rk.make_resolver("wqp", limits=limits)
+    hand = rk.FrameTask("panda_hand", gain=50.0)
+    stack = rk.TaskStack([hand, rk.PostureTask(gain=1.0)])
+    lo, hi = robot.lower_limits[:7], robot.upper_limits[:7]
+    qp_steps = 0
+    general_prev: np.ndarray | None = None
+    home = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.02, 0.02])
+    for k in range(60):
+        q = home + rng.normal(0.0, 0.05, 9)
+        q[7:] = 0.02
+        if k % 2:  # every other step anywhere in the range, often near a limit: the box binds
+            q[:7] = lo + (hi - lo) * rng.uniform(0.02, 0.98, 7)
+        robot.update(q)
+        if k == 0:
+            stack.reset(robot)
+        pose = robot.frame_pose("panda_hand").copy()
+        pose.translation = pose.translation + rng.normal(0.0, 0.01, 3)
+        hand.set_target(pose)
+        a = lean.step(robot, stack, q, 0.0, 0.01)
+        lean_prev = None if lean._dq_prev is None else lean._dq_prev.copy()
+        general._dq_prev = general_prev
+        robot.update(q)
+        b = QPResolverBase.solve(general, robot, stack, 0.0, 0.01)
+        general_prev = general._dq_prev.copy()
+        np.testing.assert_allclose(a.dq, b.dq, atol=1e-10)
+        np.testing.assert_allclose(lean_prev, general_prev, atol=1e-10)
+        assert a.info["qp"] == b.info["qp"] and a.fallback == b.fallback is None
+        assert a.info["active_limits"] == b.info["active_limits"]
+        assert a.sigma_min == pytest.approx(b.sigma_min, rel=1e-12)
+        qp_steps += int(a.info["qp"])
+    assert qp_steps > 5  # the backend branch was taken; and without a tight rate window the shortcut too
+    assert qp_steps < 55 or (limits is not None and "acceleration" in limits)

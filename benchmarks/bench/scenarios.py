@@ -80,17 +80,21 @@ class ActuatedPostureTask(Task):
         self.gain, self.weight, self.priority, self.name = float(gain), float(weight), int(priority), "posture"
         self._rows: np.ndarray | None = None
         self._J: np.ndarray | None = None
+        self._every = False
 
     def reset(self, robot: RobotModel) -> None:
         self._rows = np.array([j.idx_v for j in robot.joints if j.idx_q >= 0 and j.kind != "other"], dtype=int)
         self._J = np.eye(robot.nv)[self._rows]
+        self._every = self._rows.shape[0] == robot.nv  # every joint actuated (no floating base): no row selection
 
     def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
         if self._rows is None or self._J is None:
             self.reset(robot)
         assert self._rows is not None and self._J is not None  # set by reset()
-        e = robot.difference(robot.q, self.target)[self._rows]
-        return TaskTerm(self.name, self._J, self.gain * e, e, self.weight)
+        e = robot.difference(robot.q, self.target)
+        if not self._every:
+            e = e[self._rows]
+        return TaskTerm(self._name, self._J, self._gain * e, e, self._weight)
 
     def __repr__(self) -> str:
         return f"ActuatedPostureTask(gain={self.gain}, weight={self.weight})"

@@ -73,9 +73,12 @@ class RobotModel:
     joints: tuple[JointInfo, ...] = field(init=False, repr=False)
     _q: np.ndarray | None = field(init=False, default=None, repr=False)
     _support: np.ndarray | None = field(init=False, default=None, repr=False)
+    _nq: int = field(init=False, default=0, repr=False)
+    _nv: int = field(init=False, default=0, repr=False)
 
     def __post_init__(self) -> None:
         self.data = self.model.createData()
+        self._nq, self._nv = int(self.model.nq), int(self.model.nv)
         joints: list[JointInfo] = []
         for jid in range(1, self.model.njoints):
             jmodel = self.model.joints[jid]
@@ -150,12 +153,12 @@ class RobotModel:
     @property
     def nq(self) -> int:
         """Size of the configuration vector q."""
-        return int(self.model.nq)
+        return self._nq
 
     @property
     def nv(self) -> int:
         """Size of the velocity vector q̇ (the number of joints n of the chapter)."""
-        return int(self.model.nv)
+        return self._nv
 
     @property
     def joint_names(self) -> list[str]:

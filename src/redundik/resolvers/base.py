@@ -92,10 +92,17 @@ class StepResult:
     @property
     def task_error(self) -> float:
         """Norm of the stacked main-task error."""
-        terms = self.main_terms
-        if not terms:
-            return 0.0
-        return float(np.sqrt(sum(float(t.error @ t.error) for t in terms)))
+        terms = self.terms
+        main = self.main
+        if main is not None:
+            if len(main) == 1:  # the common case: one main task
+                e = terms[main[0]].error
+                return math.sqrt(float(e @ e))
+            terms = [terms[i] for i in main]
+        total = 0.0
+        for t in terms:
+            total += float(t.error @ t.error)
+        return math.sqrt(total)
 
 
 class LazyInfo(dict):  # type: ignore[type-arg]
@@ -176,6 +183,39 @@ class LazyStepResult(StepResult):
 
     pending: Callable[[], tuple[float, bool, dict[str, object]]] | None = None
 
+    @classmethod
+    def make(
+        cls,
+        dq: np.ndarray,
+        terms: list[TaskTerm],
+        fallback: str | None,
+        info: dict[str, object],
+        build_time: float,
+        solve_time: float,
+        main: list[int] | None,
+        pending: Callable[[], tuple[float, bool, dict[str, object]]],
+        dq_rank: np.ndarray | None = None,
+        dq_null: np.ndarray | None = None,
+    ) -> LazyStepResult:
+        """The result of a step whose diagnostics ``pending`` computes on first read (the hot path's constructor:
+        the same object as the dataclass constructor plus ``pending`` would give, with the attributes set at once)."""
+        res = cls.__new__(cls)
+        res.__dict__ = {
+            "dq": dq,
+            "terms": terms,
+            "dq_rank": dq_rank,
+            "dq_null": dq_null,
+            "gains": None,
+            "damping": 0.0,
+            "fallback": fallback,
+            "_info": info,  # a plain dict until first read (the ``info`` property wraps it then)
+            "build_time": build_time,
+            "solve_time": solve_time,
+            "main": main,
+            "pending": pending,
+        }
+        return res
+
     def _resolve(self) -> None:
         pending = self.__dict__.get("pending")
         if pending is not None:
@@ -207,7 +247,11 @@ class LazyStepResult(StepResult):
 
     @property
     def info(self) -> dict[str, object]:
-        return self.__dict__["_info"]
+        d = self.__dict__
+        info = d["_info"]
+        if type(info) is dict:  # the eager entries of a step, wrapped on first read
+            info = d["_info"] = LazyInfo(info, self._info_pending if d.get("pending") is not None else None)
+        return info
 
     @info.setter
     def info(self, value: dict[str, object]) -> None:
@@ -295,9 +339,10 @@ class Resolver(ABC):
             and type(t) is float
             and 0.0 < dt < math.inf
             and math.isfinite(t)
-            and math.isfinite(float(q @ q))  # every entry finite (an overflow to inf falls back to the full check)
+            and math.isfinite(float(np.add.reduce(q)))  # every entry finite (an overflow falls back to the full check)
         ):
             q = self.check_inputs(robot, q, t, dt)
+            t, dt = float(t), float(dt)
         robot.update(q)
         sig = (id(robot), *stack.signature())
         if sig != self._checked:
@@ -315,10 +360,10 @@ class Resolver(ABC):
         self._stepping = stack  # the stack whose membership was just checked (``stack_key``)
         try:
             if self.blas_threads == "auto" and (robot.nv < BLAS_LIMIT_NV or _USER_CHOSE_THREADS):
-                res = self.solve(robot, stack, float(t), float(dt))
+                res = self.solve(robot, stack, t, dt)
             else:
                 with self._blas_limit(robot):
-                    res = self.solve(robot, stack, float(t), float(dt))
+                    res = self.solve(robot, stack, t, dt)
         finally:
             self._stepping = None
         watch = self._watch

@@ -36,17 +36,10 @@ class DivergenceWarning(RuntimeWarning):
 
 
 class _Streak:
+    """A run of consecutive steps where a value grew by at least ``growth`` (advanced by the watch's update)."""
+
     def __init__(self, growth: float) -> None:
         self.growth, self.last, self.count, self.start = growth, math.nan, 0, math.nan
-
-    def update(self, value: float) -> None:
-        if value >= FLOOR and self.last >= FLOOR and value >= self.growth * self.last:
-            if self.count == 0:
-                self.start = self.last
-            self.count += 1
-        else:
-            self.count = 0
-        self.last = value
 
 
 class DivergenceWatch:
@@ -59,17 +52,35 @@ class DivergenceWatch:
         self.warned = False
 
     def update(self, norm: float, error: float = 0.0) -> float | None:
-        """Feed ‖q̇‖ and the task error of a step; returns the growth factor of a streak that is a divergence."""
-        before = self.error.count
-        self.error.update(error)
-        if self.error.count == 1 or (self.error.count and not before):
-            self.dq_at_error_start = self.dq.last
-        self.dq.update(norm)
-        if self.error.count >= ERROR_STREAK and norm >= 2.0 * self.dq_at_error_start:
-            return error / self.error.start
-        if self.dq.count >= STREAK:
-            return norm / self.dq.start
-        self.warned = self.warned and bool(self.error.count or self.dq.count)
+        """Feed ‖q̇‖ and the task error of a step; returns the growth factor of a streak that is a divergence.
+
+        A value extends its streak when it and the previous one are ≥ :data:`FLOOR` and it grew by the streak's
+        factor; otherwise the streak restarts (written out once here: this runs on every control tick)."""
+        err, dqs = self.error, self.dq
+        before, last = err.count, err.last
+        if error >= FLOOR and last >= FLOOR and error >= err.growth * last:
+            if before == 0:
+                err.start = last
+            err.count = before + 1
+        else:
+            err.count = 0
+        err.last = error
+        if err.count and not before:
+            self.dq_at_error_start = dqs.last
+        last = dqs.last
+        if norm >= FLOOR and last >= FLOOR and norm >= dqs.growth * last:
+            if dqs.count == 0:
+                dqs.start = last
+            dqs.count += 1
+        else:
+            dqs.count = 0
+        dqs.last = norm
+        if err.count >= ERROR_STREAK and norm >= 2.0 * self.dq_at_error_start:
+            return error / err.start
+        if dqs.count >= STREAK:
+            return norm / dqs.start
+        if self.warned and not (err.count or dqs.count):
+            self.warned = False
         return None
 
     def flag(self, who: str, norm: float, factor: float, info: dict[str, object]) -> None:

@@ -290,6 +290,93 @@ def null_project_factored(
 
 
 @_jit
+def _chol_in_place(A: np.ndarray) -> bool:
+    """A ← L (lower triangle) with A = L Lᵀ, unblocked; False when A is not numerically positive definite."""
+    m = A.shape[0]
+    for j in range(m):
+        s = A[j, j]
+        for k in range(j):
+            s -= A[j, k] * A[j, k]
+        if not (s > 0.0):
+            return False
+        ljj = math.sqrt(s)
+        A[j, j] = ljj
+        for i in range(j + 1, m):
+            t = A[i, j]
+            for k in range(j):
+                t -= A[i, k] * A[j, k]
+            A[i, j] = t / ljj
+    return True
+
+
+@_jit
+def _chol_solve(L: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """y = (L Lᵀ)⁻¹ b from the lower factor L."""
+    m = L.shape[0]
+    y = np.empty(m)
+    for i in range(m):
+        t = b[i]
+        for k in range(i):
+            t -= L[i, k] * y[k]
+        y[i] = t / L[i, i]
+    for i in range(m - 1, -1, -1):
+        t = y[i]
+        for k in range(i + 1, m):
+            t -= L[k, i] * y[k]
+        y[i] = t / L[i, i]
+    return y
+
+
+@_jit
+def _cholesky_solve_rows(
+    J: np.ndarray, V: np.ndarray, z: np.ndarray, has_z: bool, epsilon: float, out: np.ndarray
+) -> bool:
+    """out[0] = Jᵀ(JJᵀ)⁻¹V and out[1] = z − Jᵀ(JJᵀ)⁻¹Jz (eq. 5.7 and the projector of 5.8) by Cholesky, when
+    JJᵀ − sI is positive definite with s = max(ε², FAST_PATH_RCOND·tr JJᵀ): then λ_min > ε² (no direction is
+    damped) and λ_min/λ_max > FAST_PATH_RCOND, the conditions of :func:`factor`'s fast path. False (nothing
+    written) otherwise."""
+    m, n = J.shape
+    A = np.empty((m, m))
+    tr = 0.0
+    for i in range(m):
+        for j in range(i, m):
+            t = 0.0
+            for k in range(n):
+                t += J[i, k] * J[j, k]
+            A[i, j] = t
+            A[j, i] = t
+        tr += A[i, i]
+    if not (tr > 0.0 and math.isfinite(tr)):
+        return False
+    shift = max(epsilon * epsilon, FAST_PATH_RCOND * tr)
+    S = A.copy()
+    for i in range(m):
+        S[i, i] -= shift
+    if not _chol_in_place(S) or not _chol_in_place(A):
+        return False
+    y = _chol_solve(A, V)
+    for j in range(n):
+        t = 0.0
+        for i in range(m):
+            t += J[i, j] * y[i]
+        out[0, j] = t
+    if has_z:
+        Jz = np.zeros(m)
+        for i in range(m):
+            for j in range(n):
+                Jz[i] += J[i, j] * z[j]
+        w = _chol_solve(A, Jz)
+        for j in range(n):
+            t = z[j]
+            for i in range(m):
+                t -= J[i, j] * w[i]
+            out[1, j] = t
+    else:
+        out[1, :] = 0.0
+    return True
+
+
+@_jit
 def closed_form_into(
     J: np.ndarray,
     V: np.ndarray,
@@ -299,17 +386,27 @@ def closed_form_into(
     max_damping: float,
     rcond: float,
     out: np.ndarray,
+    lazy_sigma: bool = False,
 ) -> tuple[int, float, float]:
     """q̇_r = J⁺_λ V, q̇_n = (I − J⁺J) z (eq. 5.8) and q̇ = q̇_r + q̇_n written into ``out`` (3, n), in one call.
 
     q̇_n is zero when ``has_z`` is false. (Results go into a buffer the caller owns: returning arrays from a compiled
     call costs about a microsecond each.)
 
+    With ``lazy_sigma`` a full-row-rank J whose JJᵀ passes the Cholesky test λ_min(JJᵀ) > max(ε², 1e-6·tr JJᵀ)
+    (so :func:`factor` would take its fast path too, undamped) is solved as Jᵀ(JJᵀ)⁻¹ by Cholesky, without the
+    eigendecomposition: σ_min is then returned as NaN, for the caller to compute when it is read.
+
     Returns:
         (rank, σ_min, damping).
     """
-    fast, U, _, Vt, inv, rank, sigma_min, damping = factor(J, epsilon, max_damping, rcond)
     n = J.shape[1]
+    m = J.shape[0]
+    if lazy_sigma and 0 < m <= n and _cholesky_solve_rows(J, V, z, has_z, epsilon, out):
+        for i in range(n):
+            out[2, i] = out[0, i] + out[1, i]
+        return m, np.nan, 0.0
+    fast, U, _, Vt, inv, rank, sigma_min, damping = factor(J, epsilon, max_damping, rcond)
     if J.shape[0] == 0:
         out[0, :] = 0.0
     else:
@@ -416,6 +513,16 @@ def spd_solve_into(P: np.ndarray, q: np.ndarray, x: np.ndarray) -> bool:
         if not math.isfinite(x[i]):
             ok = False
     return ok
+
+
+@_jit
+def clip_twice(x: np.ndarray, lb: np.ndarray, ub: np.ndarray, out: np.ndarray) -> None:
+    """x projected onto lb ≤ x ≤ ub, written into both rows of ``out`` (2, n): a step's q̇ and the copy the resolver
+    keeps (its warm start and rate-limit reference), in one call."""
+    for i in range(x.shape[0]):
+        v = min(max(x[i], lb[i]), ub[i])
+        out[0, i] = v
+        out[1, i] = v
 
 
 @_jit
@@ -553,6 +660,51 @@ def limit_box(
                 ru = min(max(dq_prev[k, i] + step, lo_k), up_k)
                 lo_k, up_k = rl, ru
             lb[k, i], ub[k, i], pl[k, i], pu[k, i] = lo_k, up_k, l_pos, u_pos
+
+
+@_jit
+def wqp_free_step(
+    P: np.ndarray,
+    q: np.ndarray,
+    shift: float,
+    z: np.ndarray,
+    z_scale: float,
+    qconf: np.ndarray,
+    iq: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    vmax: np.ndarray,
+    amax: np.ndarray,
+    position: bool,
+    has_rate: bool,
+    gain: float,
+    dt: float,
+    dq_prev: np.ndarray,
+    out: np.ndarray,
+) -> bool:
+    """The rest of a ``wqp`` step once its task rows are in P and q, in one call: P += shift·I, q −= z_scale·z (the
+    null-space objective; ``z`` may be empty), the joint-limit box of :func:`limit_box` at ``qconf`` (1, nq) into
+    out[0:4] (lb, ub, pos_lo, pos_hi), the unconstrained optimum x = −P⁻¹q by Cholesky into out[4], and — when x
+    lies in the box (to 1e-12) — x clipped to it into out[5] and out[6] (q̇ and the copy the resolver keeps).
+
+    Returns:
+        True when x is finite and inside the box: it is then the QP's optimum (no constraint active).
+    """
+    n = q.shape[0]
+    for i in range(n):
+        P[i, i] += shift
+    if z.shape[0] == n and z_scale != 0.0:
+        for i in range(n):
+            q[i] -= z_scale * z[i]
+    limit_box(qconf, iq, lo, hi, vmax, amax, position, has_rate, gain, dt, dq_prev, out[0:4].reshape((4, 1, n)))
+    x = out[4]
+    if not spd_solve_into(P, q, x) or not in_box(x, out[0], out[1], 1e-12):
+        return False
+    for i in range(n):
+        v = min(max(x[i], out[0, i]), out[1, i])
+        out[5, i] = v
+        out[6, i] = v
+    return True
 
 
 @_jit

@@ -14,7 +14,7 @@ import numpy as np
 
 from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
-from redundik.resolvers.base import Resolver, StepResult, nonfinite_sources
+from redundik.resolvers.base import LazyStepResult, Resolver, StepResult, nonfinite_sources
 from redundik.resolvers.linalg import RCOND, K, contiguous
 from redundik.tasks.base import TaskTerm, stack_terms
 from redundik.tasks.stack import StackLayout, TaskStack
@@ -87,6 +87,7 @@ class PinvResolver(Resolver):
             self.max_damping,
             RCOND,
             out,
+            True,  # σ_min left to be computed on request when J is well conditioned (a Cholesky solve instead)
         )
         dq_r, dq_n, dq = out
         fallback = None
@@ -95,6 +96,15 @@ class PinvResolver(Resolver):
             fallback = f"non-finite q̇ (from {', '.join(bad) or 'the pseudo-inverse'}): q̇ = 0 this step"
             dq = np.zeros(robot.nv)
         t2 = time.perf_counter()
+        if sigma_min != sigma_min:  # NaN: J well conditioned and undamped, σ_min computed on first read
+
+            def diagnostics() -> tuple[float, bool, dict[str, object]]:
+                smin = float(np.sqrt(max(float(np.linalg.eigvalsh(J @ J.T)[0]), 0.0)))
+                return smin, False, {"sigma_min": smin}
+
+            return LazyStepResult.make(
+                dq, terms, fallback, {"rank": int(rank)}, t1 - t0, t2 - t1, layout.main, diagnostics, dq_r, dq_n
+            )
         return StepResult(
             dq=dq,
             terms=terms,

@@ -119,11 +119,14 @@ class FrameTask(Task):
             )
         self.axes = resolve_axes(axes)
         self.rows = np.array([AXES[a] for a in self.axes], dtype=int)
+        self._m = int(self.rows.shape[0])
         self._all_rows = self.rows.tolist() == list(range(6))
         self._rotation_rows = bool(np.any(self.rows >= 3))
         self._fid: int | None = None
         self._pending_position: np.ndarray | None = None
         self._last_R: np.ndarray | None = None  # the target orientation at the last evaluation
+        self._data: Any = None  # the robot data the task was reset on, and its live view of the frame's pose
+        self._pose: Any = None
 
     @property
     def dim(self) -> int:
@@ -187,24 +190,29 @@ class FrameTask(Task):
                 "never be met; choose a frame on a moving link"
             )
         pose = robot.frame_pose(fid)
+        self._data, self._pose = robot.data, pose  # the frame's placement, updated in place by every robot.update
         self.trajectory.start(pose)  # a Hold(pose) keeps its pose
         if self._pending_position is not None:
             self._hold(pin.SE3(np.array(pose.rotation), self._pending_position))
             self._pending_position = None
 
     def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
-        if self._fid is None or not self.trajectory.has_start:
-            self.reset(robot)
         fid = self._fid
-        assert fid is not None  # for the type checker; set by reset()
-        pose = robot.frame_pose(fid)
+        data = robot.data
+        if fid is None or not self.trajectory.has_start:
+            self.reset(robot)  # checks the frame, and that the robot was updated (robot.frame_pose)
+            fid = self._fid
+            assert fid is not None  # for the type checker; set by reset()
+        elif data is not self._data:  # evaluated on another robot object than at reset: its own pose view
+            self._data, self._pose = data, robot.frame_pose(fid)
+        pose = self._pose  # a live view on data.oMf[fid] (robot.frame_pose without its checks, done at reset)
         if self._pending_position is not None:
             self._hold(pin.SE3(np.array(pose.rotation), self._pending_position))
             self._pending_position = None
         p_d, R_d, twist_d = self.trajectory.reference(t)
         self._last_R = R_d
-        J = pin.getFrameJacobian(robot.model, robot.data, fid, LWA)  # robot.frame_jacobian without its checks
-        m = self.rows.shape[0]
+        J = pin.getFrameJacobian(robot.model, data, fid, LWA)  # robot.frame_jacobian without its checks
+        m = self._m
         e, v = np.empty(m), np.empty(m)
         # one compiled call for e = (p_d − p, log3(R_d Rᵀ))[rows] and v = V_d[rows] + K e (rotations under 0.45 rad)
         if (_K or _kernels()).frame_error(
@@ -227,6 +235,19 @@ class FrameTask(Task):
         return (
             f"FrameTask(frame={self.frame!r}, axes={list(self.axes)}, trajectory={self.trajectory!r}, gain={self.gain})"
         )
+
+
+_IDENTITY: dict[int, np.ndarray] = {}
+
+
+def _identity(n: int) -> np.ndarray:
+    """The n×n identity, shared and read-only (a posture term's Jacobian, built once per size)."""
+    eye = _IDENTITY.get(n)
+    if eye is None:
+        eye = np.eye(n)
+        eye.setflags(write=False)
+        _IDENTITY[n] = eye
+    return eye
 
 
 class PostureTask(Task):
@@ -280,7 +301,7 @@ class PostureTask(Task):
             self.reset(robot)
         assert self.target is not None  # set by reset()
         e = robot.difference(robot.q, self.target)
-        return TaskTerm(self.name, np.eye(robot.nv), self.gain * e, e, self.weight)
+        return TaskTerm(self._name, _identity(robot.nv), self._gain * e, e, self._weight)
 
     def __repr__(self) -> str:
         return f"PostureTask(gain={self.gain})"

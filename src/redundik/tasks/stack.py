@@ -228,10 +228,12 @@ class TaskStack:
         """z of the null-space objective: Σ k_i η_i + Σ_r v_r (module docstring), or ``None`` if nothing adds to it."""
         if not layout.has_null_objective:
             return None
-        z = np.zeros(robot.nv)
+        z = None  # a new array in every case (the first gradient's k η is one already)
         for sub in layout.gradients:
             if sub.gain != 0.0:
-                z += sub.direction(robot)
+                d = sub.direction(robot)
+                z = d if z is None else z + d
         for i in layout.null_tasks:
-            z += terms[i].v
-        return z
+            v = terms[i].v
+            z = v.copy() if z is None else z + v
+        return np.zeros(robot.nv) if z is None else z

@@ -21,7 +21,7 @@ import numpy as np
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, Resolver, StepResult, nonfinite_sources
-from redundik.resolvers.linalg import pseudo_inverse
+from redundik.resolvers.linalg import K, pseudo_inverse
 from redundik.resolvers.pinv import check_damping_options, main_system
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, make_backend
 from redundik.resolvers.qp.limits import JointLimits, LimitBox
@@ -227,8 +227,14 @@ class QPResolverBase(Resolver):
         t0 = time.perf_counter()
         terms = stack.evaluate(robot, t)
         built = self.build(robot, stack, t, dt, terms)
+        return self._finish(robot, stack, terms, built, t0, time.perf_counter())
+
+    def _finish(
+        self, robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], built: Any, t0: float, t1: float
+    ) -> StepResult:
+        """Solve a built step, fall back if needed, clip to the limits, guard the safety rows, and report (the
+        template's second half; ``t0``/``t1`` [s]: when the step started and its build ended)."""
         box: LimitBox = built.box
-        t1 = time.perf_counter()
         diag = QPDiagnostics()
         try:
             x, fallback = self._resolve(built, diag)
@@ -241,7 +247,9 @@ class QPResolverBase(Resolver):
             fallback = f"non-finite q̇ (from {', '.join(bad) or 'the solver'}): q̇ = 0 clipped to the limits"
             x = np.zeros(robot.nv)
             diag.backend = "fallback"
-        dq = box.clip(x)  # the limits hold whatever happened (solver tolerance, fallback); a new array
+        out = np.empty((2, x.shape[0]))
+        K.clip_twice(x, box.lb, box.ub, out)  # the limits hold whatever happened (solver tolerance, fallback)
+        dq, dq_kept = out[0], out[1]  # q̇ returned, and the copy kept (warm start, rate window): one call
         safe = self._safety_rows(built, stack)
         if safe is not None:
             dq, alpha = keep_safe(dq, *safe)
@@ -249,7 +257,7 @@ class QPResolverBase(Resolver):
                 note = f"q̇ scaled by {alpha:.3g} to keep the safety rows (collision distances)"
                 fallback = note if fallback is None else f"{fallback}; {note}"
             dq = box.clip(dq)
-        dq_kept = dq.copy()
+            dq_kept = dq.copy()
         self._dq_prev = dq_kept
         t2 = time.perf_counter()
 
@@ -258,17 +266,16 @@ class QPResolverBase(Resolver):
             self._diagnose(built, dq_kept, diag)
             return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
 
-        res = LazyStepResult(
-            dq=dq,
-            terms=terms,
-            fallback=fallback,
-            info={"backend": diag.backend, "qp": diag.qp, "iterations": diag.iterations},
-            build_time=t1 - t0,
-            solve_time=t2 - t1,
-            main=self.layout(stack).main,
+        return LazyStepResult.make(
+            dq,
+            terms,
+            fallback,
+            {"backend": diag.backend, "qp": diag.qp, "iterations": diag.iterations},
+            t1 - t0,
+            t2 - t1,
+            self.layout(stack).main,
+            diagnostics,
         )
-        res.pending = diagnostics
-        return res
 
     def _safety_rows(self, built: Any, stack: TaskStack) -> tuple[np.ndarray, np.ndarray] | None:
         """The built step's safety rows (C, d) of C q̇ ≤ d (:attr:`BoundSubtask.critical`), or ``None`` without any."""

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -250,6 +251,36 @@ class JointLimits:
         """Effective upper position limits by q̇ coordinate (after :meth:`bind`; ``+inf`` where none)."""
         return self._hi.copy()
 
+    def kernel_args(self, robot: RobotModel) -> tuple[Any, ...]:
+        """(iq, lo, hi, vmax, amax, position, has_rate, gain): the arguments of ``K.limit_box`` between q and dt,
+        bound to ``robot`` (for a compiled step that computes its box inside, as ``wqp``'s)."""
+        if self._robot_id != id(robot):
+            self.bind(robot)
+        return (
+            self._iq,
+            self._lo,
+            self._hi,
+            self._vmax,
+            self._amax,
+            self.position,
+            self._has_rate,
+            self.position_gain,
+        )
+
+    def previous(self, dq_prev: np.ndarray | None) -> np.ndarray:
+        """The ``dq_prev`` argument of ``K.limit_box`` for one configuration: (1, nv) with a rate limit and a
+        previous q̇, else (0, nv) (no rate window)."""
+        if self._has_rate and dq_prev is not None:
+            return np.asarray(dq_prev, dtype=float).reshape(1, -1)
+        return self._no_prev
+
+    def box_from(self, rows: np.ndarray, windowed: bool) -> LimitBox:
+        """The :class:`LimitBox` of ``K.limit_box``'s output rows (lb, ub, pos_lo, pos_hi) of one configuration;
+        ``windowed``: a rate window was applied (``previous`` gave a row)."""
+        if windowed:
+            return LimitBox(rows[0], rows[1], rows[2], rows[3], self._vmax, rows[0], rows[1])
+        return LimitBox(rows[0], rows[1], rows[2], rows[3], self._vmax)
+
     def box(self, robot: RobotModel, q: np.ndarray, dt: float, dq_prev: np.ndarray | None = None) -> LimitBox:
         """Bounds on q̇ for a step dt [s] from q (see the module docstring).
 
@@ -257,6 +288,24 @@ class JointLimits:
         """
         if self._robot_id != id(robot):
             self.bind(robot)
+        if type(q) is np.ndarray and q.dtype == np.float64 and q.ndim == 1 and (dq_prev is None or not self._has_rate):
+            # the control loop's case, in a few operations: one configuration, no rate window
+            out1 = np.empty((4, 1, self._lo.shape[0]))
+            K.limit_box(
+                q.reshape(1, -1),
+                self._iq,
+                self._lo,
+                self._hi,
+                self._vmax,
+                self._amax,
+                self.position,
+                self._has_rate,
+                self.position_gain,
+                float(dt),
+                self._no_prev,
+                out1,
+            )
+            return LimitBox(out1[0, 0], out1[1, 0], out1[2, 0], out1[3, 0], self._vmax)
         q = np.asarray(q, dtype=float)
         single = q.ndim == 1
         prev = self._no_prev

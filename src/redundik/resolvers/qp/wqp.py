@@ -22,12 +22,14 @@ stay hard), then replaced by the damped closed form clipped to the limits and sc
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
 
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
+from redundik.resolvers.base import LazyStepResult, StepResult
 from redundik.resolvers.linalg import K
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
@@ -48,6 +50,8 @@ class WQPBuild:
         main_terms: The main tasks' terms (for the level-0 residual).
         damping: λ of the step.
         safe: Per row of ``problem.G``, whether it is a safety row (kept by the relaxed problem).
+        free_outside: True when the unconstrained optimum is already known to leave the box (the lean path tested
+            it): the backend is called without testing it again.
     """
 
     problem: QPProblem
@@ -55,6 +59,10 @@ class WQPBuild:
     main_terms: list[TaskTerm]
     damping: float = 0.0
     safe: np.ndarray | None = None
+    free_outside: bool = False
+
+
+_NO_Z = np.zeros(0)
 
 
 class _Plan:
@@ -67,6 +75,9 @@ class _Plan:
         self.bounds: list[BoundSubtask] = []
         self.null_scale = 0.0  # ρ^k of the null-space objective's level (0: none)
         self.last_scale = 1.0  # ρ^(L−1)
+        self.main: list[int] = layout.main
+        #: The membership key (``Resolver.stack_key`` inside ``step``) this plan was looked up with, or ``None``.
+        self.key: tuple[int, ...] | None = None
 
 
 class WeightedQPResolver(QPResolverBase):
@@ -111,6 +122,7 @@ class WeightedQPResolver(QPResolverBase):
         self._q: np.ndarray | None = None
         self._plan: _Plan | None = None
         self._no_rows, self._no_rhs = np.zeros((0, 0)), np.zeros(0)
+        self._diag = np.zeros(0)
 
     def build(
         self, robot: RobotModel, stack: TaskStack, t: float, dt: float, terms: list[TaskTerm] | None = None
@@ -124,20 +136,60 @@ class WeightedQPResolver(QPResolverBase):
             terms = stack.evaluate(robot, t)
         layout = self.layout(stack)
         plan = self._plan_for(stack, layout)
+        shift, z, lam = self._accumulate(robot, stack, terms, plan)
+        G, h, names, safe = self._no_rows, self._no_rhs, [], None
+        if plan.bounds:
+            Cs, ds, critical = [], [], []
+            for bsub in plan.bounds:
+                C, d, rn = bsub.rows(robot, dt)
+                Cs.append(C)
+                ds.append(d)
+                names += rn
+                critical += [bsub.critical] * len(rn)
+            G, h = np.vstack(Cs), np.concatenate(ds)
+            safe = np.array(critical, dtype=bool)
+        P, q = self._P, self._q
+        assert P is not None and q is not None  # allocated by _accumulate
+        if shift:
+            self._diag += shift
+        if z is not None:
+            q -= plan.null_scale * z
+        box = self._box(robot, dt)
+        prob = QPProblem(P, q, G, h, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp", names)
+        return WQPBuild(prob, box, [terms[i] for i in plan.main], lam, safe)
+
+    def _lambda(self, plan: _Plan, terms: list[TaskTerm]) -> float:
+        """λ of the step: ``damping``·ρ^(L−1) + ``lm_damping``·‖e‖² (module docstring)."""
+        lam = self.damping * plan.last_scale
+        if self.lm_damping:
+            lam += self.lm_damping * sum(float(terms[i].error @ terms[i].error) for i in plan.main)
+        return lam
+
+    def _accumulate(
+        self, robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], plan: _Plan
+    ) -> tuple[float, np.ndarray | None, float]:
+        """The task and target rows into P = Σ ρ^k w JᵀJ and q = −Σ ρ^k w Jᵀv (zeroed first, preallocated); a task
+        that declares ``identity_jacobian`` adds its weight to the diagonal shift instead.
+
+        Returns:
+            (the diagonal shift still to add — identity tasks, the null-space objective's ρ^k, λ —, z of the
+            null-space objective or ``None`` — it still has to be subtracted as ρ^k z —, λ).
+        """
         n = robot.nv
         if self._P is None or self._q is None or self._P.shape[0] != n:
             self._P, self._q = np.empty((n, n)), np.empty(n)
+            self._diag = self._P.reshape(-1)[:: n + 1]  # a view on P's diagonal
             self._no_rows, self._no_rhs = np.zeros((0, n)), np.zeros(0)
         P: np.ndarray = self._P
         q: np.ndarray = self._q
         P.fill(0.0)
         q.fill(0.0)
-        diag = P.reshape(-1)[:: n + 1]  # a view on P's diagonal
+        lam = shift = self._lambda(plan, terms)
         for i, scale, identity in plan.tasks:
             term = terms[i]
             w = scale * term.weight
             if identity:
-                diag += w
+                shift += w
                 q -= w * term.v
             else:
                 K.gram_update(P, q, term.J, term.v, w)  # P += w JᵀJ, q −= w Jᵀv in one compiled call
@@ -146,30 +198,70 @@ class WeightedQPResolver(QPResolverBase):
             w = scale * sub.weight
             P += w * np.outer(eta, eta)
             q -= (w * v) * eta
-        G, h, names, safe = self._no_rows, self._no_rhs, [], []
-        if plan.bounds:
-            Cs, ds = [], []
-            for bsub in plan.bounds:
-                C, d, rn = bsub.rows(robot, dt)
-                Cs.append(C)
-                ds.append(d)
-                names += rn
-                safe += [bsub.critical] * len(rn)
-            G, h = np.vstack(Cs), np.concatenate(ds)
+        z = None
         if plan.null_scale:
-            z = stack.null_target(robot, terms, layout)
-            diag += plan.null_scale
-            if z is not None:
-                q -= plan.null_scale * z
-        lam = self.damping * plan.last_scale
-        main_terms = [terms[i] for i in layout.main]
-        if self.lm_damping and main_terms:
-            lam += self.lm_damping * sum(float(tm.error @ tm.error) for tm in main_terms)
-        if lam:
-            diag += lam
-        box = self._box(robot, dt)
-        prob = QPProblem(P, q, G, h, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp", names)
-        return WQPBuild(prob, box, main_terms, lam, np.array(safe, dtype=bool))
+            shift += plan.null_scale
+            z = stack.null_target(robot, terms, plan.layout)
+        return shift, z, lam
+
+    def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
+        """One step; a stack of tasks only (no target or bound subtask) takes the lean path below: rows
+        accumulated, then box, null-space objective, unconstrained optimum and its box test in one compiled
+        call; the backend is called (through the shared template) only when that optimum leaves the box."""
+        plan = self._plan
+        if plan is None or stack is not self._stepping or plan.key is not self._checked:  # else: the step's plan
+            plan = self._plan_for(stack, self.layout(stack))
+            plan.key = self._checked if stack is self._stepping else None
+        if plan.targets or plan.bounds:
+            return super().solve(robot, stack, t, dt)
+        t0 = time.perf_counter()
+        terms = [task.evaluate(robot, t) for task in stack.tasks]  # stack.evaluate, inlined
+        shift, z, lam = self._accumulate(robot, stack, terms, plan)
+        t1 = time.perf_counter()
+        limits = self.limits
+        prev = limits.previous(self._dq_prev)
+        n = robot.nv
+        out = np.empty((7, n))
+        inside = K.wqp_free_step(
+            self._P,
+            self._q,
+            shift,
+            _NO_Z if z is None else z,
+            plan.null_scale,
+            robot.q.reshape(1, -1),
+            *limits.kernel_args(robot),
+            float(dt),
+            prev,
+            out,
+        )
+        windowed = prev.shape[0] > 0
+        if not inside:  # a constraint is active (or the optimum is not finite): the backend, through the template
+            P, q = self._P, self._q
+            assert P is not None and q is not None
+            box = limits.box_from(out, windowed)
+            prob = QPProblem(P, q, self._no_rows, self._no_rhs, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp")
+            built = WQPBuild(prob, box, [terms[i] for i in plan.main], lam, free_outside=True)
+            return self._finish(robot, stack, terms, built, t0, t1)
+        dq, kept = out[5], out[6]
+        self._dq_prev = kept
+        main = plan.main
+
+        def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
+            diag = QPDiagnostics()
+            diag.active_limits = limits.box_from(out, windowed).active(kept, limits.joint_names)
+            self._diagnose_terms([terms[i] for i in main], lam, kept, diag)
+            return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
+
+        return LazyStepResult.make(
+            dq,
+            terms,
+            None,
+            {"backend": "closed-form", "qp": 0, "iterations": 0},
+            t1 - t0,
+            time.perf_counter() - t1,
+            plan.main,
+            diagnostics,
+        )
 
     def _plan_for(self, stack: TaskStack, layout: StackLayout) -> _Plan:
         """The level weights ρ^k of every member, laid out once per stack membership (the layout object)."""
@@ -189,10 +281,11 @@ class WeightedQPResolver(QPResolverBase):
     def _resolve(self, built: WQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
         prob, box = built.problem, built.box
         # the unconstrained optimum by Cholesky (P is SPD when λ > 0) and its box test, in one compiled call
-        x = np.empty(prob.n)
-        _, inside = K.spd_solve_box_into(prob.P, prob.q, box.lb, box.ub, 1e-12, x)
-        if inside and not (prob.G.shape[0] and (prob.G @ x > prob.h + 1e-12).any()):
-            return x, None
+        if not built.free_outside:
+            x = np.empty(prob.n)
+            _, inside = K.spd_solve_box_into(prob.P, prob.q, box.lb, box.ub, 1e-12, x)
+            if inside and not (prob.G.shape[0] and (prob.G @ x > prob.h + 1e-12).any()):
+                return x, None
         diag.qp = 1
         try:
             sol = self._solve_qp(prob, self._dq_prev)
@@ -222,25 +315,28 @@ class WeightedQPResolver(QPResolverBase):
         return built.problem.G[built.safe], built.problem.h[built.safe]
 
     def _diagnose(self, built: WQPBuild, dq: np.ndarray, diag: QPDiagnostics) -> None:
-        """Level-0 residual, bound violation, and σ_min of the main-task Jacobian (eigenvalues of the small JJᵀ);
-        the step counts as damped when λ ≥ 1e-3·σ_min² (the regulariser then bends the main-task solution)."""
-        if built.main_terms:
-            J = built.main_terms[0].J if len(built.main_terms) == 1 else np.vstack([t.J for t in built.main_terms])
+        self._diagnose_terms(built.main_terms, built.damping, dq, diag)
+        G = built.problem.G
+        if G.shape[0]:
+            diag.bound_violation = float(np.max(np.maximum(G @ dq - built.problem.h, 0.0)))
+
+    def _diagnose_terms(self, main_terms: list[TaskTerm], damping: float, dq: np.ndarray, diag: QPDiagnostics) -> None:
+        """Level-0 residual and σ_min of the main-task Jacobian (eigenvalues of the small JJᵀ); the step counts as
+        damped when λ ≥ 1e-3·σ_min² (the regulariser then bends the main-task solution)."""
+        if main_terms:
+            J = main_terms[0].J if len(main_terms) == 1 else np.vstack([t.J for t in main_terms])
             if J.shape[0]:
                 gram = J @ J.T if J.shape[0] <= J.shape[1] else J.T @ J
                 ev = np.linalg.eigvalsh(gram)
                 nz = ev[ev > 1e-20 * max(float(ev[-1]), 1e-300)]
                 diag.sigma_min = float(np.sqrt(nz[0])) if nz.size else np.inf
-                if built.damping >= 1e-3 * diag.sigma_min**2:
+                if damping >= 1e-3 * diag.sigma_min**2:
                     diag.damped_levels.append(0)
             res2 = 0.0
-            for tm in built.main_terms:
+            for tm in main_terms:
                 r = tm.J @ dq - tm.v
                 res2 += float(r @ r)
             diag.level_residuals[0] = res2**0.5
-        G = built.problem.G
-        if G.shape[0]:
-            diag.bound_violation = float(np.max(np.maximum(G @ dq - built.problem.h, 0.0)))
 
     def __repr__(self) -> str:
         return (
