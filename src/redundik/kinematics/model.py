@@ -292,7 +292,7 @@ class RobotModel:
     # ------------------------------------------------------------------ kinematics state
     def update(self, q: np.ndarray) -> None:
         """Compute forward kinematics, frame placements and joint Jacobians at ``q`` (once per tick)."""
-        if not (type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self.model.nq,)):
+        if not (type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self._nq,)):
             q = self.check_configuration(q, f"robot '{self.name}': update(q)")
         elif not math.isfinite(float(q @ q)) and not np.isfinite(q).all():  # the dot first: one call when all is well
             raise ModelError(f"robot '{self.name}': update(q): q contains NaN or infinite values: {q.tolist()[:8]}")
