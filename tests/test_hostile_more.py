@@ -593,3 +593,19 @@ def test_examples_copy_says_what_it_kept(cli: Cli, tmp_path: Path) -> None:
     code, _, err = cli("examples", "copy", tmp_path / "ex")
     assert code == 0 and "copied 0 files" in err and "kept" in err and "--force" in err
     assert mine.read_text() == "# my edits\n"
+
+
+def test_a_write_the_file_system_refuses_is_one_line(cli: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A read-only folder or a full disk (simulated: a root user may write anywhere) is exit 3, not a traceback."""
+    task = _task(tmp_path)
+    real_open = Path.open
+
+    def refuse(path: Path, mode: str = "r", *args: object, **kwargs: object) -> object:
+        if "w" in mode and path.suffix == ".csv":
+            raise PermissionError(13, "Permission denied", str(path))
+        return real_open(path, mode, *args, **kwargs)  # type: ignore[call-overload]
+
+    monkeypatch.setattr(Path, "open", refuse)
+    code, _, err = cli("run", task, "--out", tmp_path / "out", "--no-figures", "-q", "--runs", "rank_only")
+    _one_line_error(code, err)
+    assert "Permission denied" in err and "rank_only.csv" in err

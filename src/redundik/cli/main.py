@@ -17,7 +17,7 @@ from typing import Any
 
 from redundik._extras import is_installed, missing
 from redundik._version import __version__
-from redundik.errors import MissingDependencyError, RedundikError, ResolverError, SimulationError
+from redundik.errors import ConfigError, MissingDependencyError, RedundikError, ResolverError, SimulationError
 
 #: Exit codes of the ``redundik`` command.
 EXIT_OK, EXIT_ABORTED, EXIT_USAGE, EXIT_INVALID, EXIT_FAILED, EXIT_MISSING = 0, 1, 2, 3, 4, 5
@@ -127,6 +127,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("aborted", file=sys.stderr)
         return EXIT_ABORTED
+    except OSError as exc:  # the file system said no (permissions, a full disk, a name too long): not a bug
+        where = f" '{exc.filename}'" if getattr(exc, "filename", None) else ""
+        return _report(ConfigError(f"cannot read or write{where}: {exc.strerror or exc}"))
     except Exception as exc:
         name = type(exc).__name__
         if name == "Exit":  # typer.Exit / click.exceptions.Exit
