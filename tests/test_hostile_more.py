@@ -609,3 +609,21 @@ def test_a_write_the_file_system_refuses_is_one_line(cli: Cli, tmp_path: Path, m
     code, _, err = cli("run", task, "--out", tmp_path / "out", "--no-figures", "-q", "--runs", "rank_only")
     _one_line_error(code, err)
     assert "Permission denied" in err and "rank_only.csv" in err
+
+
+@pytest.mark.parametrize(
+    ("command", "file", "expected"),
+    [
+        ("sweep", TASKS / "planar3r_line.yaml", "is a task file, not a sweep file: run it with `redundik run"),
+        ("run", ROOT / "sweeps" / "panda_reach.yaml", "is a sweep file, not a task file: run it with `redundik sweep"),
+        ("run", CONFIGS / "planar3r.yaml", "is a robot file, not a task file"),
+        ("run", CONFIGS / "stewart33.yaml", "is a mechanism file, not a task file"),
+    ],
+)
+def test_a_file_of_another_kind_is_named_as_such(
+    cli: Cli, tmp_path: Path, command: str, file: Path, expected: str
+) -> None:
+    code, _, err = cli(command, file, "--out", tmp_path / "out")
+    _one_line_error(code, err)
+    assert expected in err  # not "task: required key is missing (and 8 more errors)"
+    assert not (tmp_path / "out").exists()

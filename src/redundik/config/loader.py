@@ -135,6 +135,21 @@ class TaskPlan:
     world: Any = None  # the collision world (redundik.collision.CollisionWorld) of 'collision:'/'obstacles:'
 
 
+def _refuse_other_kinds(data: dict[str, Any], path: Path) -> None:
+    """A sweep file, robot config or mechanism config given where a task file is expected: say which it is."""
+    from redundik.config.anyfile import detect_kind
+
+    kind = detect_kind(data)
+    if kind == "task":
+        return
+    command = {
+        "sweep": f"run it with `redundik sweep {path}`",
+        "robot": "a task file names it under 'robot:'",
+        "mechanism": "use the `redundik stewart`, `hybrid33`, `delta` or `mobility` commands",
+    }[kind]
+    raise ConfigError(f"{path.name} is a {kind} file, not a task file: {command} (`redundik validate` checks any)")
+
+
 def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None) -> TaskPlan:
     """Read, validate and assemble a task file (every run) without running it.
 
@@ -152,6 +167,7 @@ def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None)
         path = Path(source)
         data = read_yaml(path, "task file")
         base = base_dir or path.resolve().parent
+        _refuse_other_kinds(data, path)
     spec: TaskFileSpec = validate(TaskFileSpec, data)
     steps = _check_steps(spec)
     robot = load_robot(spec.robot, base, "robot")

@@ -203,6 +203,8 @@ def load_sweep(source: str | Path | dict[str, Any], base_dir: Path | None = None
         path = Path(source)
         data = read_yaml(path, "sweep file")
         base = (base_dir or path.resolve().parent).resolve()
+        if "runs" in data:
+            raise ConfigError(f"{path.name} is a task file, not a sweep file: run it with `redundik run {path}`")
     spec: SweepFileSpec = validate(SweepFileSpec, data)
     n_t, n_s = _count(spec)
     if n_s == 0:
