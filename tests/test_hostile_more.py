@@ -627,3 +627,24 @@ def test_a_file_of_another_kind_is_named_as_such(
     _one_line_error(code, err)
     assert expected in err  # not "task: required key is missing (and 8 more errors)"
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "expected"),
+    [
+        ("sim_dt: 0.001 ", "sim_dt: 0.003 ", "error: plant.sim_dt: sim_dt = 0.003 s must divide the control dt"),
+        ("sim_dt: 0.001 ", "sim_dt: 0.01 ", "error: plant.sim_dt: sim_dt = 0.01 s must divide"),
+        ("sim_dt: 0.001 ", "sim_dt: 1e-9 ", "error: plant.sim_dt: sim_dt = 1e-09 s gives 5000000 physics steps"),
+        ("kp: 2000.0 ", "kp: -5 ", "error: plant.kp: must be ≥ 0"),
+    ],
+)
+def test_plant_rates_and_gains_are_checked_at_validation(
+    cli: Cli, tmp_path: Path, old: str, new: str, expected: str
+) -> None:
+    text = (TASKS / "panda_mujoco.yaml").read_text(encoding="utf-8").replace("../configs/", f"{CONFIGS}/")
+    assert old in text
+    path = tmp_path / "p.yaml"
+    path.write_text(text.replace(old, new), encoding="utf-8")
+    code, _, err = cli("validate", path)  # run would fail building the plant (sim_dt) or run for hours (1e-9)
+    _one_line_error(code, err)
+    assert err.startswith(expected), err

@@ -338,6 +338,33 @@ def _subtask(pot: Potential, sub: SubtaskSpec, path: str) -> Subtask:
         raise ConfigError(str(exc).removeprefix(f"subtask '{pot.name}': "), path) from None
 
 
+#: Most physics steps of a plant per control tick, and in one run: a tiny ``sim_dt`` would run for hours.
+MAX_SUBSTEPS, MAX_PHYSICS_STEPS = 1000, 50_000_000
+
+
+def _check_plant_rate(spec: TaskFileSpec, sim_dt: float, where: str) -> None:
+    """``sim_dt`` must divide ``dt`` (checked here, at validation, as the plant checks it when built) and keep the
+    physics steps bounded."""
+    ratio = spec.dt / sim_dt
+    substeps = round(ratio)
+    at = join_path(where, "sim_dt")
+    if substeps < 1 or abs(ratio - substeps) > 1e-6 * ratio:
+        raise ConfigError(f"sim_dt = {sim_dt:g} s must divide the control dt = {spec.dt:g} s", at)
+    if substeps > MAX_SUBSTEPS:
+        raise ConfigError(
+            f"sim_dt = {sim_dt:g} s gives {substeps} physics steps per control tick of {spec.dt:g} s; at most "
+            f"{MAX_SUBSTEPS} are allowed",
+            at,
+        )
+    total = substeps * spec.n_steps
+    if total > MAX_PHYSICS_STEPS:
+        raise ConfigError(
+            f"{spec.n_steps} ticks × {substeps} physics steps = {total} MuJoCo steps; at most {MAX_PHYSICS_STEPS} "
+            "are allowed (raise sim_dt or shorten the run)",
+            at,
+        )
+
+
 def _build_run(spec: TaskFileSpec, ctx: Context, name: str, run: RunSpec, q0_file: np.ndarray) -> RunPlan:
     path = join_path("runs", name)
     robot = ctx.robot
@@ -419,6 +446,8 @@ def _build_run(spec: TaskFileSpec, ctx: Context, name: str, run: RunSpec, q0_fil
     except RedundikError as exc:
         raise ConfigError(str(exc), path) from None
     given = run.plant if run.plant is not None else spec.plant
+    if given is not None:
+        _check_plant_rate(spec, given.sim_dt, join_path(path, "plant") if run.plant is not None else "plant")
     plant = given.options() if given is not None else None
     return RunPlan(name, run.description, run.resolver, resolver, stack, q0, watched, monitors, torques, plant)
 

@@ -157,6 +157,10 @@ class SubtaskSpec(StrictModel):
     priority: int | None = Field(default=None, ge=0)
 
 
+#: A servo gain of a plant: ≥ 0, at most 1e9 (larger ones make the simulation blow up).
+Gain = Annotated[float, Field(ge=0, le=1e9)]
+
+
 class PlantSpec(StrictModel):
     """``plant:`` (task file or run): drive a simulated robot instead of integrating q̇ (see ``docs/task-files.md``).
 
@@ -167,9 +171,9 @@ class PlantSpec(StrictModel):
 
     type: Literal["mujoco"]
     actuator: Literal["position", "velocity"] = "position"
-    kp: float | dict[Name, float] = 2000.0
-    kv: float | dict[Name, float] = 100.0
-    sim_dt: float = Field(default=0.001, gt=0)
+    kp: Gain | dict[Name, Gain] = 2000.0
+    kv: Gain | dict[Name, Gain] = 100.0
+    sim_dt: float = Field(default=0.001, gt=0, le=1.0)  # [s], at most DT_MAX (defined below)
     gravity: bool = True
     gravity_compensation: bool = True
     effort_limits: bool = True
