@@ -648,3 +648,19 @@ def test_plant_rates_and_gains_are_checked_at_validation(
     code, _, err = cli("validate", path)  # run would fail building the plant (sim_dt) or run for hours (1e-9)
     _one_line_error(code, err)
     assert err.startswith(expected), err
+
+
+def test_hold_and_pose_interpolation_refuse_what_is_not_a_pose() -> None:
+    import pinocchio as pin
+
+    bad = pin.SE3.Identity()
+    bad.translation = np.array([math.nan, 0.0, 0.0])
+    with pytest.raises(TaskError, match="hold pose: contains NaN"):
+        rk.Hold(bad)
+    with pytest.raises(TaskError, match="hold pose: expected an SE3 or a 4×4"):
+        rk.Hold("x")  # type: ignore[arg-type]
+    with pytest.raises(TaskError, match="not a rigid transform"):
+        rk.Hold(2.0 * np.eye(4))
+    assert rk.Hold(np.eye(4)).pose == pin.SE3.Identity()  # a 4×4 matrix is a pose
+    with pytest.raises(TaskError, match="goal rotation must be a 3×3 matrix of numbers"):
+        rk.PoseInterpolation([0, 0, 0], 1.0, rotation="x")  # type: ignore[arg-type]

@@ -50,6 +50,25 @@ def _number(value: object, what: str, *, positive: bool = False) -> float:
     return x
 
 
+def _rigid(pose: object, what: str) -> pin.SE3:
+    """``pose`` (an SE3 or a 4×4 homogeneous matrix) as an SE3 copy, finite and bounded; a matrix must be rigid too
+    (an SE3's rotation is taken as given: this is on the path of ``FrameTask.set_target``, which checked it). Raises
+    :class:`TaskError`."""
+    if isinstance(pose, pin.SE3):
+        if not float(np.abs(pose.homogeneous).sum()) <= 4 + 3 * MAX_MAGNITUDE:  # one cheap check, NaN included
+            raise TaskError(f"{what}: contains NaN, infinite or values over {MAX_MAGNITUDE:g}")
+        return pose.copy()
+    if not (isinstance(pose, np.ndarray) and pose.shape == (4, 4) and pose.dtype.kind in "fiu"):
+        raise TaskError(f"{what}: expected an SE3 or a 4×4 homogeneous matrix, got {type(pose).__name__}")
+    M = np.asarray(pose, dtype=float)
+    if not np.all(np.isfinite(M)) or np.any(np.abs(M[:3, 3]) > MAX_MAGNITUDE):
+        raise TaskError(f"{what}: contains NaN, infinite or values over {MAX_MAGNITUDE:g}")
+    R = M[:3, :3]
+    if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0 or not np.allclose(M[3], (0, 0, 0, 1)):
+        raise TaskError(f"{what}: not a rigid transform (rotation not orthonormal, or bad last row)")
+    return pin.SE3(M)
+
+
 class Trajectory(ABC):
     """A desired frame pose and twist over time."""
 
@@ -101,8 +120,8 @@ class Hold(Trajectory):
         pose: A fixed pose to hold (a target set at run time); ``None`` holds the pose captured at start.
     """
 
-    def __init__(self, pose: pin.SE3 | None = None) -> None:
-        self.pose = None if pose is None else pose.copy()
+    def __init__(self, pose: pin.SE3 | np.ndarray | None = None) -> None:
+        self.pose = None if pose is None else _rigid(pose, "hold pose")
 
     def start(self, pose: pin.SE3) -> None:
         super().start(self.pose if self.pose is not None else pose)
@@ -224,6 +243,8 @@ class PoseInterpolation(Trajectory):
         if not (np.isfinite(duration) and duration > 0):
             raise TaskError(f"pose interpolation duration must be > 0, got {duration}")
         self.goal_position = _vec(position, 3, "goal position")
+        if rotation is not None and np.asarray(rotation).dtype.kind not in "fiu":
+            raise TaskError(f"goal rotation must be a 3×3 matrix of numbers, got {type(rotation).__name__}")
         self.goal_rotation = None if rotation is None else np.asarray(rotation, dtype=float)
         if self.goal_rotation is not None:
             r = self.goal_rotation
