@@ -664,3 +664,26 @@ def test_hold_and_pose_interpolation_refuse_what_is_not_a_pose() -> None:
     assert rk.Hold(np.eye(4)).pose == pin.SE3.Identity()  # a 4×4 matrix is a pose
     with pytest.raises(TaskError, match="goal rotation must be a 3×3 matrix of numbers"):
         rk.PoseInterpolation([0, 0, 0], 1.0, rotation="x")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("name", ["pinv", "feedback", "wqp", "hqp"])
+def test_step_with_the_wrong_kind_of_robot_or_stack_says_so(name: str) -> None:
+    robot, stack, q = _planar()
+    resolver = rk.make_resolver(name)
+    for bad in (list(stack.tasks), None, stack.tasks[0]):
+        with pytest.raises(ResolverError, match=f"{name}: stack must be a TaskStack .*, got {type(bad).__name__}"):
+            resolver.step(robot, bad, q, 0.0, 0.01)  # type: ignore[arg-type]
+    for bad_robot in (None, robot.model):
+        with pytest.raises(ResolverError, match=f"robot must be a RobotModel, got {type(bad_robot).__name__}"):
+            resolver.step(bad_robot, stack, q, 0.0, 0.01)  # type: ignore[arg-type]
+    assert np.isfinite(resolver.step(robot, stack, q, 0.0, 0.01).dq).all()  # and the loop goes on
+
+
+def test_simulate_with_the_wrong_kind_of_argument_says_so() -> None:
+    from redundik.errors import SimulationError
+
+    robot, stack, q = _planar()
+    with pytest.raises(SimulationError, match="stack must be a TaskStack, got list"):
+        rk.simulate(robot, list(stack.tasks), rk.make_resolver("pinv"), q, dt=0.01, steps=2)  # type: ignore[arg-type]
+    with pytest.raises(SimulationError, match="resolver must be a Resolver"):
+        rk.simulate(robot, stack, "pinv", q, dt=0.01, steps=2)  # type: ignore[arg-type]

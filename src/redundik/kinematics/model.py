@@ -294,7 +294,7 @@ class RobotModel:
         """Compute forward kinematics, frame placements and joint Jacobians at ``q`` (once per tick)."""
         if not (type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self._nq,)):
             q = self.check_configuration(q, f"robot '{self.name}': update(q)")
-        elif not math.isfinite(float(q @ q)) and not np.isfinite(q).all():  # the dot first: one call when all is well
+        elif not math.isfinite(float(np.add.reduce(q))) and not np.isfinite(q).all():  # the sum first: one call
             raise ModelError(f"robot '{self.name}': update(q): q contains NaN or infinite values: {q.tolist()[:8]}")
         pin.computeJointJacobians(self.model, self.data, q)
         pin.updateFramePlacements(self.model, self.data)

@@ -334,6 +334,7 @@ class Resolver(ABC):
         if not (  # the common case checked in a few operations; anything unusual goes through check_inputs
             type(q) is np.ndarray
             and q.dtype == np.float64
+            and type(robot) is RobotModel
             and q.shape == (robot.nq,)
             and type(dt) is float
             and type(t) is float
@@ -344,7 +345,12 @@ class Resolver(ABC):
             q = self.check_inputs(robot, q, t, dt)
             t, dt = float(t), float(dt)
         robot.update(q)
-        sig = (id(robot), *stack.signature())
+        try:
+            sig = (id(robot), *stack.signature())
+        except AttributeError:  # not a TaskStack (a list of tasks, one task, None): say so, not AttributeError
+            raise ResolverError(
+                f"{self.name}: stack must be a TaskStack (tasks, subtasks), got {type(stack).__name__}"
+            ) from None
         if sig != self._checked:
             self.check(robot, stack)
             self._checked = sig
@@ -394,6 +400,8 @@ class Resolver(ABC):
 
     def check_inputs(self, robot: RobotModel, q: np.ndarray, t: float, dt: float) -> np.ndarray:
         """Validated q (as a float array) after checking t and dt; raises :class:`ResolverError` otherwise."""
+        if not isinstance(robot, RobotModel):
+            raise ResolverError(f"{self.name}: robot must be a RobotModel, got {type(robot).__name__}")
         try:
             raw = np.asarray(q)
             if raw.dtype.kind not in "fiuO":  # bool, complex, strings: not joint values (no silent cast)

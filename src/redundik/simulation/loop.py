@@ -87,6 +87,9 @@ def _check_time_grid(robot: RobotModel, stack: TaskStack, dt: object, steps: obj
     Raises:
         SimulationError: names the argument, its value and what was expected.
     """
+    for what, value, kind in (("robot", robot, RobotModel), ("stack", stack, TaskStack)):
+        if not isinstance(value, kind):
+            raise SimulationError(f"simulate: {what} must be a {kind.__name__}, got {type(value).__name__}")
     if isinstance(dt, bool) or not isinstance(dt, (int, float, np.integer, np.floating)):
         raise SimulationError(f"simulate: dt must be a number [s], got {type(dt).__name__}")
     if not (math.isfinite(dt) and dt > 0):
@@ -154,6 +157,8 @@ def simulate(
         )
     if plant is not None and integrator != "euler":
         raise ValueError(f"integrator {integrator}: a plant integrates its own dynamics; use integrator euler with it")
+    if not isinstance(resolver, Resolver):
+        raise SimulationError(f"simulate: resolver must be a Resolver (make_resolver(NAME)), got {resolver!r:.60}")
     _check_time_grid(robot, stack, dt, steps, len(log_frames) + len(extra_potentials))
     q = robot.check_configuration(q0, "q0").copy()
     if plant is not None:
