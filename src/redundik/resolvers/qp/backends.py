@@ -89,10 +89,19 @@ def _vec(v: np.ndarray, size: int) -> np.ndarray:
     return np.zeros(0) if size == 0 and v.size == 0 else v
 
 
+def finite(x: np.ndarray) -> bool:
+    """True when every entry of the float array x is finite (the ufunc and the method: ``np.all``'s Python wrapper
+    costs more than the test on a QP's few variables)."""
+    return bool(np.isfinite(x).all())
+
+
 def _checked(x: np.ndarray | None, problem: QPProblem, backend: str, status: object = "") -> np.ndarray:
-    if x is None or not np.all(np.isfinite(x)):
+    if x is None:
         raise SolverError(f"{backend}: no finite solution for {problem.label} (status {status})", problem)
-    return np.asarray(x, dtype=float)
+    x = np.asarray(x, dtype=float)
+    if not finite(x):
+        raise SolverError(f"{backend}: no finite solution for {problem.label} (status {status})", problem)
+    return x
 
 
 def polish(problem: QPProblem, x: np.ndarray | None, tol: float = 1e-9, rounds: int = 12) -> np.ndarray | None:
@@ -196,15 +205,20 @@ class DaqpBackend(Backend):
 
     def solve(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
         n = problem.n
-        G, A = _rows(problem.G, n), _rows(problem.A, n)
-        p, e = G.shape[0], A.shape[0]
-        h, b = _vec(problem.h, p), _vec(problem.b, e)
-        M = G if not e else (A if not p else np.vstack([G, A]))
-        bu = np.concatenate([problem.ub, h, b])
-        bl = np.concatenate([problem.lb, np.full(p, -np.inf), b])
-        sense = np.zeros(bu.shape[0], dtype=np.int32)
-        if e:
-            sense[-e:] = 5
+        G, A = problem.G, problem.A
+        if G.shape == (0, n) and A.shape == (0, n):  # bounds only (wqp's common QP): the bounds are daqp's rows
+            M, bu, bl = G, problem.ub, problem.lb
+            sense = np.zeros(n, dtype=np.int32)
+        else:
+            G, A = _rows(G, n), _rows(A, n)
+            p, e = G.shape[0], A.shape[0]
+            h, b = _vec(problem.h, p), _vec(problem.b, e)
+            M = G if not e else (A if not p else np.vstack([G, A]))
+            bu = np.concatenate([problem.ub, h, b])
+            bl = np.concatenate([problem.lb, np.full(p, -np.inf), b])
+            sense = np.zeros(bu.shape[0], dtype=np.int32)
+            if e:
+                sense[-e:] = 5
         t0 = time.perf_counter()
         try:
             x, _, flag, info = self._solve(

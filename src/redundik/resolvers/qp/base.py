@@ -23,7 +23,7 @@ from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, Resolver, StepResult, nonfinite_sources
 from redundik.resolvers.linalg import K, pseudo_inverse
 from redundik.resolvers.pinv import check_damping_options, main_system
-from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, make_backend
+from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, finite, make_backend
 from redundik.resolvers.qp.limits import JointLimits, LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
 from redundik.tasks.base import TaskTerm
@@ -291,10 +291,17 @@ class QPResolverBase(Resolver):
             raise SolverError(
                 f"{self.backend.name} raised {type(exc).__name__} on {problem.label}: {exc}", problem
             ) from exc
-        if sol.x.shape != (problem.n,) or not np.all(np.isfinite(sol.x)):
+        try:
+            x = np.asarray(sol.x, dtype=float)
+            ok = x.shape == (problem.n,) and finite(x)
+        except (TypeError, ValueError, AttributeError):  # not a solution record, or not an array of numbers
+            ok = False
+        if not ok:
             raise SolverError(
                 f"{self.backend.name}: no finite solution of size {problem.n} for {problem.label}", problem
             )
+        if x is not sol.x:
+            sol.x = x
         return sol
 
     def _box(self, robot: RobotModel, dt: float) -> LimitBox:
