@@ -137,6 +137,7 @@ class LiveViewer:
         self.pushes = 0
         self.push_time = 0.0
         self._lock = threading.Lock()
+        self._push_lock = threading.Lock()  # one push at a time: meshcat's REQ socket breaks under two threads
         self._wake = threading.Event()
         self._stop = False
         self._failed: str | None = None  # why the background thread's last push failed (reported by update)
@@ -168,7 +169,8 @@ class LiveViewer:
             now = time.perf_counter()
             if force or now - self._pushed_at >= self.period:
                 self._pushed_at = now
-                self._push(arr)
+                with self._push_lock:
+                    self._push(arr)
             return
         with self._lock:
             self._q = arr
@@ -184,7 +186,8 @@ class LiveViewer:
                 continue
             start = time.perf_counter()
             try:
-                self._push(q)
+                with self._push_lock:
+                    self._push(q)
             except Exception as exc:  # never die silently: the next update() reports it in the caller's thread
                 self._failed = f"{type(exc).__name__}: {exc}"
             rest = self.period - (time.perf_counter() - start)
