@@ -468,3 +468,66 @@ def test_bad_world_input_exits_3_with_the_key_path(tmp_path: Path, cli: object, 
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert code == 3 and len(lines) == 1 and lines[0].startswith(f"error: {path}: "), err
     assert "Traceback" not in err + out
+
+
+def _eager_damper(avoid: CollisionAvoidance, robot: object) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray]:
+    """The damper rows (names, h, H, γ) built the long way: pairs, end spheres, point Jacobians, names per row."""
+    w = avoid.world
+    reach = avoid.influence + avoid.lookahead
+    dist = w.compute(robot, reach)  # type: ignore[arg-type]
+    rows = dist.near
+    br = w.end_spheres(dist, rows, reach)
+    names = [w.pair_names[k] for k in rows.tolist()] + br.names
+    pairs = np.concatenate([rows, br.pair])
+    n, p1, p2 = (np.vstack([a[rows], b]) for a, b in ((dist.n, br.n), (dist.p1, br.p1), (dist.p2, br.p2)))
+    d, rate = np.concatenate([dist.d[rows], br.d]), np.concatenate([dist.rate[rows], br.rate])
+    H = w.point_jacobian(robot, pairs, n, p1, p2)  # type: ignore[arg-type]
+    inside = d < avoid.influence
+    h = np.where(inside, d - avoid.safety + rate / avoid.gamma, d - avoid.safety)
+    return names, h, H, np.where(inside, avoid.gamma, 1e12)
+
+
+def test_cached_row_names_and_compiled_rows_equal_the_eager_ones() -> None:
+    """The damper's row names are reused while its rows are unchanged and its rows (also as QP rows) come from one
+    compiled call; along a motion whose active pairs and end spheres change, and after the pair set changes, names
+    and rows equal the ones built row by row (bitwise), also with the placements read through Pinocchio's objects."""
+    robot = load_example_robot("panda")
+    urdf = example_robot_data_dir() / "panda_description/urdf/panda.urdf"
+    world = CollisionWorld.from_urdf(robot, urdf, self_collision=True)
+    avoid = CollisionAvoidance(world, influence=0.1, safety=0.01, xi=0.3, lookahead=0.05)
+    bound = BoundSubtask(avoid)
+    seen: set[tuple[str, ...]] = set()
+
+    def check() -> None:
+        world._cache = None
+        C, d, names = bound.rows(robot, 0.01)  # distances and QP rows in one call
+        term = avoid.evaluate(robot)  # from the cached distances
+        world._cache = None
+        ref_names, h, H, gamma = _eager_damper(avoid, robot)
+        assert term.names == ref_names and names == [f"collision:{n}" for n in ref_names]
+        assert np.array_equal(term.h, h) and np.array_equal(term.H, H) and np.array_equal(term.gamma, gamma)
+        assert np.array_equal(C, -H) and np.array_equal(d, np.minimum(gamma, 1 / 0.01) * h)
+        seen.add(tuple(ref_names))
+        for g in world._live:
+            assert np.array_equal(world._T[g], world.data.oMg[g].homogeneous)
+
+    for stage in range(3):
+        if stage == 1:  # the near pairs permuted among their places: the same row ids, other pairs and labels
+            pairs_only = CollisionAvoidance(
+                world, influence=0.1, safety=0.01, xi=0.3, lookahead=0.05, end_spheres=False
+            )
+            before = pairs_only.evaluate(robot).names
+            near = world.compute(robot, avoid.influence + avoid.lookahead).near.tolist()
+            assert len(near) >= 2
+            pairs = list(world.pairs)
+            for k, j in zip(near, near[::-1], strict=True):
+                pairs[k] = world.pairs[j]
+            world._set_pairs(pairs)
+            assert pairs_only.evaluate(robot).names == before[::-1]
+            check()
+        if stage == 2:
+            world._poses = None  # the per-geometry route to the placements
+        for s in range(40):
+            robot.update(PANDA_Q0 + 0.6 * np.sin(0.15 * s + np.arange(9)) * (np.arange(9) < 7))
+            check()
+    assert len(seen) > 5  # the active set did change

@@ -90,8 +90,12 @@ class CollisionAvoidance(Barrier, Potential):
         self.xi = check_number(xi, f"subtask '{name}': xi [m/s]", low=0.0, strict=True)
         self.lookahead = check_number(lookahead, f"subtask '{name}': lookahead [m]", low=0.0)
         self.end_spheres = bool(end_spheres)
-        self._report_of: Distances | None = None  # the distances the report is read from (built on demand)
+        self._report_of: np.ndarray | None = None  # the distances [m] the report is read from (built on demand)
         self._rep = CollisionReport()
+        #: Per prefix: (the last compiled rows' ids, the world labels they were read from, their names), and the
+        #: world labels with the prefix.
+        self._names_cache: dict[str, tuple[bytes, list[str], list[str]]] = {}
+        self._prefixed: dict[str, tuple[list[str], list[str]]] = {}
 
     @property
     def gamma(self) -> float:
@@ -107,7 +111,7 @@ class CollisionAvoidance(Barrier, Potential):
     def _near(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(indices of the pairs within d_i, their distances, the full distance vector) and the report."""
         dist = self.world.compute(robot, self.influence)
-        self._report(dist)
+        self._report_of = dist.d
         rows = dist.near
         return rows, dist.d[rows], dist.d
 
@@ -119,18 +123,15 @@ class CollisionAvoidance(Barrier, Potential):
             self._report_of = None
         return self._rep
 
-    def _report(self, dist: Distances) -> None:
-        self._report_of = dist
-
-    def _fill_report(self, dist: Distances) -> None:
+    def _fill_report(self, d: np.ndarray) -> None:
         rep = self._rep
         rep.candidates = self.world.n_pairs
-        if dist.d.size:
-            k = int(np.argmin(dist.d))
-            rep.closest_pair, rep.distance = self.world.pair_names[k], float(dist.d[k])
+        if d.size:
+            k = int(np.argmin(d))
+            rep.closest_pair, rep.distance = self.world.pair_names[k], float(d[k])
         else:
             rep.closest_pair, rep.distance = "", math.inf
-        rep.active = [self.world.pair_names[k] for k in np.flatnonzero(dist.d < self.influence)]
+        rep.active = [self.world.pair_names[k] for k in np.flatnonzero(d < self.influence)]
 
     # ------------------------------------------------------------------ barrier
     def evaluate(self, robot: RobotModel) -> BarrierTerm:
@@ -143,8 +144,34 @@ class CollisionAvoidance(Barrier, Potential):
         order), then the end-sphere branches (ends within d_i + lookahead; each row by its own distance).
         """
         reach = self.influence + self.lookahead
-        dist = self.world.compute(robot, reach)
-        self._report(dist)
+        g = self.gamma
+        self._report_of, fused = self.world.damper(
+            robot, reach, self.influence, self.safety, g, _NO_CAP, self.end_spheres
+        )
+        if fused is not None:
+            h, H, gam, ids = fused
+            return BarrierTerm(h, H, self._row_names(ids), gam)
+        return self._term(robot, self.world.compute(robot, reach), reach)
+
+    def bound_rows(self, robot: RobotModel, rate_cap: float, prefix: str) -> tuple[np.ndarray, np.ndarray, list[str]]:
+        """The damper as QP rows C q̇ ≤ d (what :meth:`~redundik.tasks.subtasks.BoundSubtask.rows` makes of
+        :meth:`evaluate`: C = −H, d = min(γ, ``rate_cap``) h [m/s], ``rate_cap`` = 1/dt [1/s]; row names
+        ``prefix:name``), in the same compiled call as the rows where the world allows it; the same numbers either
+        way."""
+        reach = self.influence + self.lookahead
+        self._report_of, fused = self.world.damper(
+            robot, reach, self.influence, self.safety, self.gamma, _NO_CAP, self.end_spheres, rate_cap
+        )
+        if fused is not None:
+            d, C, _, ids = fused
+            return C, d, self._row_names(ids, prefix)
+        term = self._term(robot, self.world.compute(robot, reach), reach)
+        assert term.gamma is not None
+        return -term.H, np.minimum(term.gamma, rate_cap) * term.h, [f"{prefix}:{n}" for n in term.names]
+
+    def _term(self, robot: RobotModel, dist: Distances, reach: float) -> BarrierTerm:
+        """:meth:`evaluate` row by row (moving obstacles, capsule ends against meshes), from ``dist``."""
+        g = self.gamma
         rows = dist.near
         d, rate = dist.d[rows], dist.rate[rows]
         names = [self.world.pair_names[k] for k in rows]
@@ -157,10 +184,23 @@ class CollisionAvoidance(Barrier, Potential):
                 d, rate = np.concatenate([d, br.d]), np.concatenate([rate, br.rate])
                 names += br.names
         H = self.world.point_jacobian(robot, pairs, n, p1, p2)
-        g = self.gamma
         inside = d < self.influence
         h = np.where(inside, d - self.safety + rate / g, d - self.safety)
         return BarrierTerm(h, H, names, np.where(inside, g, _NO_CAP))
+
+    def _row_names(self, ids: np.ndarray, prefix: str = "") -> list[str]:
+        """The row names (``prefix:name`` with a prefix) of the row ids ``ids`` (:meth:`CollisionWorld.damper_rows`):
+        the list of the last call while the rows are the same (the active pairs and end spheres unchanged), else
+        built anew from the world's labels (prefixed once per pair set and prefix)."""
+        key = ids.tobytes()
+        cache = self._names_cache.get(prefix)
+        if cache is None or key != cache[0] or cache[1] is not self.world.row_labels:
+            labels = self.world.row_labels
+            pre = self._prefixed.get(prefix)
+            if pre is None or pre[0] is not labels:
+                pre = self._prefixed[prefix] = (labels, [f"{prefix}:{n}" for n in labels] if prefix else labels)
+            cache = self._names_cache[prefix] = (key, labels, [pre[1][i] for i in ids.tolist()])
+        return cache[2]
 
     # ------------------------------------------------------------------ potential
     def value(self, robot: RobotModel) -> float:

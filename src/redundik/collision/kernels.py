@@ -30,6 +30,18 @@ _jit = nb.njit(cache=True, nogil=True)
 
 
 @_jit
+def load_poses(src: np.ndarray, live: np.ndarray, T: np.ndarray) -> None:
+    """T[g] ← the placement ``src[g]`` for g in ``live``: ``src`` (G, 12) per geometry the rotation column-major,
+    then the translation (the memory of Pinocchio's ``GeometryData.oMg``, :func:`redundik.collision.world`)."""
+    for i in range(live.shape[0]):
+        g = live[i]
+        for c in range(3):
+            for r in range(3):
+                T[g, r, c] = src[g, 3 * c + r]
+            T[g, c, 3] = src[g, 9 + c]
+
+
+@_jit
 def _dot(a: tuple[float, float, float], b: tuple[float, float, float]) -> float:
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
@@ -81,7 +93,17 @@ def capsule_pairs(
     p2 = np.zeros((m, 3))
     n = np.zeros((m, 3))
     ok = np.ones(m, dtype=np.bool_)
-    for k in range(m):
+    _capsule_pairs_into(T, prm, ia, ib, d, p1, p2, n, ok)
+    return d, p1, p2, n, ok
+
+
+@_jit
+def _capsule_pairs_into(
+    T: np.ndarray, prm: np.ndarray, ia: np.ndarray, ib: np.ndarray, d: np.ndarray, p1: np.ndarray, p2: np.ndarray,
+    n: np.ndarray, ok: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`capsule_pairs` into given arrays (p1, p2, n of the pairs whose axes meet: zeros)."""
+    for k in range(ia.shape[0]):
         a, b = ia[k], ib[k]
         ra, ha, rb, hb = prm[a, 0], prm[a, 1], prm[b, 0], prm[b, 1]
         za = (T[a, 0, 2] * ha, T[a, 1, 2] * ha, T[a, 2, 2] * ha)
@@ -96,13 +118,15 @@ def capsule_pairs(
         if L < 1e-12:
             ok[k] = False
             d[k] = -ra - rb
+            for i in range(3):
+                p1[k, i], p2[k, i], n[k, i] = 0.0, 0.0, 0.0
             continue
+        ok[k] = True
         nx, ny, nz = dx / L, dy / L, dz / L
         d[k] = L - ra - rb
         n[k, 0], n[k, 1], n[k, 2] = nx, ny, nz
         p1[k, 0], p1[k, 1], p1[k, 2] = ca[0] + ra * nx, ca[1] + ra * ny, ca[2] + ra * nz
         p2[k, 0], p2[k, 1], p2[k, 2] = cb[0] - rb * nx, cb[1] - rb * ny, cb[2] - rb * nz
-    return d, p1, p2, n, ok
 
 
 @_jit
@@ -242,6 +266,21 @@ def end_spheres(
 
 
 @_jit
+def _row_into(
+    out: np.ndarray, r: int, Js: np.ndarray, ma: np.ndarray, mb: np.ndarray,
+    nr: tuple[float, float, float], a: tuple[float, float, float], b: tuple[float, float, float],
+) -> None:  # fmt: skip
+    """out[r] = nᵀ(v_{p₂} − v_{p₁})/q̇ for the body points a (masked by ``ma``) and b (``mb``), unit normal ``nr``."""
+    xa0, xa1, xa2 = a[1] * nr[2] - a[2] * nr[1], a[2] * nr[0] - a[0] * nr[2], a[0] * nr[1] - a[1] * nr[0]
+    xb0, xb1, xb2 = b[1] * nr[2] - b[2] * nr[1], b[2] * nr[0] - b[0] * nr[2], b[0] * nr[1] - b[1] * nr[0]
+    for c in range(Js.shape[1]):
+        lin = nr[0] * Js[0, c] + nr[1] * Js[1, c] + nr[2] * Js[2, c]
+        va = lin + xa0 * Js[3, c] + xa1 * Js[4, c] + xa2 * Js[5, c]
+        vb = lin + xb0 * Js[3, c] + xb1 * Js[4, c] + xb2 * Js[5, c]
+        out[r, c] = mb[c] * vb - ma[c] * va
+
+
+@_jit
 def distance_rows(
     Js: np.ndarray,
     mask: np.ndarray,
@@ -257,17 +296,216 @@ def distance_rows(
     nᵀv_p = M_j ⊙ (nᵀJ^s_v + (p × n)ᵀJ^s_ω) (:meth:`redundik.collision.world.CollisionWorld.jacobian`).
     """
     k = n.shape[0]
-    nv = Js.shape[1]
-    out = np.zeros((k, nv))
+    out = np.zeros((k, Js.shape[1]))
     for r in range(k):
-        nr = n[r]
-        a, b = p1[r], p2[r]
-        xa = np.array([a[1] * nr[2] - a[2] * nr[1], a[2] * nr[0] - a[0] * nr[2], a[0] * nr[1] - a[1] * nr[0]])
-        xb = np.array([b[1] * nr[2] - b[2] * nr[1], b[2] * nr[0] - b[0] * nr[2], b[0] * nr[1] - b[1] * nr[0]])
-        ma, mb = mask[ja[r]], mask[jb[r]]
-        for c in range(nv):
-            lin = nr[0] * Js[0, c] + nr[1] * Js[1, c] + nr[2] * Js[2, c]
-            va = lin + xa[0] * Js[3, c] + xa[1] * Js[4, c] + xa[2] * Js[5, c]
-            vb = lin + xb[0] * Js[3, c] + xb[1] * Js[4, c] + xb[2] * Js[5, c]
-            out[r, c] = mb[c] * vb - ma[c] * va
+        nr = (n[r, 0], n[r, 1], n[r, 2])
+        a = (p1[r, 0], p1[r, 1], p1[r, 2])
+        b = (p2[r, 0], p2[r, 1], p2[r, 2])
+        _row_into(out, r, Js, mask[ja[r]], mask[jb[r]], nr, a, b)
     return out
+
+
+@_jit
+def capsule_distances(
+    T: np.ndarray, prm: np.ndarray, ia: np.ndarray, ib: np.ndarray, influence: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`capsule_pairs` over every pair of a world of capsules/spheres only, with the selections of the tick.
+
+    Returns:
+        (d (P,), p1 (P, 3), p2 (P, 3), n (P, 3), the pairs whose axes meet (the caller asks coal), the pairs with
+        d < ``influence`` [m] (valid when no axes meet)).
+    """
+    d, p1, p2, n, ok = capsule_pairs(T, prm, ia, ib)
+    m = d.shape[0]
+    bad = np.empty(m, dtype=np.int64)
+    near = np.empty(m, dtype=np.int64)
+    nb_, nn_ = 0, 0
+    for k in range(m):
+        if not ok[k]:
+            bad[nb_] = k
+            nb_ += 1
+        if d[k] < influence:
+            near[nn_] = k
+            nn_ += 1
+    return d, p1, p2, n, bad[:nb_], near[:nn_]
+
+
+@_jit
+def barrier_rows(
+    T: np.ndarray,
+    kind: np.ndarray,
+    prm: np.ndarray,
+    br: np.ndarray,
+    br_sign: np.ndarray,
+    d: np.ndarray,
+    p1: np.ndarray,
+    p2: np.ndarray,
+    n: np.ndarray,
+    rate: np.ndarray,
+    near: np.ndarray,
+    Js: np.ndarray,
+    mask: np.ndarray,
+    pj: np.ndarray,
+    reach: float,
+    influence: float,
+    safety: float,
+    gamma: float,
+    no_cap: float,
+    ends: bool,
+    qp_cap: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The collision damper's rows in one call: the pairs ``near`` and (``ends``) their capsules' end spheres.
+
+    Rows are the pairs first (in the order of ``near``), then the end-sphere branches r (table ``br``: pair,
+    capsule, other body, capsule is body 1; ``br_sign``: the end ±1) of those pairs, kept as in
+    :func:`end_spheres` (within ``reach`` [m], defined, not the pair's own witness). Per row at distance d:
+    h = d − d_s + rate/γ, gain γ where d < ``influence`` [m], else h = d − d_s and gain ``no_cap``; the Jacobian
+    row is :func:`distance_rows`'s. Branch rows have no obstacle rate (the caller uses this only without moving
+    obstacles and without ``OTHER`` shapes in a branch).
+
+    Args:
+        d, p1, p2, n, rate: The pairs' distances [m], witness points [m], normals, ∂d/∂t [m/s].
+        Js, mask, pj: The spatial Jacobian (6, nv), the joints' support masks (njoints, nv), the pairs' joints (P, 2).
+
+    Returns:
+        (h (k,) [m], ∂h/∂q (k, nv), γ (k,) [1/s], row ids (k,): the pair index, or P + the branch index); with
+        ``qp_cap`` > 0 [1/s] the first two are instead the QP rows C q̇ ≤ d of the damper,
+        d = min(γ, ``qp_cap``) h [m/s] and C = −∂h/∂q (:meth:`redundik.tasks.subtasks.BoundSubtask.rows`).
+    """
+    P = d.shape[0]
+    k0 = near.shape[0]
+    m = br.shape[0] if ends and k0 else 0
+    sel = np.zeros(P, dtype=np.bool_)
+    for i in range(k0):
+        sel[near[i]] = True
+    rows = k0
+    for r in range(m):
+        if sel[br[r, 0]]:
+            rows += 1
+    H = np.zeros((rows, Js.shape[1]))
+    h = np.empty(rows)
+    gam = np.empty(rows)
+    ids = np.empty(rows, dtype=np.int64)
+    c_ = _barrier_rows_into(
+        T, kind, prm, br, br_sign, d, p1, p2, n, rate, near, Js, mask, pj, reach, influence, safety, gamma, no_cap,
+        ends, qp_cap, sel, h, H, gam, ids,
+    )  # fmt: skip
+    return h[:c_], H[:c_], gam[:c_], ids[:c_]
+
+
+@_jit
+def _barrier_rows_into(
+    T: np.ndarray, kind: np.ndarray, prm: np.ndarray, br: np.ndarray, br_sign: np.ndarray, d: np.ndarray,
+    p1: np.ndarray, p2: np.ndarray, n: np.ndarray, rate: np.ndarray, near: np.ndarray, Js: np.ndarray,
+    mask: np.ndarray, pj: np.ndarray, reach: float, influence: float, safety: float, gamma: float, no_cap: float,
+    ends: bool, qp_cap: float, sel: np.ndarray, h: np.ndarray, H: np.ndarray, gam: np.ndarray, ids: np.ndarray,
+) -> int:  # fmt: skip
+    """:func:`barrier_rows` into given arrays (room for every row; ``sel``: the pairs of ``near``); the row count."""
+    P = d.shape[0]
+    k0 = near.shape[0]
+    m = br.shape[0] if ends and k0 else 0
+    for i in range(k0):
+        k = near[i]
+        nr = (n[k, 0], n[k, 1], n[k, 2])
+        a = (p1[k, 0], p1[k, 1], p1[k, 2])
+        b = (p2[k, 0], p2[k, 1], p2[k, 2])
+        _row_into(H, i, Js, mask[pj[k, 0]], mask[pj[k, 1]], nr, a, b)
+        dk = d[k]
+        if dk < influence:
+            h[i], gam[i] = dk - safety + rate[k] / gamma, gamma
+        else:
+            h[i], gam[i] = dk - safety, no_cap
+        ids[i] = k
+    c_ = k0
+    for r in range(m):
+        k = br[r, 0]
+        b_, o = br[r, 1], br[r, 2]
+        if not sel[k] or kind[o] == OTHER:
+            continue
+        e = br_sign[r] * prm[b_, 1]
+        c = (T[b_, 0, 3] + e * T[b_, 0, 2], T[b_, 1, 3] + e * T[b_, 1, 2], T[b_, 2, 3] + e * T[b_, 2, 2])
+        de, ps, po, u, ok = _ball_to(c, prm[b_, 0], kind[o], prm[o], T, o)
+        if not ok or de >= reach:
+            continue
+        if br[r, 3]:
+            q1, q2, nr = ps, po, u
+        else:
+            q1, q2, nr = po, ps, (-u[0], -u[1], -u[2])
+        same = max(abs(q1[0] - p1[k, 0]), abs(q1[1] - p1[k, 1]), abs(q1[2] - p1[k, 2])) < 1e-7
+        if abs(de - d[k]) < 1e-9 and same:
+            continue  # the pair's own witness
+        _row_into(H, c_, Js, mask[pj[k, 0]], mask[pj[k, 1]], nr, q1, q2)
+        if de < influence:
+            h[c_], gam[c_] = de - safety + 0.0 / gamma, gamma
+        else:
+            h[c_], gam[c_] = de - safety, no_cap
+        ids[c_] = P + r
+        c_ += 1
+    if qp_cap > 0.0:
+        for r in range(c_):
+            h[r] = min(gam[r], qp_cap) * h[r]
+            for col in range(H.shape[1]):
+                H[r, col] = -H[r, col]
+    return c_
+
+
+@_jit
+def capsule_damper(
+    src: np.ndarray,
+    live: np.ndarray,
+    T: np.ndarray,
+    prm: np.ndarray,
+    ia: np.ndarray,
+    ib: np.ndarray,
+    kind: np.ndarray,
+    br: np.ndarray,
+    br_sign: np.ndarray,
+    mask: np.ndarray,
+    pj: np.ndarray,
+    Js: np.ndarray,
+    reach: float,
+    influence: float,
+    safety: float,
+    gamma: float,
+    no_cap: float,
+    ends: bool,
+    qp_cap: float,
+    F: np.ndarray,
+    I: np.ndarray,
+) -> tuple[int, int, int]:
+    """A static world of capsule/sphere pairs in one call: :func:`load_poses`, :func:`capsule_pairs` (every pair,
+    ``ia``/``ib``), the pairs within ``reach`` [m], then :func:`barrier_rows` on them (no obstacle rates), written
+    into the caller's fresh arrays (returning arrays costs more than the computation):
+
+    * ``F`` (10 P + 2 R + R nv,): d (P,), p1, p2, n stacked (3, P, 3), then h (R,), γ (R,), ∂h/∂q (R, nv) (the first
+      k entries, rows), with R = P + the number of branches (room for every row);
+    * ``I`` (P + R,): the pairs with d < ``reach`` (the first k₀ of P), the row ids (the first k of R).
+
+    Returns:
+        (k₀, k, the number of pairs whose axes meet); with axes meeting the rows are left out (k = 0): the caller
+        asks coal for those pairs and takes the general route. ``qp_cap`` as in :func:`barrier_rows`.
+    """
+    P, R, nv = ia.shape[0], br.shape[0] + ia.shape[0], Js.shape[1]
+    load_poses(src, live, T)
+    d = F[:P]
+    pts = F[P : 10 * P].reshape((3, P, 3))
+    ok = np.empty(P, dtype=np.bool_)
+    _capsule_pairs_into(T, prm, ia, ib, d, pts[0], pts[1], pts[2], ok)
+    sel = np.zeros(P, dtype=np.bool_)
+    bad, k0 = 0, 0
+    for k in range(P):
+        if not ok[k]:
+            bad += 1
+        if d[k] < reach:
+            I[k0] = k
+            sel[k] = True
+            k0 += 1
+    if bad:
+        return k0, 0, bad
+    o = 10 * P
+    k = _barrier_rows_into(
+        T, kind, prm, br, br_sign, d, pts[0], pts[1], pts[2], np.zeros(P), I[:k0], Js, mask, pj, reach, influence,
+        safety, gamma, no_cap, ends, qp_cap, sel, F[o : o + R], F[o + 2 * R :].reshape((R, nv)), F[o + R : o + 2 * R],
+        I[P:],
+    )  # fmt: skip
+    return k0, k, 0

@@ -21,6 +21,7 @@ configuration (they would be structural contacts of the approximation, not of th
 
 from __future__ import annotations
 
+import ctypes
 import math
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
@@ -288,6 +289,41 @@ def _sphere_to(
     return d, p1, p2, u
 
 
+def _placements_view(data: pin.GeometryData) -> np.ndarray | None:
+    """A read-only (G, 12) view on the memory of ``data.oMg`` — per geometry the rotation (column-major), then the
+    translation — so that a compiled kernel reads the placements ``updateGeometryPlacements`` writes there without a
+    Python call per geometry; ``None`` unless that layout is verified (SE3s of 96 bytes back to back, each element's
+    rotation and translation at their offsets, the values equal). Valid while ``data`` lives (its vector is sized
+    once, at construction).
+    """
+    oMg = data.oMg
+    G = len(oMg)
+    if not G:
+        return None
+    base = int(oMg[0].rotation.__array_interface__["data"][0])
+    for g in range(G):
+        M = oMg[g]
+        R, t = M.rotation, M.translation
+        if (
+            R.__array_interface__["data"][0] != base + 96 * g
+            or t.__array_interface__["data"][0] != base + 96 * g + 72
+            or R.dtype != np.float64
+            or R.strides != (8, 24)
+            or t.strides != (8,)
+        ):
+            return None
+    view = np.ctypeslib.as_array((ctypes.c_double * (12 * G)).from_address(base)).reshape(G, 12)
+    view.flags.writeable = False
+    for g in range(G):
+        M = oMg[g]
+        if not (
+            np.array_equal(view[g, :9].reshape(3, 3, order="F"), M.rotation)
+            and np.array_equal(view[g, 9:], M.translation)
+        ):
+            return None
+    return view
+
+
 def read_srdf_pairs(path: str | Path) -> list[tuple[str, str]]:
     """The ``<disable_collisions link1= link2=>`` pairs of an SRDF file.
 
@@ -396,8 +432,10 @@ class CollisionWorld:
         self._set_pairs(pairs)
         self.time = 0.0
         self.excluded: list[str] = []
-        self._cache: tuple[tuple[int, float, float], np.ndarray] | None = None
+        #: The state of the last :meth:`compute`: (robot, time [s], influence [m], the bytes of q).
+        self._cache: tuple[RobotModel, float, float, bytes] | None = None
         self._dist: Distances | None = None
+        self._pending: tuple[np.ndarray, np.ndarray, int] | None = None  # capsule_damper's (F, I, k₀), unread
 
     # ------------------------------------------------------------------ construction helpers
     @classmethod
@@ -468,7 +506,9 @@ class CollisionWorld:
         self.data = pin.GeometryData(gm)
         for req in self.data.distanceRequests:
             req.enable_signed_distance = True
+        self._poses, self._poses_of = _placements_view(self.data), self.data  # the view and the data it reads
         self._cache = None
+        self._pending = None
         self._pj: tuple[np.ndarray, np.ndarray] | None = None
         self._tables()
 
@@ -497,6 +537,7 @@ class CollisionWorld:
         for k in self._cap.tolist():
             self.data.deactivateCollisionPair(k)
         self._live = sorted({g for pair in self.pairs for g in pair if g < self.n_links})
+        self._live_arr = np.array(self._live, dtype=np.int64)
         self._T = np.tile(np.eye(4), (G, 1, 1))  # world poses of the geometries (obstacles: set here and by set_time)
         objs = self.geometry.geometryObjects
         for g in range(self.n_links, G):
@@ -513,6 +554,23 @@ class CollisionWorld:
         self._br_first = np.array([r[3] for r in rows], dtype=np.bool_)
         self._br_sign = np.array([r[4] for r in rows], dtype=float)
         self._br_other = kind[self._br_o] == KC.OTHER
+        self._br_any_other = bool(self._br_other.any())
+        self._br_tab = np.column_stack([tab, self._br_first.astype(np.int64)]).astype(np.int64)
+        names = self._geom_names
+        self._br_labels = [f"{self.pair_names[k]}@{names[b]}{'+' if sg > 0 else '-'}" for k, b, _o, _f, sg in rows]
+        #: Row labels by row id (:func:`~redundik.collision.kernels.barrier_rows`): the pairs, then the branches.
+        self.row_labels = self.pair_names + self._br_labels
+        self._pj2 = np.array(self.pair_joints, dtype=np.int64).reshape(-1, 2)
+        #: :func:`~redundik.collision.kernels.capsule_damper`'s fixed arguments, for a static world of capsules only
+        #: whose placements are read from oMg's memory (else ``None``).
+        self._static: tuple[Any, ...] | None = None
+        if self._cap.size == len(self.pairs) and not self._moving and self._poses is not None:
+            self._static = (
+                self._poses, self._live_arr, self._T, prm, self._cap_a, self._cap_b, kind, self._br_tab,
+                self._br_sign, self._joint_masks(), self._pj2,
+            )  # fmt: skip
+        #: (pairs P, rows at most R = P + branches, nv): the sizes of capsule_damper's arrays.
+        self._sizes = (len(self.pairs), len(self.pairs) + len(self._br_sign), int(self.model.nv))
         self._pa, self._pb = pa, pb
 
     def exclude_colliding_at(self, robot: RobotModel, q: np.ndarray, threshold: float = 0.0) -> list[str]:
@@ -565,41 +623,53 @@ class CollisionWorld:
         The broad phase is coal's own (bounding volumes of the primitives); this method keeps for the narrow data
         (points, normals, Jacobians) only the pairs within ``influence`` [m]. Cached per kinematic update and time.
         """
-        q = robot.q
+        key = robot.q.tobytes()  # (a copy of q's 8 nv bytes: cheaper than comparing arrays)
+        c = self._cache
         if (
-            self._cache is not None
-            and self._cache[0] == (id(robot), self.time, influence)
-            and np.array_equal(self._cache[1], q)
-            and self._dist is not None
+            c is not None
+            and c[3] == key
+            and c[0] is robot
+            and c[1] == self.time
+            and c[2] == influence
+            and (self._dist is not None or self._pending is not None)
         ):
-            return self._dist
+            return self._distances()
         pin.updateGeometryPlacements(self.model, robot.data, self.geometry, self.data)
-        oMg = self.data.oMg
-        if self._live:
-            self._T[self._live] = [oMg[g].homogeneous for g in self._live]
+        if self._poses is not None and self._poses_of is self.data:  # straight from oMg's memory
+            KC.load_poses(self._poses, self._live_arr, self._T)
+        elif self._live:
+            placements = self.data.oMg.tolist()  # one call (indexing ``oMg`` costs as much per geometry)
+            T = self._T
+            for g in self._live:
+                T[g] = placements[g].homogeneous
         P = len(self.pairs)
         cap = self._cap
-        rate = np.zeros(P)
-        if cap.size == P:  # only capsule/sphere pairs: the kernel's arrays are the pairs'
-            d, p1, p2, nrm, ok = KC.capsule_pairs(self._T, self._prm, self._cap_a, self._cap_b)
+        if cap.size == P:  # only capsule/sphere pairs: one compiled call, the kernel's arrays are the pairs'
+            d, p1, p2, nrm, bad, near = KC.capsule_distances(
+                self._T, self._prm, self._cap_a, self._cap_b, float(influence)
+            )
+            if bad.size:
+                for k in bad.tolist():  # axes meeting: coal's normal
+                    self._from_coal(k, pin.computeDistance(self.geometry, self.data, k), d, p1, p2, nrm)
+                near = np.flatnonzero(d < influence)
         else:
             d = np.empty(P)
             p1, p2, nrm = np.zeros((P, 3)), np.zeros((P, 3)), np.zeros((P, 3))
-            ok = np.ones(0, dtype=bool)
-        if cap.size and cap.size < P:  # capsule/sphere pairs: one compiled call
-            dc, a, b, nc, ok = KC.capsule_pairs(self._T, self._prm, self._cap_a, self._cap_b)
-            d[cap], p1[cap], p2[cap], nrm[cap] = dc, a, b, nc
-        if cap.size and not ok.all():
-            for k in cap[~ok].tolist():  # axes meeting: coal's normal
-                self._from_coal(k, pin.computeDistance(self.geometry, self.data, k), d, p1, p2, nrm)
-        if self._coal.size:
-            pin.computeDistances(self.geometry, self.data)  # the capsule pairs are deactivated
-            results = self.data.distanceResults
-            for k in self._coal.tolist():
-                d[k] = results[k].min_distance
-            for k in self._coal[d[self._coal] < influence].tolist():
-                self._from_coal(k, results[k], d, p1, p2, nrm)
-        near = np.flatnonzero(d < influence)
+            if cap.size:  # capsule/sphere pairs: one compiled call
+                dc, a, b, nc, ok = KC.capsule_pairs(self._T, self._prm, self._cap_a, self._cap_b)
+                d[cap], p1[cap], p2[cap], nrm[cap] = dc, a, b, nc
+                if not ok.all():
+                    for k in cap[~ok].tolist():  # axes meeting: coal's normal
+                        self._from_coal(k, pin.computeDistance(self.geometry, self.data, k), d, p1, p2, nrm)
+            if self._coal.size:
+                pin.computeDistances(self.geometry, self.data)  # the capsule pairs are deactivated
+                results = self.data.distanceResults
+                for k in self._coal.tolist():
+                    d[k] = results[k].min_distance
+                for k in self._coal[d[self._coal] < influence].tolist():
+                    self._from_coal(k, results[k], d, p1, p2, nrm)
+            near = np.flatnonzero(d < influence)
+        rate = np.zeros(P)
         if self._moving:
             for k in near.tolist():
                 ib = self.pairs[k][1]
@@ -607,8 +677,18 @@ class CollisionWorld:
                     motion = self.obstacles[ib - self.n_links].motion
                     if motion is not None:
                         rate[k] = float(nrm[k] @ motion.rate(self.time))
-        self._dist = Distances(d, p1, p2, nrm, rate, near)
-        self._cache = ((id(robot), self.time, influence), q.copy())
+        self._dist, self._pending = Distances(d, p1, p2, nrm, rate, near), None
+        self._cache = (robot, self.time, influence, key)
+        return self._dist
+
+    def _distances(self) -> Distances:
+        """The cached :class:`Distances`, built from :meth:`damper`'s arrays on first use."""
+        if self._pending is not None:
+            F, I, k0 = self._pending
+            P = len(self.pairs)
+            pts = F[P : 10 * P].reshape(3, P, 3)
+            self._dist, self._pending = Distances(F[:P], pts[0], pts[1], pts[2], np.zeros(P), I[:k0]), None
+        assert self._dist is not None
         return self._dist
 
     @staticmethod
@@ -693,12 +773,71 @@ class CollisionWorld:
                 mo = self.obstacles[j - self.n_links].motion if j in self._moving else None
                 if mo is not None:
                     rate[r] = float(nn[r] @ mo.rate(self.time))
-        names = self._geom_names
-        labels = [
-            f"{self.pair_names[k]}@{names[b]}{'+' if sg > 0 else '-'}"
-            for k, b, sg in zip(pair.tolist(), self._br_b[idx].tolist(), self._br_sign[idx].tolist(), strict=True)
-        ]
-        return Branches(pair, d, p1, p2, nn, rate, labels)
+        labels = self._br_labels
+        return Branches(pair, d, p1, p2, nn, rate, [labels[r] for r in idx.tolist()])
+
+    def damper(
+        self, robot: RobotModel, reach: float, influence: float, safety: float, gamma: float, no_cap: float,
+        ends: bool, qp_cap: float = 0.0,
+    ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None]:  # fmt: skip
+        """(every pair's distance [m], :meth:`damper_rows`) at the robot's current state after :meth:`compute`
+        (``influence`` = ``reach``, cached as usual), in one compiled call
+        (:func:`~redundik.collision.kernels.capsule_damper`) where the world is capsules/spheres only and static and
+        the distances are not cached yet; the same results as the two calls (``qp_cap`` > 0 [1/s]: the rows as
+        (d, C) of C q̇ ≤ d, see :meth:`damper_rows`).
+        """
+        key = robot.q.tobytes()
+        c = self._cache
+        static = self._static
+        if (
+            static is not None
+            and self._poses is not None
+            and self._poses_of is self.data
+            and (c is None or c[3] != key or c[0] is not robot or c[1] != self.time or c[2] != reach)
+        ):
+            pin.updateGeometryPlacements(self.model, robot.data, self.geometry, self.data)
+            P, R, nv = self._sizes
+            F, I = np.empty(10 * P + (2 + nv) * R), np.empty(P + R, dtype=np.int64)
+            args = (*static, np.asarray(robot.data.J), float(reach), float(influence), float(safety), float(gamma),
+                    float(no_cap), bool(ends), float(qp_cap), F, I)  # fmt: skip
+            k0, k, bad = KC.capsule_damper(*args)
+            if not bad:
+                self._dist, self._pending = None, (F, I, k0)  # the Distances built when read (compute)
+                self._cache = (robot, self.time, reach, key)
+                o = 10 * P
+                return F[:P], (
+                    F[o : o + k],
+                    F[o + 2 * R : o + 2 * R + k * nv].reshape(k, nv),
+                    F[o + R : o + R + k],
+                    I[P : P + k],
+                )
+        dist = self.compute(robot, reach)  # (axes meeting: coal's normals)
+        return dist.d, self.damper_rows(robot, dist, reach, influence, safety, gamma, no_cap, ends, qp_cap)
+
+    def damper_rows(
+        self, robot: RobotModel, dist: Distances, reach: float, influence: float, safety: float, gamma: float,
+        no_cap: float, ends: bool, qp_cap: float = 0.0,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:  # fmt: skip
+        """The collision damper's rows on the pairs ``dist.near`` and (``ends``) their end spheres, in one compiled
+        call (:func:`~redundik.collision.kernels.barrier_rows`): (h [m], ∂h/∂q (k, nv), γ [1/s], row ids, labels in
+        :attr:`row_labels`); ``None`` where that call does not apply (moving obstacles, a capsule end against a
+        mesh): the caller then uses :meth:`end_spheres` and :meth:`point_jacobian`.
+
+        Args:
+            dist: :meth:`compute`'s result at the current state (its placements are used).
+            reach: Rows for the end spheres closer than this [m].
+            influence: d_i [m]: rows closer than this have h = d − d_s + (∂d/∂t)/γ and gain ``gamma`` [1/s], the
+                others h = d − d_s and gain ``no_cap`` [1/s].
+            safety: d_s [m].
+            qp_cap: > 0 [1/s]: (d, C) of the QP rows C q̇ ≤ d instead of (h, ∂h/∂q) (kernels.barrier_rows).
+        """
+        if self._moving or (ends and self._br_any_other):
+            return None
+        return KC.barrier_rows(
+            self._T, self._kind, self._prm, self._br_tab, self._br_sign, dist.d, dist.p1, dist.p2, dist.n, dist.rate,
+            dist.near, np.asarray(robot.data.J), self._joint_masks(robot), self._pj2, float(reach), float(influence),
+            float(safety), float(gamma), float(no_cap), bool(ends), float(qp_cap),
+        )  # fmt: skip
 
     def _slow_end_spheres(
         self, dist: Distances, branches: np.ndarray, influence: float
@@ -758,7 +897,7 @@ class CollisionWorld:
             self._pj = pj
         return pj
 
-    def _joint_masks(self, robot: RobotModel) -> np.ndarray:
+    def _joint_masks(self, robot: RobotModel | None = None) -> np.ndarray:
         """M[j, k] = 1 when velocity k belongs to a joint supporting joint j (M[0] = 0: the world), (njoints, nv)."""
         if getattr(self, "_masks", None) is None:
             m = self.model

@@ -46,6 +46,10 @@ def _blas_threads(n: int) -> AbstractContextManager[object]:
     from threadpoolctl import ThreadpoolController
 
     if _CONTROLLER is None:
+        # SciPy's OpenBLAS (the LAPACK the compiled kernels call, through scipy.linalg.cython_lapack) is loaded first:
+        # a controller built before it never limits it (the snake's n = 160 SVDs ran on two threads, 0.5-40 ms)
+        import scipy.linalg  # noqa: F401
+
         _CONTROLLER = ThreadpoolController()
     return _CONTROLLER.limit(limits=n, user_api="blas")
 

@@ -199,6 +199,10 @@ class Potential(ABC):
     def gradient(self, robot: RobotModel) -> np.ndarray:
         """η = ∂p/∂q, shape (nv,), exact (analytic or from Pinocchio's kinematic derivatives)."""
 
+    def value_and_gradient(self, robot: RobotModel) -> tuple[float, np.ndarray]:
+        """(p, η) at once, for the rows of a bound subtask (a potential may share the work of the two)."""
+        return self.value(robot), self.gradient(robot)
+
     def __repr__(self) -> str:
         return f"{type(self).__name__}(name={self.name!r})"
 

@@ -7,6 +7,7 @@ finite differences.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -255,6 +256,15 @@ class Clearance(_FramePotential):
         if n < 1e-12:  # on the obstacle axis the distance is not differentiable: pick no direction
             return np.zeros(robot.nv)
         return J.T @ (d / n)
+
+    def value_and_gradient(self, robot: RobotModel) -> tuple[float, np.ndarray]:
+        """(p, η) from one frame position and one Jacobian (the values of :meth:`value` and :meth:`gradient`)."""
+        fid = self._id(robot)
+        d = (robot.frame_position(fid) - self.center)[self.rows]
+        n = math.sqrt(float(d @ d))
+        if n < 1e-12:
+            return n - self.radius, np.zeros(robot.nv)
+        return n - self.radius, robot.frame_jacobian(fid)[self.rows].T @ (d / n)
 
 
 class Manipulability(_FramePotential):

@@ -187,6 +187,8 @@ class BoundSubtask(Subtask):
             raise TaskError(f"subtask '{self.name}': lower ({self.lower}) > upper ({self.upper})")
         self.rate = check_number(rate, f"subtask '{self.name}': rate (K)", low=0.0)
         self.priority = check_priority(priority, f"subtask '{self.name}'")
+        self._names_of: tuple[str, list[str]] | None = None  # (name, a barrier's last row names), prefixed:
+        self._names: list[str] = []
 
     @property
     def potential(self) -> Potential | None:
@@ -206,8 +208,10 @@ class BoundSubtask(Subtask):
         src = self.source
         if isinstance(src, Barrier):
             term = src.evaluate(robot)
-            return term.h, term.H, [f"{self.name}:{n}" for n in term.names], term.gamma
-        p, eta = src.value(robot), src.gradient(robot)
+            return term.h, term.H, self._prefixed(term.names), term.gamma
+        p, eta = src.value_and_gradient(robot)
+        if self.upper is None and self.lower is not None:  # the common one-sided bound: one row
+            return np.array([p - self.lower]), eta.reshape(1, -1), [f"{self.name}:lower"], None
         hs, Hs, names = [], [], []
         if self.lower is not None:
             hs.append(p - self.lower)
@@ -219,10 +223,19 @@ class BoundSubtask(Subtask):
             names.append(f"{self.name}:upper")
         return np.array(hs), np.vstack(Hs), names, None
 
+    def _prefixed(self, names: list[str]) -> list[str]:
+        """``name:row`` per row name, built once per set of rows (e.g. a collision barrier's active pairs)."""
+        if self._names_of != (self.name, names):
+            self._names_of, self._names = (self.name, list(names)), [f"{self.name}:{n}" for n in names]
+        return self._names
+
     def rows(self, robot: RobotModel, dt: float) -> tuple[np.ndarray, np.ndarray, list[str]]:
         """The damper ḣ ≥ −γh as QP rows C q̇ ≤ d: C = −H, d = γ h (module docstring), γ = min(K or 1/dt, 1/dt)."""
-        h, H, names, gamma_rows = self.values(robot)
         cap = 1.0 / dt
+        direct = getattr(self.source, "bound_rows", None)  # a barrier making its rows itself (collision avoidance)
+        if direct is not None:
+            return direct(robot, cap, self.name)
+        h, H, names, gamma_rows = self.values(robot)
         gamma: float | np.ndarray
         if gamma_rows is not None:
             gamma = np.minimum(gamma_rows, cap)

@@ -253,11 +253,11 @@ class QPResolverBase(Resolver):
         safe = self._safety_rows(built, stack)
         if safe is not None:
             dq, alpha = keep_safe(dq, *safe)
-            if alpha < 1.0:
+            if alpha < 1.0:  # (else dq is the clipped q̇ still)
                 note = f"q̇ scaled by {alpha:.3g} to keep the safety rows (collision distances)"
                 fallback = note if fallback is None else f"{fallback}; {note}"
-            dq = box.clip(dq)
-            dq_kept = dq.copy()
+                dq = box.clip(dq)
+                dq_kept = dq.copy()
         self._dq_prev = dq_kept
         t2 = time.perf_counter()
 

@@ -24,6 +24,14 @@ Shortcut (exact, and the common case): the same cascade without constraints is s
 level u = (A_k Z)⁺(b_k − A_k x), with the damped pseudo-inverse of :mod:`redundik.resolvers.linalg` — and kept when
 it satisfies every inequality and limit, since a feasible unconstrained lexicographic optimum is the constrained one.
 For [main task, gradient subtask] this is q̇ = J⁺V + Z Zᵀ z = J⁺V + (I − J⁺J)z, the chapter's eq. (5.8), exactly.
+The whole of it is one compiled call (:func:`redundik.resolvers.hqp_kernels.closed_cascade`) on the step's rows
+copied into buffers kept while the stack's membership is unchanged; a level whose QR certifies σ_min ≥ ε (nothing
+damped, full rank: M⁺ exactly) skips its SVD, and the Level records, σ_min per level and the rank-loss test are
+computed only when the step's diagnostics are read (:class:`~redundik.resolvers.base.LazyStepResult`).
+Level shortcut (exact, below the top level): when the cascade is not feasible, a level QP whose unconstrained
+optimum — û = argmin ½‖A_k Z u − (b_k − A_k x)‖² + ½ε‖u‖² from the SVD of A_k Z, slack w = 0 — keeps every row of
+that QP (its inequalities, the levels above, the limits, to the same margins) is that QP's optimum (the KKT
+conditions hold with zero multipliers), and the backend is not called; ``info["qp"]`` counts the QPs solved.
 
 The levels are the stack's (:mod:`redundik.tasks.stack`): main tasks at their priority (0), target and bound
 subtasks below them, the null-space objective ½‖q̇ − z‖² (gradient subtasks and posture) last; restricted to Z it
@@ -44,34 +52,154 @@ projected Jacobian lost rank while the task's own did not — an algorithmic sin
 
 from __future__ import annotations
 
+import math
+import time
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
-from redundik.resolvers.linalg import DampedSVD, K, contiguous, damped_svd
+from redundik.resolvers.base import LazyStepResult, StepResult
+from redundik.resolvers.linalg import DampedSVD, damped_svd
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, polish
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
-from redundik.resolvers.qp.terms import Level, build_levels
+from redundik.resolvers.qp.terms import Level, StepRows, gather_rows
 from redundik.tasks.base import TaskTerm
-from redundik.tasks.stack import TaskStack
-
-_NO_BASIS = np.zeros((0, 0))
+from redundik.tasks.stack import StackLayout, TaskStack
 
 #: Slack above which a level's bound rows count as contradicted (reported as a fallback).
 CONTRADICTION_TOLERANCE = 1e-6
 
 
+class _HQPKernels:
+    """:mod:`redundik.resolvers.hqp_kernels`, imported on first use (numba loads then, not when redundik is
+    imported); after the first access every kernel and constant is a plain attribute."""
+
+    def __getattr__(self, name: str) -> Any:
+        from redundik.resolvers import hqp_kernels
+
+        self.__dict__.update({k: v for k, v in vars(hqp_kernels).items() if not k.startswith("__")})
+        return getattr(hqp_kernels, name)
+
+
+HK = _HQPKernels()
+_NO_BASIS = np.zeros((0, 0))
+_NO_SELECTION = np.zeros(0, dtype=np.int64)
+#: Violation up to which a level QP's unconstrained optimum counts as satisfying the QP's rows (kept without a QP).
+_FEASIBLE = 1e-12
+
+
+def _ridge(lsq: DampedSVD, rhs: np.ndarray, eps: float) -> np.ndarray:
+    """argmin ½‖M u − rhs‖² + ½ε‖u‖² = V diag(σ/(σ² + ε)) Uᵀ rhs from the SVD of M: the level QP's objective in u,
+    its unconstrained optimum (exact to rounding where ε ≪ σ², unlike a Cholesky of MᵀM + εI)."""
+    k = lsq.s.shape[0]
+    return lsq.Vt[:k].T @ ((lsq.s / (lsq.s * lsq.s + eps)) * (lsq.U.T @ rhs))
+
+
 @dataclass
 class HQPBuild:
-    """A built ``hqp`` step: its levels (rows) and the joint-limit box."""
+    """A built ``hqp`` step: its rows as evaluated, the joint-limit box, and what the lean cascade left.
 
-    levels: list[Level]
+    Attributes:
+        rows: Every level's rows (:class:`~redundik.resolvers.qp.terms.StepRows`); :attr:`levels` stacks them.
+        box: The joint-limit box of the step.
+        n: Number of velocity coordinates.
+        stats: Per level (σ_min, λ, rank, free directions before it) of the unconstrained cascade when its answer
+            was kept (:func:`redundik.resolvers.hqp_kernels.closed_cascade`), else ``None``; read by the
+            diagnostics only.
+    """
+
+    rows: StepRows
     box: LimitBox
     n: int
+    stats: np.ndarray | None = None
+    #: True when the unconstrained cascade was already found infeasible (the lean step): straight to the QPs.
+    infeasible: bool = False
+
+    @property
+    def levels(self) -> list[Level]:
+        """The levels as :class:`~redundik.resolvers.qp.terms.Level` records (built on first access)."""
+        return self.rows.levels
+
+
+class _Plan:
+    """What the lean cascade does per level, fixed while the stack's membership is (see ``_plan_for``): the level
+    kinds, the offsets table and the buffers the rows are copied into (grown when a level brings more rows)."""
+
+    def __init__(self, layout: StackLayout, n: int, params: np.ndarray) -> None:
+        self.layout, self.n, self.params = layout, n, params
+        L = len(layout.levels)
+        self.meta = np.zeros((3, L + 1), dtype=np.int64)
+        self.mixed: list[bool] = []  # a level with rows of its own and the null-space objective: + identity rows
+        for k, plan in enumerate(layout.levels):
+            has_rows = bool(plan.tasks or plan.targets)
+            has_z = plan.null_objective and layout.has_null_objective
+            self.meta[2, k] = HK.LEAST_SQUARES if has_rows else (HK.NULL_OBJECTIVE if has_z else HK.SKIP)
+            self.mixed.append(has_rows and has_z)
+        self.A, self.b, self.w = np.zeros((16, n)), np.zeros(16), np.ones(16)
+        self.C, self.d = np.zeros((4, n)), np.zeros(4)
+        self.eye, self.zero = np.eye(n), np.zeros(n)
+        self.critical = any(b.critical for level in layout.levels for b in level.bounds)  # safety rows: template
+        self._weights: list[tuple[int, int, float]] = []  # per block (first row, end, weight) last written into w
+
+    def fill(self, rows: StepRows) -> None:
+        """Copy the step's rows into the buffers and write the offsets table (row 0: A, row 1: C); the weights and
+        identity rows are rewritten only where they changed since the last step."""
+        meta, n, key = self.meta, self.n, self._weights
+        A, b, w, C, d = self.A, self.b, self.w, self.C, self.d
+        ms = cs = 0
+        blk = 0
+        for k, (blocks, ineq) in enumerate(zip(rows.ls, rows.ineq, strict=True)):
+            meta[0, k], meta[1, k] = ms, cs
+            for J, v, weight in blocks:
+                e = ms + J.shape[0]
+                if e > A.shape[0]:
+                    A, b, w = self._grow_ls(e)
+                A[ms:e] = J
+                b[ms:e] = v
+                if blk >= len(key) or key[blk] != (ms, e, weight):
+                    w[ms:e] = weight
+                    key[blk:] = [(ms, e, weight)]
+                blk += 1
+                ms = e
+            if self.mixed[k] and rows.z is not None:
+                e = ms + n
+                if e > A.shape[0]:
+                    A, b, w = self._grow_ls(e)
+                b[ms:e] = rows.z
+                if blk >= len(key) or key[blk] != (ms, e, -1.0):
+                    A[ms:e] = self.eye
+                    w[ms:e] = 1.0
+                    key[blk:] = [(ms, e, -1.0)]
+                blk += 1
+                ms = e
+            for Ci, di, _, _ in ineq:
+                e = cs + Ci.shape[0]
+                if e > C.shape[0]:
+                    C, d = self._grow_ineq(e)
+                C[cs:e] = Ci
+                d[cs:e] = di
+                cs = e
+        L = meta.shape[1] - 1
+        meta[0, L], meta[1, L] = ms, cs
+
+    def _grow_ls(self, rows: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        cap = max(rows, 2 * self.A.shape[0])
+        # the rows written so far are copied: what ``_weights`` records still holds
+        self.A = np.concatenate([self.A, np.zeros((cap - self.A.shape[0], self.n))])
+        self.b = np.concatenate([self.b, np.zeros(cap - self.b.shape[0])])
+        self.w = np.concatenate([self.w, np.ones(cap - self.w.shape[0])])
+        return self.A, self.b, self.w
+
+    def _grow_ineq(self, rows: int) -> tuple[np.ndarray, np.ndarray]:
+        cap = max(rows, 2 * self.C.shape[0])
+        self.C = np.concatenate([self.C, np.zeros((cap - self.C.shape[0], self.n))])
+        self.d = np.concatenate([self.d, np.zeros(cap - self.d.shape[0])])
+        return self.C, self.d
 
 
 class HierarchicalQPResolver(QPResolverBase):
@@ -110,6 +238,10 @@ class HierarchicalQPResolver(QPResolverBase):
             raise ResolverError(f"hqp: rcond must be in (0, 1), got {rcond!r}")
         self.regularization, self.rcond = float(regularization), float(rcond)
         self.slack_tolerance = 1e-7  # feasibility margin of the rows that carry higher levels and limits
+        self._plan: _Plan | None = None
+        #: Keep a level QP's unconstrained optimum when it satisfies the level's rows (exact; ``False`` solves
+        #: every level by the backend, the reference the tests hold the shortcut to).
+        self.level_shortcut = True
 
     def build(
         self, robot: RobotModel, stack: TaskStack, t: float, dt: float, terms: list[TaskTerm] | None = None
@@ -117,72 +249,65 @@ class HierarchicalQPResolver(QPResolverBase):
         """Evaluate the stack (unless ``terms`` are given) and lay out its levels as rows, without solving."""
         if terms is None:
             terms = stack.evaluate(robot, t)
-        levels = build_levels(robot, stack, terms, self.layout(stack), dt)
-        return HQPBuild(levels, self._box(robot, dt), robot.nv)
+        rows = gather_rows(robot, stack, terms, self.layout(stack), dt)
+        return HQPBuild(rows, self._box(robot, dt), robot.nv)
+
+    def reset(self) -> None:
+        super().reset()
+        self._plan = None
+
+    def _plan_for(self, layout: StackLayout, n: int) -> _Plan:
+        """The lean cascade's plan and buffers, laid out once per stack membership (the layout object) and size."""
+        plan = self._plan
+        if plan is None or plan.layout is not layout or plan.n != n:
+            params = np.array([self.epsilon, self.max_damping, self.rcond, 1e-12, 0.0])
+            plan = self._plan = _Plan(layout, n, params)
+        return plan
 
     # ------------------------------------------------------------------ the two cascades
-    def _project(self, lv: Level, x: np.ndarray, Z: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _project(self, lv: Level, x: np.ndarray, Z: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """(A_k Z, b_k − A_k x) of a level's weighted least-squares rows (Z = I when ``None``)."""
         A, b = lv.ls_rows()
         M = A if Z is None else A @ Z
-        return A, M, b - A @ x
+        return M, b - A @ x
 
     def _lsq(self, M: np.ndarray) -> DampedSVD:
         return damped_svd(M, epsilon=self.epsilon, max_damping=self.max_damping, rcond=self.rcond)
 
-    def _note(self, lv: Level, A: np.ndarray, lsq: DampedSVD, r: int, projected: bool, diag: QPDiagnostics) -> None:
-        self._record(lv, A, lsq.sigma_min, lsq.damping, lsq.rank, r, projected, diag)
+    def _note(self, lv: Level, lsq: DampedSVD, r: int, projected: bool, diag: QPDiagnostics) -> None:
+        self._record(lv, lsq.sigma_min, lsq.damping, lsq.rank, r, projected, diag)
 
     def _record(
-        self,
-        lv: Level,
-        A: np.ndarray,
-        sigma_min: float,
-        damping: float,
-        rank: int,
-        r: int,
-        projected: bool,
-        diag: QPDiagnostics,
+        self, lv: Level, sigma_min: float, damping: float, rank: int, r: int, projected: bool, diag: QPDiagnostics
     ) -> None:
+        """Record a solved level: σ_min and damping of A_k Z, and a rank loss of A_k Z that A_k itself has not
+        (an algorithmic singularity; A_k's own rank is computed only then)."""
         diag.level_sigma_min[lv.priority] = sigma_min
         if damping > 0.0:
             diag.damped_levels.append(lv.priority)
         if not diag.level_sigma_min or len(diag.level_sigma_min) == 1:
             diag.sigma_min = sigma_min
-        # algorithmic singularity: the projected Jacobian A Z lost rank while A itself did not
-        if projected and not lv.pure_null_objective and rank < min(A.shape[0], r):
-            if rank < min(int(np.linalg.matrix_rank(A)), r):
+        rows = lv.m + (lv.z.shape[0] if lv.z is not None else 0)
+        if projected and not lv.pure_null_objective and rank < min(rows, r):
+            if rank < min(int(np.linalg.matrix_rank(lv.ls_rows()[0])), r):
                 diag.rank_loss_levels.append(lv.priority)
 
-    def _closed_form_cascade(self, levels: list[Level], n: int, diag: QPDiagnostics) -> np.ndarray:
-        x = np.zeros(n)
-        Z: np.ndarray | None = None
-        r = n
-        for lv in levels:
-            if r == 0:
-                break
-            if lv.pure_null_objective:  # rows = I: u = Zᵀ(z − x) exactly, nothing left below
-                assert lv.z is not None
-                x = lv.z.copy() if Z is None else x + Z @ (Z.T @ (lv.z - x))
-                Z, r = np.zeros((n, 0)), 0
-                continue
-            if not lv.m:
-                continue
-            A, b = lv.ls_rows()
-            x_new = np.empty(n)
-            projected = Z is not None
-            Z, smin, damping, rank = K.lsq_level(  # one compiled call: (A Z)⁺_λ(b − A x), x + Z u, Z·null(A Z)
-                contiguous(A),
-                contiguous(b),
-                x,
-                _NO_BASIS if Z is None else Z,
-                Z is not None,
-                self.epsilon,
-                self.max_damping,
-                self.rcond,
-                x_new,
-            )
-            self._record(lv, A, float(smin), float(damping), int(rank), r, projected, diag)
-            x, r = x_new, Z.shape[1]
+    def _lean_cascade(self, built: HQPBuild, layout: StackLayout) -> np.ndarray | None:
+        """The unconstrained cascade (the module docstring's shortcut) in one compiled call, its per-level
+        statistics kept on ``built`` for the diagnostics; ``None`` when its answer breaks a limit or an inequality."""
+        n = built.n
+        plan = self._plan_for(layout, n)
+        rows = built.rows
+        plan.fill(rows)
+        x = np.empty(n)
+        stats = np.empty((plan.meta.shape[1] - 1, 4))
+        z = rows.z if rows.z is not None else plan.zero
+        box = built.box
+        if not HK.closed_cascade(
+            plan.A, plan.b, plan.w, plan.C, plan.d, z, box.lb, box.ub, plan.meta, plan.params, x, stats
+        ):
+            return None
+        built.stats = stats
         return x
 
     def _level_qp(
@@ -196,61 +321,64 @@ class HierarchicalQPResolver(QPResolverBase):
         diag: QPDiagnostics,
         pinned: np.ndarray,
         selection: np.ndarray | None,
-    ) -> tuple[np.ndarray, DampedSVD | None, np.ndarray | None]:
-        """Solve level ``lv`` over q̇ = x + Z u (module docstring); returns (u, the level's least squares, A).
+        shortcut: bool = False,
+    ) -> tuple[np.ndarray, DampedSVD | None]:
+        """Solve level ``lv`` over q̇ = x + Z u (module docstring); returns (u, the level's least squares).
 
         ``pinned`` marks the joints whose box is a single value (their q̇ is in x, their rows of Z are zero);
         ``selection`` is the index array of the free joints while Z is still I restricted to them (the first level
-        after pinning), so that the box stays native bounds on u.
+        after pinning), so that the box stays native bounds on u. With ``shortcut`` the QP's unconstrained optimum
+        is returned without calling the backend when it satisfies every row of the QP (:meth:`_level_feasible`).
         """
         n = x.shape[0]
-        Zm = np.eye(n) if Z is None else Z
         p = lv.p
-        nvar = r + p
-        P = np.zeros((nvar, nvar))
-        q = np.zeros(nvar)
-        lsq, A = None, None
+        lsq = None
         eps = self.regularization
-        if lv.m or lv.z is not None:
-            A, M, rhs = self._project(lv, x, Z)
+        M = rhs = None
+        orthonormal = lv.pure_null_objective and lv.z is not None
+        if orthonormal:  # rows = I: M = Z has orthonormal columns, its SVD is (Z, 1, I) — no factorisation
+            assert lv.z is not None
+            rhs = lv.z - x
+            U = np.eye(n) if Z is None else Z
+            lsq = DampedSVD(U, np.ones(r), np.eye(r), np.ones(r), r, 1.0 if r else np.inf, 0.0)
+        elif lv.m or lv.z is not None:
+            M, rhs = self._project(lv, x, Z)
             lsq = self._lsq(M)
             eps = max(eps, lsq.damping**2)
-            P[:r, :r] = M.T @ M
-            q[:r] = -(M.T @ rhs)
-        P[:r, :r] += eps * np.eye(r)
-        rows, rhs_rows = [], []
-        if p:  # C(x + Zu) − d ≤ w, with w = w₀ + w' measured from its value at u = 0
-            # w₀ = max(Cx − d, 0) makes u = 0, w' = 0 feasible and keeps w' on the scale of u: a level whose slack
-            # is 19.5 while the limits leave u a 1e-6-wide window was otherwise called infeasible by proxsuite;
-            # the change of variables is exact (½‖w₀ + w'‖² = ½‖w'‖² + w₀ᵀw' + const)
-            slack0 = lv.d - lv.C @ x
-            w0 = np.maximum(-slack0, 0.0)
-            P[r:, r:] = np.eye(p)
-            q[r:] = w0
-            rows.append(np.hstack([lv.C @ Zm, -np.eye(p)]))
-            rhs_rows.append(slack0 + w0)
-        # Below level 0, rows that carry the levels above and the limits get the margin max(·, 0) + tol: x (the
-        # answer so far, from a backend's finite tolerance) may sit up to that tolerance outside them, and without
-        # the clamp a level could be declared primal-infeasible (proxsuite, osqp) though u = 0 always solves it.
-        for C, d in fixed:  # levels above keep their slack
-            rows.append(np.hstack([C @ Zm, np.zeros((C.shape[0], p))]))
-            rhs_rows.append(np.maximum(d - C @ x, 0.0) + self.slack_tolerance)
-        lb, ub = np.full(nvar, -np.inf), np.full(nvar, np.inf)
-        if Z is None:
-            lb[:r], ub[:r] = box.lb - x, box.ub - x  # hard (never empty: limits.py)
-        elif selection is not None:
-            lb[:r], ub[:r] = box.lb[selection] - x[selection], box.ub[selection] - x[selection]
-        else:
-            tol = self.slack_tolerance
-            fu, fl = np.isfinite(box.ub) & ~pinned, np.isfinite(box.lb) & ~pinned
-            if fu.any():
-                rows.append(np.hstack([Z[fu], np.zeros((int(fu.sum()), p))]))
-                rhs_rows.append(np.maximum(box.ub[fu] - x[fu], 0.0) + tol)
-            if fl.any():
-                rows.append(np.hstack([-Z[fl], np.zeros((int(fl.sum()), p))]))
-                rhs_rows.append(np.maximum(x[fl] - box.lb[fl], 0.0) + tol)
-        G = np.vstack(rows) if rows else np.zeros((0, nvar))
-        h = np.concatenate(rhs_rows) if rhs_rows else np.zeros(0)
+        if shortcut:
+            u = np.zeros(r) if lsq is None or rhs is None else _ridge(lsq, rhs, eps)
+            if self._level_feasible(lv, u, x, Z, box, fixed, pinned, selection):
+                return u, lsq
+        # the QP's arrays in one compiled call (HK.level_qp_arrays): the level's rows C(x + Zu) − d ≤ w with the
+        # slack measured from its value at u = 0 (w = w₀ + w', w₀ = max(Cx − d, 0): u = 0, w' = 0 is feasible and
+        # w' lives on the scale of u; a level whose slack is 19.5 while the limits left u a 1e-6-wide window was
+        # otherwise called infeasible by proxsuite; exact, ½‖w₀ + w'‖² = ½‖w'‖² + w₀ᵀw' + const). Below level 0 the
+        # rows that carry the levels above and the limits get the margin max(·, 0) + tol: x (from a backend's finite
+        # tolerance) may sit up to that tolerance outside them, and without the clamp a level could be declared
+        # primal-infeasible (proxsuite, osqp) though u = 0 always solves it.
+        F, f = self._stacked(fixed, n)
+        mode = 0 if Z is None else (1 if selection is not None else 2)
+        P, q, G, h, lb, ub = HK.level_qp_arrays(
+            M if M is not None else np.zeros((0, r)),
+            rhs if rhs is not None else np.zeros(0),
+            eps,
+            lv.C if p else np.zeros((0, n)),
+            lv.d if p else np.zeros(0),
+            x,
+            Z if Z is not None else _NO_BASIS,
+            mode,
+            selection if selection is not None else _NO_SELECTION,
+            F,
+            f,
+            box.lb,
+            box.ub,
+            ~pinned,
+            self.slack_tolerance,
+        )
+        nvar = r + p
+        if orthonormal and lsq is not None and rhs is not None:  # ½‖Zu − (z − x)‖²: MᵀM = I, Mᵀ rhs = Zᵀ(z − x)
+            P.reshape(-1)[: r * (nvar + 1) : nvar + 1] += 1.0
+            q[:r] = -(lsq.U.T @ rhs)
         prob = QPProblem(P, q, G, h, np.zeros((0, nvar)), np.zeros(0), lb, ub, f"hqp level {lv.priority}")
         try:
             sol = self._solve_qp(prob)
@@ -259,7 +387,43 @@ class HierarchicalQPResolver(QPResolverBase):
         diag.qp += 1
         diag.iterations += max(sol.iterations, 0)
         diag.backend = sol.backend
-        return sol.x[:r], lsq, A
+        return sol.x[:r], lsq
+
+    def _level_feasible(
+        self,
+        lv: Level,
+        u: np.ndarray,
+        x: np.ndarray,
+        Z: np.ndarray | None,
+        box: LimitBox,
+        fixed: list[tuple[np.ndarray, np.ndarray]],
+        pinned: np.ndarray,
+        selection: np.ndarray | None,
+    ) -> bool:
+        """Whether the level QP's unconstrained optimum u (with slack w = 0) satisfies every row of the level QP.
+
+        The rows are those :meth:`_level_qp` poses, to the same margins: the level's own inequalities
+        C(x + Z u) ≤ d (w = 0), the levels above C Z u ≤ max(d − C x, 0) + tol, and the limits (native bounds on u
+        at the first level, the rows ±Z_j u ≤ margin below it). Then (u, w = 0) meets the KKT conditions with every
+        multiplier zero: it is the QP's optimum, and the backend is not called.
+        """
+        n = x.shape[0]
+        step = u if Z is None else Z @ u
+        F, f = self._stacked(fixed, n)
+        C, d = (lv.C, lv.d) if lv.p else (F[:0], f[:0])
+        native = Z is None or selection is not None
+        return bool(
+            HK.level_rows_ok(step, x, box.lb, box.ub, ~pinned, native, C, d, F, f, self.slack_tolerance, _FEASIBLE)
+        )
+
+    @staticmethod
+    def _stacked(fixed: list[tuple[np.ndarray, np.ndarray]], n: int) -> tuple[np.ndarray, np.ndarray]:
+        """The rows of the levels above, (C, d) stacked ((0, n) and (0,) without any)."""
+        if not fixed:
+            return np.zeros((0, n)), np.zeros(0)
+        if len(fixed) == 1:
+            return fixed[0]
+        return np.vstack([c for c, _ in fixed]), np.concatenate([d for _, d in fixed])
 
     def _regularized_retry(self, prob: QPProblem, r: int, eps: float, diag: QPDiagnostics) -> QPSolution:
         """Solve a level QP the backend refused, with a stronger minimum-norm regulariser on u.
@@ -319,7 +483,10 @@ class HierarchicalQPResolver(QPResolverBase):
                     x, Z, r = cand, np.zeros((n, 0)), 0
                     continue
             try:
-                u, lsq, A = self._level_qp(lv, x, Z, r, box, fixed, diag, pinned, selection)
+                # below the top level (whose failure falls back to the closed form as a whole), a level whose
+                # unconstrained optimum keeps its rows needs no QP
+                short = self.level_shortcut and lv is not levels[0]
+                u, lsq = self._level_qp(lv, x, Z, r, box, fixed, diag, pinned, selection, short)
             except SolverError as exc:
                 if lv is levels[0]:
                     raise  # nothing of the cascade is worth keeping: the base falls back to the closed form
@@ -337,38 +504,119 @@ class HierarchicalQPResolver(QPResolverBase):
                         f"level {lv.priority} contradicted by the levels above and the limits: {rows} violated by "
                         f"up to {worst:.3g}"
                     )
-            if lsq is not None and A is not None:
-                self._note(lv, A, lsq, r, Z is not None and selection is None, diag)
+            if lsq is not None:
+                self._note(lv, lsq, r, Z is not None and selection is None, diag)
                 Z = lsq.null_basis if Z is None else Z @ lsq.null_basis
                 r = Z.shape[1]
                 selection = None
         return x, notes
 
     # ------------------------------------------------------------------ the step (skeleton in QPResolverBase.solve)
+    def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
+        """One step. Without safety rows the closed-form path — limit box, unconstrained cascade, its feasibility
+        test and the clipping — is one compiled call (``hqp_kernels.closed_step``), and the step's result is the
+        template's (``QPResolverBase.solve``) without its glue; when the cascade is not feasible the built step goes
+        on through the template's second half to the constrained cascade."""
+        layout = self.layout(stack)
+        n = robot.nv
+        plan = self._plan_for(layout, n)
+        if plan.critical:
+            return super().solve(robot, stack, t, dt)
+        t0 = time.perf_counter()
+        terms = [task.evaluate(robot, t) for task in stack.tasks]  # stack.evaluate, inlined
+        rows = gather_rows(robot, stack, terms, layout, dt)
+        t1 = time.perf_counter()
+        limits = self.limits
+        prev = limits.previous(self._dq_prev)
+        plan.fill(rows)
+        boxes = np.empty((4, 1, n))
+        out = np.empty((3, n))
+        stats = np.empty((plan.meta.shape[1] - 1, 4))
+        ok = HK.closed_step(
+            plan.A,
+            plan.b,
+            plan.w,
+            plan.C,
+            plan.d,
+            rows.z if rows.z is not None else plan.zero,
+            plan.meta,
+            plan.params,
+            robot.q.reshape(1, -1),
+            *limits.kernel_args(robot),
+            float(dt),
+            prev,
+            boxes,
+            out,
+            stats,
+        )
+        box = limits.box_from(boxes[:, 0], prev.shape[0] > 0)
+        x = out[0]
+        built = HQPBuild(rows, box, n, infeasible=not ok)
+        if not ok or not math.isfinite(float(x @ x)):  # a constraint is active, or q̇ is not finite: the template
+            return self._finish(robot, stack, terms, built, t0, t1)
+        built.stats = stats
+        dq, kept = out[1], out[2]
+        self._dq_prev = kept
+
+        def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
+            diag = QPDiagnostics()
+            diag.active_limits = box.active(kept, limits.joint_names)
+            self._diagnose(built, kept, diag)
+            return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
+
+        return LazyStepResult.make(
+            dq,
+            terms,
+            None,
+            {"backend": "closed-form", "qp": 0, "iterations": 0},
+            t1 - t0,
+            time.perf_counter() - t1,
+            layout.main,
+            diagnostics,
+        )
+
     def _resolve(self, built: HQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
-        levels, box, n = built.levels, built.box, built.n
-        x = self._closed_form_cascade(levels, n, diag)
-        tol = 1e-12
-        if box.contains(x, tol) and all(not lv.p or bool((lv.C @ x <= lv.d + tol).all()) for lv in levels):
-            return x, None
-        diag.level_sigma_min.clear()
-        diag.damped_levels.clear()
-        diag.rank_loss_levels.clear()
-        x, notes = self._qp_cascade(levels, box, n, diag)
+        if not built.infeasible:
+            x = self._lean_cascade(built, built.rows.layout)
+            if x is not None:
+                return x, None
+        x, notes = self._qp_cascade(built.levels, built.box, built.n, diag)
         return x, ("hqp: " + "; ".join(notes)) if notes else None
 
     def _safety_rows(self, built: HQPBuild, stack: TaskStack) -> tuple[np.ndarray, np.ndarray] | None:
-        names = {b.name for b in stack.bound_subtasks if b.critical}
-        if not names:
-            return None
         Cs, ds = [], []
-        for lv in built.levels:
-            if lv.p:
-                keep = np.array([r.split(":", 1)[0] in names for r in lv.c_names], dtype=bool)
-                Cs.append(lv.C[keep])
-                ds.append(lv.d[keep])
-        return (np.vstack(Cs), np.concatenate(ds)) if Cs else None
+        for ineq in built.rows.ineq:
+            for C, d, _, bsub in ineq:
+                if bsub.critical:
+                    Cs.append(C)
+                    ds.append(d)
+        if not Cs:
+            return None
+        return (Cs[0], ds[0]) if len(Cs) == 1 else (np.vstack(Cs), np.concatenate(ds))
 
     def _diagnose(self, built: HQPBuild, dq: np.ndarray, diag: QPDiagnostics) -> None:
-        for lv in built.levels:
+        """Per-level residuals at q̇ and, when the unconstrained cascade's answer was kept, its per-level σ_min,
+        damping and rank loss (from the statistics the compiled cascade left; nothing of this runs on a step
+        whose diagnostics are never read)."""
+        levels = built.levels
+        stats = built.stats
+        if stats is not None and np.isnan(stats[:, HK.SIGMA_MIN]).any():
+            # a level solved by its certified QR has no σ_min yet: the cascade once more, by SVD at every level
+            plan = _Plan(built.rows.layout, built.n, np.array([self.epsilon, self.max_damping, self.rcond, 1e-12, 1.0]))
+            plan.fill(built.rows)
+            stats = np.empty_like(stats)
+            z = built.rows.z if built.rows.z is not None else plan.zero
+            box = built.box
+            HK.closed_cascade(plan.A, plan.b, plan.w, plan.C, plan.d, z, box.lb, box.ub, plan.meta, plan.params,
+                              np.empty(built.n), stats)  # fmt: skip
+        if stats is not None:
+            projected = False
+            for k, lv in enumerate(levels):
+                rank = int(stats[k, HK.RANK])
+                if rank < 0:
+                    continue
+                smin, damping, r = float(stats[k, HK.SIGMA_MIN]), float(stats[k, HK.DAMPING]), int(stats[k, HK.FREE])
+                self._record(lv, smin, damping, rank, r, projected, diag)
+                projected = True
+        for lv in levels:
             diag.level_residuals[lv.priority] = lv.residual(dq)

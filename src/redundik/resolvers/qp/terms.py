@@ -16,6 +16,7 @@ import numpy as np
 from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import TaskTerm
 from redundik.tasks.stack import StackLayout, TaskStack
+from redundik.tasks.subtasks import BoundSubtask
 
 
 @dataclass
@@ -89,10 +90,64 @@ class Level:
         return np.maximum(self.C @ dq - self.d, 0.0)
 
 
-def build_levels(
-    robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], layout: StackLayout, dt: float
-) -> list[Level]:
-    """The levels of ``layout`` as rows, in decreasing priority.
+class StepRows:
+    """One step's rows of every level of a layout, as evaluated (no copy); the :class:`Level` records are built on
+    first use (:attr:`levels`).
+
+    Attributes:
+        ls: Per level, its least-squares blocks (J_i (m_i, n), v_i (m_i,), weight w_i): tasks, then target subtasks.
+        ineq: Per level, its bound subtasks' rows (C_i (p_i, n), d_i (p_i,), row names), with the subtask.
+        z: The null-space objective's target (n,) (``None`` without one); carried by the level with ``null_objective``.
+        n: Number of velocity coordinates.
+    """
+
+    __slots__ = ("_levels", "ineq", "layout", "ls", "n", "terms", "z")
+
+    def __init__(
+        self,
+        layout: StackLayout,
+        terms: list[TaskTerm],
+        ls: list[list[tuple[np.ndarray, np.ndarray, float]]],
+        ineq: list[list[tuple[np.ndarray, np.ndarray, list[str], BoundSubtask]]],
+        z: np.ndarray | None,
+        n: int,
+    ) -> None:
+        self.layout, self.terms, self.ls, self.ineq, self.z, self.n = layout, terms, ls, ineq, z, n
+        self._levels: list[Level] | None = None
+
+    @property
+    def levels(self) -> list[Level]:
+        """The levels as :class:`Level` records (stacked rows), built once on first access."""
+        if self._levels is None:
+            self._levels = [self._level(k) for k in range(len(self.ls))]
+        return self._levels
+
+    def _level(self, k: int) -> Level:
+        n = self.n
+        plan = self.layout.levels[k]
+        blocks, rows = self.ls[k], self.ineq[k]
+        if blocks:
+            J = blocks[0][0] if len(blocks) == 1 else np.vstack([bl[0] for bl in blocks])
+            v = blocks[0][1] if len(blocks) == 1 else np.concatenate([bl[1] for bl in blocks])
+            w = np.concatenate([np.full(bl[1].shape[0], bl[2]) for bl in blocks])
+        else:
+            J, v, w = np.zeros((0, n)), np.zeros(0), np.zeros(0)
+        if rows:
+            C = rows[0][0] if len(rows) == 1 else np.vstack([r[0] for r in rows])
+            d = rows[0][1] if len(rows) == 1 else np.concatenate([r[1] for r in rows])
+        else:
+            C, d = np.zeros((0, n)), np.zeros(0)
+        c_names = [name for r in rows for name in r[2]]
+        z = self.z if plan.null_objective else None
+        terms, layout = self.terms, self.layout
+        names = [terms[i].name for i in plan.tasks] + [s.name for s in plan.targets] + [b.name for b in plan.bounds]
+        if plan.null_objective:
+            names += [terms[i].name for i in layout.null_tasks] + [s.name for s in layout.gradients]
+        return Level(plan.priority, names, J, v, w, C, d, c_names, z)
+
+
+def gather_rows(robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], layout: StackLayout, dt: float) -> StepRows:
+    """Every level's rows of ``layout`` at the robot's state, in decreasing priority, without stacking them.
 
     Args:
         robot: Updated robot.
@@ -102,45 +157,35 @@ def build_levels(
         dt: Step [s] (for the bound rows).
     """
     n = robot.nv
-    no_rows, no_rhs = np.zeros((0, n)), np.zeros(0)
-    out = []
+    ls: list[list[tuple[np.ndarray, np.ndarray, float]]] = []
+    ineq: list[list[tuple[np.ndarray, np.ndarray, list[str], BoundSubtask]]] = []
+    z = None
     for plan in layout.levels:
-        names: list[str] = []
-        Js: list[np.ndarray] = []
-        vs: list[np.ndarray] = []
-        ws: list[np.ndarray] = []
-        for i in plan.tasks:
-            term = terms[i]
-            names.append(term.name)
-            Js.append(term.J)
-            vs.append(term.v)
-            ws.append(np.full(term.v.shape[0], term.weight))
+        blocks = [(terms[i].J, terms[i].v, terms[i].weight) for i in plan.tasks]
         for sub in plan.targets:
             eta, vt, _ = sub.row(robot)
-            names.append(sub.name)
-            Js.append(eta.reshape(1, n))
-            vs.append(np.array([vt]))
-            ws.append(np.array([sub.weight]))
-        Cs, ds, cn = [], [], []
+            blocks.append((eta.reshape(1, n), np.array([vt]), sub.weight))
+        rows = []
         for bsub in plan.bounds:
             C, d, rn = bsub.rows(robot, dt)
-            names.append(bsub.name)
-            Cs.append(C)
-            ds.append(d)
-            cn.extend(rn)
-        z = None
+            rows.append((C, d, rn, bsub))
         if plan.null_objective:
             z = stack.null_target(robot, terms, layout)
-            names += [terms[i].name for i in layout.null_tasks] + [s.name for s in layout.gradients]
-        if Js:
-            J = Js[0] if len(Js) == 1 else np.vstack(Js)
-            v = vs[0] if len(vs) == 1 else np.concatenate(vs)
-            w = ws[0] if len(ws) == 1 else np.concatenate(ws)
-        else:
-            J, v, w = no_rows, no_rhs, no_rhs
-        if Cs:
-            C, d = (Cs[0], ds[0]) if len(Cs) == 1 else (np.vstack(Cs), np.concatenate(ds))
-        else:
-            C, d = no_rows, no_rhs
-        out.append(Level(plan.priority, names, J, v, w, C, d, cn, z))
-    return out
+        ls.append(blocks)
+        ineq.append(rows)
+    return StepRows(layout, terms, ls, ineq, z, n)
+
+
+def build_levels(
+    robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], layout: StackLayout, dt: float
+) -> list[Level]:
+    """The levels of ``layout`` as rows, in decreasing priority (:func:`gather_rows`, stacked per level).
+
+    Args:
+        robot: Updated robot.
+        stack: The stack whose ``terms`` (one per task, in order) were just evaluated.
+        terms: ``stack.evaluate(robot, t)``.
+        layout: ``stack.layout(...)``.
+        dt: Step [s] (for the bound rows).
+    """
+    return gather_rows(robot, stack, terms, layout, dt).levels

@@ -146,7 +146,7 @@ class WeightedQPResolver(QPResolverBase):
                 ds.append(d)
                 names += rn
                 critical += [bsub.critical] * len(rn)
-            G, h = np.vstack(Cs), np.concatenate(ds)
+            G, h = (Cs[0], ds[0]) if len(Cs) == 1 else (np.vstack(Cs), np.concatenate(ds))
             safe = np.array(critical, dtype=bool)
         P, q = self._P, self._q
         assert P is not None and q is not None  # allocated by _accumulate
@@ -310,9 +310,10 @@ class WeightedQPResolver(QPResolverBase):
             return sol.x, f"{note}): {exc}"
 
     def _safety_rows(self, built: WQPBuild, stack: TaskStack) -> tuple[np.ndarray, np.ndarray] | None:
-        if built.safe is None or not built.safe.any():
+        safe = built.safe
+        if safe is None or not safe.any():
             return None
-        return built.problem.G[built.safe], built.problem.h[built.safe]
+        return (built.problem.G, built.problem.h) if safe.all() else (built.problem.G[safe], built.problem.h[safe])
 
     def _diagnose(self, built: WQPBuild, dq: np.ndarray, diag: QPDiagnostics) -> None:
         self._diagnose_terms(built.main_terms, built.damping, dq, diag)

@@ -1,0 +1,544 @@
+"""Compiled kernels of ``hqp`` (numba): its unconstrained cascade of levels, and its feasibility test, in one call.
+
+The cascade (module docstring of :mod:`redundik.resolvers.qp.hqp`, its closed-form shortcut): with x = 0 and Z = I
+before level 0, every least-squares level k solves
+
+    u = (A_k Z)⁺_λ (b_k − A_k x),   x ← x + Z u,   Z ← Z·null(A_k Z)
+
+with the damped pseudo-inverse of :mod:`redundik.resolvers.linalg` (per-direction damping of the singular values
+below ε, truncation below rcond·σ_max: :func:`redundik.resolvers.kernels.damped_svd_factors`, the one
+implementation of that rule), and the null-space objective ½‖q̇ − z‖² (identity rows) gives x ← x + Z Zᵀ(z − x)
+and leaves nothing below. Rows are weighted by √w (‖√w ∘ (A q̇ − b)‖², as
+:meth:`redundik.resolvers.qp.terms.Level.ls_rows`). The cascade is then kept when x satisfies the joint-limit box
+lb − tol ≤ x ≤ ub + tol and every level's inequality rows C x ≤ d + tol (a feasible unconstrained lexicographic
+optimum is the constrained one).
+
+Why one call: per level the NumPy route paid a handful of small-array calls (weighting, A Z, b − A x, the SVD
+call, two products, the basis update) and Python glue, ~10 µs per level on the Panda; fused here the three-level
+Panda cascade is the SVD arithmetic plus one call's overhead. Arrays come in as preallocated buffers the caller
+owns and reuses while the stack's membership is unchanged; only the per-level factors are allocated inside.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from redundik.resolvers.kernels import clip_twice, damped_svd_factors, in_box, limit_box
+
+_jit = nb.njit(cache=True, nogil=True)
+
+
+@_jit
+def householder_qr(B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """B = Q[:, :q] R for B (p, q), p ≥ q, by Householder reflections H = I − 2vvᵀ/vᵀv: Q (p, p) orthogonal,
+    R (q, q) upper triangular (its diagonal may be zero or negative; no pivoting)."""
+    p, q = B.shape
+    W = B.copy()
+    Q = np.eye(p)
+    v = np.empty(p)
+    for j in range(q):
+        nrm2 = 0.0
+        for i in range(j, p):
+            nrm2 += W[i, j] * W[i, j]
+        if nrm2 == 0.0:
+            continue
+        alpha = -math.sqrt(nrm2) if W[j, j] >= 0.0 else math.sqrt(nrm2)  # reflect x onto −sign(x_0)‖x‖ e_0
+        vv = 0.0
+        for i in range(j, p):
+            v[i] = W[i, j]
+        v[j] -= alpha
+        for i in range(j, p):
+            vv += v[i] * v[i]
+        if vv == 0.0:
+            continue
+        for c in range(j, q):  # W ← H W
+            t = 0.0
+            for i in range(j, p):
+                t += v[i] * W[i, c]
+            f = 2.0 * t / vv
+            for i in range(j, p):
+                W[i, c] -= f * v[i]
+        for r in range(p):  # Q ← Q H
+            t = 0.0
+            for i in range(j, p):
+                t += Q[r, i] * v[i]
+            f = 2.0 * t / vv
+            for i in range(j, p):
+                Q[r, i] -= f * v[i]
+    R = np.zeros((q, q))
+    for i in range(q):
+        for c in range(i, q):
+            R[i, c] = W[i, c]
+    return Q, R
+
+
+@_jit
+def upper_inverse(R: np.ndarray) -> tuple[np.ndarray, bool]:
+    """R⁻¹ of an upper triangular R (q, q) by back substitution; False (and zeros) when a diagonal entry is 0."""
+    q = R.shape[0]
+    Ri = np.zeros((q, q))
+    for i in range(q):
+        if R[i, i] == 0.0 or not math.isfinite(R[i, i]):
+            return Ri, False
+    for c in range(q):
+        Ri[c, c] = 1.0 / R[c, c]
+        for i in range(c - 1, -1, -1):
+            t = 0.0
+            for k in range(i + 1, c + 1):
+                t += R[i, k] * Ri[k, c]
+            Ri[i, c] = -t / R[i, i]
+    return Ri, True
+
+
+@_jit
+def qr_certificate(R: np.ndarray, Ri: np.ndarray, epsilon: float, rcond: float) -> bool:
+    """True when every singular value σ of R is ≥ ε and > rcond·σ_max, so that the damping rule of
+    :mod:`redundik.resolvers.linalg` leaves every direction exact (1/σ) and the rank full.
+
+    From σ_min ≥ 1/‖R⁻¹‖_F and σ_max ≤ ‖R‖_F (‖·‖₂ ≤ ‖·‖_F): a sufficient test, two Frobenius norms.
+    """
+    fr = 0.0
+    fi = 0.0
+    for i in range(R.shape[0]):
+        for c in range(R.shape[1]):
+            fr += R[i, c] * R[i, c]
+            fi += Ri[i, c] * Ri[i, c]
+    if not (fi > 0.0) or not math.isfinite(fi) or not math.isfinite(fr):
+        return False
+    lo = 1.0 / math.sqrt(fi)
+    return lo >= epsilon and lo > rcond * math.sqrt(fr)
+
+
+#: Level kinds in row 2 of the ``meta`` array of :func:`closed_cascade`.
+SKIP, NULL_OBJECTIVE, LEAST_SQUARES = 0, 1, 2
+#: Columns of the per-level ``stats`` array of :func:`closed_cascade`.
+SIGMA_MIN, DAMPING, RANK, FREE = 0, 1, 2, 3
+
+
+@_jit
+def closed_cascade(
+    A: np.ndarray,
+    b: np.ndarray,
+    w: np.ndarray,
+    C: np.ndarray,
+    d: np.ndarray,
+    z: np.ndarray,
+    lb: np.ndarray,
+    ub: np.ndarray,
+    meta: np.ndarray,
+    params: np.ndarray,
+    x: np.ndarray,
+    stats: np.ndarray,
+) -> bool:
+    """The unconstrained cascade of every level into ``x`` (n,), and whether it is feasible (module docstring).
+
+    Args:
+        A: Least-squares rows of all levels, stacked (≥ M, n) (a level with the null-space objective and rows of its
+            own carries the identity rows after them, with weight 1).
+        b: Their targets (≥ M,).
+        w: Row weights (≥ M,): row i enters as √w_i (A_i q̇ − b_i) (unscaled where w_i = 1).
+        C: Inequality rows C q̇ ≤ d of all levels, stacked (≥ P, n).
+        d: Their bounds (≥ P,).
+        z: Target of the null-space objective (n,) (read only by a ``NULL_OBJECTIVE`` level).
+        lb: Lower joint-limit bounds (n,) (−inf where none).
+        ub: Upper bounds (n,).
+        meta: Integer table (3, L + 1): row 0 the level offsets into A's rows, row 1 into C's rows, row 2 the level
+            kinds (``SKIP``, ``NULL_OBJECTIVE``, ``LEAST_SQUARES``) in its first L entries.
+        params: (ε, λ_max, rcond, tol, exact): the damping rule, the feasibility tolerance, and 1 to take the SVD at
+            every level (σ_min of every level for the diagnostics) or 0 to let a QR that certifies σ_min ≥ ε
+            (:func:`qr_certificate`) give M⁺ exactly where nothing is damped (σ_min then NaN: not computed).
+        x: Output, q̇ of the cascade (n,).
+        stats: Output (L, 4), per level (σ_min of A_k Z, damping λ, rank of A_k Z, number of free directions r
+            before the level); rank = −1 for a level that solved no least squares.
+
+    Returns:
+        True when lb − tol ≤ x ≤ ub + tol and C x ≤ d + tol.
+    """
+    epsilon, max_damping, rcond, tol = params[0], params[1], params[2], params[3]
+    exact = params[4] != 0.0
+    n = x.shape[0]
+    L = meta.shape[1] - 1
+    for i in range(n):
+        x[i] = 0.0
+    for k in range(L):
+        stats[k, 0] = np.inf
+        stats[k, 1] = 0.0
+        stats[k, 2] = -1.0
+        stats[k, 3] = 0.0
+    Z = np.empty((n, 0))
+    projected = False
+    r = n
+    for k in range(L):
+        if r == 0:
+            break
+        kind = meta[2, k]
+        if kind == NULL_OBJECTIVE:  # rows = I: u = Zᵀ(z − x), nothing left below
+            if not projected:
+                for i in range(n):
+                    x[i] = z[i]
+            else:
+                t = np.zeros(r)
+                for i in range(n):
+                    zi = z[i] - x[i]
+                    for j in range(r):
+                        t[j] += Z[i, j] * zi
+                for i in range(n):
+                    acc = 0.0
+                    for j in range(r):
+                        acc += Z[i, j] * t[j]
+                    x[i] += acc
+            r = 0
+            continue
+        s, e = meta[0, k], meta[0, k + 1]
+        m = e - s
+        if kind == SKIP or m == 0:
+            continue
+        # the weighted rows √w A and the residual target √w b − √w A x
+        Ak = np.empty((m, n))
+        rhs = np.empty(m)
+        for i in range(m):
+            wi = w[s + i]
+            sc = math.sqrt(wi) if wi != 1.0 else 1.0
+            acc = 0.0
+            for j in range(n):
+                a = A[s + i, j] * sc if wi != 1.0 else A[s + i, j]
+                Ak[i, j] = a
+                acc += a * x[j]
+            bi = b[s + i] * sc if wi != 1.0 else b[s + i]
+            rhs[i] = bi - acc
+        if projected:  # M = A_k Z (m, r)
+            M = np.zeros((m, r))
+            for i in range(m):
+                for l in range(n):
+                    a = Ak[i, l]
+                    if a != 0.0:
+                        for j in range(r):
+                            M[i, j] += a * Z[l, j]
+        else:
+            M = Ak
+        cols = M.shape[1]
+        u = np.zeros(cols)
+        N = np.empty((cols, 0))  # null(M), orthonormal columns
+        done = False
+        if not exact:  # QR when it certifies that no direction is damped: M⁺ exactly, several times cheaper
+            if m <= cols:  # Mᵀ = Q₁R: M⁺ rhs = Q₁ R⁻ᵀ rhs, null(M) = Q₂
+                Q, R = householder_qr(np.ascontiguousarray(M.T))
+                Ri, ok = upper_inverse(R)
+                if ok and qr_certificate(R, Ri, epsilon, rcond):
+                    y = np.zeros(m)
+                    for i in range(m):
+                        acc = 0.0
+                        for j in range(i + 1):
+                            acc += Ri[j, i] * rhs[j]
+                        y[i] = acc
+                    for c in range(cols):
+                        acc = 0.0
+                        for i in range(m):
+                            acc += Q[c, i] * y[i]
+                        u[c] = acc
+                    N = np.ascontiguousarray(Q[:, m:])
+                    rank, sigma_min, damping, done = m, np.nan, 0.0, True
+            else:  # M = Q₁R (full column rank): M⁺ rhs = R⁻¹ Q₁ᵀ rhs, null(M) = {0}
+                Q, R = householder_qr(M)
+                Ri, ok = upper_inverse(R)
+                if ok and qr_certificate(R, Ri, epsilon, rcond):
+                    y = np.zeros(cols)
+                    for i in range(cols):
+                        acc = 0.0
+                        for j in range(m):
+                            acc += Q[j, i] * rhs[j]
+                        y[i] = acc
+                    for c in range(cols):
+                        acc = 0.0
+                        for i in range(c, cols):
+                            acc += Ri[c, i] * y[i]
+                        u[c] = acc
+                    rank, sigma_min, damping, done = cols, np.nan, 0.0, True
+        if not done:  # the damped SVD: the rule of redundik.resolvers.linalg, direction by direction
+            U, _, Vt, inv, rank, sigma_min, damping = damped_svd_factors(M, epsilon, max_damping, rcond)
+            kk = inv.shape[0]
+            t = np.zeros(kk)  # inv ∘ Uᵀ rhs
+            for j in range(kk):
+                acc = 0.0
+                for i in range(m):
+                    acc += U[i, j] * rhs[i]
+                t[j] = inv[j] * acc
+            for j in range(kk):  # u = V_k t
+                tj = t[j]
+                if tj != 0.0:
+                    for c in range(cols):
+                        u[c] += Vt[j, c] * tj
+            N = np.ascontiguousarray(Vt[rank:].T)
+        nfree = N.shape[1]
+        if projected:
+            for i in range(n):
+                acc = 0.0
+                for c in range(cols):
+                    acc += Z[i, c] * u[c]
+                x[i] += acc
+            Znew = np.zeros((n, nfree))  # Z·null(A_k Z)
+            for i in range(n):
+                for c in range(cols):
+                    zic = Z[i, c]
+                    if zic != 0.0:
+                        for j in range(nfree):
+                            Znew[i, j] += zic * N[c, j]
+            Z = Znew
+        else:
+            for i in range(n):
+                x[i] = u[i]
+            Z = N
+        stats[k, 0] = sigma_min
+        stats[k, 1] = damping
+        stats[k, 2] = rank
+        stats[k, 3] = r
+        projected = True
+        r = nfree
+    if not in_box(x, lb, ub, tol):
+        return False
+    for i in range(meta[1, L]):
+        acc = 0.0
+        for j in range(n):
+            acc += C[i, j] * x[j]
+        if not (acc <= d[i] + tol):  # (a NaN row is not kept)
+            return False
+    return True
+
+
+@_jit
+def closed_step(
+    A: np.ndarray,
+    b: np.ndarray,
+    w: np.ndarray,
+    C: np.ndarray,
+    d: np.ndarray,
+    z: np.ndarray,
+    meta: np.ndarray,
+    params: np.ndarray,
+    q: np.ndarray,
+    iq: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    vmax: np.ndarray,
+    amax: np.ndarray,
+    position: bool,
+    has_rate: bool,
+    gain: float,
+    dt: float,
+    dq_prev: np.ndarray,
+    box: np.ndarray,
+    out: np.ndarray,
+    stats: np.ndarray,
+) -> bool:
+    """One ``hqp`` step's closed-form path in one call: the joint-limit box (``kernels.limit_box`` into ``box``
+    (4, 1, n): lb, ub, pos_lo, pos_hi), the unconstrained cascade and its feasibility test (:func:`closed_cascade`,
+    q̇ into out[0]), and q̇ clipped to the box (``kernels.clip_twice``: the q̇ returned and the copy kept, out[1:3]).
+
+    Returns:
+        True when the cascade is feasible (out[1] is then the step's q̇); False: the constrained cascade is needed.
+    """
+    limit_box(q, iq, lo, hi, vmax, amax, position, has_rate, gain, dt, dq_prev, box)
+    lb = box[0, 0]
+    ub = box[1, 0]
+    ok = closed_cascade(A, b, w, C, d, z, lb, ub, meta, params, out[0], stats)
+    clip_twice(out[0], lb, ub, out[1:3])
+    return ok
+
+
+@_jit
+def level_rows_ok(
+    step: np.ndarray,
+    x: np.ndarray,
+    lb: np.ndarray,
+    ub: np.ndarray,
+    free: np.ndarray,
+    native: bool,
+    C: np.ndarray,
+    d: np.ndarray,
+    F: np.ndarray,
+    f: np.ndarray,
+    margin: float,
+    tol: float,
+) -> bool:
+    """Whether q̇ = x + step keeps the rows of an ``hqp`` level QP (``HierarchicalQPResolver._level_feasible``).
+
+    The level's own inequalities C(x + step) ≤ d + tol (slack w = 0); the levels above F step ≤ max(f − F x, 0) +
+    margin + tol; the free joints' limits, as native bounds lb − x − tol ≤ step ≤ ub − x + tol (``native``: the
+    first level, Z = I on the free joints) or as the rows ±step_j ≤ max(±(ub_j or lb_j) − x_j), 0) + margin + tol.
+    """
+    n = x.shape[0]
+    for i in range(C.shape[0]):
+        acc = 0.0
+        for j in range(n):
+            acc += C[i, j] * (x[j] + step[j])
+        if acc > d[i] + tol:
+            return False
+    for i in range(F.shape[0]):
+        a = 0.0
+        b = 0.0
+        for j in range(n):
+            a += F[i, j] * step[j]
+            b += F[i, j] * x[j]
+        if a > max(f[i] - b, 0.0) + margin + tol:
+            return False
+    for j in range(n):
+        if not free[j]:
+            continue
+        if native:
+            if step[j] < lb[j] - x[j] - tol or step[j] > ub[j] - x[j] + tol:
+                return False
+        else:
+            if math.isfinite(ub[j]) and step[j] > max(ub[j] - x[j], 0.0) + margin + tol:
+                return False
+            if math.isfinite(lb[j]) and -step[j] > max(x[j] - lb[j], 0.0) + margin + tol:
+                return False
+    return True
+
+
+@_jit
+def _project_row(row: np.ndarray, out: np.ndarray, mode: int, sel: np.ndarray, Z: np.ndarray, r: int) -> None:
+    """out[:r] = row Z for a row (n,): Z = I (mode 0), I on the joints ``sel`` (1), or the basis Z (2)."""
+    if mode == 0:
+        for j in range(r):
+            out[j] = row[j]
+    elif mode == 1:
+        for j in range(r):
+            out[j] = row[sel[j]]
+    else:
+        n = row.shape[0]
+        for j in range(r):
+            acc = 0.0
+            for i in range(n):
+                acc += row[i] * Z[i, j]
+            out[j] = acc
+
+
+@_jit
+def level_qp_arrays(
+    M: np.ndarray,
+    rhs: np.ndarray,
+    eps: float,
+    C: np.ndarray,
+    d: np.ndarray,
+    x: np.ndarray,
+    Z: np.ndarray,
+    mode: int,
+    sel: np.ndarray,
+    F: np.ndarray,
+    f: np.ndarray,
+    lb: np.ndarray,
+    ub: np.ndarray,
+    free: np.ndarray,
+    tol: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(P, q, G, h, l, u) of one ``hqp`` level QP over (u, w') (module docstring of :mod:`redundik.resolvers.qp.hqp`):
+
+        minimise  ½ uᵀ(MᵀM + εI)u − (Mᵀ rhs)ᵀu + ½‖w'‖² + w₀ᵀw'
+        subject to  C Z u − w' ≤ (d − C x) + w₀,  w₀ = max(C x − d, 0)          (the level's rows, w = w₀ + w')
+                    F Z u ≤ max(f − F x, 0) + tol                              (the levels above)
+                    l ≤ (u, w') ≤ u_b  and, below the first level, ±Z_j u ≤ max(±(ub_j or lb_j) − x_j), 0) + tol
+
+    ``mode``: 0 — Z = I (``Z`` not read), native bounds lb − x ≤ u ≤ ub − x; 1 — Z = I on the joints ``sel``
+    (native bounds on those); 2 — the limits of the ``free`` joints with a finite bound as rows of Z. M has r
+    columns (r = n in mode 0) and no rows for a level without least squares.
+    """
+    n = x.shape[0]
+    r = M.shape[1]
+    p = C.shape[0]
+    nvar = r + p
+    P = np.zeros((nvar, nvar))
+    q = np.zeros(nvar)
+    for a in range(M.shape[0]):
+        ra = rhs[a]
+        for i in range(r):
+            mi = M[a, i]
+            if mi != 0.0:
+                q[i] -= mi * ra
+                for j in range(r):
+                    P[i, j] += mi * M[a, j]
+    for i in range(r):
+        P[i, i] += eps
+    nfu = 0
+    nfl = 0
+    if mode == 2:
+        for j in range(n):
+            if free[j] and math.isfinite(ub[j]):
+                nfu += 1
+            if free[j] and math.isfinite(lb[j]):
+                nfl += 1
+    nf = F.shape[0]
+    G = np.zeros((p + nf + nfu + nfl, nvar))
+    h = np.empty(p + nf + nfu + nfl)
+
+    for k in range(p):
+        _project_row(C[k], G[k], mode, sel, Z, r)
+        G[k, r + k] = -1.0
+        cx = 0.0
+        for j in range(n):
+            cx += C[k, j] * x[j]
+        s0 = d[k] - cx
+        w0 = max(-s0, 0.0)
+        P[r + k, r + k] = 1.0
+        q[r + k] = w0
+        h[k] = s0 + w0
+    for k in range(nf):
+        _project_row(F[k], G[p + k], mode, sel, Z, r)
+        fx = 0.0
+        for j in range(n):
+            fx += F[k, j] * x[j]
+        h[p + k] = max(f[k] - fx, 0.0) + tol
+    lo = np.full(nvar, -np.inf)
+    hi = np.full(nvar, np.inf)
+    if mode == 0:
+        for j in range(r):
+            lo[j] = lb[j] - x[j]
+            hi[j] = ub[j] - x[j]
+    elif mode == 1:
+        for j in range(r):
+            lo[j] = lb[sel[j]] - x[sel[j]]
+            hi[j] = ub[sel[j]] - x[sel[j]]
+    else:
+        o = p + nf
+        for i in range(n):
+            if free[i] and math.isfinite(ub[i]):
+                for j in range(r):
+                    G[o, j] = Z[i, j]
+                h[o] = max(ub[i] - x[i], 0.0) + tol
+                o += 1
+        for i in range(n):
+            if free[i] and math.isfinite(lb[i]):
+                for j in range(r):
+                    G[o, j] = -Z[i, j]
+                h[o] = max(x[i] - lb[i], 0.0) + tol
+                o += 1
+    return P, q, G, h, lo, hi
+
+
+def first_run_cost() -> dict[str, float]:
+    """Seconds each kernel of this module takes on its first call in this process (JIT compile, or loading the
+    on-disk cache); later calls are the steady-state cost."""
+    import time
+
+    n = 3
+    A = np.array([[1.0, 0.0, 0.5], [0.0, 1.0, 0.25], [1.0, 0.0, 0.0]])
+    meta = np.array([[0, 2, 3], [0, 0, 0], [LEAST_SQUARES, LEAST_SQUARES, 0]], dtype=np.int64)
+    params = np.array([1e-2, 5e-2, 1e-10, 1e-12, 0.0])
+    inf = np.full(n, np.inf)
+    none, rows = np.zeros(0), np.zeros((0, n))
+    free = np.ones(n, dtype=np.bool_)
+    out: dict[str, float] = {}
+    t0 = time.perf_counter()
+    closed_cascade(A, np.ones(3), np.ones(3), rows, none, np.zeros(n), -inf, inf, meta, params, np.empty(n),
+                   np.empty((2, 4)))  # fmt: skip
+    out["closed_cascade"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    level_rows_ok(np.zeros(n), np.zeros(n), -inf, inf, free, True, rows, none, rows, none, 1e-7, 1e-12)
+    out["level_rows_ok"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    level_qp_arrays(A, np.ones(3), 1e-9, rows, none, np.zeros(n), np.zeros((0, 0)), 0, np.zeros(0, dtype=np.int64),
+                    rows, none, -inf, inf, free, 1e-7)  # fmt: skip
+    out["level_qp_arrays"] = time.perf_counter() - t0
+    return out

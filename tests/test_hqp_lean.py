@@ -1,0 +1,218 @@
+"""hqp's lean step against the previous general path: the same q̇ and diagnostics to 1e-10.
+
+The lean step solves the unconstrained cascade in one compiled call (``hqp_kernels.closed_cascade``, a certified QR
+where no direction is damped), builds its Level records and σ_min/rank-loss diagnostics only when they are read, and
+below the top level keeps a level QP's unconstrained optimum when it satisfies the level's rows. The reference here is
+the path it replaced: the cascade level by level in Python through ``kernels.lsq_level`` on stacked Level records,
+every level of the constrained cascade solved by the backend.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import redundik as rk
+from redundik.kinematics import DHRow
+from redundik.resolvers.kernels import lsq_level
+from redundik.resolvers.qp.base import QPDiagnostics, QPResolverBase
+from redundik.resolvers.qp.hqp import HierarchicalQPResolver, HQPBuild
+from redundik.resolvers.qp.terms import Level
+from tests.test_qp_helpers import prepared, random_robot, tip
+
+
+def _reference_closed_cascade(
+    res: HierarchicalQPResolver, levels: list[Level], n: int, diag: QPDiagnostics
+) -> np.ndarray:
+    """The replaced closed-form cascade: level by level, u = (A Z)⁺_λ (b − A x) by ``lsq_level``, eager records."""
+    x = np.zeros(n)
+    Z: np.ndarray | None = None
+    r = n
+    for lv in levels:
+        if r == 0:
+            break
+        if lv.pure_null_objective:
+            assert lv.z is not None
+            x = lv.z.copy() if Z is None else x + Z @ (Z.T @ (lv.z - x))
+            Z, r = np.zeros((n, 0)), 0
+            continue
+        if not lv.m:
+            continue
+        A, b = lv.ls_rows()
+        x_new = np.empty(n)
+        projected = Z is not None
+        Z, smin, damping, rank = lsq_level(
+            np.ascontiguousarray(A, dtype=float),
+            np.ascontiguousarray(b, dtype=float),
+            x,
+            np.zeros((0, 0)) if Z is None else Z,
+            Z is not None,
+            res.epsilon,
+            res.max_damping,
+            res.rcond,
+            x_new,
+        )
+        res._record(lv, float(smin), float(damping), int(rank), r, projected, diag)
+        x, r = x_new, Z.shape[1]
+    return x
+
+
+class _Reference(HierarchicalQPResolver):
+    """hqp by the previous general path (module docstring)."""
+
+    def __init__(self, **kw: object) -> None:
+        super().__init__(**kw)  # type: ignore[arg-type]
+        self.level_shortcut = False
+
+    def solve(self, robot: rk.RobotModel, stack: rk.TaskStack, t: float, dt: float) -> rk.StepResult:
+        return QPResolverBase.solve(self, robot, stack, t, dt)  # the shared template, not hqp's lean step
+
+    def _resolve(self, built: HQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
+        levels, box, n = built.levels, built.box, built.n
+        x = _reference_closed_cascade(self, levels, n, diag)
+        tol = 1e-12
+        if box.contains(x, tol) and all(not lv.p or bool((lv.C @ x <= lv.d + tol).all()) for lv in levels):
+            return x, None
+        diag.level_sigma_min.clear()
+        diag.damped_levels.clear()
+        diag.rank_loss_levels.clear()
+        x, notes = self._qp_cascade(levels, box, n, diag)
+        return x, ("hqp: " + "; ".join(notes)) if notes else None
+
+    def _diagnose(self, built: HQPBuild, dq: np.ndarray, diag: QPDiagnostics) -> None:
+        for lv in built.levels:
+            diag.level_residuals[lv.priority] = lv.residual(dq)
+
+
+def _stack(robot: rk.RobotModel, rng: np.random.Generator, depth: int, bound: bool) -> rk.TaskStack:
+    """Tip position (0) > tip orientation (1) > a 1-row joint target (2) > gradients (null objective), with a bound
+    subtask (a joint kept under a bound, at level 1) when ``bound``."""
+    names = robot.joint_names
+    tasks: list[rk.Task] = [rk.FrameTask(tip(robot), rk.Line(rng.uniform(-0.5, 0.5, 3)), axes="position", gain=1.0)]
+    if depth > 1:
+        ori = rk.FrameTask(tip(robot), rk.Hold(), axes="orientation", gain=1.0, name="orientation")
+        ori.priority = 1  # type: ignore[attr-defined]
+        tasks.append(ori)
+    if depth > 2:
+        tasks.append(rk.PotentialTask(rk.JointValue(names[1], 0.0), target=0.0, rate=5.0, priority=2, name="j2"))
+    subs: list[rk.Subtask] = []
+    if depth > 3:
+        subs.append(rk.GradientSubtask(rk.JointValue(names[0], 1.0), gain=-3.0))
+        subs.append(rk.GradientSubtask(rk.JointCentering(), gain=-1.0))
+    if bound:
+        subs.append(rk.BoundSubtask(rk.JointValue(names[2], 0.0, name="b3"), upper=float(rng.uniform(0.0, 0.5)),
+                                    rate=10.0, priority=1))  # fmt: skip
+    return rk.TaskStack(tasks, subs)
+
+
+def _compare(
+    robot: rk.RobotModel, stack: rk.TaskStack, q: np.ndarray, tol: float = 1e-10, steps: int = 1, **kw: object
+) -> str:
+    """Step both resolvers from q (``steps`` steps, the reference's q̇ integrated); q̇, fallback and every numeric
+    diagnostic agree to ``tol`` at every step; the path taken at the last."""
+    lean, ref = HierarchicalQPResolver(**kw), _Reference(**kw)  # type: ignore[arg-type]
+    for res in (lean, ref):
+        prepared(res, robot, stack, q)
+    path = ""
+    for k in range(steps):
+        a = lean.step(robot, stack, q, 0.05 + 0.01 * k, 0.01)
+        b = ref.step(robot, stack, q, 0.05 + 0.01 * k, 0.01)
+        path = _agree(a, b, tol)
+        q = robot.integrate(q, b.dq, 0.01)
+    return path
+
+
+def _agree(a: rk.StepResult, b: rk.StepResult, tol: float) -> str:
+    """q̇, fallback and diagnostics of the lean step ``a`` and the reference ``b`` agree; the reference's path."""
+    scale = max(1.0, float(np.max(np.abs(b.dq))))
+    np.testing.assert_allclose(a.dq, b.dq, rtol=0, atol=tol * scale)
+    assert (a.fallback is None) == (b.fallback is None), (a.fallback, b.fallback)
+    closed = b.info["qp"] == 0
+    keys = set(b.info) - {"qp", "iterations", "backend", "rank_loss_levels", "active_limits", "damped_levels"}
+    assert set(a.info) >= keys
+    for key in keys:
+        va, vb = a.info[key], b.info[key]
+        if isinstance(vb, float) and np.isfinite(vb):
+            assert abs(float(va) - vb) <= tol * max(1.0, abs(vb)), (key, va, vb)  # type: ignore[arg-type]
+        elif isinstance(vb, float):
+            assert va == vb, (key, va, vb)
+    assert a.info["rank_loss_levels"] == b.info["rank_loss_levels"]
+    assert a.info["active_limits"] == b.info["active_limits"]
+    assert a.info.get("damped_levels") == b.info.get("damped_levels")
+    assert a.sigma_min == pytest.approx(b.sigma_min, rel=tol, abs=tol) or a.sigma_min == b.sigma_min
+    assert a.damped == b.damped
+    if closed:
+        assert a.info["qp"] == 0
+    assert a.info["qp"] <= b.info["qp"]
+    return "closed" if closed else "qp"
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_lean_step_equals_the_general_path_on_random_robots(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(4, 9))
+    tight = seed % 3 == 0  # tight velocity limits: the QP path, level by level
+    robot = random_robot(rng, n, velocity=float(rng.uniform(0.2, 0.6)) if tight else np.inf)
+    q = robot.random_configuration(rng)
+    if seed % 4 == 1:  # near a singularity: the tip frame's joints almost aligned
+        q = q * 1e-4
+    stack = _stack(robot, rng, depth=int(rng.integers(1, 5)), bound=bool(seed % 2))
+    if seed % 5 == 2:  # a rate limit: the window of the previous q̇ in the box (three steps)
+        _compare(robot, stack, q, steps=3, limits=rk.JointLimits(acceleration=float(rng.uniform(2.0, 20.0))))
+    else:
+        _compare(robot, stack, q)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_lean_step_equals_the_general_path_with_pinned_joints(seed: int) -> None:
+    """A joint whose limits are one value (its q̇ pinned to 0): the constrained cascade with the joint fixed."""
+    rng = np.random.default_rng(100 + seed)
+    n = int(rng.integers(5, 9))
+    robot = random_robot(rng, n, velocity=float(rng.uniform(0.3, 2.0)))
+    q = robot.random_configuration(rng)
+    j = int(rng.integers(n))
+    name = robot.joint_names[j]
+    limits = rk.JointLimits(lower={name: float(q[j])}, upper={name: float(q[j])})
+    stack = _stack(robot, rng, depth=int(rng.integers(1, 5)), bound=bool(seed % 2))
+    assert _compare(robot, stack, q, limits=limits) == "qp"
+
+
+@pytest.mark.parametrize("theta", [0.0, 1e-9, 1e-6, 1e-4, 1e-3, 5e-3, 2e-2])
+def test_lean_step_equals_the_general_path_near_the_straight_arm(theta: float) -> None:
+    """The chapter's 3R arm stretched (θ2 = θ3 ≈ 0): σ_min → 0, damped directions, rank truncated at θ = 0."""
+    robot = rk.from_dh([DHRow(str(i + 1), a=1.0) for i in range(3)], name="planar3r")
+    q = np.array([0.3, theta, -theta])
+    for sub in (
+        [rk.GradientSubtask(rk.JointSine2("3"), gain=1.0)],
+        [rk.TargetSubtask(rk.JointValue("2", 0.5), target=0.0, rate=2.0)],
+        [],
+    ):
+        stack = rk.TaskStack([rk.FrameTask("3", rk.Line([0.2, -0.4]), axes="planar")], sub)
+        _compare(robot, stack, q, limits=False)
+
+
+def test_lean_diagnostics_are_computed_only_when_read(monkeypatch: pytest.MonkeyPatch) -> None:
+    """No Level record and no SVD of a level on a step whose diagnostics are not read; exact values once read."""
+    from redundik.resolvers.qp import terms
+
+    built = []
+    level = terms.StepRows._level
+    monkeypatch.setattr(terms.StepRows, "_level", lambda self, k: built.append(k) or level(self, k))
+    robot = random_robot(np.random.default_rng(5), 7)
+    q = robot.random_configuration(np.random.default_rng(6))
+    stack = _stack(robot, np.random.default_rng(7), depth=4, bound=False)
+    res = HierarchicalQPResolver(limits=False)
+    prepared(res, robot, stack, q)
+    out = res.step(robot, stack, q, 0.0, 0.01)
+    assert out.__dict__["pending"] is not None and not built and out.info["qp"] == 0
+    J = robot.frame_jacobian(tip(robot))[:3]
+    assert out.info["sigma_min_L0"] == pytest.approx(np.linalg.svd(J, compute_uv=False)[-1], rel=1e-10)
+    assert built  # the Level records, built on the first read
+
+
+def test_hqp_kernels_report_their_first_run_cost() -> None:
+    from redundik.resolvers import hqp_kernels
+
+    cost = hqp_kernels.first_run_cost()
+    assert set(cost) == {"closed_cascade", "level_rows_ok", "level_qp_arrays"}
+    assert all(v >= 0.0 for v in cost.values())
