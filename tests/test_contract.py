@@ -379,6 +379,13 @@ class _NaNPotential(rk.Potential):
         return np.full(robot.nv, np.nan)
 
 
+class _HugeLine(rk.Line):
+    """A line at (1e308, −1e308) that skips the constructor's bounds (as a user's own trajectory could)."""
+
+    def __init__(self) -> None:
+        self.velocity = np.array([1e308, -1e308, 0.0])
+
+
 @pytest.mark.parametrize("name", ["pinv", "feedback", "wqp", "hqp"])
 def test_a_non_finite_intermediate_is_a_diagnosed_fallback(name: str) -> None:
     robot = case2_robot()
@@ -388,15 +395,17 @@ def test_a_non_finite_intermediate_is_a_diagnosed_fallback(name: str) -> None:
     res = _step(name, robot, stack, q)
     assert np.isfinite(res.dq).all()
     assert res.fallback is not None and "non-finite" in res.fallback
-    # an absurd but finite request is resolved as asked; the overflow it causes is refused at the next tick
-    huge = rk.TaskStack([rk.FrameTask("3", rk.Line([1e308, -1e308]), axes="planar", gain=1.0)])
+    # such a line is refused where it is made; a trajectory of one's own that asks for it anyway is resolved as
+    # asked, and the overflow it causes is refused by the integration, never handed on as an infinite q
+    with pytest.raises(rk.TaskError, match="line velocity"):
+        rk.Line([1e308, -1e308])
+    huge = rk.TaskStack([rk.FrameTask("3", _HugeLine(), axes="planar", gain=1.0)])
     with np.errstate(over="ignore", invalid="ignore"):
         res = _step(name, robot, huge, q)
-        q_next = robot.integrate(q, res.dq, 10.0)
     assert np.isfinite(res.dq).all()
-    if res.fallback is None:  # resolved as asked (pinv, hqp, feedback): the next tick refuses the overflowed q
-        with pytest.raises(rk.ResolverError, match="NaN or infinite"):
-            rk.make_resolver(name).step(robot, huge, q_next, 10.0, 0.01)
+    if res.fallback is None:  # resolved as asked (pinv, hqp, feedback): integrating it overflows, and says so
+        with np.errstate(over="ignore", invalid="ignore"), pytest.raises(rk.ModelError, match="not finite"):
+            robot.integrate(q, res.dq, 10.0)
     else:  # wqp's normal equations overflow (‖v‖² ~ 1e616): a diagnosed fallback
         assert "non-finite" in res.fallback or "failed" in res.fallback
 

@@ -101,12 +101,23 @@ def copy_examples(target: Path, overwrite: bool = False) -> list[Path]:
         raise ConfigError(f"'{target}' exists and is not a folder")
     written: list[Path] = []
     try:
-        for ex in examples():
+        target.mkdir(parents=True, exist_ok=True)
+        root = target.resolve(strict=True)
+        plan = []
+        for ex in examples():  # every destination checked before the first write
             dst = target / ex.folder / ex.path.name
             if dst.exists() and not overwrite:
                 continue
+            if dst.is_symlink() or not dst.resolve().is_relative_to(root):
+                # a symlink (a dangling one included) would make copyfile write wherever it points
+                raise ConfigError(
+                    f"refusing to copy into '{dst}': it is a symlink or resolves outside '{target}' (to "
+                    f"'{dst.resolve()}'); remove it or copy into another folder"
+                )
+            plan.append((ex.path, dst))
+        for src, dst in plan:
             dst.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copyfile(ex.path, dst)
+            shutil.copyfile(src, dst)
             written.append(dst)
     except OSError as exc:
         raise ConfigError(f"cannot copy the examples into '{target}': {exc.strerror or exc}") from None

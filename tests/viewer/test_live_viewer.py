@@ -84,3 +84,30 @@ def test_chromium_sees_the_robot_move_on_the_live_page(viewer: tuple[LiveViewer,
     assert robot.mean() > 0.015, f"robot covers only {robot.mean():.1%} of the page"
     moved = changed(at0, at1)[view]
     assert moved.sum() > 500, f"only {moved.sum()} pixels changed between two configurations"
+
+
+def test_update_refuses_a_bad_q_and_reports_a_failed_push(
+    viewer: tuple[LiveViewer, np.ndarray], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A NaN or a wrong-sized q is refused in the caller's thread (the background thread used to die on it, and the
+    viewer froze silently); a push that fails on the viewer's thread is reported by the next update."""
+    from redundik.errors import ModelError
+
+    v, q0 = viewer
+    with pytest.raises(ModelError, match=r"live viewer: update\(q\): contains NaN"):
+        v.update(np.full_like(q0, np.nan))
+    with pytest.raises(ModelError, match=r"live viewer: update\(q\): expected 9 values"):
+        v.update(q0[:3])
+
+    def broken(q: np.ndarray) -> None:
+        raise RuntimeError("meshcat went away")
+
+    monkeypatch.setattr(v, "_push", broken)
+    v.update(q0)
+    deadline = time.perf_counter() + 10.0  # a hang guard for the worker's push
+    while v._failed is None and time.perf_counter() < deadline:
+        time.sleep(0.01)
+    with pytest.raises(ModelError, match="could not show a configuration: RuntimeError: meshcat went away"):
+        v.update(q0)
+    monkeypatch.undo()
+    v.update(q0, force=True)  # the viewer goes on

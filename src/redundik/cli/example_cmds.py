@@ -73,11 +73,13 @@ def copy(
 ) -> None:
     """Copy the shipped tasks/ and configs/ into a folder (same layout: the tasks' robot paths still resolve)."""
     from redundik.cli._console import console
-    from redundik.shipped import copy_examples
+    from redundik.shipped import copy_examples, examples
 
     written = copy_examples(target, overwrite=force)
+    kept = len(examples()) - len(written)
+    note = f"; kept {kept} that were already there (--force overwrites them)" if kept else ""
     console(stderr=True).print(
-        f"copied {len(written)} files into {target}/ (tasks/, configs/); run one with "
+        f"copied {len(written)} files into {target}/ (tasks/, configs/){note}; run one with "
         f"`redundik run {target}/tasks/planar3r_line.yaml`",
         highlight=False,
         markup=False,

@@ -9,16 +9,20 @@ kind of failure it was (:data:`EXIT_CODES`). Nothing numerical is imported here:
 
 from __future__ import annotations
 
+import os
 import sys
 import warnings
+from pathlib import Path
 from typing import Any
 
 from redundik._extras import is_installed, missing
 from redundik._version import __version__
-from redundik.errors import MissingDependencyError, RedundikError, ResolverError, SimulationError
+from redundik.errors import ConfigError, MissingDependencyError, RedundikError, ResolverError, SimulationError
 
 #: Exit codes of the ``redundik`` command.
 EXIT_OK, EXIT_ABORTED, EXIT_USAGE, EXIT_INVALID, EXIT_FAILED, EXIT_MISSING = 0, 1, 2, 3, 4, 5
+#: An unexpected exception (a bug): 70, EX_SOFTWARE of sysexits.h.
+EXIT_INTERNAL = 70
 EXIT_CODES = {
     EXIT_OK: "success",
     EXIT_ABORTED: "aborted (Ctrl-C)",
@@ -26,8 +30,10 @@ EXIT_CODES = {
     EXIT_INVALID: "invalid input: a file or value refused, one line 'error: KEY.PATH: what was expected'",
     EXIT_FAILED: "run failure: a valid run could not finish (diverged, a QP solver failed)",
     EXIT_MISSING: "an optional dependency is missing: the message names the extra to install",
+    EXIT_INTERNAL: "internal error: a bug in redundik, one line naming the exception (REDUNDIK_TRACEBACK=1 shows it)",
 }
-EPILOG = "Exit codes: " + "; ".join(f"{k} {v}" for k, v in EXIT_CODES.items()) + "."
+#: The help's epilog: one exit code a line (``\b``: click does not re-wrap the paragraph, a code never ends a line).
+EPILOG = "\b\nExit codes:\n" + "\n".join(f"  {k} {v}" for k, v in EXIT_CODES.items())
 
 _APP: Any = None
 
@@ -121,6 +127,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("aborted", file=sys.stderr)
         return EXIT_ABORTED
+    except OSError as exc:  # the file system said no (permissions, a full disk, a name too long): not a bug
+        where = f" '{exc.filename}'" if getattr(exc, "filename", None) else ""
+        return _report(ConfigError(f"cannot read or write{where}: {exc.strerror or exc}"))
     except Exception as exc:
         name = type(exc).__name__
         if name == "Exit":  # typer.Exit / click.exceptions.Exit
@@ -134,8 +143,30 @@ def main(argv: list[str] | None = None) -> int:
         if callable(show) and isinstance(code, int):
             show()
             return code
-        raise
+        return _internal(exc)
     return EXIT_OK
+
+
+def _internal(exc: Exception) -> int:
+    """An unexpected exception (a bug, not bad input): one line naming it, never a bare traceback.
+
+    ``REDUNDIK_TRACEBACK=1`` re-raises it, for a bug report.
+    """
+    if os.environ.get("REDUNDIK_TRACEBACK"):
+        raise exc
+    from redundik.cli._console import JSON_MODE, emit_json
+
+    tb = exc.__traceback__
+    while tb is not None and tb.tb_next is not None:
+        tb = tb.tb_next
+    where = f" at {Path(tb.tb_frame.f_code.co_filename).name}:{tb.tb_lineno}" if tb is not None else ""
+    text = " ".join(f"{type(exc).__name__}: {exc}".split())
+    text = text if len(text) <= 600 else text[:597] + "..."
+    text = f"internal error (a bug in redundik, please report it; REDUNDIK_TRACEBACK=1 shows it){where}: {text}"
+    if JSON_MODE["on"]:
+        emit_json({"ok": False, "error": text, "exit_code": EXIT_INTERNAL, "kind": type(exc).__name__})
+    print(f"error: {text}", file=sys.stderr)
+    return EXIT_INTERNAL
 
 
 if __name__ == "__main__":

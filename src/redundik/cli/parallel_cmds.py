@@ -63,8 +63,8 @@ def _rotation(rpy: tuple[float, float, float] | None, rot: tuple[float, ...] | N
 
         return Rotation.from_matrix(approx).as_matrix()
     if rpy is not None:
-        if not np.all(np.isfinite(rpy)):
-            raise MechanismError(f"--rpy: non-finite angle {list(rpy)}")
+        if not np.all(np.isfinite(rpy)) or np.any(np.abs(rpy) > MAX_INPUT):
+            raise MechanismError(f"--rpy: expected finite angles of at most {MAX_INPUT:g} [deg], got {list(rpy)}")
         return rpy_matrix(*rpy)
     return np.eye(3)
 
@@ -74,16 +74,45 @@ def _out_file(out: Path) -> Path:
     return safe_path(out.parent, out.name)
 
 
+#: Largest magnitude of a number given on the command line (as |x| ≤ 1e6 in the YAML files): beyond it the
+#: mechanism's arithmetic overflows to inf/NaN.
+MAX_INPUT = 1e6
+
+
 def _vec(values: tuple[float, ...], name: str) -> np.ndarray:
     import numpy as np
 
     arr = np.asarray(values, dtype=float)
     if not np.all(np.isfinite(arr)):
         raise MechanismError(f"{name}: non-finite value {arr.tolist()}")
+    if np.any(np.abs(arr) > MAX_INPUT):
+        raise MechanismError(f"{name}: values must be at most {MAX_INPUT:g} in magnitude, got {arr.tolist()}")
     return arr
 
 
+def _non_finite(node: Any, path: str = "") -> str | None:
+    """The key path of the first non-finite number in a result, or ``None``."""
+    import math
+
+    if isinstance(node, float):
+        return None if math.isfinite(node) else path or "result"
+    if isinstance(node, dict):
+        for key, value in node.items():
+            found = _non_finite(value, f"{path}.{key}" if path else str(key))
+            if found:
+                return found
+    elif isinstance(node, (list, tuple)):
+        for i, value in enumerate(node):
+            found = _non_finite(value, f"{path}[{i}]")
+            if found:
+                return found
+    return None
+
+
 def _emit(payload: dict[str, Any], as_json: bool, title: str, rows: list[tuple[str, str]]) -> None:
+    bad = _non_finite(payload)
+    if bad is not None:  # never print inf/NaN (nor write "Infinity" into a JSON document) as an answer
+        raise MechanismError(f"{title}: the result is not finite at '{bad}' (the inputs overflow the computation)")
     if as_json:
         typer.echo(json.dumps(payload))
         return
@@ -126,7 +155,7 @@ def stewart_fk(
     method: Annotated[
         str, typer.Option("--method", help="exact (least squares) or grid (the book's search).")
     ] = "exact",
-    starts: Annotated[int, typer.Option("--starts", help="Initial poses of the exact solver.")] = 48,
+    starts: Annotated[int, typer.Option("--starts", min=1, max=10_000, help="Initial poses of the exact solver.")] = 48,
     half_space: Annotated[str, typer.Option("--half-space", help="above, below or any.")] = "above",
     as_json: JsonOpt = False,
 ) -> None:
@@ -215,7 +244,7 @@ def stewart_animate(
     out: Annotated[Path, typer.Option("--out", help="GIF file to write.")],
     rpy: RpyOpt = None,
     to_rpy: Annotated[tuple[float, float, float] | None, typer.Option("--to-rpy", help="Final rpy [deg].")] = None,
-    frames: Annotated[int, typer.Option("--frames", min=2, help="Number of frames.")] = 20,
+    frames: Annotated[int, typer.Option("--frames", min=2, max=1000, help="Number of frames.")] = 20,
 ) -> None:
     """GIF of a straight-line move between two poses (orientation by slerp)."""
     from redundik.parallel.hybrid33 import linear_path

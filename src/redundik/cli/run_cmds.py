@@ -23,7 +23,7 @@ def validate(
         bool, typer.Option("--json", help="One JSON document on stdout: {ok, file, kind, description}.")
     ] = False,
 ) -> None:
-    """Check a task file (robot, tasks, potentials, every run), a robot config or a mechanism config."""
+    """Check a task file (robot, tasks, potentials, every run), a robot config, a mechanism config or a sweep file."""
     from redundik.cli._console import JSON_MODE, console, emit_json
     from redundik.cli.example_cmds import resolve_file
     from redundik.config.anyfile import validate_file
@@ -64,13 +64,14 @@ def run(
     from redundik.config import load_task
     from redundik.config.runner import run_task, select_runs
     from redundik.reporting.outputs import write_outputs
+    from redundik.reporting.paths import check_output_folder
     from redundik.reporting.terminal import print_summary
 
     JSON_MODE["on"] = json_out
     file = resolve_file(file)
     plan = load_task(file)
     names = select_runs(plan, None if runs is None else runs.split(","))
-    out_dir = out if out is not None else Path("out") / plan.name
+    out_dir = check_output_folder(out if out is not None else Path("out") / plan.name)
     human = console(stderr=json_out)  # tables and messages: stdout, or stderr when stdout carries the JSON
     bar_console = console(stderr=True)
     pictures = output_steps(figures, html, gif)

@@ -29,6 +29,7 @@ def sweep(
     from rich.console import Console
 
     from redundik.errors import RedundikError
+    from redundik.reporting.paths import check_output_folder
     from redundik.sweep import load_sweep, run_sweep
     from redundik.sweep.output import FORMATS, write_outputs
 
@@ -38,6 +39,7 @@ def sweep(
         raise RedundikError("give at most one of --dask local:N and --scheduler ADDRESS")
     console = Console(stderr=True)
     plan = load_sweep(file)
+    out_dir = check_output_folder(out if out is not None else Path("out") / plan.name)  # refused before the work
     where = f"dask {dask}" if dask else f"dask {scheduler}" if scheduler else "in-process"
     if not quiet:
         console.print(
@@ -51,7 +53,6 @@ def sweep(
             console.print(f"  {done}/{total} chunks", highlight=False)
 
     result = run_sweep(plan, dask=dask, scheduler=scheduler, progress=progress)
-    out_dir = out if out is not None else Path("out") / plan.name
     paths = write_outputs(plan, result, out_dir, fmt, figure)
     pct = 100.0 * result.n_converged / max(result.n_problems, 1)
     typer.echo(

@@ -65,6 +65,8 @@ def write_pictures(
         steps: From :func:`output_steps`.
         done: Called with each step's name once written (for a progress bar).
     """
+    from redundik.reporting.paths import safe_path
+
     written: list[Path] = []
     runs, options = figure_inputs(plan, results) if {"figures", "gif"} & set(steps) else ({}, None)
     for step in steps:
@@ -75,29 +77,62 @@ def write_pictures(
         elif step == "html":
             from redundik.viewer.html import write_html
 
-            written.append(write_html(out_dir / f"{plan.name}.html", plan, results))
+            written.append(write_html(safe_path(out_dir, f"{plan.name}.html"), plan, results))
         elif step == "gif":
             from redundik.reporting.gif import write_gif
 
-            written.append(write_gif(runs, plan.robot.model, out_dir / f"{plan.name}.gif", options))
+            written.append(write_gif(runs, plan.robot.model, safe_path(out_dir, f"{plan.name}.gif"), options))
         if done is not None:
             done(step)
     return written
 
 
 # ---------------------------------------------------------------------------------------------------- redundik view
-def read_run_csv(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """Times [s] (N,) and configurations (N, nq) from a ``RUN.csv`` (columns ``t`` and ``q.*``/``q[i]``)."""
+def read_run_csv(path: Path, nq: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Times [s] (N,) and configurations (N, nq) from a ``RUN.csv`` (columns ``t`` and ``q.*``/``q[i]``).
+
+    Raises:
+        ConfigError: not a run table, a cell that is not a finite number (file:line and column named), no rows,
+            times that do not increase, or (``nq`` given) a number of ``q`` columns other than ``nq``.
+    """
     import numpy as np
 
-    with path.open(encoding="utf-8") as fh:
-        rows = list(csv.reader(fh))
+    from redundik.errors import short_repr
+
+    try:
+        with path.open(encoding="utf-8", newline="") as fh:
+            rows = list(csv.reader(fh))
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise ConfigError(f"cannot read run table '{path}': {exc}") from None
     if not rows or "t" not in rows[0]:
         raise ConfigError(f"'{path}' is not a run table (no 't' column)")
     header = rows[0]
     qcols = [i for i, h in enumerate(header) if h.startswith("q.") or h.startswith("q[")]
-    data = np.array([[float(v) if v else np.nan for v in r] for r in rows[1:]])
-    return data[:, header.index("t")], data[:, qcols]
+    if not qcols:
+        raise ConfigError(f"'{path}' is not a run table (no 'q.*' columns)")
+    if nq is not None and len(qcols) != nq:
+        raise ConfigError(f"'{path}' has {len(qcols)} joint columns, the task's robot has nq = {nq}")
+    if len(rows) < 2:
+        raise ConfigError(f"run table '{path}' has no rows")
+    ti = header.index("t")
+    wanted = [ti, *qcols]
+    data = np.empty((len(rows) - 1, len(wanted)))
+    for r, row in enumerate(rows[1:]):
+        if len(row) != len(header):
+            raise ConfigError(f"{path}:{r + 2}: expected {len(header)} cells, got {len(row)}")
+        for c, i in enumerate(wanted):
+            try:
+                value = float(row[i])
+            except ValueError:
+                value = float("nan")
+            if not np.isfinite(value):
+                raise ConfigError(
+                    f"{path}:{r + 2}: column '{header[i]}': expected a finite number, got {short_repr(row[i])}"
+                )
+            data[r, c] = value
+    if np.any(np.diff(data[:, 0]) < 0):
+        raise ConfigError(f"run table '{path}': the times in column 't' must not decrease")
+    return data[:, 0], data[:, 1:]
 
 
 def load_output(
@@ -106,17 +141,23 @@ def load_output(
     """The task plan and the logged runs of an output folder of ``redundik run``.
 
     Raises:
-        ConfigError: no ``summary.json``, no task file recorded and none given, or a missing run table.
+        ConfigError: no ``summary.json`` (or one that is not a summary), no task file recorded and none given, or a
+            missing or malformed run table.
     """
     from redundik.config import load_task
 
     summary_path = out_dir / "summary.json"
     if not summary_path.is_file():
         raise ConfigError(f"'{out_dir}' has no summary.json: give the output folder of `redundik run`")
-    summary: dict[str, Any] = json.loads(summary_path.read_text(encoding="utf-8"))
+    try:
+        summary: Any = json.loads(summary_path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise ConfigError(f"'{summary_path}' is not a summary of `redundik run` (not JSON: {exc})") from None
+    if not isinstance(summary, dict) or not isinstance(summary.get("runs", {}), dict):
+        raise ConfigError(f"'{summary_path}' is not a summary of `redundik run` (expected an object with 'runs')")
     if task is None:
         recorded = summary.get("task_file")
-        if not recorded:
+        if not recorded or not isinstance(recorded, str):
             raise ConfigError(f"'{summary_path}' does not name its task file: pass --task FILE")
         task = Path(recorded)
     plan = load_task(task)
@@ -127,11 +168,24 @@ def load_output(
         csv_path = out_dir / f"{name}.csv"
         if not csv_path.is_file():
             raise ConfigError(f"run table '{csv_path}' is missing")
-        t, q = read_run_csv(csv_path)
+        t, q = read_run_csv(csv_path, plan.robot.model.nq)
+        entry = entry if isinstance(entry, dict) else {}
         runs[name] = (t, q, {"resolver": entry.get("resolver", ""), "max task error": entry.get("max_task_error")})
     if not runs:
         raise ConfigError(f"no run of '{task}' found in '{out_dir}'")
     return plan, runs
+
+
+def _check_view_options(at: float, speed: float, loops: int) -> None:
+    """Refuse a non-finite or negative time, a speed that is not a finite positive factor, fewer than one loop."""
+    import math
+
+    if not (math.isfinite(at) and at >= 0):
+        raise ConfigError(f"--t: expected a finite time ≥ 0 [s], got {at}")
+    if not (math.isfinite(speed) and 1e-3 <= speed <= 1e3):
+        raise ConfigError(f"--speed: expected a playback factor in [0.001, 1000], got {speed}")
+    if not 1 <= loops <= 1000:
+        raise ConfigError(f"--loops: expected 1 to 1000 loops, got {loops}")
 
 
 def view(
@@ -147,7 +201,10 @@ def view(
     """Replay a finished run: in meshcat (live viewer, extra `viewer`) or as an offline HTML file."""
     from rich.console import Console
 
+    _check_view_options(at, speed, loops)
     plan, runs = load_output(out_dir, task)
+    if run is not None and run not in runs:
+        raise ConfigError(f"--run: no run named '{run}' in '{out_dir}'; runs: {', '.join(runs)}")
     console = Console()
     if html is not None or png is not None:
         import tempfile
@@ -156,8 +213,12 @@ def view(
 
         with tempfile.TemporaryDirectory(prefix="redundik-view-") as tmp:
             page = html if html is not None else Path(tmp) / f"{plan.name}.html"
-            page.parent.mkdir(parents=True, exist_ok=True)
-            page.write_text(render_page(build_task_replay(plan, runs)), encoding="utf-8")
+            text = render_page(build_task_replay(plan, runs))
+            try:
+                page.parent.mkdir(parents=True, exist_ok=True)
+                page.write_text(text, encoding="utf-8")
+            except OSError as exc:
+                raise ConfigError(f"--html: cannot write '{page}': {exc.strerror or exc}") from None
             console.print(f"wrote {page}" if html is not None else f"replay of {', '.join(runs)}")
             if png is not None:
                 from redundik.viewer.snapshot import screenshot

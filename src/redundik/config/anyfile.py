@@ -2,7 +2,8 @@
 
 The kind of file is told from its top-level keys: ``kind`` → a parallel-mechanism config
 (:mod:`redundik.config.parallel`); ``dh`` or ``urdf`` without ``runs`` / ``robot`` → a robot config
-(:mod:`redundik.config.robot`); anything else is checked as a task file (:mod:`redundik.config.loader`).
+(:mod:`redundik.config.robot`); ``targets`` or ``convergence`` without ``runs`` → a sweep file
+(:mod:`redundik.sweep.plan`); anything else is checked as a task file (:mod:`redundik.config.loader`).
 Each is checked as fully as the commands that use it would check it at load time.
 """
 
@@ -13,11 +14,13 @@ from typing import Any, Literal
 
 from redundik.config.yamlio import read_yaml
 
-FileKind = Literal["task", "robot", "mechanism"]
+FileKind = Literal["task", "robot", "mechanism", "sweep"]
 
 
 def detect_kind(data: dict[str, Any]) -> FileKind:
     """What a parsed YAML mapping is, from its top-level keys."""
+    if "runs" not in data and ("targets" in data or "convergence" in data):
+        return "sweep"
     if "runs" in data or "robot" in data:
         return "task"
     if "kind" in data:
@@ -48,6 +51,14 @@ def validate_file(path: str | Path) -> str:
         cfg = parse_config(data, str(path))
         cfg.build()
         return f"{cfg.kind} mechanism config '{cfg.name}'"
+    if kind == "sweep":
+        from redundik.sweep.plan import load_sweep
+
+        sweep = load_sweep(path)
+        return (
+            f"sweep '{sweep.name}', robot '{sweep.robot.model.name}': {sweep.n_problems} problems "
+            f"({sweep.n_targets} targets × {sweep.n_starts} starts), {sweep.spec.resolver.name}"
+        )
     if kind == "robot":
         prefix = f"{path.name}: "
         spec = validate(RobotSpec, data, prefix)

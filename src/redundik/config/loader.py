@@ -135,6 +135,21 @@ class TaskPlan:
     world: Any = None  # the collision world (redundik.collision.CollisionWorld) of 'collision:'/'obstacles:'
 
 
+def _refuse_other_kinds(data: dict[str, Any], path: Path) -> None:
+    """A sweep file, robot config or mechanism config given where a task file is expected: say which it is."""
+    from redundik.config.anyfile import detect_kind
+
+    kind = detect_kind(data)
+    if kind == "task":
+        return
+    command = {
+        "sweep": f"run it with `redundik sweep {path}`",
+        "robot": "a task file names it under 'robot:'",
+        "mechanism": "use the `redundik stewart`, `hybrid33`, `delta` or `mobility` commands",
+    }[kind]
+    raise ConfigError(f"{path.name} is a {kind} file, not a task file: {command} (`redundik validate` checks any)")
+
+
 def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None) -> TaskPlan:
     """Read, validate and assemble a task file (every run) without running it.
 
@@ -152,6 +167,7 @@ def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None)
         path = Path(source)
         data = read_yaml(path, "task file")
         base = base_dir or path.resolve().parent
+        _refuse_other_kinds(data, path)
     spec: TaskFileSpec = validate(TaskFileSpec, data)
     steps = _check_steps(spec)
     robot = load_robot(spec.robot, base, "robot")
@@ -322,6 +338,33 @@ def _subtask(pot: Potential, sub: SubtaskSpec, path: str) -> Subtask:
         raise ConfigError(str(exc).removeprefix(f"subtask '{pot.name}': "), path) from None
 
 
+#: Most physics steps of a plant per control tick, and in one run: a tiny ``sim_dt`` would run for hours.
+MAX_SUBSTEPS, MAX_PHYSICS_STEPS = 1000, 50_000_000
+
+
+def _check_plant_rate(spec: TaskFileSpec, sim_dt: float, where: str) -> None:
+    """``sim_dt`` must divide ``dt`` (checked here, at validation, as the plant checks it when built) and keep the
+    physics steps bounded."""
+    ratio = spec.dt / sim_dt
+    substeps = round(ratio)
+    at = join_path(where, "sim_dt")
+    if substeps < 1 or abs(ratio - substeps) > 1e-6 * ratio:
+        raise ConfigError(f"sim_dt = {sim_dt:g} s must divide the control dt = {spec.dt:g} s", at)
+    if substeps > MAX_SUBSTEPS:
+        raise ConfigError(
+            f"sim_dt = {sim_dt:g} s gives {substeps} physics steps per control tick of {spec.dt:g} s; at most "
+            f"{MAX_SUBSTEPS} are allowed",
+            at,
+        )
+    total = substeps * spec.n_steps
+    if total > MAX_PHYSICS_STEPS:
+        raise ConfigError(
+            f"{spec.n_steps} ticks × {substeps} physics steps = {total} MuJoCo steps; at most {MAX_PHYSICS_STEPS} "
+            "are allowed (raise sim_dt or shorten the run)",
+            at,
+        )
+
+
 def _build_run(spec: TaskFileSpec, ctx: Context, name: str, run: RunSpec, q0_file: np.ndarray) -> RunPlan:
     path = join_path("runs", name)
     robot = ctx.robot
@@ -358,6 +401,12 @@ def _build_run(spec: TaskFileSpec, ctx: Context, name: str, run: RunSpec, q0_fil
             raise ConfigError(f"no potential named '{pname}' under 'potentials'; defined: {defined}", where)
         pot = build_typed(POTENTIALS, spec.potentials[pname], pname, ctx, join_path("potentials", pname), "potential")
         subtasks.append(_subtask(pot, sub or SubtaskSpec(), where))
+        if subtasks[-1].name in names:
+            raise ConfigError(
+                f"potential '{pname}' has the name of a main task: tasks and subtasks of a run need distinct names "
+                "(rename the potential or give the task a 'name')",
+                where,
+            )
     controlled = {s.name for s in subtasks}
     watched = [
         build_typed(POTENTIALS, raw, pname, ctx, join_path("potentials", pname), "potential")
@@ -383,9 +432,9 @@ def _build_run(spec: TaskFileSpec, ctx: Context, name: str, run: RunSpec, q0_fil
     except (ValueError, TypeError) as exc:
         raise ConfigError(f"resolver '{run.resolver}': bad options: {exc}", join_path(path, "options")) from None
     q0 = q0_file if run.q0 is None else configuration_from_file(run.q0, robot, ctx.angle_unit, join_path(path, "q0"))
-    stack = TaskStack(tasks, subtasks)
     # assemble at q0 exactly as the simulation will, so that a run that cannot start fails now
     try:
+        stack = TaskStack(tasks, subtasks)
         robot.update(q0)
         stack.reset(robot)
         for pot in [*watched, *monitors]:
@@ -397,6 +446,8 @@ def _build_run(spec: TaskFileSpec, ctx: Context, name: str, run: RunSpec, q0_fil
     except RedundikError as exc:
         raise ConfigError(str(exc), path) from None
     given = run.plant if run.plant is not None else spec.plant
+    if given is not None:
+        _check_plant_rate(spec, given.sim_dt, join_path(path, "plant") if run.plant is not None else "plant")
     plant = given.options() if given is not None else None
     return RunPlan(name, run.description, run.resolver, resolver, stack, q0, watched, monitors, torques, plant)
 

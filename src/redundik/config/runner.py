@@ -46,6 +46,8 @@ def select_runs(plan: TaskPlan, names: Iterable[str] | None) -> list[str]:
     if names is None:
         return list(plan.runs)
     wanted = [n.strip() for n in names if n.strip()]
+    if not wanted:
+        raise ConfigError(f"--runs: no run name given; runs in the file: {', '.join(plan.runs)}")
     bad = [n for n in wanted if n not in plan.runs]
     if bad:
         raise ConfigError(f"no run named {', '.join(repr(b) for b in bad)}; runs in the file: {', '.join(plan.runs)}")

@@ -157,6 +157,10 @@ class SubtaskSpec(StrictModel):
     priority: int | None = Field(default=None, ge=0)
 
 
+#: A servo gain of a plant: ≥ 0, at most 1e9 (larger ones make the simulation blow up).
+Gain = Annotated[float, Field(ge=0, le=1e9)]
+
+
 class PlantSpec(StrictModel):
     """``plant:`` (task file or run): drive a simulated robot instead of integrating q̇ (see ``docs/task-files.md``).
 
@@ -167,9 +171,9 @@ class PlantSpec(StrictModel):
 
     type: Literal["mujoco"]
     actuator: Literal["position", "velocity"] = "position"
-    kp: float | dict[Name, float] = 2000.0
-    kv: float | dict[Name, float] = 100.0
-    sim_dt: float = Field(default=0.001, gt=0)
+    kp: Gain | dict[Name, Gain] = 2000.0
+    kv: Gain | dict[Name, Gain] = 100.0
+    sim_dt: float = Field(default=0.001, gt=0, le=1.0)  # [s], at most DT_MAX (defined below)
     gravity: bool = True
     gravity_compensation: bool = True
     effort_limits: bool = True
@@ -188,6 +192,9 @@ IntegratorName = Literal["euler", "rk4", "rk45"]
 #: Bounds of a run's time grid: steps ≤ MAX_STEPS, DT_MIN ≤ dt ≤ DT_MAX [s] (see docs/task-files.md).
 MAX_STEPS = 1_000_000
 DT_MIN, DT_MAX = 1e-6, 1.0
+#: Smallest ``rtol`` of ``rk45`` (the value of :data:`redundik.simulation.integrators.RTOL_MIN`, repeated here so that
+#: the schema imports nothing numerical): SciPy raises smaller ones to 100 ε behind a warning.
+RTOL_MIN = 1e-13
 #: Longest ``duration`` [s] (duration / dt must also give at most MAX_STEPS steps).
 MAX_DURATION = 1e6
 
@@ -206,7 +213,7 @@ class RunSpec(StrictModel):
     q0: list[float] | None = None
     plant: PlantSpec | None = None
     integrator: IntegratorName | None = None
-    rtol: float | None = Field(default=None, gt=0, lt=1)
+    rtol: float | None = Field(default=None, ge=RTOL_MIN, lt=1)
     atol: float | None = Field(default=None, gt=0, lt=1)
 
 
@@ -236,7 +243,7 @@ class TaskFileSpec(StrictModel):
     steps: int | None = Field(default=None, ge=1, le=MAX_STEPS)
     duration: float | None = Field(default=None, gt=0, le=MAX_DURATION)
     integrator: IntegratorName = "euler"
-    rtol: float = Field(default=1e-10, gt=0, lt=1)
+    rtol: float = Field(default=1e-10, ge=RTOL_MIN, lt=1)
     atol: float = Field(default=1e-12, gt=0, lt=1)
     main: list[dict[str, Any]] = Field(default_factory=list)
     potentials: dict[Name, dict[str, Any]] = Field(default_factory=dict)

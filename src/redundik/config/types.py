@@ -114,7 +114,10 @@ register(
     "pose",
     "trajectory",
     PoseInterpolation,
-    params={"duration": As(bounds=POSITIVE), "rotation": As(key="rpy", annotation=OptVec3, convert=_rpy)},
+    params={
+        "duration": As(bounds={"ge": s.DT_MIN, "le": s.MAX_DURATION}),  # [s]; shorter: a speed beyond any scale
+        "rotation": As(key="rpy", annotation=OptVec3, convert=_rpy),
+    },
 )
 
 # ---------------------------------------------------------------------------------------------------- main tasks

@@ -18,7 +18,7 @@ from pydantic import BaseModel, ValidationError
 from redundik.errors import ConfigError, short_repr
 
 # pydantic union members appear in error locations under these labels; they are not YAML keys.
-_TYPE_LABELS = {"str", "int", "float", "bool", "list", "dict", "none", "None"}
+_TYPE_LABELS = {"str", "int", "float", "bool", "list", "dict", "none", "None", "constrained-float", "constrained-int"}
 
 
 #: Largest YAML file read [bytes] (the shipped files are below 40 KB).

@@ -82,6 +82,42 @@ def _se3(matrix: np.ndarray) -> pin.SE3:
     return pin.SE3(np.asarray(matrix[:3, :3]), np.asarray(matrix[:3, 3]))
 
 
+#: Largest |θ|, |d|, |a|, |α| of a D-H row (as in robot config files): larger ones overflow the kinematics.
+MAX_DH_VALUE = 1e6
+
+
+def _check_row(row: object, i: int, robot: str) -> None:
+    """Refuse a row that is not a :class:`DHRow`, an empty or non-string name, or numbers that are not numbers."""
+    if not isinstance(row, DHRow):
+        raise ModelError(f"robot '{robot}': row {i + 1}: expected a DHRow, got {type(row).__name__}")
+    if not isinstance(row.name, str) or not row.name.strip():
+        raise ModelError(f"robot '{robot}': row {i + 1}: name must be a non-empty string, got {row.name!r}")
+    for key in ("parent", "joint"):
+        value = getattr(row, key)
+        if value is not None and not isinstance(value, str):
+            raise ModelError(f"robot '{robot}': row {i + 1} ('{row.name}'): {key} must be a frame name or None")
+    for key in ("theta", "d", "a", "alpha", "lower", "upper", "velocity"):
+        value = getattr(row, key)
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+            raise ModelError(
+                f"robot '{robot}': row {i + 1} ('{row.name}'): {key} must be a number, got {type(value).__name__}"
+            )
+        if key in ("theta", "d", "a", "alpha") and abs(value) > MAX_DH_VALUE:
+            raise ModelError(
+                f"robot '{robot}': row {i + 1} ('{row.name}'): {key} = {value:g} is larger than {MAX_DH_VALUE:g} in "
+                "magnitude (the kinematics would overflow)"
+            )
+    if np.isnan(row.velocity) or row.velocity < 0:
+        raise ModelError(
+            f"robot '{robot}': row {i + 1} ('{row.name}'): velocity limit must be ≥ 0 (inf: none), got {row.velocity}"
+        )
+    if row.lower == np.inf or row.upper == -np.inf:
+        raise ModelError(
+            f"robot '{robot}': row {i + 1} ('{row.name}'): limits [{row.lower}, {row.upper}] leave no position "
+            "(-inf / inf mean no limit only as lower / upper)"
+        )
+
+
 def from_dh(
     rows: Sequence[DHRow],
     *,
@@ -106,6 +142,8 @@ def from_dh(
         ModelError: on duplicate names, unknown parents or coupled joints, bad kinds, non-finite numbers or
             inverted limits; the message names the row.
     """
+    if isinstance(rows, (str, bytes)) or not isinstance(rows, Sequence):
+        raise ModelError(f"robot '{name}': rows must be a list of DHRow, got {type(rows).__name__}")
     if len(rows) == 0:
         raise ModelError(f"robot '{name}': the D-H table has no rows")
     base_m = np.eye(4) if base is None else np.asarray(base, dtype=float)
@@ -114,6 +152,8 @@ def from_dh(
     rot = base_m[:3, :3]
     if not np.allclose(rot @ rot.T, np.eye(3), atol=1e-9) or np.linalg.det(rot) < 0:
         raise ModelError(f"robot '{name}': base rotation is not a proper rotation matrix")
+    if not np.allclose(base_m[3], (0.0, 0.0, 0.0, 1.0), rtol=0.0, atol=1e-12):
+        raise ModelError(f"robot '{name}': base must be homogeneous: its last row must be (0, 0, 0, 1)")
 
     model = pin.Model()
     model.name = name
@@ -126,6 +166,7 @@ def from_dh(
     joint_rows: dict[str, tuple[int, DHRow, str]] = {}
     previous = base_frame
     for i, row in enumerate(rows):
+        _check_row(row, i, name)
         where = f"row {i + 1} ('{row.name}')"
         if row.name in frames:
             raise ModelError(f"robot '{name}': {where}: duplicate frame name")

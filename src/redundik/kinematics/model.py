@@ -11,6 +11,7 @@ chapter's eq. (4.15) as used in (5.6): V = (v, ω) = J q̇.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -118,6 +119,35 @@ class RobotModel:
                         )
                     )
         self.joints = tuple(joints)
+        self._check_model()
+
+    def _check_model(self) -> None:
+        """Refuse a model no resolver could use: no moving joint, a NaN or inverted limit, a zero joint axis.
+
+        Raises:
+            ModelError: names the robot and the joint.
+        """
+        if self.model.nv == 0:
+            raise ModelError(f"robot '{self.name}' has no moving joint (nv = 0): nothing to resolve")
+        for j in self.joints:
+            if math.isnan(j.lower) or math.isnan(j.upper) or j.lower > j.upper:
+                raise ModelError(
+                    f"robot '{self.name}': joint '{j.name}': limits must satisfy lower ≤ upper, got "
+                    f"[{j.lower:g}, {j.upper:g}]"
+                )
+            if j.lower == math.inf or j.upper == -math.inf:
+                raise ModelError(
+                    f"robot '{self.name}': joint '{j.name}': limits [{j.lower:g}, {j.upper:g}] leave no position "
+                    "(-inf / inf mean no limit only as lower / upper)"
+                )
+            if math.isnan(j.velocity) or j.velocity < 0:
+                raise ModelError(
+                    f"robot '{self.name}': joint '{j.name}': velocity limit must be ≥ 0 (inf: none), got {j.velocity}"
+                )
+        for jid in range(1, self.model.njoints):
+            axis = getattr(self.model.joints[jid].extract(), "axis", None)
+            if axis is not None and not float(np.linalg.norm(axis)) > 1e-12:
+                raise ModelError(f"robot '{self.name}': joint '{self.model.names[jid]}' has a zero axis")
 
     # ------------------------------------------------------------------ sizes and names
     @property
@@ -190,7 +220,24 @@ class RobotModel:
 
         This is the chapter's first-order update q_new = q + q̇·dt.
         """
-        return np.asarray(pin.integrate(self.model, q, np.asarray(dq, dtype=float) * dt), dtype=float)
+        v = np.asarray(dq, dtype=float)
+        if v.shape != (self.nv,):
+            if v.size != self.nv:
+                raise ModelError(f"integrate: dq has {v.size} entries, robot '{self.name}' has nv = {self.nv}")
+            v = v.reshape(-1)
+        if isinstance(dt, bool) or not isinstance(dt, (int, float, np.integer, np.floating)) or not math.isfinite(dt):
+            raise ModelError(f"integrate: dt must be a finite number [s], got {dt!r}")
+        try:
+            out = np.asarray(pin.integrate(self.model, q, v * dt), dtype=float)
+        except (TypeError, ValueError, RuntimeError):  # Pinocchio's multi-line C++ messages: say what was wrong
+            arr = np.asarray(q)
+            raise ModelError(
+                f"integrate: q must be {self.nq} real numbers for robot '{self.name}', got shape {arr.shape}"
+            ) from None
+        if not math.isfinite(float(out @ out)) and not np.isfinite(out).all():
+            bad = "q" if not np.isfinite(np.asarray(q, dtype=float)).all() else "dq"
+            raise ModelError(f"integrate: the result is not finite ({bad} contains NaN or infinite values)")
+        return out
 
     def difference(self, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
         """The velocity that goes from q0 to q1 in unit time (q1 ⊖ q0)."""
@@ -202,7 +249,13 @@ class RobotModel:
         Raises:
             ModelError: wrong length or non-finite entries; names ``where`` and the expected size.
         """
-        arr = np.asarray(q, dtype=float).reshape(-1)
+        try:
+            raw = np.asarray(q)
+            if raw.dtype.kind not in "fiuO":  # bool, complex, strings: not joint values
+                raise TypeError(f"dtype {raw.dtype}")
+            arr = np.asarray(raw, dtype=float).reshape(-1)
+        except (TypeError, ValueError) as exc:
+            raise ModelError(f"{where}: expected {self.nq} real numbers for robot '{self.name}', got {exc}") from None
         if arr.shape[0] != self.nq:
             raise ModelError(f"{where}: expected {self.nq} values for robot '{self.name}', got {arr.shape[0]}")
         if not np.all(np.isfinite(arr)):
@@ -239,7 +292,10 @@ class RobotModel:
     # ------------------------------------------------------------------ kinematics state
     def update(self, q: np.ndarray) -> None:
         """Compute forward kinematics, frame placements and joint Jacobians at ``q`` (once per tick)."""
-        q = np.asarray(q, dtype=float)
+        if not (type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self._nq,)):
+            q = self.check_configuration(q, f"robot '{self.name}': update(q)")
+        elif not math.isfinite(float(np.add.reduce(q))) and not np.isfinite(q).all():  # the sum first: one call
+            raise ModelError(f"robot '{self.name}': update(q): q contains NaN or infinite values: {q.tolist()[:8]}")
         pin.computeJointJacobians(self.model, self.data, q)
         pin.updateFramePlacements(self.model, self.data)
         self._q = q.copy()

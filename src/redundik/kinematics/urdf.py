@@ -91,6 +91,8 @@ def from_urdf(path: str | os.PathLike[str], *, free_flyer: bool = False, name: s
     Raises:
         ModelError: if the file is missing or Pinocchio cannot parse it.
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise ModelError(f"URDF path must be a file path (str or Path), got {type(path).__name__}")
     p = Path(path)
     try:
         exists = p.is_file()

@@ -51,6 +51,26 @@ def check_name(name: object, path: str | None = None) -> str:
     return name
 
 
+def check_output_folder(out_dir: str | os.PathLike[str]) -> Path:
+    """``out_dir`` as a path, if it can be an output folder: refuses an existing path that is not a folder.
+
+    Call it before a long job, so a bad ``--out`` is refused before the work rather than after it.
+
+    Raises:
+        OutputPathError: ``out_dir`` (or one of its parents) exists and is not a folder.
+    """
+    folder = Path(out_dir)
+    for part in (folder, *folder.parents):
+        if part.exists() and not part.is_dir():
+            raise OutputPathError(
+                f"cannot use output folder {short_repr(str(folder), 200)}: {short_repr(str(part), 200)} exists and "
+                "is not a folder"
+            )
+        if part.exists():
+            break
+    return folder
+
+
 def safe_path(out_dir: str | os.PathLike[str], name: str) -> Path:
     """The path of output file ``name`` inside ``out_dir``, checked; the folder is created if needed.
 
@@ -65,12 +85,15 @@ def safe_path(out_dir: str | os.PathLike[str], name: str) -> Path:
     if problem is not None:
         raise OutputPathError(f"refusing to write output file: {problem}")
     folder = Path(out_dir)
+    check_output_folder(folder)
     try:
         folder.mkdir(parents=True, exist_ok=True)
         root = folder.resolve(strict=True)
         target = (root / name).resolve()
     except OSError as exc:
-        raise OutputPathError(f"cannot use output folder '{short_repr(str(folder), 200)}': {exc.strerror}") from None
+        raise OutputPathError(
+            f"cannot use output folder {short_repr(str(folder), 200)}: {exc.strerror or exc}"
+        ) from None
     if target.parent != root:
         raise OutputPathError(
             f"refusing to write '{name}': it resolves to '{target}', outside the output folder {root}"

@@ -338,6 +338,7 @@ class Resolver(ABC):
         if not (  # the common case checked in a few operations; anything unusual goes through check_inputs
             type(q) is np.ndarray
             and q.dtype == np.float64
+            and type(robot) is RobotModel
             and q.shape == (robot.nq,)
             and type(dt) is float
             and type(t) is float
@@ -348,7 +349,12 @@ class Resolver(ABC):
             q = self.check_inputs(robot, q, t, dt)
             t, dt = float(t), float(dt)
         robot.update(q)
-        sig = (id(robot), *stack.signature())
+        try:
+            sig = (id(robot), *stack.signature())
+        except AttributeError:  # not a TaskStack (a list of tasks, one task, None): say so, not AttributeError
+            raise ResolverError(
+                f"{self.name}: stack must be a TaskStack (tasks, subtasks), got {type(stack).__name__}"
+            ) from None
         if sig != self._checked:
             self.check(robot, stack)
             self._checked = sig
@@ -398,10 +404,17 @@ class Resolver(ABC):
 
     def check_inputs(self, robot: RobotModel, q: np.ndarray, t: float, dt: float) -> np.ndarray:
         """Validated q (as a float array) after checking t and dt; raises :class:`ResolverError` otherwise."""
+        if not isinstance(robot, RobotModel):
+            raise ResolverError(f"{self.name}: robot must be a RobotModel, got {type(robot).__name__}")
         try:
-            arr = np.asarray(q, dtype=float).reshape(-1)
+            raw = np.asarray(q)
+            if raw.dtype.kind not in "fiuO":  # bool, complex, strings: not joint values (no silent cast)
+                raise TypeError(f"got dtype {raw.dtype}")
+            if raw.ndim > 1 and max(raw.shape) != raw.size:  # (nq,), (1, nq) or (nq, 1); never a (2, 3) for nq = 6
+                raise ValueError(f"got shape {raw.shape}")
+            arr = np.asarray(raw, dtype=float).reshape(-1)
         except (TypeError, ValueError) as exc:
-            raise ResolverError(f"{self.name}: q must be an array of {robot.nq} numbers: {exc}") from None
+            raise ResolverError(f"{self.name}: q must be an array of {robot.nq} real numbers: {exc}") from None
         if arr.shape[0] != robot.nq:
             raise ResolverError(f"{self.name}: q has {arr.shape[0]} entries, the robot has nq = {robot.nq}")
         if not np.isfinite(arr).all():

@@ -24,6 +24,7 @@ Agreement with the loop: ≤ 1e-9 in q̇ (tested); the differences are rounding 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import cast
@@ -120,9 +121,20 @@ class BatchResolver:
         self.resolver, self.robot, self.frame = resolver, robot, frame
         self.axes = resolve_axes(axes)
         self.rows = np.array([("x", "y", "z", "rx", "ry", "rz").index(a) for a in self.axes])
+        for key, value in (("gain", gain), ("posture_gain", posture_gain)):
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+                raise ResolverError(f"batch: {key} must be a number [1/s], got {type(value).__name__}")
+            if not (math.isfinite(value) and value >= 0):
+                raise ResolverError(f"batch: {key} must be a finite number ≥ 0 [1/s], got {value}")
         self.gain, self.posture_gain = float(gain), float(posture_gain)
-        self.posture_target = None if posture_target is None else robot.check_configuration(posture_target)
+        self.posture_target = (
+            None if posture_target is None else robot.check_configuration(posture_target, "batch: posture_target")
+        )
         self.fid = robot.frame_id(frame)
+        if robot.model.frames[self.fid].parentJoint == 0:
+            raise ResolverError(
+                f"batch: frame '{frame}' is fixed to the world (no joint moves it): no target could ever be reached"
+            )
         self._data = robot.model.createData()
 
     # ------------------------------------------------------------------ the one-by-one reference
@@ -185,21 +197,51 @@ class BatchResolver:
             ep = np.zeros((N, nv))
         return J6[:, self.rows], e6[:, self.rows], ep
 
+    def _check(self, q: np.ndarray, targets: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+        """q (N, nq) and targets (N, 4, 4) as float arrays, checked with dt; raises :class:`ResolverError`."""
+        arrays = []
+        for key, value in (("q", q), ("targets", targets)):
+            raw = np.asarray(value)
+            if raw.dtype.kind not in "fiu":  # bool, complex, strings, objects: not numbers to compute with
+                raise ResolverError(f"batch: {key} must be an array of real numbers, got dtype {raw.dtype}")
+            arrays.append(np.ascontiguousarray(raw, dtype=float))
+        q, targets = arrays
+        N = q.shape[0] if q.ndim == 2 else -1
+        if q.ndim != 2 or q.shape[1] != self.robot.nq or targets.shape != (N, 4, 4):
+            raise ResolverError(
+                f"batch: expected q (N, {self.robot.nq}) and targets (N, 4, 4), got {q.shape} and {targets.shape}"
+            )
+        if isinstance(dt, bool) or not isinstance(dt, (int, float, np.integer, np.floating)):
+            raise ResolverError(f"batch: dt must be a number [s], got {type(dt).__name__}")
+        if not (math.isfinite(dt) and dt > 0):
+            raise ResolverError(f"batch: dt must be finite and > 0 [s], got {dt}")
+        for key, arr in (("q", q), ("targets", targets)):
+            bad = ~np.isfinite(arr.reshape(N, int(np.prod(arr.shape[1:])))).all(axis=1)
+            if bad.any():
+                raise ResolverError(
+                    f"batch: {key} of problems {np.flatnonzero(bad)[:8].tolist()} contain NaN or infinite values"
+                )
+        R = targets[:, :3, :3]
+        rigid = (
+            np.all(np.abs(R @ R.transpose(0, 2, 1) - np.eye(3)) <= 1e-6, axis=(1, 2))
+            & (np.linalg.det(R) > 0)
+            & np.all(np.abs(targets[:, 3] - (0.0, 0.0, 0.0, 1.0)) <= 1e-12, axis=1)
+        )
+        if not rigid.all():
+            raise ResolverError(
+                f"batch: targets of problems {np.flatnonzero(~rigid)[:8].tolist()} are not rigid transforms "
+                "(a proper rotation and a last row (0, 0, 0, 1))"
+            )
+        return q, targets
+
     def solve(self, q: np.ndarray, targets: np.ndarray, dt: float) -> BatchResult:
         """Resolve the N problems (q (N, nq), targets (N, 4, 4)) for one step dt [s].
 
         Raises:
             ResolverError: shapes that do not match, non-finite inputs or dt ≤ 0.
         """
-        q = np.ascontiguousarray(q, dtype=float)
-        targets = np.asarray(targets, dtype=float)
+        q, targets = self._check(q, targets, dt)
         N = q.shape[0]
-        if q.ndim != 2 or q.shape[1] != self.robot.nq or targets.shape != (N, 4, 4):
-            raise ResolverError(
-                f"batch: expected q (N, {self.robot.nq}) and targets (N, 4, 4), got {q.shape} and {targets.shape}"
-            )
-        if not (np.isfinite(q).all() and np.isfinite(targets).all() and np.isfinite(dt) and dt > 0):
-            raise ResolverError("batch: q, targets and dt must be finite, dt > 0")
         J, e, ep = self._kinematics(q, targets)
         V = self.gain * e
         z = self.posture_gain * ep

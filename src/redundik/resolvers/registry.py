@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from redundik.errors import ResolverError
+from redundik.errors import ResolverError, short_repr
 from redundik.resolvers.base import Resolver
 from redundik.resolvers.feedback import FeedbackResolver
 from redundik.resolvers.pinv import PinvResolver
@@ -27,8 +27,8 @@ def make_resolver(name: str, **options: Any) -> Resolver:
     Raises:
         ResolverError: unknown name (lists the known ones) or bad options (names them).
     """
-    if name not in RESOLVERS:
-        raise ResolverError(f"unknown resolver '{name}'; available: {sorted(RESOLVERS)}")
+    if not isinstance(name, str) or name not in RESOLVERS:
+        raise ResolverError(f"unknown resolver {short_repr(name)}; available: {sorted(RESOLVERS)}")
     try:
         return RESOLVERS[name](**options)
     except TypeError as exc:

@@ -7,6 +7,7 @@ values stop being finite raises :class:`~redundik.errors.SimulationError` instea
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -76,6 +77,36 @@ class SimulationLog:
         return np.sqrt(sum(self.task_errors[k] ** 2 for k in names))
 
 
+#: Largest memory the logs of one :func:`simulate` call may take [bytes] (a typo in ``steps`` fails at once).
+MAX_LOG_BYTES = 4 * 1024**3
+
+
+def _check_time_grid(robot: RobotModel, stack: TaskStack, dt: object, steps: object, extra_columns: int) -> None:
+    """Refuse a ``dt`` that is not a finite number > 0 and a ``steps`` that is not a whole number ≥ 0 whose logs fit.
+
+    Raises:
+        SimulationError: names the argument, its value and what was expected.
+    """
+    for what, value, kind in (("robot", robot, RobotModel), ("stack", stack, TaskStack)):
+        if not isinstance(value, kind):
+            raise SimulationError(f"simulate: {what} must be a {kind.__name__}, got {type(value).__name__}")
+    if isinstance(dt, bool) or not isinstance(dt, (int, float, np.integer, np.floating)):
+        raise SimulationError(f"simulate: dt must be a number [s], got {type(dt).__name__}")
+    if not (math.isfinite(dt) and dt > 0):
+        raise SimulationError(f"simulate: dt must be finite and > 0 [s], got {dt}")
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)):
+        raise SimulationError(f"simulate: steps must be a whole number, got {type(steps).__name__} {steps!r}")
+    if steps < 0:
+        raise SimulationError(f"simulate: steps must be ≥ 0, got {steps}")
+    columns = robot.nq + robot.nv + len(stack.tasks) + len(stack.subtasks) + 3 * extra_columns + 4
+    need = (int(steps) + 1) * columns * 8
+    if need > MAX_LOG_BYTES:
+        raise SimulationError(
+            f"simulate: the logs of {steps} steps would need {need / 1024**3:.3g} GiB (at most "
+            f"{MAX_LOG_BYTES / 1024**3:g}); simulate fewer steps at a time"
+        )
+
+
 def simulate(
     robot: RobotModel,
     stack: TaskStack,
@@ -126,6 +157,9 @@ def simulate(
         )
     if plant is not None and integrator != "euler":
         raise ValueError(f"integrator {integrator}: a plant integrates its own dynamics; use integrator euler with it")
+    if not isinstance(resolver, Resolver):
+        raise SimulationError(f"simulate: resolver must be a Resolver (make_resolver(NAME)), got {resolver!r:.60}")
+    _check_time_grid(robot, stack, dt, steps, len(log_frames) + len(extra_potentials))
     q = robot.check_configuration(q0, "q0").copy()
     if plant is not None:
         q = plant.reset(q)

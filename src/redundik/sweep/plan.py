@@ -24,7 +24,7 @@ from redundik.config.yamlio import join_path, read_yaml, validate
 from redundik.errors import ConfigError, RedundikError
 from redundik.resolvers import make_resolver
 from redundik.resolvers.batch import BatchResolver
-from redundik.sweep.schema import MAX_PROBLEMS, GridSpec, RangeSpec, SweepFileSpec
+from redundik.sweep.schema import MAX_PROBLEMS, MAX_WORK, GridSpec, RangeSpec, SweepFileSpec
 from redundik.tasks.frame import resolve_axes
 
 
@@ -203,6 +203,8 @@ def load_sweep(source: str | Path | dict[str, Any], base_dir: Path | None = None
         path = Path(source)
         data = read_yaml(path, "sweep file")
         base = (base_dir or path.resolve().parent).resolve()
+        if "runs" in data:
+            raise ConfigError(f"{path.name} is a task file, not a sweep file: run it with `redundik run {path}`")
     spec: SweepFileSpec = validate(SweepFileSpec, data)
     n_t, n_s = _count(spec)
     if n_s == 0:
@@ -212,6 +214,14 @@ def load_sweep(source: str | Path | dict[str, Any], base_dir: Path | None = None
             f"{n_t} targets × {n_s} starts = {n_t * n_s} problems; at most {MAX_PROBLEMS} are allowed "
             "(split the sweep into several files)",
             "targets",
+        )
+    work = n_t * n_s * spec.convergence.max_iterations
+    if work > MAX_WORK:
+        raise ConfigError(
+            f"{n_t * n_s} problems × {spec.convergence.max_iterations} iterations = {work:.3g} steps at most; a sweep "
+            f"may take at most {MAX_WORK:.0e} problem-steps (hours of work otherwise): lower max_iterations or split "
+            "the sweep into several files",
+            "convergence.max_iterations",
         )
     robot = load_robot(spec.robot, base, "robot")
     model = robot.model
@@ -224,6 +234,12 @@ def load_sweep(source: str | Path | dict[str, Any], base_dir: Path | None = None
         fid = model.frame_id(task.frame)
     except RedundikError as exc:
         raise ConfigError(str(exc), "task.frame") from None
+    if model.model.frames[fid].parentJoint == 0:
+        raise ConfigError(
+            f"frame '{task.frame}' is fixed to the world (no joint moves it): no target could ever be reached; "
+            "choose a frame on a moving link",
+            "task.frame",
+        )
     dt = spec.convergence.dt
     for key, gain in (("task.gain", task.gain), ("task.posture.gain", task.posture.gain)):
         if gain * dt > 2.0:

@@ -20,6 +20,9 @@ from redundik.errors import short_repr
 MAX_PROBLEMS = 1_000_000
 #: Largest number of iterations of one problem.
 MAX_ITERATIONS = 10_000
+#: Largest number of problem-steps of one sweep (problems × max_iterations): at the batch's ~1e5 problem-steps/s,
+#: about a quarter of an hour; a larger sweep is refused at validation rather than left to run for hours.
+MAX_WORK = 100_000_000
 #: Largest chunk (problems resolved in one batch call).
 MAX_CHUNK = 100_000
 

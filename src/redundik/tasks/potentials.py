@@ -19,7 +19,13 @@ from redundik.tasks.frame import resolve_axes
 
 
 def _finite_vec(value: Sequence[float] | np.ndarray, what: str, size: int | None = None) -> np.ndarray:
-    arr = np.asarray(value, dtype=float).reshape(-1)
+    try:
+        raw = np.asarray(value)
+        if raw.dtype.kind not in "fiu":  # bool, complex, strings: refused, never cast
+            raise TypeError(f"dtype {raw.dtype}")
+        arr = np.asarray(raw, dtype=float).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        raise TaskError(f"{what}: expected real numbers, got {type(value).__name__} ({exc})") from None
     if size is not None and arr.shape[0] != size:
         raise TaskError(f"{what}: expected {size} numbers, got {arr.shape[0]}")
     if not np.all(np.isfinite(arr)):
@@ -31,6 +37,8 @@ class _JointPotential(Potential):
     """Base for potentials of a single 1-dof joint."""
 
     def __init__(self, joint: str, name: str | None) -> None:
+        if not isinstance(joint, str) or not joint:
+            raise TaskError(f"{type(self).__name__}: joint must be a joint name (a string), got {joint!r}")
         self.joint = joint
         self.name = name or f"{type(self).__name__.lower()}_{joint}"
         self._iq = -1
@@ -73,6 +81,8 @@ class JointValue(_JointPotential):
     """A single joint towards a value: p = (q_j − c)², η_j = 2(q_j − c) (the (6+1) robot's p = (d1 − c)²)."""
 
     def __init__(self, joint: str, value: float, name: str | None = None) -> None:
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+            raise TaskError(f"joint value potential on '{joint}': value must be a number, got {type(value).__name__}")
         if not np.isfinite(value):
             raise TaskError(f"joint value potential on '{joint}': value must be finite, got {value}")
         self.c = float(value)
@@ -150,6 +160,8 @@ class JointCentering(Potential):
 
 class _FramePotential(Potential):
     def __init__(self, frame: str, axes: str | Sequence[str], name: str) -> None:
+        if not isinstance(frame, str) or not frame:
+            raise TaskError(f"subtask '{name}': frame must be a frame name (a string), got {frame!r}")
         self.frame = frame
         self.axes = resolve_axes(axes)
         self.name = name

@@ -21,7 +21,7 @@ from ``pinv``'s by O(ρ‖z‖/σ_min²), so it tracks as ``pinv`` does.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -91,8 +91,32 @@ class TaskStack:
     subtasks: list[Subtask] = field(default_factory=list)
 
     def __post_init__(self) -> None:
+        for key in ("tasks", "subtasks"):
+            given = getattr(self, key)
+            if given is None or isinstance(given, (str, bytes, Mapping)) or not isinstance(given, Iterable):
+                raise ResolverError(f"stack.{key}: expected a list, got {type(given).__name__}")
         self.tasks = list(self.tasks)
         self.subtasks = list(self.subtasks)
+        self._check_members()
+
+    def _check_members(self) -> None:
+        """Types and unique names (what needs no robot); raises :class:`ResolverError` naming the member."""
+        for i, task in enumerate(self.tasks):
+            if not isinstance(task, Task):
+                hint = " (a subtask belongs in the second list, subtasks)" if isinstance(task, Subtask) else ""
+                raise ResolverError(f"stack.tasks[{i}]: expected a Task, got {type(task).__name__}{hint}")
+        for i, sub in enumerate(self.subtasks):
+            if not isinstance(sub, Subtask):
+                hint = (
+                    " (a task belongs in the first list, tasks)"
+                    if isinstance(sub, Task)
+                    else " (a potential must be wrapped: GradientSubtask, TargetSubtask or BoundSubtask)"
+                )
+                raise ResolverError(f"stack.subtasks[{i}]: expected a Subtask, got {type(sub).__name__}{hint}")
+        names = [t.name for t in self.tasks] + [s.name for s in self.subtasks]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ResolverError(f"task and subtask names must be unique in a stack; repeated: {dup}")
 
     # ------------------------------------------------------------------ checks
     def check(self, robot: RobotModel) -> None:
@@ -102,17 +126,7 @@ class TaskStack:
             ResolverError: a member that is not a Task / Subtask, or a repeated name.
             TaskError: a subtask that does not fit the robot.
         """
-        for i, task in enumerate(self.tasks):
-            if not isinstance(task, Task):
-                raise ResolverError(f"stack.tasks[{i}]: expected a Task, got {type(task).__name__}")
-        for i, sub in enumerate(self.subtasks):
-            if not isinstance(sub, Subtask):
-                hint = " (a potential must be wrapped: GradientSubtask, TargetSubtask or BoundSubtask)"
-                raise ResolverError(f"stack.subtasks[{i}]: expected a Subtask, got {type(sub).__name__}{hint}")
-        names = [t.name for t in self.tasks] + [s.name for s in self.subtasks]
-        dup = sorted({n for n in names if names.count(n) > 1})
-        if dup:
-            raise ResolverError(f"task and subtask names must be unique in a stack; repeated: {dup}")
+        self._check_members()
         for sub in self.subtasks:
             sub.check(robot)
 

@@ -18,14 +18,55 @@ import pinocchio as pin
 from redundik.errors import TaskError
 from redundik.kinematics.model import AXES
 
+#: Largest magnitude of a trajectory parameter (a length, a speed, a rate): beyond it the task rows overflow.
+MAX_MAGNITUDE = 1e12
+
 
 def _vec(value: Sequence[float] | np.ndarray, size: int, what: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=float).reshape(-1)
+    try:
+        raw = np.asarray(value)
+        if raw.dtype.kind not in "fiu":
+            raise TypeError(f"dtype {raw.dtype}")
+        arr = np.asarray(raw, dtype=float).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        raise TaskError(f"{what}: expected {size} numbers, got {type(value).__name__} ({exc})") from None
     if arr.shape[0] != size:
         raise TaskError(f"{what}: expected {size} numbers, got {arr.shape[0]}")
     if not np.all(np.isfinite(arr)):
         raise TaskError(f"{what}: contains NaN or infinite values")
+    if np.any(np.abs(arr) > MAX_MAGNITUDE):
+        raise TaskError(f"{what}: values must be at most {MAX_MAGNITUDE:g} in magnitude, got {arr.tolist()}")
     return arr
+
+
+def _number(value: object, what: str, *, positive: bool = False) -> float:
+    """``value`` as a float: a real number (not a bool), finite, at most :data:`MAX_MAGNITUDE` in magnitude."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TaskError(f"{what} must be a number, got {type(value).__name__}")
+    x = float(value)
+    if not math.isfinite(x) or abs(x) > MAX_MAGNITUDE or (positive and x <= 0):
+        rule = "a positive number" if positive else "a finite number"
+        raise TaskError(f"{what} must be {rule}, at most {MAX_MAGNITUDE:g} in magnitude, got {value}")
+    return x
+
+
+def _rigid(pose: object, what: str) -> pin.SE3:
+    """``pose`` (an SE3 or a 4×4 homogeneous matrix) as an SE3 copy, finite and bounded; a matrix must be rigid too
+    (an SE3's rotation is taken as given: this is on the path of ``FrameTask.set_target``, which checked it). Raises
+    :class:`TaskError`."""
+    if isinstance(pose, pin.SE3):
+        if not float(np.abs(pose.homogeneous).sum()) <= 4 + 3 * MAX_MAGNITUDE:  # one cheap check, NaN included
+            raise TaskError(f"{what}: contains NaN, infinite or values over {MAX_MAGNITUDE:g}")
+        return pose.copy()
+    if not (isinstance(pose, np.ndarray) and pose.shape == (4, 4) and pose.dtype.kind in "fiu"):
+        raise TaskError(f"{what}: expected an SE3 or a 4×4 homogeneous matrix, got {type(pose).__name__}")
+    M = np.asarray(pose, dtype=float)
+    if not np.all(np.isfinite(M)) or np.any(np.abs(M[:3, 3]) > MAX_MAGNITUDE):
+        raise TaskError(f"{what}: contains NaN, infinite or values over {MAX_MAGNITUDE:g}")
+    R = M[:3, :3]
+    if not np.allclose(R @ R.T, np.eye(3), atol=1e-6) or np.linalg.det(R) < 0 or not np.allclose(M[3], (0, 0, 0, 1)):
+        raise TaskError(f"{what}: not a rigid transform (rotation not orthonormal, or bad last row)")
+    return pin.SE3(M)
 
 
 class Trajectory(ABC):
@@ -79,8 +120,8 @@ class Hold(Trajectory):
         pose: A fixed pose to hold (a target set at run time); ``None`` holds the pose captured at start.
     """
 
-    def __init__(self, pose: pin.SE3 | None = None) -> None:
-        self.pose = None if pose is None else pose.copy()
+    def __init__(self, pose: pin.SE3 | np.ndarray | None = None) -> None:
+        self.pose = None if pose is None else _rigid(pose, "hold pose")
 
     def start(self, pose: pin.SE3) -> None:
         super().start(self.pose if self.pose is not None else pose)
@@ -104,7 +145,7 @@ class Line(Trajectory):
     """
 
     def __init__(self, velocity: Sequence[float]) -> None:
-        v = np.asarray(velocity, dtype=float).reshape(-1)
+        v = _vec(velocity, int(np.size(velocity)), "line velocity")
         if v.shape[0] == 2:
             v = np.append(v, 0.0)
         self.velocity = _vec(v, 3, "line velocity")
@@ -141,10 +182,11 @@ class Circle(Trajectory):
         center: Sequence[float] | None = None,
         phase: float = 0.0,
     ) -> None:
-        if not (np.isfinite(radius) and radius > 0):
-            raise TaskError(f"circle radius must be a positive number, got {radius}")
-        if not np.isfinite(omega):
-            raise TaskError(f"circle omega must be finite, got {omega}")
+        radius = _number(radius, "circle radius", positive=True)
+        omega = _number(omega, "circle omega")
+        phase = _number(phase, "circle phase")
+        if abs(radius * omega) > MAX_MAGNITUDE:
+            raise TaskError(f"circle speed radius × omega = {radius * omega:g} exceeds {MAX_MAGNITUDE:g}")
         if len(plane) != 2 or any(a not in ("x", "y", "z") for a in plane) or plane[0] == plane[1]:
             raise TaskError(f"circle plane must be two different axes among x, y, z, got {plane}")
         self.radius, self.omega, self.phase = float(radius), float(omega), float(phase)
@@ -196,9 +238,13 @@ class PoseInterpolation(Trajectory):
     """
 
     def __init__(self, position: Sequence[float], duration: float, rotation: np.ndarray | None = None) -> None:
+        if isinstance(duration, bool) or not isinstance(duration, (int, float, np.integer, np.floating)):
+            raise TaskError(f"pose interpolation duration must be a number [s], got {type(duration).__name__}")
         if not (np.isfinite(duration) and duration > 0):
             raise TaskError(f"pose interpolation duration must be > 0, got {duration}")
         self.goal_position = _vec(position, 3, "goal position")
+        if rotation is not None and np.asarray(rotation).dtype.kind not in "fiu":
+            raise TaskError(f"goal rotation must be a 3×3 matrix of numbers, got {type(rotation).__name__}")
         self.goal_rotation = None if rotation is None else np.asarray(rotation, dtype=float)
         if self.goal_rotation is not None:
             r = self.goal_rotation
@@ -211,6 +257,11 @@ class PoseInterpolation(Trajectory):
         self._w = pin.log3(self._R0.T @ r1)
         self._dp = self.goal_position - self._p0
         self._moving = np.concatenate([self._dp / self.duration, self._R0 @ self._w / self.duration])
+        if not np.all(np.abs(self._moving) <= MAX_MAGNITUDE):  # also NaN
+            raise TaskError(
+                f"pose interpolation: moving {np.linalg.norm(self._dp):g} in {self.duration:g} s needs a speed over "
+                f"{MAX_MAGNITUDE:g}; give a longer duration"
+            )
 
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         self.start_pose  # noqa: B018 - raises if start() was never called

@@ -16,6 +16,7 @@ small sphere at each joint coloured by joint-limit proximity (grey â†’ orange â†
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections.abc import Sequence
@@ -136,8 +137,10 @@ class LiveViewer:
         self.pushes = 0
         self.push_time = 0.0
         self._lock = threading.Lock()
+        self._push_lock = threading.Lock()  # one push at a time: meshcat's REQ socket breaks under two threads
         self._wake = threading.Event()
         self._stop = False
+        self._failed: str | None = None  # why the background thread's last push failed (reported by update)
         self._thread: threading.Thread | None = None
         if threaded:
             self._thread = threading.Thread(target=self._worker, name="redundik-meshcat", daemon=True)
@@ -151,15 +154,26 @@ class LiveViewer:
     # ------------------------------------------------------------------ per tick
     def update(self, q: np.ndarray, t: float | None = None, *, force: bool = False) -> None:
         """Show configuration ``q`` (rate-limited; ``force`` pushes now, synchronously). ``t`` [s] is unused but
-        accepted so loops can pass their clock."""
+        accepted so loops can pass their clock.
+
+        Raises:
+            ModelError: ``q`` is not nq finite numbers, or the background thread could not show the last one.
+        """
+        arr = np.array(q, dtype=float)
+        if arr.shape != (self.robot.nq,) or not math.isfinite(float(np.add.reduce(arr))):
+            arr = self.robot.check_configuration(arr, "live viewer: update(q)")  # raises, naming what was wrong
+        if self._failed is not None:
+            why, self._failed = self._failed, None
+            raise ModelError(f"live viewer: the background thread could not show a configuration: {why}")
         if force or self._thread is None:
             now = time.perf_counter()
             if force or now - self._pushed_at >= self.period:
                 self._pushed_at = now
-                self._push(np.array(q, dtype=float))
+                with self._push_lock:
+                    self._push(arr)
             return
         with self._lock:
-            self._q = np.array(q, dtype=float)
+            self._q = arr
         self._wake.set()
 
     def _worker(self) -> None:
@@ -171,7 +185,11 @@ class LiveViewer:
             if q is None:
                 continue
             start = time.perf_counter()
-            self._push(q)
+            try:
+                with self._push_lock:
+                    self._push(q)
+            except Exception as exc:  # never die silently: the next update() reports it in the caller's thread
+                self._failed = f"{type(exc).__name__}: {exc}"
             rest = self.period - (time.perf_counter() - start)
             if rest > 0:
                 time.sleep(rest)
