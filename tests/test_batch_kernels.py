@@ -42,6 +42,23 @@ def test_batch_equals_the_loop(method: str, panda_problems: tuple) -> None:
         assert 0 < got.qp.sum() < len(Q)  # some problems needed the backend, most did not
 
 
+@pytest.mark.parametrize("backend", ["daqp", "quadprog", "proxsuite"])
+def test_limit_bound_problems_go_straight_to_the_backend(
+    backend: str, panda_problems: tuple, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The batch's QP for a problem whose limits bind is the single step's, handed to the backend as rows of the
+    batch's arrays; only a problem the backend refuses may take the single-problem step."""
+    robot, Q, T = panda_problems
+    batch = BatchResolver(make_resolver("wqp", backend=backend), robot, "panda_hand", gain=5.0, posture_gain=1.0)
+
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise AssertionError("a limit-bound problem went through the single-problem step")
+
+    monkeypatch.setattr(batch, "solve_loop", refuse)
+    got = batch.solve(Q, T, 0.01)
+    assert got.qp.sum() >= 5
+
+
 def test_solve_batch_refuses_other_resolvers(panda_problems: tuple) -> None:
     robot, Q, T = panda_problems
     with pytest.raises(rk.ResolverError, match="batches take 'pinv'"):

@@ -281,3 +281,20 @@ def test_wqp_lean_path_equals_the_general_template(limits: dict | None) -> None:
         qp_steps += int(a.info["qp"])
     assert qp_steps > 5  # the backend branch was taken; and without a tight rate window the shortcut too
     assert qp_steps < 55 or (limits is not None and "acceleration" in limits)
+
+
+@pytest.mark.parametrize("backend", available_backends())
+def test_every_backend_solves_a_problem_held_in_read_only_arrays(backend: str) -> None:
+    """A batch hands the backend rows of broadcast (read-only) arrays; daqp's typed buffers refused them, and the
+    batch's limit-bound problems silently went the slow way round (the single-problem step)."""
+    rng = np.random.default_rng(2)
+    n = 5
+    M = rng.normal(size=(n, n))
+    P, q = M @ M.T + np.eye(n), rng.normal(size=n) * 10.0
+    lb, ub = np.broadcast_to(-0.1, (3, n))[1], np.broadcast_to(0.1, (3, n))[1]
+    for a in (P, q):
+        a.setflags(write=False)
+    prob = QPProblem(P, q, np.zeros((0, n)), np.zeros(0), np.zeros((0, n)), np.zeros(0), lb, ub, "read-only")
+    x = make_qp_backend(backend).solve(prob).x
+    assert np.all(x >= -0.1 - 1e-6) and np.all(x <= 0.1 + 1e-6)
+    assert np.abs(x).max() > 0.099  # a bound is active (the unconstrained optimum lies far outside)

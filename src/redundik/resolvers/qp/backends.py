@@ -192,6 +192,12 @@ def _stalled(problem: QPProblem, x: np.ndarray | None) -> np.ndarray | None:
     return x if viol <= ITERATE_VIOLATION * max(1.0, float(np.max(np.abs(data), initial=0.0))) else None
 
 
+def _writable(a: np.ndarray) -> np.ndarray:
+    """``a``, or a copy when it is read-only (daqp's typed memoryviews refuse read-only buffers: a broadcast view,
+    a row of a frozen array)."""
+    return a if a.flags.writeable else a.copy()
+
+
 class DaqpBackend(Backend):
     """daqp's native API: blower ≤ [I; G; A] x ≤ bupper with bounds as the first (simple) rows, equalities sensed."""
 
@@ -207,7 +213,7 @@ class DaqpBackend(Backend):
         n = problem.n
         G, A = problem.G, problem.A
         if G.shape == (0, n) and A.shape == (0, n):  # bounds only (wqp's common QP): the bounds are daqp's rows
-            M, bu, bl = G, problem.ub, problem.lb
+            M, bu, bl = G, _writable(problem.ub), _writable(problem.lb)
             sense = np.zeros(n, dtype=np.int32)
         else:
             G, A = _rows(G, n), _rows(A, n)
@@ -220,9 +226,10 @@ class DaqpBackend(Backend):
             if e:
                 sense[-e:] = 5
         t0 = time.perf_counter()
+        P, q = _writable(problem.P), _writable(problem.q)
         try:
             x, _, flag, info = self._solve(
-                problem.P, problem.q, M, bu, bl, sense, iter_limit=self.iter_limit, primal_tol=self.primal_tol
+                P, q, M, bu, bl, sense, iter_limit=self.iter_limit, primal_tol=self.primal_tol
             )
             if x is not None and np.shape(x) != (n,):
                 raise ValueError(f"returned x of shape {np.shape(x)} for {n} variables")
@@ -231,9 +238,7 @@ class DaqpBackend(Backend):
                 # 267 while u has a 3e-7 window; at its default 1e-6 it solves it in 3 iterations. The retry's
                 # answer is polished to the verified exact optimum (KKT conditions to 1e-9) where its active set
                 # allows, else kept only if it violates no constraint by more than ITERATE_VIOLATION.
-                x2, _, flag2, info2 = self._solve(
-                    problem.P, problem.q, M, bu, bl, sense, iter_limit=self.iter_limit, primal_tol=1e-6
-                )
+                x2, _, flag2, info2 = self._solve(P, q, M, bu, bl, sense, iter_limit=self.iter_limit, primal_tol=1e-6)
                 xp = _stalled(problem, x2) if flag2 in (1, 2) and x2 is not None else None
                 if xp is not None:
                     x, flag, info = xp, flag2, info2
@@ -286,7 +291,7 @@ class QuadprogBackend(Backend):
             d = np.concatenate(rhs)
             if not C.shape[0]:
                 C, d = np.zeros((1, n)), np.array([-1.0])
-            out = self._solve(problem.P, -problem.q, C.T.copy(), d, meq)
+            out = self._solve(_writable(problem.P), -problem.q, C.T.copy(), d, meq)
         except Exception as exc:
             raise SolverError(f"quadprog failed on {problem.label}: {exc}", problem) from exc
         x = _checked(out[0], problem, self.name)
