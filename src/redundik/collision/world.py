@@ -558,10 +558,10 @@ class CollisionWorld:
         self._br_tab = np.column_stack([tab, self._br_first.astype(np.int64)]).astype(np.int64)
         names = self._geom_names
         self._br_labels = [f"{self.pair_names[k]}@{names[b]}{'+' if sg > 0 else '-'}" for k, b, _o, _f, sg in rows]
-        #: Row labels by row id (:func:`~redundik.collision.kernels.barrier_rows`): the pairs, then the branches.
+        #: Row labels by row id (``collision.kernels.barrier_rows``): the pairs, then the branches.
         self.row_labels = self.pair_names + self._br_labels
         self._pj2 = np.array(self.pair_joints, dtype=np.int64).reshape(-1, 2)
-        #: :func:`~redundik.collision.kernels.capsule_damper`'s fixed arguments, for a static world of capsules only
+        #: ``collision.kernels.capsule_damper``'s fixed arguments, for a static world of capsules only
         #: whose placements are read from oMg's memory (else ``None``).
         self._static: tuple[Any, ...] | None = None
         if self._cap.size == len(self.pairs) and not self._moving and self._poses is not None:
@@ -782,7 +782,7 @@ class CollisionWorld:
     ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None]:  # fmt: skip
         """(every pair's distance [m], :meth:`damper_rows`) at the robot's current state after :meth:`compute`
         (``influence`` = ``reach``, cached as usual), in one compiled call
-        (:func:`~redundik.collision.kernels.capsule_damper`) where the world is capsules/spheres only and static and
+        (``collision.kernels.capsule_damper``) where the world is capsules/spheres only and static and
         the distances are not cached yet; the same results as the two calls (``qp_cap`` > 0 [1/s]: the rows as
         (d, C) of C q̇ ≤ d, see :meth:`damper_rows`).
         """
@@ -819,8 +819,8 @@ class CollisionWorld:
         no_cap: float, ends: bool, qp_cap: float = 0.0,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:  # fmt: skip
         """The collision damper's rows on the pairs ``dist.near`` and (``ends``) their end spheres, in one compiled
-        call (:func:`~redundik.collision.kernels.barrier_rows`): (h [m], ∂h/∂q (k, nv), γ [1/s], row ids, labels in
-        :attr:`row_labels`); ``None`` where that call does not apply (moving obstacles, a capsule end against a
+        call (``collision.kernels.barrier_rows``): (h [m], ∂h/∂q (k, nv), γ [1/s], row ids, labels in
+        ``row_labels``); ``None`` where that call does not apply (moving obstacles, a capsule end against a
         mesh): the caller then uses :meth:`end_spheres` and :meth:`point_jacobian`.
 
         Args:

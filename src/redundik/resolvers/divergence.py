@@ -54,7 +54,7 @@ class DivergenceWatch:
     def update(self, norm: float, error: float = 0.0) -> float | None:
         """Feed ‖q̇‖ and the task error of a step; returns the growth factor of a streak that is a divergence.
 
-        A value extends its streak when it and the previous one are ≥ :data:`FLOOR` and it grew by the streak's
+        A value extends its streak when it and the previous one are ≥ ``FLOOR`` (1e-9) and it grew by the streak's
         factor; otherwise the streak restarts (written out once here: this runs on every control tick)."""
         err, dqs = self.error, self.dq
         before, last = err.count, err.last

@@ -27,7 +27,7 @@ For [main task, gradient subtask] this is q̇ = J⁺V + Z Zᵀ z = J⁺V + (I �
 The whole of it is one compiled call (:func:`redundik.resolvers.hqp_kernels.closed_cascade`) on the step's rows
 copied into buffers kept while the stack's membership is unchanged; a level whose QR certifies σ_min ≥ ε (nothing
 damped, full rank: M⁺ exactly) skips its SVD, and the Level records, σ_min per level and the rank-loss test are
-computed only when the step's diagnostics are read (:class:`~redundik.resolvers.base.LazyStepResult`).
+computed only when the step's diagnostics are read (``LazyStepResult``).
 Level shortcut (exact, below the top level): when the cascade is not feasible, a level QP whose unconstrained
 optimum — û = argmin ½‖A_k Z u − (b_k − A_k x)‖² + ½ε‖u‖² from the SVD of A_k Z, slack w = 0 — keeps every row of
 that QP (its inequalities, the levels above, the limits, to the same margins) is that QP's optimum (the KKT

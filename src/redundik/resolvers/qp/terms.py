@@ -179,7 +179,7 @@ def gather_rows(robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], layo
 def build_levels(
     robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], layout: StackLayout, dt: float
 ) -> list[Level]:
-    """The levels of ``layout`` as rows, in decreasing priority (:func:`gather_rows`, stacked per level).
+    """The levels of ``layout`` as rows, in decreasing priority (``gather_rows``, stacked per level).
 
     Args:
         robot: Updated robot.
