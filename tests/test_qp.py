@@ -298,3 +298,16 @@ def test_every_backend_solves_a_problem_held_in_read_only_arrays(backend: str) -
     x = make_qp_backend(backend).solve(prob).x
     assert np.all(x >= -0.1 - 1e-6) and np.all(x <= 0.1 + 1e-6)
     assert np.abs(x).max() > 0.099  # a bound is active (the unconstrained optimum lies far outside)
+
+
+def test_daqp_solves_an_ill_conditioned_feasible_step_it_used_to_stall_on() -> None:
+    """A stress-run wqp step (episode 266, step 19: cond(P) ≈ 7e10, a rate window of 2e-5–8e-5 rad/s, one
+    bound row with a narrow margin): daqp stopped with exit flag 4 at every tolerance although the QP is feasible;
+    it now retries with P + εI and keeps the answer only once polished to this problem's exact optimum."""
+    from pathlib import Path
+
+    prob = QPProblem.load(str(Path(__file__).parent / "data" / "daqp_stall_wqp.npz"))
+    x = make_qp_backend("daqp").solve(prob).x
+    assert prob.violation(x) <= 1e-9
+    if "quadprog" in available_backends():
+        np.testing.assert_allclose(x, make_qp_backend("quadprog").solve(prob).x, atol=1e-9)

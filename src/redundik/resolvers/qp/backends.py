@@ -242,6 +242,19 @@ class DaqpBackend(Backend):
                 xp = _stalled(problem, x2) if flag2 in (1, 2) and x2 is not None else None
                 if xp is not None:
                     x, flag, info = xp, flag2, info2
+            if flag not in (1, 2, -1):
+                # a stall that is not an infeasibility certificate (-1): on a stress-run wqp step (cond(P) ≈ 7e10,
+                # its lowest level weighing λ = 1e-10; a 1e-4 window left by a rate limit) daqp stopped with exit
+                # flag 4 at every tolerance, where quadprog and osqp solve it. With P + εI it solves in a few
+                # iterations, and the answer is polished to the exact optimum of the problem as given (its KKT
+                # conditions verified to 1e-9), or not kept at all.
+                eps = 1e-9 * max(1.0, float(np.max(np.abs(np.diag(P)))))
+                x3, _, flag3, info3 = self._solve(
+                    P + eps * np.eye(n), q, M, bu, bl, sense, iter_limit=self.iter_limit, primal_tol=self.primal_tol
+                )
+                xp = polish(problem, x3) if flag3 in (1, 2) and x3 is not None else None
+                if xp is not None:
+                    x, flag, info = xp, flag3, info3
         except Exception as exc:
             raise SolverError(f"daqp raised on {problem.label}: {exc}", problem) from exc
         if flag not in (1, 2):
