@@ -687,3 +687,29 @@ def test_simulate_with_the_wrong_kind_of_argument_says_so() -> None:
         rk.simulate(robot, list(stack.tasks), rk.make_resolver("pinv"), q, dt=0.01, steps=2)  # type: ignore[arg-type]
     with pytest.raises(SimulationError, match="resolver must be a Resolver"):
         rk.simulate(robot, stack, "pinv", q, dt=0.01, steps=2)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("target", "expected"),
+    [
+        ([1e308, 0.0, 0.0], "coordinate beyond"),
+        ([True, False, True], "got bool values"),
+        ([1 + 2j, 0, 0], "got complex128 values"),
+        ("abc", "of real numbers"),
+    ],
+)
+def test_frame_target_that_is_absurd_or_not_numbers_is_refused(target: object, expected: str) -> None:
+    task = rk.FrameTask("panda_hand")
+    with pytest.raises(rk.TaskError, match=expected):
+        task.set_target(target)
+    far = np.eye(4)
+    far[:3, 3] = (0.0, -2e6, 0.0)
+    with pytest.raises(rk.TaskError, match="beyond"):
+        task.set_target(far)
+
+
+def test_posture_target_of_booleans_or_strings_is_refused() -> None:
+    with pytest.raises(rk.TaskError, match=r"posture task 'posture': target: .*bool"):
+        rk.PostureTask(target=[True] * 9)
+    with pytest.raises(rk.TaskError, match=r"set_target: .*real numbers"):
+        rk.PostureTask().set_target(["a"] * 9)

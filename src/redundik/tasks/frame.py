@@ -55,15 +55,32 @@ def _kernels() -> Any:
 DEFAULT_HOLD_GAIN = 10.0
 
 
+#: Largest target coordinate accepted [length unit of the model] (the task files' bound on numbers too): a target
+#: beyond it is a unit or sign mistake, and its error would only make every step fall back.
+MAX_COORDINATE = 1e6
+
+
+def _numbers(value: object, what: str, expected: str) -> np.ndarray:
+    """``value`` as a float array when it holds real numbers (ints, floats), else a :class:`TaskError`: booleans,
+    complex numbers and strings are refused rather than cast."""
+    raw = np.asarray(value)
+    if raw.dtype.kind not in "iuf":
+        raise TaskError(f"{what}: expected {expected} of real numbers, got {raw.dtype.name} values {value!r:.80}")
+    return np.asarray(raw, dtype=float)
+
+
 def _as_pose(target: object, what: str) -> pin.SE3 | np.ndarray:
     """An SE3 from an SE3 or a 4×4 homogeneous matrix, or a position (3,) array; validated."""
     if isinstance(target, pin.SE3):
         T = target.homogeneous
     else:
         try:
-            T = np.asarray(target, dtype=float)
+            T = _numbers(target, what, "an SE3, a 4×4 matrix or a position (3,)")
         except (TypeError, ValueError) as exc:
             raise TaskError(f"{what}: expected an SE3, a 4×4 matrix or a position (3,), got {target!r:.80}") from exc
+    position = T if T.shape == (3,) else T[:3, 3] if T.shape == (4, 4) else np.zeros(3)
+    if np.all(np.isfinite(position)) and float(np.max(np.abs(position))) > MAX_COORDINATE:
+        raise TaskError(f"{what}: a position coordinate beyond ±{MAX_COORDINATE:g} (a unit or sign mistake?)")
     if T.shape == (3,):
         if not np.all(np.isfinite(T)):
             raise TaskError(f"{what}: position contains NaN or infinite values")
@@ -279,12 +296,13 @@ class PostureTask(Task):
         name: str = "posture",
     ) -> None:
         self._init_task(name, weight=weight, gain=gain, priority=priority)
-        self._given = None if target is None else np.array(target, dtype=float)
+        what = f"posture task '{name}': target"
+        self._given = None if target is None else _numbers(target, what, "a configuration").copy()
         self.target: np.ndarray | None = self._given
 
     def set_target(self, q: Sequence[float] | np.ndarray) -> None:
         """A new reference configuration q_ref (size nq), checked against the robot at the next evaluation."""
-        arr = np.array(q, dtype=float).reshape(-1)
+        arr = _numbers(q, f"posture task '{self.name}': set_target", "a configuration").reshape(-1)
         if not np.all(np.isfinite(arr)):
             raise TaskError(f"posture task '{self.name}': set_target: contains NaN or infinite values")
         self._given = arr
