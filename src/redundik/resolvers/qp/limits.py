@@ -256,6 +256,10 @@ class JointLimits:
         bound to ``robot`` (for a compiled step that computes its box inside, as ``wqp``'s)."""
         if self._robot_id != id(robot):
             self.bind(robot)
+        return self._limit_args()
+
+    def _limit_args(self) -> tuple[Any, ...]:
+        """:meth:`kernel_args` of the bound robot (the options read as they are now)."""
         return (
             self._iq,
             self._lo,
@@ -291,21 +295,8 @@ class JointLimits:
         if type(q) is np.ndarray and q.dtype == np.float64 and q.ndim == 1 and (dq_prev is None or not self._has_rate):
             # the control loop's case, in a few operations: one configuration, no rate window
             out1 = np.empty((4, 1, self._lo.shape[0]))
-            K.limit_box(
-                q.reshape(1, -1),
-                self._iq,
-                self._lo,
-                self._hi,
-                self._vmax,
-                self._amax,
-                self.position,
-                self._has_rate,
-                self.position_gain,
-                float(dt),
-                self._no_prev,
-                out1,
-            )
-            return LimitBox(out1[0, 0], out1[1, 0], out1[2, 0], out1[3, 0], self._vmax)
+            K.limit_box(q.reshape(1, -1), *self._limit_args(), float(dt), self._no_prev, out1)
+            return self.box_from(out1[:, 0], False)
         q = np.asarray(q, dtype=float)
         single = q.ndim == 1
         prev = self._no_prev
@@ -313,20 +304,7 @@ class JointLimits:
             prev = np.asarray(dq_prev, dtype=float).reshape(1, -1) if single else np.asarray(dq_prev, dtype=float)
         qq = q.reshape(1, -1) if single else q
         out = np.empty((4, qq.shape[0], self._lo.shape[0]))
-        K.limit_box(  # one compiled call: the rules of the module docstring
-            qq,
-            self._iq,
-            self._lo,
-            self._hi,
-            self._vmax,
-            self._amax,
-            self.position,
-            self._has_rate,
-            self.position_gain,
-            float(dt),
-            prev,
-            out,
-        )
+        K.limit_box(qq, *self._limit_args(), float(dt), prev, out)  # one compiled call: the module docstring's rules
         lb, ub, pl, pu = out[:, 0] if single else out
         if prev is not self._no_prev:
             return LimitBox(lb, ub, pl, pu, self._vmax, lb, ub)
