@@ -96,6 +96,12 @@ class ActuatedPostureTask(Task):
             e = e[self._rows]
         return TaskTerm(self._name, self._J, self._gain * e, e, self._weight)
 
+    def joint_form(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray] | None:
+        """Its rows are a posture on the actuated coordinates (a fused step computes them itself)."""
+        if self._rows is None:
+            self.reset(robot)
+        return self._rows, self.target
+
     def __repr__(self) -> str:
         return f"ActuatedPostureTask(gain={self.gain}, weight={self.weight})"
 

@@ -21,7 +21,6 @@ configuration (they would be structural contacts of the approximation, not of th
 
 from __future__ import annotations
 
-import ctypes
 import math
 import xml.etree.ElementTree as ET
 from collections.abc import Sequence
@@ -36,6 +35,7 @@ import pinocchio as pin
 from redundik.collision import kernels as KC
 from redundik.collision.geometry import approximate, load_collision_model
 from redundik.errors import ModelError
+from redundik.kinematics.memory import se3_vector_view
 from redundik.kinematics.model import RobotModel
 
 
@@ -290,38 +290,10 @@ def _sphere_to(
 
 
 def _placements_view(data: pin.GeometryData) -> np.ndarray | None:
-    """A read-only (G, 12) view on the memory of ``data.oMg`` — per geometry the rotation (column-major), then the
-    translation — so that a compiled kernel reads the placements ``updateGeometryPlacements`` writes there without a
-    Python call per geometry; ``None`` unless that layout is verified (SE3s of 96 bytes back to back, each element's
-    rotation and translation at their offsets, the values equal). Valid while ``data`` lives (its vector is sized
-    once, at construction).
-    """
-    oMg = data.oMg
-    G = len(oMg)
-    if not G:
-        return None
-    base = int(oMg[0].rotation.__array_interface__["data"][0])
-    for g in range(G):
-        M = oMg[g]
-        R, t = M.rotation, M.translation
-        if (
-            R.__array_interface__["data"][0] != base + 96 * g
-            or t.__array_interface__["data"][0] != base + 96 * g + 72
-            or R.dtype != np.float64
-            or R.strides != (8, 24)
-            or t.strides != (8,)
-        ):
-            return None
-    view = np.ctypeslib.as_array((ctypes.c_double * (12 * G)).from_address(base)).reshape(G, 12)
-    view.flags.writeable = False
-    for g in range(G):
-        M = oMg[g]
-        if not (
-            np.array_equal(view[g, :9].reshape(3, 3, order="F"), M.rotation)
-            and np.array_equal(view[g, 9:], M.translation)
-        ):
-            return None
-    return view
+    """A read-only (G, 12) view on the memory of ``data.oMg`` (:func:`redundik.kinematics.memory.se3_vector_view`):
+    the placements ``updateGeometryPlacements`` writes there, read by a compiled kernel without a Python call per
+    geometry."""
+    return se3_vector_view(data.oMg)
 
 
 def read_srdf_pairs(path: str | Path) -> list[tuple[str, str]]:

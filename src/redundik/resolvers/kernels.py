@@ -826,17 +826,55 @@ def frame_error(
     M = R_d Rᵀ and θ = atan2(sin θ, cos θ); beyond it nothing is written and False is returned (the caller then
     uses Pinocchio's ``log3``).
     """
+    return frame_error_rp(p_d, R_d, T[0:3, 0:3], T[0:3, 3], twist, gain, rows, rotation, e, v)
+
+
+@_jit
+def frame_error_rp(
+    p_d: np.ndarray,
+    R_d: np.ndarray,
+    R: np.ndarray,
+    p: np.ndarray,
+    twist: np.ndarray,
+    gain: float,
+    rows: np.ndarray,
+    rotation: bool,
+    e: np.ndarray,
+    v: np.ndarray,
+) -> bool:
+    """:func:`frame_error` of a pose given as its rotation R (3, 3) and position p (3,)."""
     err = np.zeros(6)
     for i in range(3):
-        err[i] = p_d[i] - T[i, 3]
+        err[i] = p_d[i] - p[i]
     if rotation:
         M = np.empty((3, 3))
         for i in range(3):
             for j in range(3):
-                M[i, j] = R_d[i, 0] * T[j, 0] + R_d[i, 1] * T[j, 1] + R_d[i, 2] * T[j, 2]
+                M[i, j] = R_d[i, 0] * R[j, 0] + R_d[i, 1] * R[j, 1] + R_d[i, 2] * R[j, 2]
         if not _log3_small(M, err, 3):
             return False
     for k in range(rows.shape[0]):
         e[k] = err[rows[k]]
         v[k] = twist[rows[k]] + gain * e[k]
     return True
+
+
+@_jit
+def frame_jacobian_lwa(Jw: np.ndarray, p: np.ndarray, columns: np.ndarray, out: np.ndarray) -> None:
+    """A frame's base-aligned Jacobian (Pinocchio's LOCAL_WORLD_ALIGNED) into ``out`` (6, nv) from the joint
+    Jacobians in the world frame ``Jw`` (6, nv; ``data.J`` after ``computeJointJacobians``) and the frame's origin p:
+    on the columns of the joints that support the frame (``columns[c]`` ≠ 0), linear rows v + ω × p, angular rows
+    ω; zero elsewhere."""
+    px, py, pz = p[0], p[1], p[2]
+    for c in range(Jw.shape[1]):
+        if columns[c]:
+            wx, wy, wz = Jw[3, c], Jw[4, c], Jw[5, c]
+            out[0, c] = Jw[0, c] + (wy * pz - wz * py)
+            out[1, c] = Jw[1, c] + (wz * px - wx * pz)
+            out[2, c] = Jw[2, c] + (wx * py - wy * px)
+            out[3, c] = wx
+            out[4, c] = wy
+            out[5, c] = wz
+        else:
+            for i in range(6):
+                out[i, c] = 0.0

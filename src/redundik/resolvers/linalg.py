@@ -34,18 +34,24 @@ import numpy as np
 
 
 class _Kernels:
-    """The compiled kernels of :mod:`redundik.resolvers.kernels`, imported on first use (numba loads then, not when
-    redundik is imported); after the first access every kernel is a plain attribute."""
+    """The compiled kernels of a module of :mod:`redundik.resolvers`, imported on first use (numba loads then, not
+    when redundik is imported); after the first access every kernel is a plain attribute."""
+
+    def __init__(self, module: str = "kernels") -> None:
+        self.__dict__["_module"] = module
 
     def __getattr__(self, name: str) -> Any:
-        from redundik.resolvers import kernels
+        import importlib
 
+        kernels = importlib.import_module(f"redundik.resolvers.{self.__dict__['_module']}")
         self.__dict__.update({k: v for k, v in vars(kernels).items() if not k.startswith("__")})
         return getattr(kernels, name)
 
 
 #: The compiled kernels (``K.closed_form``, ``K.spd_solve_box``, …).
 K = _Kernels()
+#: The fused step's kernels (:mod:`redundik.resolvers.fused_kernels`).
+FK = _Kernels("fused_kernels")
 
 
 def damped_inverse_values(s: np.ndarray, epsilon: float, max_damping: float, rcond: float) -> tuple[np.ndarray, int]:

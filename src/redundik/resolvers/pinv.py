@@ -15,7 +15,8 @@ import numpy as np
 from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, Resolver, StepResult, nonfinite_sources
-from redundik.resolvers.linalg import RCOND, K, contiguous
+from redundik.resolvers.fused import FusedPlan, FusedStepResult
+from redundik.resolvers.linalg import FK, RCOND, K, contiguous
 from redundik.tasks.base import TaskTerm, stack_terms
 from redundik.tasks.stack import StackLayout, TaskStack
 
@@ -57,11 +58,15 @@ class PinvResolver(Resolver):
     """
 
     name = "pinv"
+    #: Take the fused step (:mod:`redundik.resolvers.fused`) when the stack allows it; the per-task path otherwise
+    #: (the same answer: a switch for comparisons and tests).
+    fuse: bool = True
     accepts: ClassVar[tuple[str, ...]] = ("gradient",)
 
     def __init__(self, epsilon: float = 1e-2, max_damping: float = 5e-2) -> None:
         self.epsilon, self.max_damping = check_damping_options("pinv", epsilon, max_damping)
         self._layout: tuple[tuple[int, ...], StackLayout] | None = None
+        self._fused: tuple[StackLayout, FusedPlan | str | bool] | None = None
 
     def _stack_layout(self, stack: TaskStack) -> StackLayout:
         sig = self.stack_key(stack)
@@ -72,13 +77,26 @@ class PinvResolver(Resolver):
 
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
         t0 = time.perf_counter()
-        terms = [task.evaluate(robot, t) for task in stack.tasks]  # stack.evaluate, inlined
         cached = self._layout
         if cached is not None and stack is self._stepping and cached[0] is self._checked:  # the step's layout
             layout = cached[1]
         else:
             layout = self._stack_layout(stack)
         main = layout.main
+        if self.fuse:
+            fused = self._fused
+            if fused is None or fused[0] is not layout or fused[1] == FusedPlan.NOT_YET:
+                built = FusedPlan.build(robot, stack, layout, None, 1.0)
+                fused = self._fused = (layout, built if built is not None else False)
+            plan = fused[1]
+            if isinstance(plan, FusedPlan):
+                if plan.current(robot):
+                    res = self._fused_solve(robot, plan, main, t, t0)
+                    if res is not None:
+                        return res
+                else:
+                    self._fused = None  # a member changed: planned again at the next step
+        terms = [task.evaluate(robot, t) for task in stack.tasks]  # stack.evaluate, inlined
         if len(main) == 1:  # main_system's stacking, for the common single main task
             term = terms[main[0]]
             J, V = term.J, term.v
@@ -128,6 +146,52 @@ class PinvResolver(Resolver):
             build_time=t1 - t0,
             solve_time=t2 - t1,
             main=layout.main,
+        )
+
+    def _fused_solve(
+        self, robot: RobotModel, plan: FusedPlan, main: list[int], t: float, t0: float
+    ) -> StepResult | None:
+        """The step of a fused stack (:mod:`redundik.resolvers.fused`) in one compiled call; ``None`` when this step
+        needs the per-task path (a rotation error beyond the compiled log3's range, a non-finite q̇ to diagnose)."""
+        n = robot._nv
+        coef = plan.coefficients((self.epsilon, self.max_damping, RCOND))
+        refs = plan.given_references(t) if plan.given else plan.refs
+        Jf = np.empty((len(plan.frames), 6, n))
+        Jm = np.empty((plan.m, n))
+        ev = np.empty((2, plan.m))
+        out = np.empty((3, n))
+        q = robot.q
+        status, rank, sigma_min, damping, err2 = FK.fused_pinv_step(
+            plan.jw, plan.poses, float(t), refs, q, plan.ints, plan.floats, coef, Jf, Jm, ev, out
+        )
+        dq = out[2]
+        if status < 0.0 or not math.isfinite(dq.dot(dq)):
+            return None
+        t1 = time.perf_counter()
+
+        def make_terms() -> list[TaskTerm]:
+            return plan.terms(Jf, ev, q, robot)
+
+        if sigma_min != sigma_min:  # NaN: J well conditioned and undamped, σ_min computed on first read
+
+            def diagnostics() -> tuple[float, bool, dict[str, object]]:
+                smin = float(np.sqrt(max(float(np.linalg.eigvalsh(Jm @ Jm.T)[0]), 0.0)))
+                return smin, False, {"sigma_min": smin}
+
+            return FusedStepResult.fused(
+                dq, make_terms, math.sqrt(err2), {"rank": int(rank)}, t1 - t0, 0.0, main, diagnostics, out[0], out[1]
+            )
+        return StepResult(
+            dq=dq,
+            terms=make_terms(),
+            dq_rank=out[0],
+            dq_null=out[1],
+            damped=damping > 0.0,
+            damping=float(damping),
+            sigma_min=float(sigma_min),
+            info={"sigma_min": float(sigma_min), "rank": int(rank)},
+            build_time=t1 - t0,
+            main=main,
         )
 
     def __repr__(self) -> str:

@@ -69,6 +69,13 @@ def check_priority(value: object, what: str) -> int | None:
     return int(value)
 
 
+class Edits:
+    """A counter that every change of a task's or a gradient subtask's gain or weight moves (their validated setters):
+    a fused step (:mod:`redundik.resolvers.fused`) re-reads its coefficients when it has moved."""
+
+    count: ClassVar[int] = 0
+
+
 @dataclass
 class TaskTerm:
     """A task evaluated at one instant: ask for J q̇ = v.
@@ -145,6 +152,7 @@ class Task(ABC):
     @weight.setter
     def weight(self, value: float) -> None:
         self._weight = check_number(value, f"task '{self._label}': weight", low=0.0, strict=True)
+        Edits.count += 1
 
     @property
     def gain(self) -> float:
@@ -154,6 +162,7 @@ class Task(ABC):
     @gain.setter
     def gain(self, value: float) -> None:
         self._gain = check_number(value, f"task '{self._label}': gain", low=0.0)
+        Edits.count += 1
 
     @property
     def priority(self) -> int | None:
@@ -179,6 +188,14 @@ class Task(ABC):
     def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
         """The task at time ``t`` [s]; ``robot`` has been :meth:`~RobotModel.update`-d at the current q."""
 
+    def joint_form(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray] | None:
+        """(sel, q_ref) when this task's rows are J = I[sel], e = (q_ref ⊖ q)[sel], v = K e — a posture on the
+        velocity coordinates ``sel`` (int array) towards q_ref (nq,) — so that a fused step
+        (:mod:`redundik.resolvers.fused`) can compute them itself; ``None`` (the default): only :meth:`evaluate`.
+
+        The arrays returned must be the same objects while the task is unchanged (a new target: new arrays)."""
+        return None
+
     @abstractmethod
     def __repr__(self) -> str: ...
 
@@ -202,6 +219,12 @@ class Potential(ABC):
     def value_and_gradient(self, robot: RobotModel) -> tuple[float, np.ndarray]:
         """(p, η) at once, for the rows of a bound subtask (a potential may share the work of the two)."""
         return self.value(robot), self.gradient(robot)
+
+    def linear_gradient(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray] | None:
+        """(w (nv,), q_c (nq,)) when η = w ⊙ (q ⊖ q_c) (a weighted joint centering), for a fused step; else ``None``.
+
+        The arrays returned must be the same objects while the potential is unchanged."""
+        return None
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(name={self.name!r})"

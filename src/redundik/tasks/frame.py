@@ -141,7 +141,8 @@ class FrameTask(Task):
         self._rotation_rows = bool(np.any(self.rows >= 3))
         self._fid: int | None = None
         self._pending_position: np.ndarray | None = None
-        self._last_R: np.ndarray | None = None  # the target orientation at the last evaluation
+        # the target orientation at the last evaluation (or a fused step's reference row, R_d in entries 3:12)
+        self._last_R: np.ndarray | None = None
         self._data: Any = None  # the robot data the task was reset on, and its live view of the frame's pose
         self._pose: Any = None
 
@@ -161,8 +162,11 @@ class FrameTask(Task):
         """
         pose = _as_pose(target, f"frame task '{self.name}': set_target")
         if isinstance(pose, np.ndarray):
-            if self._last_R is not None:
-                self._hold(pin.SE3(self._last_R.copy(), pose))
+            last = self._last_R
+            if last is not None:
+                if last.shape != (3, 3):  # a fused step's reference row (p_d, R_d row-major, twist)
+                    last = last[3:12].reshape(3, 3)
+                self._hold(pin.SE3(np.array(last), pose))
             else:
                 self._pending_position = pose
             return
@@ -299,6 +303,7 @@ class PostureTask(Task):
         what = f"posture task '{name}': target"
         self._given = None if target is None else _numbers(target, what, "a configuration").copy()
         self.target: np.ndarray | None = self._given
+        self._sel: np.ndarray | None = None
 
     def set_target(self, q: Sequence[float] | np.ndarray) -> None:
         """A new reference configuration q_ref (size nq), checked against the robot at the next evaluation."""
@@ -320,6 +325,16 @@ class PostureTask(Task):
         assert self.target is not None  # set by reset()
         e = robot.difference(robot.q, self.target)
         return TaskTerm(self._name, _identity(robot.nv), self._gain * e, e, self._weight)
+
+    def joint_form(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray] | None:
+        """(every velocity coordinate, q_ref) once the target is known (after the first evaluation or reset)."""
+        target = self.target
+        if target is None or target.shape[0] != robot.nq:
+            return None
+        sel = self._sel
+        if sel is None or sel.shape[0] != robot.nv:
+            sel = self._sel = np.arange(robot.nv)
+        return sel, target
 
     def __repr__(self) -> str:
         return f"PostureTask(gain={self.gain})"

@@ -150,6 +150,13 @@ class JointCentering(Potential):
         d = self._delta(robot)
         return float(0.5 * np.sum(self._w * d * d))
 
+    def linear_gradient(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray] | None:
+        if self._c is None or self._w is None:
+            self.check(robot)
+        if self._c is None or self._w is None:
+            return None
+        return self._w, self._c
+
     def gradient(self, robot: RobotModel) -> np.ndarray:
         # exact for vector-space joints (q_c ⊖ q is linear in q); the chart's first-order value on SO(3) bases
         return self._w * self._delta(robot)

@@ -20,7 +20,7 @@ import numpy as np
 
 from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
-from redundik.tasks.base import Barrier, Potential, check_name, check_number, check_priority
+from redundik.tasks.base import Barrier, Edits, Potential, check_name, check_number, check_priority
 
 
 class Subtask(ABC):
@@ -79,6 +79,7 @@ class GradientSubtask(Subtask):
     @gain.setter
     def gain(self, value: float) -> None:
         self._gain = check_number(value, f"subtask '{self.name}': gain")
+        Edits.count += 1
 
     def check(self, robot: RobotModel) -> None:
         self.potential.check(robot)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -69,10 +70,44 @@ def _rigid(pose: object, what: str) -> pin.SE3:
     return pin.SE3(M)
 
 
+#: Kinds of compiled reference (:func:`redundik.resolvers.fused_kernels.reference_into`); ``GIVEN``: none, the
+#: trajectory's :meth:`Trajectory.reference` is sampled in Python.
+GIVEN, HOLD, LINE, CIRCLE = 0, 1, 2, 3
+#: Length of a compiled reference's parameter row: p0 (3), R0 (9, row-major), up to 11 kind-specific numbers.
+PARAMS = 23
+
+_FK: Any = None  # the fused step's compiled kernels (redundik.resolvers.fused_kernels), bound at first use
+
+
+def _fused_kernels() -> Any:
+    """The compiled trajectory references, imported on first use (the resolvers package imports this module)."""
+    global _FK
+    from redundik.resolvers import fused_kernels
+
+    _FK = fused_kernels
+    return fused_kernels
+
+
 class Trajectory(ABC):
-    """A desired frame pose and twist over time."""
+    """A desired frame pose and twist over time.
+
+    A trajectory whose reference is compiled declares ``_kind`` (a kind of
+    :mod:`redundik.resolvers.fused_kernels`, 0 = none) and, once started, ``_kparams`` (its parameter row): a fused
+    step then samples it inside its compiled call, with the same kernel as :meth:`reference`.
+    """
 
     _start: pin.SE3 | None = None
+    _kind: int = 0
+    _kparams: np.ndarray | None = None
+
+    def _params_row(self, kind: int, extra: Sequence[float] = ()) -> None:
+        """Set ``_kind`` and ``_kparams`` = (p0, R0 row-major, extra...) for the compiled reference."""
+        row = np.zeros(PARAMS)
+        row[0:3] = self._p0
+        row[3:12] = np.asarray(self._R0).reshape(-1)
+        row[12 : 12 + len(extra)] = extra
+        self._kparams = row
+        self._kind = kind
 
     def start(self, pose: pin.SE3) -> None:
         """Anchor the trajectory at the frame pose at t = 0."""
@@ -128,6 +163,7 @@ class Hold(Trajectory):
 
     def _prepare(self) -> None:
         self._zero = np.zeros(6)
+        self._params_row(HOLD)
 
     def __repr__(self) -> str:
         return "Hold()" if self.pose is None else f"Hold(pose at {np.round(self.pose.translation, 6).tolist()})"
@@ -151,11 +187,13 @@ class Line(Trajectory):
         self.velocity = _vec(v, 3, "line velocity")
 
     def _prepare(self) -> None:
-        self._twist = np.concatenate([self.velocity, np.zeros(3)])
+        self._params_row(LINE, self.velocity.tolist())
 
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         self.start_pose  # noqa: B018 - raises if start() was never called
-        return self._p0 + self.velocity * t, self._R0, self._twist
+        out = np.empty(18)
+        (_FK or _fused_kernels()).reference_into(LINE, self._kparams, float(t), out)  # p0 + v t, (v, 0)
+        return out[:3], self._R0, out[12:]
 
     def __repr__(self) -> str:
         return f"Line(velocity={self.velocity.tolist()})"
@@ -207,19 +245,15 @@ class Circle(Trajectory):
         self._c = self.center
         self._re1 = self.radius * self.e1
         self._re2 = self.radius * self.e2
-        # the same arithmetic on plain floats (three coordinates: cheaper than eight small-array operations)
-        self._rows = tuple(zip(self._c.tolist(), self._re1.tolist(), self._re2.tolist(), strict=True))
+        extra = [*self._c.tolist(), *self._re1.tolist(), *self._re2.tolist(), self.omega, self.phase]
+        self._params_row(CIRCLE, extra)
 
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if self._start is None:
             self.start_pose  # noqa: B018 - raises: start() was never called
-        w = self.omega
-        a = w * t + self.phase
-        c, s = math.cos(a), math.sin(a)
-        (c0, a0, b0), (c1, a1, b1), (c2, a2, b2) = self._rows
-        p = np.array((c0 + c * a0 + s * b0, c1 + c * a1 + s * b1, c2 + c * a2 + s * b2))
-        twist = np.array((w * (c * b0 - s * a0), w * (c * b1 - s * a1), w * (c * b2 - s * a2), 0.0, 0.0, 0.0))
-        return p, self._R0, twist
+        out = np.empty(18)
+        (_FK or _fused_kernels()).reference_into(CIRCLE, self._kparams, float(t), out)  # compiled: one implementation
+        return out[:3], self._R0, out[12:]
 
     def __repr__(self) -> str:
         return f"Circle(radius={self.radius}, omega={self.omega}, plane={self.plane})"

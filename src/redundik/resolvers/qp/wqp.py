@@ -22,6 +22,7 @@ stay hard), then replaced by the damped closed form clipped to the limits and sc
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
@@ -30,7 +31,8 @@ import numpy as np
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, StepResult
-from redundik.resolvers.linalg import K
+from redundik.resolvers.fused import FusedPlan, FusedStepResult
+from redundik.resolvers.linalg import FK, K
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
 from redundik.resolvers.qp.limits import LimitBox
@@ -76,6 +78,8 @@ class _Plan:
         self.null_scale = 0.0  # ρ^k of the null-space objective's level (0: none)
         self.last_scale = 1.0  # ρ^(L−1)
         self.main: list[int] = layout.main
+        #: The fused form of the stack (:mod:`redundik.resolvers.fused`): ``None`` not planned yet, False none.
+        self.fused: FusedPlan | str | bool | None = None
         #: The membership key (``Resolver.stack_key`` inside ``step``) this plan was looked up with, or ``None``.
         self.key: tuple[int, ...] | None = None
 
@@ -99,6 +103,9 @@ class WeightedQPResolver(QPResolverBase):
     """
 
     name = "wqp"
+    #: Take the fused step (:mod:`redundik.resolvers.fused`) when the stack allows it; the per-task path otherwise
+    #: (the same answer: a switch for comparisons and tests).
+    fuse: bool = True
 
     def __init__(
         self,
@@ -223,6 +230,16 @@ class WeightedQPResolver(QPResolverBase):
             plan.key = self._checked if stack is self._stepping else None
         if plan.targets or plan.bounds:
             return super().solve(robot, stack, t, dt)
+        fused = plan.fused
+        if fused is None or fused == FusedPlan.NOT_YET:
+            fused = plan.fused = self._fused_plan(robot, stack, plan) if self.fuse else False
+        if isinstance(fused, FusedPlan):
+            if fused.current(robot):
+                res = self._fused_solve(robot, stack, fused, plan, t, dt)
+                if res is not None:
+                    return res
+            else:
+                plan.fused = None  # a member changed (a new target, trajectory): planned again at the next step
         t0 = time.perf_counter()
         terms = [task.evaluate(robot, t) for task in stack.tasks]  # stack.evaluate, inlined
         shift, z, lam = self._accumulate(robot, stack, terms, plan)
@@ -270,6 +287,92 @@ class WeightedQPResolver(QPResolverBase):
             plan.main,
             diagnostics,
         )
+
+    def _fused_plan(self, robot: RobotModel, stack: TaskStack, plan: _Plan) -> FusedPlan | str | bool:
+        """The fused form of the plan's stack (:mod:`redundik.resolvers.fused`), ``NOT_YET`` or False (none)."""
+        if self.lm_damping:  # λ grows with the error: the per-task path computes it
+            return False
+        scales = {i: (scale, identity) for i, scale, identity in plan.tasks}
+        built = FusedPlan.build(robot, stack, plan.layout, scales, plan.null_scale)
+        return False if built is None else built
+
+    def _fused_solve(
+        self, robot: RobotModel, stack: TaskStack, fused: FusedPlan, plan: _Plan, t: float, dt: float
+    ) -> StepResult | None:
+        """The lean step of a fused stack (:mod:`redundik.resolvers.fused`): one compiled call from Pinocchio's
+        Jacobians to q̇, or to the QP when a limit binds; ``None`` when this step needs the per-task path (a rotation
+        error beyond the compiled log3's range)."""
+        t0 = time.perf_counter()
+        n = robot._nv
+        P, g = self._P, self._q
+        if P is None or g is None or P.shape[0] != n:
+            P, g = self._P, self._q = np.empty((n, n)), np.empty(n)
+            self._diag = P.reshape(-1)[:: n + 1]
+            self._no_rows, self._no_rhs = np.zeros((0, n)), np.zeros(0)
+        limits = self.limits
+        args = limits.kernel_args(robot)
+        lam = self.damping * plan.last_scale
+        coef = fused.coefficients((float(args[5]), float(args[6]), float(args[7]), lam))
+        refs = fused.given_references(t) if fused.given else fused.refs
+        prev = limits.previous(self._dq_prev)
+        Jf = np.empty((len(fused.frames), 6, n))
+        ev = np.empty((2, fused.m))
+        out = np.empty((7, n))
+        q = robot.q
+        status, err2 = FK.fused_wqp_step(
+            fused.jw,
+            fused.poses,
+            float(t),
+            refs,
+            q,
+            fused.ints,
+            fused.floats,
+            coef,
+            fused.limits(args),
+            float(dt),
+            prev,
+            P,
+            g,
+            Jf,
+            ev,
+            out,
+        )
+        if status < 0.0:
+            return None
+        t1 = time.perf_counter()
+
+        def make_terms() -> list[TaskTerm]:
+            return fused.terms(Jf, ev, q, robot)
+
+        windowed = prev.shape[0] > 0
+        if status == 0.0:  # a limit binds: the backend, through the template
+            terms = make_terms()
+            box = limits.box_from(out, windowed)
+            prob = QPProblem(P, g, self._no_rows, self._no_rhs, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp")
+            built = WQPBuild(prob, box, [terms[i] for i in plan.main], lam, free_outside=True)
+            return self._finish(robot, stack, terms, built, t0, t1)
+        dq, kept = out[5], out[6]
+        self._dq_prev = kept
+        main = plan.main
+
+        def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
+            terms = res.terms
+            diag = QPDiagnostics()
+            diag.active_limits = limits.box_from(out, windowed).active(kept, limits.joint_names)
+            self._diagnose_terms([terms[i] for i in main], lam, kept, diag)
+            return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
+
+        res = FusedStepResult.fused(
+            dq,
+            make_terms,
+            math.sqrt(err2),
+            {"backend": "closed-form", "qp": 0, "iterations": 0},
+            t1 - t0,
+            time.perf_counter() - t1,
+            main,
+            diagnostics,
+        )
+        return res
 
     def _plan_for(self, stack: TaskStack, layout: StackLayout) -> _Plan:
         """The level weights ρ^k of every member, laid out once per stack membership (the layout object)."""

@@ -1,0 +1,402 @@
+"""The fused step: a stack whose members all have a compiled form is evaluated, accumulated and solved in one call.
+
+A control tick of the per-task path calls every task's ``evaluate`` (a :class:`~redundik.tasks.base.TaskTerm`
+each), then the resolver's kernels on them: some sixty Python-level calls, which on a 9-dof arm cost more than the
+arithmetic. Most stacks are made of a few kinds of member whose rows are known formulas:
+
+* :class:`~redundik.tasks.frame.FrameTask` — the rows of its frame's Jacobian and the error
+  (p_d − p, log3(R_d Rᵀ)), its trajectory sampled inside the compiled call for ``Hold``, ``Line`` and ``Circle``
+  (in Python for any other);
+* a joint-space task that declares :meth:`~redundik.tasks.base.Task.joint_form` — J = I[sel],
+  e = (q_ref ⊖ q)[sel], v = K e (a posture);
+* terms of the null-space objective z (eq. 5.8): identity regularisers (a posture: z += v) and gradient subtasks
+  of a potential that declares :meth:`~redundik.tasks.base.Potential.linear_gradient` (a joint centering:
+  z += k w ⊙ (q ⊖ q_c)).
+
+For such a stack, :class:`FusedPlan` (built once per stack membership) packs their static data; each step it checks
+that the array-valued members are the same objects (trajectory, targets, centres), re-reads gains and weights when
+one was set (:class:`~redundik.tasks.base.Edits`), and hands Pinocchio's Jacobians and poses to one kernel of
+:mod:`redundik.resolvers.fused_kernels` — the composition of the per-task kernels, not a second implementation. The
+step's terms are built only when read (:class:`FusedStepResult`). Whatever the plan cannot take — another task
+type, a frame target set as a position, a rotation error beyond the compiled log3's range, a coordinate without a
+1-dof position — goes the per-task way, for that stack or that step: the answer is the same (tested to 1e-12).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, ClassVar
+
+import numpy as np
+
+from redundik.kinematics.memory import jacobian_view, se3_vector_view
+from redundik.kinematics.model import RobotModel
+from redundik.resolvers.base import LazyStepResult
+from redundik.tasks.base import Edits, Task, TaskTerm
+from redundik.tasks.frame import FrameTask
+from redundik.tasks.stack import StackLayout, TaskStack
+from redundik.tasks.subtasks import GradientSubtask
+from redundik.tasks.trajectory import GIVEN, PARAMS
+
+Form = tuple[np.ndarray, np.ndarray]
+
+#: Length of a reference row (p_d, R_d row-major, twist) of :mod:`redundik.resolvers.fused_kernels`.
+REF = 18
+#: Entries of the header of a plan's ``ints``: counts K (frame tasks), J (joint-space tasks at a level), N (null-space
+#: terms), m (rows of e), nv, nq, then the offsets of kinds (K), frame rows, row starts (K + 1), rotation flags (K),
+#: joint rows, joint row starts (J + 1), identity flags (J), q index per velocity coordinate (nv), main-row flags (m),
+#: then the offsets in ``floats`` of the trajectory parameters (K × 23), joint targets (J × nq), null weights (N × nv)
+#: and null centres (N × nq), then the offsets in ``ints`` of the frame ids (K) and the supporting columns (K × nv).
+HEADER = 22
+
+
+class FusedPlan:
+    """The packed static data of a fused stack (module docstring); :meth:`build` makes one or says why not.
+
+    Attributes:
+        frames: The frame tasks, in stack order; ``level_joints``: the joint-space tasks of a level (``wqp``);
+            ``nulls``: the regularisation tasks of the null-space objective; ``gradients``: its gradient subtasks.
+        ints, floats: The static data in the layout of :data:`~redundik.resolvers.fused_kernels.HEADER`.
+        coef: The step's coefficients (gains, weights × ρ^k, …), re-read when :class:`Edits` moved.
+        m: Rows of e (frame rows, then joint-task rows).
+    """
+
+    #: :meth:`build`'s answer when a frame task has not been evaluated on this robot yet (try at the next step).
+    NOT_YET: ClassVar[str] = "not yet"
+
+    def __init__(self) -> None:
+        self.frames: list[FrameTask] = []
+        self.level_joints: list[Task] = []
+        self.nulls: list[Task] = []
+        self.gradients: list[GradientSubtask] = []
+        self.order: list[tuple[str, int]] = []  # per stack task: ("f", k), ("j", k) a level task, ("n", k) a null one
+        self.fids: list[int] = []
+        self.trajs: list[Any] = []
+        self.kparams: list[Any] = []
+        self.targets: list[np.ndarray] = []
+        self.null_targets: list[np.ndarray] = []
+        self.gradient_forms: list[Form] = []
+        self.scales: list[float] = []  # ρ^k per frame task, then per level joint task
+        self.null_scale = 0.0
+        self.given: list[int] = []
+        self.ints = np.zeros(HEADER, np.int64)
+        self.floats = np.zeros(0)
+        self.coef = np.zeros(0)
+        self.weights: list[float] = []
+        self.edits = -1
+        self.m = 0
+        self.data: Any = None
+        self.refs = np.zeros((0, REF))
+        self.limit_args: tuple[Any, ...] | None = None
+        self.lim = np.zeros((4, 0))
+        self.tail: tuple[float, ...] = ()
+        self.jw = np.zeros((6, 0))  # data.J: the joint Jacobians, world frame (a view on Pinocchio's memory)
+        self.poses = np.zeros((0, 12))  # data.oMf: the frames' placements (a view on Pinocchio's memory)
+        self.qp = False  # built for wqp (weights, joint tasks at a level) rather than pinv
+
+    # ------------------------------------------------------------------ building
+    @classmethod
+    def build(
+        cls,
+        robot: RobotModel,
+        stack: TaskStack,
+        layout: StackLayout,
+        scales: dict[int, tuple[float, bool]] | None,
+        null_scale: float,
+    ) -> FusedPlan | str | None:
+        """The plan of ``stack``; ``None`` when a member has no compiled form (the per-task path then runs), or
+        :attr:`NOT_YET` when a frame task has not been evaluated on this robot yet.
+
+        Args:
+            scales: Per task index, (ρ^k of its level, identity Jacobian) for ``wqp``; ``None`` for ``pinv``, whose
+                main tasks must then all be frame tasks.
+            null_scale: ρ^k of the null-space objective's level (``wqp``; 1 for ``pinv``).
+        """
+        plan = cls()
+        iq = np.array([j.idx_q for j in robot.joints], dtype=np.int64)
+        null_tasks = set(layout.null_tasks)
+        identity: list[bool] = []
+        level_forms: list[Form] = []
+        for i, task in enumerate(stack.tasks):
+            if type(task) is FrameTask:
+                if i in null_tasks:
+                    return None
+                if not (
+                    task._fid is not None
+                    and task.trajectory._start is not None
+                    and task._data is robot.data
+                    and task._pending_position is None
+                ):
+                    return cls.NOT_YET
+                plan.order.append(("f", len(plan.frames)))
+                plan.frames.append(task)
+                continue
+            form = task.joint_form(robot)
+            if form is None or (iq[form[0]] < 0).any():  # no form, or a Lie-group coordinate (not a subtraction)
+                return None
+            if i in null_tasks:
+                if not task.identity_jacobian or form[0].shape[0] != robot.nv:
+                    return None
+                plan.order.append(("n", len(plan.nulls)))
+                plan.nulls.append(task)
+                plan.null_targets.append(form[1])
+            elif scales is None:  # pinv: the main tasks are the frames' rows only
+                return None
+            else:
+                plan.order.append(("j", len(plan.level_joints)))
+                plan.level_joints.append(task)
+                plan.targets.append(form[1])
+                level_forms.append(form)
+                identity.append(bool(scales.get(i, (1.0, False))[1]))
+        for sub in layout.gradients:
+            lin = sub.potential.linear_gradient(robot)
+            if lin is None or (iq[np.flatnonzero(lin[0])] < 0).any():
+                return None
+            plan.gradients.append(sub)
+            plan.gradient_forms.append(lin)
+        jw, poses = jacobian_view(robot.data), se3_vector_view(robot.data.oMf)
+        if jw is None or poses is None:  # Pinocchio's memory not laid out as checked: the per-task path
+            return None
+        plan.jw, plan.poses = jw, poses
+        index = {id(t): i for i, t in enumerate(stack.tasks)}
+        scale = scales or {}
+        plan.scales = [scale.get(index[id(t)], (1.0, False))[0] for t in plan.frames + plan.level_joints]
+        plan.null_scale = float(null_scale) if (plan.nulls or plan.gradients) else 0.0
+        plan.qp = scales is not None
+        plan._pack(robot, iq, level_forms, identity, set(layout.main), index)
+        plan.data = robot.data
+        return plan
+
+    def _pack(
+        self,
+        robot: RobotModel,
+        iq: np.ndarray,
+        level_forms: list[Form],
+        identity: list[bool],
+        main: set[int],
+        index: dict[int, int],
+    ) -> None:
+        """Write ``ints`` and ``floats`` in the layout of ``fused_kernels.HEADER``."""
+        nv, nq = robot.nv, robot.nq
+        K, J = len(self.frames), len(self.level_joints)
+        nulls = self.gradient_forms + [(np.ones(nv), target) for target in self.null_targets]
+        N = len(nulls)
+        self.fids = [int(t._fid) for t in self.frames]  # type: ignore[arg-type]
+        self.trajs = [t.trajectory for t in self.frames]
+        self.kparams = [t.trajectory._kparams for t in self.frames]
+        kinds = [int(t.trajectory._kind) if t.trajectory._kparams is not None else GIVEN for t in self.frames]
+        self.given = [k for k in range(K) if kinds[k] == GIVEN]
+        for k, task in enumerate(self.frames):  # the orientation target a position-only set_target keeps
+            if kinds[k] != GIVEN:
+                task._last_R = task.trajectory._R0
+        frows = [int(r) for t in self.frames for r in t.rows]
+        starts = np.cumsum([0] + [t._m for t in self.frames]).tolist()
+        jsel = [int(s) for f in level_forms for s in f[0]]
+        jstarts = np.cumsum([0] + [f[0].shape[0] for f in level_forms]).tolist()
+        mf = int(starts[-1])
+        self.m = mf + int(jstarts[-1])
+        main_rows = [0] * self.m
+        for k, task in enumerate(self.frames):
+            if index[id(task)] in main:
+                main_rows[starts[k] : starts[k + 1]] = [1] * (starts[k + 1] - starts[k])
+        for k, joint in enumerate(self.level_joints):
+            if index[id(joint)] in main:
+                main_rows[mf + jstarts[k] : mf + jstarts[k + 1]] = [1] * (jstarts[k + 1] - jstarts[k])
+        parts: list[list[int]] = [
+            kinds,
+            frows,
+            starts,
+            [int(t._rotation_rows) for t in self.frames],
+            jsel,
+            jstarts,
+            [int(x) for x in identity],
+            np.maximum(iq, 0).tolist(),
+            main_rows,
+        ]
+        columns: list[int] = []
+        model = robot.model
+        for task in self.frames:  # the velocity columns of the joints that move the frame
+            col = [0] * nv
+            for j in model.supports[model.frames[task._fid].parentJoint]:
+                if j > 0:
+                    jm = model.joints[j]
+                    col[jm.idx_v : jm.idx_v + jm.nv] = [1] * jm.nv
+            columns += col
+        ints = [K, J, N, self.m, nv, nq] + [0] * (HEADER - 6)
+        for slot, part in zip([*range(6, 15), 20, 21], [*parts, self.fids, columns], strict=True):
+            ints[slot] = len(ints)
+            ints += part
+        floats: list[float] = []
+        chunks = [
+            [
+                float(x)
+                for t in self.frames
+                for x in (t.trajectory._kparams if t.trajectory._kparams is not None else np.zeros(PARAMS))
+            ],
+            [float(x) for target in self.targets for x in target],
+            [float(x) for w, _ in nulls for x in w],
+            [float(x) for _, c in nulls for x in c],
+        ]
+        for slot, chunk in zip(range(16, 20), chunks, strict=True):
+            ints[slot] = len(floats)
+            floats += chunk
+        self.ints = np.array(ints, dtype=np.int64)
+        self.floats = np.array(floats, dtype=float)
+        self.refs = np.zeros((K, REF))
+
+    # ------------------------------------------------------------------ per step
+    def current(self, robot: RobotModel) -> bool:
+        """The array-valued members are the objects packed (trajectories, targets, centres) and the robot's data the
+        same; False: the stack must be planned again."""
+        if robot.data is not self.data:
+            return False
+        for k, task in enumerate(self.frames):
+            traj = task.trajectory
+            if traj is not self.trajs[k] or traj._kparams is not self.kparams[k] or task._pending_position is not None:
+                return False
+        for k, joint in enumerate(self.level_joints):
+            form = joint.joint_form(robot)
+            if form is None or form[1] is not self.targets[k]:
+                return False
+        for k, joint in enumerate(self.nulls):
+            form = joint.joint_form(robot)
+            if form is None or form[1] is not self.null_targets[k]:
+                return False
+        for k, sub in enumerate(self.gradients):
+            lin = sub.potential.linear_gradient(robot)
+            if lin is None or lin[0] is not self.gradient_forms[k][0] or lin[1] is not self.gradient_forms[k][1]:
+                return False
+        return True
+
+    def coefficients(self, tail: tuple[float, ...]) -> np.ndarray:
+        """``coef`` of this step: re-read from the members when a gain or weight was set since (:class:`Edits`) or
+        ``tail`` (the resolver's own numbers) changed."""
+        if Edits.count == self.edits and tail == self.tail:
+            return self.coef
+        frames, joints = self.frames, self.level_joints
+        weights = [t.weight for t in frames] + [t.weight for t in joints]
+        scaled = [w * s for w, s in zip(weights, self.scales, strict=True)]
+        K = len(frames)
+        values = [t.gain for t in frames]
+        if self.qp:  # wqp: the weights, the joint tasks and the null objective's ρ
+            values += scaled[:K] + [t.gain for t in joints] + scaled[K:] + [self.null_scale]
+        values += [s.gain for s in self.gradients] + [-t.gain for t in self.nulls]
+        self.coef = np.array(values + list(tail), dtype=float)
+        self.weights = weights
+        self.edits, self.tail = Edits.count, tail
+        return self.coef
+
+    def limits(self, args: tuple[Any, ...]) -> np.ndarray:
+        """The (4, nv) limit rows (lower, upper, velocity, acceleration) of ``JointLimits.kernel_args``."""
+        if args is not self.limit_args:
+            self.lim = np.array([args[1], args[2], args[3], args[4]], dtype=float)
+            self.limit_args = args
+        return self.lim
+
+    def given_references(self, t: float) -> np.ndarray:
+        """The reference rows of trajectories without a compiled form, sampled here in Python (the others are
+        sampled in the compiled call)."""
+        refs = self.refs
+        for k in self.given:
+            p_d, R_d, twist = self.trajs[k].reference(t)
+            refs[k, 0:3] = p_d
+            refs[k, 3:12] = np.asarray(R_d).reshape(-1)
+            refs[k, 12:18] = twist
+            self.frames[k]._last_R = np.array(R_d)
+        return refs
+
+    # ------------------------------------------------------------------ results
+    def terms(self, Jf: np.ndarray, ev: np.ndarray, q: np.ndarray, robot: RobotModel) -> list[TaskTerm]:
+        """The step's task terms in stack order: what every task's ``evaluate`` would have returned."""
+        out: list[TaskTerm] = []
+        e_all, v_all = ev[0], ev[1]
+        starts = self.ints[self.ints[8] : self.ints[8] + len(self.frames) + 1]
+        J = len(self.level_joints)
+        jstarts = self.ints[self.ints[11] : self.ints[11] + J + 1]
+        mf = int(starts[-1])
+        K = len(self.frames)
+        weights = self.weights
+        for kind, k in self.order:
+            if kind == "f":
+                task = self.frames[k]
+                a, b = int(starts[k]), int(starts[k + 1])
+                Jk = Jf[k] if task._all_rows else Jf[k][task.rows]
+                out.append(TaskTerm(task.name, Jk, v_all[a:b], e_all[a:b], weights[k]))
+            elif kind == "j":
+                joint = self.level_joints[k]
+                a, b = mf + int(jstarts[k]), mf + int(jstarts[k + 1])
+                sel = joint.joint_form(robot)[0]  # type: ignore[index]
+                out.append(TaskTerm(joint.name, _identity_rows(robot.nv, sel), v_all[a:b], e_all[a:b], weights[K + k]))
+            else:  # a regularisation task: its e from the step's q, as its evaluate computes it
+                joint = self.nulls[k]
+                sel, target = joint.joint_form(robot)  # type: ignore[misc]
+                e = robot.difference(q, target)[sel]
+                out.append(TaskTerm(joint.name, _identity_rows(robot.nv, sel), joint.gain * e, e, joint.weight))
+        return out
+
+
+_ROWS: dict[tuple[int, bytes], np.ndarray] = {}
+
+
+def _identity_rows(n: int, sel: np.ndarray) -> np.ndarray:
+    """I[sel] (read-only, shared): the Jacobian of a joint-space task (I itself when sel is every coordinate)."""
+    key = (n, np.asarray(sel, dtype=np.int64).tobytes())
+    rows = _ROWS.get(key)
+    if rows is None:
+        rows = np.eye(n)[sel]
+        rows.setflags(write=False)
+        _ROWS[key] = rows
+    return rows
+
+
+class FusedStepResult(LazyStepResult):
+    """A :class:`LazyStepResult` of a fused step: ``terms`` built on first read, ``task_error`` computed in the step."""
+
+    @classmethod
+    def fused(
+        cls,
+        dq: np.ndarray,
+        make_terms: Callable[[], list[TaskTerm]],
+        task_error: float,
+        info: dict[str, object],
+        build_time: float,
+        solve_time: float,
+        main: list[int],
+        pending: Callable[[], tuple[float, bool, dict[str, object]]],
+        dq_rank: np.ndarray | None = None,
+        dq_null: np.ndarray | None = None,
+    ) -> FusedStepResult:
+        """The result; ``make_terms()`` builds the terms when they are first read."""
+        res = cls.__new__(cls)
+        res.__dict__ = {
+            "dq": dq,
+            "dq_rank": dq_rank,
+            "dq_null": dq_null,
+            "gains": None,
+            "damping": 0.0,
+            "fallback": None,
+            "_info": info,
+            "build_time": build_time,
+            "solve_time": solve_time,
+            "main": main,
+            "pending": pending,
+            "_make_terms": make_terms,
+            "_task_error": task_error,
+        }
+        return res
+
+    @property
+    def terms(self) -> list[TaskTerm]:
+        d = self.__dict__
+        terms = d.get("_terms")
+        if terms is None:
+            terms = d["_terms"] = d["_make_terms"]()
+        return terms
+
+    @terms.setter
+    def terms(self, value: list[TaskTerm]) -> None:
+        self.__dict__["_terms"] = value
+
+    @property
+    def task_error(self) -> float:
+        return self.__dict__["_task_error"]

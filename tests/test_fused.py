@@ -1,0 +1,234 @@
+"""The fused step (redundik.resolvers.fused) gives the per-task path's answer: q̇, terms, task error, diagnostics.
+
+Every case runs two copies of the same robot, stack and resolver — one with ``fuse`` on, one off — on the same
+configurations (the fused copy's closed loop), and compares each step. A case also asserts that the fused step was
+really taken (or, where it must not be, that it was not).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from redundik import resolvers as rs
+from redundik.kinematics.model import RobotModel
+from redundik.kinematics.urdf import load_example_robot
+from redundik.resolvers.fused import FusedPlan
+from redundik.resolvers.kernels import frame_jacobian_lwa
+from redundik.tasks.frame import FrameTask, PostureTask
+from redundik.tasks.potentials import JointCentering
+from redundik.tasks.stack import TaskStack
+from redundik.tasks.subtasks import GradientSubtask
+from redundik.tasks.trajectory import Circle, Hold, Line, PoseInterpolation
+
+DT = 0.01
+
+
+def _panda() -> RobotModel:
+    return load_example_robot("panda")
+
+
+def _q0(robot: RobotModel) -> np.ndarray:
+    q = pin.neutral(robot.model)
+    q[:7] = [0.0, -0.4, 0.0, -2.0, 0.0, 1.6, 0.8]
+    return q
+
+
+def _fused_plan(resolver: rs.Resolver) -> object:
+    if isinstance(resolver, rs.PinvResolver):
+        return resolver._fused[1] if resolver._fused else None
+    plan = resolver._plan  # type: ignore[attr-defined]
+    return plan.fused if plan is not None else None
+
+
+def _compare(
+    make_stack, method: str, steps: int = 120, edit=None, fused_expected: bool = True, **options
+) -> list[bool]:
+    """Step a fused and a per-task copy on the fused copy's trajectory; q̇ and what the result reports must agree.
+
+    Returns, per step, whether the fused copy took the fused step (a plan, and no per-task evaluation)."""
+    copies = []
+    for fuse in (True, False):
+        robot = _panda()
+        q = _q0(robot)
+        robot.update(q)
+        stack = make_stack(robot)
+        stack.reset(robot)
+        res = rs.make_resolver(method, **options)
+        res.fuse = fuse  # type: ignore[attr-defined]
+        copies.append((robot, stack, res))
+    q = _q0(copies[0][0])
+    took: list[bool] = []
+    evaluated = [0]
+
+    def counting(original):  # the per-task path of the fused copy evaluates its tasks: count it
+        def evaluate(robot, t):
+            evaluated[0] += 1
+            return original(robot, t)
+
+        return evaluate
+
+    for task in copies[0][1].tasks:
+        task.evaluate = counting(task.evaluate)  # type: ignore[method-assign]
+    for k in range(steps):
+        t = k * DT
+        if edit is not None:
+            for robot, stack, _ in copies:
+                edit(k, robot, stack)
+        before = evaluated[0]
+        out = [res.step(robot, stack, q, t, DT) for robot, stack, res in copies]
+        a, b = out
+        scale = max(1.0, float(np.abs(b.dq).max()))
+        np.testing.assert_allclose(a.dq, b.dq, rtol=0, atol=1e-12 * scale, err_msg=f"step {k}")
+        assert a.fallback == b.fallback
+        assert a.task_error == pytest.approx(b.task_error, rel=1e-12, abs=1e-15)
+        assert [t.name for t in a.terms] == [t.name for t in b.terms]
+        for ta, tb in zip(a.terms, b.terms, strict=True):
+            np.testing.assert_allclose(ta.J, tb.J, rtol=0, atol=1e-13)
+            np.testing.assert_allclose(ta.error, tb.error, rtol=0, atol=1e-13)
+            np.testing.assert_allclose(ta.v, tb.v, rtol=0, atol=1e-11)
+            assert ta.weight == tb.weight
+        assert a.sigma_min == pytest.approx(b.sigma_min, rel=1e-9)
+        assert a.damped == b.damped
+        for key in ("qp", "backend", "active_limits", "rank", "iterations"):
+            assert a.info.get(key) == b.info.get(key), key
+        for key in ("level_residuals", "sigma_min"):
+            if key in b.info:
+                assert a.info[key] == pytest.approx(b.info[key], rel=1e-9, abs=1e-12), key
+        took.append(isinstance(_fused_plan(copies[0][2]), FusedPlan) and evaluated[0] == before)
+        q = copies[0][0].integrate(q, a.dq, DT)
+    if fused_expected:
+        assert sum(took) >= steps - 8, f"the fused step was taken on {sum(took)} of {steps} steps"
+    return took
+
+
+def _hand(traj, **kw) -> FrameTask:
+    return FrameTask("panda_hand", traj, gain=kw.pop("gain", 20.0), **kw)
+
+
+@pytest.mark.parametrize("method", ["wqp", "pinv"])
+@pytest.mark.parametrize(
+    "traj",
+    [
+        lambda: Circle(0.05, 1.5, plane=("y", "z")),
+        lambda: Line([0.02, -0.03, 0.01]),
+        lambda: Hold(),
+        lambda: PoseInterpolation([0.4, 0.1, 0.5], 1.0, rotation=pin.rpy.rpyToMatrix(3.0, 0.2, 0.1)),
+    ],
+    ids=["circle", "line", "hold", "interpolation"],
+)
+def test_fused_frame_and_posture_agree(method: str, traj) -> None:
+    def stack(robot: RobotModel) -> TaskStack:
+        return TaskStack([_hand(traj()), PostureTask(gain=1.0)])
+
+    _compare(stack, method)
+
+
+@pytest.mark.parametrize("axes", ["position", ["x", "z", "ry"], "orientation"])
+def test_fused_row_subsets_agree(axes) -> None:
+    def stack(robot: RobotModel) -> TaskStack:
+        return TaskStack(
+            [_hand(Circle(0.04, 2.0, plane=("x", "y")), axes=axes), PostureTask(gain=2.0)],
+            [GradientSubtask(JointCentering(), gain=-0.5)],
+        )
+
+    for method in ("wqp", "pinv"):
+        _compare(stack, method, steps=60)
+
+
+def test_fused_levels_weights_and_identity_tasks_agree() -> None:
+    """wqp: two frame tasks on two levels, a posture at level 0 (an identity task) and a gradient subtask."""
+
+    def stack(robot: RobotModel) -> TaskStack:
+        return TaskStack(
+            [
+                _hand(Circle(0.05, 1.0, plane=("y", "z")), weight=2.0),
+                FrameTask("panda_link5", Hold(), axes="position", gain=5.0, priority=1, weight=0.5),
+                PostureTask(gain=1.0, priority=0, weight=0.01),
+            ],
+            [GradientSubtask(JointCentering(), gain=-1.0)],
+        )
+
+    _compare(stack, "wqp", steps=80)
+
+
+def test_fused_binding_limits_agree() -> None:
+    """A tight joint limit binds on many steps: the fused plan hands the same QP to the backend."""
+
+    def stack(robot: RobotModel) -> TaskStack:
+        return TaskStack([_hand(Circle(0.08, 3.0, plane=("y", "z"))), PostureTask(gain=1.0)])
+
+    _compare(stack, "wqp", steps=150, limits={"lower": {"panda_joint1": -0.01}, "upper": {"panda_joint1": 0.01}})
+
+
+def test_fused_follows_run_time_edits() -> None:
+    """Gains, weights, targets and trajectories changed between ticks reach the fused step."""
+
+    def edit(k: int, robot: RobotModel, stack: TaskStack) -> None:
+        hand, posture = stack.tasks
+        if k == 20:
+            hand.gain = 5.0
+        if k == 30:
+            hand.weight = 3.0
+        if k == 40:
+            posture.set_target(_q0(robot) + 0.05)
+        if k == 50:
+            hand.set_target(np.array([0.35, 0.05, 0.55]))  # a position: keeps the last target orientation
+        if k == 70:
+            hand.trajectory = Line([0.0, 0.02, 0.0])
+            hand.trajectory.start(robot.frame_pose("panda_hand"))
+        if k == 90:
+            posture.gain = 3.0
+
+    def stack(robot: RobotModel) -> TaskStack:
+        return TaskStack([_hand(Circle(0.05, 1.5, plane=("y", "z"))), PostureTask(gain=1.0)])
+
+    for method in ("wqp", "pinv"):
+        _compare(stack, method, steps=110, edit=edit)
+
+
+def test_large_rotation_error_takes_the_per_task_path() -> None:
+    """A target 2.5 rad away: the compiled log3 declines, the step goes the per-task way (Pinocchio's log3)."""
+
+    def stack(robot: RobotModel) -> TaskStack:
+        pose = robot.frame_pose("panda_hand").copy()
+        target = pin.SE3(pose.rotation @ pin.exp3(np.array([0.0, 0.0, 2.5])), pose.translation)
+        return TaskStack([_hand(Hold(target), gain=5.0), PostureTask(gain=1.0)])
+
+    for method in ("wqp", "pinv"):
+        took = _compare(stack, method, steps=60, fused_expected=False)
+        assert not any(took[:20]), "a 2.5 rad rotation error went through the compiled log3"
+        assert all(took[-10:]), "the fused step resumed once the rotation error is small"
+
+
+def test_stacks_without_a_compiled_form_are_not_fused() -> None:
+    """A potential without a linear gradient: the per-task path, and the same answer."""
+    from redundik.tasks.potentials import JointSine2
+
+    def stack(robot: RobotModel) -> TaskStack:
+        return TaskStack([_hand(Circle(0.05, 1.5, plane=("y", "z")))], [GradientSubtask(JointSine2("panda_joint4"))])
+
+    assert not any(_compare(stack, "pinv", steps=20, fused_expected=False))
+
+
+def test_frame_jacobian_from_joint_jacobians_is_pinocchios() -> None:
+    """frame_jacobian_lwa (the fused step's frame Jacobian from data.J) equals getFrameJacobian on every frame."""
+    robot = _panda()
+    model, data = robot.model, robot.data
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        q = pin.randomConfiguration(model)
+        q += 0.01 * rng.normal(size=model.nq)
+        pin.computeJointJacobians(model, data, q)
+        pin.updateFramePlacements(model, data)
+        for fid in range(model.nframes):
+            columns = np.zeros(model.nv, np.int64)
+            for j in model.supports[model.frames[fid].parentJoint]:
+                if j > 0:
+                    jm = model.joints[j]
+                    columns[jm.idx_v : jm.idx_v + jm.nv] = 1
+            out = np.empty((6, model.nv))
+            frame_jacobian_lwa(data.J, np.array(data.oMf[fid].translation), columns, out)
+            ref = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
+            np.testing.assert_allclose(out, ref, rtol=0, atol=1e-15)
