@@ -216,3 +216,61 @@ def test_hqp_kernels_report_their_first_run_cost() -> None:
     cost = hqp_kernels.first_run_cost()
     assert set(cost) == {"closed_cascade", "level_rows_ok", "level_qp_arrays"}
     assert all(v >= 0.0 for v in cost.values())
+
+
+def _rich_stack(robot: rk.RobotModel, rng: np.random.Generator) -> rk.TaskStack:
+    """Every kind of row the lean buffers take: tasks on three levels, a target subtask, two bound subtasks (one
+    two-sided) on two levels, gradients (the null-space objective)."""
+    names = robot.joint_names
+    base = _stack(robot, rng, depth=4, bound=True)
+    subs: list[rk.Subtask] = list(base.subtasks)
+    subs.append(rk.TargetSubtask(rk.JointValue(names[3], 0.0, name="t4"), target=0.1, rate=2.0, priority=1))
+    subs.append(rk.BoundSubtask(rk.JointValue(names[1], 0.0, name="b2"), lower=-0.4, upper=0.4, rate=5.0, priority=2))
+    return rk.TaskStack(list(base.tasks), subs)
+
+
+@pytest.mark.parametrize("mixed", [False, True])
+def test_lean_gather_lays_out_the_rows_of_gather_rows_and_fill(mixed: bool) -> None:
+    """The lean step's one-pass ``_Plan.gather`` writes the buffers ``gather_rows`` + ``_Plan.fill`` write, and its
+    ``step_rows`` are those of ``gather_rows`` (the same arrays per level), over several states; ``mixed``: the
+    null-space objective shares its level with a task (its identity rows after the task's)."""
+    from redundik.resolvers.qp.hqp import _Plan
+    from redundik.resolvers.qp.terms import gather_rows
+
+    rng = np.random.default_rng(3)
+    robot = random_robot(rng, 7)
+    stack = _rich_stack(robot, rng)
+    res = HierarchicalQPResolver()
+    q = robot.random_configuration(rng)
+    prepared(res, robot, stack, q)
+    layout = res.layout(stack)
+    if mixed:  # (a layout by hand: TaskStack.layout gives the objective a level of its own)
+        from dataclasses import replace
+
+        *above, last = layout.levels
+        assert last.null_objective and not (last.tasks or last.targets or last.bounds)
+        above[-1] = replace(above[-1], null_objective=True)
+        layout = replace(layout, levels=above)
+    assert any(_Plan(layout, robot.nv, np.zeros(5)).mixed) == mixed
+    lean, ref = _Plan(layout, robot.nv, np.zeros(5)), _Plan(layout, robot.nv, np.zeros(5))
+    for k in range(4):
+        q = robot.random_configuration(rng)
+        robot.update(q)
+        terms = stack.evaluate(robot, 0.1 * k)
+        z, targets, bounds = lean.gather(robot, stack, terms, 0.01)
+        rows = gather_rows(robot, stack, terms, layout, 0.01)
+        ref.fill(rows)
+        np.testing.assert_array_equal(lean.meta, ref.meta)
+        M, P = int(ref.meta[0, -1]), int(ref.meta[1, -1])
+        assert M and P
+        for a, b in ((lean.A, ref.A), (lean.b, ref.b), (lean.w, ref.w)):
+            np.testing.assert_array_equal(a[:M], b[:M])
+        for a, b in ((lean.C, ref.C), (lean.d, ref.d)):
+            np.testing.assert_array_equal(a[:P], b[:P])
+        got = lean.step_rows(terms, z, targets, bounds)
+        np.testing.assert_array_equal(got.z, rows.z)
+        for la, lb_ in zip(got.levels, rows.levels, strict=True):
+            assert (la.priority, la.names, la.c_names) == (lb_.priority, lb_.names, lb_.c_names)
+            for f in ("J", "v", "w", "C", "d"):
+                np.testing.assert_array_equal(getattr(la, f), getattr(lb_, f))
+            assert (la.z is None) == (lb_.z is None)

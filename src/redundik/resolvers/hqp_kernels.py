@@ -329,23 +329,31 @@ def closed_step(
     gain: float,
     dt: float,
     dq_prev: np.ndarray,
-    box: np.ndarray,
     out: np.ndarray,
     stats: np.ndarray,
-) -> bool:
-    """One ``hqp`` step's closed-form path in one call: the joint-limit box (``kernels.limit_box`` into ``box``
-    (4, 1, n): lb, ub, pos_lo, pos_hi), the unconstrained cascade and its feasibility test (:func:`closed_cascade`,
-    q̇ into out[0]), and q̇ clipped to the box (``kernels.clip_twice``: the q̇ returned and the copy kept, out[1:3]).
+) -> int:
+    """One ``hqp`` step's closed-form path in one call, into ``out`` (7, 1, n): the joint-limit box
+    (``kernels.limit_box``: rows 0–3 lb, ub, pos_lo, pos_hi [rad/s or m/s]), the unconstrained cascade's q̇
+    (:func:`closed_cascade`, row 4) and q̇ clipped to the box (``kernels.clip_twice``: rows 5–6, the q̇ returned and
+    the copy kept); ``stats`` as :func:`closed_cascade`'s.
 
     Returns:
-        True when the cascade is feasible (out[1] is then the step's q̇); False: the constrained cascade is needed.
+        1 when the cascade is feasible and q̇ finite (row 5 is the step's q̇); 0 when it is not feasible (the
+        constrained cascade is needed); 2 when it passed the feasibility tests but q̇ is not finite (a NaN or
+        infinite row: the step's template decides).
     """
-    limit_box(q, iq, lo, hi, vmax, amax, position, has_rate, gain, dt, dq_prev, box)
-    lb = box[0, 0]
-    ub = box[1, 0]
-    ok = closed_cascade(A, b, w, C, d, z, lb, ub, meta, params, out[0], stats)
-    clip_twice(out[0], lb, ub, out[1:3])
-    return ok
+    limit_box(q, iq, lo, hi, vmax, amax, position, has_rate, gain, dt, dq_prev, out[:4])
+    lb = out[0, 0]
+    ub = out[1, 0]
+    x = out[4, 0]
+    ok = closed_cascade(A, b, w, C, d, z, lb, ub, meta, params, x, stats)
+    clip_twice(x, lb, ub, out[5:7, 0])
+    if not ok:
+        return 0
+    acc = 0.0
+    for i in range(x.shape[0]):
+        acc += x[i] * x[i]
+    return 1 if math.isfinite(acc) else 2
 
 
 @_jit

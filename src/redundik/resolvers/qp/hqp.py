@@ -52,7 +52,6 @@ projected Jacobian lost rank while the task's own did not — an algorithmic sin
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, replace
 from typing import Any
@@ -70,6 +69,7 @@ from redundik.resolvers.qp.problem import QPProblem, QPSolution
 from redundik.resolvers.qp.terms import Level, StepRows, gather_rows
 from redundik.tasks.base import TaskTerm
 from redundik.tasks.stack import StackLayout, TaskStack
+from redundik.tasks.subtasks import BoundSubtask
 
 #: Slack above which a level's bound rows count as contradicted (reported as a fallback).
 CONTRADICTION_TOLERANCE = 1e-6
@@ -145,6 +145,108 @@ class _Plan:
         self.eye, self.zero = np.eye(n), np.zeros(n)
         self.critical = any(b.critical for level in layout.levels for b in level.bounds)  # safety rows: template
         self._weights: list[tuple[int, int, float]] = []  # per block (first row, end, weight) last written into w
+        #: Per level, what :meth:`gather` evaluates: (task indices, target subtasks, bound subtasks, whether the level
+        #: carries the null-space objective, whether it adds the objective's identity rows after its own).
+        self.members = [
+            (list(lv.tasks), list(lv.targets), list(lv.bounds), lv.null_objective, mixed)
+            for lv, mixed in zip(layout.levels, self.mixed, strict=True)
+        ]
+
+    def gather(
+        self, robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], dt: float
+    ) -> tuple[np.ndarray | None, list[tuple[np.ndarray, float]], list[tuple[np.ndarray, np.ndarray, list[str]]]]:
+        """The step's rows straight into the buffers, as ``gather_rows`` followed by :meth:`fill` would lay them
+        (same evaluations in the same order, same rows, weights and offsets), without building the per-level lists.
+
+        Returns:
+            (z of the null-space objective or ``None``, the target subtasks' (η, v) in layout order, the bound
+            subtasks' (C, d, row names) in layout order): what :meth:`step_rows` needs to build the step's
+            :class:`~redundik.resolvers.qp.terms.StepRows` when it is asked for.
+        """
+        meta, n, key = self.meta, self.n, self._weights
+        A, b, w, C, d = self.A, self.b, self.w, self.C, self.d
+        targets: list[tuple[np.ndarray, float]] = []
+        bounds: list[tuple[np.ndarray, np.ndarray, list[str]]] = []
+        z = None
+        ms = cs = 0
+        blk = 0
+        for k, (tasks, subs, bsubs, null_objective, mixed) in enumerate(self.members):
+            meta[0, k], meta[1, k] = ms, cs
+            for i in tasks:
+                term = terms[i]
+                J = term.J
+                e = ms + J.shape[0]
+                if e > A.shape[0]:
+                    A, b, w = self._grow_ls(e)
+                A[ms:e] = J
+                b[ms:e] = term.v
+                weight = term.weight
+                if blk >= len(key) or key[blk] != (ms, e, weight):
+                    w[ms:e] = weight
+                    key[blk:] = [(ms, e, weight)]
+                blk += 1
+                ms = e
+            for sub in subs:
+                eta, vt, _ = sub.row(robot)
+                targets.append((eta, vt))
+                e = ms + 1
+                if e > A.shape[0]:
+                    A, b, w = self._grow_ls(e)
+                A[ms] = eta
+                b[ms] = vt
+                weight = sub.weight
+                if blk >= len(key) or key[blk] != (ms, e, weight):
+                    w[ms:e] = weight
+                    key[blk:] = [(ms, e, weight)]
+                blk += 1
+                ms = e
+            for bsub in bsubs:
+                Ci, di, rn = bsub.rows(robot, dt)
+                bounds.append((Ci, di, rn))
+                e = cs + Ci.shape[0]
+                if e > C.shape[0]:
+                    C, d = self._grow_ineq(e)
+                C[cs:e] = Ci
+                d[cs:e] = di
+                cs = e
+            if null_objective:
+                z = stack.null_target(robot, terms, self.layout)
+            if mixed and z is not None:
+                e = ms + n
+                if e > A.shape[0]:
+                    A, b, w = self._grow_ls(e)
+                b[ms:e] = z
+                if blk >= len(key) or key[blk] != (ms, e, -1.0):
+                    A[ms:e] = self.eye
+                    w[ms:e] = 1.0
+                    key[blk:] = [(ms, e, -1.0)]
+                blk += 1
+                ms = e
+        L = meta.shape[1] - 1
+        meta[0, L], meta[1, L] = ms, cs
+        return z, targets, bounds
+
+    def step_rows(
+        self,
+        terms: list[TaskTerm],
+        z: np.ndarray | None,
+        targets: list[tuple[np.ndarray, float]],
+        bounds: list[tuple[np.ndarray, np.ndarray, list[str]]],
+    ) -> StepRows:
+        """The :class:`~redundik.resolvers.qp.terms.StepRows` that ``gather_rows`` gives for the rows :meth:`gather`
+        evaluated (the same arrays, grouped per level)."""
+        n = self.n
+        ls: list[list[tuple[np.ndarray, np.ndarray, float]]] = []
+        ineq: list[list[tuple[np.ndarray, np.ndarray, list[str], BoundSubtask]]] = []
+        it, ib = iter(targets), iter(bounds)
+        for tasks, subs, bsubs, _, _ in self.members:
+            blocks = [(terms[i].J, terms[i].v, terms[i].weight) for i in tasks]
+            for sub in subs:
+                eta, vt = next(it)
+                blocks.append((eta.reshape(1, n), np.array([vt]), sub.weight))
+            ls.append(blocks)
+            ineq.append([(*next(ib), bsub) for bsub in bsubs])
+        return StepRows(self.layout, terms, ls, ineq, z, n)
 
     def fill(self, rows: StepRows) -> None:
         """Copy the step's rows into the buffers and write the offsets table (row 0: A, row 1: C); the weights and
@@ -524,48 +626,48 @@ class HierarchicalQPResolver(QPResolverBase):
             return super().solve(robot, stack, t, dt)
         t0 = time.perf_counter()
         terms = [task.evaluate(robot, t) for task in stack.tasks]  # stack.evaluate, inlined
-        rows = gather_rows(robot, stack, terms, layout, dt)
+        z, targets, bounds = plan.gather(robot, stack, terms, dt)  # gather_rows + fill, in one pass
         t1 = time.perf_counter()
         limits = self.limits
         prev = limits.previous(self._dq_prev)
-        plan.fill(rows)
-        boxes = np.empty((4, 1, n))
-        out = np.empty((3, n))
+        out = np.empty((7, 1, n))
         stats = np.empty((plan.meta.shape[1] - 1, 4))
-        ok = HK.closed_step(
+        status = HK.closed_step(
             plan.A,
             plan.b,
             plan.w,
             plan.C,
             plan.d,
-            rows.z if rows.z is not None else plan.zero,
+            plan.zero if z is None else z,
             plan.meta,
             plan.params,
             robot.q.reshape(1, -1),
             *limits.kernel_args(robot),
             float(dt),
             prev,
-            boxes,
             out,
             stats,
         )
-        box = limits.box_from(boxes[:, 0], prev.shape[0] > 0)
-        x = out[0]
-        built = HQPBuild(rows, box, n, infeasible=not ok)
-        if not ok or not math.isfinite(float(x @ x)):  # a constraint is active, or q̇ is not finite: the template
+        windowed = prev.shape[0] > 0
+        if status != 1:  # a constraint is active (0), or q̇ is not finite (2): the template, on the same rows
+            built = HQPBuild(
+                plan.step_rows(terms, z, targets, bounds), limits.box_from(out[:4, 0], windowed), n,
+                infeasible=status == 0,
+            )  # fmt: skip
             return self._finish(robot, stack, terms, built, t0, t1)
-        built.stats = stats
-        dq, kept = out[1], out[2]
+        kept = out[6, 0]
         self._dq_prev = kept
 
         def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
+            box = limits.box_from(out[:4, 0], windowed)
+            built = HQPBuild(plan.step_rows(terms, z, targets, bounds), box, n, stats)
             diag = QPDiagnostics()
             diag.active_limits = box.active(kept, limits.joint_names)
             self._diagnose(built, kept, diag)
             return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
 
         return LazyStepResult.make(
-            dq,
+            out[5, 0],
             terms,
             None,
             {"backend": "closed-form", "qp": 0, "iterations": 0},
