@@ -226,6 +226,10 @@ def _rich_stack(robot: rk.RobotModel, rng: np.random.Generator) -> rk.TaskStack:
     subs: list[rk.Subtask] = list(base.subtasks)
     subs.append(rk.TargetSubtask(rk.JointValue(names[3], 0.0, name="t4"), target=0.1, rate=2.0, priority=1))
     subs.append(rk.BoundSubtask(rk.JointValue(names[1], 0.0, name="b2"), lower=-0.4, upper=0.4, rate=5.0, priority=2))
+    # lower bounds only (the row the lean gather writes itself): γ = 1/dt (rate 0), K, and K capped at 1/dt
+    subs.append(rk.BoundSubtask(rk.JointValue(names[4], 0.0, name="b5"), lower=-0.3, priority=1))
+    subs.append(rk.BoundSubtask(rk.JointCentering(name="c"), lower=0.05, rate=3.0, priority=2))
+    subs.append(rk.BoundSubtask(rk.JointValue(names[5], 0.0, name="b6"), lower=-0.2, rate=500.0, priority=2))
     return rk.TaskStack(list(base.tasks), subs)
 
 
@@ -258,6 +262,7 @@ def test_lean_gather_lays_out_the_rows_of_gather_rows_and_fill(mixed: bool) -> N
         robot.update(q)
         terms = stack.evaluate(robot, 0.1 * k)
         z, targets, bounds = lean.gather(robot, stack, terms, 0.01)
+        assert sum(type(b[1]) is not np.ndarray for b in bounds) == 3  # the lower bounds: written by gather itself
         rows = gather_rows(robot, stack, terms, layout, 0.01)
         ref.fill(rows)
         np.testing.assert_array_equal(lean.meta, ref.meta)

@@ -67,7 +67,7 @@ from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
 from redundik.resolvers.qp.terms import Level, StepRows, gather_rows
-from redundik.tasks.base import TaskTerm
+from redundik.tasks.base import Potential, TaskTerm
 from redundik.tasks.stack import StackLayout, TaskStack
 from redundik.tasks.subtasks import BoundSubtask
 
@@ -151,12 +151,16 @@ class _Plan:
             (list(lv.tasks), list(lv.targets), list(lv.bounds), lv.null_objective, mixed)
             for lv, mixed in zip(layout.levels, self.mixed, strict=True)
         ]
+        self._lower_of: tuple[str, list[str]] = ("", [])  # a lower-bound row's (subtask name, [row name])
 
     def gather(
         self, robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], dt: float
-    ) -> tuple[np.ndarray | None, list[tuple[np.ndarray, float]], list[tuple[np.ndarray, np.ndarray, list[str]]]]:
+    ) -> tuple[np.ndarray | None, list[tuple[np.ndarray, float]], list[tuple[np.ndarray, Any, list[str]]]]:
         """The step's rows straight into the buffers, as ``gather_rows`` followed by :meth:`fill` would lay them
-        (same evaluations in the same order, same rows, weights and offsets), without building the per-level lists.
+        (the members evaluated in the same order, the same rows, weights and offsets), without building the
+        per-level lists. A bound subtask on a potential with a lower bound only (the common one-row case) is
+        evaluated by its ``value_and_gradient`` and its row C = −η, d = γ(p − lower) written here, the values of
+        ``BoundSubtask.rows`` without its wrapping arrays and names (made by :meth:`step_rows` when asked for).
 
         Returns:
             (z of the null-space objective or ``None``, the target subtasks' (η, v) in layout order, the bound
@@ -166,7 +170,7 @@ class _Plan:
         meta, n, key = self.meta, self.n, self._weights
         A, b, w, C, d = self.A, self.b, self.w, self.C, self.d
         targets: list[tuple[np.ndarray, float]] = []
-        bounds: list[tuple[np.ndarray, np.ndarray, list[str]]] = []
+        bounds: list[tuple[np.ndarray, Any, list[str]]] = []  # (C, d, names), or (η, d, names) of a lower bound
         z = None
         ms = cs = 0
         blk = 0
@@ -201,6 +205,31 @@ class _Plan:
                 blk += 1
                 ms = e
             for bsub in bsubs:
+                src, lower = bsub.source, bsub.lower
+                if (
+                    lower is not None
+                    and bsub.upper is None
+                    and type(bsub) is BoundSubtask
+                    and isinstance(src, Potential)
+                    and getattr(src, "bound_rows", None) is None
+                ):
+                    # BoundSubtask.rows of a potential with a lower bound, without its wrapping arrays: the one row
+                    # C = −η, d = γ (p − lower) [unit of p / s], γ = min(K or 1/dt, 1/dt) (tested against rows())
+                    p, eta = src.value_and_gradient(robot)
+                    cap = 1.0 / dt
+                    rate = bsub.rate
+                    dv = (cap if rate == 0 else min(rate, cap)) * (p - lower)
+                    if bsub.name != self._lower_of[0]:
+                        self._lower_of = (bsub.name, [f"{bsub.name}:lower"])
+                    bounds.append((eta, dv, self._lower_of[1]))
+                    if cs + 1 > C.shape[0]:
+                        C, d = self._grow_ineq(cs + 1)
+                    row = C[cs]
+                    row[:] = eta
+                    np.negative(row, out=row)
+                    d[cs] = dv
+                    cs += 1
+                    continue
                 Ci, di, rn = bsub.rows(robot, dt)
                 bounds.append((Ci, di, rn))
                 e = cs + Ci.shape[0]
@@ -231,7 +260,7 @@ class _Plan:
         terms: list[TaskTerm],
         z: np.ndarray | None,
         targets: list[tuple[np.ndarray, float]],
-        bounds: list[tuple[np.ndarray, np.ndarray, list[str]]],
+        bounds: list[tuple[np.ndarray, Any, list[str]]],
     ) -> StepRows:
         """The :class:`~redundik.resolvers.qp.terms.StepRows` that ``gather_rows`` gives for the rows :meth:`gather`
         evaluated (the same arrays, grouped per level)."""
@@ -245,7 +274,13 @@ class _Plan:
                 eta, vt = next(it)
                 blocks.append((eta.reshape(1, n), np.array([vt]), sub.weight))
             ls.append(blocks)
-            ineq.append([(*next(ib), bsub) for bsub in bsubs])
+            rows = []
+            for bsub in bsubs:
+                Ci, di, rn = next(ib)
+                if type(di) is not np.ndarray:  # a lower-bound row written by gather itself: rows()'s arrays
+                    Ci, di = -Ci.reshape(1, -1), np.array([di])
+                rows.append((Ci, di, list(rn), bsub))
+            ineq.append(rows)
         return StepRows(self.layout, terms, ls, ineq, z, n)
 
     def fill(self, rows: StepRows) -> None:
