@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, TypeGuard
 
 import numpy as np
 
@@ -126,6 +126,18 @@ class HQPBuild:
         return self.rows.levels
 
 
+_POTENTIAL_TYPES: dict[type, bool] = {}
+
+
+def _is_potential(obj: object) -> TypeGuard[Potential]:
+    """``isinstance(obj, Potential)``, remembered per class (the ABC's check is a slow call on the hot path)."""
+    kind = type(obj)
+    known = _POTENTIAL_TYPES.get(kind)
+    if known is None:
+        known = _POTENTIAL_TYPES[kind] = issubclass(kind, Potential)
+    return known
+
+
 class _Plan:
     """What the lean cascade does per level, fixed while the stack's membership is (see ``_plan_for``): the level
     kinds, the offsets table and the buffers the rows are copied into (grown when a level brings more rows)."""
@@ -152,6 +164,7 @@ class _Plan:
             for lv, mixed in zip(layout.levels, self.mixed, strict=True)
         ]
         self._lower_of: tuple[str, list[str]] = ("", [])  # a lower-bound row's (subtask name, [row name])
+        self._offsets: list[tuple[int, int]] = []  # the offsets gather last wrote into meta
 
     def gather(
         self, robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], dt: float
@@ -174,8 +187,9 @@ class _Plan:
         z = None
         ms = cs = 0
         blk = 0
-        for k, (tasks, subs, bsubs, null_objective, mixed) in enumerate(self.members):
-            meta[0, k], meta[1, k] = ms, cs
+        offsets = []  # per level (first least-squares row, first inequality row): written into meta when they move
+        for tasks, subs, bsubs, null_objective, mixed in self.members:
+            offsets.append((ms, cs))
             for i in tasks:
                 term = terms[i]
                 J = term.J
@@ -210,7 +224,7 @@ class _Plan:
                     lower is not None
                     and bsub.upper is None
                     and type(bsub) is BoundSubtask
-                    and isinstance(src, Potential)
+                    and _is_potential(src)
                     and getattr(src, "bound_rows", None) is None
                 ):
                     # BoundSubtask.rows of a potential with a lower bound, without its wrapping arrays: the one row
@@ -251,8 +265,11 @@ class _Plan:
                     key[blk:] = [(ms, e, -1.0)]
                 blk += 1
                 ms = e
-        L = meta.shape[1] - 1
-        meta[0, L], meta[1, L] = ms, cs
+        offsets.append((ms, cs))
+        if offsets != self._offsets:
+            for k, (ls_row, ineq_row) in enumerate(offsets):
+                meta[0, k], meta[1, k] = ls_row, ineq_row
+            self._offsets = offsets
         return z, targets, bounds
 
     def step_rows(
@@ -323,6 +340,7 @@ class _Plan:
                 cs = e
         L = meta.shape[1] - 1
         meta[0, L], meta[1, L] = ms, cs
+        self._offsets = []  # (meta written here: gather rewrites it)
 
     def _grow_ls(self, rows: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         cap = max(rows, 2 * self.A.shape[0])
