@@ -25,9 +25,11 @@ level u = (A_k Z)⁺(b_k − A_k x), with the damped pseudo-inverse of :mod:`red
 it satisfies every inequality and limit, since a feasible unconstrained lexicographic optimum is the constrained one.
 For [main task, gradient subtask] this is q̇ = J⁺V + Z Zᵀ z = J⁺V + (I − J⁺J)z, the chapter's eq. (5.8), exactly.
 The whole of it is one compiled call (:func:`redundik.resolvers.hqp_kernels.closed_cascade`) on the step's rows
-copied into buffers kept while the stack's membership is unchanged; a level whose QR certifies σ_min ≥ ε (nothing
-damped, full rank: M⁺ exactly) skips its SVD, and the Level records, σ_min per level and the rank-loss test are
-computed only when the step's diagnostics are read (``LazyStepResult``).
+written, as they are evaluated, into buffers kept while the stack's membership is unchanged (``_Plan.gather``: a
+one-row lower bound on a potential as C = −η, d = γ(p − lower) from its ``value_and_gradient``); a level whose QR
+certifies σ_min ≥ ε (nothing damped, full rank: M⁺ exactly) skips its SVD, and the per-level rows
+(``StepRows``), the limit box's record, the Level records, σ_min per level and the rank-loss test are built only
+when the step goes on to the QPs or its diagnostics are read (``LazyStepResult``).
 Level shortcut (exact, below the top level): when the cascade is not feasible, a level QP whose unconstrained
 optimum — û = argmin ½‖A_k Z u − (b_k − A_k x)‖² + ½ε‖u‖² from the SVD of A_k Z, slack w = 0 — keeps every row of
 that QP (its inequalities, the levels above, the limits, to the same margins) is that QP's optimum (the KKT
