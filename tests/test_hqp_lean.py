@@ -279,3 +279,62 @@ def test_lean_gather_lays_out_the_rows_of_gather_rows_and_fill(mixed: bool) -> N
             for f in ("J", "v", "w", "C", "d"):
                 np.testing.assert_array_equal(getattr(la, f), getattr(lb_, f))
             assert (la.z is None) == (lb_.z is None)
+
+
+class _BarrierPotential(rk.Barrier, rk.Potential):
+    """A source that is both (as the collision and balance barriers): ``BoundSubtask.values`` reads it as a barrier."""
+
+    name = "both"
+
+    def __init__(self, joint: int) -> None:
+        self.joint = joint
+
+    def value(self, robot: rk.RobotModel) -> float:
+        return float(robot.q[self.joint])
+
+    def gradient(self, robot: rk.RobotModel) -> np.ndarray:
+        g = np.zeros(robot.nv)
+        g[self.joint] = 1.0
+        return g
+
+    def evaluate(self, robot: rk.RobotModel) -> rk.BarrierTerm:
+        h = np.array([0.5 - robot.q[self.joint], 0.7 + robot.q[self.joint]])
+        H = np.zeros((2, robot.nv))
+        H[0, self.joint], H[1, self.joint] = -1.0, 1.0
+        return rk.BarrierTerm(h, H, ["hi", "lo"], np.array([3.0, 400.0]))
+
+
+def test_lean_gather_leaves_other_bound_rows_to_rows() -> None:
+    """The one-row shortcut of the lean gather applies only where ``BoundSubtask.rows`` gives that row: not for a
+    barrier that is also a potential (even with a lower bound set on the subtask after construction), nor for an
+    upper or a two-sided bound; the step agrees with the general path on such a stack."""
+    from redundik.resolvers.qp.hqp import _Plan
+    from redundik.resolvers.qp.terms import gather_rows
+
+    rng = np.random.default_rng(11)
+    robot = random_robot(rng, 6)
+    names = robot.joint_names
+    barrier = rk.BoundSubtask(_BarrierPotential(2), priority=1)
+    barrier.lower = 0.0  # not a potential's bound for BoundSubtask.values (a barrier is read first)
+    subs: list[rk.Subtask] = [
+        barrier,
+        rk.BoundSubtask(rk.JointValue(names[1], 0.0, name="u"), upper=0.3, rate=5.0, priority=1),
+        rk.BoundSubtask(rk.JointValue(names[3], 0.0, name="two"), lower=-1.0, upper=0.4, priority=1),
+        rk.GradientSubtask(rk.JointCentering(), gain=-1.0),
+    ]
+    stack = rk.TaskStack([rk.FrameTask(tip(robot), rk.Line([0.1, 0.2, -0.1]), axes="position", gain=1.0)], subs)
+    res = HierarchicalQPResolver()
+    q = robot.random_configuration(rng)
+    prepared(res, robot, stack, q)
+    layout = res.layout(stack)
+    plan = _Plan(layout, robot.nv, np.zeros(5))
+    terms = stack.evaluate(robot, 0.0)
+    _, _, bounds = plan.gather(robot, stack, terms, 0.01)
+    assert all(type(b[1]) is np.ndarray for b in bounds)  # every row from rows()
+    rows = gather_rows(robot, stack, terms, layout, 0.01)
+    P = int(plan.meta[1, -1])
+    assert P == 5
+    np.testing.assert_array_equal(plan.C[:P], np.vstack([r[0] for lv in rows.ineq for r in lv]))
+    np.testing.assert_array_equal(plan.d[:P], np.concatenate([r[1] for lv in rows.ineq for r in lv]))
+    for seed in range(4):
+        _compare(robot, stack, robot.random_configuration(np.random.default_rng(seed)), steps=2)

@@ -69,7 +69,7 @@ from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
 from redundik.resolvers.qp.terms import Level, StepRows, gather_rows
-from redundik.tasks.base import Potential, TaskTerm
+from redundik.tasks.base import Barrier, Potential, TaskTerm
 from redundik.tasks.stack import StackLayout, TaskStack
 from redundik.tasks.subtasks import BoundSubtask
 
@@ -132,11 +132,12 @@ _POTENTIAL_TYPES: dict[type, bool] = {}
 
 
 def _is_potential(obj: object) -> TypeGuard[Potential]:
-    """``isinstance(obj, Potential)``, remembered per class (the ABC's check is a slow call on the hot path)."""
+    """Whether a bound subtask's source is read as a potential (``BoundSubtask.values``: a Potential that is not a
+    Barrier), remembered per class (the ABCs' checks are slow calls on the hot path)."""
     kind = type(obj)
     known = _POTENTIAL_TYPES.get(kind)
     if known is None:
-        known = _POTENTIAL_TYPES[kind] = issubclass(kind, Potential)
+        known = _POTENTIAL_TYPES[kind] = issubclass(kind, Potential) and not issubclass(kind, Barrier)
     return known
 
 
