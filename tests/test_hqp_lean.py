@@ -338,3 +338,38 @@ def test_lean_gather_leaves_other_bound_rows_to_rows() -> None:
     np.testing.assert_array_equal(plan.d[:P], np.concatenate([r[1] for lv in rows.ineq for r in lv]))
     for seed in range(4):
         _compare(robot, stack, robot.random_configuration(np.random.default_rng(seed)), steps=2)
+
+
+@pytest.mark.parametrize(
+    ("weight", "first", "applies"),
+    [(1.0, False, True), (0.01, False, True), (0.01, True, True), (2e-5, False, False), (1e-4, False, False)],
+)
+def test_lean_identity_level_equals_the_general_path(weight: float, first: bool, applies: bool) -> None:
+    """A posture given a level of its own (rows √w I): the lean cascade solves it as Zᵀ(b − x) without a
+    factorisation where √w ≥ ε (nothing damped) — and not where √w < ε (damped: 2e-5) or √w = ε (1e-4, the
+    margin) —, with the same q̇ and diagnostics as the general path, at the top level (``first``) or below a frame
+    task and a bound level, inside the box and against the limits."""
+    from redundik.resolvers.hqp_kernels import identity_rows
+
+    rng = np.random.default_rng(21)
+    robot = random_robot(rng, 7)
+    posture = rk.PostureTask(gain=2.0, weight=weight, priority=0 if first else 2)
+    subs: list[rk.Subtask] = [] if first else [
+        rk.BoundSubtask(rk.JointValue(robot.joint_names[2], 0.0, name="b3"), upper=0.6, rate=10.0, priority=1)
+    ]  # fmt: skip
+    tasks: list[rk.Task] = [posture] if first else [
+        rk.FrameTask(tip(robot), rk.Line([0.2, -0.1, 0.1]), axes="position", gain=1.0), posture
+    ]  # fmt: skip
+    stack = rk.TaskStack(tasks, subs)
+    for seed in range(6):
+        q = robot.random_configuration(np.random.default_rng(seed))
+        posture.set_target(robot.random_configuration(np.random.default_rng(50 + seed)))
+        res = HierarchicalQPResolver()
+        prepared(res, robot, stack, q)
+        plan = res._plan_for(res.layout(stack), robot.nv)
+        plan.gather(robot, stack, stack.evaluate(robot, 0.0), 0.01)
+        k = len(plan.members) - 1
+        s = int(plan.meta[0, k])
+        assert bool(identity_rows(plan.A, plan.w, s, robot.nv, res.epsilon)) == applies
+        tight = rk.JointLimits(velocity_limits={n: 0.3 for n in robot.joint_names}) if seed % 2 else None
+        _compare(robot, stack, q, steps=2, limits=tight)

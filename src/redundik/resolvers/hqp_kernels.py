@@ -8,7 +8,8 @@ before level 0, every least-squares level k solves
 with the damped pseudo-inverse of :mod:`redundik.resolvers.linalg` (per-direction damping of the singular values
 below ε, truncation below rcond·σ_max: :func:`redundik.resolvers.kernels.damped_svd_factors`, the one
 implementation of that rule), and the null-space objective ½‖q̇ − z‖² (identity rows) gives x ← x + Z Zᵀ(z − x)
-and leaves nothing below. Rows are weighted by √w (‖√w ∘ (A q̇ − b)‖², as
+and leaves nothing below; so does a least-squares level whose rows are exactly √w I with √w ≥ ε (a posture given a
+level: :func:`identity_rows`), x ← x + Z Zᵀ(b − x). Rows are weighted by √w (‖√w ∘ (A q̇ − b)‖², as
 :meth:`redundik.resolvers.qp.terms.Level.ls_rows`). The cascade is then kept when x satisfies the joint-limit box
 lb − tol ≤ x ≤ ub + tol and every level's inequality rows C x ≤ d + tol (a feasible unconstrained lexicographic
 optimum is the constrained one).
@@ -112,6 +113,23 @@ def qr_certificate(R: np.ndarray, Ri: np.ndarray, epsilon: float, rcond: float) 
     return lo >= epsilon and lo > rcond * math.sqrt(fr)
 
 
+@_jit
+def identity_rows(A: np.ndarray, w: np.ndarray, s: int, n: int, epsilon: float) -> bool:
+    """True when the rows A[s:s + n] are exactly the identity I (n, n) with one weight w for all of them and
+    √w ≥ ε (with a relative margin of 1e-9): the level's least squares ‖√w (q̇ − b)‖² restricted to an orthonormal
+    basis Z has the singular values √w only, none of them damped by the rule of :mod:`redundik.resolvers.linalg`."""
+    w0 = w[s]
+    if not (math.sqrt(w0) >= epsilon * (1.0 + 1e-9)):  # (false for a NaN or negative weight)
+        return False
+    for i in range(n):
+        if w[s + i] != w0:
+            return False
+        for j in range(n):
+            if A[s + i, j] != (1.0 if i == j else 0.0):
+                return False
+    return True
+
+
 #: Level kinds in row 2 of the ``meta`` array of :func:`closed_cascade`.
 SKIP, NULL_OBJECTIVE, LEAST_SQUARES = 0, 1, 2
 #: Columns of the per-level ``stats`` array of :func:`closed_cascade`.
@@ -195,6 +213,31 @@ def closed_cascade(
         s, e = meta[0, k], meta[0, k + 1]
         m = e - s
         if kind == SKIP or m == 0:
+            continue
+        if not exact and m == n and identity_rows(A, w, s, n, epsilon):
+            # rows √w I (a posture as a level): M = √w Z has every singular value √w ≥ ε (Z orthonormal, I at the
+            # top), nothing is damped and the rank is full, so M⁺ √w (b − x) = Zᵀ(b − x) with no factorisation
+            # (σ_min left NaN, as a certified QR leaves it), and no direction is left below
+            if projected:
+                t = np.zeros(r)
+                for i in range(n):
+                    ri = b[s + i] - x[i]
+                    for j in range(r):
+                        t[j] += Z[i, j] * ri
+                for i in range(n):
+                    acc = 0.0
+                    for j in range(r):
+                        acc += Z[i, j] * t[j]
+                    x[i] += acc
+            else:
+                for i in range(n):
+                    x[i] = b[s + i]
+            stats[k, 0] = np.nan
+            stats[k, 1] = 0.0
+            stats[k, 2] = r
+            stats[k, 3] = r
+            projected = True
+            r = 0
             continue
         # the weighted rows √w A and the residual target √w b − √w A x
         Ak = np.empty((m, n))

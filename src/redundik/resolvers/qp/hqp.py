@@ -27,7 +27,8 @@ For [main task, gradient subtask] this is q̇ = J⁺V + Z Zᵀ z = J⁺V + (I �
 The whole of it is one compiled call (:func:`redundik.resolvers.hqp_kernels.closed_cascade`) on the step's rows
 written, as they are evaluated, into buffers kept while the stack's membership is unchanged (``_Plan.gather``: a
 one-row lower bound on a potential as C = −η, d = γ(p − lower) from its ``value_and_gradient``); a level whose QR
-certifies σ_min ≥ ε (nothing damped, full rank: M⁺ exactly) skips its SVD, and the per-level rows
+certifies σ_min ≥ ε (nothing damped, full rank: M⁺ exactly) skips its SVD, a level of rows √w I with √w ≥ ε
+takes Zᵀ(b − x) without a factorisation, and the per-level rows
 (``StepRows``), the limit box's record, the Level records, σ_min per level and the rank-loss test are built only
 when the step goes on to the QPs or its diagnostics are read (``LazyStepResult``).
 Level shortcut (exact, below the top level): when the cascade is not feasible, a level QP whose unconstrained
