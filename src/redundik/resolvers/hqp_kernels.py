@@ -375,8 +375,9 @@ def closed_step(
     out: np.ndarray,
     stats: np.ndarray,
 ) -> int:
-    """One ``hqp`` step's closed-form path in one call, into ``out`` (7, 1, n): the joint-limit box
-    (``kernels.limit_box``: rows 0–3 lb, ub, pos_lo, pos_hi [rad/s or m/s]), the unconstrained cascade's q̇
+    """One ``hqp`` step's closed-form path in one call, into ``out`` (7, 1, n): the joint-limit box at the
+    configuration ``q`` (nq,) (``kernels.limit_box``: rows 0–3 lb, ub, pos_lo, pos_hi [rad/s or m/s]), the
+    unconstrained cascade's q̇
     (:func:`closed_cascade`, row 4) and q̇ clipped to the box (``kernels.clip_twice``: rows 5–6, the q̇ returned and
     the copy kept); ``stats`` as :func:`closed_cascade`'s.
 
@@ -385,7 +386,7 @@ def closed_step(
         constrained cascade is needed); 2 when it passed the feasibility tests but q̇ is not finite (a NaN or
         infinite row: the step's template decides).
     """
-    limit_box(q, iq, lo, hi, vmax, amax, position, has_rate, gain, dt, dq_prev, out[:4])
+    limit_box(q.reshape((1, q.shape[0])), iq, lo, hi, vmax, amax, position, has_rate, gain, dt, dq_prev, out[:4])
     lb = out[0, 0]
     ub = out[1, 0]
     x = out[4, 0]

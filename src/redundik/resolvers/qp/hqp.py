@@ -698,7 +698,7 @@ class HierarchicalQPResolver(QPResolverBase):
             plan.zero if z is None else z,
             plan.meta,
             plan.params,
-            robot.q.reshape(1, -1),
+            robot.q,
             *limits.kernel_args(robot),
             float(dt),
             prev,
