@@ -373,3 +373,59 @@ def test_lean_identity_level_equals_the_general_path(weight: float, first: bool,
         assert bool(identity_rows(plan.A, plan.w, s, robot.nv, res.epsilon)) == applies
         tight = rk.JointLimits(velocity_limits={n: 0.3 for n in robot.joint_names}) if seed % 2 else None
         _compare(robot, stack, q, steps=2, limits=tight)
+
+
+class _BufferedGradient(rk.Potential):
+    """A potential that returns one gradient array, rewritten at every call (a user's preallocated buffer)."""
+
+    name = "buffered"
+
+    def __init__(self, joint: int) -> None:
+        self.joint = joint
+        self._g: np.ndarray | None = None
+
+    def value(self, robot: rk.RobotModel) -> float:
+        return float(np.sum(robot.q[: self.joint + 1]))
+
+    def gradient(self, robot: rk.RobotModel) -> np.ndarray:
+        if self._g is None:
+            self._g = np.zeros(robot.nv)
+        self._g[:] = 0.0
+        self._g[: self.joint + 1] = 1.0 + robot.q[: self.joint + 1] ** 2
+        return self._g
+
+
+def test_lean_diagnostics_read_late_are_those_of_their_step() -> None:
+    """Diagnostics read after later steps are those the step would have reported at once, also when a bound
+    subtask's potential rewrites its gradient array in place at every call (the lean row keeps its own copy)."""
+    rng = np.random.default_rng(31)
+    robot = random_robot(rng, 6)
+    stack = rk.TaskStack(
+        [rk.FrameTask(tip(robot), rk.Line([0.1, 0.0, -0.1]), axes="position", gain=1.0)],
+        [rk.BoundSubtask(_BufferedGradient(3), lower=-50.0, rate=2.0, priority=1),
+         rk.GradientSubtask(rk.JointCentering(), gain=-1.0)],
+    )  # fmt: skip
+    q0 = robot.random_configuration(rng)
+    bound = stack.subtasks[0]
+    assert isinstance(bound, rk.BoundSubtask)
+    for lower, limits in (
+        (-50.0, False),
+        (float(np.sum(q0[:4])) + 10.0, {"velocity_limits": dict.fromkeys(robot.joint_names, 0.3)}),
+    ):
+        # inactive (the closed form), then out of reach at 0.3 rad/s (the QPs: the level contradicted, its residual
+        # read from its rows)
+        bound.lower = lower
+        now, late = HierarchicalQPResolver(limits=limits), HierarchicalQPResolver(limits=limits)
+        prepared(now, robot, stack, q0)
+        prepared(late, robot, stack, q0)
+        q, eager, pending = q0, [], []
+        for k in range(3):
+            a = now.step(robot, stack, q, 0.01 * k, 0.01)
+            eager.append((dict(a.info), a.fallback))
+            pending.append(late.step(robot, stack, q, 0.01 * k, 0.01))
+            q = robot.integrate(q, a.dq, 0.01)
+        closed = lower < 0
+        assert all((e["qp"] == 0) == closed for e, _ in eager)
+        assert closed or all(e["residual_L1"] > 1e-3 for e, _ in eager)
+        for (e, fallback), res in zip(eager, pending, strict=True):
+            assert dict(res.info) == e and res.fallback == fallback

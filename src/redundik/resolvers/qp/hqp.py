@@ -187,7 +187,7 @@ class _Plan:
         meta, n, key = self.meta, self.n, self._weights
         A, b, w, C, d = self.A, self.b, self.w, self.C, self.d
         targets: list[tuple[np.ndarray, float]] = []
-        bounds: list[tuple[np.ndarray, Any, list[str]]] = []  # (C, d, names), or (η, d, names) of a lower bound
+        bounds: list[tuple[np.ndarray, Any, list[str]]] = []  # (C, d, names), or (−η, d, names) of a lower bound
         z = None
         ms = cs = 0
         blk = 0
@@ -239,12 +239,11 @@ class _Plan:
                     dv = (cap if rate == 0 else min(rate, cap)) * (p - lower)
                     if bsub.name != self._lower_of[0]:
                         self._lower_of = (bsub.name, [f"{bsub.name}:lower"])
-                    bounds.append((eta, dv, self._lower_of[1]))
+                    row = -eta  # (a new array, as rows() makes: the step's rows outlive the potential's arrays)
+                    bounds.append((row, dv, self._lower_of[1]))
                     if cs + 1 > C.shape[0]:
                         C, d = self._grow_ineq(cs + 1)
-                    row = C[cs]
-                    row[:] = eta
-                    np.negative(row, out=row)
+                    C[cs] = row
                     d[cs] = dv
                     cs += 1
                     continue
@@ -299,7 +298,7 @@ class _Plan:
             for bsub in bsubs:
                 Ci, di, rn = next(ib)
                 if type(di) is not np.ndarray:  # a lower-bound row written by gather itself: rows()'s arrays
-                    Ci, di = -Ci.reshape(1, -1), np.array([di])
+                    Ci, di = Ci.reshape(1, -1), np.array([di])
                 rows.append((Ci, di, list(rn), bsub))
             ineq.append(rows)
         return StepRows(self.layout, terms, ls, ineq, z, n)
