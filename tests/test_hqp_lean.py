@@ -63,6 +63,7 @@ class _Reference(HierarchicalQPResolver):
     def __init__(self, **kw: object) -> None:
         super().__init__(**kw)  # type: ignore[arg-type]
         self.level_shortcut = False
+        self.identity_levels = False
 
     def solve(self, robot: rk.RobotModel, stack: rk.TaskStack, t: float, dt: float) -> rk.StepResult:
         return QPResolverBase.solve(self, robot, stack, t, dt)  # the shared template, not hqp's lean step
@@ -361,6 +362,7 @@ def test_lean_identity_level_equals_the_general_path(weight: float, first: bool,
         rk.FrameTask(tip(robot), rk.Line([0.2, -0.1, 0.1]), axes="position", gain=1.0), posture
     ]  # fmt: skip
     stack = rk.TaskStack(tasks, subs)
+    qp_steps = 0
     for seed in range(6):
         q = robot.random_configuration(np.random.default_rng(seed))
         posture.set_target(robot.random_configuration(np.random.default_rng(50 + seed)))
@@ -373,6 +375,15 @@ def test_lean_identity_level_equals_the_general_path(weight: float, first: bool,
         assert bool(identity_rows(plan.A, plan.w, s, robot.nv, res.epsilon)) == applies
         tight = rk.JointLimits(velocity_limits={n: 0.3 for n in robot.joint_names}) if seed % 2 else None
         _compare(robot, stack, q, steps=2, limits=tight)
+        if seed % 2:  # the constrained cascade: the posture level factored exactly, not by an SVD, where it applies
+            shapes: list[tuple[int, ...]] = []
+            qp = HierarchicalQPResolver(limits=rk.JointLimits(velocity_limits=dict.fromkeys(robot.joint_names, 0.3)))
+            prepared(qp, robot, stack, q)
+            qp._lsq = lambda M, svd=qp._lsq, seen=shapes: seen.append(M.shape) or svd(M)  # type: ignore[method-assign]
+            if qp.step(robot, stack, q, 0.0, 0.01).info["qp"]:
+                qp_steps += 1
+                assert any(m == robot.nv for m, _ in shapes) != applies
+    assert qp_steps
 
 
 class _BufferedGradient(rk.Potential):

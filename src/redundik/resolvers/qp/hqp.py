@@ -35,6 +35,8 @@ Level shortcut (exact, below the top level): when the cascade is not feasible, a
 optimum — û = argmin ½‖A_k Z u − (b_k − A_k x)‖² + ½ε‖u‖² from the SVD of A_k Z, slack w = 0 — keeps every row of
 that QP (its inequalities, the levels above, the limits, to the same margins) is that QP's optimum (the KKT
 conditions hold with zero multipliers), and the backend is not called; ``info["qp"]`` counts the QPs solved.
+A level QP whose rows are √w I with √w ≥ ε (a posture given a level) takes the exact factors of A_k Z = √w Z —
+(Z, √w, I), as the null-space objective's (Z, 1, I) — instead of an SVD.
 
 The levels are the stack's (:mod:`redundik.tasks.stack`): main tasks at their priority (0), target and bound
 subtasks below them, the null-space objective ½‖q̇ − z‖² (gradient subtasks and posture) last; restricted to Z it
@@ -55,6 +57,7 @@ projected Jacobian lost rank while the task's own did not — an algorithmic sin
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, replace
 from typing import Any, TypeGuard
@@ -400,6 +403,9 @@ class HierarchicalQPResolver(QPResolverBase):
         #: Keep a level QP's unconstrained optimum when it satisfies the level's rows (exact; ``False`` solves
         #: every level by the backend, the reference the tests hold the shortcut to).
         self.level_shortcut = True
+        #: Factor a level of rows √w I (√w ≥ ε) exactly — U = Z, σ = √w, V = I — instead of by its SVD (``False``:
+        #: the SVD, the reference the tests hold these factors to).
+        self.identity_levels = True
 
     def build(
         self, robot: RobotModel, stack: TaskStack, t: float, dt: float, terms: list[TaskTerm] | None = None
@@ -501,7 +507,20 @@ class HierarchicalQPResolver(QPResolverBase):
             lsq = DampedSVD(U, np.ones(r), np.eye(r), np.ones(r), r, 1.0 if r else np.inf, 0.0)
         elif lv.m or lv.z is not None:
             M, rhs = self._project(lv, x, Z)
-            lsq = self._lsq(M)
+            if (
+                self.identity_levels
+                and r
+                and lv.z is None
+                and lv.m == n
+                and HK.identity_rows(lv.J, lv.w, 0, n, self.epsilon)
+            ):
+                # rows √w I (a posture given a level): M = √w Z with Z orthonormal (I at the top) has the exact SVD
+                # (Z, √w, I), every direction undamped (√w ≥ ε) — no factorisation of the n×r matrix
+                sw = math.sqrt(float(lv.w[0]))
+                U = np.eye(n) if Z is None else Z
+                lsq = DampedSVD(U, np.full(r, sw), np.eye(r), np.full(r, 1.0 / sw), r, sw, 0.0)
+            else:
+                lsq = self._lsq(M)
             eps = max(eps, lsq.damping**2)
         if shortcut:
             u = np.zeros(r) if lsq is None or rhs is None else _ridge(lsq, rhs, eps)
