@@ -673,7 +673,7 @@ class HierarchicalQPResolver(QPResolverBase):
             if lv.p:
                 w = np.maximum(lv.C @ x - lv.d, 0.0)
                 fixed.append((lv.C, lv.d + w + self.slack_tolerance))
-                worst = float(np.max(w))
+                worst = float(w.max())  # (the method: np.max costs its dispatch on a few rows)
                 if worst > CONTRADICTION_TOLERANCE:
                     diag.contradicted[lv.priority] = worst
                     rows = [lv.c_names[i] for i in np.flatnonzero(w > CONTRADICTION_TOLERANCE)]
