@@ -63,6 +63,7 @@ class _Reference(HierarchicalQPResolver):
     def __init__(self, **kw: object) -> None:
         super().__init__(**kw)  # type: ignore[arg-type]
         self.level_shortcut = False
+        self.identity_levels = False
 
     def solve(self, robot: rk.RobotModel, stack: rk.TaskStack, t: float, dt: float) -> rk.StepResult:
         return QPResolverBase.solve(self, robot, stack, t, dt)  # the shared template, not hqp's lean step
@@ -216,3 +217,226 @@ def test_hqp_kernels_report_their_first_run_cost() -> None:
     cost = hqp_kernels.first_run_cost()
     assert set(cost) == {"closed_cascade", "level_rows_ok", "level_qp_arrays"}
     assert all(v >= 0.0 for v in cost.values())
+
+
+def _rich_stack(robot: rk.RobotModel, rng: np.random.Generator) -> rk.TaskStack:
+    """Every kind of row the lean buffers take: tasks on three levels, a target subtask, two bound subtasks (one
+    two-sided) on two levels, gradients (the null-space objective)."""
+    names = robot.joint_names
+    base = _stack(robot, rng, depth=4, bound=True)
+    subs: list[rk.Subtask] = list(base.subtasks)
+    subs.append(rk.TargetSubtask(rk.JointValue(names[3], 0.0, name="t4"), target=0.1, rate=2.0, priority=1))
+    subs.append(rk.BoundSubtask(rk.JointValue(names[1], 0.0, name="b2"), lower=-0.4, upper=0.4, rate=5.0, priority=2))
+    # lower bounds only (the row the lean gather writes itself): γ = 1/dt (rate 0), K, and K capped at 1/dt
+    subs.append(rk.BoundSubtask(rk.JointValue(names[4], 0.0, name="b5"), lower=-0.3, priority=1))
+    subs.append(rk.BoundSubtask(rk.JointCentering(name="c"), lower=0.05, rate=3.0, priority=2))
+    subs.append(rk.BoundSubtask(rk.JointValue(names[5], 0.0, name="b6"), lower=-0.2, rate=500.0, priority=2))
+    return rk.TaskStack(list(base.tasks), subs)
+
+
+@pytest.mark.parametrize("mixed", [False, True])
+def test_lean_gather_lays_out_the_rows_of_gather_rows_and_fill(mixed: bool) -> None:
+    """The lean step's one-pass ``_Plan.gather`` writes the buffers ``gather_rows`` + ``_Plan.fill`` write, and its
+    ``step_rows`` are those of ``gather_rows`` (the same arrays per level), over several states; ``mixed``: the
+    null-space objective shares its level with a task (its identity rows after the task's)."""
+    from redundik.resolvers.qp.hqp import _Plan
+    from redundik.resolvers.qp.terms import gather_rows
+
+    rng = np.random.default_rng(3)
+    robot = random_robot(rng, 7)
+    stack = _rich_stack(robot, rng)
+    res = HierarchicalQPResolver()
+    q = robot.random_configuration(rng)
+    prepared(res, robot, stack, q)
+    layout = res.layout(stack)
+    if mixed:  # (a layout by hand: TaskStack.layout gives the objective a level of its own)
+        from dataclasses import replace
+
+        *above, last = layout.levels
+        assert last.null_objective and not (last.tasks or last.targets or last.bounds)
+        above[-1] = replace(above[-1], null_objective=True)
+        layout = replace(layout, levels=above)
+    assert any(_Plan(layout, robot.nv, np.zeros(5)).mixed) == mixed
+    lean, ref = _Plan(layout, robot.nv, np.zeros(5)), _Plan(layout, robot.nv, np.zeros(5))
+    for k in range(4):
+        q = robot.random_configuration(rng)
+        robot.update(q)
+        terms = stack.evaluate(robot, 0.1 * k)
+        z, targets, bounds = lean.gather(robot, stack, terms, 0.01)
+        assert sum(type(b[1]) is not np.ndarray for b in bounds) == 3  # the lower bounds: written by gather itself
+        rows = gather_rows(robot, stack, terms, layout, 0.01)
+        ref.fill(rows)
+        np.testing.assert_array_equal(lean.meta, ref.meta)
+        M, P = int(ref.meta[0, -1]), int(ref.meta[1, -1])
+        assert M and P
+        for a, b in ((lean.A, ref.A), (lean.b, ref.b), (lean.w, ref.w)):
+            np.testing.assert_array_equal(a[:M], b[:M])
+        for a, b in ((lean.C, ref.C), (lean.d, ref.d)):
+            np.testing.assert_array_equal(a[:P], b[:P])
+        got = lean.step_rows(terms, z, targets, bounds)
+        np.testing.assert_array_equal(got.z, rows.z)
+        for la, lb_ in zip(got.levels, rows.levels, strict=True):
+            assert (la.priority, la.names, la.c_names) == (lb_.priority, lb_.names, lb_.c_names)
+            for f in ("J", "v", "w", "C", "d"):
+                np.testing.assert_array_equal(getattr(la, f), getattr(lb_, f))
+            assert (la.z is None) == (lb_.z is None)
+
+
+class _BarrierPotential(rk.Barrier, rk.Potential):
+    """A source that is both (as the collision and balance barriers): ``BoundSubtask.values`` reads it as a barrier."""
+
+    name = "both"
+
+    def __init__(self, joint: int) -> None:
+        self.joint = joint
+
+    def value(self, robot: rk.RobotModel) -> float:
+        return float(robot.q[self.joint])
+
+    def gradient(self, robot: rk.RobotModel) -> np.ndarray:
+        g = np.zeros(robot.nv)
+        g[self.joint] = 1.0
+        return g
+
+    def evaluate(self, robot: rk.RobotModel) -> rk.BarrierTerm:
+        h = np.array([0.5 - robot.q[self.joint], 0.7 + robot.q[self.joint]])
+        H = np.zeros((2, robot.nv))
+        H[0, self.joint], H[1, self.joint] = -1.0, 1.0
+        return rk.BarrierTerm(h, H, ["hi", "lo"], np.array([3.0, 400.0]))
+
+
+def test_lean_gather_leaves_other_bound_rows_to_rows() -> None:
+    """The one-row shortcut of the lean gather applies only where ``BoundSubtask.rows`` gives that row: not for a
+    barrier that is also a potential (even with a lower bound set on the subtask after construction), nor for an
+    upper or a two-sided bound; the step agrees with the general path on such a stack."""
+    from redundik.resolvers.qp.hqp import _Plan
+    from redundik.resolvers.qp.terms import gather_rows
+
+    rng = np.random.default_rng(11)
+    robot = random_robot(rng, 6)
+    names = robot.joint_names
+    barrier = rk.BoundSubtask(_BarrierPotential(2), priority=1)
+    barrier.lower = 0.0  # not a potential's bound for BoundSubtask.values (a barrier is read first)
+    subs: list[rk.Subtask] = [
+        barrier,
+        rk.BoundSubtask(rk.JointValue(names[1], 0.0, name="u"), upper=0.3, rate=5.0, priority=1),
+        rk.BoundSubtask(rk.JointValue(names[3], 0.0, name="two"), lower=-1.0, upper=0.4, priority=1),
+        rk.GradientSubtask(rk.JointCentering(), gain=-1.0),
+    ]
+    stack = rk.TaskStack([rk.FrameTask(tip(robot), rk.Line([0.1, 0.2, -0.1]), axes="position", gain=1.0)], subs)
+    res = HierarchicalQPResolver()
+    q = robot.random_configuration(rng)
+    prepared(res, robot, stack, q)
+    layout = res.layout(stack)
+    plan = _Plan(layout, robot.nv, np.zeros(5))
+    terms = stack.evaluate(robot, 0.0)
+    _, _, bounds = plan.gather(robot, stack, terms, 0.01)
+    assert all(type(b[1]) is np.ndarray for b in bounds)  # every row from rows()
+    rows = gather_rows(robot, stack, terms, layout, 0.01)
+    P = int(plan.meta[1, -1])
+    assert P == 5
+    np.testing.assert_array_equal(plan.C[:P], np.vstack([r[0] for lv in rows.ineq for r in lv]))
+    np.testing.assert_array_equal(plan.d[:P], np.concatenate([r[1] for lv in rows.ineq for r in lv]))
+    for seed in range(4):
+        _compare(robot, stack, robot.random_configuration(np.random.default_rng(seed)), steps=2)
+
+
+@pytest.mark.parametrize(
+    ("weight", "first", "applies"),
+    [(1.0, False, True), (0.01, False, True), (0.01, True, True), (2e-5, False, False), (1e-4, False, False)],
+)
+def test_lean_identity_level_equals_the_general_path(weight: float, first: bool, applies: bool) -> None:
+    """A posture given a level of its own (rows √w I): the lean cascade solves it as Zᵀ(b − x) without a
+    factorisation where √w ≥ ε (nothing damped) — and not where √w < ε (damped: 2e-5) or √w = ε (1e-4, the
+    margin) —, with the same q̇ and diagnostics as the general path, at the top level (``first``) or below a frame
+    task and a bound level, inside the box and against the limits."""
+    from redundik.resolvers.hqp_kernels import identity_rows
+
+    rng = np.random.default_rng(21)
+    robot = random_robot(rng, 7)
+    posture = rk.PostureTask(gain=2.0, weight=weight, priority=0 if first else 2)
+    subs: list[rk.Subtask] = [] if first else [
+        rk.BoundSubtask(rk.JointValue(robot.joint_names[2], 0.0, name="b3"), upper=0.6, rate=10.0, priority=1)
+    ]  # fmt: skip
+    tasks: list[rk.Task] = [posture] if first else [
+        rk.FrameTask(tip(robot), rk.Line([0.2, -0.1, 0.1]), axes="position", gain=1.0), posture
+    ]  # fmt: skip
+    stack = rk.TaskStack(tasks, subs)
+    qp_steps = 0
+    for seed in range(6):
+        q = robot.random_configuration(np.random.default_rng(seed))
+        posture.set_target(robot.random_configuration(np.random.default_rng(50 + seed)))
+        res = HierarchicalQPResolver()
+        prepared(res, robot, stack, q)
+        plan = res._plan_for(res.layout(stack), robot.nv)
+        plan.gather(robot, stack, stack.evaluate(robot, 0.0), 0.01)
+        k = len(plan.members) - 1
+        s = int(plan.meta[0, k])
+        assert bool(identity_rows(plan.A, plan.w, s, robot.nv, res.epsilon)) == applies
+        tight = rk.JointLimits(velocity_limits={n: 0.3 for n in robot.joint_names}) if seed % 2 else None
+        _compare(robot, stack, q, steps=2, limits=tight)
+        if seed % 2:  # the constrained cascade: the posture level factored exactly, not by an SVD, where it applies
+            shapes: list[tuple[int, ...]] = []
+            qp = HierarchicalQPResolver(limits=rk.JointLimits(velocity_limits=dict.fromkeys(robot.joint_names, 0.3)))
+            prepared(qp, robot, stack, q)
+            qp._lsq = lambda M, svd=qp._lsq, seen=shapes: seen.append(M.shape) or svd(M)  # type: ignore[method-assign]
+            if qp.step(robot, stack, q, 0.0, 0.01).info["qp"]:
+                qp_steps += 1
+                assert any(m == robot.nv for m, _ in shapes) != applies
+    assert qp_steps
+
+
+class _BufferedGradient(rk.Potential):
+    """A potential that returns one gradient array, rewritten at every call (a user's preallocated buffer)."""
+
+    name = "buffered"
+
+    def __init__(self, joint: int) -> None:
+        self.joint = joint
+        self._g: np.ndarray | None = None
+
+    def value(self, robot: rk.RobotModel) -> float:
+        return float(np.sum(robot.q[: self.joint + 1]))
+
+    def gradient(self, robot: rk.RobotModel) -> np.ndarray:
+        if self._g is None:
+            self._g = np.zeros(robot.nv)
+        self._g[:] = 0.0
+        self._g[: self.joint + 1] = 1.0 + robot.q[: self.joint + 1] ** 2
+        return self._g
+
+
+def test_lean_diagnostics_read_late_are_those_of_their_step() -> None:
+    """Diagnostics read after later steps are those the step would have reported at once, also when a bound
+    subtask's potential rewrites its gradient array in place at every call (the lean row keeps its own copy)."""
+    rng = np.random.default_rng(31)
+    robot = random_robot(rng, 6)
+    stack = rk.TaskStack(
+        [rk.FrameTask(tip(robot), rk.Line([0.1, 0.0, -0.1]), axes="position", gain=1.0)],
+        [rk.BoundSubtask(_BufferedGradient(3), lower=-50.0, rate=2.0, priority=1),
+         rk.GradientSubtask(rk.JointCentering(), gain=-1.0)],
+    )  # fmt: skip
+    q0 = robot.random_configuration(rng)
+    bound = stack.subtasks[0]
+    assert isinstance(bound, rk.BoundSubtask)
+    for lower, limits in (
+        (-50.0, False),
+        (float(np.sum(q0[:4])) + 10.0, {"velocity_limits": dict.fromkeys(robot.joint_names, 0.3)}),
+    ):
+        # inactive (the closed form), then out of reach at 0.3 rad/s (the QPs: the level contradicted, its residual
+        # read from its rows)
+        bound.lower = lower
+        now, late = HierarchicalQPResolver(limits=limits), HierarchicalQPResolver(limits=limits)
+        prepared(now, robot, stack, q0)
+        prepared(late, robot, stack, q0)
+        q, eager, pending = q0, [], []
+        for k in range(3):
+            a = now.step(robot, stack, q, 0.01 * k, 0.01)
+            eager.append((dict(a.info), a.fallback))
+            pending.append(late.step(robot, stack, q, 0.01 * k, 0.01))
+            q = robot.integrate(q, a.dq, 0.01)
+        closed = lower < 0
+        assert all((e["qp"] == 0) == closed for e, _ in eager)
+        assert closed or all(e["residual_L1"] > 1e-3 for e, _ in eager)
+        for (e, fallback), res in zip(eager, pending, strict=True):
+            assert dict(res.info) == e and res.fallback == fallback

@@ -8,7 +8,8 @@ before level 0, every least-squares level k solves
 with the damped pseudo-inverse of :mod:`redundik.resolvers.linalg` (per-direction damping of the singular values
 below ε, truncation below rcond·σ_max: :func:`redundik.resolvers.kernels.damped_svd_factors`, the one
 implementation of that rule), and the null-space objective ½‖q̇ − z‖² (identity rows) gives x ← x + Z Zᵀ(z − x)
-and leaves nothing below. Rows are weighted by √w (‖√w ∘ (A q̇ − b)‖², as
+and leaves nothing below; so does a least-squares level whose rows are exactly √w I with √w ≥ ε (a posture given a
+level: :func:`identity_rows`), x ← x + Z Zᵀ(b − x). Rows are weighted by √w (‖√w ∘ (A q̇ − b)‖², as
 :meth:`redundik.resolvers.qp.terms.Level.ls_rows`). The cascade is then kept when x satisfies the joint-limit box
 lb − tol ≤ x ≤ ub + tol and every level's inequality rows C x ≤ d + tol (a feasible unconstrained lexicographic
 optimum is the constrained one).
@@ -112,6 +113,23 @@ def qr_certificate(R: np.ndarray, Ri: np.ndarray, epsilon: float, rcond: float) 
     return lo >= epsilon and lo > rcond * math.sqrt(fr)
 
 
+@_jit
+def identity_rows(A: np.ndarray, w: np.ndarray, s: int, n: int, epsilon: float) -> bool:
+    """True when the rows A[s:s + n] are exactly the identity I (n, n) with one weight w for all of them and
+    √w ≥ ε (with a relative margin of 1e-9): the level's least squares ‖√w (q̇ − b)‖² restricted to an orthonormal
+    basis Z has the singular values √w only, none of them damped by the rule of :mod:`redundik.resolvers.linalg`."""
+    w0 = w[s]
+    if not (math.sqrt(w0) >= epsilon * (1.0 + 1e-9)):  # (false for a NaN or negative weight)
+        return False
+    for i in range(n):
+        if w[s + i] != w0:
+            return False
+        for j in range(n):
+            if A[s + i, j] != (1.0 if i == j else 0.0):
+                return False
+    return True
+
+
 #: Level kinds in row 2 of the ``meta`` array of :func:`closed_cascade`.
 SKIP, NULL_OBJECTIVE, LEAST_SQUARES = 0, 1, 2
 #: Columns of the per-level ``stats`` array of :func:`closed_cascade`.
@@ -195,6 +213,31 @@ def closed_cascade(
         s, e = meta[0, k], meta[0, k + 1]
         m = e - s
         if kind == SKIP or m == 0:
+            continue
+        if not exact and m == n and identity_rows(A, w, s, n, epsilon):
+            # rows √w I (a posture as a level): M = √w Z has every singular value √w ≥ ε (Z orthonormal, I at the
+            # top), nothing is damped and the rank is full, so M⁺ √w (b − x) = Zᵀ(b − x) with no factorisation
+            # (σ_min left NaN, as a certified QR leaves it), and no direction is left below
+            if projected:
+                t = np.zeros(r)
+                for i in range(n):
+                    ri = b[s + i] - x[i]
+                    for j in range(r):
+                        t[j] += Z[i, j] * ri
+                for i in range(n):
+                    acc = 0.0
+                    for j in range(r):
+                        acc += Z[i, j] * t[j]
+                    x[i] += acc
+            else:
+                for i in range(n):
+                    x[i] = b[s + i]
+            stats[k, 0] = np.nan
+            stats[k, 1] = 0.0
+            stats[k, 2] = r
+            stats[k, 3] = r
+            projected = True
+            r = 0
             continue
         # the weighted rows √w A and the residual target √w b − √w A x
         Ak = np.empty((m, n))
@@ -329,23 +372,32 @@ def closed_step(
     gain: float,
     dt: float,
     dq_prev: np.ndarray,
-    box: np.ndarray,
     out: np.ndarray,
     stats: np.ndarray,
-) -> bool:
-    """One ``hqp`` step's closed-form path in one call: the joint-limit box (``kernels.limit_box`` into ``box``
-    (4, 1, n): lb, ub, pos_lo, pos_hi), the unconstrained cascade and its feasibility test (:func:`closed_cascade`,
-    q̇ into out[0]), and q̇ clipped to the box (``kernels.clip_twice``: the q̇ returned and the copy kept, out[1:3]).
+) -> int:
+    """One ``hqp`` step's closed-form path in one call, into ``out`` (7, 1, n): the joint-limit box at the
+    configuration ``q`` (nq,) (``kernels.limit_box``: rows 0–3 lb, ub, pos_lo, pos_hi [rad/s or m/s]), the
+    unconstrained cascade's q̇
+    (:func:`closed_cascade`, row 4) and q̇ clipped to the box (``kernels.clip_twice``: rows 5–6, the q̇ returned and
+    the copy kept); ``stats`` as :func:`closed_cascade`'s.
 
     Returns:
-        True when the cascade is feasible (out[1] is then the step's q̇); False: the constrained cascade is needed.
+        1 when the cascade is feasible and q̇ finite (row 5 is the step's q̇); 0 when it is not feasible (the
+        constrained cascade is needed); 2 when it passed the feasibility tests but q̇ is not finite (a NaN or
+        infinite row: the step's template decides).
     """
-    limit_box(q, iq, lo, hi, vmax, amax, position, has_rate, gain, dt, dq_prev, box)
-    lb = box[0, 0]
-    ub = box[1, 0]
-    ok = closed_cascade(A, b, w, C, d, z, lb, ub, meta, params, out[0], stats)
-    clip_twice(out[0], lb, ub, out[1:3])
-    return ok
+    limit_box(q.reshape((1, q.shape[0])), iq, lo, hi, vmax, amax, position, has_rate, gain, dt, dq_prev, out[:4])
+    lb = out[0, 0]
+    ub = out[1, 0]
+    x = out[4, 0]
+    ok = closed_cascade(A, b, w, C, d, z, lb, ub, meta, params, x, stats)
+    clip_twice(x, lb, ub, out[5:7, 0])
+    if not ok:
+        return 0
+    acc = 0.0
+    for i in range(x.shape[0]):
+        acc += x[i] * x[i]
+    return 1 if math.isfinite(acc) else 2
 
 
 @_jit

@@ -25,13 +25,18 @@ level u = (A_k Z)⁺(b_k − A_k x), with the damped pseudo-inverse of :mod:`red
 it satisfies every inequality and limit, since a feasible unconstrained lexicographic optimum is the constrained one.
 For [main task, gradient subtask] this is q̇ = J⁺V + Z Zᵀ z = J⁺V + (I − J⁺J)z, the chapter's eq. (5.8), exactly.
 The whole of it is one compiled call (:func:`redundik.resolvers.hqp_kernels.closed_cascade`) on the step's rows
-copied into buffers kept while the stack's membership is unchanged; a level whose QR certifies σ_min ≥ ε (nothing
-damped, full rank: M⁺ exactly) skips its SVD, and the Level records, σ_min per level and the rank-loss test are
-computed only when the step's diagnostics are read (``LazyStepResult``).
+written, as they are evaluated, into buffers kept while the stack's membership is unchanged (``_Plan.gather``: a
+one-row lower bound on a potential as C = −η, d = γ(p − lower) from its ``value_and_gradient``); a level whose QR
+certifies σ_min ≥ ε (nothing damped, full rank: M⁺ exactly) skips its SVD, a level of rows √w I with √w ≥ ε
+takes Zᵀ(b − x) without a factorisation, and the per-level rows
+(``StepRows``), the limit box's record, the Level records, σ_min per level and the rank-loss test are built only
+when the step goes on to the QPs or its diagnostics are read (``LazyStepResult``).
 Level shortcut (exact, below the top level): when the cascade is not feasible, a level QP whose unconstrained
 optimum — û = argmin ½‖A_k Z u − (b_k − A_k x)‖² + ½ε‖u‖² from the SVD of A_k Z, slack w = 0 — keeps every row of
 that QP (its inequalities, the levels above, the limits, to the same margins) is that QP's optimum (the KKT
 conditions hold with zero multipliers), and the backend is not called; ``info["qp"]`` counts the QPs solved.
+A level QP whose rows are √w I with √w ≥ ε (a posture given a level) takes the exact factors of A_k Z = √w Z —
+(Z, √w, I), as the null-space objective's (Z, 1, I) — instead of an SVD.
 
 The levels are the stack's (:mod:`redundik.tasks.stack`): main tasks at their priority (0), target and bound
 subtasks below them, the null-space objective ½‖q̇ − z‖² (gradient subtasks and posture) last; restricted to Z it
@@ -55,7 +60,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, TypeGuard
 
 import numpy as np
 
@@ -68,8 +73,9 @@ from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
 from redundik.resolvers.qp.terms import Level, StepRows, gather_rows
-from redundik.tasks.base import TaskTerm
+from redundik.tasks.base import Barrier, Potential, TaskTerm
 from redundik.tasks.stack import StackLayout, TaskStack
+from redundik.tasks.subtasks import BoundSubtask
 
 #: Slack above which a level's bound rows count as contradicted (reported as a fallback).
 CONTRADICTION_TOLERANCE = 1e-6
@@ -126,6 +132,19 @@ class HQPBuild:
         return self.rows.levels
 
 
+_POTENTIAL_TYPES: dict[type, bool] = {}
+
+
+def _is_potential(obj: object) -> TypeGuard[Potential]:
+    """Whether a bound subtask's source is read as a potential (``BoundSubtask.values``: a Potential that is not a
+    Barrier), remembered per class (the ABCs' checks are slow calls on the hot path)."""
+    kind = type(obj)
+    known = _POTENTIAL_TYPES.get(kind)
+    if known is None:
+        known = _POTENTIAL_TYPES[kind] = issubclass(kind, Potential) and not issubclass(kind, Barrier)
+    return known
+
+
 class _Plan:
     """What the lean cascade does per level, fixed while the stack's membership is (see ``_plan_for``): the level
     kinds, the offsets table and the buffers the rows are copied into (grown when a level brings more rows)."""
@@ -145,6 +164,147 @@ class _Plan:
         self.eye, self.zero = np.eye(n), np.zeros(n)
         self.critical = any(b.critical for level in layout.levels for b in level.bounds)  # safety rows: template
         self._weights: list[tuple[int, int, float]] = []  # per block (first row, end, weight) last written into w
+        #: Per level, what :meth:`gather` evaluates: (task indices, target subtasks, bound subtasks, whether the level
+        #: carries the null-space objective, whether it adds the objective's identity rows after its own).
+        self.members = [
+            (list(lv.tasks), list(lv.targets), list(lv.bounds), lv.null_objective, mixed)
+            for lv, mixed in zip(layout.levels, self.mixed, strict=True)
+        ]
+        self._lower_of: tuple[str, list[str]] = ("", [])  # a lower-bound row's (subtask name, [row name])
+        self._offsets: list[tuple[int, int]] = []  # the offsets gather last wrote into meta
+
+    def gather(
+        self, robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], dt: float
+    ) -> tuple[np.ndarray | None, list[tuple[np.ndarray, float]], list[tuple[np.ndarray, Any, list[str]]]]:
+        """The step's rows straight into the buffers, as ``gather_rows`` followed by :meth:`fill` would lay them
+        (the members evaluated in the same order, the same rows, weights and offsets), without building the
+        per-level lists. A bound subtask on a potential with a lower bound only (the common one-row case) is
+        evaluated by its ``value_and_gradient`` and its row C = −η, d = γ(p − lower) written here, the values of
+        ``BoundSubtask.rows`` without its wrapping arrays and names (made by :meth:`step_rows` when asked for).
+
+        Returns:
+            (z of the null-space objective or ``None``, the target subtasks' (η, v) in layout order, the bound
+            subtasks' (C, d, row names) in layout order): what :meth:`step_rows` needs to build the step's
+            :class:`~redundik.resolvers.qp.terms.StepRows` when it is asked for.
+        """
+        meta, n, key = self.meta, self.n, self._weights
+        A, b, w, C, d = self.A, self.b, self.w, self.C, self.d
+        targets: list[tuple[np.ndarray, float]] = []
+        bounds: list[tuple[np.ndarray, Any, list[str]]] = []  # (C, d, names), or (−η, d, names) of a lower bound
+        z = None
+        ms = cs = 0
+        blk = 0
+        offsets = []  # per level (first least-squares row, first inequality row): written into meta when they move
+        for tasks, subs, bsubs, null_objective, mixed in self.members:
+            offsets.append((ms, cs))
+            for i in tasks:
+                term = terms[i]
+                J = term.J
+                e = ms + J.shape[0]
+                if e > A.shape[0]:
+                    A, b, w = self._grow_ls(e)
+                A[ms:e] = J
+                b[ms:e] = term.v
+                weight = term.weight
+                if blk >= len(key) or key[blk] != (ms, e, weight):
+                    w[ms:e] = weight
+                    key[blk:] = [(ms, e, weight)]
+                blk += 1
+                ms = e
+            for sub in subs:
+                eta, vt, _ = sub.row(robot)
+                targets.append((eta, vt))
+                e = ms + 1
+                if e > A.shape[0]:
+                    A, b, w = self._grow_ls(e)
+                A[ms] = eta
+                b[ms] = vt
+                weight = sub.weight
+                if blk >= len(key) or key[blk] != (ms, e, weight):
+                    w[ms:e] = weight
+                    key[blk:] = [(ms, e, weight)]
+                blk += 1
+                ms = e
+            for bsub in bsubs:
+                src, lower = bsub.source, bsub.lower
+                if (
+                    lower is not None
+                    and bsub.upper is None
+                    and type(bsub) is BoundSubtask
+                    and _is_potential(src)
+                    and getattr(src, "bound_rows", None) is None
+                ):
+                    # BoundSubtask.rows of a potential with a lower bound, without its wrapping arrays: the one row
+                    # C = −η, d = γ (p − lower) [unit of p / s], γ = min(K or 1/dt, 1/dt) (tested against rows())
+                    p, eta = src.value_and_gradient(robot)
+                    cap = 1.0 / dt
+                    rate = bsub.rate
+                    dv = (cap if rate == 0 else min(rate, cap)) * (p - lower)
+                    if bsub.name != self._lower_of[0]:
+                        self._lower_of = (bsub.name, [f"{bsub.name}:lower"])
+                    row = -eta  # (a new array, as rows() makes: the step's rows outlive the potential's arrays)
+                    bounds.append((row, dv, self._lower_of[1]))
+                    if cs + 1 > C.shape[0]:
+                        C, d = self._grow_ineq(cs + 1)
+                    C[cs] = row
+                    d[cs] = dv
+                    cs += 1
+                    continue
+                Ci, di, rn = bsub.rows(robot, dt)
+                bounds.append((Ci, di, rn))
+                e = cs + Ci.shape[0]
+                if e > C.shape[0]:
+                    C, d = self._grow_ineq(e)
+                C[cs:e] = Ci
+                d[cs:e] = di
+                cs = e
+            if null_objective:
+                z = stack.null_target(robot, terms, self.layout)
+            if mixed and z is not None:
+                e = ms + n
+                if e > A.shape[0]:
+                    A, b, w = self._grow_ls(e)
+                b[ms:e] = z
+                if blk >= len(key) or key[blk] != (ms, e, -1.0):
+                    A[ms:e] = self.eye
+                    w[ms:e] = 1.0
+                    key[blk:] = [(ms, e, -1.0)]
+                blk += 1
+                ms = e
+        offsets.append((ms, cs))
+        if offsets != self._offsets:
+            for k, (ls_row, ineq_row) in enumerate(offsets):
+                meta[0, k], meta[1, k] = ls_row, ineq_row
+            self._offsets = offsets
+        return z, targets, bounds
+
+    def step_rows(
+        self,
+        terms: list[TaskTerm],
+        z: np.ndarray | None,
+        targets: list[tuple[np.ndarray, float]],
+        bounds: list[tuple[np.ndarray, Any, list[str]]],
+    ) -> StepRows:
+        """The :class:`~redundik.resolvers.qp.terms.StepRows` that ``gather_rows`` gives for the rows :meth:`gather`
+        evaluated (the same arrays, grouped per level)."""
+        n = self.n
+        ls: list[list[tuple[np.ndarray, np.ndarray, float]]] = []
+        ineq: list[list[tuple[np.ndarray, np.ndarray, list[str], BoundSubtask]]] = []
+        it, ib = iter(targets), iter(bounds)
+        for tasks, subs, bsubs, _, _ in self.members:
+            blocks = [(terms[i].J, terms[i].v, terms[i].weight) for i in tasks]
+            for sub in subs:
+                eta, vt = next(it)
+                blocks.append((eta.reshape(1, n), np.array([vt]), sub.weight))
+            ls.append(blocks)
+            rows = []
+            for bsub in bsubs:
+                Ci, di, rn = next(ib)
+                if type(di) is not np.ndarray:  # a lower-bound row written by gather itself: rows()'s arrays
+                    Ci, di = Ci.reshape(1, -1), np.array([di])
+                rows.append((Ci, di, list(rn), bsub))
+            ineq.append(rows)
+        return StepRows(self.layout, terms, ls, ineq, z, n)
 
     def fill(self, rows: StepRows) -> None:
         """Copy the step's rows into the buffers and write the offsets table (row 0: A, row 1: C); the weights and
@@ -186,6 +346,7 @@ class _Plan:
                 cs = e
         L = meta.shape[1] - 1
         meta[0, L], meta[1, L] = ms, cs
+        self._offsets = []  # (meta written here: gather rewrites it)
 
     def _grow_ls(self, rows: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         cap = max(rows, 2 * self.A.shape[0])
@@ -242,6 +403,9 @@ class HierarchicalQPResolver(QPResolverBase):
         #: Keep a level QP's unconstrained optimum when it satisfies the level's rows (exact; ``False`` solves
         #: every level by the backend, the reference the tests hold the shortcut to).
         self.level_shortcut = True
+        #: Factor a level of rows √w I (√w ≥ ε) exactly — U = Z, σ = √w, V = I — instead of by its SVD (``False``:
+        #: the SVD, the reference the tests hold these factors to).
+        self.identity_levels = True
 
     def build(
         self, robot: RobotModel, stack: TaskStack, t: float, dt: float, terms: list[TaskTerm] | None = None
@@ -343,7 +507,20 @@ class HierarchicalQPResolver(QPResolverBase):
             lsq = DampedSVD(U, np.ones(r), np.eye(r), np.ones(r), r, 1.0 if r else np.inf, 0.0)
         elif lv.m or lv.z is not None:
             M, rhs = self._project(lv, x, Z)
-            lsq = self._lsq(M)
+            if (
+                self.identity_levels
+                and r
+                and lv.z is None
+                and lv.m == n
+                and HK.identity_rows(lv.J, lv.w, 0, n, self.epsilon)
+            ):
+                # rows √w I (a posture given a level): M = √w Z with Z orthonormal (I at the top) has the exact SVD
+                # (Z, √w, I), every direction undamped (√w ≥ ε) — no factorisation of the n×r matrix
+                sw = math.sqrt(float(lv.w[0]))
+                U = np.eye(n) if Z is None else Z
+                lsq = DampedSVD(U, np.full(r, sw), np.eye(r), np.full(r, 1.0 / sw), r, sw, 0.0)
+            else:
+                lsq = self._lsq(M)
             eps = max(eps, lsq.damping**2)
         if shortcut:
             u = np.zeros(r) if lsq is None or rhs is None else _ridge(lsq, rhs, eps)
@@ -496,7 +673,7 @@ class HierarchicalQPResolver(QPResolverBase):
             if lv.p:
                 w = np.maximum(lv.C @ x - lv.d, 0.0)
                 fixed.append((lv.C, lv.d + w + self.slack_tolerance))
-                worst = float(np.max(w))
+                worst = float(w.max())  # (the method: np.max costs its dispatch on a few rows)
                 if worst > CONTRADICTION_TOLERANCE:
                     diag.contradicted[lv.priority] = worst
                     rows = [lv.c_names[i] for i in np.flatnonzero(w > CONTRADICTION_TOLERANCE)]
@@ -524,48 +701,48 @@ class HierarchicalQPResolver(QPResolverBase):
             return super().solve(robot, stack, t, dt)
         t0 = time.perf_counter()
         terms = [task.evaluate(robot, t) for task in stack.tasks]  # stack.evaluate, inlined
-        rows = gather_rows(robot, stack, terms, layout, dt)
+        z, targets, bounds = plan.gather(robot, stack, terms, dt)  # gather_rows + fill, in one pass
         t1 = time.perf_counter()
         limits = self.limits
         prev = limits.previous(self._dq_prev)
-        plan.fill(rows)
-        boxes = np.empty((4, 1, n))
-        out = np.empty((3, n))
+        out = np.empty((7, 1, n))
         stats = np.empty((plan.meta.shape[1] - 1, 4))
-        ok = HK.closed_step(
+        status = HK.closed_step(
             plan.A,
             plan.b,
             plan.w,
             plan.C,
             plan.d,
-            rows.z if rows.z is not None else plan.zero,
+            plan.zero if z is None else z,
             plan.meta,
             plan.params,
-            robot.q.reshape(1, -1),
+            robot.q,
             *limits.kernel_args(robot),
             float(dt),
             prev,
-            boxes,
             out,
             stats,
         )
-        box = limits.box_from(boxes[:, 0], prev.shape[0] > 0)
-        x = out[0]
-        built = HQPBuild(rows, box, n, infeasible=not ok)
-        if not ok or not math.isfinite(float(x @ x)):  # a constraint is active, or q̇ is not finite: the template
+        windowed = prev.shape[0] > 0
+        if status != 1:  # a constraint is active (0), or q̇ is not finite (2): the template, on the same rows
+            built = HQPBuild(
+                plan.step_rows(terms, z, targets, bounds), limits.box_from(out[:4, 0], windowed), n,
+                infeasible=status == 0,
+            )  # fmt: skip
             return self._finish(robot, stack, terms, built, t0, t1)
-        built.stats = stats
-        dq, kept = out[1], out[2]
+        kept = out[6, 0]
         self._dq_prev = kept
 
         def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
+            box = limits.box_from(out[:4, 0], windowed)
+            built = HQPBuild(plan.step_rows(terms, z, targets, bounds), box, n, stats)
             diag = QPDiagnostics()
             diag.active_limits = box.active(kept, limits.joint_names)
             self._diagnose(built, kept, diag)
             return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
 
         return LazyStepResult.make(
-            dq,
+            out[5, 0],
             terms,
             None,
             {"backend": "closed-form", "qp": 0, "iterations": 0},
