@@ -30,6 +30,7 @@ problems).
 from __future__ import annotations
 
 import importlib.util
+import math
 import time
 from abc import ABC, abstractmethod
 from typing import Any
@@ -90,15 +91,22 @@ def _vec(v: np.ndarray, size: int) -> np.ndarray:
 
 
 def finite(x: np.ndarray) -> bool:
-    """True when every entry of the float array x is finite (the ufunc and the method: ``np.all``'s Python wrapper
-    costs more than the test on a QP's few variables)."""
+    """True when every entry of the float array x is finite.
+
+    A vector first takes one dot product: a finite xᵀx means every entry is finite (an inf or NaN entry makes it
+    inf or NaN), ~0.3 µs against ~1 µs for the element-wise test, which decides only when xᵀx is not finite (an
+    entry that is, or entries beyond ~1e154 whose squares overflow).
+    """
+    if x.ndim == 1 and math.isfinite(x.dot(x)):
+        return True
     return bool(np.isfinite(x).all())
 
 
 def _checked(x: np.ndarray | None, problem: QPProblem, backend: str, status: object = "") -> np.ndarray:
     if x is None:
         raise SolverError(f"{backend}: no finite solution for {problem.label} (status {status})", problem)
-    x = np.asarray(x, dtype=float)
+    if type(x) is not np.ndarray or x.dtype != np.float64:
+        x = np.asarray(x, dtype=float)
     if not finite(x):
         raise SolverError(f"{backend}: no finite solution for {problem.label} (status {status})", problem)
     return x
@@ -193,9 +201,11 @@ def _stalled(problem: QPProblem, x: np.ndarray | None) -> np.ndarray | None:
 
 
 def _writable(a: np.ndarray) -> np.ndarray:
-    """``a``, or a copy when it is read-only (daqp's typed memoryviews refuse read-only buffers: a broadcast view,
-    a row of a frozen array)."""
-    return a if a.flags.writeable else a.copy()
+    """``a``, or a C-contiguous copy when it is read-only (daqp's typed memoryviews refuse read-only buffers: a
+    broadcast view, a row of a frozen array) or not contiguous (daqp reads its vectors and matrices from their first
+    element's address on: a strided view — a column, every other entry — would be read as the wrong numbers)."""
+    flags = a.flags
+    return a if flags.writeable and flags.c_contiguous else np.array(a, dtype=float, order="C")
 
 
 class DaqpBackend(Backend):
@@ -210,7 +220,8 @@ class DaqpBackend(Backend):
         self.iter_limit, self.primal_tol = int(iter_limit), float(primal_tol)
 
     def solve(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
-        n = problem.n
+        q = problem.q
+        n = q.shape[0]
         G, A = problem.G, problem.A
         if G.shape == (0, n) and A.shape == (0, n):  # bounds only (wqp's common QP): the bounds are daqp's rows
             M, bu, bl = G, _writable(problem.ub), _writable(problem.lb)
@@ -226,12 +237,12 @@ class DaqpBackend(Backend):
             if e:
                 sense[-e:] = 5
         t0 = time.perf_counter()
-        P, q = _writable(problem.P), _writable(problem.q)
+        P, q = _writable(problem.P), _writable(q)
         try:
             x, _, flag, info = self._solve(
                 P, q, M, bu, bl, sense, iter_limit=self.iter_limit, primal_tol=self.primal_tol
             )
-            if x is not None and np.shape(x) != (n,):
+            if x is not None and (type(x) is not np.ndarray or x.shape != (n,)) and np.shape(x) != (n,):
                 raise ValueError(f"returned x of shape {np.shape(x)} for {n} variables")
             if flag not in (1, 2) and self.primal_tol < 1e-6:
                 # at primal_tol 1e-10 daqp stopped (exit flag 4) on a feasible 2-variable hqp level whose slack is

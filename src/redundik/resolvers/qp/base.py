@@ -242,7 +242,7 @@ class QPResolverBase(Resolver):
             x = self._closed_form(robot, stack, terms)
             fallback = f"{self.name} failed, damped closed form clipped to the limits: {exc}"
             diag.backend = "fallback"
-        if not math.isfinite(x @ x) and not np.isfinite(x).all():  # the dot first: one call when all is well
+        if not finite(x):  # (one dot product when all is well)
             bad = nonfinite_sources(terms)
             fallback = f"non-finite q̇ (from {', '.join(bad) or 'the solver'}): q̇ = 0 clipped to the limits"
             x = np.zeros(robot.nv)
@@ -292,8 +292,10 @@ class QPResolverBase(Resolver):
                 f"{self.backend.name} raised {type(exc).__name__} on {problem.label}: {exc}", problem
             ) from exc
         try:
-            x = np.asarray(sol.x, dtype=float)
-            ok = x.shape == (problem.n,) and finite(x)
+            x = sol.x
+            if type(x) is not np.ndarray or x.dtype != np.float64:  # (a built-in backend's x already is one)
+                x = np.asarray(x, dtype=float)
+            ok = x.shape == (problem.q.shape[0],) and finite(x)
         except (TypeError, ValueError, AttributeError):  # not a solution record, or not an array of numbers
             ok = False
         if not ok:
