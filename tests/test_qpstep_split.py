@@ -175,3 +175,24 @@ def test_talos_wqp_steps_are_those_of_the_whole_problem() -> None:
                 assert info_a[key] == info_b[key], key
         qp += int(info_a["qp"])
     assert qp > 40
+
+
+def test_the_template_still_checks_a_subclass_of_the_daqp_backend() -> None:
+    """Only the daqp backend itself is trusted to have checked its answer: a subclass that returns NaN (or the wrong
+    size) is caught by the template as any user backend is."""
+    from redundik.resolvers.qp.problem import QPSolution
+    from redundik.resolvers.qp.wqp import WeightedQPResolver
+
+    class Broken(DaqpBackend):
+        def __init__(self, x: np.ndarray) -> None:
+            super().__init__()
+            self.x = x
+
+        def solve(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
+            return QPSolution(self.x, 1, "daqp")
+
+    prob = separable_problem(np.random.default_rng(6), 24, 8)
+    for x in (np.full(24, np.nan), np.zeros(23)):
+        with pytest.raises(SolverError, match="no finite solution of size 24"):
+            WeightedQPResolver(backend=Broken(x))._solve_qp(prob)
+    assert WeightedQPResolver()._solve_qp(prob).x.shape == (24,)

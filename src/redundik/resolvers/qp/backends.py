@@ -238,9 +238,9 @@ def split_separable(
 
     Returns:
         (n_c, the number of separable variables clipped onto a bound); n_c = −1 when the split is not made: a
-        separable variable with non-finite or NaN data or an empty interval (lb_i > ub_i: the backend reports the
-        infeasibility itself), no coupled variable (a diagonal P, which daqp itself detects), or a saving
-        n³ − n_c³ below ``min_saving``.
+        separable variable with non-finite or NaN data, an empty interval (lb_i > ub_i: the backend reports the
+        infeasibility itself) or an unconstrained optimum −q_i/P_ii that overflows; no coupled variable (a
+        diagonal P, which daqp itself detects); or a saving n³ − n_c³ below ``min_saving``.
     """
     n = q.shape[0]
     nc = 0
@@ -267,6 +267,8 @@ def split_separable(
             k += 1
             continue
         v = -q[i] / P[i, i]
+        if not math.isfinite(v):  # (a tiny P_ii: the whole problem's solve decides)
+            return -1, 0
         if v < lb[i]:
             v = lb[i]
             clipped += 1
@@ -338,7 +340,8 @@ class DaqpBackend(Backend):
         """
         t0 = time.perf_counter()
         n = problem.q.shape[0]
-        work, idx = self._split_views(n, 0)[:2]
+        buffers = self._split_work.get(n)
+        work, idx = self._split_views(n, 0)[:2] if buffers is None else buffers
         try:
             nc, clipped = split_separable(problem.P, problem.q, problem.lb, problem.ub, SPLIT_MIN_SAVING, work, idx)
         except Exception:  # data numba cannot type (an object array): the whole problem's solve deals with it
@@ -352,12 +355,10 @@ class DaqpBackend(Backend):
             )
         except Exception:  # (the whole problem's solve reports it)
             return None
-        if (flag != 1 and flag != 2) or type(xc) is not np.ndarray or xc.shape != (nc,):
+        if (flag != 1 and flag != 2) or type(xc) is not np.ndarray or xc.shape != (nc,) or not finite(xc):
             return None
-        x = work[0].copy()
+        x = work[0].copy()  # (the separable entries are finite: the kernel checked them)
         x[ic] = xc
-        if not finite(x):  # (daqp's NaN, or a separable −q_i/P_ii that overflows onto an infinite bound)
-            return None
         return QPSolution(x, int(info.get("iterations", -1)) + clipped, self.name, time.perf_counter() - t0)
 
     def solve(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
@@ -636,6 +637,10 @@ class OsqpBackend(QpsolversBackend):
     def __repr__(self) -> str:
         return "OsqpBackend()"
 
+
+#: Backends (exact types) whose ``solve`` itself guarantees a finite float x of shape (n,) on every return — daqp's
+#: every path ends in :func:`_checked` or :func:`finite` — so that the resolvers' template does not test it again.
+CHECKED_ANSWERS: frozenset[type[Backend]] = frozenset({DaqpBackend})
 
 _FACTORIES = {"daqp": DaqpBackend, "quadprog": QuadprogBackend, "proxsuite": ProxsuiteBackend, "osqp": OsqpBackend}
 

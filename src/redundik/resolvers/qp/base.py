@@ -23,7 +23,7 @@ from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, Resolver, StepResult, nonfinite_sources
 from redundik.resolvers.linalg import K, pseudo_inverse
 from redundik.resolvers.pinv import check_damping_options, main_system
-from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, finite, make_backend
+from redundik.resolvers.qp.backends import CHECKED_ANSWERS, DEFAULT_BACKEND, Backend, finite, make_backend
 from redundik.resolvers.qp.limits import JointLimits, LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
 from redundik.tasks.base import TaskTerm
@@ -282,7 +282,9 @@ class QPResolverBase(Resolver):
         return None
 
     def _solve_qp(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
-        """The backend's answer; anything it raises (also a user backend's own exception) becomes SolverError."""
+        """The backend's answer; anything it raises (also a user backend's own exception) becomes SolverError, and
+        an answer that is not a finite x of size n does too (tested here unless the backend is one of
+        :data:`~redundik.resolvers.qp.backends.CHECKED_ANSWERS`, which test it themselves)."""
         try:
             sol = self.backend.solve(problem, warm)
         except SolverError:
@@ -293,6 +295,8 @@ class QPResolverBase(Resolver):
             ) from exc
         try:
             x = sol.x
+            if type(sol) is QPSolution and type(self.backend) in CHECKED_ANSWERS:
+                return sol  # (that backend checked x itself: finite, float, of shape (n,))
             if type(x) is not np.ndarray or x.dtype != np.float64:  # (a built-in backend's x already is one)
                 x = np.asarray(x, dtype=float)
             ok = x.shape == (problem.q.shape[0],) and finite(x)
