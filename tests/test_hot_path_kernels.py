@@ -96,9 +96,12 @@ def test_gram_update_equals_numpy() -> None:
     P, q = rng.normal(size=(9, 9)), rng.normal(size=9)
     J, v = rng.normal(size=(6, 9)), rng.normal(size=6)
     P0, q0 = P.copy(), q.copy()
-    kernels.gram_update(P, q, np.asfortranarray(J), v, 0.3)  # Pinocchio's Jacobians are column-major
+    kernels.gram_update(P, q, np.asfortranarray(J), v, 0.3, False)  # a column-major Jacobian too
     np.testing.assert_allclose(P, P0 + 0.3 * J.T @ J, atol=1e-13)
     np.testing.assert_allclose(q, q0 - 0.3 * J.T @ v, atol=1e-13)
+    kernels.gram_update(P, q, J, v, 0.3, True)  # reset: the first task of a step overwrites what was there
+    np.testing.assert_allclose(P, 0.3 * J.T @ J, atol=1e-13)
+    np.testing.assert_allclose(q, -0.3 * J.T @ v, atol=1e-13)
 
 
 def test_frame_error_equals_pinocchio_log3() -> None:

@@ -296,6 +296,10 @@ class RobotModel:
             q = self.check_configuration(q, f"robot '{self.name}': update(q)")
         elif not math.isfinite(float(np.add.reduce(q))) and not np.isfinite(q).all():  # the sum first: one call
             raise ModelError(f"robot '{self.name}': update(q): q contains NaN or infinite values: {q.tolist()[:8]}")
+        self._update_checked(q)
+
+    def _update_checked(self, q: np.ndarray) -> None:
+        """:meth:`update` for a q already checked (float64, shape (nq,), finite): a resolver's step checks it once."""
         pin.computeJointJacobians(self.model, self.data, q)
         pin.updateFramePlacements(self.model, self.data)
         self._q = q.copy()

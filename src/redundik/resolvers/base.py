@@ -37,6 +37,7 @@ STABLE_GAIN_DT = 2.0
 #: nv = 38, toggling the BLAS pool cost more, +20 µs, than it saved).
 BLAS_LIMIT_NV = 64
 _USER_CHOSE_THREADS = any(os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"))
+_F64 = np.dtype(np.float64)
 _CONTROLLER: Any = None  # threadpoolctl.ThreadpoolController (untyped), built on first use
 
 
@@ -98,14 +99,15 @@ class StepResult:
         """Norm of the stacked main-task error."""
         terms = self.terms
         main = self.main
-        if main is not None:
-            if len(main) == 1:  # the common case: one main task
-                e = terms[main[0]].error
-                return math.sqrt(float(e @ e))
-            terms = [terms[i] for i in main]
         total = 0.0
-        for t in terms:
-            total += float(t.error @ t.error)
+        if main is None:
+            for term in terms:
+                e = term.error
+                total += e.dot(e)  # the method: half the dispatch of ``@`` on small vectors
+        else:
+            for i in main:
+                e = terms[i].error
+                total += e.dot(e)
         return math.sqrt(total)
 
 
@@ -288,6 +290,9 @@ class Resolver(ABC):
     accepts: ClassVar[tuple[str, ...]] = ()
 
     _checked: tuple[int, ...] | None = None
+    #: (stack, robot, its tasks, its subtasks) as last checked: a step whose stack has the same members (by identity)
+    #: skips recomputing the signature
+    _members: tuple[TaskStack, RobotModel, list[Any], list[Any]] | None = None
     _watch: DivergenceWatch | None = None
     _gain_members: tuple[tuple[Any, ...], tuple[Any, ...]] = ((), ())
     _stepping: TaskStack | None = None
@@ -322,6 +327,7 @@ class Resolver(ABC):
     def reset(self) -> None:
         """Forget any state kept between steps (warm starts, previous q̇, the checked stack, the divergence watch)."""
         self._checked = None
+        self._members = None
         self._watch = None
 
     @abstractmethod
@@ -335,30 +341,41 @@ class Resolver(ABC):
             ResolverError: q not finite or of the wrong size, dt not finite and > 0, t not finite, a refused stack,
                 or a task gain with K·dt > 2.
         """
-        if not (  # the common case checked in a few operations; anything unusual goes through check_inputs
+        if (  # the common case checked in a few operations; anything unusual goes through check_inputs
             type(q) is np.ndarray
-            and q.dtype == np.float64
+            and q.dtype is _F64
             and type(robot) is RobotModel
-            and q.shape == (robot.nq,)
+            and q.shape == (robot._nq,)
             and type(dt) is float
             and type(t) is float
             and 0.0 < dt < math.inf
             and math.isfinite(t)
-            and math.isfinite(float(np.add.reduce(q)))  # every entry finite (an overflow falls back to the full check)
+            and math.isfinite(q.dot(q))  # every entry finite (an overflow falls back to the full check)
         ):
+            robot._update_checked(q)
+        else:
             q = self.check_inputs(robot, q, t, dt)
             t, dt = float(t), float(dt)
-        robot.update(q)
-        try:
-            sig = (id(robot), *stack.signature())
-        except AttributeError:  # not a TaskStack (a list of tasks, one task, None): say so, not AttributeError
-            raise ResolverError(
-                f"{self.name}: stack must be a TaskStack (tasks, subtasks), got {type(stack).__name__}"
-            ) from None
-        if sig != self._checked:
-            self.check(robot, stack)
-            self._checked = sig
-            self._gain_members = (tuple(stack.tasks), tuple(stack.target_subtasks))
+            robot.update(q)
+        members = self._members
+        if not (  # the membership seen at the last check, compared by identity (the lists hold the members alive)
+            members is not None
+            and members[0] is stack
+            and members[1] is robot
+            and stack.tasks == members[2]
+            and stack.subtasks == members[3]
+        ):
+            try:
+                sig = (id(robot), *stack.signature())
+            except AttributeError:  # not a TaskStack (a list of tasks, one task, None): say so, not AttributeError
+                raise ResolverError(
+                    f"{self.name}: stack must be a TaskStack (tasks, subtasks), got {type(stack).__name__}"
+                ) from None
+            if sig != self._checked:
+                self.check(robot, stack)
+                self._checked = sig
+                self._gain_members = (tuple(stack.tasks), tuple(stack.target_subtasks))
+            self._members = (stack, robot, list(stack.tasks), list(stack.subtasks))
         tasks, targets = self._gain_members
         limit = STABLE_GAIN_DT / dt
         for member in tasks:
@@ -369,7 +386,7 @@ class Resolver(ABC):
                 check_gains(stack, dt, self.name)
         self._stepping = stack  # the stack whose membership was just checked (``stack_key``)
         try:
-            if self.blas_threads == "auto" and (robot.nv < BLAS_LIMIT_NV or _USER_CHOSE_THREADS):
+            if self.blas_threads == "auto" and (robot._nv < BLAS_LIMIT_NV or _USER_CHOSE_THREADS):
                 res = self.solve(robot, stack, t, dt)
             else:
                 with self._blas_limit(robot):
@@ -380,7 +397,7 @@ class Resolver(ABC):
         if watch is None:
             watch = self._watch = DivergenceWatch()
         dq = res.dq
-        norm = math.sqrt(float(dq @ dq))
+        norm = math.sqrt(dq.dot(dq))
         factor = watch.update(norm, res.task_error)
         if factor is not None:
             watch.flag(self.name, norm, factor, res.info)

@@ -683,7 +683,7 @@ def wqp_free_step(
     out: np.ndarray,
 ) -> bool:
     """The rest of a ``wqp`` step once its task rows are in P and q, in one call: P += shift·I, q −= z_scale·z (the
-    null-space objective; ``z`` may be empty), the joint-limit box of :func:`limit_box` at ``qconf`` (1, nq) into
+    null-space objective; ``z`` may be empty), the joint-limit box of :func:`limit_box` at ``qconf`` (nq,) into
     out[0:4] (lb, ub, pos_lo, pos_hi), the unconstrained optimum x = −P⁻¹q by Cholesky into out[4], and — when x
     lies in the box (to 1e-12) — x clipped to it into out[5] and out[6] (q̇ and the copy the resolver keeps).
 
@@ -696,7 +696,21 @@ def wqp_free_step(
     if z.shape[0] == n and z_scale != 0.0:
         for i in range(n):
             q[i] -= z_scale * z[i]
-    limit_box(qconf, iq, lo, hi, vmax, amax, position, has_rate, gain, dt, dq_prev, out[0:4].reshape((4, 1, n)))
+    nq = qconf.shape[0]
+    limit_box(
+        qconf.reshape((1, nq)),
+        iq,
+        lo,
+        hi,
+        vmax,
+        amax,
+        position,
+        has_rate,
+        gain,
+        dt,
+        dq_prev,
+        out[0:4].reshape((4, 1, n)),
+    )
     x = out[4]
     if not spd_solve_into(P, q, x) or not in_box(x, out[0], out[1], 1e-12):
         return False
@@ -708,9 +722,13 @@ def wqp_free_step(
 
 
 @_jit
-def gram_update(P: np.ndarray, q: np.ndarray, J: np.ndarray, v: np.ndarray, w: float) -> None:
-    """P += w JᵀJ and q −= w Jᵀv in place (P (n, n), q (n,), J (m, n), v (m,)): one task's rows of a weighted QP."""
+def gram_update(P: np.ndarray, q: np.ndarray, J: np.ndarray, v: np.ndarray, w: float, reset: bool) -> None:
+    """P += w JᵀJ and q −= w Jᵀv in place (P (n, n), q (n,), J (m, n), v (m,)): one task's rows of a weighted QP;
+    ``reset``: P and q are zeroed first (the first task of a step)."""
     m, n = J.shape
+    if reset:
+        P[:, :] = 0.0
+        q[:] = 0.0
     for a in range(m):
         va = w * v[a]
         for i in range(n):

@@ -72,12 +72,22 @@ class PinvResolver(Resolver):
 
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
         t0 = time.perf_counter()
-        terms = stack.evaluate(robot, t)
-        layout = self._stack_layout(stack)
-        J, V, z = main_system(robot, stack, terms, layout)
+        terms = [task.evaluate(robot, t) for task in stack.tasks]  # stack.evaluate, inlined
+        cached = self._layout
+        if cached is not None and stack is self._stepping and cached[0] is self._checked:  # the step's layout
+            layout = cached[1]
+        else:
+            layout = self._stack_layout(stack)
+        main = layout.main
+        if len(main) == 1:  # main_system's stacking, for the common single main task
+            term = terms[main[0]]
+            J, V = term.J, term.v
+            z = stack.null_target(robot, terms, layout)
+        else:
+            J, V, z = main_system(robot, stack, terms, layout)
         t1 = time.perf_counter()
         has_z = z is not None
-        out = np.empty((3, robot.nv))
+        out = np.empty((3, robot._nv))
         rank, sigma_min, damping = K.closed_form_into(  # one compiled call: J⁺V, (I − J⁺J) z (5.8) and their sum
             contiguous(J),
             contiguous(V),
@@ -89,9 +99,9 @@ class PinvResolver(Resolver):
             out,
             True,  # σ_min left to be computed on request when J is well conditioned (a Cholesky solve instead)
         )
-        dq_r, dq_n, dq = out
+        dq_r, dq_n, dq = out[0], out[1], out[2]
         fallback = None
-        if not math.isfinite(dq @ dq) and not np.isfinite(dq).all():  # the dot first: one call when all is well
+        if not math.isfinite(dq.dot(dq)) and not np.isfinite(dq).all():  # the dot first: one call when all is well
             bad = nonfinite_sources(terms, z=z)
             fallback = f"non-finite q̇ (from {', '.join(bad) or 'the pseudo-inverse'}): q̇ = 0 this step"
             dq = np.zeros(robot.nv)

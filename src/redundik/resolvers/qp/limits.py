@@ -174,6 +174,7 @@ class JointLimits:
         elif acceleration is not None and (not _is_number(acceleration) or not acceleration > 0):
             raise ResolverError(f"limits: acceleration must be > 0 or None, got {short_repr(acceleration)}")
         self._robot_id: int | None = None
+        self._args: tuple[Any, ...] | None = None  # kernel_args of the bound robot, kept while the options stay
 
     def bind(self, robot: RobotModel) -> None:
         """Resolve names and defaults against ``robot`` (done once per robot).
@@ -254,9 +255,13 @@ class JointLimits:
     def kernel_args(self, robot: RobotModel) -> tuple[Any, ...]:
         """(iq, lo, hi, vmax, amax, position, has_rate, gain): the arguments of ``K.limit_box`` between q and dt,
         bound to ``robot`` (for a compiled step that computes its box inside, as ``wqp``'s)."""
+        args = self._args
         if self._robot_id != id(robot):
             self.bind(robot)
-        return self._limit_args()
+            args = None
+        if args is None or args[5] is not self.position or args[7] != self.position_gain:  # options read as now
+            args = self._args = self._limit_args()
+        return args
 
     def _limit_args(self) -> tuple[Any, ...]:
         """:meth:`kernel_args` of the bound robot (the options read as they are now)."""

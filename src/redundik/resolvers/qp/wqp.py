@@ -175,24 +175,33 @@ class WeightedQPResolver(QPResolverBase):
             (the diagonal shift still to add — identity tasks, the null-space objective's ρ^k, λ —, z of the
             null-space objective or ``None`` — it still has to be subtracted as ρ^k z —, λ).
         """
-        n = robot.nv
-        if self._P is None or self._q is None or self._P.shape[0] != n:
-            self._P, self._q = np.empty((n, n)), np.empty(n)
-            self._diag = self._P.reshape(-1)[:: n + 1]  # a view on P's diagonal
+        n = robot._nv
+        P = self._P
+        q = self._q
+        if P is None or q is None or P.shape[0] != n:
+            P, q = self._P, self._q = np.empty((n, n)), np.empty(n)
+            self._diag = P.reshape(-1)[:: n + 1]  # a view on P's diagonal
             self._no_rows, self._no_rhs = np.zeros((0, n)), np.zeros(0)
-        P: np.ndarray = self._P
-        q: np.ndarray = self._q
-        P.fill(0.0)
-        q.fill(0.0)
-        lam = shift = self._lambda(plan, terms)
+        lam = shift = self.damping * plan.last_scale  # λ (``_lambda``), its first term inlined
+        if self.lm_damping:
+            lam = shift = self._lambda(plan, terms)
+        fresh = False  # P and q zeroed (by the first task's compiled update, or here)
         for i, scale, identity in plan.tasks:
             term = terms[i]
             w = scale * term.weight
             if identity:
+                if not fresh:
+                    P.fill(0.0)
+                    q.fill(0.0)
+                    fresh = True
                 shift += w
                 q -= w * term.v
             else:
-                K.gram_update(P, q, term.J, term.v, w)  # P += w JᵀJ, q −= w Jᵀv in one compiled call
+                K.gram_update(P, q, term.J, term.v, w, not fresh)  # P += w JᵀJ, q −= w Jᵀv in one compiled call
+                fresh = True
+        if not fresh:
+            P.fill(0.0)
+            q.fill(0.0)
         for sub, scale in plan.targets:
             eta, v, _ = sub.row(robot)
             w = scale * sub.weight
@@ -220,15 +229,14 @@ class WeightedQPResolver(QPResolverBase):
         t1 = time.perf_counter()
         limits = self.limits
         prev = limits.previous(self._dq_prev)
-        n = robot.nv
-        out = np.empty((7, n))
+        out = np.empty((7, robot._nv))
         inside = K.wqp_free_step(
             self._P,
             self._q,
             shift,
             _NO_Z if z is None else z,
             plan.null_scale,
-            robot.q.reshape(1, -1),
+            robot.q,
             *limits.kernel_args(robot),
             float(dt),
             prev,
