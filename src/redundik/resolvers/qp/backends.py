@@ -298,7 +298,12 @@ def first_run_cost() -> dict[str, float]:
 
 
 class DaqpBackend(Backend):
-    """daqp's native API: blower ≤ [I; G; A] x ≤ bupper with bounds as the first (simple) rows, equalities sensed."""
+    """daqp's native API: blower ≤ [I; G; A] x ≤ bupper with bounds as the first (simple) rows, equalities sensed.
+
+    A bounds-only QP of at least ``round(SPLIT_MIN_SAVING ** (1/3))`` variables with separable ones is split first
+    (:meth:`_solve_split`). The split's work buffers belong to the instance: one instance solves one QP at a time
+    (as a resolver steps one robot at a time; give each thread its own resolver, hence its own backend).
+    """
 
     name = "daqp"
 
