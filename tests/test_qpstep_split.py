@@ -7,10 +7,12 @@ import numpy as np
 import pytest
 
 from redundik.errors import SolverError
-from redundik.resolvers.qp.backends import SPLIT_MIN_SAVING, DaqpBackend, finite, split_separable
+from redundik.resolvers.qp.backends import SPLIT_MIN_SAVING, DaqpBackend, finite, split_kernel
 from redundik.resolvers.qp.problem import QPProblem
 
 pytest.importorskip("daqp")
+
+split_separable = split_kernel()  # the compiled kernel
 
 
 def whole() -> DaqpBackend:

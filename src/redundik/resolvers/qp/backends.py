@@ -33,9 +33,10 @@ import importlib.util
 import math
 import time
 from abc import ABC, abstractmethod
+from collections.abc import Callable
+from functools import lru_cache
 from typing import Any
 
-import numba as nb
 import numpy as np
 
 from redundik.errors import SolverError
@@ -221,11 +222,11 @@ def _writable(a: np.ndarray) -> np.ndarray:
 SPLIT_MIN_SAVING = 11000
 
 
-@nb.njit(cache=True, nogil=True)
 def split_separable(
     P: np.ndarray, q: np.ndarray, lb: np.ndarray, ub: np.ndarray, min_saving: int, work: np.ndarray, idx: np.ndarray
 ) -> tuple[int, int]:
-    """The bounds-only QP min ½xᵀPx + qᵀx s.t. lb ≤ x ≤ ub split into its separable variables and the rest.
+    """The bounds-only QP min ½xᵀPx + qᵀx s.t. lb ≤ x ≤ ub split into its separable variables and the rest
+    (compiled by :func:`split_kernel`; this is its source, run as Python only by that function's tests).
 
     A variable i is separable when row and column i of P are zero off the diagonal and P_ii > 0: its part of the QP
     is then min ½P_ii x_i² + q_i x_i on [lb_i, ub_i], solved exactly by x_i = clip(−q_i/P_ii, lb_i, ub_i), whatever
@@ -287,13 +288,22 @@ def split_separable(
     return nc, clipped
 
 
+@lru_cache(maxsize=1)
+def split_kernel() -> Callable[..., tuple[int, int]]:
+    """:func:`split_separable` compiled by numba (on first use, cached on disk: numba loads when a split is first
+    tried, not when redundik is imported)."""
+    import numba
+
+    return numba.njit(cache=True, nogil=True)(split_separable)
+
+
 def first_run_cost() -> dict[str, float]:
     """Seconds :func:`split_separable` takes on its first call in this process (JIT compile, or loading numba's
     on-disk cache); later calls are the steady-state cost (≈ 1 µs)."""
     P = np.diag([2.0, 1.0, 1.0])
     P[1, 2] = P[2, 1] = 0.5
     t0 = time.perf_counter()
-    split_separable(P, np.ones(3), -np.ones(3), np.ones(3), 0, np.empty((7, 3)), np.empty(3, dtype=np.int64))
+    split_kernel()(P, np.ones(3), -np.ones(3), np.ones(3), 0, np.empty((7, 3)), np.empty(3, dtype=np.int64))
     return {"split_separable": time.perf_counter() - t0}
 
 
@@ -314,6 +324,7 @@ class DaqpBackend(Backend):
         self.iter_limit, self.primal_tol = int(iter_limit), float(primal_tol)
         #: Smallest n of a bounds-only QP that is tested for separable variables (n³ ≥ SPLIT_MIN_SAVING).
         self._split_min_n = round(SPLIT_MIN_SAVING ** (1 / 3))
+        self._split_kernel: Callable[..., tuple[int, int]] | None = None
         self._split_work: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._split_cache: dict[tuple[int, int], tuple[np.ndarray, ...]] = {}
 
@@ -347,8 +358,11 @@ class DaqpBackend(Backend):
         n = problem.q.shape[0]
         buffers = self._split_work.get(n)
         work, idx = self._split_views(n, 0)[:2] if buffers is None else buffers
+        kernel = self._split_kernel
+        if kernel is None:
+            kernel = self._split_kernel = split_kernel()
         try:
-            nc, clipped = split_separable(problem.P, problem.q, problem.lb, problem.ub, SPLIT_MIN_SAVING, work, idx)
+            nc, clipped = kernel(problem.P, problem.q, problem.lb, problem.ub, SPLIT_MIN_SAVING, work, idx)
         except Exception:  # data numba cannot type (an object array): the whole problem's solve deals with it
             return None
         if nc < 0:
