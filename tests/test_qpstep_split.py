@@ -198,3 +198,17 @@ def test_the_template_still_checks_a_subclass_of_the_daqp_backend() -> None:
         with pytest.raises(SolverError, match="no finite solution of size 24"):
             WeightedQPResolver(backend=Broken(x))._solve_qp(prob)
     assert WeightedQPResolver()._solve_qp(prob).x.shape == (24,)
+
+
+def test_the_split_of_read_only_and_strided_data_is_the_whole_problems() -> None:
+    """A batch's problems come in read-only rows of broadcast arrays, others in strided views: the split copies them
+    as daqp would need them and gives the whole problem's answer and iterations."""
+    rng = np.random.default_rng(7)
+    prob = separable_problem(rng, 30, 9)
+    P = prob.P.copy()
+    P.setflags(write=False)
+    lb2, ub2 = np.repeat(prob.lb, 2), np.repeat(prob.ub, 2)
+    odd = QPProblem(P, prob.q, prob.G, prob.h, prob.A, prob.b, lb2[::2], ub2[::2], "views")
+    a, b = DaqpBackend().solve(odd), whole().solve(prob)
+    np.testing.assert_allclose(a.x, b.x, rtol=0.0, atol=1e-12)
+    assert a.iterations == b.iterations

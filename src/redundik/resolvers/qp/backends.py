@@ -362,7 +362,10 @@ class DaqpBackend(Backend):
         if kernel is None:
             kernel = self._split_kernel = split_kernel()
         try:
-            nc, clipped = kernel(problem.P, problem.q, problem.lb, problem.ub, SPLIT_MIN_SAVING, work, idx)
+            # (writable C-ordered arrays, as daqp needs them anyway: the kernel is then always called with the types
+            # it was compiled for — a read-only or strided view would compile another specialisation mid-loop)
+            P, q, lb, ub = _writable(problem.P), _writable(problem.q), _writable(problem.lb), _writable(problem.ub)
+            nc, clipped = kernel(P, q, lb, ub, SPLIT_MIN_SAVING, work, idx)
         except Exception:  # data numba cannot type (an object array): the whole problem's solve deals with it
             return None
         if nc < 0:
