@@ -23,7 +23,7 @@ from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, Resolver, StepResult, nonfinite_sources
 from redundik.resolvers.linalg import K, pseudo_inverse
 from redundik.resolvers.pinv import check_damping_options, main_system
-from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, finite, make_backend
+from redundik.resolvers.qp.backends import CHECKED_ANSWERS, DEFAULT_BACKEND, Backend, finite, make_backend
 from redundik.resolvers.qp.limits import JointLimits, LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
 from redundik.tasks.base import TaskTerm
@@ -242,7 +242,7 @@ class QPResolverBase(Resolver):
             x = self._closed_form(robot, stack, terms)
             fallback = f"{self.name} failed, damped closed form clipped to the limits: {exc}"
             diag.backend = "fallback"
-        if not math.isfinite(x @ x) and not np.isfinite(x).all():  # the dot first: one call when all is well
+        if not finite(x):  # (one dot product when all is well)
             bad = nonfinite_sources(terms)
             fallback = f"non-finite q̇ (from {', '.join(bad) or 'the solver'}): q̇ = 0 clipped to the limits"
             x = np.zeros(robot.nv)
@@ -282,7 +282,9 @@ class QPResolverBase(Resolver):
         return None
 
     def _solve_qp(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
-        """The backend's answer; anything it raises (also a user backend's own exception) becomes SolverError."""
+        """The backend's answer; anything it raises (also a user backend's own exception) becomes SolverError, and
+        an answer that is not a finite x of size n does too (tested here unless the backend is one of
+        :data:`~redundik.resolvers.qp.backends.CHECKED_ANSWERS`, which test it themselves)."""
         try:
             sol = self.backend.solve(problem, warm)
         except SolverError:
@@ -292,8 +294,12 @@ class QPResolverBase(Resolver):
                 f"{self.backend.name} raised {type(exc).__name__} on {problem.label}: {exc}", problem
             ) from exc
         try:
-            x = np.asarray(sol.x, dtype=float)
-            ok = x.shape == (problem.n,) and finite(x)
+            x = sol.x
+            if type(sol) is QPSolution and type(self.backend) in CHECKED_ANSWERS:
+                return sol  # (that backend checked x itself: finite, float, of shape (n,))
+            if type(x) is not np.ndarray or x.dtype != np.float64:  # (a built-in backend's x already is one)
+                x = np.asarray(x, dtype=float)
+            ok = x.shape == (problem.q.shape[0],) and finite(x)
         except (TypeError, ValueError, AttributeError):  # not a solution record, or not an array of numbers
             ok = False
         if not ok:
