@@ -215,91 +215,26 @@ def _writable(a: np.ndarray) -> np.ndarray:
     return a if flags.writeable and flags.c_contiguous else np.array(a, dtype=float, order="C")
 
 
-#: Smallest n³ − n_c³ (n variables, n_c of them coupled) for which a bounds-only QP is split (:func:`split_separable`)
-#: before daqp solves it. daqp's setup — a Cholesky factorisation of P and the inverse of its factor, ≈ 0.27 ns per
-#: n³ on this machine (15 µs of its 16 µs on Talos's 38-variable ``wqp`` QP) — is what the split saves; the split
-#: costs ≈ 1.5 µs (one compiled call and one scatter), i.e. ≈ 5 500 units of n³: below twice that it does not pay.
+#: Smallest n³ − n_c³ (n variables, n_c of them coupled) for which a bounds-only QP is split
+#: (:func:`redundik.resolvers.kernels.split_separable`) before daqp solves it. daqp's setup — a Cholesky
+#: factorisation of P and the inverse of its factor, ≈ 0.27 ns per n³ on this machine (15 µs of its 16 µs on Talos's
+#: 38-variable ``wqp`` QP) — is what the split saves; the split costs ≈ 1.5 µs (one compiled call and one scatter),
+#: i.e. ≈ 5 500 units of n³: below twice that it does not pay.
 SPLIT_MIN_SAVING = 11000
-
-
-def split_separable(
-    P: np.ndarray, q: np.ndarray, lb: np.ndarray, ub: np.ndarray, min_saving: int, work: np.ndarray, idx: np.ndarray
-) -> tuple[int, int]:
-    """The bounds-only QP min ½xᵀPx + qᵀx s.t. lb ≤ x ≤ ub split into its separable variables and the rest
-    (compiled by :func:`split_kernel`; this is its source, run as Python only by that function's tests).
-
-    A variable i is separable when row and column i of P are zero off the diagonal and P_ii > 0: its part of the QP
-    is then min ½P_ii x_i² + q_i x_i on [lb_i, ub_i], solved exactly by x_i = clip(−q_i/P_ii, lb_i, ub_i), whatever
-    the other variables do (the KKT conditions decouple). (Taskless joints under a posture task — Talos's legs, head
-    and grippers under two hand tasks — are separable: 16 of its 38 variables.)
-
-    Outputs, for n_c coupled variables: ``work`` (4 + n, n): row 0 the separable x_i (the coupled entries are left
-    for the caller), rows 1–3 from column 0 on q_c, lb_c, ub_c, and rows 4 … as one C-ordered block from its first
-    element on P_cc (n_c, n_c); ``idx`` (n,): the coupled variables' indices in its first n_c entries.
-
-    Returns:
-        (n_c, the number of separable variables clipped onto a bound); n_c = −1 when the split is not made: a
-        separable variable with non-finite or NaN data, an empty interval (lb_i > ub_i: the backend reports the
-        infeasibility itself) or an unconstrained optimum −q_i/P_ii that overflows; no coupled variable (a
-        diagonal P, which daqp itself detects); or a saving n³ − n_c³ below ``min_saving``.
-    """
-    n = q.shape[0]
-    nc = 0
-    for i in range(n):
-        d = P[i, i]
-        coupled = not d > 0.0
-        if not coupled:
-            for j in range(n):
-                if j != i and (P[i, j] != 0.0 or P[j, i] != 0.0):
-                    coupled = True
-                    break
-        if coupled:
-            idx[nc] = i
-            nc += 1
-        elif not (math.isfinite(d) and math.isfinite(q[i])) or math.isnan(lb[i]) or math.isnan(ub[i]) or lb[i] > ub[i]:
-            return -1, 0
-    if nc == 0 or nc == n or n * n * n - nc * nc * nc < min_saving:
-        return -1, 0
-    x = work[0]
-    clipped = 0
-    k = 0
-    for i in range(n):
-        if k < nc and idx[k] == i:
-            k += 1
-            continue
-        v = -q[i] / P[i, i]
-        if not math.isfinite(v):  # (a tiny P_ii: the whole problem's solve decides)
-            return -1, 0
-        if v < lb[i]:
-            v = lb[i]
-            clipped += 1
-        elif v > ub[i]:
-            v = ub[i]
-            clipped += 1
-        x[i] = v
-    Pc = work[4:].reshape(-1)
-    for a in range(nc):
-        i = idx[a]
-        work[1, a] = q[i]
-        work[2, a] = lb[i]
-        work[3, a] = ub[i]
-        for c in range(nc):
-            Pc[a * nc + c] = P[i, idx[c]]
-    return nc, clipped
 
 
 @lru_cache(maxsize=1)
 def split_kernel() -> Callable[..., tuple[int, int]]:
-    """:func:`split_separable` compiled by numba (on first use, cached on disk: numba loads when a split is first
-    tried, not when redundik is imported)."""
-    import numba
+    """The compiled split of a bounds-only QP, :func:`redundik.resolvers.kernels.split_separable` (imported on first
+    use: numba loads when a split is first tried, not when redundik is imported)."""
+    from redundik.resolvers.kernels import split_separable
 
-    return numba.njit(cache=True, nogil=True)(split_separable)
+    return split_separable
 
 
 def first_run_cost() -> dict[str, float]:
-    """Seconds :func:`split_separable` takes on its first call in this process (JIT compile, or loading numba's
-    on-disk cache); later calls are the steady-state cost (≈ 1 µs)."""
+    """Seconds the split kernel (:func:`split_kernel`) takes on its first call in this process (JIT compile, or
+    loading numba's on-disk cache); later calls are the steady-state cost (≈ 1 µs)."""
     P = np.diag([2.0, 1.0, 1.0])
     P[1, 2] = P[2, 1] = 0.5
     t0 = time.perf_counter()
@@ -329,9 +264,9 @@ class DaqpBackend(Backend):
         self._split_cache: dict[tuple[int, int], tuple[np.ndarray, ...]] = {}
 
     def _split_views(self, n: int, nc: int) -> tuple[np.ndarray, ...]:
-        """The work buffers of :func:`split_separable` for n variables and the views daqp reads for n_c coupled
-        ones (x, q_c, lb_c, ub_c, P_cc, the coupled indices, daqp's empty constraint matrix and its sense), cached
-        by (n, n_c) — both are the same step after step."""
+        """The work buffers of the split kernel (:func:`split_kernel`) for n variables and the views daqp reads for
+        n_c coupled ones (x, q_c, lb_c, ub_c, P_cc, the coupled indices, daqp's empty constraint matrix and its
+        sense), cached by (n, n_c) — both are the same step after step."""
         views = self._split_cache.get((n, nc))
         if views is None:
             work, idx = self._split_work.get(n, (None, None))
@@ -345,7 +280,7 @@ class DaqpBackend(Backend):
         return views
 
     def _solve_split(self, problem: QPProblem) -> QPSolution | None:
-        """A bounds-only QP with separable variables (:func:`split_separable`): daqp on the coupled ones, the others
+        """A bounds-only QP with separable variables (:func:`split_kernel`): daqp on the coupled ones, the others
         in closed form; ``None`` when the split is not made or daqp does not solve the coupled QP (the caller then
         solves the whole problem, with every retry, as without the split).
 
