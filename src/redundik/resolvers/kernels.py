@@ -556,33 +556,32 @@ def _spd_solve_full(P: np.ndarray, q: np.ndarray, x: np.ndarray, buf: np.ndarray
             return False
         _cholesky_solve_neg(L, q, x)
         return _all_finite(x)
-    for j in range(n):  # (only the lower triangle is written and read)
+    L = buf[o : o + n * n].reshape((n, n))  # (only its lower triangle is written and read)
+    y = buf[n:o]
+    for j in range(n):
         s = P[j, j]
-        rj = o + j * n
         for k in range(j):
-            s -= buf[rj + k] * buf[rj + k]
+            s -= L[j, k] * L[j, k]
         if not (s > 0.0):
             x[:] = 0.0
             return False
         ljj = math.sqrt(s)
-        buf[rj + j] = ljj
+        L[j, j] = ljj
         for i in range(j + 1, n):
-            ri = o + i * n
             t = P[i, j]
             for k in range(j):
-                t -= buf[ri + k] * buf[rj + k]
-            buf[ri + j] = t / ljj
+                t -= L[i, k] * L[j, k]
+            L[i, j] = t / ljj
     for i in range(n):  # L y = −q
-        ri = o + i * n
         t = -q[i]
         for k in range(i):
-            t -= buf[ri + k] * buf[n + k]
-        buf[n + i] = t / buf[ri + i]
+            t -= L[i, k] * y[k]
+        y[i] = t / L[i, i]
     for i in range(n - 1, -1, -1):  # Lᵀ x = y
-        t = buf[n + i]
+        t = y[i]
         for k in range(i + 1, n):
-            t -= buf[o + k * n + i] * x[k]
-        x[i] = t / buf[o + i * n + i]
+            t -= L[k, i] * x[k]
+        x[i] = t / L[i, i]
     return _all_finite(x)
 
 
@@ -631,38 +630,37 @@ def _spd_solve_split(P: np.ndarray, q: np.ndarray, nc: int, x: np.ndarray, buf: 
         for a in range(nc):
             x[int(buf[a])] = xc[a]
         return True
-    for b in range(nc):  # (only the lower triangle is written and read)
+    L = buf[o : o + nc * nc].reshape((nc, nc))  # (only its lower triangle is written and read)
+    y = buf[n : n + nc]
+    for b in range(nc):
         j = int(buf[b])
-        rb = o + b * nc
         s = P[j, j]
         for k in range(b):
-            s -= buf[rb + k] * buf[rb + k]
+            s -= L[b, k] * L[b, k]
         if not (s > 0.0):
             return False
         lbb = math.sqrt(s)
-        buf[rb + b] = lbb
+        L[b, b] = lbb
         for a in range(b + 1, nc):
-            ra = o + a * nc
             t = P[int(buf[a]), j]
             for k in range(b):
-                t -= buf[ra + k] * buf[rb + k]
-            buf[ra + b] = t / lbb
+                t -= L[a, k] * L[b, k]
+            L[a, b] = t / lbb
     for a in range(nc):  # L y = −q_c
-        ra = o + a * nc
         t = -q[int(buf[a])]
         for k in range(a):
-            t -= buf[ra + k] * buf[n + k]
-        buf[n + a] = t / buf[ra + a]
+            t -= L[a, k] * y[k]
+        y[a] = t / L[a, a]
     for a in range(nc - 1, -1, -1):  # Lᵀ x_c = y, in place
-        t = buf[n + a]
+        t = y[a]
         for k in range(a + 1, nc):
-            t -= buf[o + k * nc + a] * buf[n + k]
-        t /= buf[o + a * nc + a]
+            t -= L[k, a] * y[k]
+        t /= L[a, a]
         if not math.isfinite(t):
             return False
-        buf[n + a] = t
+        y[a] = t
     for a in range(nc):
-        x[int(buf[a])] = buf[n + a]
+        x[int(buf[a])] = y[a]
     return True
 
 
@@ -673,9 +671,10 @@ def spd_solve_into(P: np.ndarray, q: np.ndarray, x: np.ndarray) -> bool:
 
     The separable coordinates of P (:func:`coupled_coordinates`) are solved in closed form and only the coupled
     block is factored (:func:`_spd_solve_split`: the same x, bit for bit, for n_c ≤ :data:`CHOLESKY_LOOPS_MAX`;
-    measured on Talos's ``wqp`` step, 22 of 38 coordinates coupled, detection included: 5.2 → 2.5 µs); when that
-    solve fails, or no coordinate is separable, the whole of P is factored, so that every failure (non-finite
-    data, P not SPD) is the full factorisation's, x included.
+    measured per call on the benchmark's ``wqp`` steps, detection included: Talos, 22 of 38 coordinates coupled,
+    5.2 → 2.4 µs; the Panda, 7 of 9, 0.38 → 0.34 µs; a dense P (the snake, n = 160) unchanged); when that solve
+    fails, or no coordinate is separable, the whole of P is factored, so that every failure (non-finite data, P not
+    SPD) is the full factorisation's, x included.
 
     Unblocked loops up to :data:`CHOLESKY_LOOPS_MAX` coordinates (measured 6.2 vs 9.4 µs at n = 38, 30 vs 21 at
     n = 64), LAPACK ``dpotrf`` (``np.linalg.cholesky``) above.
