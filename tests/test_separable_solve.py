@@ -218,3 +218,31 @@ def test_daqps_split_uses_the_same_test_on_both_triangles() -> None:
     nc, _ = kernels.split_separable(P, q, lb, ub, 0, work, idx)
     assert nc == 4 and list(idx[:4]) == [3, 7, 10, 12]
     assert coupled(P, True) == [10, 12]
+
+
+def test_talos_wqp_steps_solve_as_the_full_factorisation() -> None:
+    """The benchmark's Talos ``wqp`` QPs (two gripper tasks, posture, limits): 16 of 38 coordinates separable, and
+    x on each step the full factorisation's, bit for bit."""
+    bench = pytest.importorskip("benchmarks.bench.scenarios")
+    from redundik.resolvers.registry import make_resolver
+
+    sc = bench.SCENARIOS["talos"]()
+    robot = sc.robot()
+    stack = sc.stack("wqp", robot)
+    res = make_resolver("wqp")
+    res.fuse = False  # (the per-task path keeps its P and q, shifted, in res._P and res._q)
+    q = sc.q0.copy()
+    robot.update(q)
+    stack.reset(robot)
+    res.reset()
+    res.check(robot, stack)
+    for k in range(30):
+        out = res.step(robot, stack, q, k * sc.dt, sc.dt)
+        q = robot.integrate(q, out.dq, sc.dt)
+        if k % 5:
+            continue
+        P, qv = res._P.copy(), res._q.copy()
+        assert len(coupled(P, True)) == 22
+        x = np.empty(38)
+        assert kernels.spd_solve_into(P, qv, x)
+        np.testing.assert_array_equal(x, reference_full(P, qv)[0])

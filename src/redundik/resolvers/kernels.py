@@ -15,6 +15,9 @@ What lives here (nothing else in redundik computes these; the tests hold them to
 * :func:`solve_factored` / :func:`null_project_factored` — J⁺_λ b and (I − V_r V_rᵀ) z from those factors;
 * :func:`closed_form` — the chapter's q̇ = J⁺V + (I − J⁺J)z (eq. 5.8) in one call (``pinv``'s step);
 * :func:`closed_form_batch` — the same over N problems, the body of :mod:`redundik.resolvers.batch`;
+* :func:`coupled_coordinates` — the test that separates P's coupled coordinates from those with no off-diagonal
+  entry (their optimum is −q_i/P_ii), used by :func:`spd_solve_into` (x = −P⁻¹q, ``wqp``'s unconstrained optimum,
+  with only the coupled block factored by Cholesky) and by :func:`split_separable` (daqp's bounds-only QPs split);
 * :func:`spd_solve_batch` — x = −P⁻¹q by Cholesky for N problems (``wqp``'s unconstrained optimum), with a flag
   per problem that says whether the optimum lies in its box lb ≤ x ≤ ub.
 """
