@@ -42,6 +42,8 @@ class Record:
     violation: list[float] = field(default_factory=list)
     failures: int = 0
     qp_steps: int = 0
+    #: Per step, whether the resolver called its QP backend (False for the peers and the closed forms).
+    qp_flags: list[bool] = field(default_factory=list)
     first_failure: str | None = None
     fallbacks: int = 0
     first_fallback: str | None = None
@@ -86,6 +88,7 @@ class Runner(ABC):
         self.scenario = scenario
         self.metrics = Metrics(scenario)
         self.record = Record()
+        self._qp_now = False  # the step being recorded called a QP backend
         self.k = 0  # step within the episode
         self.q = scenario.q0.copy()
 
@@ -121,6 +124,8 @@ class Runner(ABC):
         """Record one step taken at time t from self.q to ``q_next`` in ``elapsed`` ns (the common ruler)."""
         rec = self.record
         rec.step_ns.append(elapsed)
+        rec.qp_flags.append(self._qp_now)
+        self._qp_now = False
         if float(np.max(np.abs(q_next - self.q), initial=0.0)) <= FROZEN_STEP:
             rec.frozen += 1  # the robot did not move this step (every scenario's references move)
         rec.task_error.append(self.metrics.task_error(self.q, t))
@@ -172,6 +177,7 @@ class RedundikRunner(Runner):
         t1 = _ns()
         if res.info.get("qp", 0):  # wqp/hqp: a backend was called (0 = closed-form shortcut, no active constraint)
             self.record.qp_steps += 1
+            self._qp_now = True
         if res.fallback is not None:
             self.record.fallbacks += 1
             if self.record.first_fallback is None:

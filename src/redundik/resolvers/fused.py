@@ -92,6 +92,9 @@ class FusedPlan:
         self.tail: tuple[float, ...] = ()
         self.jw = np.zeros((6, 0))  # data.J: the joint Jacobians, world frame (a view on Pinocchio's memory)
         self.poses = np.zeros((0, 12))  # data.oMf: the frames' placements (a view on Pinocchio's memory)
+        self.frame_checks: list[tuple[FrameTask, Any, Any]] = []  # what ``current`` compares, member by member
+        self.joint_checks: list[tuple[Task, np.ndarray]] = []
+        self.gradient_checks: list[tuple[GradientSubtask, Form]] = []
         self.qp = False  # built for wqp (weights, joint tasks at a level) rather than pinv
 
     # ------------------------------------------------------------------ building
@@ -165,6 +168,9 @@ class FusedPlan:
         plan.qp = scales is not None
         plan._pack(robot, iq, level_forms, identity, set(layout.main), index)
         plan.data = robot.data
+        plan.frame_checks = list(zip(plan.frames, plan.trajs, plan.kparams, strict=True))
+        plan.joint_checks = list(zip(plan.level_joints + plan.nulls, plan.targets + plan.null_targets, strict=True))
+        plan.gradient_checks = list(zip(plan.gradients, plan.gradient_forms, strict=True))
         return plan
 
     def _pack(
@@ -250,21 +256,17 @@ class FusedPlan:
         same; False: the stack must be planned again."""
         if robot.data is not self.data:
             return False
-        for k, task in enumerate(self.frames):
-            traj = task.trajectory
-            if traj is not self.trajs[k] or traj._kparams is not self.kparams[k] or task._pending_position is not None:
+        for task, traj, kparams in self.frame_checks:
+            now = task.trajectory
+            if now is not traj or now._kparams is not kparams or task._pending_position is not None:
                 return False
-        for k, joint in enumerate(self.level_joints):
+        for joint, target in self.joint_checks:
             form = joint.joint_form(robot)
-            if form is None or form[1] is not self.targets[k]:
+            if form is None or form[1] is not target:
                 return False
-        for k, joint in enumerate(self.nulls):
-            form = joint.joint_form(robot)
-            if form is None or form[1] is not self.null_targets[k]:
-                return False
-        for k, sub in enumerate(self.gradients):
+        for sub, (w, c) in self.gradient_checks:
             lin = sub.potential.linear_gradient(robot)
-            if lin is None or lin[0] is not self.gradient_forms[k][0] or lin[1] is not self.gradient_forms[k][1]:
+            if lin is None or lin[0] is not w or lin[1] is not c:
                 return False
         return True
 
