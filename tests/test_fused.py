@@ -232,3 +232,50 @@ def test_frame_jacobian_from_joint_jacobians_is_pinocchios() -> None:
             frame_jacobian_lwa(data.J, np.array(data.oMf[fid].translation), columns, out)
             ref = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
             np.testing.assert_allclose(out, ref, rtol=0, atol=1e-15)
+
+
+def test_gain_check_still_sees_run_time_changes() -> None:
+    """The K·dt ≤ 2 check is skipped while no gain moved; a gain set between ticks (or a smaller dt) is still refused,
+    and a task whose ``gain`` is its own property is read every step."""
+    from redundik.errors import ResolverError
+    from redundik.tasks.base import TaskTerm
+
+    robot = _panda()
+    q = _q0(robot)
+    robot.update(q)
+    hand = _hand(Circle(0.05, 1.5, plane=("y", "z")))
+    stack = TaskStack([hand, PostureTask(gain=1.0)])
+    stack.reset(robot)
+    res = rs.make_resolver("wqp")
+    for k in range(5):
+        res.step(robot, stack, q, k * DT, DT)
+    hand.gain = 250.0  # K·dt = 2.5
+    with pytest.raises(ResolverError, match="task 'panda_hand' has gain 250"):
+        res.step(robot, stack, q, 0.05, DT)
+    hand.gain = 150.0
+    res.step(robot, stack, q, 0.06, DT)
+    with pytest.raises(ResolverError, match="K·dt"):
+        res.step(robot, stack, q, 0.07, 0.02)  # the same gain, a larger dt: K·dt = 3
+
+    class Dynamic(PostureTask):
+        value = 1.0
+
+        @property  # type: ignore[override]
+        def gain(self) -> float:
+            return self.value
+
+        @gain.setter
+        def gain(self, v: float) -> None:
+            self.value = v
+
+        def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
+            return super().evaluate(robot, t)
+
+    dyn = Dynamic()
+    stack2 = TaskStack([_hand(Hold()), dyn])
+    stack2.reset(robot)
+    res2 = rs.make_resolver("pinv")
+    res2.step(robot, stack2, q, 0.0, DT)
+    dyn.value = 500.0  # not through Task's setter: still seen
+    with pytest.raises(ResolverError, match="has gain 500"):
+        res2.step(robot, stack2, q, 0.01, DT)

@@ -95,6 +95,7 @@ class FusedPlan:
         self.frame_checks: list[tuple[FrameTask, Any, Any]] = []  # what ``current`` compares, member by member
         self.joint_checks: list[tuple[Task, np.ndarray]] = []
         self.gradient_checks: list[tuple[GradientSubtask, Form]] = []
+        self.slots: list[tuple[int, Any, int, int, int, Any]] = []  # per stack task, for ``terms``
         self.qp = False  # built for wqp (weights, joint tasks at a level) rather than pinv
 
     # ------------------------------------------------------------------ building
@@ -246,6 +247,7 @@ class FusedPlan:
         for slot, chunk in zip(range(16, 20), chunks, strict=True):
             ints[slot] = len(floats)
             floats += chunk
+        self._slots(robot, level_forms, [int(x) for x in starts], [int(x) for x in jstarts])
         self.ints = np.array(ints, dtype=np.int64)
         self.floats = np.array(floats, dtype=float)
         self.refs = np.zeros((K, REF))
@@ -312,42 +314,43 @@ class FusedPlan:
         """The step's task terms in stack order: what every task's ``evaluate`` would have returned."""
         out: list[TaskTerm] = []
         e_all, v_all = ev[0], ev[1]
-        starts = self.ints[self.ints[8] : self.ints[8] + len(self.frames) + 1]
-        J = len(self.level_joints)
-        jstarts = self.ints[self.ints[11] : self.ints[11] + J + 1]
-        mf = int(starts[-1])
-        K = len(self.frames)
         weights = self.weights
+        for kind, task, k, a, b, extra in self.slots:
+            if kind == 0:  # a frame task: its rows of the frame Jacobian (``extra``: the selected rows, or None)
+                Jk = Jf[k] if extra is None else Jf[k][extra]
+                out.append(TaskTerm(task.name, Jk, v_all[a:b], e_all[a:b], weights[k]))
+            elif kind == 1:  # a joint-space task of a level (``extra``: its rows of the identity)
+                out.append(TaskTerm(task.name, extra, v_all[a:b], e_all[a:b], weights[k]))
+            else:  # a regularisation task: its e from the step's q, as its evaluate computes it
+                sel, target = task.joint_form(robot)
+                e = robot.difference(q, target)[sel]
+                out.append(TaskTerm(task.name, extra, task.gain * e, e, task.weight))
+        return out
+
+    def _slots(self, robot: RobotModel, level_forms: list[Form], starts: list[int], jstarts: list[int]) -> None:
+        """What :meth:`terms` needs per stack task, laid out once: (kind, task, weight index, first row, end row,
+        rows or identity rows)."""
+        mf = starts[-1]
+        K = len(self.frames)
+        null_forms = [task.joint_form(robot) for task in self.nulls]
+        slots: list[tuple[int, Any, int, int, int, Any]] = []
         for kind, k in self.order:
             if kind == "f":
                 task = self.frames[k]
-                a, b = int(starts[k]), int(starts[k + 1])
-                Jk = Jf[k] if task._all_rows else Jf[k][task.rows]
-                out.append(TaskTerm(task.name, Jk, v_all[a:b], e_all[a:b], weights[k]))
+                slots.append((0, task, k, starts[k], starts[k + 1], None if task._all_rows else task.rows))
             elif kind == "j":
-                joint = self.level_joints[k]
-                a, b = mf + int(jstarts[k]), mf + int(jstarts[k + 1])
-                sel = joint.joint_form(robot)[0]  # type: ignore[index]
-                out.append(TaskTerm(joint.name, _identity_rows(robot.nv, sel), v_all[a:b], e_all[a:b], weights[K + k]))
-            else:  # a regularisation task: its e from the step's q, as its evaluate computes it
-                joint = self.nulls[k]
-                sel, target = joint.joint_form(robot)  # type: ignore[misc]
-                e = robot.difference(q, target)[sel]
-                out.append(TaskTerm(joint.name, _identity_rows(robot.nv, sel), joint.gain * e, e, joint.weight))
-        return out
-
-
-_ROWS: dict[tuple[int, bytes], np.ndarray] = {}
+                rows = _identity_rows(robot.nv, level_forms[k][0])
+                slots.append((1, self.level_joints[k], K + k, mf + jstarts[k], mf + jstarts[k + 1], rows))
+            else:
+                rows = _identity_rows(robot.nv, null_forms[k][0])  # type: ignore[index]
+                slots.append((2, self.nulls[k], -1, 0, 0, rows))
+        self.slots = slots
 
 
 def _identity_rows(n: int, sel: np.ndarray) -> np.ndarray:
-    """I[sel] (read-only, shared): the Jacobian of a joint-space task (I itself when sel is every coordinate)."""
-    key = (n, np.asarray(sel, dtype=np.int64).tobytes())
-    rows = _ROWS.get(key)
-    if rows is None:
-        rows = np.eye(n)[sel]
-        rows.setflags(write=False)
-        _ROWS[key] = rows
+    """I[sel] (read-only, built once per plan): the Jacobian of a joint-space task."""
+    rows = np.eye(n)[sel]
+    rows.setflags(write=False)
     return rows
 
 
