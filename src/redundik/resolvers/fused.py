@@ -405,3 +405,13 @@ class FusedStepResult(LazyStepResult):
     @property
     def task_error(self) -> float:
         return self.__dict__["_task_error"]
+
+
+def plan_of(resolver: object) -> FusedPlan | None:
+    """The fused plan a ``wqp`` or ``pinv`` resolver used at its last step (``None``: the per-task path)."""
+    plan = getattr(resolver, "_plan", None)
+    fused = getattr(plan, "fused", None) if plan is not None else None
+    if fused is None:
+        pair = getattr(resolver, "_fused", None)
+        fused = pair[1] if isinstance(pair, tuple) else None
+    return fused if isinstance(fused, FusedPlan) else None
