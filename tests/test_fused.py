@@ -43,7 +43,13 @@ def _fused_plan(resolver: rs.Resolver) -> object:
 
 
 def _compare(
-    make_stack, method: str, steps: int = 120, edit=None, fused_expected: bool = True, **options
+    make_stack,
+    method: str,
+    steps: int = 120,
+    edit=None,
+    fused_expected: bool = True,
+    fallbacks: list[str] | None = None,
+    **options,
 ) -> list[bool]:
     """Step a fused and a per-task copy on the fused copy's trajectory; q̇ and what the result reports must agree.
 
@@ -82,6 +88,8 @@ def _compare(
         scale = max(1.0, float(np.abs(b.dq).max()))
         np.testing.assert_allclose(a.dq, b.dq, rtol=0, atol=1e-12 * scale, err_msg=f"step {k}")
         assert a.fallback == b.fallback
+        if fallbacks is not None and a.fallback is not None:
+            fallbacks.append(a.fallback)
         assert a.task_error == pytest.approx(b.task_error, rel=1e-12, abs=1e-15)
         assert [t.name for t in a.terms] == [t.name for t in b.terms]
         for ta, tb in zip(a.terms, b.terms, strict=True):
@@ -279,3 +287,25 @@ def test_gain_check_still_sees_run_time_changes() -> None:
     dyn.value = 500.0  # not through Task's setter: still seen
     with pytest.raises(ResolverError, match="has gain 500"):
         res2.step(robot, stack2, q, 0.01, DT)
+
+
+def test_a_trajectory_that_turns_nan_falls_back_as_the_per_task_path_does() -> None:
+    """A user trajectory (sampled in Python, then handed to the compiled call) whose twist turns NaN: both paths
+    report the same fallback and return a finite q̇."""
+    from redundik.tasks.trajectory import Trajectory
+
+    class Glitch(Trajectory):
+        def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            twist = np.zeros(6)
+            if 0.195 < t < 0.255:
+                twist[1] = np.nan
+            return self._p0.copy(), self._R0, twist
+
+    def stack(robot: RobotModel) -> TaskStack:
+        return TaskStack([_hand(Glitch(), gain=5.0), PostureTask(gain=1.0)])
+
+    for method in ("wqp", "pinv"):
+        seen: list[str] = []
+        took = _compare(stack, method, steps=40, fused_expected=False, fallbacks=seen)
+        assert any(took[:15]), "the fused step took the user trajectory (sampled in Python)"
+        assert len(seen) == 6 and all(f.startswith("non-finite q̇ (from panda_hand)") for f in seen), seen

@@ -546,6 +546,8 @@ def _summarise(r: AnyRunner, warmup: int, defaults: dict[str, str]) -> CaseResul
         frozen_steps=rec.frozen,
         error_tolerance=sc.error_tolerance,
     )
+    if rec.step_ns:  # the first step of the process: the kernels' JIT compile or their load from numba's disk cache
+        case.extra["first_step_s"] = rec.step_ns[0] / 1e9
     flags = np.asarray(rec.qp_flags[warmup:], dtype=bool)
     if r.method in ("wqp", "hqp") and flags.shape == times.shape and flags.any():
         qp_t, free_t = times[flags], times[~flags]  # the two kinds of step: a bimodal time per step
