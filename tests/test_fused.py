@@ -309,3 +309,42 @@ def test_a_trajectory_that_turns_nan_falls_back_as_the_per_task_path_does() -> N
         took = _compare(stack, method, steps=40, fused_expected=False, fallbacks=seen)
         assert any(took[:15]), "the fused step took the user trajectory (sampled in Python)"
         assert len(seen) == 6 and all(f.startswith("non-finite q̇ (from panda_hand)") for f in seen), seen
+
+
+def test_fused_rate_window_agrees() -> None:
+    """Acceleration limits (the rate window around the previous q̇) reach the fused step's box."""
+
+    def stack(robot: RobotModel) -> TaskStack:
+        return TaskStack([_hand(Circle(0.06, 3.0, plane=("y", "z"))), PostureTask(gain=1.0)])
+
+    _compare(stack, "wqp", steps=100, limits={"acceleration": 20.0})
+
+
+@pytest.mark.parametrize("method", ["wqp", "pinv"])
+def test_benchmark_talos_fused_agrees(method: str) -> None:
+    """Talos (free-flyer base, two hands, a posture of the actuated joints, limits binding on a third of the
+    steps): the benchmark's stacks take the fused step and give the per-task path's q̇ and terms."""
+    from benchmarks.bench.runners import RedundikRunner
+    from benchmarks.bench.scenarios import SCENARIOS
+
+    runners = []
+    for fuse in (True, False):
+        r = RedundikRunner(SCENARIOS["talos"](), method, None, {})
+        r.resolver.fuse = fuse  # type: ignore[attr-defined]
+        runners.append(r)
+    fused, plain = runners
+    dt = fused.scenario.dt
+    fused_steps = 0
+    for k in range(150):
+        t = k * dt
+        a = fused.resolver.step(fused.robot, fused.stack, fused.q, t, dt)
+        b = plain.resolver.step(plain.robot, plain.stack, fused.q, t, dt)
+        np.testing.assert_allclose(a.dq, b.dq, rtol=0, atol=1e-11, err_msg=f"step {k}")
+        assert a.fallback == b.fallback and a.info.get("qp") == b.info.get("qp")
+        assert a.task_error == pytest.approx(b.task_error, rel=1e-11)
+        for ta, tb in zip(a.terms, b.terms, strict=True):
+            np.testing.assert_allclose(ta.J, tb.J, rtol=0, atol=1e-13)
+            np.testing.assert_allclose(ta.v, tb.v, rtol=0, atol=1e-11)
+        fused_steps += isinstance(_fused_plan(fused.resolver), FusedPlan)
+        fused.q = fused.robot.integrate(fused.q, a.dq, dt)
+    assert fused_steps >= 148
