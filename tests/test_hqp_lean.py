@@ -215,7 +215,7 @@ def test_hqp_kernels_report_their_first_run_cost() -> None:
     from redundik.resolvers import hqp_kernels
 
     cost = hqp_kernels.first_run_cost()
-    assert set(cost) == {"closed_cascade", "level_rows_ok", "level_qp_arrays"}
+    assert set(cost) == {"closed_cascade", "level_rows_ok", "level_qp_arrays", "clearance_into"}
     assert all(v >= 0.0 for v in cost.values())
 
 
