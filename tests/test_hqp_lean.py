@@ -263,7 +263,7 @@ def test_lean_gather_lays_out_the_rows_of_gather_rows_and_fill(mixed: bool) -> N
         robot.update(q)
         terms = stack.evaluate(robot, 0.1 * k)
         z, targets, bounds = lean.gather(robot, stack, terms, 0.01)
-        assert sum(type(b[1]) is not np.ndarray for b in bounds) == 3  # the lower bounds: written by gather itself
+        assert sum(type(b[1]) is slice for b in bounds) == 5  # every bound on a potential: written by rows_into
         rows = gather_rows(robot, stack, terms, layout, 0.01)
         ref.fill(rows)
         np.testing.assert_array_equal(lean.meta, ref.meta)
@@ -306,9 +306,10 @@ class _BarrierPotential(rk.Barrier, rk.Potential):
 
 
 def test_lean_gather_leaves_other_bound_rows_to_rows() -> None:
-    """The one-row shortcut of the lean gather applies only where ``BoundSubtask.rows`` gives that row: not for a
-    barrier that is also a potential (even with a lower bound set on the subtask after construction), nor for an
-    upper or a two-sided bound; the step agrees with the general path on such a stack."""
+    """The lean gather lets ``BoundSubtask.rows_into`` write a potential's rows (an upper and a two-sided bound here)
+    but takes ``rows()`` for a barrier that is also a potential (even with a lower bound set on the subtask after
+    construction), and the buffers hold the rows of ``gather_rows`` bitwise; the step agrees with the general path
+    on such a stack."""
     from redundik.resolvers.qp.hqp import _Plan
     from redundik.resolvers.qp.terms import gather_rows
 
@@ -331,7 +332,7 @@ def test_lean_gather_leaves_other_bound_rows_to_rows() -> None:
     plan = _Plan(layout, robot.nv, np.zeros(5))
     terms = stack.evaluate(robot, 0.0)
     _, _, bounds = plan.gather(robot, stack, terms, 0.01)
-    assert all(type(b[1]) is np.ndarray for b in bounds)  # every row from rows()
+    assert [type(b[1]) is slice for b in bounds] == [False, True, True]  # the barrier's rows from rows()
     rows = gather_rows(robot, stack, terms, layout, 0.01)
     P = int(plan.meta[1, -1])
     assert P == 5
