@@ -260,7 +260,8 @@ class Clearance(_FramePotential):
         self.center = _finite_vec(center, f"subtask '{self.name}': center", 3)
         self.radius = float(radius)
         self.rows = np.array([AXES[a] for a in self.axes], dtype=np.int64)
-        #: What the kernel reads for one robot's data: (data, frame id, p_f, data.J, supporting columns, J6 scratch),
+        #: What the kernel reads for one robot's data: (data, frame id, p_f, data.J, supporting columns, J6 scratch,
+        #: the kernel),
         #: p_f and data.J views on Pinocchio's memory, or ``None`` when those could not be verified.
         self._views: tuple[Any, ...] | None = None
 
@@ -278,7 +279,7 @@ class Clearance(_FramePotential):
                 jm = model.joints[j]
                 columns[jm.idx_v : jm.idx_v + jm.nv] = 1
         p = None if jw is None or poses is None else poses[fid, 9:12]
-        self._views = (data, fid, p, jw, columns, np.zeros((6, robot.nv)))
+        self._views = (data, fid, p, jw, columns, np.zeros((6, robot.nv)), _kernels().clearance_into)
         return self._views
 
     def value_and_gradient_into(self, robot: RobotModel, out: np.ndarray, scale: float = 1.0) -> float:
@@ -287,18 +288,15 @@ class Clearance(_FramePotential):
         views = self._views
         if views is None or views[0] is not robot.data or views[1] != self._fid:
             views = self._prepare(robot)
-        _, fid, p, jw, columns, J6 = views
+        _, fid, p, jw, columns, J6, kernel = views
         robot.q  # noqa: B018 - raises if update() was never called
         if p is None:  # Pinocchio's memory not as verified: the same kernel on copies through the bindings
             J6[:] = robot.frame_jacobian(fid)
-            return float(
-                _kernels().clearance_into(
-                    J6, robot.frame_position(fid), columns, self.rows, self.center, self.radius, J6, False, out, scale
-                )
-            )
-        return float(
-            _kernels().clearance_into(jw, p, columns, self.rows, self.center, self.radius, J6, True, out, scale)
-        )
+            p, lwa = robot.frame_position(fid), False
+        else:
+            lwa = True
+        value: float = kernel(jw if lwa else J6, p, columns, self.rows, self.center, self.radius, J6, lwa, out, scale)
+        return value
 
     def value_and_gradient(self, robot: RobotModel) -> tuple[float, np.ndarray]:
         """(p [m], η), from one frame position and one Jacobian."""

@@ -14,7 +14,7 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import ClassVar, cast
+from typing import ClassVar
 
 import numpy as np
 
@@ -275,7 +275,7 @@ class BoundSubtask(Subtask):
     def _damper_into(self, robot: RobotModel, gamma: float, C: np.ndarray, d: np.ndarray, offset: int) -> int:
         """:meth:`rows_into` at a given γ [1/s] (γ = 1: d = h, C = −H) for a potential source."""
         lower, upper = self.lower, self.upper
-        src = cast(Potential, self.source)
+        src: Potential = self.source  # type: ignore[assignment]  # (not a barrier: the callers checked)
         row = C[offset]
         if _writes_into(src):  # η written in place (e.g. Clearance's kernel)
             p = src.value_and_gradient_into(robot, row, -1.0 if lower is not None else 1.0)  # type: ignore[attr-defined]
