@@ -441,3 +441,32 @@ def test_lean_diagnostics_read_late_are_those_of_their_step() -> None:
         assert closed or all(e["residual_L1"] > 1e-3 for e, _ in eager)
         for (e, fallback), res in zip(eager, pending, strict=True):
             assert dict(res.info) == e and res.fallback == fallback
+
+
+def test_lean_gather_rows_held_across_later_gathers_and_fills() -> None:
+    """The rows ``rows_into`` wrote into the plan's buffers are copied before the buffers are written again while
+    a step's record is held: its ``step_rows`` read after later gathers (and a fill) are those of its own state."""
+    from redundik.resolvers.qp.hqp import _Plan
+    from redundik.resolvers.qp.terms import gather_rows
+
+    rng = np.random.default_rng(41)
+    robot = random_robot(rng, 7)
+    stack = _rich_stack(robot, rng)
+    res = HierarchicalQPResolver()
+    prepared(res, robot, stack, robot.random_configuration(rng))
+    layout = res.layout(stack)
+    plan = _Plan(layout, robot.nv, np.zeros(5))
+    held, refs = [], []
+    for k in range(3):
+        robot.update(robot.random_configuration(rng))
+        terms = stack.evaluate(robot, 0.1 * k)
+        held.append((terms, *plan.gather(robot, stack, terms, 0.01)))
+        refs.append(gather_rows(robot, stack, terms, layout, 0.01))
+        if k == 1:
+            plan.fill(refs[0])
+    for (terms, z, targets, bounds), ref in zip(held, refs, strict=True):
+        got = plan.step_rows(terms, z, targets, bounds)
+        for la, lb_ in zip(got.levels, ref.levels, strict=True):
+            np.testing.assert_array_equal(la.C, lb_.C)
+            np.testing.assert_array_equal(la.d, lb_.d)
+            assert la.c_names == lb_.c_names

@@ -59,6 +59,7 @@ from __future__ import annotations
 
 import math
 import time
+import weakref
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -132,6 +133,18 @@ class HQPBuild:
         return self.rows.levels
 
 
+class _Written:
+    """The damper rows one :meth:`_Plan.gather` wrote into the plan's buffers, for :meth:`_Plan.step_rows`: their
+    copies, taken when first asked or before the buffers are next written while this record is still held (the
+    step's lazy diagnostics hold it), never otherwise."""
+
+    __slots__ = ("C", "__weakref__", "d")
+
+    def __init__(self) -> None:
+        self.C: np.ndarray | None = None
+        self.d: np.ndarray | None = None
+
+
 class _Plan:
     """What the lean cascade does per level, fixed while the stack's membership is (see ``_plan_for``): the level
     kinds, the offsets table and the buffers the rows are copied into (grown when a level brings more rows)."""
@@ -158,6 +171,16 @@ class _Plan:
             for lv, mixed in zip(layout.levels, self.mixed, strict=True)
         ]
         self._offsets: list[tuple[int, int]] = []  # the offsets gather last wrote into meta
+        self._written: tuple[weakref.ref[_Written], int] | None = None  # the last gather's record, its rows
+
+    def _keep_written(self) -> None:
+        """Before the buffers are written again: copy the last gather's damper rows if their record is held."""
+        last = self._written
+        if last is not None:
+            self._written = None
+            held = last[0]()
+            if held is not None and held.C is None:
+                held.C, held.d = self.C[: last[1]].copy(), self.d[: last[1]].copy()
 
     def gather(
         self, robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], dt: float
@@ -165,21 +188,23 @@ class _Plan:
         """The step's rows straight into the buffers, as ``gather_rows`` followed by :meth:`fill` would lay them
         (the members evaluated in the same order, the same rows, weights and offsets), without building the
         per-level lists. A bound subtask on a potential writes its damper rows (C = −η, d = γ(p − lower) for a lower
-        bound, eq. of ``BoundSubtask.rows_into``, the one implementation) into the buffers itself; those rows are
-        copied once at the end (for :meth:`step_rows`, which may be asked after the buffers were reused).
+        bound, the velocity damper of ``BoundSubtask.rows_into``, the one implementation) into the buffers itself;
+        those rows are copied (for :meth:`step_rows`, which may be asked after the buffers were reused) only when
+        asked, or before the buffers are next written while this step's record of them is still held.
 
         Returns:
             (z of the null-space objective or ``None``, the target subtasks' (η, v) in layout order, the bound
-            subtasks' (C, d, row names) in layout order — for rows written by ``rows_into``, (the list holding the
-            copies of C and d, the rows' slice, names)): what :meth:`step_rows` needs to build the step's
+            subtasks' (C, d, row names) in layout order — for rows written by ``rows_into``, (their
+            :class:`_Written` record, the rows' slice, names)): what :meth:`step_rows` needs to build the step's
             :class:`~redundik.resolvers.qp.terms.StepRows` when it is asked for.
         """
+        if self._written is not None:
+            self._keep_written()
         meta, n, key = self.meta, self.n, self._weights
         A, b, w, C, d = self.A, self.b, self.w, self.C, self.d
         targets: list[tuple[np.ndarray, float]] = []
         bounds: list[tuple[Any, Any, list[str]]] = []  # (C, d, names), or (written, rows' slice, names)
-        written: list[np.ndarray] = []  # the rows written by rows_into, copied at the end (they outlive the buffers)
-        wrote = False
+        written: _Written | None = None  # the record of the rows written by rows_into
         z = None
         ms = cs = 0
         blk = 0
@@ -221,8 +246,9 @@ class _Plan:
                     if e > C.shape[0]:
                         C, d = self._grow_ineq(e)
                     bsub.rows_into(robot, dt, C, d, cs)
+                    if written is None:
+                        written = _Written()
                     bounds.append((written, slice(cs, e), bsub.row_names))
-                    wrote = True
                     cs = e
                     continue
                 Ci, di, rn = bsub.rows(robot, dt)
@@ -247,8 +273,8 @@ class _Plan:
                 blk += 1
                 ms = e
         offsets.append((ms, cs))
-        if wrote:
-            written += (C[:cs].copy(), d[:cs].copy())
+        if written is not None:
+            self._written = (weakref.ref(written), cs)
         if offsets != self._offsets:
             for k, (ls_row, ineq_row) in enumerate(offsets):
                 meta[0, k], meta[1, k] = ls_row, ineq_row
@@ -278,7 +304,10 @@ class _Plan:
             for bsub in bsubs:
                 Ci, di, rn = next(ib)
                 if type(di) is slice:  # rows written by rows_into: their copies, as rows() gives them
-                    Ci, di = Ci[0][di], Ci[1][di]
+                    held = Ci
+                    if held.C is None:  # the buffers still hold this step's rows (_keep_written)
+                        self._keep_written()
+                    Ci, di = held.C[di], held.d[di]
                 rows.append((Ci, di, list(rn), bsub))
             ineq.append(rows)
         return StepRows(self.layout, terms, ls, ineq, z, n)
@@ -286,6 +315,8 @@ class _Plan:
     def fill(self, rows: StepRows) -> None:
         """Copy the step's rows into the buffers and write the offsets table (row 0: A, row 1: C); the weights and
         identity rows are rewritten only where they changed since the last step."""
+        if self._written is not None:
+            self._keep_written()
         meta, n, key = self.meta, self.n, self._weights
         A, b, w, C, d = self.A, self.b, self.w, self.C, self.d
         ms = cs = 0
