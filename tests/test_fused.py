@@ -43,7 +43,13 @@ def _fused_plan(resolver: rs.Resolver) -> object:
 
 
 def _compare(
-    make_stack, method: str, steps: int = 120, edit=None, fused_expected: bool = True, **options
+    make_stack,
+    method: str,
+    steps: int = 120,
+    edit=None,
+    fused_expected: bool = True,
+    fallbacks: list[str] | None = None,
+    **options,
 ) -> list[bool]:
     """Step a fused and a per-task copy on the fused copy's trajectory; q̇ and what the result reports must agree.
 
@@ -82,6 +88,8 @@ def _compare(
         scale = max(1.0, float(np.abs(b.dq).max()))
         np.testing.assert_allclose(a.dq, b.dq, rtol=0, atol=1e-12 * scale, err_msg=f"step {k}")
         assert a.fallback == b.fallback
+        if fallbacks is not None and a.fallback is not None:
+            fallbacks.append(a.fallback)
         assert a.task_error == pytest.approx(b.task_error, rel=1e-12, abs=1e-15)
         assert [t.name for t in a.terms] == [t.name for t in b.terms]
         for ta, tb in zip(a.terms, b.terms, strict=True):
@@ -232,3 +240,111 @@ def test_frame_jacobian_from_joint_jacobians_is_pinocchios() -> None:
             frame_jacobian_lwa(data.J, np.array(data.oMf[fid].translation), columns, out)
             ref = pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
             np.testing.assert_allclose(out, ref, rtol=0, atol=1e-15)
+
+
+def test_gain_check_still_sees_run_time_changes() -> None:
+    """The K·dt ≤ 2 check is skipped while no gain moved; a gain set between ticks (or a smaller dt) is still refused,
+    and a task whose ``gain`` is its own property is read every step."""
+    from redundik.errors import ResolverError
+    from redundik.tasks.base import TaskTerm
+
+    robot = _panda()
+    q = _q0(robot)
+    robot.update(q)
+    hand = _hand(Circle(0.05, 1.5, plane=("y", "z")))
+    stack = TaskStack([hand, PostureTask(gain=1.0)])
+    stack.reset(robot)
+    res = rs.make_resolver("wqp")
+    for k in range(5):
+        res.step(robot, stack, q, k * DT, DT)
+    hand.gain = 250.0  # K·dt = 2.5
+    with pytest.raises(ResolverError, match="task 'panda_hand' has gain 250"):
+        res.step(robot, stack, q, 0.05, DT)
+    hand.gain = 150.0
+    res.step(robot, stack, q, 0.06, DT)
+    with pytest.raises(ResolverError, match="K·dt"):
+        res.step(robot, stack, q, 0.07, 0.02)  # the same gain, a larger dt: K·dt = 3
+
+    class Dynamic(PostureTask):
+        value = 1.0
+
+        @property  # type: ignore[override]
+        def gain(self) -> float:
+            return self.value
+
+        @gain.setter
+        def gain(self, v: float) -> None:
+            self.value = v
+
+        def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
+            return super().evaluate(robot, t)
+
+    dyn = Dynamic()
+    stack2 = TaskStack([_hand(Hold()), dyn])
+    stack2.reset(robot)
+    res2 = rs.make_resolver("pinv")
+    res2.step(robot, stack2, q, 0.0, DT)
+    dyn.value = 500.0  # not through Task's setter: still seen
+    with pytest.raises(ResolverError, match="has gain 500"):
+        res2.step(robot, stack2, q, 0.01, DT)
+
+
+def test_a_trajectory_that_turns_nan_falls_back_as_the_per_task_path_does() -> None:
+    """A user trajectory (sampled in Python, then handed to the compiled call) whose twist turns NaN: both paths
+    report the same fallback and return a finite q̇."""
+    from redundik.tasks.trajectory import Trajectory
+
+    class Glitch(Trajectory):
+        def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            twist = np.zeros(6)
+            if 0.195 < t < 0.255:
+                twist[1] = np.nan
+            return self._p0.copy(), self._R0, twist
+
+    def stack(robot: RobotModel) -> TaskStack:
+        return TaskStack([_hand(Glitch(), gain=5.0), PostureTask(gain=1.0)])
+
+    for method in ("wqp", "pinv"):
+        seen: list[str] = []
+        took = _compare(stack, method, steps=40, fused_expected=False, fallbacks=seen)
+        assert any(took[:15]), "the fused step took the user trajectory (sampled in Python)"
+        assert len(seen) == 6 and all(f.startswith("non-finite q̇ (from panda_hand)") for f in seen), seen
+
+
+def test_fused_rate_window_agrees() -> None:
+    """Acceleration limits (the rate window around the previous q̇) reach the fused step's box."""
+
+    def stack(robot: RobotModel) -> TaskStack:
+        return TaskStack([_hand(Circle(0.06, 3.0, plane=("y", "z"))), PostureTask(gain=1.0)])
+
+    _compare(stack, "wqp", steps=100, limits={"acceleration": 20.0})
+
+
+@pytest.mark.parametrize("method", ["wqp", "pinv"])
+def test_benchmark_talos_fused_agrees(method: str) -> None:
+    """Talos (free-flyer base, two hands, a posture of the actuated joints, limits binding on a third of the
+    steps): the benchmark's stacks take the fused step and give the per-task path's q̇ and terms."""
+    from benchmarks.bench.runners import RedundikRunner
+    from benchmarks.bench.scenarios import SCENARIOS
+
+    runners = []
+    for fuse in (True, False):
+        r = RedundikRunner(SCENARIOS["talos"](), method, None, {})
+        r.resolver.fuse = fuse  # type: ignore[attr-defined]
+        runners.append(r)
+    fused, plain = runners
+    dt = fused.scenario.dt
+    fused_steps = 0
+    for k in range(150):
+        t = k * dt
+        a = fused.resolver.step(fused.robot, fused.stack, fused.q, t, dt)
+        b = plain.resolver.step(plain.robot, plain.stack, fused.q, t, dt)
+        np.testing.assert_allclose(a.dq, b.dq, rtol=0, atol=1e-11, err_msg=f"step {k}")
+        assert a.fallback == b.fallback and a.info.get("qp") == b.info.get("qp")
+        assert a.task_error == pytest.approx(b.task_error, rel=1e-11)
+        for ta, tb in zip(a.terms, b.terms, strict=True):
+            np.testing.assert_allclose(ta.J, tb.J, rtol=0, atol=1e-13)
+            np.testing.assert_allclose(ta.v, tb.v, rtol=0, atol=1e-11)
+        fused_steps += isinstance(_fused_plan(fused.resolver), FusedPlan)
+        fused.q = fused.robot.integrate(fused.q, a.dq, dt)
+    assert fused_steps >= 148

@@ -713,3 +713,13 @@ def test_posture_target_of_booleans_or_strings_is_refused() -> None:
         rk.PostureTask(target=[True] * 9)
     with pytest.raises(rk.TaskError, match=r"set_target: .*real numbers"):
         rk.PostureTask().set_target(["a"] * 9)
+
+
+def test_posture_target_beyond_a_million_is_refused_where_it_is_set() -> None:
+    """A posture 1e308 rad away asked wqp (no limits) for ~1e307 rad/s: now refused, naming the coordinate."""
+    with pytest.raises(rk.TaskError, match=r"posture task 'posture': target: coordinate 1 = 1e\+308 is beyond"):
+        rk.PostureTask(target=[0.0, 1e308, 0.0])
+    posture = rk.PostureTask(target=[0.0, 1.0, 0.0])
+    with pytest.raises(rk.TaskError, match=r"set_target: coordinate 0 = -2e\+06 is beyond"):
+        posture.set_target([-2e6, 0.0, 0.0])
+    np.testing.assert_array_equal(posture.target, [0.0, 1.0, 0.0])  # the refused target left the old one in place

@@ -546,6 +546,14 @@ def _summarise(r: AnyRunner, warmup: int, defaults: dict[str, str]) -> CaseResul
         frozen_steps=rec.frozen,
         error_tolerance=sc.error_tolerance,
     )
+    if rec.step_ns:  # the first step of the process: the kernels' JIT compile or their load from numba's disk cache
+        case.extra["first_step_s"] = rec.step_ns[0] / 1e9
+    flags = np.asarray(rec.qp_flags[warmup:], dtype=bool)
+    if r.method in ("wqp", "hqp") and flags.shape == times.shape and flags.any():
+        qp_t, free_t = times[flags], times[~flags]  # the two kinds of step: a bimodal time per step
+        case.extra["qp_step_median_us"] = float(np.median(qp_t))
+        case.extra["free_step_median_us"] = float(np.median(free_t)) if free_t.size else None
+        case.qp_fraction = float(flags.mean())
     if sc.final_tolerance is not None and sc.episode is not None and err.size:
         ends = np.arange(sc.episode - 1, err.size, sc.episode)
         case.extra["final_task_error"] = float(np.max(err[ends])) if ends.size else None

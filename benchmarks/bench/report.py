@@ -78,6 +78,7 @@ def markdown(result: BenchResult, command: str = "") -> str:
     lines += batch_table(result)
     lines += placo_table(result)
     lines += snake_table(result)
+    lines += qp_split_table(result)
     lines += ["", "Targets (issue 11, measured in this run):", ""]
     lines += targets_table(result)
     prof = [c for c in cases if c.stages_us]
@@ -183,6 +184,32 @@ def snake_table(result: BenchResult) -> list[str]:
         exp = "–" if f["exponent"] is None else f"{f['exponent']:.2f}"
         exp90 = "–" if f["exponent_p90"] is None else f"{f['exponent_p90']:.2f}"
         lines.append(f"| {f['method']} | " + " | ".join(cells) + f" | {exp} | {exp90} |")
+    return lines
+
+
+def qp_split_table(result: BenchResult) -> list[str]:
+    """The two kinds of ``wqp``/``hqp`` step, timed apart: the steps that call the QP backend (a constraint is
+    active) and the closed-form ones — a step's time is bimodal; the p90 falls among the QP steps past 10 % of them."""
+    rows = [
+        c
+        for c in result.cases
+        if c.method in ("wqp", "hqp") and c.default_backend and c.extra.get("qp_step_median_us") is not None
+    ]
+    if not rows:
+        return []
+    lines = [
+        "",
+        "Steps that call the QP backend and the others, timed apart (default backend; median µs per step):",
+        "",
+        "| robot | method | QP steps | other steps | QP steps' median | others' median | QP / other |",
+        "|---|---|---:|---:|---:|---:|---:|",
+    ]
+    for c in rows:
+        qp, free = c.extra["qp_step_median_us"], c.extra.get("free_step_median_us")
+        share = 100 * (c.qp_fraction or 0.0)
+        ratio = "–" if not free else f"{qp / free:.2f}"
+        other = "–" if free is None else f"{free:.1f}"
+        lines.append(f"| {c.robot} | {c.method} | {share:.0f} % | {100 - share:.0f} % | {qp:.1f} | {other} | {ratio} |")
     return lines
 
 

@@ -20,6 +20,7 @@ import numpy as np
 from benchmarks.bench.scenarios import POSTURE_GAIN, POSTURE_WEIGHT, Scenario, urdf_path
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver
+from redundik.resolvers.fused import plan_of
 from redundik.resolvers.registry import make_resolver
 from redundik.tasks.base import Barrier, Potential, Task, TaskTerm
 from redundik.tasks.frame import FrameTask
@@ -42,6 +43,8 @@ class Record:
     violation: list[float] = field(default_factory=list)
     failures: int = 0
     qp_steps: int = 0
+    #: Per step, whether the resolver called its QP backend (False for the peers and the closed forms).
+    qp_flags: list[bool] = field(default_factory=list)
     first_failure: str | None = None
     fallbacks: int = 0
     first_fallback: str | None = None
@@ -86,6 +89,7 @@ class Runner(ABC):
         self.scenario = scenario
         self.metrics = Metrics(scenario)
         self.record = Record()
+        self._qp_now = False  # the step being recorded called a QP backend
         self.k = 0  # step within the episode
         self.q = scenario.q0.copy()
 
@@ -121,6 +125,8 @@ class Runner(ABC):
         """Record one step taken at time t from self.q to ``q_next`` in ``elapsed`` ns (the common ruler)."""
         rec = self.record
         rec.step_ns.append(elapsed)
+        rec.qp_flags.append(self._qp_now)
+        self._qp_now = False
         if float(np.max(np.abs(q_next - self.q), initial=0.0)) <= FROZEN_STEP:
             rec.frozen += 1  # the robot did not move this step (every scenario's references move)
         rec.task_error.append(self.metrics.task_error(self.q, t))
@@ -172,6 +178,7 @@ class RedundikRunner(Runner):
         t1 = _ns()
         if res.info.get("qp", 0):  # wqp/hqp: a backend was called (0 = closed-form shortcut, no active constraint)
             self.record.qp_steps += 1
+            self._qp_now = True
         if res.fallback is not None:
             self.record.fallbacks += 1
             if self.record.first_fallback is None:
@@ -185,6 +192,8 @@ class RedundikRunner(Runner):
         ``build`` (the resolver's build time minus the task evaluation inside it), ``solve`` (its solve time),
         ``other`` (the rest of the step: results, diagnostics, Python glue).
         """
+        if plan_of(self.resolver) is not None:
+            return self._profile_fused(steps)
         probe = _Probe()
 
         def timed_stack() -> TaskStack:
@@ -215,6 +224,33 @@ class RedundikRunner(Runner):
             out["solve"].append(solve_ns)
             out["other"].append(max((t2 - t1) - build_ns - solve_ns, 0.0))
             out["total"].append(t2 - t0)
+            self.q = self.robot.integrate(self.q, res.dq, dt)
+            self.k += 1
+        return {k: float(np.median(v)) / 1e3 for k, v in out.items() if v}
+
+    def _profile_fused(self, steps: int) -> dict[str, float]:
+        """:meth:`profile` of a fused step (``redundik.resolvers.fused``): the tasks are evaluated inside its one
+        compiled call, so ``tasks`` is 0 and ``build`` is that call (evaluation, accumulation and the closed-form
+        solve, up to the box test); ``solve`` is what follows (the QP when a limit binds, the result)."""
+        out: dict[str, list[float]] = {k: [] for k in ("kinematics", "tasks", "build", "solve", "other", "total")}
+        dt = self.scenario.dt
+        for _ in range(steps):
+            if self.scenario.episode is not None and self.k >= self.scenario.episode:
+                self.restart()
+            t = self.k * dt
+            t0 = _ns()
+            self.robot.update(self.q)
+            t1 = _ns()
+            res = self.resolver.step(self.robot, self.stack, self.q, t, dt)  # updates again: its own kinematics
+            t2 = _ns()
+            build_ns, solve_ns = res.build_time * 1e9, res.solve_time * 1e9
+            kin = t1 - t0
+            out["kinematics"].append(kin)
+            out["tasks"].append(0.0)
+            out["build"].append(build_ns)
+            out["solve"].append(solve_ns)
+            out["other"].append(max((t2 - t1) - kin - build_ns - solve_ns, 0.0))
+            out["total"].append(t2 - t1)
             self.q = self.robot.integrate(self.q, res.dq, dt)
             self.k += 1
         return {k: float(np.median(v)) / 1e3 for k, v in out.items() if v}

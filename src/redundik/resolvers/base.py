@@ -27,7 +27,7 @@ import numpy as np
 from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.divergence import DivergenceWatch
-from redundik.tasks.base import TaskTerm
+from redundik.tasks.base import Edits, Task, TaskTerm
 from redundik.tasks.stack import TaskStack
 
 #: Largest stable K·dt of the first-order update (e ← (1 − K dt) e).
@@ -295,6 +295,8 @@ class Resolver(ABC):
     _members: tuple[TaskStack, RobotModel, list[Any], list[Any]] | None = None
     _watch: DivergenceWatch | None = None
     _gain_members: tuple[tuple[Any, ...], tuple[Any, ...]] = ((), ())
+    _plain_gains = False
+    _gains_seen: tuple[int, float] | None = None  # (Edits.count, 2/dt) at the last gain check that passed
     _stepping: TaskStack | None = None
     #: BLAS threads inside a step: an int, or ``None`` to leave the process's setting alone. The default ``"auto"``
     #: limits BLAS to one thread for robots with nv ≥ :data:`BLAS_LIMIT_NV` = 64 (threaded products on small matrices
@@ -328,6 +330,7 @@ class Resolver(ABC):
         """Forget any state kept between steps (warm starts, previous q̇, the checked stack, the divergence watch)."""
         self._checked = None
         self._members = None
+        self._gains_seen = None
         self._watch = None
 
     @abstractmethod
@@ -375,12 +378,17 @@ class Resolver(ABC):
                 self.check(robot, stack)
                 self._checked = sig
                 self._gain_members = (tuple(stack.tasks), tuple(stack.target_subtasks))
+                # gains set through Task's validated property move Edits; a task with its own ``gain`` is read each step
+                self._plain_gains = all(type(m).gain is Task.gain for m in stack.tasks)
+                self._gains_seen = None
             self._members = (stack, robot, list(stack.tasks), list(stack.subtasks))
         tasks, targets = self._gain_members
         limit = STABLE_GAIN_DT / dt
-        for member in tasks:
-            if member.gain > limit:
-                check_gains(stack, dt, self.name)  # raises with the offending member named
+        if self._gains_seen != (Edits.count, limit):  # the tasks' gains (or dt) changed since they were checked
+            for member in tasks:
+                if member.gain > limit:
+                    check_gains(stack, dt, self.name)  # raises with the offending member named
+            self._gains_seen = (Edits.count, limit) if self._plain_gains else None
         for sub in targets:
             if sub.rate > limit:
                 check_gains(stack, dt, self.name)

@@ -92,6 +92,10 @@ class FusedPlan:
         self.tail: tuple[float, ...] = ()
         self.jw = np.zeros((6, 0))  # data.J: the joint Jacobians, world frame (a view on Pinocchio's memory)
         self.poses = np.zeros((0, 12))  # data.oMf: the frames' placements (a view on Pinocchio's memory)
+        self.frame_checks: list[tuple[FrameTask, Any, Any]] = []  # what ``current`` compares, member by member
+        self.joint_checks: list[tuple[Task, np.ndarray]] = []
+        self.gradient_checks: list[tuple[GradientSubtask, Form]] = []
+        self.slots: list[tuple[int, Any, int, int, int, Any]] = []  # per stack task, for ``terms``
         self.qp = False  # built for wqp (weights, joint tasks at a level) rather than pinv
 
     # ------------------------------------------------------------------ building
@@ -165,6 +169,9 @@ class FusedPlan:
         plan.qp = scales is not None
         plan._pack(robot, iq, level_forms, identity, set(layout.main), index)
         plan.data = robot.data
+        plan.frame_checks = list(zip(plan.frames, plan.trajs, plan.kparams, strict=True))
+        plan.joint_checks = list(zip(plan.level_joints + plan.nulls, plan.targets + plan.null_targets, strict=True))
+        plan.gradient_checks = list(zip(plan.gradients, plan.gradient_forms, strict=True))
         return plan
 
     def _pack(
@@ -240,6 +247,7 @@ class FusedPlan:
         for slot, chunk in zip(range(16, 20), chunks, strict=True):
             ints[slot] = len(floats)
             floats += chunk
+        self._slots(robot, level_forms, [int(x) for x in starts], [int(x) for x in jstarts])
         self.ints = np.array(ints, dtype=np.int64)
         self.floats = np.array(floats, dtype=float)
         self.refs = np.zeros((K, REF))
@@ -250,21 +258,17 @@ class FusedPlan:
         same; False: the stack must be planned again."""
         if robot.data is not self.data:
             return False
-        for k, task in enumerate(self.frames):
-            traj = task.trajectory
-            if traj is not self.trajs[k] or traj._kparams is not self.kparams[k] or task._pending_position is not None:
+        for task, traj, kparams in self.frame_checks:
+            now = task.trajectory
+            if now is not traj or now._kparams is not kparams or task._pending_position is not None:
                 return False
-        for k, joint in enumerate(self.level_joints):
+        for joint, target in self.joint_checks:
             form = joint.joint_form(robot)
-            if form is None or form[1] is not self.targets[k]:
+            if form is None or form[1] is not target:
                 return False
-        for k, joint in enumerate(self.nulls):
-            form = joint.joint_form(robot)
-            if form is None or form[1] is not self.null_targets[k]:
-                return False
-        for k, sub in enumerate(self.gradients):
+        for sub, (w, c) in self.gradient_checks:
             lin = sub.potential.linear_gradient(robot)
-            if lin is None or lin[0] is not self.gradient_forms[k][0] or lin[1] is not self.gradient_forms[k][1]:
+            if lin is None or lin[0] is not w or lin[1] is not c:
                 return False
         return True
 
@@ -310,42 +314,43 @@ class FusedPlan:
         """The step's task terms in stack order: what every task's ``evaluate`` would have returned."""
         out: list[TaskTerm] = []
         e_all, v_all = ev[0], ev[1]
-        starts = self.ints[self.ints[8] : self.ints[8] + len(self.frames) + 1]
-        J = len(self.level_joints)
-        jstarts = self.ints[self.ints[11] : self.ints[11] + J + 1]
-        mf = int(starts[-1])
-        K = len(self.frames)
         weights = self.weights
+        for kind, task, k, a, b, extra in self.slots:
+            if kind == 0:  # a frame task: its rows of the frame Jacobian (``extra``: the selected rows, or None)
+                Jk = Jf[k] if extra is None else Jf[k][extra]
+                out.append(TaskTerm(task.name, Jk, v_all[a:b], e_all[a:b], weights[k]))
+            elif kind == 1:  # a joint-space task of a level (``extra``: its rows of the identity)
+                out.append(TaskTerm(task.name, extra, v_all[a:b], e_all[a:b], weights[k]))
+            else:  # a regularisation task: its e from the step's q, as its evaluate computes it
+                sel, target = task.joint_form(robot)
+                e = robot.difference(q, target)[sel]
+                out.append(TaskTerm(task.name, extra, task.gain * e, e, task.weight))
+        return out
+
+    def _slots(self, robot: RobotModel, level_forms: list[Form], starts: list[int], jstarts: list[int]) -> None:
+        """What :meth:`terms` needs per stack task, laid out once: (kind, task, weight index, first row, end row,
+        rows or identity rows)."""
+        mf = starts[-1]
+        K = len(self.frames)
+        null_forms = [task.joint_form(robot) for task in self.nulls]
+        slots: list[tuple[int, Any, int, int, int, Any]] = []
         for kind, k in self.order:
             if kind == "f":
                 task = self.frames[k]
-                a, b = int(starts[k]), int(starts[k + 1])
-                Jk = Jf[k] if task._all_rows else Jf[k][task.rows]
-                out.append(TaskTerm(task.name, Jk, v_all[a:b], e_all[a:b], weights[k]))
+                slots.append((0, task, k, starts[k], starts[k + 1], None if task._all_rows else task.rows))
             elif kind == "j":
-                joint = self.level_joints[k]
-                a, b = mf + int(jstarts[k]), mf + int(jstarts[k + 1])
-                sel = joint.joint_form(robot)[0]  # type: ignore[index]
-                out.append(TaskTerm(joint.name, _identity_rows(robot.nv, sel), v_all[a:b], e_all[a:b], weights[K + k]))
-            else:  # a regularisation task: its e from the step's q, as its evaluate computes it
-                joint = self.nulls[k]
-                sel, target = joint.joint_form(robot)  # type: ignore[misc]
-                e = robot.difference(q, target)[sel]
-                out.append(TaskTerm(joint.name, _identity_rows(robot.nv, sel), joint.gain * e, e, joint.weight))
-        return out
-
-
-_ROWS: dict[tuple[int, bytes], np.ndarray] = {}
+                rows = _identity_rows(robot.nv, level_forms[k][0])
+                slots.append((1, self.level_joints[k], K + k, mf + jstarts[k], mf + jstarts[k + 1], rows))
+            else:
+                rows = _identity_rows(robot.nv, null_forms[k][0])  # type: ignore[index]
+                slots.append((2, self.nulls[k], -1, 0, 0, rows))
+        self.slots = slots
 
 
 def _identity_rows(n: int, sel: np.ndarray) -> np.ndarray:
-    """I[sel] (read-only, shared): the Jacobian of a joint-space task (I itself when sel is every coordinate)."""
-    key = (n, np.asarray(sel, dtype=np.int64).tobytes())
-    rows = _ROWS.get(key)
-    if rows is None:
-        rows = np.eye(n)[sel]
-        rows.setflags(write=False)
-        _ROWS[key] = rows
+    """I[sel] (read-only, built once per plan): the Jacobian of a joint-space task."""
+    rows = np.eye(n)[sel]
+    rows.setflags(write=False)
     return rows
 
 
@@ -400,3 +405,13 @@ class FusedStepResult(LazyStepResult):
     @property
     def task_error(self) -> float:
         return self.__dict__["_task_error"]
+
+
+def plan_of(resolver: object) -> FusedPlan | None:
+    """The fused plan a ``wqp`` or ``pinv`` resolver used at its last step (``None``: the per-task path)."""
+    plan = getattr(resolver, "_plan", None)
+    fused = getattr(plan, "fused", None) if plan is not None else None
+    if fused is None:
+        pair = getattr(resolver, "_fused", None)
+        fused = pair[1] if isinstance(pair, tuple) else None
+    return fused if isinstance(fused, FusedPlan) else None

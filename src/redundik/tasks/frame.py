@@ -69,6 +69,18 @@ def _numbers(value: object, what: str, expected: str) -> np.ndarray:
     return np.asarray(raw, dtype=float)
 
 
+def _bounded_configuration(q: np.ndarray, what: str) -> np.ndarray:
+    """A copy of ``q`` when every finite coordinate is within ±:data:`MAX_COORDINATE` [rad or length unit], else a
+    :class:`TaskError` (a posture 1e308 rad away asks for an absurd velocity: refused where it is set)."""
+    finite = q[np.isfinite(q)]
+    if finite.size and float(np.max(np.abs(finite))) > MAX_COORDINATE:
+        k = int(np.flatnonzero(np.isfinite(q) & (np.abs(q) > MAX_COORDINATE))[0])
+        raise TaskError(
+            f"{what}: coordinate {k} = {q.reshape(-1)[k]:g} is beyond ±{MAX_COORDINATE:g} (a unit mistake?)"
+        )
+    return np.array(q, dtype=float)
+
+
 def _as_pose(target: object, what: str) -> pin.SE3 | np.ndarray:
     """An SE3 from an SE3 or a 4×4 homogeneous matrix, or a position (3,) array; validated."""
     if isinstance(target, pin.SE3):
@@ -301,15 +313,19 @@ class PostureTask(Task):
     ) -> None:
         self._init_task(name, weight=weight, gain=gain, priority=priority)
         what = f"posture task '{name}': target"
-        self._given = None if target is None else _numbers(target, what, "a configuration").copy()
+        self._given = (
+            None if target is None else _bounded_configuration(_numbers(target, what, "a configuration"), what)
+        )
         self.target: np.ndarray | None = self._given
         self._sel: np.ndarray | None = None
 
     def set_target(self, q: Sequence[float] | np.ndarray) -> None:
         """A new reference configuration q_ref (size nq), checked against the robot at the next evaluation."""
-        arr = _numbers(q, f"posture task '{self.name}': set_target", "a configuration").reshape(-1)
+        what = f"posture task '{self.name}': set_target"
+        arr = _numbers(q, what, "a configuration").reshape(-1)
         if not np.all(np.isfinite(arr)):
-            raise TaskError(f"posture task '{self.name}': set_target: contains NaN or infinite values")
+            raise TaskError(f"{what}: contains NaN or infinite values")
+        _bounded_configuration(arr, what)
         self._given = arr
         self.target = None
 
