@@ -88,3 +88,19 @@ def test_clearance_on_the_obstacle_axis_and_before_update() -> None:
     p, g = c.value_and_gradient(robot)
     assert p == -0.1
     np.testing.assert_array_equal(g, np.zeros(robot.nv))
+
+
+def test_clearance_pickles_and_copies_without_its_views() -> None:
+    """A pickled or deep-copied clearance leaves its views behind and rebuilds them for the robot it meets."""
+    import copy
+    import pickle
+
+    robot = rk.load_example_robot("panda")
+    robot.update(robot.random_configuration(np.random.default_rng(1)))
+    c = Clearance("panda_link4", [0.3, 0.1, 0.4], radius=0.05, axes=("x", "y"))
+    p0, g0 = c.value_and_gradient(robot)
+    for other in (pickle.loads(pickle.dumps(c)), copy.deepcopy(c)):
+        assert other._views is None
+        p1, g1 = other.value_and_gradient(robot)
+        assert p1 == p0
+        np.testing.assert_array_equal(g1, g0)

@@ -265,6 +265,12 @@ class Clearance(_FramePotential):
         #: p_f and data.J views on Pinocchio's memory, or ``None`` when those could not be verified.
         self._views: tuple[Any, ...] | None = None
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled and copied without the views (they belong to one robot's data; rebuilt on first use)."""
+        state = dict(self.__dict__)
+        state["_views"] = None
+        return state
+
     def _prepare(self, robot: RobotModel) -> tuple[Any, ...]:
         """The kernel's inputs for ``robot.data`` (built on first use with that data, and when the frame changed)."""
         from redundik.kinematics.memory import jacobian_view, se3_vector_view
