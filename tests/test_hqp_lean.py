@@ -215,7 +215,7 @@ def test_hqp_kernels_report_their_first_run_cost() -> None:
     from redundik.resolvers import hqp_kernels
 
     cost = hqp_kernels.first_run_cost()
-    assert set(cost) == {"closed_cascade", "level_rows_ok", "level_qp_arrays"}
+    assert set(cost) == {"closed_cascade", "level_rows_ok", "level_qp_arrays", "clearance_into"}
     assert all(v >= 0.0 for v in cost.values())
 
 
@@ -263,7 +263,7 @@ def test_lean_gather_lays_out_the_rows_of_gather_rows_and_fill(mixed: bool) -> N
         robot.update(q)
         terms = stack.evaluate(robot, 0.1 * k)
         z, targets, bounds = lean.gather(robot, stack, terms, 0.01)
-        assert sum(type(b[1]) is not np.ndarray for b in bounds) == 3  # the lower bounds: written by gather itself
+        assert sum(type(b[1]) is slice for b in bounds) == 5  # every bound on a potential: written by rows_into
         rows = gather_rows(robot, stack, terms, layout, 0.01)
         ref.fill(rows)
         np.testing.assert_array_equal(lean.meta, ref.meta)
@@ -306,9 +306,10 @@ class _BarrierPotential(rk.Barrier, rk.Potential):
 
 
 def test_lean_gather_leaves_other_bound_rows_to_rows() -> None:
-    """The one-row shortcut of the lean gather applies only where ``BoundSubtask.rows`` gives that row: not for a
-    barrier that is also a potential (even with a lower bound set on the subtask after construction), nor for an
-    upper or a two-sided bound; the step agrees with the general path on such a stack."""
+    """The lean gather lets ``BoundSubtask.rows_into`` write a potential's rows (an upper and a two-sided bound here)
+    but takes ``rows()`` for a barrier that is also a potential (even with a lower bound set on the subtask after
+    construction), and the buffers hold the rows of ``gather_rows`` bitwise; the step agrees with the general path
+    on such a stack."""
     from redundik.resolvers.qp.hqp import _Plan
     from redundik.resolvers.qp.terms import gather_rows
 
@@ -331,7 +332,7 @@ def test_lean_gather_leaves_other_bound_rows_to_rows() -> None:
     plan = _Plan(layout, robot.nv, np.zeros(5))
     terms = stack.evaluate(robot, 0.0)
     _, _, bounds = plan.gather(robot, stack, terms, 0.01)
-    assert all(type(b[1]) is np.ndarray for b in bounds)  # every row from rows()
+    assert [type(b[1]) is slice for b in bounds] == [False, True, True]  # the barrier's rows from rows()
     rows = gather_rows(robot, stack, terms, layout, 0.01)
     P = int(plan.meta[1, -1])
     assert P == 5
@@ -440,3 +441,32 @@ def test_lean_diagnostics_read_late_are_those_of_their_step() -> None:
         assert closed or all(e["residual_L1"] > 1e-3 for e, _ in eager)
         for (e, fallback), res in zip(eager, pending, strict=True):
             assert dict(res.info) == e and res.fallback == fallback
+
+
+def test_lean_gather_rows_held_across_later_gathers_and_fills() -> None:
+    """The rows ``rows_into`` wrote into the plan's buffers are copied before the buffers are written again while
+    a step's record is held: its ``step_rows`` read after later gathers (and a fill) are those of its own state."""
+    from redundik.resolvers.qp.hqp import _Plan
+    from redundik.resolvers.qp.terms import gather_rows
+
+    rng = np.random.default_rng(41)
+    robot = random_robot(rng, 7)
+    stack = _rich_stack(robot, rng)
+    res = HierarchicalQPResolver()
+    prepared(res, robot, stack, robot.random_configuration(rng))
+    layout = res.layout(stack)
+    plan = _Plan(layout, robot.nv, np.zeros(5))
+    held, refs = [], []
+    for k in range(3):
+        robot.update(robot.random_configuration(rng))
+        terms = stack.evaluate(robot, 0.1 * k)
+        held.append((terms, *plan.gather(robot, stack, terms, 0.01)))
+        refs.append(gather_rows(robot, stack, terms, layout, 0.01))
+        if k == 1:
+            plan.fill(refs[0])
+    for (terms, z, targets, bounds), ref in zip(held, refs, strict=True):
+        got = plan.step_rows(terms, z, targets, bounds)
+        for la, lb_ in zip(got.levels, ref.levels, strict=True):
+            np.testing.assert_array_equal(la.C, lb_.C)
+            np.testing.assert_array_equal(la.d, lb_.d)
+            assert la.c_names == lb_.c_names

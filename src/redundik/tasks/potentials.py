@@ -7,8 +7,8 @@ finite differences.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -31,6 +31,13 @@ def _finite_vec(value: Sequence[float] | np.ndarray, what: str, size: int | None
     if not np.all(np.isfinite(arr)):
         raise TaskError(f"{what}: contains NaN or infinite values")
     return arr
+
+
+def _kernels() -> Any:
+    """The compiled kernels, imported on first use (the resolvers package imports this module)."""
+    from redundik.resolvers import hqp_kernels
+
+    return hqp_kernels
 
 
 class _JointPotential(Potential):
@@ -225,12 +232,16 @@ class VirtualPoint(_FramePotential):
 
 
 class Clearance(_FramePotential):
-    """Distance from a frame point to a round obstacle, minus its radius: p = ‖S(p_f − p_o)‖ − r.
+    """Distance from a frame point to a round obstacle, minus its radius: p = ‖S(p_f − p_o)‖ − r [m].
 
     Negative means penetration. With ``axes = ("x", "z")`` the obstacle is an infinite vertical post (the
     (6+1) robot's post of radius 0.3 dm). η = J_vᵀ Sᵀ u with u the unit vector from the obstacle to the point.
     Use it as a QP inequality (p ≥ margin) or maximise it (k > 0), like the chapter's collision potential
     ‖p_el − p_ob‖² (same gradient direction).
+
+    p and η come from one compiled call (``hqp_kernels.clearance_into``, the one implementation), reading the frame's
+    origin and the joint Jacobians on Pinocchio's memory (``data.oMf``, ``data.J``: views verified when first used
+    with a robot's data; if they cannot be verified, the origin and the Jacobian are copied through the bindings).
     """
 
     def __init__(
@@ -248,30 +259,61 @@ class Clearance(_FramePotential):
             raise TaskError(f"subtask '{self.name}': radius must be ≥ 0, got {radius}")
         self.center = _finite_vec(center, f"subtask '{self.name}': center", 3)
         self.radius = float(radius)
-        self.rows = np.array([AXES[a] for a in self.axes])
+        self.rows = np.array([AXES[a] for a in self.axes], dtype=np.int64)
+        #: What the kernel reads for one robot's data: (data, frame id, p_f, data.J, supporting columns, J6 scratch,
+        #: the kernel),
+        #: p_f and data.J views on Pinocchio's memory, or ``None`` when those could not be verified.
+        self._views: tuple[Any, ...] | None = None
 
-    def _d(self, robot: RobotModel) -> np.ndarray:
-        return (robot.frame_position(self._id(robot)) - self.center)[self.rows]
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled and copied without the views (they belong to one robot's data; rebuilt on first use)."""
+        state = dict(self.__dict__)
+        state["_views"] = None
+        return state
 
-    def value(self, robot: RobotModel) -> float:
-        return float(np.linalg.norm(self._d(robot)) - self.radius)
+    def _prepare(self, robot: RobotModel) -> tuple[Any, ...]:
+        """The kernel's inputs for ``robot.data`` (built on first use with that data, and when the frame changed)."""
+        from redundik.kinematics.memory import jacobian_view, se3_vector_view
 
-    def gradient(self, robot: RobotModel) -> np.ndarray:
-        d = self._d(robot)
-        n = float(np.linalg.norm(d))
-        J = robot.frame_jacobian(self._id(robot))[self.rows]
-        if n < 1e-12:  # on the obstacle axis the distance is not differentiable: pick no direction
-            return np.zeros(robot.nv)
-        return J.T @ (d / n)
+        fid = self._id(robot)
+        data = robot.data
+        jw, poses = jacobian_view(data), se3_vector_view(data.oMf)
+        model = robot.model
+        columns = np.zeros(robot.nv, dtype=np.int64)
+        for j in model.supports[model.frames[fid].parentJoint]:
+            if j > 0:
+                jm = model.joints[j]
+                columns[jm.idx_v : jm.idx_v + jm.nv] = 1
+        p = None if jw is None or poses is None else poses[fid, 9:12]
+        self._views = (data, fid, p, jw, columns, np.zeros((6, robot.nv)), _kernels().clearance_into)
+        return self._views
+
+    def value_and_gradient_into(self, robot: RobotModel, out: np.ndarray, scale: float = 1.0) -> float:
+        """p [m], with scale · η written into ``out`` (nv,); scale −1 gives a lower bound's damper row −η
+        (:class:`~redundik.tasks.subtasks.BoundSubtask`)."""
+        views = self._views
+        if views is None or views[0] is not robot.data or views[1] != self._fid:
+            views = self._prepare(robot)
+        _, fid, p, jw, columns, J6, kernel = views
+        robot.q  # noqa: B018 - raises if update() was never called
+        if p is None:  # Pinocchio's memory not as verified: the same kernel on copies through the bindings
+            J6[:] = robot.frame_jacobian(fid)
+            p, lwa = robot.frame_position(fid), False
+        else:
+            lwa = True
+        value: float = kernel(jw if lwa else J6, p, columns, self.rows, self.center, self.radius, J6, lwa, out, scale)
+        return value
 
     def value_and_gradient(self, robot: RobotModel) -> tuple[float, np.ndarray]:
-        """(p, η) from one frame position and one Jacobian (the values of :meth:`value` and :meth:`gradient`)."""
-        fid = self._id(robot)
-        d = (robot.frame_position(fid) - self.center)[self.rows]
-        n = math.sqrt(float(d @ d))
-        if n < 1e-12:
-            return n - self.radius, np.zeros(robot.nv)
-        return n - self.radius, robot.frame_jacobian(fid)[self.rows].T @ (d / n)
+        """(p [m], η), from one frame position and one Jacobian."""
+        g = np.empty(robot.nv)
+        return self.value_and_gradient_into(robot, g), g
+
+    def value(self, robot: RobotModel) -> float:
+        return self.value_and_gradient(robot)[0]
+
+    def gradient(self, robot: RobotModel) -> np.ndarray:
+        return self.value_and_gradient(robot)[1]
 
 
 class Manipulability(_FramePotential):

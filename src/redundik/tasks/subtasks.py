@@ -22,6 +22,31 @@ from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import Barrier, Edits, Potential, check_name, check_number, check_priority
 
+_ROW_SOURCES: dict[type, bool] = {}
+
+
+def _rows_of_its_own(obj: object) -> bool:
+    """Whether a bound subtask's source makes its rows itself — a Barrier (even if also a Potential), or a source
+    with ``bound_rows`` —, remembered per class (the ABCs' checks are slow calls on the hot path)."""
+    kind = type(obj)
+    known = _ROW_SOURCES.get(kind)
+    if known is None:
+        known = _ROW_SOURCES[kind] = issubclass(kind, Barrier) or hasattr(kind, "bound_rows")
+    return known
+
+
+_WRITES_INTO: dict[type, bool] = {}
+
+
+def _writes_into(obj: object) -> bool:
+    """Whether a potential writes its gradient into a caller's array (``value_and_gradient_into(robot, out, scale)
+    -> p``, e.g. :class:`~redundik.tasks.potentials.Clearance`), remembered per class."""
+    kind = type(obj)
+    known = _WRITES_INTO.get(kind)
+    if known is None:
+        known = _WRITES_INTO[kind] = callable(getattr(kind, "value_and_gradient_into", None))
+    return known
+
 
 class Subtask(ABC):
     """Base of the typed subtasks: a name (the potential's or barrier's by default) and a ``kind``."""
@@ -190,6 +215,8 @@ class BoundSubtask(Subtask):
         self.priority = check_priority(priority, f"subtask '{self.name}'")
         self._names_of: tuple[str, list[str]] | None = None  # (name, a barrier's last row names), prefixed:
         self._names: list[str] = []
+        self._row_names_of: tuple[str, bool, bool] | None = None  # (name, lower set, upper set) of _row_names
+        self._row_names: list[str] = []
 
     @property
     def potential(self) -> Potential | None:
@@ -204,25 +231,81 @@ class BoundSubtask(Subtask):
     def check(self, robot: RobotModel) -> None:
         self.source.check(robot)
 
+    @property
+    def fixed_rows(self) -> int | None:
+        """The number of damper rows when known before evaluating — a potential's bounds: 1 (lower or upper) or 2 —,
+        ``None`` for a barrier or a source with ``bound_rows`` (their rows are their own: :meth:`rows`)."""
+        if _rows_of_its_own(self.source):
+            return None
+        return (self.lower is not None) + (self.upper is not None)
+
+    @property
+    def row_names(self) -> list[str]:
+        """A potential's row names, ``name:lower`` then ``name:upper`` (built once per name and bounds; not to be
+        mutated)."""
+        key = (self.name, self.lower is not None, self.upper is not None)
+        if self._row_names_of != key:
+            names = [f"{self.name}:lower"] if self.lower is not None else []
+            names += [f"{self.name}:upper"] if self.upper is not None else []
+            self._row_names_of, self._row_names = key, names
+        return self._row_names
+
+    def rows_into(self, robot: RobotModel, dt: float, C: np.ndarray, d: np.ndarray, offset: int) -> int:
+        """A potential's damper rows C q̇ ≤ d (module docstring) written into the caller's buffers at row ``offset``:
+        lower: C = −η, d = γ (p − lower); upper: C = η, d = γ (upper − p) [unit of p / s], γ = min(K or 1/dt, 1/dt)
+        [1/s]. The one implementation of these rows (:meth:`rows` and :meth:`values` go through it).
+
+        Args:
+            robot: Updated robot.
+            dt: Time step [s].
+            C: (≥ offset + :attr:`fixed_rows`, nv) buffer; d: its right-hand sides.
+            offset: First row written.
+
+        Returns:
+            The number of rows written (:attr:`fixed_rows`).
+
+        Raises:
+            TaskError: a source whose rows are its own (:attr:`fixed_rows` is ``None``: use :meth:`rows`).
+        """
+        if _rows_of_its_own(self.source):
+            raise TaskError(f"subtask '{self.name}': a barrier's rows come from rows(), not rows_into()")
+        cap = 1.0 / dt
+        return self._damper_into(robot, cap if self.rate == 0 else min(self.rate, cap), C, d, offset)
+
+    def _damper_into(self, robot: RobotModel, gamma: float, C: np.ndarray, d: np.ndarray, offset: int) -> int:
+        """:meth:`rows_into` at a given γ [1/s] (γ = 1: d = h, C = −H) for a potential source."""
+        lower, upper = self.lower, self.upper
+        src: Potential = self.source  # type: ignore[assignment]  # (not a barrier: the callers checked)
+        row = C[offset]
+        if _writes_into(src):  # η written in place (e.g. Clearance's kernel)
+            p = src.value_and_gradient_into(robot, row, -1.0 if lower is not None else 1.0)  # type: ignore[attr-defined]
+        else:
+            p, eta = src.value_and_gradient(robot)
+            if lower is not None:
+                np.negative(eta, out=row)
+            else:
+                row[:] = eta
+        if lower is not None:
+            d[offset] = gamma * (p - lower)
+            if upper is None:
+                return 1
+            np.negative(row, out=C[offset + 1])
+            d[offset + 1] = gamma * (upper - p)
+            return 2
+        assert upper is not None  # (the constructor refuses a potential without bounds)
+        d[offset] = gamma * (upper - p)
+        return 1
+
     def values(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray, list[str], np.ndarray | None]:
         """(h, H, row names, per-row γ or ``None``) with h ≥ 0 the safe side."""
         src = self.source
         if isinstance(src, Barrier):
             term = src.evaluate(robot)
             return term.h, term.H, self._prefixed(term.names), term.gamma
-        p, eta = src.value_and_gradient(robot)
-        if self.upper is None and self.lower is not None:  # the common one-sided bound: one row
-            return np.array([p - self.lower]), eta.reshape(1, -1), [f"{self.name}:lower"], None
-        hs, Hs, names = [], [], []
-        if self.lower is not None:
-            hs.append(p - self.lower)
-            Hs.append(eta)
-            names.append(f"{self.name}:lower")
-        if self.upper is not None:
-            hs.append(self.upper - p)
-            Hs.append(-eta)
-            names.append(f"{self.name}:upper")
-        return np.array(hs), np.vstack(Hs), names, None
+        k = (self.lower is not None) + (self.upper is not None)
+        C, d = np.empty((k, robot.nv)), np.empty(k)
+        self._damper_into(robot, 1.0, C, d, 0)  # γ = 1: d = h, C = −H
+        return d, -C, list(self.row_names), None
 
     def _prefixed(self, names: list[str]) -> list[str]:
         """``name:row`` per row name, built once per set of rows (e.g. a collision barrier's active pairs)."""
@@ -232,6 +315,11 @@ class BoundSubtask(Subtask):
 
     def rows(self, robot: RobotModel, dt: float) -> tuple[np.ndarray, np.ndarray, list[str]]:
         """The damper ḣ ≥ −γh as QP rows C q̇ ≤ d: C = −H, d = γ h (module docstring), γ = min(K or 1/dt, 1/dt)."""
+        k = self.fixed_rows
+        if k is not None:  # a potential: its rows written by rows_into
+            C, d = np.empty((k, robot.nv)), np.empty(k)
+            self.rows_into(robot, dt, C, d, 0)
+            return C, d, list(self.row_names)
         cap = 1.0 / dt
         direct = getattr(self.source, "bound_rows", None)  # a barrier making its rows itself (collision avoidance)
         if direct is not None:

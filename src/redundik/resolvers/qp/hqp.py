@@ -26,7 +26,7 @@ it satisfies every inequality and limit, since a feasible unconstrained lexicogr
 For [main task, gradient subtask] this is q̇ = J⁺V + Z Zᵀ z = J⁺V + (I − J⁺J)z, the chapter's eq. (5.8), exactly.
 The whole of it is one compiled call (:func:`redundik.resolvers.hqp_kernels.closed_cascade`) on the step's rows
 written, as they are evaluated, into buffers kept while the stack's membership is unchanged (``_Plan.gather``: a
-one-row lower bound on a potential as C = −η, d = γ(p − lower) from its ``value_and_gradient``); a level whose QR
+bound on a potential writes its damper rows itself, ``BoundSubtask.rows_into``); a level whose QR
 certifies σ_min ≥ ε (nothing damped, full rank: M⁺ exactly) skips its SVD, a level of rows √w I with √w ≥ ε
 takes Zᵀ(b − x) without a factorisation, and the per-level rows
 (``StepRows``), the limit box's record, the Level records, σ_min per level and the rank-loss test are built only
@@ -59,8 +59,9 @@ from __future__ import annotations
 
 import math
 import time
+import weakref
 from dataclasses import dataclass, replace
-from typing import Any, TypeGuard
+from typing import Any
 
 import numpy as np
 
@@ -73,7 +74,7 @@ from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
 from redundik.resolvers.qp.terms import Level, StepRows, gather_rows
-from redundik.tasks.base import Barrier, Potential, TaskTerm
+from redundik.tasks.base import TaskTerm
 from redundik.tasks.stack import StackLayout, TaskStack
 from redundik.tasks.subtasks import BoundSubtask
 
@@ -132,17 +133,16 @@ class HQPBuild:
         return self.rows.levels
 
 
-_POTENTIAL_TYPES: dict[type, bool] = {}
+class _Written:
+    """The damper rows one :meth:`_Plan.gather` wrote into the plan's buffers, for :meth:`_Plan.step_rows`: their
+    copies, taken when first asked or before the buffers are next written while this record is still held (the
+    step's lazy diagnostics hold it), never otherwise."""
 
+    __slots__ = ("C", "__weakref__", "d")
 
-def _is_potential(obj: object) -> TypeGuard[Potential]:
-    """Whether a bound subtask's source is read as a potential (``BoundSubtask.values``: a Potential that is not a
-    Barrier), remembered per class (the ABCs' checks are slow calls on the hot path)."""
-    kind = type(obj)
-    known = _POTENTIAL_TYPES.get(kind)
-    if known is None:
-        known = _POTENTIAL_TYPES[kind] = issubclass(kind, Potential) and not issubclass(kind, Barrier)
-    return known
+    def __init__(self) -> None:
+        self.C: np.ndarray | None = None
+        self.d: np.ndarray | None = None
 
 
 class _Plan:
@@ -170,27 +170,41 @@ class _Plan:
             (list(lv.tasks), list(lv.targets), list(lv.bounds), lv.null_objective, mixed)
             for lv, mixed in zip(layout.levels, self.mixed, strict=True)
         ]
-        self._lower_of: tuple[str, list[str]] = ("", [])  # a lower-bound row's (subtask name, [row name])
         self._offsets: list[tuple[int, int]] = []  # the offsets gather last wrote into meta
+        self._written: tuple[weakref.ref[_Written], int] | None = None  # the last gather's record, its rows
+
+    def _keep_written(self) -> None:
+        """Before the buffers are written again: copy the last gather's damper rows if their record is held."""
+        last = self._written
+        if last is not None:
+            self._written = None
+            held = last[0]()
+            if held is not None and held.C is None:
+                held.C, held.d = self.C[: last[1]].copy(), self.d[: last[1]].copy()
 
     def gather(
         self, robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], dt: float
-    ) -> tuple[np.ndarray | None, list[tuple[np.ndarray, float]], list[tuple[np.ndarray, Any, list[str]]]]:
+    ) -> tuple[np.ndarray | None, list[tuple[np.ndarray, float]], list[tuple[Any, Any, list[str]]]]:
         """The step's rows straight into the buffers, as ``gather_rows`` followed by :meth:`fill` would lay them
         (the members evaluated in the same order, the same rows, weights and offsets), without building the
-        per-level lists. A bound subtask on a potential with a lower bound only (the common one-row case) is
-        evaluated by its ``value_and_gradient`` and its row C = −η, d = γ(p − lower) written here, the values of
-        ``BoundSubtask.rows`` without its wrapping arrays and names (made by :meth:`step_rows` when asked for).
+        per-level lists. A bound subtask on a potential writes its damper rows (C = −η, d = γ(p − lower) for a lower
+        bound, the velocity damper of ``BoundSubtask.rows_into``, the one implementation) into the buffers itself;
+        those rows are copied (for :meth:`step_rows`, which may be asked after the buffers were reused) only when
+        asked, or before the buffers are next written while this step's record of them is still held.
 
         Returns:
             (z of the null-space objective or ``None``, the target subtasks' (η, v) in layout order, the bound
-            subtasks' (C, d, row names) in layout order): what :meth:`step_rows` needs to build the step's
+            subtasks' (C, d, row names) in layout order — for rows written by ``rows_into``, (their
+            :class:`_Written` record, the rows' slice, names)): what :meth:`step_rows` needs to build the step's
             :class:`~redundik.resolvers.qp.terms.StepRows` when it is asked for.
         """
+        if self._written is not None:
+            self._keep_written()
         meta, n, key = self.meta, self.n, self._weights
         A, b, w, C, d = self.A, self.b, self.w, self.C, self.d
         targets: list[tuple[np.ndarray, float]] = []
-        bounds: list[tuple[np.ndarray, Any, list[str]]] = []  # (C, d, names), or (−η, d, names) of a lower bound
+        bounds: list[tuple[Any, Any, list[str]]] = []  # (C, d, names), or (written, rows' slice, names)
+        written: _Written | None = None  # the record of the rows written by rows_into
         z = None
         ms = cs = 0
         blk = 0
@@ -226,29 +240,16 @@ class _Plan:
                 blk += 1
                 ms = e
             for bsub in bsubs:
-                src, lower = bsub.source, bsub.lower
-                if (
-                    lower is not None
-                    and bsub.upper is None
-                    and type(bsub) is BoundSubtask
-                    and _is_potential(src)
-                    and getattr(src, "bound_rows", None) is None
-                ):
-                    # BoundSubtask.rows of a potential with a lower bound, without its wrapping arrays: the one row
-                    # C = −η, d = γ (p − lower) [unit of p / s], γ = min(K or 1/dt, 1/dt) (tested against rows())
-                    p, eta = src.value_and_gradient(robot)
-                    cap = 1.0 / dt
-                    rate = bsub.rate
-                    dv = (cap if rate == 0 else min(rate, cap)) * (p - lower)
-                    if bsub.name != self._lower_of[0]:
-                        self._lower_of = (bsub.name, [f"{bsub.name}:lower"])
-                    row = -eta  # (a new array, as rows() makes: the step's rows outlive the potential's arrays)
-                    bounds.append((row, dv, self._lower_of[1]))
-                    if cs + 1 > C.shape[0]:
-                        C, d = self._grow_ineq(cs + 1)
-                    C[cs] = row
-                    d[cs] = dv
-                    cs += 1
+                k = bsub.fixed_rows if type(bsub) is BoundSubtask else None
+                if k is not None:  # a potential's damper rows, written into the buffers by the subtask itself
+                    e = cs + k
+                    if e > C.shape[0]:
+                        C, d = self._grow_ineq(e)
+                    bsub.rows_into(robot, dt, C, d, cs)
+                    if written is None:
+                        written = _Written()
+                    bounds.append((written, slice(cs, e), bsub.row_names))
+                    cs = e
                     continue
                 Ci, di, rn = bsub.rows(robot, dt)
                 bounds.append((Ci, di, rn))
@@ -272,6 +273,8 @@ class _Plan:
                 blk += 1
                 ms = e
         offsets.append((ms, cs))
+        if written is not None:
+            self._written = (weakref.ref(written), cs)
         if offsets != self._offsets:
             for k, (ls_row, ineq_row) in enumerate(offsets):
                 meta[0, k], meta[1, k] = ls_row, ineq_row
@@ -283,7 +286,7 @@ class _Plan:
         terms: list[TaskTerm],
         z: np.ndarray | None,
         targets: list[tuple[np.ndarray, float]],
-        bounds: list[tuple[np.ndarray, Any, list[str]]],
+        bounds: list[tuple[Any, Any, list[str]]],
     ) -> StepRows:
         """The :class:`~redundik.resolvers.qp.terms.StepRows` that ``gather_rows`` gives for the rows :meth:`gather`
         evaluated (the same arrays, grouped per level)."""
@@ -300,8 +303,11 @@ class _Plan:
             rows = []
             for bsub in bsubs:
                 Ci, di, rn = next(ib)
-                if type(di) is not np.ndarray:  # a lower-bound row written by gather itself: rows()'s arrays
-                    Ci, di = Ci.reshape(1, -1), np.array([di])
+                if type(di) is slice:  # rows written by rows_into: their copies, as rows() gives them
+                    held = Ci
+                    if held.C is None:  # the buffers still hold this step's rows (_keep_written)
+                        self._keep_written()
+                    Ci, di = held.C[di], held.d[di]
                 rows.append((Ci, di, list(rn), bsub))
             ineq.append(rows)
         return StepRows(self.layout, terms, ls, ineq, z, n)
@@ -309,6 +315,8 @@ class _Plan:
     def fill(self, rows: StepRows) -> None:
         """Copy the step's rows into the buffers and write the offsets table (row 0: A, row 1: C); the weights and
         identity rows are rewritten only where they changed since the last step."""
+        if self._written is not None:
+            self._keep_written()
         meta, n, key = self.meta, self.n, self._weights
         A, b, w, C, d = self.A, self.b, self.w, self.C, self.d
         ms = cs = 0
