@@ -404,8 +404,10 @@ class Resolver(ABC):
         watch = self._watch
         if watch is None:
             watch = self._watch = DivergenceWatch()
-        dq = res.dq
-        norm = math.sqrt(dq.dot(dq))
+        norm = res.__dict__.get("_dq_norm")  # a fused step computed ‖q̇‖ in its compiled call
+        if norm is None:
+            dq = res.dq
+            norm = math.sqrt(dq.dot(dq))
         factor = watch.update(norm, res.task_error)
         if factor is not None:
             watch.flag(self.name, norm, factor, res.info)

@@ -370,6 +370,7 @@ class FusedStepResult(LazyStepResult):
         pending: Callable[[], tuple[float, bool, dict[str, object]]],
         dq_rank: np.ndarray | None = None,
         dq_null: np.ndarray | None = None,
+        dq_norm: float | None = None,
     ) -> FusedStepResult:
         """The result; ``make_terms()`` builds the terms when they are first read."""
         res = cls.__new__(cls)
@@ -387,6 +388,7 @@ class FusedStepResult(LazyStepResult):
             "pending": pending,
             "_make_terms": make_terms,
             "_task_error": task_error,
+            "_dq_norm": dq_norm,  # ‖q̇‖ from the compiled call (the divergence watch reads it)
         }
         return res
 

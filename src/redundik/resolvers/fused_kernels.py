@@ -140,6 +140,15 @@ def _null_objective(q: np.ndarray, ints: np.ndarray, floats: np.ndarray, coef: n
 
 
 @_jit
+def _sumsq(x: np.ndarray) -> float:
+    """Σ x² (‖q̇‖² for the divergence watch; NaN or inf when q̇ is not finite)."""
+    total = 0.0
+    for i in range(x.shape[0]):
+        total += x[i] * x[i]
+    return total
+
+
+@_jit
 def _main_error2(ints: np.ndarray, e: np.ndarray) -> float:
     """Σ e² over the main tasks' rows (the step's task error, squared)."""
     m = ints[3]
@@ -169,7 +178,7 @@ def fused_wqp_step(
     Jf: np.ndarray,
     ev: np.ndarray,
     out: np.ndarray,
-) -> tuple[float, float]:
+) -> tuple[float, float, float]:
     """One ``wqp`` step of a fused stack: frame rows (:func:`frame_rows`) and joint rows (e = (q_ref − q)[sel],
     v = K e) into e, v (``ev`` (2, m)); P = Σ w JᵀJ and g = −Σ w Jᵀv (``gram_update``; a joint task adds w on P's
     diagonal, or to the diagonal shift when it is an identity task, as the per-task path does); the null-space
@@ -181,14 +190,14 @@ def fused_wqp_step(
     the position gain and λ.
 
     Returns:
-        (status, Σ e² of the main rows): status −1 — a rotation error too large for the compiled log3 (evaluate the
-        tasks one by one); 1 — the optimum is inside the box (q̇ in out[5]); 0 — a limit binds (P, g and the box in
-        out[0:4] are ready for the QP).
+        (status, Σ e² of the main rows, ‖q̇‖² when inside): status −1 — a rotation error too large for the compiled
+        log3 (evaluate the tasks one by one); 1 — the optimum is inside the box (q̇ in out[5]); 0 — a limit binds (P,
+        g and the box in out[0:4] are ready for the QP).
     """
     K, J, N, m, nv = ints[0], ints[1], ints[2], ints[3], ints[4]
     e, v = ev[0], ev[1]
     if not frame_rows(Jw, poses, t, refs, ints, floats, coef[0:K], Jf, e, v):
-        return -1.0, 0.0
+        return -1.0, 0.0, 0.0
     starts = _part(ints, 8, K + 1)
     rows = _part(ints, 7, starts[K])
     reset = True
@@ -249,7 +258,7 @@ def fused_wqp_step(
         dq_prev,
         out,
     )
-    return (1.0 if inside else 0.0), _main_error2(ints, e[0:m])
+    return (1.0 if inside else 0.0), _main_error2(ints, e[0:m]), _sumsq(out[5]) if inside else 0.0
 
 
 @_jit
@@ -266,7 +275,7 @@ def fused_pinv_step(
     Jm: np.ndarray,
     ev: np.ndarray,
     out: np.ndarray,
-) -> tuple[float, int, float, float, float]:
+) -> tuple[float, int, float, float, float, float]:
     """One ``pinv`` step of a fused stack: the frame tasks' rows stacked into J (``Jm`` (m, n)) and e, v (``ev``),
     z of the null-space objective (:func:`_null_objective`), and the closed form q̇ = J⁺V + (I − J⁺J) z (eq. 5.8,
     ``closed_form_into``, σ_min lazily) into ``out`` (3, n).
@@ -275,12 +284,12 @@ def fused_pinv_step(
 
     Returns:
         (status — −1 a rotation error too large for the compiled log3, 1 done —, rank, σ_min (NaN: to compute on
-        request), damping, Σ e²).
+        request), damping, Σ e², ‖q̇‖²).
     """
     K, N, m, nv = ints[0], ints[2], ints[3], ints[4]
     e, v = ev[0], ev[1]
     if not frame_rows(Jw, poses, t, refs, ints, floats, coef[0:K], Jf, e, v):
-        return -1.0, 0, 0.0, 0.0, 0.0
+        return -1.0, 0, 0.0, 0.0, 0.0, 0.0
     starts = _part(ints, 8, K + 1)
     rows = _part(ints, 7, starts[K])
     for k in range(K):
@@ -292,4 +301,4 @@ def fused_pinv_step(
         _null_objective(q, ints, floats, coef[K : K + N], z)
     o = K + N
     rank, sigma_min, damping = closed_form_into(Jm, v, z, N > 0, coef[o], coef[o + 1], coef[o + 2], out, True)
-    return 1.0, rank, sigma_min, damping, _main_error2(ints, e[0:m])
+    return 1.0, rank, sigma_min, damping, _main_error2(ints, e[0:m]), _sumsq(out[2])

@@ -161,11 +161,11 @@ class PinvResolver(Resolver):
         ev = np.empty((2, plan.m))
         out = np.empty((3, n))
         q = robot.q
-        status, rank, sigma_min, damping, err2 = FK.fused_pinv_step(
+        status, rank, sigma_min, damping, err2, dq2 = FK.fused_pinv_step(
             plan.jw, plan.poses, float(t), refs, q, plan.ints, plan.floats, coef, Jf, Jm, ev, out
         )
         dq = out[2]
-        if status < 0.0 or not math.isfinite(dq.dot(dq)):
+        if status < 0.0 or not math.isfinite(dq2):  # a non-finite q̇: the per-task path diagnoses it
             return None
         t1 = time.perf_counter()
 
@@ -179,7 +179,17 @@ class PinvResolver(Resolver):
                 return smin, False, {"sigma_min": smin}
 
             return FusedStepResult.fused(
-                dq, make_terms, math.sqrt(err2), {"rank": int(rank)}, t1 - t0, 0.0, main, diagnostics, out[0], out[1]
+                dq,
+                make_terms,
+                math.sqrt(err2),
+                {"rank": int(rank)},
+                t1 - t0,
+                0.0,
+                main,
+                diagnostics,
+                out[0],
+                out[1],
+                dq_norm=math.sqrt(dq2),
             )
         return StepResult(
             dq=dq,

@@ -319,7 +319,7 @@ class WeightedQPResolver(QPResolverBase):
         ev = np.empty((2, fused.m))
         out = np.empty((7, n))
         q = robot.q
-        status, err2 = FK.fused_wqp_step(
+        status, err2, dq2 = FK.fused_wqp_step(
             fused.jw,
             fused.poses,
             float(t),
@@ -371,6 +371,7 @@ class WeightedQPResolver(QPResolverBase):
             time.perf_counter() - t1,
             main,
             diagnostics,
+            dq_norm=math.sqrt(dq2),
         )
         return res
 
