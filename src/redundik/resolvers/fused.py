@@ -1,23 +1,23 @@
 """The fused step: a stack whose members all have a compiled form is evaluated, accumulated and solved in one call.
 
-A control tick of the per-task path calls every task's ``evaluate`` (a :class:`~redundik.tasks.base.TaskTerm`
+A control tick of the per-task path calls every task's ``evaluate`` (a ``TaskTerm``
 each), then the resolver's kernels on them: some sixty Python-level calls, which on a 9-dof arm cost more than the
 arithmetic. Most stacks are made of a few kinds of member whose rows are known formulas:
 
-* :class:`~redundik.tasks.frame.FrameTask` — the rows of its frame's Jacobian and the error
+* ``FrameTask`` — the rows of its frame's Jacobian and the error
   (p_d − p, log3(R_d Rᵀ)), its trajectory sampled inside the compiled call for ``Hold``, ``Line`` and ``Circle``
   (in Python for any other);
-* a joint-space task that declares :meth:`~redundik.tasks.base.Task.joint_form` — J = I[sel],
+* a joint-space task that declares ``joint_form`` — J = I[sel],
   e = (q_ref ⊖ q)[sel], v = K e (a posture);
 * terms of the null-space objective z (eq. 5.8): identity regularisers (a posture: z += v) and gradient subtasks
-  of a potential that declares :meth:`~redundik.tasks.base.Potential.linear_gradient` (a joint centering:
+  of a potential that declares ``linear_gradient`` (a joint centering:
   z += k w ⊙ (q ⊖ q_c)).
 
-For such a stack, :class:`FusedPlan` (built once per stack membership) packs their static data; each step it checks
+For such a stack, ``FusedPlan`` (built once per stack membership) packs their static data; each step it checks
 that the array-valued members are the same objects (trajectory, targets, centres), re-reads gains and weights when
-one was set (:class:`~redundik.tasks.base.Edits`), and hands Pinocchio's Jacobians and poses to one kernel of
-:mod:`redundik.resolvers.fused_kernels` — the composition of the per-task kernels, not a second implementation. The
-step's terms are built only when read (:class:`FusedStepResult`). Whatever the plan cannot take — another task
+one was set (``Edits``), and hands Pinocchio's Jacobians and poses to one kernel of
+``redundik.resolvers.fused_kernels`` — the composition of the per-task kernels, not a second implementation. The
+step's terms are built only when read (``FusedStepResult``). Whatever the plan cannot take — another task
 type, a frame target set as a position, a rotation error beyond the compiled log3's range, a coordinate without a
 1-dof position — goes the per-task way, for that stack or that step: the answer is the same (tested to 1e-12).
 """
@@ -40,7 +40,7 @@ from redundik.tasks.trajectory import GIVEN, PARAMS
 
 Form = tuple[np.ndarray, np.ndarray]
 
-#: Length of a reference row (p_d, R_d row-major, twist) of :mod:`redundik.resolvers.fused_kernels`.
+#: Length of a reference row (p_d, R_d row-major, twist) of ``redundik.resolvers.fused_kernels``.
 REF = 18
 #: Entries of the header of a plan's ``ints``: counts K (frame tasks), J (joint-space tasks at a level), N (null-space
 #: terms), m (rows of e), nv, nq, then the offsets of kinds (K), frame rows, row starts (K + 1), rotation flags (K),
@@ -51,17 +51,17 @@ HEADER = 22
 
 
 class FusedPlan:
-    """The packed static data of a fused stack (module docstring); :meth:`build` makes one or says why not.
+    """The packed static data of a fused stack (module docstring); ``build`` makes one or says why not.
 
     Attributes:
         frames: The frame tasks, in stack order; ``level_joints``: the joint-space tasks of a level (``wqp``);
             ``nulls``: the regularisation tasks of the null-space objective; ``gradients``: its gradient subtasks.
-        ints, floats: The static data in the layout of :data:`~redundik.resolvers.fused_kernels.HEADER`.
-        coef: The step's coefficients (gains, weights × ρ^k, …), re-read when :class:`Edits` moved.
+        ints, floats: The static data in the layout of ``HEADER``.
+        coef: The step's coefficients (gains, weights × ρ^k, …), re-read when ``Edits`` moved.
         m: Rows of e (frame rows, then joint-task rows).
     """
 
-    #: :meth:`build`'s answer when a frame task has not been evaluated on this robot yet (try at the next step).
+    #: ``build``'s answer when a frame task has not been evaluated on this robot yet (try at the next step).
     NOT_YET: ClassVar[str] = "not yet"
 
     def __init__(self) -> None:
@@ -109,7 +109,7 @@ class FusedPlan:
         null_scale: float,
     ) -> FusedPlan | str | None:
         """The plan of ``stack``; ``None`` when a member has no compiled form (the per-task path then runs), or
-        :attr:`NOT_YET` when a frame task has not been evaluated on this robot yet.
+        ``NOT_YET`` when a frame task has not been evaluated on this robot yet.
 
         Args:
             scales: Per task index, (ρ^k of its level, identity Jacobian) for ``wqp``; ``None`` for ``pinv``, whose
@@ -273,7 +273,7 @@ class FusedPlan:
         return True
 
     def coefficients(self, tail: tuple[float, ...]) -> np.ndarray:
-        """``coef`` of this step: re-read from the members when a gain or weight was set since (:class:`Edits`) or
+        """``coef`` of this step: re-read from the members when a gain or weight was set since (``Edits``) or
         ``tail`` (the resolver's own numbers) changed."""
         if Edits.count == self.edits and tail == self.tail:
             return self.coef
@@ -328,7 +328,7 @@ class FusedPlan:
         return out
 
     def _slots(self, robot: RobotModel, level_forms: list[Form], starts: list[int], jstarts: list[int]) -> None:
-        """What :meth:`terms` needs per stack task, laid out once: (kind, task, weight index, first row, end row,
+        """What ``terms`` needs per stack task, laid out once: (kind, task, weight index, first row, end row,
         rows or identity rows)."""
         mf = starts[-1]
         K = len(self.frames)
@@ -355,7 +355,7 @@ def _identity_rows(n: int, sel: np.ndarray) -> np.ndarray:
 
 
 class FusedStepResult(LazyStepResult):
-    """A :class:`LazyStepResult` of a fused step: ``terms`` built on first read, ``task_error`` computed in the step."""
+    """A ``LazyStepResult`` of a fused step: ``terms`` built on first read, ``task_error`` computed in the step."""
 
     @classmethod
     def fused(

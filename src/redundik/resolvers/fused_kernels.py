@@ -1,10 +1,10 @@
-"""Compiled kernels of the fused step (:mod:`redundik.resolvers.fused`): a stack of frame tasks, joint-space tasks
+"""Compiled kernels of the fused step (``redundik.resolvers.fused``): a stack of frame tasks, joint-space tasks
 and joint-space null-space terms evaluated, accumulated and solved in one call.
 
 They compose the one implementation of each piece — the frame error (``kernels.frame_error``), the weighted rows
 (``kernels.gram_update``), ``wqp``'s limit box and unconstrained optimum (``kernels.wqp_free_step``), the closed form
 of eq. (5.8) (``kernels.closed_form_into``) — and the reference of the library's simple trajectories
-(:func:`reference_into`, which ``Line`` and ``Circle`` call too). Nothing here is a second implementation of what the
+(``reference_into``, which ``Line`` and ``Circle`` call too). Nothing here is a second implementation of what the
 per-task path computes.
 
 A call takes few arguments (each costs the dispatcher time): the plan's static data packed in one integer array
@@ -179,10 +179,10 @@ def fused_wqp_step(
     ev: np.ndarray,
     out: np.ndarray,
 ) -> tuple[float, float, float]:
-    """One ``wqp`` step of a fused stack: frame rows (:func:`frame_rows`) and joint rows (e = (q_ref − q)[sel],
+    """One ``wqp`` step of a fused stack: frame rows (``frame_rows``) and joint rows (e = (q_ref − q)[sel],
     v = K e) into e, v (``ev`` (2, m)); P = Σ w JᵀJ and g = −Σ w Jᵀv (``gram_update``; a joint task adds w on P's
     diagonal, or to the diagonal shift when it is an identity task, as the per-task path does); the null-space
-    objective z (:func:`_null_objective`); then ``wqp_free_step`` (the limit box from ``lim`` (4, nv): lower, upper
+    objective z (``_null_objective``); then ``wqp_free_step`` (the limit box from ``lim`` (4, nv): lower, upper
     [rad], velocity [rad/s], acceleration [rad/s²] limits; the optimum; its test).
 
     ``Jf`` (K, 6, nv) receives the frames' Jacobians. ``coef``: gain (K), weight·ρ^k (K) per frame task; gain (J),
@@ -277,7 +277,7 @@ def fused_pinv_step(
     out: np.ndarray,
 ) -> tuple[float, int, float, float, float, float]:
     """One ``pinv`` step of a fused stack: the frame tasks' rows stacked into J (``Jm`` (m, n)) and e, v (``ev``),
-    z of the null-space objective (:func:`_null_objective`), and the closed form q̇ = J⁺V + (I − J⁺J) z (eq. 5.8,
+    z of the null-space objective (``_null_objective``), and the closed form q̇ = J⁺V + (I − J⁺J) z (eq. 5.8,
     ``closed_form_into``, σ_min lazily) into ``out`` (3, n).
 
     ``coef``: gain (K) per frame task, the N null coefficients, then ε, λ_max and rcond.

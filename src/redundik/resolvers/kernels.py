@@ -673,7 +673,7 @@ def spd_solve_into(P: np.ndarray, q: np.ndarray, x: np.ndarray) -> bool:
     P is not numerically SPD (x is then zero) or x is not finite.
 
     The separable coordinates of P (:func:`coupled_coordinates`) are solved in closed form and only the coupled
-    block is factored (:func:`_spd_solve_split`: the same x, bit for bit, for n_c ≤ :data:`CHOLESKY_LOOPS_MAX`;
+    block is factored (``_spd_solve_split``: the same x, bit for bit, for n_c ≤ :data:`CHOLESKY_LOOPS_MAX`;
     measured per call on the benchmark's ``wqp`` steps, detection included: Talos, 22 of 38 coordinates coupled,
     5.2 → 2.4 µs; the Panda, 7 of 9, 0.38 → 0.34 µs; a dense P (the snake, n = 160) unchanged); when that solve
     fails, or no coordinate is separable, the whole of P is factored, so that every failure (non-finite data, P not
@@ -696,7 +696,7 @@ def split_separable(
     P: np.ndarray, q: np.ndarray, lb: np.ndarray, ub: np.ndarray, min_saving: int, work: np.ndarray, idx: np.ndarray
 ) -> tuple[int, int]:
     """The bounds-only QP min ½xᵀPx + qᵀx s.t. lb ≤ x ≤ ub split into its separable variables and the rest (daqp's
-    split, :meth:`redundik.resolvers.qp.backends.DaqpBackend.solve`).
+    split, ``redundik.resolvers.qp.backends.DaqpBackend.solve``).
 
     The variables are separated by :func:`coupled_coordinates`: a separable variable's part of the QP is
     min ½P_ii x_i² + q_i x_i on [lb_i, ub_i], solved exactly by x_i = clip(−q_i/P_ii, lb_i, ub_i), whatever the
