@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -261,22 +262,10 @@ class WeightedQPResolver(QPResolverBase):
         )
         windowed = prev.shape[0] > 0
         if not inside:  # a constraint is active (or the optimum is not finite): the backend, through the template
-            P, q = self._P, self._q
-            assert P is not None and q is not None
-            box = limits.box_from(out, windowed)
-            prob = QPProblem(P, q, self._no_rows, self._no_rhs, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp")
-            built = WQPBuild(prob, box, [terms[i] for i in plan.main], lam, free_outside=True)
-            return self._finish(robot, stack, terms, built, t0, t1)
+            return self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1)
         dq, kept = out[5], out[6]
         self._dq_prev = kept
-        main = plan.main
-
-        def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
-            diag = QPDiagnostics()
-            diag.active_limits = limits.box_from(out, windowed).active(kept, limits.joint_names)
-            self._diagnose_terms([terms[i] for i in main], lam, kept, diag)
-            return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
-
+        diagnostics = self._free_diagnostics(lambda: terms, plan.main, out, windowed, kept, lam)
         return LazyStepResult.make(
             dq,
             terms,
@@ -287,6 +276,48 @@ class WeightedQPResolver(QPResolverBase):
             plan.main,
             diagnostics,
         )
+
+    def _box_qp(
+        self,
+        robot: RobotModel,
+        stack: TaskStack,
+        terms: list[TaskTerm],
+        plan: _Plan,
+        out: np.ndarray,
+        windowed: bool,
+        lam: float,
+        t0: float,
+        t1: float,
+    ) -> StepResult:
+        """A lean step whose unconstrained optimum left the box (rows of ``out``: lb, ub, pos_lo, pos_hi): the
+        backend solves P, q with that box, through the template's second half."""
+        P, q = self._P, self._q
+        assert P is not None and q is not None
+        box = self.limits.box_from(out, windowed)
+        prob = QPProblem(P, q, self._no_rows, self._no_rhs, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp")
+        built = WQPBuild(prob, box, [terms[i] for i in plan.main], lam, free_outside=True)
+        return self._finish(robot, stack, terms, built, t0, t1)
+
+    def _free_diagnostics(
+        self,
+        terms_of: Callable[[], list[TaskTerm]],
+        main: list[int],
+        out: np.ndarray,
+        windowed: bool,
+        kept: np.ndarray,
+        lam: float,
+    ) -> Callable[[], tuple[float, bool, dict[str, object]]]:
+        """The diagnostics of a lean step that solved no QP, computed on first read of the result's diagnostics."""
+        limits = self.limits
+
+        def diagnostics() -> tuple[float, bool, dict[str, object]]:
+            terms = terms_of()
+            diag = QPDiagnostics()
+            diag.active_limits = limits.box_from(out, windowed).active(kept, limits.joint_names)
+            self._diagnose_terms([terms[i] for i in main], lam, kept, diag)
+            return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
+
+        return diagnostics
 
     def _fused_plan(self, robot: RobotModel, stack: TaskStack, plan: _Plan) -> FusedPlan | str | bool:
         """The fused form of the plan's stack (:mod:`redundik.resolvers.fused`), ``NOT_YET`` or False (none)."""
@@ -346,22 +377,11 @@ class WeightedQPResolver(QPResolverBase):
 
         windowed = prev.shape[0] > 0
         if status == 0.0:  # a limit binds: the backend, through the template
-            terms = make_terms()
-            box = limits.box_from(out, windowed)
-            prob = QPProblem(P, g, self._no_rows, self._no_rhs, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp")
-            built = WQPBuild(prob, box, [terms[i] for i in plan.main], lam, free_outside=True)
-            return self._finish(robot, stack, terms, built, t0, t1)
+            return self._box_qp(robot, stack, make_terms(), plan, out, windowed, lam, t0, t1)
         dq, kept = out[5], out[6]
         self._dq_prev = kept
         main = plan.main
-
-        def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
-            terms = res.terms
-            diag = QPDiagnostics()
-            diag.active_limits = limits.box_from(out, windowed).active(kept, limits.joint_names)
-            self._diagnose_terms([terms[i] for i in main], lam, kept, diag)
-            return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
-
+        diagnostics = self._free_diagnostics(lambda: res.terms, main, out, windowed, kept, lam)
         res = FusedStepResult.fused(
             dq,
             make_terms,
