@@ -49,6 +49,7 @@ def _compare(
     edit=None,
     fused_expected: bool = True,
     fallbacks: list[str] | None = None,
+    qp_steps: list[int] | None = None,
     **options,
 ) -> list[bool]:
     """Step a fused and a per-task copy on the fused copy's trajectory; q̇ and what the result reports must agree.
@@ -90,6 +91,8 @@ def _compare(
         assert a.fallback == b.fallback
         if fallbacks is not None and a.fallback is not None:
             fallbacks.append(a.fallback)
+        if qp_steps is not None and a.info["qp"]:
+            qp_steps.append(k)
         assert a.task_error == pytest.approx(b.task_error, rel=1e-12, abs=1e-15)
         assert [t.name for t in a.terms] == [t.name for t in b.terms]
         for ta, tb in zip(a.terms, b.terms, strict=True):
@@ -115,7 +118,7 @@ def _hand(traj, **kw) -> FrameTask:
     return FrameTask("panda_hand", traj, gain=kw.pop("gain", 20.0), **kw)
 
 
-@pytest.mark.parametrize("method", ["wqp", "pinv"])
+@pytest.mark.parametrize("method", ["wqp", "pinv", "hqp"])
 @pytest.mark.parametrize(
     "traj",
     [
@@ -141,7 +144,7 @@ def test_fused_row_subsets_agree(axes) -> None:
             [GradientSubtask(JointCentering(), gain=-0.5)],
         )
 
-    for method in ("wqp", "pinv"):
+    for method in ("wqp", "pinv", "hqp"):
         _compare(stack, method, steps=60)
 
 
@@ -159,6 +162,7 @@ def test_fused_levels_weights_and_identity_tasks_agree() -> None:
         )
 
     _compare(stack, "wqp", steps=80)
+    _compare(stack, "hqp", steps=80)
 
 
 def test_fused_binding_limits_agree() -> None:
@@ -167,7 +171,9 @@ def test_fused_binding_limits_agree() -> None:
     def stack(robot: RobotModel) -> TaskStack:
         return TaskStack([_hand(Circle(0.08, 3.0, plane=("y", "z"))), PostureTask(gain=1.0)])
 
-    _compare(stack, "wqp", steps=150, limits={"lower": {"panda_joint1": -0.01}, "upper": {"panda_joint1": 0.01}})
+    tight = {"lower": {"panda_joint1": -0.01}, "upper": {"panda_joint1": 0.01}}
+    _compare(stack, "wqp", steps=150, limits=tight)
+    _compare(stack, "hqp", steps=150, limits=tight)
 
 
 def test_fused_follows_run_time_edits() -> None:
@@ -192,7 +198,7 @@ def test_fused_follows_run_time_edits() -> None:
     def stack(robot: RobotModel) -> TaskStack:
         return TaskStack([_hand(Circle(0.05, 1.5, plane=("y", "z"))), PostureTask(gain=1.0)])
 
-    for method in ("wqp", "pinv"):
+    for method in ("wqp", "pinv", "hqp"):
         _compare(stack, method, steps=110, edit=edit)
 
 
@@ -204,7 +210,7 @@ def test_large_rotation_error_takes_the_per_task_path() -> None:
         target = pin.SE3(pose.rotation @ pin.exp3(np.array([0.0, 0.0, 2.5])), pose.translation)
         return TaskStack([_hand(Hold(target), gain=5.0), PostureTask(gain=1.0)])
 
-    for method in ("wqp", "pinv"):
+    for method in ("wqp", "pinv", "hqp"):
         took = _compare(stack, method, steps=60, fused_expected=False)
         assert not any(took[:20]), "a 2.5 rad rotation error went through the compiled log3"
         assert all(took[-10:]), "the fused step resumed once the rotation error is small"
@@ -304,7 +310,7 @@ def test_a_trajectory_that_turns_nan_falls_back_as_the_per_task_path_does() -> N
     def stack(robot: RobotModel) -> TaskStack:
         return TaskStack([_hand(Glitch(), gain=5.0), PostureTask(gain=1.0)])
 
-    for method in ("wqp", "pinv"):
+    for method in ("wqp", "pinv", "hqp"):
         seen: list[str] = []
         took = _compare(stack, method, steps=40, fused_expected=False, fallbacks=seen)
         assert any(took[:15]), "the fused step took the user trajectory (sampled in Python)"
@@ -318,18 +324,62 @@ def test_fused_rate_window_agrees() -> None:
         return TaskStack([_hand(Circle(0.06, 3.0, plane=("y", "z"))), PostureTask(gain=1.0)])
 
     _compare(stack, "wqp", steps=100, limits={"acceleration": 20.0})
+    _compare(stack, "hqp", steps=100, limits={"acceleration": 20.0})
 
 
-@pytest.mark.parametrize("method", ["wqp", "pinv"])
-def test_benchmark_talos_fused_agrees(method: str) -> None:
+def test_fused_hqp_bounds_and_gradients_agree() -> None:
+    """hqp: a clearance inequality that binds on about half the steps (its rows written beside the compiled call,
+    then the QP cascade on the fused rows), a posture as the null-space regulariser with a gradient subtask (z
+    computed in the call), and a second frame task on a level of its own (the rows' destinations in the buffers)."""
+    from redundik.tasks.potentials import Clearance
+    from redundik.tasks.subtasks import BoundSubtask
+
+    def stack(robot: RobotModel) -> TaskStack:
+        centre = robot.frame_position("panda_link4") + np.array([0.0, -0.115, 0.0])
+        return TaskStack(
+            [
+                _hand(Circle(0.08, 2.0, plane=("y", "z"))),
+                FrameTask("panda_link5", Hold(), axes=["z"], gain=2.0),
+                PostureTask(gain=1.0),
+            ],
+            [
+                BoundSubtask(Clearance("panda_link4", centre, 0.05, axes=("x", "y")), lower=0.06, rate=5.0),
+                GradientSubtask(JointCentering(), gain=-0.5),
+            ],
+        )
+
+    qp: list[int] = []
+    _compare(stack, "hqp", steps=150, qp_steps=qp, levels={"panda_link5": 1})
+    assert 40 <= len(qp) <= 120, f"the clearance bound on {len(qp)} of 150 steps"
+    _compare(stack, "hqp", steps=80)  # the link's height beside the hand, at level 0
+
+
+def test_hqp_target_subtasks_are_not_fused() -> None:
+    """A target subtask's row is evaluated in Python: hqp's per-task path, and the same answer."""
+    from redundik.tasks.potentials import JointSine2
+    from redundik.tasks.subtasks import TargetSubtask
+
+    def stack(robot: RobotModel) -> TaskStack:
+        return TaskStack([_hand(Circle(0.05, 1.5, plane=("y", "z")))], [TargetSubtask(JointSine2("panda_joint4"), 0.5)])
+
+    assert not any(_compare(stack, "hqp", steps=20, fused_expected=False))
+
+
+@pytest.mark.parametrize(
+    ("scenario", "method"),
+    [("talos", "wqp"), ("talos", "pinv"), ("talos", "hqp"), ("panda_circle", "hqp"), ("snake10", "hqp")],
+)
+def test_benchmark_stacks_fused_agree(scenario: str, method: str) -> None:
     """Talos (free-flyer base, two hands, a posture of the actuated joints, limits binding on a third of the
-    steps): the benchmark's stacks take the fused step and give the per-task path's q̇ and terms."""
+    steps), the Panda's 3-level hqp (a post clearance between hand and posture) and the snake's (three
+    clearances, a centering gradient): the benchmark's stacks take the fused step and give the per-task path's q̇
+    and terms."""
     from benchmarks.bench.runners import RedundikRunner
     from benchmarks.bench.scenarios import SCENARIOS
 
     runners = []
     for fuse in (True, False):
-        r = RedundikRunner(SCENARIOS["talos"](), method, None, {})
+        r = RedundikRunner(SCENARIOS[scenario](), method, None, {})
         r.resolver.fuse = fuse  # type: ignore[attr-defined]
         runners.append(r)
     fused, plain = runners
@@ -348,3 +398,38 @@ def test_benchmark_talos_fused_agrees(method: str) -> None:
         fused_steps += isinstance(_fused_plan(fused.resolver), FusedPlan)
         fused.q = fused.robot.integrate(fused.q, a.dq, dt)
     assert fused_steps >= 148
+
+
+def test_blas_is_limited_inside_a_step_and_restored_after() -> None:
+    """``blas_threads = "auto"``: on a robot with nv ≥ 64 the BLAS libraries run one thread inside the step and
+    get their own count back after it (a task reads the count while the step evaluates it)."""
+    from benchmarks.bench.scenarios import SCENARIOS
+    from threadpoolctl import threadpool_info
+
+    from redundik.resolvers.base import _USER_CHOSE_THREADS, BLAS_LIMIT_NV
+
+    def blas_threads() -> list[int]:
+        return [int(i["num_threads"]) for i in threadpool_info() if i["user_api"] == "blas"]
+
+    if _USER_CHOSE_THREADS or max(blas_threads(), default=1) == 1:
+        pytest.skip("the BLAS thread count is the user's, or already 1: nothing to limit")
+    sc = SCENARIOS["snake80"]()
+    robot = sc.robot()
+    assert robot.nv >= BLAS_LIMIT_NV
+    seen: list[list[int]] = []
+
+    class Reading(PostureTask):
+        def evaluate(self, robot: RobotModel, t: float):  # type: ignore[no-untyped-def]
+            seen.append(blas_threads())
+            return super().evaluate(robot, t)
+
+    robot.update(sc.q0)
+    stack = TaskStack([FrameTask(str(robot.nv), Hold(), gain=5.0), Reading(gain=1.0)])
+    stack.reset(robot)
+    res = rs.make_resolver("wqp")
+    res.fuse = False  # the per-task path: the task's evaluate runs inside the step
+    res.step(robot, stack, sc.q0, 0.0, DT)  # (the first step loads SciPy's OpenBLAS too)
+    before = blas_threads()
+    res.step(robot, stack, sc.q0, DT, DT)
+    assert seen and all(n == 1 for n in seen[-1]), seen
+    assert blas_threads() == before

@@ -327,6 +327,20 @@ class FusedPlan:
                 out.append(TaskTerm(task.name, extra, task.gain * e, e, task.weight))
         return out
 
+    def terms_once(
+        self, Jf: np.ndarray, ev: np.ndarray, q: np.ndarray, robot: RobotModel
+    ) -> Callable[[], list[TaskTerm]]:
+        """A callable giving the step's :meth:`terms`, built on its first call: the result and its lazy
+        diagnostics share them without holding each other (no reference cycle keeps a step's result alive)."""
+        cell: list[list[TaskTerm]] = []
+
+        def make() -> list[TaskTerm]:
+            if not cell:
+                cell.append(self.terms(Jf, ev, q, robot))
+            return cell[0]
+
+        return make
+
     def _slots(self, robot: RobotModel, level_forms: list[Form], starts: list[int], jstarts: list[int]) -> None:
         """What ``terms`` needs per stack task, laid out once: (kind, task, weight index, first row, end row,
         rows or identity rows)."""

@@ -3,9 +3,9 @@ and joint-space null-space terms evaluated, accumulated and solved in one call.
 
 They compose the one implementation of each piece — the frame error (``kernels.frame_error``), the weighted rows
 (``kernels.gram_update``), ``wqp``'s limit box and unconstrained optimum (``kernels.wqp_free_step``), the closed form
-of eq. (5.8) (``kernels.closed_form_into``) — and the reference of the library's simple trajectories
-(``reference_into``, which ``Line`` and ``Circle`` call too). Nothing here is a second implementation of what the
-per-task path computes.
+of eq. (5.8) (``kernels.closed_form_into``), ``hqp``'s unconstrained cascade (``hqp_kernels.closed_step``) — and
+the reference of the library's simple trajectories (``reference_into``, which ``Line`` and ``Circle`` call too).
+Nothing here is a second implementation of what the per-task path computes.
 
 A call takes few arguments (each costs the dispatcher time): the plan's static data packed in one integer array
 ``ints`` and one float array ``floats``, whose layout ``fused.HEADER`` describes (written by ``fused.FusedPlan``), and
@@ -24,6 +24,7 @@ import math
 import numpy as np
 
 from redundik.resolvers.fused import HEADER, REF
+from redundik.resolvers.hqp_kernels import closed_step
 from redundik.resolvers.kernels import (
     _jit,
     closed_form_into,
@@ -34,7 +35,7 @@ from redundik.resolvers.kernels import (
 )
 from redundik.tasks.trajectory import CIRCLE, GIVEN, LINE, PARAMS
 
-__all__ = ["HEADER", "REF", "frame_rows", "fused_pinv_step", "fused_wqp_step", "reference_into"]
+__all__ = ["HEADER", "REF", "frame_rows", "fused_hqp_step", "fused_pinv_step", "fused_wqp_step", "reference_into"]
 
 
 @_jit
@@ -302,3 +303,96 @@ def fused_pinv_step(
     o = K + N
     rank, sigma_min, damping = closed_form_into(Jm, v, z, N > 0, coef[o], coef[o + 1], coef[o + 2], out, True)
     return 1.0, rank, sigma_min, damping, _main_error2(ints, e[0:m]), _sumsq(out[2])
+
+
+@_jit
+def fused_hqp_step(
+    Jw: np.ndarray,
+    poses: np.ndarray,
+    t: float,
+    refs: np.ndarray,
+    q: np.ndarray,
+    ints: np.ndarray,
+    floats: np.ndarray,
+    coef: np.ndarray,
+    lim: np.ndarray,
+    iq: np.ndarray,
+    dt: float,
+    dq_prev: np.ndarray,
+    Jf: np.ndarray,
+    ev: np.ndarray,
+    dest: np.ndarray,
+    A: np.ndarray,
+    b: np.ndarray,
+    w: np.ndarray,
+    C: np.ndarray,
+    d: np.ndarray,
+    meta: np.ndarray,
+    params: np.ndarray,
+    z: np.ndarray,
+    out: np.ndarray,
+    stats: np.ndarray,
+) -> tuple[float, float, float]:
+    """One ``hqp`` step of a fused stack: the frame rows (``frame_rows``) and joint rows (J = I[sel],
+    e = (q_ref − q)[sel], v = K e) written into the cascade's least-squares buffers A, b, w at the rows ``dest[r]``
+    of the stack's layout (the rows ``hqp``'s per-task gather would give them), z of the null-space objective
+    (``_null_objective``) and, for a level that carries it after rows of its own, its identity rows at the starts
+    ``dest[m:]``; then ``closed_step`` on those rows and the inequality rows C, d the caller wrote (bound subtasks).
+
+    ``coef``: gain (K), weight (K) per frame task; gain (J), weight (J) per joint task; an unused slot; the N null
+    coefficients; then position (0/1), rate (0/1) and the position gain of the limits. ``lim`` (4, nv): lower, upper
+    [rad], velocity [rad/s], acceleration [rad/s²] limits; ``iq`` their q index per velocity coordinate.
+
+    Returns:
+        (status, Σ e² of the main rows, ‖q̇‖² when feasible): status −1 — a rotation error too large for the
+        compiled log3 (evaluate the tasks one by one); otherwise ``closed_step``'s: 1 feasible (q̇ in out[5, 0]),
+        0 a constraint is active, 2 q̇ not finite.
+    """
+    K, J, N, m, nv, nq = ints[0], ints[1], ints[2], ints[3], ints[4], ints[5]
+    e, v = ev[0], ev[1]
+    if not frame_rows(Jw, poses, t, refs, ints, floats, coef[0:K], Jf, e, v):
+        return -1.0, 0.0, 0.0
+    starts = _part(ints, 8, K + 1)
+    rows = _part(ints, 7, starts[K])
+    for k in range(K):
+        wk = coef[K + k]
+        Jk = Jf[k]
+        for r in range(starts[k], starts[k + 1]):
+            a = dest[r]
+            A[a, :] = Jk[rows[r], :]
+            b[a] = v[r]
+            w[a] = wk
+    jq = _part(ints, 13, nv)
+    jstarts = _part(ints, 11, J + 1)
+    jsel = _part(ints, 10, jstarts[J])
+    to = ints[17]
+    mf = starts[K]
+    c0 = 2 * K
+    for k in range(J):
+        gain, wk = coef[c0 + k], coef[c0 + J + k]
+        for r in range(jstarts[k], jstarts[k + 1]):
+            s = jsel[r]
+            j = jq[s]
+            err = floats[to + k * nq + j] - q[j]
+            e[mf + r] = err
+            v[mf + r] = gain * err
+            a = dest[mf + r]
+            A[a, :] = 0.0
+            A[a, s] = 1.0
+            b[a] = gain * err
+            w[a] = wk
+    if N > 0:
+        _null_objective(q, ints, floats, coef[c0 + 2 * J + 1 : c0 + 2 * J + 1 + N], z)
+    for i in range(m, dest.shape[0]):  # a level with rows of its own and the null-space objective: ½‖q̇ − z‖² rows
+        a = dest[i]
+        for r in range(nv):
+            A[a + r, :] = 0.0
+            A[a + r, r] = 1.0
+            b[a + r] = z[r]
+            w[a + r] = 1.0
+    o = c0 + 2 * J + 1 + N
+    status = closed_step(
+        A, b, w, C, d, z, meta, params, q, iq, lim[0], lim[1], lim[2], lim[3],
+        coef[o] != 0.0, coef[o + 1] != 0.0, coef[o + 2], dt, dq_prev, out, stats,
+    )  # fmt: skip
+    return float(status), _main_error2(ints, e[0:m]), _sumsq(out[5, 0]) if status == 1 else 0.0

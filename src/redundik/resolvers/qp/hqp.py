@@ -31,6 +31,11 @@ certifies σ_min ≥ ε (nothing damped, full rank: M⁺ exactly) skips its SVD,
 takes Zᵀ(b − x) without a factorisation, and the per-level rows
 (``StepRows``), the limit box's record, the Level records, σ_min per level and the rank-loss test are built only
 when the step goes on to the QPs or its diagnostics are read (``LazyStepResult``).
+Fused step (exact, :mod:`redundik.resolvers.fused`): a stack of frame tasks, joint-space tasks and linear gradient
+subtasks, with bound subtasks but no target subtask, skips the tasks' ``evaluate``: one compiled call
+(``fused_kernels.fused_hqp_step``) writes their rows from Pinocchio's Jacobians into the same buffers at the rows
+the per-task gather gives them, then runs the closed-form path above; the bound subtasks' rows are written beside
+it as the gather writes them. The same q̇, terms and diagnostics (``tests/test_fused.py``).
 Level shortcut (exact, below the top level): when the cascade is not feasible, a level QP whose unconstrained
 optimum — û = argmin ½‖A_k Z u − (b_k − A_k x)‖² + ½ε‖u‖² from the SVD of A_k Z, slack w = 0 — keeps every row of
 that QP (its inequalities, the levels above, the limits, to the same margins) is that QP's optimum (the KKT
@@ -68,7 +73,8 @@ import numpy as np
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, StepResult
-from redundik.resolvers.linalg import DampedSVD, damped_svd
+from redundik.resolvers.fused import FusedPlan, FusedStepResult
+from redundik.resolvers.linalg import FK, DampedSVD, damped_svd
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, polish
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
 from redundik.resolvers.qp.limits import LimitBox
@@ -171,6 +177,10 @@ class _Plan:
             for lv, mixed in zip(layout.levels, self.mixed, strict=True)
         ]
         self._offsets: list[tuple[int, int]] = []  # the offsets gather last wrote into meta
+        #: The fused form of the stack (:meth:`fuse`): ``None`` not planned yet, False none.
+        self.fused: FusedPlan | str | bool | None = None
+        self.dest = np.zeros(0, dtype=np.int64)  # per fused row its row of A, then the mixed levels' first rows
+        self.ls_offsets: list[int] = []
         self._written: tuple[weakref.ref[_Written], int] | None = None  # the last gather's record, its rows
 
     def _keep_written(self) -> None:
@@ -201,7 +211,7 @@ class _Plan:
         if self._written is not None:
             self._keep_written()
         meta, n, key = self.meta, self.n, self._weights
-        A, b, w, C, d = self.A, self.b, self.w, self.C, self.d
+        A, b, w = self.A, self.b, self.w
         targets: list[tuple[np.ndarray, float]] = []
         bounds: list[tuple[Any, Any, list[str]]] = []  # (C, d, names), or (written, rows' slice, names)
         written: _Written | None = None  # the record of the rows written by rows_into
@@ -239,26 +249,8 @@ class _Plan:
                     key[blk:] = [(ms, e, weight)]
                 blk += 1
                 ms = e
-            for bsub in bsubs:
-                k = bsub.fixed_rows if type(bsub) is BoundSubtask else None
-                if k is not None:  # a potential's damper rows, written into the buffers by the subtask itself
-                    e = cs + k
-                    if e > C.shape[0]:
-                        C, d = self._grow_ineq(e)
-                    bsub.rows_into(robot, dt, C, d, cs)
-                    if written is None:
-                        written = _Written()
-                    bounds.append((written, slice(cs, e), bsub.row_names))
-                    cs = e
-                    continue
-                Ci, di, rn = bsub.rows(robot, dt)
-                bounds.append((Ci, di, rn))
-                e = cs + Ci.shape[0]
-                if e > C.shape[0]:
-                    C, d = self._grow_ineq(e)
-                C[cs:e] = Ci
-                d[cs:e] = di
-                cs = e
+            if bsubs:
+                cs, written = self._bound_rows(robot, dt, bsubs, cs, bounds, written)
             if null_objective:
                 z = stack.null_target(robot, terms, self.layout)
             if mixed and z is not None:
@@ -280,6 +272,109 @@ class _Plan:
                 meta[0, k], meta[1, k] = ls_row, ineq_row
             self._offsets = offsets
         return z, targets, bounds
+
+    def _bound_rows(
+        self,
+        robot: RobotModel,
+        dt: float,
+        bsubs: list[BoundSubtask],
+        cs: int,
+        bounds: list[tuple[Any, Any, list[str]]],
+        written: _Written | None,
+    ) -> tuple[int, _Written | None]:
+        """A level's bound subtasks' rows into C, d from row ``cs`` (:meth:`gather`'s, appended to ``bounds``);
+        returns the next row and the record of the rows written by ``rows_into``."""
+        C, d = self.C, self.d
+        for bsub in bsubs:
+            k = bsub.fixed_rows if type(bsub) is BoundSubtask else None
+            if k is not None:  # a potential's damper rows, written into the buffers by the subtask itself
+                e = cs + k
+                if e > C.shape[0]:
+                    C, d = self._grow_ineq(e)
+                bsub.rows_into(robot, dt, C, d, cs)
+                if written is None:
+                    written = _Written()
+                bounds.append((written, slice(cs, e), bsub.row_names))
+                cs = e
+                continue
+            Ci, di, rn = bsub.rows(robot, dt)
+            bounds.append((Ci, di, rn))
+            e = cs + Ci.shape[0]
+            if e > C.shape[0]:
+                C, d = self._grow_ineq(e)
+            C[cs:e] = Ci
+            d[cs:e] = di
+            cs = e
+        return cs, written
+
+    def fused_bounds(self, robot: RobotModel, dt: float) -> list[tuple[Any, Any, list[str]]]:
+        """The bound subtasks' rows into C, d and the offsets table, for a fused step (:meth:`fuse`): the
+        least-squares rows are the compiled call's, at the offsets :meth:`fuse` laid out; :meth:`gather`'s
+        ``bounds``."""
+        if self._written is not None:
+            self._keep_written()
+        meta = self.meta
+        bounds: list[tuple[Any, Any, list[str]]] = []
+        written: _Written | None = None
+        cs = 0
+        offsets = []
+        for (_, _, bsubs, _, _), ls_row in zip(self.members, self.ls_offsets, strict=False):
+            offsets.append((ls_row, cs))
+            if bsubs:
+                cs, written = self._bound_rows(robot, dt, bsubs, cs, bounds, written)
+        offsets.append((self.ls_offsets[-1], cs))
+        if written is not None:
+            self._written = (weakref.ref(written), cs)
+        if offsets != self._offsets:
+            for k, (ls_row, ineq_row) in enumerate(offsets):
+                meta[0, k], meta[1, k] = ls_row, ineq_row
+            self._offsets = offsets
+        return bounds
+
+    def fuse(self, robot: RobotModel, stack: TaskStack) -> FusedPlan | str | bool:
+        """The fused form of this plan's stack (:mod:`redundik.resolvers.fused`): every task a frame task or a
+        joint-space task, no target subtask (bound subtasks are evaluated as :meth:`gather` does); the rows of
+        its least-squares buffers each fused row goes to (``dest``, :func:`fused_kernels.fused_hqp_step`). Returns
+        the plan, ``FusedPlan.NOT_YET`` or False (the per-task path)."""
+        layout = self.layout
+        if any(level.targets for level in layout.levels):
+            return False
+        null = set(layout.null_tasks)
+        scales = {i: (1.0, bool(task.identity_jacobian)) for i, task in enumerate(stack.tasks) if i not in null}
+        built = FusedPlan.build(robot, stack, layout, scales, 1.0)
+        if not isinstance(built, FusedPlan):
+            return False if built is None else built
+        ints = built.ints
+        K, J = int(ints[0]), int(ints[1])
+        starts = ints[ints[8] : ints[8] + K + 1].tolist()
+        jstarts = ints[ints[11] : ints[11] + J + 1].tolist()
+        mf = starts[K]
+        spans: dict[int, tuple[int, int]] = {}
+        for i, (kind, k) in enumerate(built.order):
+            if kind == "f":
+                spans[i] = (starts[k], starts[k + 1])
+            elif kind == "j":
+                spans[i] = (mf + jstarts[k], mf + jstarts[k + 1])
+        dest = [0] * built.m
+        mixed_starts: list[int] = []
+        ls_offsets = []
+        ms = 0
+        for tasks, _, _, _, mixed in self.members:
+            ls_offsets.append(ms)
+            for i in tasks:
+                a, e = spans[i]
+                dest[a:e] = range(ms, ms + e - a)
+                ms += e - a
+            if mixed:
+                mixed_starts.append(ms)
+                ms += self.n
+        ls_offsets.append(ms)
+        if ms > self.A.shape[0]:
+            self._grow_ls(ms)
+        self._weights = []  # the fused call writes the weights and identity rows: gather rewrites them after
+        self.dest = np.array(dest + mixed_starts, dtype=np.int64)
+        self.ls_offsets = ls_offsets
+        return built
 
     def step_rows(
         self,
@@ -414,6 +509,9 @@ class HierarchicalQPResolver(QPResolverBase):
         #: Factor a level of rows √w I (√w ≥ ε) exactly — U = Z, σ = √w, V = I — instead of by its SVD (``False``:
         #: the SVD, the reference the tests hold these factors to).
         self.identity_levels = True
+        #: Take the fused step (:mod:`redundik.resolvers.fused`) when the stack allows it; the per-task path otherwise
+        #: (``False``: always, the reference the tests hold the fused step to).
+        self.fuse = True
 
     def build(
         self, robot: RobotModel, stack: TaskStack, t: float, dt: float, terms: list[TaskTerm] | None = None
@@ -707,6 +805,16 @@ class HierarchicalQPResolver(QPResolverBase):
         plan = self._plan_for(layout, n)
         if plan.critical:
             return super().solve(robot, stack, t, dt)
+        fused = plan.fused
+        if fused is None or fused == FusedPlan.NOT_YET:
+            fused = plan.fused = plan.fuse(robot, stack) if self.fuse else False
+        if isinstance(fused, FusedPlan):
+            if fused.current(robot):
+                res = self._fused_solve(robot, stack, plan, fused, t, dt)
+                if res is not None:
+                    return res
+            else:
+                plan.fused = None  # a member changed (a new target, trajectory): planned again at the next step
         t0 = time.perf_counter()
         terms = [task.evaluate(robot, t) for task in stack.tasks]  # stack.evaluate, inlined
         z, targets, bounds = plan.gather(robot, stack, terms, dt)  # gather_rows + fill, in one pass
@@ -758,6 +866,68 @@ class HierarchicalQPResolver(QPResolverBase):
             time.perf_counter() - t1,
             layout.main,
             diagnostics,
+        )
+
+    def _fused_solve(
+        self, robot: RobotModel, stack: TaskStack, plan: _Plan, fused: FusedPlan, t: float, dt: float
+    ) -> StepResult | None:
+        """:meth:`solve` of a fused stack (:mod:`redundik.resolvers.fused`): the bound subtasks' rows as
+        :meth:`_Plan.gather` writes them, then one compiled call from Pinocchio's Jacobians through the rows to the
+        unconstrained cascade and its tests (``fused_kernels.fused_hqp_step``); ``None`` when this step needs the
+        per-task path (a rotation error beyond the compiled log3's range)."""
+        t0 = time.perf_counter()
+        n = robot._nv
+        bounds = plan.fused_bounds(robot, dt)
+        limits = self.limits
+        args = limits.kernel_args(robot)
+        coef = fused.coefficients((float(args[5]), float(args[6]), float(args[7])))
+        refs = fused.given_references(t) if fused.given else fused.refs
+        prev = limits.previous(self._dq_prev)
+        Jf = np.empty((len(fused.frames), 6, n))
+        ev = np.empty((2, fused.m))
+        z = np.zeros(n)
+        out = np.empty((7, 1, n))
+        stats = np.empty((plan.meta.shape[1] - 1, 4))
+        q = robot.q
+        status, err2, dq2 = FK.fused_hqp_step(
+            fused.jw, fused.poses, float(t), refs, q, fused.ints, fused.floats, coef, fused.limits(args), args[0],
+            float(dt), prev, Jf, ev, plan.dest, plan.A, plan.b, plan.w, plan.C, plan.d, plan.meta, plan.params, z,
+            out, stats,
+        )  # fmt: skip
+        if status < 0.0:
+            return None
+        t1 = time.perf_counter()
+        zs = z if plan.layout.has_null_objective else None
+        make_terms = fused.terms_once(Jf, ev, q, robot)
+        windowed = prev.shape[0] > 0
+        if status != 1.0:  # a constraint is active (0), or q̇ is not finite (2): the template, on the same rows
+            terms = make_terms()
+            built = HQPBuild(
+                plan.step_rows(terms, zs, [], bounds), limits.box_from(out[:4, 0], windowed), n,
+                infeasible=status == 0.0,
+            )  # fmt: skip
+            return self._finish(robot, stack, terms, built, t0, t1)
+        kept = out[6, 0]
+        self._dq_prev = kept
+
+        def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
+            box = limits.box_from(out[:4, 0], windowed)
+            built = HQPBuild(plan.step_rows(make_terms(), zs, [], bounds), box, n, stats)
+            diag = QPDiagnostics()
+            diag.active_limits = box.active(kept, limits.joint_names)
+            self._diagnose(built, kept, diag)
+            return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
+
+        return FusedStepResult.fused(
+            out[5, 0],
+            make_terms,
+            math.sqrt(err2),
+            {"backend": "closed-form", "qp": 0, "iterations": 0},
+            t1 - t0,
+            time.perf_counter() - t1,
+            plan.layout.main,
+            diagnostics,
+            dq_norm=math.sqrt(dq2),
         )
 
     def _resolve(self, built: HQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:

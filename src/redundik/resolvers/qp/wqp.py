@@ -371,17 +371,14 @@ class WeightedQPResolver(QPResolverBase):
         if status < 0.0:
             return None
         t1 = time.perf_counter()
-
-        def make_terms() -> list[TaskTerm]:
-            return fused.terms(Jf, ev, q, robot)
-
+        make_terms = fused.terms_once(Jf, ev, q, robot)
         windowed = prev.shape[0] > 0
         if status == 0.0:  # a limit binds: the backend, through the template
             return self._box_qp(robot, stack, make_terms(), plan, out, windowed, lam, t0, t1)
         dq, kept = out[5], out[6]
         self._dq_prev = kept
         main = plan.main
-        diagnostics = self._free_diagnostics(lambda: res.terms, main, out, windowed, kept, lam)
+        diagnostics = self._free_diagnostics(make_terms, main, out, windowed, kept, lam)
         res = FusedStepResult.fused(
             dq,
             make_terms,
