@@ -2,8 +2,9 @@
 
 Library: ``kinematics``, ``tasks``, ``resolvers``, ``simulation``, ``collision``, ``parallel`` and the top-level
 modules (``errors``, ``shipped``, ...). Application: ``config`` (YAML), ``cli``, ``reporting`` (files, figures),
-``viewer``, ``peers``, ``sweep``. Every import is checked, module level, lazy (function-level) and ``TYPE_CHECKING``
-alike, from the source's syntax tree; every subpackage must be in one of the two lists, so a new one is checked too.
+``viewer``, ``peers``, ``sweep``, and ``__main__`` (``python -m redundik``, the command itself). Every import is
+checked, module level, lazy (function-level) and ``TYPE_CHECKING`` alike, from the source's syntax tree; every
+subpackage must be in one of the two lists, so a new one is checked too.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from pathlib import Path
 SRC = Path(__file__).resolve().parents[1] / "src" / "redundik"
 LIBRARY = ("kinematics", "tasks", "resolvers", "simulation", "collision", "parallel")
 APPLICATION = ("config", "cli", "reporting", "viewer", "peers", "sweep")
+ENTRY_POINTS = ("__main__.py",)
 
 
 def _imported(path: Path) -> set[str]:
@@ -28,7 +30,8 @@ def _imported(path: Path) -> set[str]:
 
 def _upward_imports() -> set[tuple[str, str]]:
     upper = tuple(f"redundik.{name}" for name in APPLICATION)
-    files = sorted(SRC.glob("*.py")) + [p for pkg in LIBRARY for p in sorted((SRC / pkg).rglob("*.py"))]
+    top = [p for p in sorted(SRC.glob("*.py")) if p.name not in ENTRY_POINTS]
+    files = top + [p for pkg in LIBRARY for p in sorted((SRC / pkg).rglob("*.py"))]
     return {
         (path.relative_to(SRC).as_posix(), name)
         for path in files

@@ -155,6 +155,16 @@ def test_version(cli) -> None:  # type: ignore[no-untyped-def]
     assert (code, out, err) == (0, f"redundik {redundik.__version__}\n", "")
 
 
+def test_python_dash_m_is_the_command(tmp_path: Path) -> None:
+    """``python -m redundik`` runs the CLI (its exit codes, its errors) where the scripts folder is not on PATH."""
+    import redundik
+
+    ok = subprocess.run([sys.executable, "-m", "redundik", "--version"], capture_output=True, text=True, cwd=tmp_path)
+    assert (ok.returncode, ok.stdout) == (0, f"redundik {redundik.__version__}\n"), ok.stderr
+    bad = subprocess.run([sys.executable, "-m", "redundik", "run", "no_such_task"], capture_output=True, text=True)
+    assert bad.returncode == 3 and bad.stderr.startswith("error: ") and "no_such_task" in bad.stderr, bad.stderr
+
+
 def test_exit_codes_are_distinct_and_documented(cli, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
     from redundik.cli.main import EXIT_CODES
 

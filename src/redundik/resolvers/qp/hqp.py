@@ -36,10 +36,12 @@ subtasks, with bound subtasks but no target subtask, skips the tasks' ``evaluate
 (``fused_kernels.fused_hqp_step``) writes their rows from Pinocchio's Jacobians into the same buffers at the rows
 the per-task gather gives them, then runs the closed-form path above; the bound subtasks' rows are written beside
 it as the gather writes them. The same q̇, terms and diagnostics (``tests/test_fused.py``).
-Level shortcut (exact, below the top level): when the cascade is not feasible, a level QP whose unconstrained
+Level shortcut (exact, at every level): when the cascade is not feasible, a level QP whose unconstrained
 optimum — û = argmin ½‖A_k Z u − (b_k − A_k x)‖² + ½ε‖u‖² from the SVD of A_k Z, slack w = 0 — keeps every row of
 that QP (its inequalities, the levels above, the limits, to the same margins) is that QP's optimum (the KKT
-conditions hold with zero multipliers), and the backend is not called; ``info["qp"]`` counts the QPs solved.
+conditions hold with zero multipliers), and the backend is not called; ``info["qp"]`` counts the QPs solved. û is
+exact to rounding, where a backend's answer on MᵀM + εI carries its condition number. A backend failure on a
+level below the top one skips that level (reported); on the top level the step falls back to the closed form.
 A level QP whose rows are √w I with √w ≥ ε (a posture given a level) takes the exact factors of A_k Z = √w Z —
 (Z, √w, I), as the null-space objective's (Z, 1, I) — instead of an SVD.
 
@@ -766,10 +768,11 @@ class HierarchicalQPResolver(QPResolverBase):
                     x, Z, r = cand, np.zeros((n, 0)), 0
                     continue
             try:
-                # below the top level (whose failure falls back to the closed form as a whole), a level whose
-                # unconstrained optimum keeps its rows needs no QP
-                short = self.level_shortcut and lv is not levels[0]
-                u, lsq = self._level_qp(lv, x, Z, r, box, fixed, diag, pinned, selection, short)
+                # a level whose unconstrained optimum keeps its rows needs no QP, the top level too: that optimum is
+                # the SVD's ridge solution, exact to rounding, where the backend's answer on MᵀM + εI is off by
+                # cond·1e-16 (2e-8 on a top level of condition 1e9). On the snake it is a clearance (level 1) or the
+                # null objective that binds, never the pose (0 of 222 QP steps at n = 10, 40, 160)
+                u, lsq = self._level_qp(lv, x, Z, r, box, fixed, diag, pinned, selection, self.level_shortcut)
             except SolverError as exc:
                 if lv is levels[0]:
                     raise  # nothing of the cascade is worth keeping: the base falls back to the closed form
