@@ -31,6 +31,10 @@ class QPProblem:
         ub: Upper bound on x (n,), ``+inf`` where free.
         label: What the problem is (``"wqp"``, ``"hqp level 1"``) for messages.
         row_names: Names of the inequality rows, for diagnostics.
+        factor: Optionally (F, δ) with P = FᵀF + δI (to rounding; F (k, n), δ > 0): the structure of a Gram
+            Hessian, given by the builder that knows it. A backend may then solve the same problem lifted to
+            (x, s) with s = F x, whose Hessian diag(δI, I) is diagonal (``DaqpBackend``: a factorisation of
+            n + k diagonal entries instead of a dense n × n one). ``None``: P only.
     """
 
     P: np.ndarray
@@ -43,6 +47,7 @@ class QPProblem:
     ub: np.ndarray
     label: str = "qp"
     row_names: list[str] = field(default_factory=list)
+    factor: tuple[np.ndarray, float] | None = None
 
     @classmethod
     def unconstrained(cls, P: np.ndarray, q: np.ndarray, label: str = "qp") -> QPProblem:

@@ -14,10 +14,12 @@ Sugihara 2011) keeps the optimum unique and bounded near singularities.
 
 Hot loop: when the unconstrained optimum P⁻¹(−q) already satisfies every constraint it is the QP's optimum and is
 returned without calling the backend (a Cholesky solve instead of a QP, flagged ``info["qp"] = 0``); otherwise the
-backend solves the QP, warm-started at the previous q̇. A backend failure or an infeasible QP (bound subtasks that the
-limits do not allow) is relaxed first (the bound subtasks dropped, except safety rows — collision distances — which
-stay hard), then replaced by the damped closed form clipped to the limits and scaled down until the safety rows hold
-(q̇ = 0 always does); ``StepResult.fallback`` says which.
+backend solves the QP, warm-started at the previous q̇; with P = FᵀF + δI (the task rows F = √(ρ^k w) J, δ the diagonal
+of identity tasks, null objective and λ) handed to it as the problem's factor, daqp solves a large QP lifted to (q̇, s =
+F q̇), with a diagonal Hessian (:mod:`redundik.resolvers.qp.backends`). A backend failure or an infeasible QP (bound
+subtasks that the limits do not allow) is relaxed first (the bound subtasks dropped, except safety rows — collision
+distances — which stay hard), then replaced by the damped closed form clipped to the limits and scaled down until the
+safety rows hold (q̇ = 0 always does); ``StepResult.fallback`` says which.
 """
 
 from __future__ import annotations
@@ -63,6 +65,9 @@ class WQPBuild:
     damping: float = 0.0
     safe: np.ndarray | None = None
     free_outside: bool = False
+    #: (F, δ) with P = FᵀF + δI, computed when the backend is called (:meth:`WeightedQPResolver._gram_factor`);
+    #: ``None``: not known.
+    gram: Callable[[], tuple[np.ndarray, float] | None] | None = None
 
 
 _NO_Z = np.zeros(0)
@@ -164,7 +169,27 @@ class WeightedQPResolver(QPResolverBase):
             q -= plan.null_scale * z
         box = self._box(robot, dt)
         prob = QPProblem(P, q, G, h, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp", names)
-        return WQPBuild(prob, box, [terms[i] for i in plan.main], lam, safe)
+        gram = None if plan.targets else (lambda: self._gram_factor(plan, terms, shift))
+        return WQPBuild(prob, box, [terms[i] for i in plan.main], lam, safe, gram=gram)
+
+    def _gram_factor(self, plan: _Plan, terms: list[TaskTerm], shift: float) -> tuple[np.ndarray, float] | None:
+        """(F, δ) with P = FᵀF + δI for a stack of tasks (no target subtask): F the rows √(ρ^k w) J of the tasks
+        that are not identity blocks, δ the diagonal shift (λ, the identity tasks' ρ^k w, the null objective's
+        ρ^k) — the factor a backend may solve the QP lifted with (:attr:`QPProblem.factor`). ``None`` when the
+        backend does not lift a QP of this size, or when P's diagonal is not that of FᵀF + δI (to 1e-9 relative:
+        a member whose rows are not what the plan says; the dense P is then solved as it is)."""
+        P = self._P
+        lift_min_n = getattr(self.backend, "lift_min_n", None)
+        if P is None or lift_min_n is None or P.shape[0] < lift_min_n or not shift > 0.0:
+            return None
+        blocks = [math.sqrt(scale * terms[i].weight) * terms[i].J for i, scale, identity in plan.tasks if not identity]
+        if not blocks:
+            return None
+        F = blocks[0] if len(blocks) == 1 else np.vstack(blocks)
+        diag = np.einsum("ij,ij->j", F, F) + shift
+        if not np.allclose(diag, self._diag, rtol=1e-9, atol=1e-12 * float(np.max(np.abs(diag), initial=1.0))):
+            return None
+        return F, float(shift)
 
     def _lambda(self, plan: _Plan, terms: list[TaskTerm]) -> float:
         """λ of the step: ``damping``·ρ^(L−1) + ``lm_damping``·‖e‖² (module docstring)."""
@@ -295,7 +320,10 @@ class WeightedQPResolver(QPResolverBase):
         assert P is not None and q is not None
         box = self.limits.box_from(out, windowed)
         prob = QPProblem(P, q, self._no_rows, self._no_rhs, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp")
-        built = WQPBuild(prob, box, [terms[i] for i in plan.main], lam, free_outside=True)
+        identity = sum(scale * terms[i].weight for i, scale, ident in plan.tasks if ident)
+        shift = lam + identity + plan.null_scale  # (the diagonal the lean and fused paths added to P)
+        gram = None if plan.targets else (lambda: self._gram_factor(plan, terms, shift))
+        built = WQPBuild(prob, box, [terms[i] for i in plan.main], lam, free_outside=True, gram=gram)
         return self._finish(robot, stack, terms, built, t0, t1)
 
     def _free_diagnostics(
@@ -416,6 +444,8 @@ class WeightedQPResolver(QPResolverBase):
             if inside and not (prob.G.shape[0] and (prob.G @ x > prob.h + 1e-12).any()):
                 return x, None
         diag.qp = 1
+        if built.gram is not None and prob.factor is None:
+            prob.factor = built.gram()
         try:
             sol = self._solve_qp(prob, self._dq_prev)
             diag.backend, diag.iterations = sol.backend, sol.iterations
@@ -428,8 +458,9 @@ class WeightedQPResolver(QPResolverBase):
                 raise  # nothing to relax: the base falls back to the closed form, scaled to keep the safety rows
             kept = [r for r, k in zip(prob.row_names, keep, strict=True) if k]
             relaxed = QPProblem(
-                prob.P, prob.q, prob.G[keep], prob.h[keep], prob.A, prob.b, prob.lb, prob.ub, "wqp relaxed", kept
-            )
+                prob.P, prob.q, prob.G[keep], prob.h[keep], prob.A, prob.b, prob.lb, prob.ub, "wqp relaxed", kept,
+                prob.factor,
+            )  # fmt: skip
             sol = self._solve_qp(relaxed, self._dq_prev)  # a SolverError here goes to the closed form
             diag.backend, diag.iterations, diag.qp = sol.backend, sol.iterations, 2
             dropped = sorted({r.split(":")[0] for r, k in zip(prob.row_names, keep, strict=True) if not k})
