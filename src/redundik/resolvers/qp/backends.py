@@ -10,8 +10,8 @@ no third-party exception leaks into a control loop.
   9-variable box-bounded QP the size of a Panda wqp step, median per solve including this wrapper, loaded 2-core
   machine): daqp 18 µs, proxsuite 36 µs (warm-started), ``qpsolvers:daqp`` 47 µs, quadprog 50 µs, osqp 1.07 ms;
   daqp and quadprog agree to 1e-8, proxsuite to 1e-6 and osqp to 1e-4 with the tolerances set here. A problem that
-  carries its Gram factor P = FᵀF + δI (:attr:`~redundik.resolvers.qp.problem.QPProblem.factor`, k ≤ n/2 rows,
-  n ≥ :data:`LIFT_MIN_N`) is solved lifted to (x, s = F x), with the diagonal Hessian diag(δI, I): daqp's setup is
+  carries its Gram factor P = FᵀF + δI (``QPProblem.factor``, k ≤ n/2 rows,
+  n ≥ ``LIFT_MIN_N``) is solved lifted to (x, s = F x), with the diagonal Hessian diag(δI, I): daqp's setup is
   then O((n + k)·k) instead of its dense O(n³) (2.5 ms → 0.16 ms a solve on the 160-joint snake's ``wqp`` QP).
 * ``quadprog``: Goldfarb–Idnani dual active set through ``quadprog.solve_qp`` (exact; bounds as rows).
 * ``proxsuite``: ProxQP (augmented Lagrangian) through a cached ``proxsuite.proxqp.dense.QP`` object per problem
@@ -225,8 +225,8 @@ def _writable(a: np.ndarray) -> np.ndarray:
 #: i.e. ≈ 5 500 units of n³: below twice that it does not pay.
 SPLIT_MIN_SAVING = 11000
 
-#: Smallest n for which a QP that carries its Gram factor (:attr:`QPProblem.factor`, k rows) is solved lifted by
-#: daqp (:meth:`DaqpBackend._solve_lifted`), and the bound k ≤ n / LIFT_MAX_ROWS_PER_VARIABLE. Measured on the
+#: Smallest n for which a QP that carries its Gram factor (``QPProblem.factor``, k rows) is solved lifted by
+#: daqp (``DaqpBackend._solve_lifted``), and the bound k ≤ n / LIFT_MAX_ROWS_PER_VARIABLE. Measured on the
 #: snake's ``wqp`` QPs (k = 6, 40 QPs × 5, median per solve, this wrapper included): n = 20 lifted 57 µs vs dense
 #: 40, n = 40 66 vs 82, n = 80 85 vs 384, n = 160 164 vs 2 458 — daqp's dense setup grows as n³, the lifted one
 #: as (n + k)·k.
@@ -273,8 +273,8 @@ class DaqpBackend(Backend):
         self._split_kernel: Callable[..., tuple[int, int]] | None = None
         self._split_work: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._split_cache: dict[tuple[int, int], tuple[np.ndarray, ...]] = {}
-        #: Smallest n of a QP that carries its Gram factor (:attr:`QPProblem.factor`) solved lifted
-        #: (:meth:`_solve_lifted`); :data:`LIFT_MIN_N` by default.
+        #: Smallest n of a QP that carries its Gram factor (``QPProblem.factor``) solved lifted
+        #: (``_solve_lifted``); ``LIFT_MIN_N`` by default.
         self.lift_min_n = LIFT_MIN_N
         self._lift_cache: dict[tuple[int, int], tuple[np.ndarray, float]] = {}
 
@@ -348,7 +348,7 @@ class DaqpBackend(Backend):
 
     def _solve_lifted(self, problem: QPProblem) -> QPSolution | None:
         """The problem lifted to (x, s), s = F x, when it carries its Gram factor P = FᵀF + δI
-        (:attr:`QPProblem.factor`): minimise ½δ‖x‖² + ½‖s‖² + qᵀx with the rows F x − s = 0 as equalities, the
+        (``QPProblem.factor``): minimise ½δ‖x‖² + ½‖s‖² + qᵀx with the rows F x − s = 0 as equalities, the
         same optimum x, but a diagonal Hessian — daqp's setup factors n + k diagonal entries instead of the dense
         n × n P (on the 160-joint snake's ``wqp`` QP, 6 task rows: 0.6–2.6 ms → 70–110 µs a solve). ``None`` when
         daqp does not solve it (the caller then solves P as given, with every retry)."""

@@ -65,7 +65,7 @@ class WQPBuild:
     damping: float = 0.0
     safe: np.ndarray | None = None
     free_outside: bool = False
-    #: (F, δ) with P = FᵀF + δI, computed when the backend is called (:meth:`WeightedQPResolver._gram_factor`);
+    #: (F, δ) with P = FᵀF + δI, computed when the backend is called (``WeightedQPResolver._gram_factor``);
     #: ``None``: not known.
     gram: Callable[[], tuple[np.ndarray, float] | None] | None = None
 
@@ -175,7 +175,7 @@ class WeightedQPResolver(QPResolverBase):
     def _gram_factor(self, plan: _Plan, terms: list[TaskTerm], shift: float) -> tuple[np.ndarray, float] | None:
         """(F, δ) with P = FᵀF + δI for a stack of tasks (no target subtask): F the rows √(ρ^k w) J of the tasks
         that are not identity blocks, δ the diagonal shift (λ, the identity tasks' ρ^k w, the null objective's
-        ρ^k) — the factor a backend may solve the QP lifted with (:attr:`QPProblem.factor`). ``None`` when the
+        ρ^k) — the factor a backend may solve the QP lifted with (``QPProblem.factor``). ``None`` when the
         backend does not lift a QP of this size, or when P's diagonal is not that of FᵀF + δI (to 1e-9 relative:
         a member whose rows are not what the plan says; the dense P is then solved as it is)."""
         P = self._P
