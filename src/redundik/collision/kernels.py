@@ -24,8 +24,11 @@ import math
 import numba as nb
 import numpy as np
 
+from redundik import _kernel_cache
+
 CAPSULE, BOX, HALFSPACE, OTHER = 0, 1, 2, 3
 
+_kernel_cache.install()  # the on-disk cache stamped with every kernel source (redundik._kernel_cache)
 _jit = nb.njit(cache=True, nogil=True)
 
 

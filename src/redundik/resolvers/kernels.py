@@ -30,9 +30,12 @@ import time
 import numba as nb
 import numpy as np
 
+from redundik import _kernel_cache
+
 #: Smallest λ_min/λ_max of JJᵀ for the eigendecomposition fast path (κ(J) ≤ 1e3).
 FAST_PATH_RCOND = 1e-6
 
+_kernel_cache.install()  # the on-disk cache stamped with every kernel source (redundik._kernel_cache)
 _jit = nb.njit(cache=True, nogil=True)
 
 

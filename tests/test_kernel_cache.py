@@ -1,0 +1,75 @@
+"""Numba's on-disk cache of the kernels is stamped with every source they are compiled from (redundik._kernel_cache):
+a change to a module whose kernels or constants another kernel module compiles in recompiles that one too."""
+
+from __future__ import annotations
+
+import ast
+import shutil
+from pathlib import Path
+
+from redundik import _kernel_cache as kc
+
+SRC = kc.PACKAGE_ROOT
+
+
+def _compiled_modules() -> set[str]:
+    """The package's files that define compiled functions (``numba.njit`` / the kernels' ``_jit``)."""
+    out = set()
+    for path in SRC.rglob("*.py"):
+        text = path.read_text()
+        if "@_jit" in text or "nb.njit(" in text:
+            out.add(path.relative_to(SRC).as_posix())
+    return out
+
+
+def _redundik_imports(rel: str) -> set[str]:
+    """The package's modules a file imports names from (``from redundik.x.y import ...``), as file paths."""
+    tree = ast.parse((SRC / rel).read_text())
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("redundik."):
+            parts = node.module.split(".")[1:]
+            path = "/".join(parts) + ".py"
+            if (SRC / path).exists():
+                out.add(path)
+    return out
+
+
+def test_the_stamp_covers_every_kernel_module_and_what_it_imports() -> None:
+    compiled = _compiled_modules()
+    assert {"resolvers/kernels.py", "resolvers/hqp_kernels.py", "resolvers/fused_kernels.py"} <= compiled
+    needed = set(compiled)
+    for rel in compiled:
+        needed |= _redundik_imports(rel)
+    needed.discard("_kernel_cache.py")
+    missing = needed - set(kc.KERNEL_SOURCES)
+    assert not missing, f"add to KERNEL_SOURCES: {sorted(missing)}"
+
+
+def test_the_kernels_are_cached_by_the_stamped_locator() -> None:
+    from redundik.collision import kernels as ck
+    from redundik.resolvers import fused_kernels, hqp_kernels, kernels
+
+    assert kc.install()
+    for fn in (kernels.in_box, hqp_kernels.closed_step, fused_kernels.fused_hqp_step, ck.__dict__[_first_jit(ck)]):
+        locator = fn._cache._impl.locator
+        assert type(locator).__name__.startswith("Redundik"), type(locator)
+        stamp = locator.get_source_stamp()
+        assert stamp[1] == kc.sources_stamp()
+
+
+def _first_jit(module: object) -> str:
+    return next(k for k, v in vars(module).items() if hasattr(v, "_cache") and hasattr(v, "py_func"))
+
+
+def test_a_change_to_a_dependency_changes_the_stamp(tmp_path: Path) -> None:
+    for rel in kc.KERNEL_SOURCES:
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(SRC / rel, tmp_path / rel)
+    before = kc.sources_stamp(tmp_path)
+    assert kc.sources_stamp(tmp_path) == before  # deterministic
+    dep = tmp_path / "resolvers/hqp_kernels.py"  # a module fused_kernels compiles in, not fused_kernels itself
+    dep.write_text(dep.read_text() + "\n# edited\n")
+    after = kc.sources_stamp(tmp_path)
+    assert after != before
+    assert after != kc.sources_stamp(SRC)
