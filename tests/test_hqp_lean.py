@@ -47,8 +47,8 @@ def _reference_closed_cascade(
             x,
             np.zeros((0, 0)) if Z is None else Z,
             Z is not None,
-            res.epsilon,
-            res.max_damping,
+            res.epsilon * lv.scale,  # the rule relative to the level's largest weight (Level.scale)
+            res.max_damping * lv.scale,
             res.rcond,
             x_new,
         )
@@ -354,14 +354,23 @@ def test_lean_gather_leaves_other_bound_rows_to_rows() -> None:
 
 
 @pytest.mark.parametrize(
-    ("weight", "first", "applies"),
-    [(1.0, False, True), (0.01, False, True), (0.01, True, True), (2e-5, False, False), (1e-4, False, False)],
+    ("weight", "first", "epsilon", "applies"),
+    [
+        (1.0, False, 1e-2, True),
+        (0.01, False, 1e-2, True),
+        (0.01, True, 1e-2, True),
+        (2e-5, False, 1e-2, True),
+        (1e-4, True, 1e-2, True),
+        (0.3, False, 1.0, False),
+        (0.3, True, 2.0, False),
+    ],
 )
-def test_lean_identity_level_equals_the_general_path(weight: float, first: bool, applies: bool) -> None:
+def test_lean_identity_level_equals_the_general_path(weight: float, first: bool, epsilon: float, applies: bool) -> None:
     """A posture given a level of its own (rows √w I): the lean cascade solves it as Zᵀ(b − x) without a
-    factorisation where √w ≥ ε (nothing damped) — and not where √w < ε (damped: 2e-5) or √w = ε (1e-4, the
-    margin) —, with the same q̇ and diagnostics as the general path, at the top level (``first``) or below a frame
-    task and a bound level, inside the box and against the limits."""
+    factorisation where its singular values √w are not damped — at every weight, the rule being relative to the
+    level's largest weight (σ/√w = 1 ≥ ε) — and not where ε = 1 (the margin) or ε > 1 (damped), with the same q̇ and
+    diagnostics as the general path, at the top level (``first``) or below a frame task and a bound level, inside
+    the box and against the limits."""
     from redundik.resolvers.hqp_kernels import identity_rows
 
     rng = np.random.default_rng(21)
@@ -378,20 +387,22 @@ def test_lean_identity_level_equals_the_general_path(weight: float, first: bool,
     for seed in range(6):
         q = robot.random_configuration(np.random.default_rng(seed))
         posture.set_target(robot.random_configuration(np.random.default_rng(50 + seed)))
-        res = HierarchicalQPResolver()
+        res = HierarchicalQPResolver(epsilon=epsilon)
         prepared(res, robot, stack, q)
         plan = res._plan_for(res.layout(stack), robot.nv)
         plan.gather(robot, stack, stack.evaluate(robot, 0.0), 0.01)
         k = len(plan.members) - 1
         s = int(plan.meta[0, k])
-        assert bool(identity_rows(plan.A, plan.w, s, robot.nv, res.epsilon)) == applies
+        assert bool(identity_rows(plan.A, plan.w, s, robot.nv, res.epsilon * np.sqrt(weight))) == applies
         tight = rk.JointLimits(velocity_limits={n: 0.3 for n in robot.joint_names}) if seed % 2 else None
-        _compare(robot, stack, q, steps=2, limits=tight)
+        _compare(robot, stack, q, steps=2, limits=tight, epsilon=epsilon)
         if seed % 2:  # the constrained cascade: the posture level factored exactly, not by an SVD, where it applies
             shapes: list[tuple[int, ...]] = []
-            qp = HierarchicalQPResolver(limits=rk.JointLimits(velocity_limits=dict.fromkeys(robot.joint_names, 0.3)))
+            qp = HierarchicalQPResolver(
+                limits=rk.JointLimits(velocity_limits=dict.fromkeys(robot.joint_names, 0.3)), epsilon=epsilon
+            )
             prepared(qp, robot, stack, q)
-            qp._lsq = lambda M, svd=qp._lsq, seen=shapes: seen.append(M.shape) or svd(M)  # type: ignore[method-assign]
+            qp._lsq = lambda M, sc=1.0, svd=qp._lsq, seen=shapes: seen.append(M.shape) or svd(M, sc)  # type: ignore[method-assign]
             if qp.step(robot, stack, q, 0.0, 0.01).info["qp"]:
                 qp_steps += 1
                 assert any(m == robot.nv for m, _ in shapes) != applies

@@ -27,8 +27,10 @@ import math
 import numba as nb
 import numpy as np
 
+from redundik import _kernel_cache
 from redundik.resolvers.kernels import clip_twice, damped_svd_factors, frame_jacobian_lwa, in_box, limit_box
 
+_kernel_cache.install()  # the on-disk cache stamped with every kernel source (redundik._kernel_cache)
 _jit = nb.njit(cache=True, nogil=True)
 
 
@@ -165,7 +167,8 @@ def closed_cascade(
         ub: Upper bounds (n,).
         meta: Integer table (3, L + 1): row 0 the level offsets into A's rows, row 1 into C's rows, row 2 the level
             kinds (``SKIP``, ``NULL_OBJECTIVE``, ``LEAST_SQUARES``) in its first L entries.
-        params: (ε, λ_max, rcond, tol, exact): the damping rule, the feasibility tolerance, and 1 to take the SVD at
+        params: (ε, λ_max, rcond, tol, exact): the damping rule (ε and λ_max times the √ of each level's largest
+            weight: the rule is relative to the level's scale), the feasibility tolerance, and 1 to take the SVD at
             every level (σ_min of every level for the diagnostics) or 0 to let a QR that certifies σ_min ≥ ε
             (:func:`qr_certificate`) give M⁺ exactly where nothing is damped (σ_min then NaN: not computed).
         x: Output, q̇ of the cascade (n,).
@@ -214,7 +217,15 @@ def closed_cascade(
         m = e - s
         if kind == SKIP or m == 0:
             continue
-        if not exact and m == n and identity_rows(A, w, s, n, epsilon):
+        # the damping rule relative to the level's largest weight (``Level.scale``): scaling every row of a level
+        # leaves its optimum unchanged, and so does this cascade (a top task of weight 1e-4 is not damped away)
+        wmax = 0.0
+        for i in range(s, e):
+            if w[i] > wmax:
+                wmax = w[i]
+        sc_k = math.sqrt(wmax) if wmax > 0.0 else 1.0
+        eps_k, lam_k = epsilon * sc_k, max_damping * sc_k
+        if not exact and m == n and identity_rows(A, w, s, n, eps_k):
             # rows √w I (a posture as a level): M = √w Z has every singular value √w ≥ ε (Z orthonormal, I at the
             # top), nothing is damped and the rank is full, so M⁺ √w (b − x) = Zᵀ(b − x) with no factorisation
             # (σ_min left NaN, as a certified QR leaves it), and no direction is left below
@@ -270,7 +281,7 @@ def closed_cascade(
             if m <= cols:  # Mᵀ = Q₁R: M⁺ rhs = Q₁ R⁻ᵀ rhs, null(M) = Q₂
                 Q, R = householder_qr(np.ascontiguousarray(M.T))
                 Ri, ok = upper_inverse(R)
-                if ok and qr_certificate(R, Ri, epsilon, rcond):
+                if ok and qr_certificate(R, Ri, eps_k, rcond):
                     y = np.zeros(m)
                     for i in range(m):
                         acc = 0.0
@@ -287,7 +298,7 @@ def closed_cascade(
             else:  # M = Q₁R (full column rank): M⁺ rhs = R⁻¹ Q₁ᵀ rhs, null(M) = {0}
                 Q, R = householder_qr(M)
                 Ri, ok = upper_inverse(R)
-                if ok and qr_certificate(R, Ri, epsilon, rcond):
+                if ok and qr_certificate(R, Ri, eps_k, rcond):
                     y = np.zeros(cols)
                     for i in range(cols):
                         acc = 0.0
@@ -301,7 +312,7 @@ def closed_cascade(
                         u[c] = acc
                     rank, sigma_min, damping, done = cols, np.nan, 0.0, True
         if not done:  # the damped SVD: the rule of redundik.resolvers.linalg, direction by direction
-            U, _, Vt, inv, rank, sigma_min, damping = damped_svd_factors(M, epsilon, max_damping, rcond)
+            U, _, Vt, inv, rank, sigma_min, damping = damped_svd_factors(M, eps_k, lam_k, rcond)
             kk = inv.shape[0]
             t = np.zeros(kk)  # inv ∘ Uᵀ rhs
             for j in range(kk):

@@ -51,6 +51,12 @@ gives the projection Z Zᵀ(z − x). Every level's least squares goes through t
 :mod:`redundik.resolvers.linalg`, which damps only small nonzero singular directions: a level that is exactly
 rank-deficient (a duplicated or zero row) is solved exactly and keeps its optimum under every lower level.
 
+Weights count within a level only: a level's rows enter as √w_i A_i, and the damping rule's ε and λ_max, and the
+regulariser ε, are taken relative to the level's largest weight (``Level.scale``), so that scaling every weight of a
+level leaves the step unchanged — a main task of weight 1e-4 alone at the top is tracked as one of weight 1, not
+damped away (``tests/test_hqp_weights.py``); a level QP of least squares only is posed to the backend divided by its
+scale², on the scale of a unit weight.
+
 A level that cannot be met — its bound rows contradicted by the levels above and the limits (slack w_k* > 1e-6),
 or a level QP the backend fails — is a recorded fallback (``StepResult.fallback`` names the level and by how much;
 ``info["contradicted_levels"]``).
@@ -543,8 +549,10 @@ class HierarchicalQPResolver(QPResolverBase):
         M = A if Z is None else A @ Z
         return M, b - A @ x
 
-    def _lsq(self, M: np.ndarray) -> DampedSVD:
-        return damped_svd(M, epsilon=self.epsilon, max_damping=self.max_damping, rcond=self.rcond)
+    def _lsq(self, M: np.ndarray, scale: float = 1.0) -> DampedSVD:
+        """The damped SVD of a level's projected rows M, with ε and λ_max times the level's ``scale`` (√ of its
+        largest weight, ``Level.scale``)."""
+        return damped_svd(M, epsilon=self.epsilon * scale, max_damping=self.max_damping * scale, rcond=self.rcond)
 
     def _note(self, lv: Level, lsq: DampedSVD, r: int, projected: bool, diag: QPDiagnostics) -> None:
         self._record(lv, lsq.sigma_min, lsq.damping, lsq.rank, r, projected, diag)
@@ -605,7 +613,8 @@ class HierarchicalQPResolver(QPResolverBase):
         n = x.shape[0]
         p = lv.p
         lsq = None
-        eps = self.regularization
+        scale = lv.scale  # the damping rule and the regulariser relative to the level's largest weight
+        eps = self.regularization * scale * scale
         M = rhs = None
         orthonormal = lv.pure_null_objective and lv.z is not None
         if orthonormal:  # rows = I: M = Z has orthonormal columns, its SVD is (Z, 1, I) — no factorisation
@@ -620,7 +629,7 @@ class HierarchicalQPResolver(QPResolverBase):
                 and r
                 and lv.z is None
                 and lv.m == n
-                and HK.identity_rows(lv.J, lv.w, 0, n, self.epsilon)
+                and HK.identity_rows(lv.J, lv.w, 0, n, self.epsilon * scale)
             ):
                 # rows √w I (a posture given a level): M = √w Z with Z orthonormal (I at the top) has the exact SVD
                 # (Z, √w, I), every direction undamped (√w ≥ ε) — no factorisation of the n×r matrix
@@ -628,7 +637,7 @@ class HierarchicalQPResolver(QPResolverBase):
                 U = np.eye(n) if Z is None else Z
                 lsq = DampedSVD(U, np.full(r, sw), np.eye(r), np.full(r, 1.0 / sw), r, sw, 0.0)
             else:
-                lsq = self._lsq(M)
+                lsq = self._lsq(M, scale)
             eps = max(eps, lsq.damping**2)
         if shortcut:
             u = np.zeros(r) if lsq is None or rhs is None else _ridge(lsq, rhs, eps)
@@ -643,6 +652,10 @@ class HierarchicalQPResolver(QPResolverBase):
         # primal-infeasible (proxsuite, osqp) though u = 0 always solves it.
         F, f = self._stacked(fixed, n)
         mode = 0 if Z is None else (1 if selection is not None else 2)
+        if M is not None and rhs is not None and not p and scale != 1.0:
+            # a level of least squares only: its objective divided by its scale², the same optimum, posed to the
+            # backend on the scale of a unit weight (a weight of 1e-6 left daqp's absolute tolerances 0.3 off)
+            M, rhs, eps = M / scale, rhs / scale, eps / (scale * scale)
         P, q, G, h, lb, ub = HK.level_qp_arrays(
             M if M is not None else np.zeros((0, r)),
             rhs if rhs is not None else np.zeros(0),

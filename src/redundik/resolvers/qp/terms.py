@@ -9,6 +9,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -59,6 +60,17 @@ class Level:
     def pure_null_objective(self) -> bool:
         """True when the level is only the null-space objective (identity rows: solved in closed form)."""
         return self.z is not None and not self.m
+
+    @property
+    def scale(self) -> float:
+        """√ of the largest weight of the level's least-squares rows (the null-space objective's identity rows weigh
+        1; 1 without rows): the damping rule's ε and λ_max, and the regulariser, are taken relative to it, so that a
+        level's rows count by their weights *relative to each other* and a level of one task of any weight is solved
+        as one of weight 1 (scaling every row of a level leaves its optimum unchanged)."""
+        wmax = float(self.w.max()) if self.m else 0.0
+        if self.z is not None:
+            wmax = max(wmax, 1.0)
+        return math.sqrt(wmax) if wmax > 0.0 else 1.0
 
     def ls_rows(self, weighted: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """All least-squares rows of the level, null-space objective included, as (A, b): minimise ‖A q̇ − b‖²."""

@@ -7,7 +7,8 @@ The levels are the stack's (:mod:`redundik.tasks.stack`): main tasks, then targe
 objective ½‖q̇ − z‖² (z = Σ k_i η_i + posture), counted k = 0, 1, … over the levels present; ρ = ``level_ratio``
 (default 1e-4) makes each level a small perturbation of the one above, so with no constraint active the main-task
 velocity differs from the hierarchy's (``pinv``/``hqp``) by O(ρ‖z‖/σ_min²) — a stack tracks under ``wqp`` as it
-does under ``pinv`` — while the task weights w_t keep their meaning within a level. The −ρ^k zᵀq̇ part of the null
+does under ``pinv`` (for unit main-task weights: the weights are absolute, as any weighted QP's costs, and a main
+task of weight w < 1 moves toward the level below, its bound growing as 1/w). The −ρ^k zᵀq̇ part of the null
 objective is the QP twin of the null-space term kη of eq. (5.8). λ = ``damping``·ρ^(L−1) (L levels: always far below
 the lowest level) + ``lm_damping``·‖e‖² (a Levenberg–Marquardt-like regulariser growing with the main-task error,
 Sugihara 2011) keeps the optimum unique and bounded near singularities.
