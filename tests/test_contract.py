@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -194,9 +195,21 @@ def test_step_validates_q_and_dt(name: str) -> None:
     stack = rk.TaskStack([rk.FrameTask("3", rk.Line([0.2, -0.4]), axes="planar")])
     resolver = rk.make_resolver(name)
     q = np.radians([110.0, -40.0, -30.0])
-    for bad_q, msg in (([np.nan, 0, 0], "NaN or infinite"), ([0.0, 0.0], "2 entries"), (["a", 0, 0], "array of 3")):
-        with pytest.raises(rk.ResolverError, match=msg):
-            resolver.step(robot, stack, bad_q, 0.0, 0.01)  # type: ignore[arg-type]
+    for bad_q, msg in (
+        ([np.nan, 0, 0], "NaN or infinite"),
+        ([0.0, 0.0], "2 entries"),
+        (["a", 0, 0], "array of 3"),
+        ([0.0, 2e9, 0.0], r"q\[1\] = 2e\+09 is beyond ±1e\+09"),  # sin/cos of it: no significant digit left
+    ):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # (and no warning on the way)
+            with pytest.raises(rk.ResolverError, match=msg):
+                resolver.step(
+                    robot, stack, np.array(bad_q, dtype=object if isinstance(bad_q[0], str) else float), 0.0, 0.01
+                )
+    with pytest.raises(rk.ResolverError, match=r"q\[2\] = -1e\+200 is beyond"):  # ‖q‖² overflows (numpy warns)
+        with np.errstate(over="ignore"):
+            resolver.step(robot, stack, np.array([0.0, 0.0, -1e200]), 0.0, 0.01)
     for dt, msg in (
         (0.0, "dt must be > 0"),
         (-0.01, "dt must be > 0"),

@@ -37,6 +37,10 @@ STABLE_GAIN_DT = 2.0
 BLAS_LIMIT_NV = 64
 _USER_CHOSE_THREADS = any(os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"))
 _F64 = np.dtype(np.float64)
+#: Largest magnitude of a configuration coordinate [rad or length unit] a step accepts (the simulation's divergence
+#: bound, ``simulation.integrators.MAX_COORDINATE``): beyond it sin/cos of an angle have no significant digit left.
+MAX_Q = 1e9
+_MAX_Q2 = MAX_Q * MAX_Q
 _CONTROLLER: Any = None  # the process's _BlasLimit, built on first use
 
 
@@ -376,7 +380,7 @@ class Resolver(ABC):
             and type(t) is float
             and 0.0 < dt < math.inf
             and math.isfinite(t)
-            and math.isfinite(q.dot(q))  # every entry finite (an overflow falls back to the full check)
+            and q.dot(q) < _MAX_Q2  # every entry finite and ‖q‖ < MAX_Q (NaN, inf, a huge q: the full check)
         ):
             robot._update_checked(q)
         else:
@@ -471,6 +475,12 @@ class Resolver(ABC):
         if not np.isfinite(arr).all():
             idx = np.flatnonzero(~np.isfinite(arr)).tolist()
             raise ResolverError(f"{self.name}: q contains NaN or infinite values at indices {idx[:8]}")
+        if arr.size and float(np.max(np.abs(arr))) > MAX_Q:
+            k = int(np.argmax(np.abs(arr)))
+            raise ResolverError(
+                f"{self.name}: q[{k}] = {arr[k]:g} is beyond ±{MAX_Q:g} [rad or length unit]: not a configuration "
+                "(a diverged loop, or a unit mistake?)"
+            )
         for key, val in (("dt", dt), ("t", t)):
             if isinstance(val, bool) or not isinstance(val, (int, float, np.integer, np.floating)):
                 raise ResolverError(f"{self.name}: {key} must be a number [s], got {type(val).__name__}")
