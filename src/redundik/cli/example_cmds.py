@@ -11,6 +11,7 @@ from typing import Annotated
 
 import typer
 
+from redundik.cli._params import path_value
 from redundik.errors import ConfigError
 
 
@@ -68,7 +69,9 @@ def list_examples(
 
 
 def copy(
-    target: Annotated[Path, typer.Argument(help="Folder to copy tasks/ and configs/ into.", show_default=False)],
+    target: Annotated[
+        Path, typer.Argument(help="Folder to copy tasks/ and configs/ into.", show_default=False, parser=path_value)
+    ],
     force: Annotated[bool, typer.Option("--force", help="Overwrite files that exist.")] = False,
 ) -> None:
     """Copy the shipped tasks/ and configs/ into a folder (same layout: the tasks' robot paths still resolve)."""

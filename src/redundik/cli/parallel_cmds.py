@@ -14,6 +14,8 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
+from redundik.cli._params import path_value
+
 if TYPE_CHECKING:
     import numpy as np
 
@@ -223,7 +225,7 @@ def stewart_statics(
 def stewart_draw(
     config: ConfigArg,
     p: PosOpt,
-    out: Annotated[Path, typer.Option("--out", help="PNG file to write.")],
+    out: Annotated[Path, typer.Option("--out", parser=path_value, help="PNG file to write.")],
     rpy: RpyOpt = None,
     rot: ROpt = None,
 ) -> None:
@@ -241,7 +243,7 @@ def stewart_animate(
     config: ConfigArg,
     p: PosOpt,
     to_p: Annotated[tuple[float, float, float], typer.Option("--to-p", help="Final position X Y Z.")],
-    out: Annotated[Path, typer.Option("--out", help="GIF file to write.")],
+    out: Annotated[Path, typer.Option("--out", parser=path_value, help="GIF file to write.")],
     rpy: RpyOpt = None,
     to_rpy: Annotated[tuple[float, float, float] | None, typer.Option("--to-rpy", help="Final rpy [deg].")] = None,
     frames: Annotated[int, typer.Option("--frames", min=2, max=1000, help="Number of frames.")] = 20,
@@ -336,7 +338,9 @@ def hybrid_fk(
 @hybrid_app.command("path")
 def hybrid_path(
     config: ConfigArg,
-    out: Annotated[Path, typer.Option("--out", help="Directory for joint_profiles.png and roundtrip.json.")],
+    out: Annotated[
+        Path, typer.Option("--out", parser=path_value, help="Directory for joint_profiles.png and roundtrip.json.")
+    ],
     as_json: JsonOpt = False,
 ) -> None:
     """Computer project 2: home → destination, book (lagged) and exact joint profiles and round-trip errors."""

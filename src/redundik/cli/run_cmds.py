@@ -10,6 +10,8 @@ from typing import Annotated
 
 import typer
 
+from redundik.cli._params import path_value
+
 
 def validate(
     file: Annotated[
@@ -43,7 +45,9 @@ def run(
     file: Annotated[
         Path, typer.Argument(help="Task file (YAML), or the name of a shipped task (`redundik examples list`).")
     ],
-    out: Annotated[Path | None, typer.Option("--out", "-o", help="Output folder [default: out/<task name>].")] = None,
+    out: Annotated[
+        Path | None, typer.Option("--out", "-o", parser=path_value, help="Output folder [default: out/<task name>].")
+    ] = None,
     runs: Annotated[str | None, typer.Option("--runs", help="Comma-separated run names [default: all].")] = None,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No table, no progress bar.")] = False,
     figures: Annotated[bool, typer.Option("--figures/--no-figures", help="Write PNG figures.")] = True,
@@ -123,7 +127,9 @@ def run(
 
 def schema(
     robot: Annotated[bool, typer.Option("--robot", help="Schema of a robot config instead of a task file.")] = False,
-    out: Annotated[Path | None, typer.Option("--out", "-o", help="Write it to this file [default: stdout].")] = None,
+    out: Annotated[
+        Path | None, typer.Option("--out", "-o", parser=path_value, help="Write it to this file [default: stdout].")
+    ] = None,
 ) -> None:
     """Print the JSON Schema of task files (or robot configs), for editors: every type, key, default and unit."""
     import json

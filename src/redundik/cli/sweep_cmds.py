@@ -11,10 +11,14 @@ from typing import Annotated
 
 import typer
 
+from redundik.cli._params import path_value
+
 
 def sweep(
     file: Annotated[Path, typer.Argument(help="Sweep file (YAML), e.g. sweeps/panda_reach.yaml.", show_default=False)],
-    out: Annotated[Path | None, typer.Option("--out", "-o", help="Output folder (default: out/NAME).")] = None,
+    out: Annotated[
+        Path | None, typer.Option("--out", "-o", parser=path_value, help="Output folder (default: out/NAME).")
+    ] = None,
     fmt: Annotated[str, typer.Option("--format", help="Result table format: parquet or csv.")] = "parquet",
     dask: Annotated[
         str | None, typer.Option("--dask", help="Run on a new Dask LocalCluster of N single-threaded workers: local:N.")

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
+from redundik.cli._params import path_value
 from redundik.errors import ConfigError
 
 if TYPE_CHECKING:
@@ -191,8 +192,12 @@ def _check_view_options(at: float, speed: float, loops: int) -> None:
 def view(
     out_dir: Annotated[Path, typer.Argument(help="Output folder of `redundik run`.", show_default=False)],
     task: Annotated[Path | None, typer.Option("--task", help="Task file [default: the one in summary.json].")] = None,
-    html: Annotated[Path | None, typer.Option("--html", help="Write an offline HTML replay here instead.")] = None,
-    png: Annotated[Path | None, typer.Option("--png", help="Screenshot the HTML replay (headless Chromium).")] = None,
+    html: Annotated[
+        Path | None, typer.Option("--html", parser=path_value, help="Write an offline HTML replay here instead.")
+    ] = None,
+    png: Annotated[
+        Path | None, typer.Option("--png", parser=path_value, help="Screenshot the HTML replay (headless Chromium).")
+    ] = None,
     at: Annotated[float, typer.Option("--t", help="Time shown in the screenshot [s].")] = 0.0,
     run: Annotated[str | None, typer.Option("--run", help="Run to replay in meshcat [default: the first].")] = None,
     speed: Annotated[float, typer.Option("--speed", help="Playback speed factor.")] = 1.0,

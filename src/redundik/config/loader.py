@@ -34,6 +34,7 @@ from redundik.resolvers import RESOLVERS, Resolver, make_resolver
 from redundik.resolvers.base import check_gains
 from redundik.simulation.plant import PlantOptions
 from redundik.tasks import BoundSubtask, GradientSubtask, Potential, Subtask, TargetSubtask, Task, TaskStack
+from redundik.tasks.base import check_name
 
 
 @dataclass
@@ -187,10 +188,12 @@ def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None)
     # every potential and monitor once, for names/sizes (runs build their own fresh objects)
     types: dict[str, str] = {}
     for name, raw in spec.potentials.items():
+        _check_label(name, "potential", join_path("potentials", name))
         build_typed(POTENTIALS, raw, name, ctx, join_path("potentials", name), "potential")
         types[name] = str(raw["type"])
     for name, raw in spec.monitors.items():
         where = join_path("monitors", name)
+        _check_label(name, "monitor", where)
         if name in spec.potentials:
             raise ConfigError(f"'{name}' is already a potential; give the monitor another name", where)
         _build_monitor(raw, name, ctx, where)
@@ -363,6 +366,15 @@ def _check_plant_rate(spec: TaskFileSpec, sim_dt: float, where: str) -> None:
             "are allowed (raise sim_dt or shorten the run)",
             at,
         )
+
+
+def _check_label(name: str, what: str, path: str) -> None:
+    """A potential or monitor name: it becomes a CSV column (``p.NAME``, ``m.NAME``), a key of summary.json and a
+    subtask name, so it follows the library's name rule (:data:`redundik.tasks.base.NAME_PATTERN`)."""
+    try:
+        check_name(name, what)
+    except RedundikError as exc:
+        raise ConfigError(str(exc).removeprefix(f"{what}: "), path) from None
 
 
 def _build_run(spec: TaskFileSpec, ctx: Context, name: str, run: RunSpec, q0_file: np.ndarray) -> RunPlan:

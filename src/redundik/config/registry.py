@@ -282,8 +282,19 @@ def _derive(name: str, hint: Any, doc: str, default: Any) -> tuple[Any, Converte
     return ann, conv
 
 
+def _is_scalar(ann: Any) -> bool:
+    """Whether a YAML annotation holds one value (a number), not a list or mapping (through Optional/Annotated)."""
+    origin = typing.get_origin(ann)
+    if origin is typing.Annotated:
+        return _is_scalar(typing.get_args(ann)[0])
+    if origin is typing.Union or origin is types.UnionType:
+        return all(_is_scalar(a) for a in typing.get_args(ann) if a is not type(None))
+    return origin not in (list, tuple, dict) and ann not in (list, tuple, dict)
+
+
 def _doc_bounds(doc: str) -> dict[str, Any]:
-    """Bounds a docstring states: ``≥ 0`` → ge=0, ``> 0`` → gt=0."""
+    """Bounds a docstring states: ``≥ 0`` → ge=0, ``> 0`` → gt=0 (for a number; the entries of a list parameter
+    documented ``≥ 0`` are checked by the constructor: pydantic cannot compare a list with 0)."""
     if re.search(r"≥ 0\b", doc):
         return {"ge": 0}
     if re.search(r"(?<![≥<])> 0\b", doc):
@@ -348,7 +359,7 @@ def register(
         if over.default is not None:
             default = over.default
         key = over.key or pname
-        bounds = dict(over.bounds) or _doc_bounds(doc)
+        bounds = dict(over.bounds) or (_doc_bounds(doc) if _is_scalar(ann) else {})
         if isinstance(default, tuple):
             default = list(default)
         if isinstance(default, list):

@@ -16,7 +16,7 @@ import numpy as np
 import pinocchio as pin
 
 from redundik.config.schema import RobotSpec
-from redundik.config.yamlio import join_path, read_yaml, validate
+from redundik.config.yamlio import join_path, not_a_file, read_yaml, validate
 from redundik.errors import ConfigError, RedundikError, short_repr
 from redundik.kinematics import EXAMPLE_ROBOTS, DHRow, RobotModel, example_robot_data_dir, from_dh, from_urdf
 
@@ -103,13 +103,19 @@ def load_robot(ref: Any, base_dir: Path, path: str = "robot") -> LoadedRobot:
     if isinstance(ref, str):
         if ref.startswith(EXAMPLE_PREFIX):
             return _example_robot(ref[len(EXAMPLE_PREFIX) :], None, path, ref)
+        if not ref.strip():
+            raise ConfigError(
+                f"expected a robot config path, '{EXAMPLE_PREFIX}NAME' or an inline mapping, got an empty string", path
+            )
         try:
             cfg_path = (base_dir / ref).resolve() if not Path(ref).is_absolute() else Path(ref)
-            exists = cfg_path.is_file()
+            problem = not_a_file(cfg_path)
         except (OSError, ValueError):  # a name too long, an embedded NUL, ...
             raise ConfigError(f"robot config {short_repr(ref)} cannot be read (not a usable path)", path) from None
-        if not exists:
+        if problem == "it does not exist":
             raise ConfigError(f"robot config {short_repr(ref)} does not exist (looked for {cfg_path})", path)
+        if problem is not None:
+            raise ConfigError(f"robot config {short_repr(ref)} cannot be read: {problem} ({cfg_path})", path)
         data = read_yaml(cfg_path, "robot config")
         prefix = f"{ref}: "
         spec = validate(RobotSpec, data, prefix)
@@ -144,10 +150,15 @@ def build_robot(spec: RobotSpec, base_dir: Path, prefix: str, source: str) -> Lo
         if spec.urdf.startswith(EXAMPLE_PREFIX):
             loaded = _example_robot(spec.urdf[len(EXAMPLE_PREFIX) :], spec.free_flyer, where, source)
         else:
+            if not spec.urdf.strip():
+                raise ConfigError(f"expected a URDF path or '{EXAMPLE_PREFIX}NAME', got an empty string", where)
             try:
                 urdf_path = Path(spec.urdf) if Path(spec.urdf).is_absolute() else (base_dir / spec.urdf).resolve()
+                problem = not_a_file(urdf_path)
             except (OSError, ValueError):
                 raise ConfigError(f"{short_repr(spec.urdf)} is not a usable URDF path", where) from None
+            if problem is not None and problem != "it does not exist":  # a folder, a device: not a URDF file
+                raise ConfigError(f"URDF file {short_repr(str(urdf_path), 200)} cannot be read: {problem}", where)
             try:
                 robot = from_urdf(urdf_path, free_flyer=bool(spec.free_flyer), name=spec.name)
             except RedundikError as exc:

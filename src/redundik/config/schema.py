@@ -16,7 +16,16 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
-from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, WithJsonSchema, model_validator
+from pydantic import (
+    AfterValidator,
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    WithJsonSchema,
+    field_validator,
+    model_validator,
+)
 
 from redundik.errors import short_repr
 from redundik.reporting.paths import name_problem
@@ -36,11 +45,53 @@ def _name(value: Any) -> Any:
 Name = Annotated[str, BeforeValidator(_name), WithJsonSchema({"type": ["string", "integer"]})]
 
 
+#: Pinocchio's name of the world frame and joint: a D-H row or frame of that name would shadow it.
+RESERVED_NAMES = ("universe",)
+
+
+def _model_name(value: str) -> str:
+    """A name the robot model will carry (D-H rows, frame 0, extra frames, the robot): it ends up in CSV headers,
+    figures, the HTML replay and terminal tables, so it must be printable text (no NUL, newline or escape)."""
+    if not value.strip():
+        raise ValueError("expected a non-empty name")
+    if not value.isprintable():
+        raise ValueError(f"{short_repr(value)}: a name must be printable text (no control characters)")
+    if len(value) > 200:
+        raise ValueError(f"{short_repr(value)}: a name must be at most 200 characters, got {len(value)}")
+    return value
+
+
+def _frame_name(value: str) -> str:
+    _model_name(value)
+    if value in RESERVED_NAMES:
+        raise ValueError(f"{value!r} is the name of Pinocchio's world frame; choose another name")
+    return value
+
+
+#: The name of the robot (reports, summary.json, figures): printable text.
+ModelName = Annotated[
+    str, BeforeValidator(_name), AfterValidator(_model_name), WithJsonSchema({"type": ["string", "integer"]})
+]
+#: A frame or joint a robot config defines (a D-H row, frame 0, an extra frame): printable, not ``universe``.
+FrameName = Annotated[
+    str, BeforeValidator(_name), AfterValidator(_frame_name), WithJsonSchema({"type": ["string", "integer"]})
+]
+
+
 def _safe_name(value: str) -> str:
     problem = name_problem(value)
     if problem is not None:
         raise ValueError(problem)
     return value
+
+
+def robot_reference(robot: Any) -> Any:
+    """The ``robot:`` of a task or sweep file: a config path, ``example-robot-data:NAME`` or an inline mapping."""
+    if robot is None or not isinstance(robot, (str, dict)):
+        raise ValueError(
+            f"expected a config path, 'example-robot-data:NAME' or an inline mapping, got {short_repr(robot)}"
+        )
+    return robot
 
 
 #: A name that becomes a file name (task and run names): see :data:`redundik.reporting.paths.NAME_PATTERN`.
@@ -80,7 +131,7 @@ class BaseSpec(StrictModel):
 class DHRowSpec(StrictModel):
     """One standard D-H row (see :class:`redundik.kinematics.DHRow`); angles in the file's ``angle_unit``."""
 
-    name: Name
+    name: FrameName
     type: Literal["revolute", "prismatic", "fixed"] = "revolute"
     theta: Bounded = 0.0
     d: Bounded = 0.0
@@ -109,21 +160,36 @@ class JointLimitSpec(StrictModel):
     velocity: float | None = Field(default=None, gt=0)
 
 
+#: Most rows of a D-H table (Pinocchio's model data grows as n³: 200 rows take ~0.9 GB and 1.4 s to build, 400
+#: rows ~6 GB and 13 s; the shipped snake has 40, the benchmark's largest 160).
+MAX_DH_ROWS = 200
+
+
 class RobotSpec(StrictModel):
     """A robot config file (``configs/*.yaml``), or the inline ``robot:`` mapping of a task file."""
 
-    name: Name | None = None
+    name: ModelName | None = None
     description: str = ""
     length_unit: str = "m"
     angle_unit: AngleUnit = "rad"
     base: BaseSpec | None = None
-    base_frame: Name = "0"
+    base_frame: FrameName = "0"
     dh: list[DHRowSpec] | None = Field(default=None, min_length=1)
     urdf: str | None = None
     free_flyer: bool | None = None
     q0: list[float] | None = None
-    frames: dict[Name, FrameSpec] = Field(default_factory=dict)
+    frames: dict[FrameName, FrameSpec] = Field(default_factory=dict)
     joint_limits: dict[Name, JointLimitSpec] = Field(default_factory=dict)
+
+    @field_validator("dh")
+    @classmethod
+    def _few_rows(cls, dh: list[DHRowSpec] | None) -> list[DHRowSpec] | None:
+        if dh is not None and len(dh) > MAX_DH_ROWS:
+            raise ValueError(
+                f"at most {MAX_DH_ROWS} D-H rows, got {len(dh)}: the model's memory grows as n³ (400 rows need "
+                "about 6 GB)"
+            )
+        return dh
 
     @model_validator(mode="after")
     def _one_source(self) -> RobotSpec:
@@ -261,12 +327,12 @@ class TaskFileSpec(StrictModel):
     def _duration(self) -> TaskFileSpec:
         if (self.steps is None) == (self.duration is None):
             raise ValueError("give exactly one of 'steps' (number of time steps) or 'duration' [s]")
-        if self.robot is None or not isinstance(self.robot, (str, dict)):
-            raise ValueError(
-                "robot: expected a config path, 'example-robot-data:NAME' or an inline mapping, "
-                f"got {short_repr(self.robot)}"
-            )
         return self
+
+    @field_validator("robot")
+    @classmethod
+    def _robot(cls, robot: Any) -> Any:
+        return robot_reference(robot)
 
     @property
     def n_steps(self) -> int:

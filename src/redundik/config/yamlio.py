@@ -27,6 +27,10 @@ MAX_FILE_BYTES = 4 * 1024 * 1024
 MAX_DEPTH = 48
 #: Largest number of nodes a document may stand for once its aliases are expanded (billion laughs: 10⁹).
 MAX_EXPANDED_NODES = 500_000
+#: Largest number of nodes a document may hold as written (aliases counted once): the pure-Python parser takes
+#: ~30 µs a node on a loaded machine, so this bounds a refusal to a few seconds (the shipped files hold < 10 000;
+#: a sweep's explicit ``points`` list up to ~25 000 points: use ``grid`` or ``random`` for more).
+MAX_NODES = 100_000
 #: Longest error message built from a YAML problem [characters].
 _MAX_MESSAGE = 240
 
@@ -35,6 +39,7 @@ class BoundedLoader(yaml.SafeLoader):
     """PyYAML's SafeLoader with bounds checked *while* composing, and duplicate mapping keys refused.
 
     * nesting depth ≤ :data:`MAX_DEPTH` (no RecursionError on 500 levels);
+    * nodes as written ≤ :data:`MAX_NODES` (a refusal takes seconds, not the minutes 4 MiB of dense YAML take);
     * every node's size with its aliases expanded ≤ :data:`MAX_EXPANDED_NODES` (a billion-laughs file is refused
       after composing its few hundred real nodes, before anything walks the expanded structure);
     * recursive aliases (``&a [*a]``) refused.
@@ -43,6 +48,7 @@ class BoundedLoader(yaml.SafeLoader):
     def __init__(self, stream: str) -> None:
         super().__init__(stream)
         self._depth = 0
+        self._nodes = 0
         self._weights: dict[int, int] = {}
 
     def fetch_flow_collection_start(self, TokenClass: Any) -> None:
@@ -61,6 +67,11 @@ class BoundedLoader(yaml.SafeLoader):
                 )
             return super().compose_node(parent, index)
         event = self.peek_event()  # type: ignore[no-untyped-call]  # untyped in types-PyYAML
+        self._nodes += 1
+        if self._nodes > MAX_NODES:  # checked as the nodes come, so a huge file is refused before it is all parsed
+            raise yaml.composer.ComposerError(
+                None, None, f"more than {MAX_NODES} values in one file (a generated file too large?)", event.start_mark
+            )
         self._depth += 1
         try:
             if self._depth > MAX_DEPTH:
@@ -120,12 +131,28 @@ def _one_line(text: str, limit: int = _MAX_MESSAGE) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
+def not_a_file(path: Path) -> str | None:
+    """Why ``path`` cannot be read as a file (``"it is a folder, not a file"``, ...), or ``None`` if it can.
+
+    Raises:
+        OSError, ValueError: the path cannot even be looked at (too long, an embedded NUL).
+    """
+    if path.is_file():
+        return None
+    if path.is_dir():
+        return "it is a folder, not a file"
+    if path.exists():
+        return "it is not a regular file (a device, a pipe or a socket)"
+    return "it does not exist"
+
+
 def _read_text(path: Path, what: str) -> str:
     """The file's text: size-bounded, not binary, valid UTF-8; any problem is a one-line ConfigError."""
     shown = short_repr(str(path), 200).strip("'\"")
     try:
-        if not path.is_file():
-            raise ConfigError(f"cannot read {what} '{shown}': it does not exist (or is not a regular file)")
+        problem = not_a_file(path)
+        if problem is not None:
+            raise ConfigError(f"cannot read {what} '{shown}': {problem}")
         with path.open("rb") as fh:
             raw = fh.read(MAX_FILE_BYTES + 1)
     except OSError as exc:
@@ -153,6 +180,8 @@ def parse_yaml(text: str, where: str) -> Any:
         at = f"{where}:{mark.line + 1}" if mark is not None else where
         problem = getattr(exc, "problem", None) or type(exc).__name__
         context = getattr(exc, "context", None)
+        if "tag:yaml.org,2002:merge" in str(problem):
+            problem = "merge keys ('<<: *anchor') are not supported: write the keys out (plain aliases are fine)"
         msg = f"invalid YAML: {problem}" + (f" ({context})" if context else "")
         raise ConfigError(_one_line(msg), at) from None
     except RecursionError:  # belt and braces: the depth bound should make this unreachable
@@ -328,6 +357,48 @@ def _message(err: dict[str, Any], allowed: list[str] | None, bounds: tuple[int |
     return str(err["msg"])
 
 
+#: Error kinds that only say "the value is not of this union member's type".
+_MISMATCH_KINDS = {
+    "float_type", "float_parsing", "int_type", "int_parsing", "int_from_float", "string_type", "bool_type",
+    "list_type", "dict_type", "model_type", "model_attributes_type", "literal_error", "none_required",
+}  # fmt: skip
+
+
+def _is_union_label(part: object) -> bool:
+    """Whether a part of an error location is pydantic's label of a union member, not a YAML key.
+
+    Labels are type names (``float``, ``constrained-float``, ``list[float]``, ``literal['home']``) or the class
+    name of a model member (``RangeSpec``).
+    """
+    if not isinstance(part, str):
+        return False
+    return part in _TYPE_LABELS or "[" in part or part in _model_names()
+
+
+def _model_names() -> set[str]:
+    names: set[str] = set()
+    todo = list(BaseModel.__subclasses__())
+    while todo:
+        cls = todo.pop()
+        if cls.__name__ not in names:
+            names.add(cls.__name__)
+            todo.extend(cls.__subclasses__())
+    return names
+
+
+def _relevant(errors: list[Any]) -> list[Any]:
+    """The errors worth reporting first: for a value checked against a union (``x: 0.5`` or ``x: {start, stop,
+    num}``), pydantic reports one error per member; the member whose type the value has is the one the user meant,
+    so its error (``x.num: must be ≤ 1000000``) beats "expected a number" from the member it was never meant for."""
+    labelled = [
+        any(_is_union_label(p) for p in e["loc"]) and e["type"] in _MISMATCH_KINDS and _is_union_label(e["loc"][-1])
+        for e in errors
+    ]
+    if any(labelled) and not all(labelled):
+        return [e for e, mismatch in zip(errors, labelled, strict=True) if not mismatch]
+    return errors
+
+
 def config_error(exc: ValidationError, model: type[BaseModel], prefix: str = "") -> ConfigError:
     """The first error of a pydantic ``ValidationError`` as a :class:`ConfigError` with its key path.
 
@@ -336,9 +407,9 @@ def config_error(exc: ValidationError, model: type[BaseModel], prefix: str = "")
         model: The model that was validated (to list the allowed keys of an unknown one).
         prefix: Key path of the validated mapping inside the file (``""`` for the top level).
     """
-    errors = exc.errors()
+    errors = _relevant(exc.errors())
     err = errors[0]
-    loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and (p in _TYPE_LABELS or "[" in p)))
+    loc = tuple(p for p in err["loc"] if not _is_union_label(p))
     allowed = _allowed_keys(model, loc[:-1]) if err["type"] == "extra_forbidden" else None
     path = join_path(prefix, *loc) if loc else (prefix.rstrip(": ") or "(top level)")
     bounds = _length_bounds(model, loc) if err["type"] in ("too_short", "too_long") else (None, None)

@@ -57,9 +57,19 @@ def check_output_folder(out_dir: str | os.PathLike[str]) -> Path:
     Call it before a long job, so a bad ``--out`` is refused before the work rather than after it.
 
     Raises:
-        OutputPathError: ``out_dir`` (or one of its parents) exists and is not a folder.
+        OutputPathError: ``out_dir`` (or one of its parents) exists and is not a folder, or ``out_dir`` is the
+            file-system root (``--out /``: the run's files would be strewn over ``/``).
     """
     folder = Path(out_dir)
+    try:
+        is_root = folder.resolve() == Path(folder.resolve().anchor)
+    except (OSError, ValueError, RuntimeError):  # a loop of symlinks, an embedded NUL: the writes will say
+        is_root = False
+    if is_root:
+        raise OutputPathError(
+            f"refusing to use the file-system root {short_repr(str(folder), 200)} as the output folder: give a "
+            "folder of its own (e.g. out/NAME)"
+        )
     for part in (folder, *folder.parents):
         if part.exists() and not part.is_dir():
             raise OutputPathError(

@@ -11,10 +11,20 @@ from __future__ import annotations
 
 from typing import Annotated, Any, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
-from redundik.config.schema import DT_MAX, DT_MIN, AngleUnit, Axis, Bounded, Name, SafeName, StrictModel, Vec3
-from redundik.errors import short_repr
+from redundik.config.schema import (
+    DT_MAX,
+    DT_MIN,
+    AngleUnit,
+    Axis,
+    Bounded,
+    Name,
+    SafeName,
+    StrictModel,
+    Vec3,
+    robot_reference,
+)
 
 #: Largest number of problems (targets × starts) of one sweep.
 MAX_PROBLEMS = 1_000_000
@@ -145,6 +155,13 @@ class FigureSpec(StrictModel):
     plane: Annotated[list[Axis], Field(min_length=2, max_length=2)] | None = None
     enabled: bool = True
 
+    @field_validator("plane")
+    @classmethod
+    def _two_axes(cls, plane: list[str] | None) -> list[str] | None:
+        if plane is not None and plane[0] == plane[1]:
+            raise ValueError(f"expected two different axes, got {plane}")
+        return plane
+
 
 class SweepFileSpec(StrictModel):
     """A sweep file (``sweeps/*.yaml``)."""
@@ -163,13 +180,7 @@ class SweepFileSpec(StrictModel):
     chunk_size: int = Field(default=256, ge=1, le=MAX_CHUNK)
     figure: FigureSpec = Field(default_factory=FigureSpec)
 
-    @model_validator(mode="after")
-    def _robot(self) -> SweepFileSpec:
-        if self.robot is None or not isinstance(self.robot, (str, dict)):
-            raise ValueError(
-                "robot: expected a config path, 'example-robot-data:NAME' or an inline mapping, "
-                f"got {short_repr(self.robot)}"
-            )
-        if self.figure.plane is not None and self.figure.plane[0] == self.figure.plane[1]:
-            raise ValueError(f"figure.plane: expected two different axes, got {self.figure.plane}")
-        return self
+    @field_validator("robot")
+    @classmethod
+    def _robot(cls, robot: Any) -> Any:
+        return robot_reference(robot)

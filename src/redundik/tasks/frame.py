@@ -313,9 +313,10 @@ class PostureTask(Task):
     ) -> None:
         self._init_task(name, weight=weight, gain=gain, priority=priority)
         what = f"posture task '{name}': target"
-        self._given = (
-            None if target is None else _bounded_configuration(_numbers(target, what, "a configuration"), what)
-        )
+        given = None if target is None else _numbers(target, what, "a configuration")
+        if given is not None and not np.all(np.isfinite(given)):
+            raise TaskError(f"{what}: contains NaN or infinite values")  # as set_target says: refused where set
+        self._given = None if given is None else _bounded_configuration(given, what)
         self.target: np.ndarray | None = self._given
         self._sel: np.ndarray | None = None
 

@@ -110,7 +110,7 @@ class JointCentering(Potential):
     Args:
         center: q_c (size nq); the middle of each joint's range if ``None`` (joints without finite limits are
             left out, i.e. get zero weight).
-        weights: Optional per-joint weights w (size nv): p = ½ Σ w_i (q_i − q_c,i)².
+        weights: Optional per-joint weights w ≥ 0 (size nv): p = ½ Σ w_i (q_i − q_c,i)².
     """
 
     def __init__(
@@ -122,6 +122,12 @@ class JointCentering(Potential):
         self.name = name
         self.center = None if center is None else _finite_vec(center, f"subtask '{name}': center")
         self.weights = None if weights is None else _finite_vec(weights, f"subtask '{name}': weights")
+        if self.weights is not None and np.any(self.weights < 0):
+            k = int(np.flatnonzero(self.weights < 0)[0])
+            raise TaskError(
+                f"subtask '{name}': weights must be ≥ 0 (a negative weight pushes joint {k} away from the centre), "
+                f"got weights[{k}] = {self.weights[k]:g}"
+            )
         self._c: np.ndarray | None = None
         self._w: np.ndarray | None = None
 
