@@ -24,7 +24,7 @@ import numpy as np
 import pinocchio as pin
 
 from redundik.errors import ModelError
-from redundik.kinematics.model import RobotModel
+from redundik.kinematics.model import MAX_NV, RobotModel
 
 
 @dataclass(frozen=True)
@@ -86,12 +86,24 @@ def _se3(matrix: np.ndarray) -> pin.SE3:
 MAX_DH_VALUE = 1e6
 
 
+#: Names Pinocchio gives the world's joint and frame: a row (or ``base_frame``) of that name would make every frame
+#: lookup by name ambiguous.
+RESERVED_NAMES = frozenset({"universe"})
+#: Most joint rows a table may have (``RobotModel``'s ``MAX_NV``: Pinocchio's data grows as nv³).
+MAX_DH_JOINTS = MAX_NV
+
+
 def _check_row(row: object, i: int, robot: str) -> None:
     """Refuse a row that is not a :class:`DHRow`, an empty or non-string name, or numbers that are not numbers."""
     if not isinstance(row, DHRow):
         raise ModelError(f"robot '{robot}': row {i + 1}: expected a DHRow, got {type(row).__name__}")
     if not isinstance(row.name, str) or not row.name.strip():
         raise ModelError(f"robot '{robot}': row {i + 1}: name must be a non-empty string, got {row.name!r}")
+    if row.name in RESERVED_NAMES or (isinstance(row.joint, str) and row.joint in RESERVED_NAMES):
+        raise ModelError(
+            f"robot '{robot}': row {i + 1}: {row.name!r} is Pinocchio's name of the world frame and joint; give the "
+            "row another name"
+        )
     for key in ("parent", "joint"):
         value = getattr(row, key)
         if value is not None and not isinstance(value, str):
@@ -146,6 +158,16 @@ def from_dh(
         raise ModelError(f"robot '{name}': rows must be a list of DHRow, got {type(rows).__name__}")
     if len(rows) == 0:
         raise ModelError(f"robot '{name}': the D-H table has no rows")
+    if len(rows) > MAX_DH_JOINTS and sum(getattr(r, "kind", "revolute") != "fixed" for r in rows) > MAX_DH_JOINTS:
+        raise ModelError(
+            f"robot '{name}': the D-H table has more than {MAX_DH_JOINTS} joint rows ({len(rows)} rows): Pinocchio's "
+            "data grows as nv³ (0.5 GB at 200 joints)"
+        )
+    if not isinstance(base_frame, str) or not base_frame.strip() or base_frame in RESERVED_NAMES:
+        raise ModelError(
+            f"robot '{name}': base_frame must be a non-empty name other than 'universe' (Pinocchio's world frame), "
+            f"got {base_frame!r}"
+        )
     base_m = np.eye(4) if base is None else np.asarray(base, dtype=float)
     if base_m.shape != (4, 4) or not np.all(np.isfinite(base_m)):
         raise ModelError(f"robot '{name}': base must be a finite 4×4 homogeneous matrix")

@@ -30,6 +30,11 @@ _PRISMATIC = {"JointModelPX", "JointModelPY", "JointModelPZ"}
 AXES: dict[str, int] = {"x": 0, "y": 1, "z": 2, "rx": 3, "ry": 4, "rz": 5}
 
 
+#: Most velocity coordinates a robot may have: Pinocchio's data holds nv³ second-order derivative tensors (0.5 GB at
+#: nv = 200, 4 GB at 400); a larger model is refused with a ModelError instead of a MemoryError or a swap storm.
+MAX_NV = 256
+
+
 @dataclass(frozen=True)
 class JointInfo:
     """One actuated degree of freedom as the user sees it.
@@ -77,6 +82,12 @@ class RobotModel:
     _nv: int = field(init=False, default=0, repr=False)
 
     def __post_init__(self) -> None:
+        if int(self.model.nv) > MAX_NV:
+            raise ModelError(
+                f"robot '{self.name}': {int(self.model.nv)} velocity coordinates, more than {MAX_NV}: Pinocchio's data "
+                "holds nv³ second-order derivative tensors (0.5 GB at nv = 200) and is refused before its "
+                "memory is taken"
+            )
         self.data = self.model.createData()
         self._nq, self._nv = int(self.model.nq), int(self.model.nv)
         joints: list[JointInfo] = []

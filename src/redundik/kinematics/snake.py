@@ -15,7 +15,7 @@ import numpy as np
 
 from redundik.errors import ModelError
 from redundik.kinematics.dh import DHRow, from_dh
-from redundik.kinematics.model import RobotModel
+from redundik.kinematics.model import MAX_NV, RobotModel
 
 
 def snake_rows(n: int, link: float = 0.1, limit: float = np.pi / 2, velocity: float = 2.0) -> list[DHRow]:
@@ -28,10 +28,10 @@ def snake_rows(n: int, link: float = 0.1, limit: float = np.pi / 2, velocity: fl
         velocity: Joint speed limit [rad/s].
 
     Raises:
-        ModelError: n < 2, or non-positive link, limit or velocity.
+        ModelError: n < 2 or n > ``MAX_NV``, or non-positive link, limit or velocity.
     """
-    if n < 2:
-        raise ModelError(f"snake: needs at least 2 joints, got {n}")
+    if n < 2 or n > MAX_NV:
+        raise ModelError(f"snake: needs 2 to {MAX_NV} joints, got {n}")
     if not (link > 0 and limit > 0 and velocity > 0):
         raise ModelError(f"snake: link, limit and velocity must be > 0, got {link}, {limit}, {velocity}")
     return [

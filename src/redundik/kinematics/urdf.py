@@ -93,6 +93,8 @@ def from_urdf(path: str | os.PathLike[str], *, free_flyer: bool = False, name: s
     """
     if not isinstance(path, (str, os.PathLike)):
         raise ModelError(f"URDF path must be a file path (str or Path), got {type(path).__name__}")
+    if not str(path).strip():
+        raise ModelError("URDF path is an empty string: give the path of a .urdf file")
     p = Path(path)
     try:
         exists = p.is_file()
@@ -102,6 +104,10 @@ def from_urdf(path: str | os.PathLike[str], *, free_flyer: bool = False, name: s
             f"URDF file '{str(p)[:120]}' cannot be read: {getattr(exc, 'strerror', None) or exc}"
         ) from None
     if not exists:
+        if p.is_dir():
+            raise ModelError(f"URDF path '{str(p)[:200]}' is a folder, not a file: give the path of a .urdf file")
+        if p.exists():
+            raise ModelError(f"URDF path '{str(p)[:200]}' is not a regular file (a device, a pipe?)")
         raise ModelError(f"URDF file '{str(p)[:200]}' does not exist")
     if size > MAX_URDF_BYTES:
         raise ModelError(f"URDF file '{p}' is larger than {MAX_URDF_BYTES // (1024 * 1024)} MiB")
