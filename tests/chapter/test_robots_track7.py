@@ -126,6 +126,41 @@ def test_round_trip_holds_the_hand_and_slides_to_c_and_back(posture) -> None:
     assert abs(d1.max() - 9.0) < 0.25  # reaches c = 9 dm (switch tolerance 0.2)
     assert abs(d1[-1] - 5.0) < 0.05  # and comes back home
     assert int(np.argmax(d1)) < 0.6 * d1.size
+    wp = r.summary["subtasks"]["track_round_trip"]["waypoints"]
+    assert wp == {"values": [9.0, 5.0], "tolerance": 0.2, "reached": 2}
+
+
+def test_a_round_trip_that_stalls_short_of_a_waypoint_says_so() -> None:
+    """The arm's reach stops d1 at 8.799 under rk4 (Euler's overshoot passes 8.8): 0 of 2 waypoints, in the
+    summary and flagged in the terminal table."""
+    from redundik.config.runner import task_summary
+    from redundik.reporting.terminal import summary_table
+
+    plan = load_task(ROOT / "tasks/track7_posture.yaml")
+    plan.runs = {"round_trip": plan.runs["round_trip"]}
+    plan.runs["round_trip"].integrator = "rk4"
+    results = run_task(plan)
+    wp = results["round_trip"].summary["subtasks"]["track_round_trip"]["waypoints"]
+    assert wp["reached"] == 0
+    assert float(np.max(results["round_trip"].log.q[:, 0])) < 9.0 - 0.2
+    from rich.console import Console
+
+    console = Console(record=True, width=200)
+    console.print(summary_table(task_summary(plan, results)))
+    assert "track_round_trip: 0/2 waypoints reached" in console.export_text()
+
+
+def test_waypoints_reached_follows_the_switching_rule(robot) -> None:
+    from redundik.tasks.waypoints import JointWaypoints
+
+    wp = JointWaypoints("1", [9.0, 5.0], tolerance=0.2)
+    wp.check(robot)
+    series = np.zeros((5, robot.nq))
+    series[:, 0] = [5.0, 8.9, 7.0, 5.1, 5.0]
+    assert wp.reached(series) == 2
+    assert wp.reached(series[:2]) == 1
+    series[:, 0] = [5.0, 8.7, 5.0, 5.0, 5.0]  # 5.0 first: the order counts, c = 9 never reached
+    assert wp.reached(series) == 0
 
 
 def test_trace_and_torque_monitors_are_the_statics_of_the_model(posture, robot) -> None:

@@ -14,6 +14,7 @@ from redundik.errors import ConfigError, SimulationError
 from redundik.simulation import SimulationLog, simulate
 from redundik.simulation.plant import Plant
 from redundik.tasks.subtasks import TargetSubtask
+from redundik.tasks.waypoints import JointWaypoints
 
 
 @dataclass
@@ -189,6 +190,14 @@ def summarise(plan: TaskPlan, result: RunResult) -> dict[str, Any]:
         "damped_steps": int(np.count_nonzero(log.damped)),
         "fallbacks": len(log.fallbacks),
     }
+    for s in run.stack.subtasks:  # a waypoint round trip that stalled short of a waypoint says so
+        pot = getattr(s, "potential", None)
+        if isinstance(pot, JointWaypoints):
+            summary["subtasks"][s.name]["waypoints"] = {
+                "values": [float(v) for v in pot.values],
+                "tolerance": pot.tolerance,
+                "reached": pot.reached(log.q),
+            }
     if log.fallbacks:
         summary["fallback_reasons"] = sorted({reason for _, reason in log.fallbacks})
     if "sigma_min" in log.extras:

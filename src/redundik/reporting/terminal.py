@@ -28,7 +28,12 @@ def summary_table(summary: dict[str, Any]) -> Table:
     table.add_column("limit\nviol.", justify="right", no_wrap=True)
     table.add_column("damped", justify="right", no_wrap=True)
     for name, r in summary["runs"].items():
-        items = [f"{k} {_num(v['initial'])} → {_num(v['final'])}" for k, v in r["subtasks"].items()]
+        items = [f"{k} {_num(v['initial'])} → {_num(v['final'])}" for k, v in r["subtasks"].items() if "initial" in v]
+        for k, v in r["subtasks"].items():
+            if "waypoints" in v:  # a round trip short of a waypoint is flagged
+                wp = v["waypoints"]
+                note = f"{escape(k)}: {wp['reached']}/{len(wp['values'])} waypoints reached"
+                items.append(note if wp["reached"] == len(wp["values"]) else f"[yellow]{note}[/yellow]")
         if "min_clearance" in r:
             items.append(f"min clearance {_num(r['min_clearance'])}")
         if "trace_JWJT" in r:

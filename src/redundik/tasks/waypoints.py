@@ -59,6 +59,20 @@ class JointWaypoints(Potential):
             self.active += 1
         return x - float(self.values[self.active])
 
+    def reached(self, q_series: np.ndarray) -> int:
+        """How many of the waypoints, in order, a run through the configurations ``q_series`` (samples, nq)
+        reached — each within ``tolerance`` of the joint, after the ones before it (the switching rule of this
+        potential, the last waypoint included). Requires :meth:`check` (the joint's index)."""
+        if self._iq < 0:
+            raise TaskError(f"subtask '{self.name}': reached() before check(robot)")
+        k = 0
+        for x in np.asarray(q_series, dtype=float)[:, self._iq]:
+            while k < self.values.size and abs(x - self.values[k]) < self.tolerance:
+                k += 1
+            if k == self.values.size:
+                break
+        return k
+
     @property
     def target(self) -> float:
         """The active waypoint c_i."""
