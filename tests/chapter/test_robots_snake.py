@@ -40,7 +40,7 @@ def test_snake_degree_of_redundancy_is_n_minus_6(n: int) -> None:
 
 
 def test_snake_generator_rejects_bad_parameters() -> None:
-    with pytest.raises(ModelError, match="at least 2 joints"):
+    with pytest.raises(ModelError, match="needs 2 to 256 joints, got 1"):
         snake_rows(1)
     with pytest.raises(ModelError, match="must be > 0"):
         snake_rows(5, link=0.0)

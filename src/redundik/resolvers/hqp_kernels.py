@@ -662,4 +662,341 @@ def first_run_cost() -> dict[str, float]:
     clearance_into(np.zeros((6, n)), np.ones(3), np.ones(n, dtype=np.int64), np.arange(3), np.zeros(3), 0.0,
                    np.zeros((6, n)), True, np.empty(n), 1.0)  # fmt: skip
     out["clearance_into"] = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    state = np.zeros(5, dtype=np.int64)
+    state[ST_R] = n
+    cfg = np.array([1e-2, 5e-2, 1e-10, 1e-9, 1e-7, 1e-12, 1.0, 1.0])
+    qp_cascade_run(A, np.ones(3), np.ones(3), rows, none, np.zeros(n), meta, np.zeros(2, dtype=np.bool_), -inf, inf,
+                   free, np.zeros(0, dtype=np.int64), cfg, state, np.zeros(n), np.zeros((n, n)), np.empty((n, n)),
+                   np.empty((1, n)), np.empty(1), np.zeros(1), np.zeros((2, 7)), 0, False, np.zeros(0))  # fmt: skip
+    out["qp_cascade_run"] = time.perf_counter() - t0
     return out
+
+
+#: Entries of the ``cfg`` array of :func:`qp_cascade_run`.
+CFG_EPSILON, CFG_MAX_DAMPING, CFG_RCOND, CFG_REGULARIZATION, CFG_SLACK_TOL, CFG_FEASIBLE, CFG_IDENTITY, CFG_SHORTCUT = (
+    range(8)
+)
+#: Entries of the ``state`` array of :func:`qp_cascade_run`: the basis mode (0: Z = I, 1: I on the free joints,
+#: 2: the basis Z), r (its columns), the fixed rows so far, the pending level's null-basis columns, whether the
+#: pending level solved a least squares (its basis then shrinks to Z·N).
+ST_MODE, ST_R, ST_NF, ST_NCOLS, ST_LSQ = range(5)
+#: Columns of the ``stats`` array of :func:`qp_cascade_run`, per level: σ_min, damping λ, rank of A_k Z, free
+#: directions r before the level, projected (1: the basis was a general Z), solved (1: a least squares was solved:
+#: the record of ``HierarchicalQPResolver._record``), the worst slack w_k* of its inequality rows.
+QS_SIGMA, QS_DAMPING, QS_RANK, QS_FREE, QS_PROJECTED, QS_SOLVED, QS_WORST = range(7)
+
+
+@_jit
+def _absorb(
+    k: int,
+    u: np.ndarray,
+    C: np.ndarray,
+    d: np.ndarray,
+    meta: np.ndarray,
+    tol: float,
+    state: np.ndarray,
+    x: np.ndarray,
+    Z: np.ndarray,
+    N: np.ndarray,
+    F: np.ndarray,
+    f: np.ndarray,
+    slack: np.ndarray,
+    stats: np.ndarray,
+) -> None:
+    """Level k's step u into the cascade: x ← x + Z u; its inequality rows join the fixed rows with their optimal
+    slack, C q̇ ≤ d + w* + tol, w* = max(C x − d, 0) (kept per row in ``slack``); and, for a level that solved a
+    least squares, Z ← Z·N (N: the null basis of A_k Z, ``state[ST_NCOLS]`` columns)."""
+    n = x.shape[0]
+    mode, r = state[ST_MODE], state[ST_R]
+    if mode == 0:
+        for i in range(n):
+            x[i] += u[i]
+    else:
+        for i in range(n):
+            acc = 0.0
+            for j in range(r):
+                acc += Z[i, j] * u[j]
+            x[i] += acc
+    nf = state[ST_NF]
+    worst = 0.0
+    for i in range(meta[1, k], meta[1, k + 1]):
+        acc = 0.0
+        for j in range(n):
+            acc += C[i, j] * x[j]
+        wv = acc - d[i]
+        if not wv > 0.0:
+            wv = 0.0 if wv == wv else wv  # (a NaN row stays NaN, as np.maximum leaves it)
+        slack[i] = wv
+        for j in range(n):
+            F[nf, j] = C[i, j]
+        f[nf] = d[i] + wv + tol
+        nf += 1
+        if wv > worst:
+            worst = wv
+    state[ST_NF] = nf
+    stats[k, QS_WORST] = worst
+    if state[ST_LSQ]:
+        rp = state[ST_NCOLS]
+        if mode == 0:
+            for i in range(n):
+                for j in range(rp):
+                    Z[i, j] = N[i, j]
+        else:
+            T = np.zeros((n, rp))
+            for i in range(n):
+                for c in range(r):
+                    zic = Z[i, c]
+                    if zic != 0.0:
+                        for j in range(rp):
+                            T[i, j] += zic * N[c, j]
+            for i in range(n):
+                for j in range(rp):
+                    Z[i, j] = T[i, j]
+        state[ST_MODE] = 2
+        state[ST_R] = rp
+
+
+@_jit
+def qp_cascade_run(
+    A: np.ndarray,
+    b: np.ndarray,
+    w: np.ndarray,
+    C: np.ndarray,
+    d: np.ndarray,
+    z: np.ndarray,
+    meta: np.ndarray,
+    mixed: np.ndarray,
+    lb: np.ndarray,
+    ub: np.ndarray,
+    free: np.ndarray,
+    sel: np.ndarray,
+    cfg: np.ndarray,
+    state: np.ndarray,
+    x: np.ndarray,
+    Z: np.ndarray,
+    N: np.ndarray,
+    F: np.ndarray,
+    f: np.ndarray,
+    slack: np.ndarray,
+    stats: np.ndarray,
+    k0: int,
+    absorb: bool,
+    u_in: np.ndarray,
+) -> tuple[int, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+    """``hqp``'s constrained cascade (module docstring of :mod:`redundik.resolvers.qp.hqp`) from level ``k0`` on,
+    up to the next level that needs the backend: the whole of it but the level QPs, which the caller solves.
+
+    The levels are the packed rows of :func:`closed_cascade` (``meta``; ``mixed[k]``: a least-squares level that
+    carries the null-space objective's identity rows after its own). Per level: its least squares over
+    q̇ = x + Z u — the damped SVD of A_k Z (the rule relative to the level's largest weight), exact factors for
+    identity rows (√w I, or the null-space objective's I) —, the ridge solution û and, with the level shortcut,
+    the test that û keeps every row of the level QP (:func:`level_rows_ok`); when it does, û is the level's
+    optimum, else the QP's arrays (:func:`level_qp_arrays`) are returned for the backend. A pure null-space level
+    whose projection keeps the limits and the levels above takes it without a QP.
+
+    Args:
+        cfg: ``CFG_*``: ε, λ_max, rcond, the regulariser, the slack tolerance, the shortcut's feasibility
+            tolerance, identity levels (1/0), the level shortcut (1/0).
+        state: ``ST_*`` (int64), kept between calls; x, Z (n, n), N (n, n), F, f (fixed rows), slack (one per C
+            row), stats (L, 7) likewise.
+        k0: The level to start at; with ``absorb``, the level whose QP the caller solved: its u (``u_in``) is
+            absorbed first and the cascade goes on at k0 + 1 (without it: a level the caller skipped, or the start).
+
+    Returns:
+        (0, L, …) when the cascade is done (q̇ in x); (1, k, P, q, G, h, lo, hi, ε) when level k needs its QP
+        (the arrays of :func:`level_qp_arrays`, ε its regulariser on u).
+    """
+    n = x.shape[0]
+    L = meta.shape[1] - 1
+    epsilon, max_damping, rcond = cfg[CFG_EPSILON], cfg[CFG_MAX_DAMPING], cfg[CFG_RCOND]
+    reg, tol, feas = cfg[CFG_REGULARIZATION], cfg[CFG_SLACK_TOL], cfg[CFG_FEASIBLE]
+    identity_levels, shortcut = cfg[CFG_IDENTITY] != 0.0, cfg[CFG_SHORTCUT] != 0.0
+    empty2 = np.zeros((0, 0))
+    empty1 = np.zeros(0)
+    k = k0
+    if absorb:
+        _absorb(k, u_in, C, d, meta, tol, state, x, Z, N, F, f, slack, stats)
+        k += 1
+    while k < L:
+        kind = meta[2, k]
+        c0, c1 = meta[1, k], meta[1, k + 1]
+        p = c1 - c0
+        s, e = meta[0, k], meta[0, k + 1]
+        m = e - s if kind == LEAST_SQUARES else 0
+        pure = kind == NULL_OBJECTIVE
+        mode, r, nf = state[ST_MODE], state[ST_R], state[ST_NF]
+        if r == 0 and p == 0:
+            k += 1
+            continue
+        if m == 0 and not pure and p == 0:
+            k += 1
+            continue
+        Ck = C[c0:c1]
+        dk = d[c0:c1]
+        Ff = F[:nf]
+        ff = f[:nf]
+        if pure and p == 0 and mode != 0:  # the closed form P_Z(z − x) when it keeps the limits and the levels above
+            cand = np.empty(n)
+            t = np.zeros(r)
+            for i in range(n):
+                zi = z[i] - x[i]
+                for j in range(r):
+                    t[j] += Z[i, j] * zi
+            for i in range(n):
+                acc = 0.0
+                for j in range(r):
+                    acc += Z[i, j] * t[j]
+                cand[i] = x[i] + acc
+            ok = in_box(cand, lb, ub, tol)
+            if ok:
+                for i in range(nf):
+                    acc = 0.0
+                    for j in range(n):
+                        acc += Ff[i, j] * cand[j]
+                    if not (acc <= ff[i] + tol):
+                        ok = False
+                        break
+            if ok:
+                for i in range(n):
+                    x[i] = cand[i]
+                if mode == 0:
+                    state[ST_MODE] = 2  # (Z = the empty basis; a selection stays one)
+                state[ST_R] = 0
+                k += 1
+                continue
+        # the level's least squares over u: (U, σ, Vt, rank, σ_min, λ) and its null basis into N
+        scale = 1.0
+        has_lsq = False
+        M = empty2
+        rhs = empty1
+        U = empty2
+        sv = empty1
+        Vt = empty2
+        rank = 0
+        sigma_min = np.inf
+        damping = 0.0
+        ncols = 0
+        if pure:  # rows I: M = Z (orthonormal columns), its SVD is (Z, 1, I)
+            has_lsq = True
+            rhs = np.empty(n)
+            for i in range(n):
+                rhs[i] = z[i] - x[i]
+            U = np.empty((n, r))
+            for i in range(n):
+                for j in range(r):
+                    U[i, j] = (1.0 if i == j else 0.0) if mode == 0 else Z[i, j]
+            sv = np.ones(r)
+            Vt = np.eye(r)
+            rank, sigma_min = r, (1.0 if r else np.inf)
+        elif m > 0:
+            has_lsq = True
+            wmax = 0.0
+            for i in range(s, e):
+                if w[i] > wmax:
+                    wmax = w[i]
+            scale = math.sqrt(wmax) if wmax > 0.0 else 1.0
+            Ak = np.empty((m, n))
+            rhs = np.empty(m)
+            for i in range(m):
+                wi = w[s + i]
+                sc = math.sqrt(wi) if wi != 1.0 else 1.0
+                acc = 0.0
+                for j in range(n):
+                    a = A[s + i, j] * sc
+                    Ak[i, j] = a
+                    acc += a * x[j]
+                rhs[i] = b[s + i] * sc - acc
+            if mode == 0:
+                M = Ak
+            else:
+                M = np.zeros((m, r))
+                for i in range(m):
+                    for l in range(n):
+                        a = Ak[i, l]
+                        if a != 0.0:
+                            for j in range(r):
+                                M[i, j] += a * Z[l, j]
+            if identity_levels and r > 0 and not mixed[k] and m == n and identity_rows(A, w, s, n, epsilon * scale):
+                sw = math.sqrt(w[s])
+                U = np.empty((n, r))
+                for i in range(n):
+                    for j in range(r):
+                        U[i, j] = (1.0 if i == j else 0.0) if mode == 0 else Z[i, j]
+                sv = np.full(r, sw)
+                Vt = np.eye(r)
+                rank, sigma_min = r, sw
+            elif r == 0:
+                U, sv, Vt = np.zeros((m, 0)), np.zeros(0), np.eye(0)
+            else:
+                U, sv, Vt, _, rank, sigma_min, damping = damped_svd_factors(
+                    np.ascontiguousarray(M), epsilon * scale, max_damping * scale, rcond
+                )
+                ncols = Vt.shape[0] - rank
+                for i in range(Vt.shape[0]):
+                    for j in range(ncols):
+                        N[i, j] = Vt[rank + j, i]
+        eps = reg * scale * scale
+        if has_lsq:
+            eps = max(eps, damping * damping)
+            stats[k, QS_SIGMA] = sigma_min
+            stats[k, QS_DAMPING] = damping
+            stats[k, QS_RANK] = rank
+            stats[k, QS_FREE] = r
+            stats[k, QS_PROJECTED] = 1.0 if mode == 2 else 0.0
+            stats[k, QS_SOLVED] = 1.0
+        state[ST_NCOLS] = ncols
+        state[ST_LSQ] = 1 if has_lsq else 0
+        if shortcut:
+            u = np.zeros(r)
+            if has_lsq:  # the ridge solution V diag(σ/(σ² + ε)) Uᵀ rhs
+                kk = sv.shape[0]
+                for j in range(kk):
+                    acc = 0.0
+                    for i in range(rhs.shape[0]):
+                        acc += U[i, j] * rhs[i]
+                    tj = sv[j] / (sv[j] * sv[j] + eps) * acc
+                    if tj != 0.0:
+                        for c in range(r):
+                            u[c] += Vt[j, c] * tj
+            if mode == 0:
+                step = u
+            else:
+                step = np.zeros(n)
+                for i in range(n):
+                    acc = 0.0
+                    for j in range(r):
+                        acc += Z[i, j] * u[j]
+                    step[i] = acc
+            native = mode != 2
+            if level_rows_ok(step, x, lb, ub, free, native, Ck, dk, Ff, ff, tol, feas):
+                _absorb(k, u, C, d, meta, tol, state, x, Z, N, F, f, slack, stats)
+                k += 1
+                continue
+        # the level QP's arrays, for the backend
+        Mq, rq, eq = M, rhs, eps
+        if m > 0 and p == 0 and scale != 1.0:  # least squares only: divided by its scale², the same optimum
+            Mq = np.empty_like(M)
+            rq = np.empty_like(rhs)
+            for i in range(M.shape[0]):
+                for j in range(M.shape[1]):
+                    Mq[i, j] = M[i, j] / scale
+                rq[i] = rhs[i] / scale
+            eq = eps / (scale * scale)
+        if pure or m == 0:
+            Mq, rq = np.zeros((0, r)), empty1
+        qmode = 0 if mode == 0 else (1 if mode == 1 else 2)
+        P, q, G, h, lo, hi = level_qp_arrays(
+            np.ascontiguousarray(Mq), rq, eq, np.ascontiguousarray(Ck), np.ascontiguousarray(dk), x,
+            Z[:, :r] if mode == 2 else Z[:, :0], qmode, sel, np.ascontiguousarray(Ff), np.ascontiguousarray(ff),
+            lb, ub, free, tol,
+        )  # fmt: skip
+        if pure:  # ½‖Zu − (z − x)‖²: MᵀM = I, Mᵀ rhs = Zᵀ(z − x)
+            for i in range(r):
+                P[i, i] += 1.0
+                acc = 0.0
+                for l in range(n):
+                    acc += U[l, i] * rhs[l]
+                q[i] = -acc
+        return 1, k, P, q, G, h, lo, hi, eq
+    return 0, L, empty2, empty1, empty2, empty1, empty1, empty1, 0.0

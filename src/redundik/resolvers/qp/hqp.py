@@ -44,6 +44,11 @@ exact to rounding, where a backend's answer on MᵀM + εI carries its condition
 level below the top one skips that level (reported); on the top level the step falls back to the closed form.
 A level QP whose rows are √w I with √w ≥ ε (a posture given a level) takes the exact factors of A_k Z = √w Z —
 (Z, √w, I), as the null-space objective's (Z, 1, I) — instead of an SVD.
+Compiled constrained cascade: all of the constrained cascade but the level QPs — projections, SVDs, shortcuts,
+the QP arrays, the slack bookkeeping, the bases — is one compiled call per backend call
+(``hqp_kernels.qp_cascade_run``, on the plan's buffers); the Level records are built only for a contradiction's
+row names and for the diagnostics. A QP step of the 10-joint snake 300 → 116 µs (its Python cascade is the
+reference of ``tests/test_hqp_lean.py``).
 
 The levels are the stack's (:mod:`redundik.tasks.stack`): main tasks at their priority (0), target and bound
 subtasks below them, the null-space objective ½‖q̇ − z‖² (gradient subtasks and posture) last; restricted to Z it
@@ -82,7 +87,7 @@ from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, StepResult
 from redundik.resolvers.fused import FusedPlan, FusedStepResult
-from redundik.resolvers.linalg import FK, DampedSVD, damped_svd
+from redundik.resolvers.linalg import FK
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, polish
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
 from redundik.resolvers.qp.limits import LimitBox
@@ -110,15 +115,9 @@ class _HQPKernels:
 HK = _HQPKernels()
 _NO_BASIS = np.zeros((0, 0))
 _NO_SELECTION = np.zeros(0, dtype=np.int64)
+_NO_U = np.zeros(0)
 #: Violation up to which a level QP's unconstrained optimum counts as satisfying the QP's rows (kept without a QP).
 _FEASIBLE = 1e-12
-
-
-def _ridge(lsq: DampedSVD, rhs: np.ndarray, eps: float) -> np.ndarray:
-    """argmin ½‖M u − rhs‖² + ½ε‖u‖² = V diag(σ/(σ² + ε)) Uᵀ rhs from the SVD of M: the level QP's objective in u,
-    its unconstrained optimum (exact to rounding where ε ≪ σ², unlike a Cholesky of MᵀM + εI)."""
-    k = lsq.s.shape[0]
-    return lsq.Vt[:k].T @ ((lsq.s / (lsq.s * lsq.s + eps)) * (lsq.U.T @ rhs))
 
 
 @dataclass
@@ -140,6 +139,9 @@ class HQPBuild:
     stats: np.ndarray | None = None
     #: True when the unconstrained cascade was already found infeasible (the lean step): straight to the QPs.
     infeasible: bool = False
+    #: Per level the constrained cascade's records (``hqp_kernels.QS_*``), read by the diagnostics; ``None`` when
+    #: the step solved no constrained cascade.
+    qp_stats: np.ndarray | None = None
 
     @property
     def levels(self) -> list[Level]:
@@ -173,6 +175,7 @@ class _Plan:
             has_z = plan.null_objective and layout.has_null_objective
             self.meta[2, k] = HK.LEAST_SQUARES if has_rows else (HK.NULL_OBJECTIVE if has_z else HK.SKIP)
             self.mixed.append(has_rows and has_z)
+        self.mixed_flags = np.array(self.mixed, dtype=np.bool_)
         self.A, self.b, self.w = np.zeros((16, n)), np.zeros(16), np.ones(16)
         self.C, self.d = np.zeros((4, n)), np.zeros(4)
         self.eye, self.zero = np.eye(n), np.zeros(n)
@@ -543,20 +546,6 @@ class HierarchicalQPResolver(QPResolverBase):
         return plan
 
     # ------------------------------------------------------------------ the two cascades
-    def _project(self, lv: Level, x: np.ndarray, Z: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
-        """(A_k Z, b_k − A_k x) of a level's weighted least-squares rows (Z = I when ``None``)."""
-        A, b = lv.ls_rows()
-        M = A if Z is None else A @ Z
-        return M, b - A @ x
-
-    def _lsq(self, M: np.ndarray, scale: float = 1.0) -> DampedSVD:
-        """The damped SVD of a level's projected rows M, with ε and λ_max times the level's ``scale`` (√ of its
-        largest weight, ``Level.scale``)."""
-        return damped_svd(M, epsilon=self.epsilon * scale, max_damping=self.max_damping * scale, rcond=self.rcond)
-
-    def _note(self, lv: Level, lsq: DampedSVD, r: int, projected: bool, diag: QPDiagnostics) -> None:
-        self._record(lv, lsq.sigma_min, lsq.damping, lsq.rank, r, projected, diag)
-
     def _record(
         self, lv: Level, sigma_min: float, damping: float, rank: int, r: int, projected: bool, diag: QPDiagnostics
     ) -> None:
@@ -590,139 +579,6 @@ class HierarchicalQPResolver(QPResolverBase):
         built.stats = stats
         return x
 
-    def _level_qp(
-        self,
-        lv: Level,
-        x: np.ndarray,
-        Z: np.ndarray | None,
-        r: int,
-        box: LimitBox,
-        fixed: list[tuple[np.ndarray, np.ndarray]],
-        diag: QPDiagnostics,
-        pinned: np.ndarray,
-        selection: np.ndarray | None,
-        shortcut: bool = False,
-    ) -> tuple[np.ndarray, DampedSVD | None]:
-        """Solve level ``lv`` over q̇ = x + Z u (module docstring); returns (u, the level's least squares).
-
-        ``pinned`` marks the joints whose box is a single value (their q̇ is in x, their rows of Z are zero);
-        ``selection`` is the index array of the free joints while Z is still I restricted to them (the first level
-        after pinning), so that the box stays native bounds on u. With ``shortcut`` the QP's unconstrained optimum
-        is returned without calling the backend when it satisfies every row of the QP (:meth:`_level_feasible`).
-        """
-        n = x.shape[0]
-        p = lv.p
-        lsq = None
-        scale = lv.scale  # the damping rule and the regulariser relative to the level's largest weight
-        eps = self.regularization * scale * scale
-        M = rhs = None
-        orthonormal = lv.pure_null_objective and lv.z is not None
-        if orthonormal:  # rows = I: M = Z has orthonormal columns, its SVD is (Z, 1, I) — no factorisation
-            assert lv.z is not None
-            rhs = lv.z - x
-            U = np.eye(n) if Z is None else Z
-            lsq = DampedSVD(U, np.ones(r), np.eye(r), np.ones(r), r, 1.0 if r else np.inf, 0.0)
-        elif lv.m or lv.z is not None:
-            M, rhs = self._project(lv, x, Z)
-            if (
-                self.identity_levels
-                and r
-                and lv.z is None
-                and lv.m == n
-                and HK.identity_rows(lv.J, lv.w, 0, n, self.epsilon * scale)
-            ):
-                # rows √w I (a posture given a level): M = √w Z with Z orthonormal (I at the top) has the exact SVD
-                # (Z, √w, I), every direction undamped (√w ≥ ε) — no factorisation of the n×r matrix
-                sw = math.sqrt(float(lv.w[0]))
-                U = np.eye(n) if Z is None else Z
-                lsq = DampedSVD(U, np.full(r, sw), np.eye(r), np.full(r, 1.0 / sw), r, sw, 0.0)
-            else:
-                lsq = self._lsq(M, scale)
-            eps = max(eps, lsq.damping**2)
-        if shortcut:
-            u = np.zeros(r) if lsq is None or rhs is None else _ridge(lsq, rhs, eps)
-            if self._level_feasible(lv, u, x, Z, box, fixed, pinned, selection):
-                return u, lsq
-        # the QP's arrays in one compiled call (HK.level_qp_arrays): the level's rows C(x + Zu) − d ≤ w with the
-        # slack measured from its value at u = 0 (w = w₀ + w', w₀ = max(Cx − d, 0): u = 0, w' = 0 is feasible and
-        # w' lives on the scale of u; a level whose slack is 19.5 while the limits left u a 1e-6-wide window was
-        # otherwise called infeasible by proxsuite; exact, ½‖w₀ + w'‖² = ½‖w'‖² + w₀ᵀw' + const). Below level 0 the
-        # rows that carry the levels above and the limits get the margin max(·, 0) + tol: x (from a backend's finite
-        # tolerance) may sit up to that tolerance outside them, and without the clamp a level could be declared
-        # primal-infeasible (proxsuite, osqp) though u = 0 always solves it.
-        F, f = self._stacked(fixed, n)
-        mode = 0 if Z is None else (1 if selection is not None else 2)
-        if M is not None and rhs is not None and not p and scale != 1.0:
-            # a level of least squares only: its objective divided by its scale², the same optimum, posed to the
-            # backend on the scale of a unit weight (a weight of 1e-6 left daqp's absolute tolerances 0.3 off)
-            M, rhs, eps = M / scale, rhs / scale, eps / (scale * scale)
-        P, q, G, h, lb, ub = HK.level_qp_arrays(
-            M if M is not None else np.zeros((0, r)),
-            rhs if rhs is not None else np.zeros(0),
-            eps,
-            lv.C if p else np.zeros((0, n)),
-            lv.d if p else np.zeros(0),
-            x,
-            Z if Z is not None else _NO_BASIS,
-            mode,
-            selection if selection is not None else _NO_SELECTION,
-            F,
-            f,
-            box.lb,
-            box.ub,
-            ~pinned,
-            self.slack_tolerance,
-        )
-        nvar = r + p
-        if orthonormal and lsq is not None and rhs is not None:  # ½‖Zu − (z − x)‖²: MᵀM = I, Mᵀ rhs = Zᵀ(z − x)
-            P.reshape(-1)[: r * (nvar + 1) : nvar + 1] += 1.0
-            q[:r] = -(lsq.U.T @ rhs)
-        prob = QPProblem(P, q, G, h, np.zeros((0, nvar)), np.zeros(0), lb, ub, f"hqp level {lv.priority}")
-        try:
-            sol = self._solve_qp(prob)
-        except SolverError:
-            sol = self._regularized_retry(prob, r, eps, diag)
-        diag.qp += 1
-        diag.iterations += max(sol.iterations, 0)
-        diag.backend = sol.backend
-        return sol.x[:r], lsq
-
-    def _level_feasible(
-        self,
-        lv: Level,
-        u: np.ndarray,
-        x: np.ndarray,
-        Z: np.ndarray | None,
-        box: LimitBox,
-        fixed: list[tuple[np.ndarray, np.ndarray]],
-        pinned: np.ndarray,
-        selection: np.ndarray | None,
-    ) -> bool:
-        """Whether the level QP's unconstrained optimum u (with slack w = 0) satisfies every row of the level QP.
-
-        The rows are those :meth:`_level_qp` poses, to the same margins: the level's own inequalities
-        C(x + Z u) ≤ d (w = 0), the levels above C Z u ≤ max(d − C x, 0) + tol, and the limits (native bounds on u
-        at the first level, the rows ±Z_j u ≤ margin below it). Then (u, w = 0) meets the KKT conditions with every
-        multiplier zero: it is the QP's optimum, and the backend is not called.
-        """
-        n = x.shape[0]
-        step = u if Z is None else Z @ u
-        F, f = self._stacked(fixed, n)
-        C, d = (lv.C, lv.d) if lv.p else (F[:0], f[:0])
-        native = Z is None or selection is not None
-        return bool(
-            HK.level_rows_ok(step, x, box.lb, box.ub, ~pinned, native, C, d, F, f, self.slack_tolerance, _FEASIBLE)
-        )
-
-    @staticmethod
-    def _stacked(fixed: list[tuple[np.ndarray, np.ndarray]], n: int) -> tuple[np.ndarray, np.ndarray]:
-        """The rows of the levels above, (C, d) stacked ((0, n) and (0,) without any)."""
-        if not fixed:
-            return np.zeros((0, n)), np.zeros(0)
-        if len(fixed) == 1:
-            return fixed[0]
-        return np.vstack([c for c, _ in fixed]), np.concatenate([d for _, d in fixed])
-
     def _regularized_retry(self, prob: QPProblem, r: int, eps: float, diag: QPDiagnostics) -> QPSolution:
         """Solve a level QP the backend refused, with a stronger minimum-norm regulariser on u.
 
@@ -750,65 +606,85 @@ class HierarchicalQPResolver(QPResolverBase):
         assert last is not None
         raise last
 
-    def _qp_cascade(
-        self, levels: list[Level], box: LimitBox, n: int, diag: QPDiagnostics
-    ) -> tuple[np.ndarray, list[str]]:
+    def _qp_cascade(self, built: HQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, list[str]]:
+        """The constrained cascade (module docstring): every level but its QP in compiled code
+        (``hqp_kernels.qp_cascade_run``, on the step's rows in the plan's buffers), each level QP it returns solved
+        by the backend here; the per-level records (σ_min, damping, rank) are kept on ``built`` for the diagnostics.
+
+        Returns:
+            (q̇, notes: the levels skipped after a backend failure and the levels contradicted by those above).
+        """
+        n, box = built.n, built.box
+        layout = built.rows.layout
+        plan = self._plan_for(layout, n)
+        plan.fill(built.rows)
+        L = len(layout.levels)
+        cfg = np.array(
+            [self.epsilon, self.max_damping, self.rcond, self.regularization, self.slack_tolerance, _FEASIBLE,
+             float(self.identity_levels), float(self.level_shortcut)]
+        )  # fmt: skip
         x = np.zeros(n)
-        Z: np.ndarray | None = None
-        r = n
-        fixed: list[tuple[np.ndarray, np.ndarray]] = []
-        notes: list[str] = []
+        Z = np.zeros((n, n))
+        N = np.empty((n, n))
+        state = np.zeros(5, dtype=np.int64)
+        state[HK.ST_R] = n
         # joints whose box is one value (a rate window squeezed to a point, a joint held at its limit) are not
         # unknowns: fixed first and removed from the basis, so no level QP carries a window of zero width (as the
         # pair of rows ±Z_j u ≤ tol, it left proxsuite a 1e-7-wide feasible set that it declared infeasible)
         pinned = box.pinned()
-        selection: np.ndarray | None = None
+        free = ~pinned
+        sel = _NO_SELECTION
         if pinned.any():
             x[pinned] = 0.5 * (box.lb[pinned] + box.ub[pinned])
-            selection = np.flatnonzero(~pinned)
-            Z, r = np.eye(n)[:, selection], int(selection.size)
-        for lv in levels:
-            if r == 0 and not lv.p:
-                continue  # nothing left to move, but a lower level's inequalities are still checked (and reported)
-            if not lv.m and lv.z is None and not lv.p:
-                continue
-            if lv.pure_null_objective and not lv.p and Z is not None:
-                # the closed form P_Z(z − x) needs no QP when it keeps the limits and the levels above
-                assert lv.z is not None
-                cand = x + Z @ (Z.T @ (lv.z - x))
-                tol = self.slack_tolerance
-                if box.contains(cand, tol) and all(bool(np.all(C @ cand <= d + tol)) for C, d in fixed):
-                    x, Z, r = cand, np.zeros((n, 0)), 0
-                    continue
+            sel = np.flatnonzero(free)
+            Z[sel, np.arange(sel.size)] = 1.0
+            state[HK.ST_MODE], state[HK.ST_R] = 1, sel.size
+        rows = max(int(plan.meta[1, L]), 1)
+        F, f, slack = np.empty((rows, n)), np.empty(rows), np.zeros(rows)
+        stats = np.zeros((L, 7))
+        z = built.rows.z if built.rows.z is not None else plan.zero
+        notes: list[tuple[int, str]] = []
+        k, absorb, u = 0, False, _NO_U
+        while True:
+            status, k, P, q, G, h, lo, hi, eps = HK.qp_cascade_run(
+                plan.A, plan.b, plan.w, plan.C, plan.d, z, plan.meta, plan.mixed_flags, box.lb, box.ub, free, sel,
+                cfg, state, x, Z, N, F, f, slack, stats, k, absorb, u,
+            )  # fmt: skip
+            if status == 0:
+                break
+            r = int(state[HK.ST_R])
+            nvar = q.shape[0]
+            priority = layout.levels[k].priority
+            prob = QPProblem(P, q, G, h, np.zeros((0, nvar)), np.zeros(0), lo, hi, f"hqp level {priority}")
             try:
-                # a level whose unconstrained optimum keeps its rows needs no QP, the top level too: that optimum is
-                # the SVD's ridge solution, exact to rounding, where the backend's answer on MᵀM + εI is off by
-                # cond·1e-16 (2e-8 on a top level of condition 1e9). On the snake it is a clearance (level 1) or the
-                # null objective that binds, never the pose (0 of 222 QP steps at n = 10, 40, 160)
-                u, lsq = self._level_qp(lv, x, Z, r, box, fixed, diag, pinned, selection, self.level_shortcut)
+                try:
+                    sol = self._solve_qp(prob)
+                except SolverError:
+                    sol = self._regularized_retry(prob, r, eps, diag)
             except SolverError as exc:
-                if lv is levels[0]:
+                if k == 0:
                     raise  # nothing of the cascade is worth keeping: the base falls back to the closed form
-                notes.append(f"level {lv.priority} skipped ({exc})")
+                notes.append((k, f"level {priority} skipped ({exc})"))
+                stats[k, HK.QS_SOLVED] = 0.0
+                k, absorb = k + 1, False
                 continue
-            x = x + (u if Z is None else Z @ u)
-            if lv.p:
-                w = np.maximum(lv.C @ x - lv.d, 0.0)
-                fixed.append((lv.C, lv.d + w + self.slack_tolerance))
-                worst = float(w.max())  # (the method: np.max costs its dispatch on a few rows)
-                if worst > CONTRADICTION_TOLERANCE:
-                    diag.contradicted[lv.priority] = worst
-                    rows = [lv.c_names[i] for i in np.flatnonzero(w > CONTRADICTION_TOLERANCE)]
-                    notes.append(
-                        f"level {lv.priority} contradicted by the levels above and the limits: {rows} violated by "
-                        f"up to {worst:.3g}"
-                    )
-            if lsq is not None:
-                self._note(lv, lsq, r, Z is not None and selection is None, diag)
-                Z = lsq.null_basis if Z is None else Z @ lsq.null_basis
-                r = Z.shape[1]
-                selection = None
-        return x, notes
+            diag.qp += 1
+            diag.iterations += max(sol.iterations, 0)
+            diag.backend = sol.backend
+            u, absorb = sol.x[:r], True
+        for k in np.flatnonzero(stats[:, HK.QS_WORST] > CONTRADICTION_TOLERANCE).tolist():
+            worst = float(stats[k, HK.QS_WORST])
+            lv = built.levels[k]
+            diag.contradicted[lv.priority] = worst
+            c0, c1 = int(plan.meta[1, k]), int(plan.meta[1, k + 1])
+            names = [lv.c_names[i] for i in np.flatnonzero(slack[c0:c1] > CONTRADICTION_TOLERANCE)]
+            notes.append(
+                (k, f"level {lv.priority} contradicted by the levels above and the limits: {names} violated by up to "
+                    f"{worst:.3g}")
+            )  # fmt: skip
+        built.qp_stats = stats
+        notes.sort(key=lambda item: item[0])
+        return x, [text for _, text in notes]
 
     # ------------------------------------------------------------------ the step (skeleton in QPResolverBase.solve)
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
@@ -951,7 +827,7 @@ class HierarchicalQPResolver(QPResolverBase):
             x = self._lean_cascade(built, built.rows.layout)
             if x is not None:
                 return x, None
-        x, notes = self._qp_cascade(built.levels, built.box, built.n, diag)
+        x, notes = self._qp_cascade(built, diag)
         return x, ("hqp: " + "; ".join(notes)) if notes else None
 
     def _safety_rows(self, built: HQPBuild, stack: TaskStack) -> tuple[np.ndarray, np.ndarray] | None:
@@ -989,5 +865,13 @@ class HierarchicalQPResolver(QPResolverBase):
                 smin, damping, r = float(stats[k, HK.SIGMA_MIN]), float(stats[k, HK.DAMPING]), int(stats[k, HK.FREE])
                 self._record(lv, smin, damping, rank, r, projected, diag)
                 projected = True
+        qs = built.qp_stats
+        if qs is not None:  # the constrained cascade's records, level by level
+            for k, lv in enumerate(levels):
+                if qs[k, HK.QS_SOLVED]:
+                    self._record(
+                        lv, float(qs[k, HK.QS_SIGMA]), float(qs[k, HK.QS_DAMPING]), int(qs[k, HK.QS_RANK]),
+                        int(qs[k, HK.QS_FREE]), bool(qs[k, HK.QS_PROJECTED]), diag,
+                    )  # fmt: skip
         for lv in levels:
             diag.level_residuals[lv.priority] = lv.residual(dq)
