@@ -663,24 +663,24 @@ def first_run_cost() -> dict[str, float]:
                    np.zeros((6, n)), True, np.empty(n), 1.0)  # fmt: skip
     out["clearance_into"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    state = np.zeros(5, dtype=np.int64)
-    state[ST_R] = n
-    cfg = np.array([1e-2, 5e-2, 1e-10, 1e-9, 1e-7, 1e-12, 1.0, 1.0])
+    state = np.zeros(7, dtype=np.int64)
+    cfg = np.array([1e-2, 5e-2, 1e-10, 1e-9, 1e-7, 1e-12, 1.0, 1.0, 1e-6])
     qp_cascade_run(A, np.ones(3), np.ones(3), rows, none, np.zeros(n), meta, np.zeros(2, dtype=np.bool_), -inf, inf,
-                   free, np.zeros(0, dtype=np.int64), cfg, state, np.zeros(n), np.zeros((n, n)), np.empty((n, n)),
-                   np.empty((1, n)), np.empty(1), np.zeros(1), np.zeros((2, 7)), 0, False, np.zeros(0))  # fmt: skip
+                   free.copy(), np.zeros(n, dtype=np.int64), cfg, state, np.zeros(n), np.zeros((n, n)),
+                   np.empty((n, n)), np.empty((1, n)), np.empty(1), np.zeros(1), np.zeros((2, 7)), 0, False,
+                   np.zeros(0))  # fmt: skip
     out["qp_cascade_run"] = time.perf_counter() - t0
     return out
 
 
 #: Entries of the ``cfg`` array of :func:`qp_cascade_run`.
-CFG_EPSILON, CFG_MAX_DAMPING, CFG_RCOND, CFG_REGULARIZATION, CFG_SLACK_TOL, CFG_FEASIBLE, CFG_IDENTITY, CFG_SHORTCUT = (
-    range(8)
-)
+(CFG_EPSILON, CFG_MAX_DAMPING, CFG_RCOND, CFG_REGULARIZATION, CFG_SLACK_TOL, CFG_FEASIBLE, CFG_IDENTITY, CFG_SHORTCUT,
+ CFG_CONTRADICTION) = range(9)  # fmt: skip
 #: Entries of the ``state`` array of :func:`qp_cascade_run`: the basis mode (0: Z = I, 1: I on the free joints,
 #: 2: the basis Z), r (its columns), the fixed rows so far, the pending level's null-basis columns, whether the
-#: pending level solved a least squares (its basis then shrinks to Z·N).
-ST_MODE, ST_R, ST_NF, ST_NCOLS, ST_LSQ = range(5)
+#: pending level solved a least squares (its basis then shrinks to Z·N), the number of free joints (``sel``), and
+#: whether a level's slack exceeded the contradiction tolerance.
+ST_MODE, ST_R, ST_NF, ST_NCOLS, ST_LSQ, ST_NSEL, ST_CONTRADICTED = range(7)
 #: Columns of the ``stats`` array of :func:`qp_cascade_run`, per level: σ_min, damping λ, rank of A_k Z, free
 #: directions r before the level, projected (1: the basis was a general Z), solved (1: a least squares was solved:
 #: the record of ``HierarchicalQPResolver._record``), the worst slack w_k* of its inequality rows.
@@ -695,6 +695,7 @@ def _absorb(
     d: np.ndarray,
     meta: np.ndarray,
     tol: float,
+    contradiction: float,
     state: np.ndarray,
     x: np.ndarray,
     Z: np.ndarray,
@@ -736,6 +737,8 @@ def _absorb(
             worst = wv
     state[ST_NF] = nf
     stats[k, QS_WORST] = worst
+    if worst > contradiction:
+        state[ST_CONTRADICTED] = 1
     if state[ST_LSQ]:
         rp = state[ST_NCOLS]
         if mode == 0:
@@ -758,6 +761,38 @@ def _absorb(
 
 
 @_jit
+def _start(
+    lb: np.ndarray, ub: np.ndarray, state: np.ndarray, x: np.ndarray, Z: np.ndarray, free: np.ndarray, sel: np.ndarray
+) -> None:
+    """The cascade's start (``LimitBox.pinned``'s rule): a joint whose box is one value, ub − lb ≤ 1e-12·max(1,
+    |ub|) with both finite, is fixed at its middle and left out of the basis: Z = I on the free joints (mode 1) when
+    any is pinned, else Z = I (mode 0)."""
+    n = x.shape[0]
+    cnt = 0
+    for j in range(n):
+        x[j] = 0.0
+        for c in range(n):
+            Z[j, c] = 0.0
+        lo, hi = lb[j], ub[j]
+        if math.isfinite(lo) and math.isfinite(hi) and hi - lo <= 1e-12 * max(1.0, abs(hi)):
+            x[j] = 0.5 * (lo + hi)
+            free[j] = False
+        else:
+            free[j] = True
+            sel[cnt] = j
+            cnt += 1
+    for i in range(cnt):
+        Z[sel[i], i] = 1.0
+    state[ST_MODE] = 0 if cnt == n else 1
+    state[ST_R] = cnt
+    state[ST_NF] = 0
+    state[ST_NCOLS] = 0
+    state[ST_LSQ] = 0
+    state[ST_NSEL] = cnt if cnt < n else 0
+    state[ST_CONTRADICTED] = 0
+
+
+@_jit
 def qp_cascade_run(
     A: np.ndarray,
     b: np.ndarray,
@@ -770,7 +805,7 @@ def qp_cascade_run(
     lb: np.ndarray,
     ub: np.ndarray,
     free: np.ndarray,
-    sel: np.ndarray,
+    sel_buf: np.ndarray,
     cfg: np.ndarray,
     state: np.ndarray,
     x: np.ndarray,
@@ -812,11 +847,15 @@ def qp_cascade_run(
     epsilon, max_damping, rcond = cfg[CFG_EPSILON], cfg[CFG_MAX_DAMPING], cfg[CFG_RCOND]
     reg, tol, feas = cfg[CFG_REGULARIZATION], cfg[CFG_SLACK_TOL], cfg[CFG_FEASIBLE]
     identity_levels, shortcut = cfg[CFG_IDENTITY] != 0.0, cfg[CFG_SHORTCUT] != 0.0
+    contra = cfg[CFG_CONTRADICTION]
     empty2 = np.zeros((0, 0))
     empty1 = np.zeros(0)
+    if k0 == 0 and not absorb:  # the start: x = 0 but on the pinned joints, Z = I (or I on the free joints)
+        _start(lb, ub, state, x, Z, free, sel_buf)
+    sel = sel_buf[: state[ST_NSEL]]
     k = k0
     if absorb:
-        _absorb(k, u_in, C, d, meta, tol, state, x, Z, N, F, f, slack, stats)
+        _absorb(k, u_in, C, d, meta, tol, contra, state, x, Z, N, F, f, slack, stats)
         k += 1
     while k < L:
         kind = meta[2, k]
@@ -970,7 +1009,7 @@ def qp_cascade_run(
                     step[i] = acc
             native = mode != 2
             if level_rows_ok(step, x, lb, ub, free, native, Ck, dk, Ff, ff, tol, feas):
-                _absorb(k, u, C, d, meta, tol, state, x, Z, N, F, f, slack, stats)
+                _absorb(k, u, C, d, meta, tol, contra, state, x, Z, N, F, f, slack, stats)
                 k += 1
                 continue
         # the level QP's arrays, for the backend

@@ -47,7 +47,7 @@ A level QP whose rows are √w I with √w ≥ ε (a posture given a level) take
 Compiled constrained cascade: all of the constrained cascade but the level QPs — projections, SVDs, shortcuts,
 the QP arrays, the slack bookkeeping, the bases — is one compiled call per backend call
 (``hqp_kernels.qp_cascade_run``, on the plan's buffers); the Level records are built only for a contradiction's
-row names and for the diagnostics. A QP step of the 10-joint snake 300 → 116 µs (its Python cascade is the
+row names and for the diagnostics. A QP step of the 10-joint snake 300 → 106 µs (its Python cascade is the
 reference of ``tests/test_hqp_lean.py``).
 
 The levels are the stack's (:mod:`redundik.tasks.stack`): main tasks at their priority (0), target and bound
@@ -193,6 +193,7 @@ class _Plan:
         self.dest = np.zeros(0, dtype=np.int64)  # per fused row its row of A, then the mixed levels' first rows
         self.ls_offsets: list[int] = []
         self._written: tuple[weakref.ref[_Written], int] | None = None  # the last gather's record, its rows
+        self._cascade: tuple[np.ndarray, ...] | None = None  # the constrained cascade's work arrays
 
     def _keep_written(self) -> None:
         """Before the buffers are written again: copy the last gather's damper rows if their record is held."""
@@ -470,6 +471,19 @@ class _Plan:
         self.w = np.concatenate([self.w, np.ones(cap - self.w.shape[0])])
         return self.A, self.b, self.w
 
+    def cascade_buffers(self, rows: int) -> tuple[np.ndarray, ...]:
+        """The constrained cascade's work arrays (Z, N, the fixed rows F, f, their slacks, its state, the free-joint
+        mask and indices), kept between steps and grown to ``rows`` inequality rows; the cascade's first call
+        initialises what it reads."""
+        bufs = self._cascade
+        if bufs is None or bufs[2].shape[0] < max(rows, 1):
+            n, cap = self.n, max(rows, 1, 2 * (bufs[2].shape[0] if bufs is not None else 0))
+            bufs = self._cascade = (
+                np.zeros((n, n)), np.empty((n, n)), np.empty((cap, n)), np.empty(cap), np.zeros(cap),
+                np.zeros(7, dtype=np.int64), np.ones(n, dtype=np.bool_), np.zeros(n, dtype=np.int64),
+            )  # fmt: skip
+        return bufs
+
     def _grow_ineq(self, rows: int) -> tuple[np.ndarray, np.ndarray]:
         cap = max(rows, 2 * self.C.shape[0])
         self.C = np.concatenate([self.C, np.zeros((cap - self.C.shape[0], self.n))])
@@ -514,6 +528,7 @@ class HierarchicalQPResolver(QPResolverBase):
         self.regularization, self.rcond = float(regularization), float(rcond)
         self.slack_tolerance = 1e-7  # feasibility margin of the rows that carry higher levels and limits
         self._plan: _Plan | None = None
+        self._cfg: tuple[tuple[object, ...], np.ndarray] | None = None  # the cascade's settings, as read last
         #: Keep a level QP's unconstrained optimum when it satisfies the level's rows (exact; ``False`` solves
         #: every level by the backend, the reference the tests hold the shortcut to).
         self.level_shortcut = True
@@ -619,28 +634,17 @@ class HierarchicalQPResolver(QPResolverBase):
         plan = self._plan_for(layout, n)
         plan.fill(built.rows)
         L = len(layout.levels)
-        cfg = np.array(
-            [self.epsilon, self.max_damping, self.rcond, self.regularization, self.slack_tolerance, _FEASIBLE,
-             float(self.identity_levels), float(self.level_shortcut)]
-        )  # fmt: skip
-        x = np.zeros(n)
-        Z = np.zeros((n, n))
-        N = np.empty((n, n))
-        state = np.zeros(5, dtype=np.int64)
-        state[HK.ST_R] = n
-        # joints whose box is one value (a rate window squeezed to a point, a joint held at its limit) are not
-        # unknowns: fixed first and removed from the basis, so no level QP carries a window of zero width (as the
-        # pair of rows ±Z_j u ≤ tol, it left proxsuite a 1e-7-wide feasible set that it declared infeasible)
-        pinned = box.pinned()
-        free = ~pinned
-        sel = _NO_SELECTION
-        if pinned.any():
-            x[pinned] = 0.5 * (box.lb[pinned] + box.ub[pinned])
-            sel = np.flatnonzero(free)
-            Z[sel, np.arange(sel.size)] = 1.0
-            state[HK.ST_MODE], state[HK.ST_R] = 1, sel.size
-        rows = max(int(plan.meta[1, L]), 1)
-        F, f, slack = np.empty((rows, n)), np.empty(rows), np.zeros(rows)
+        key = (self.epsilon, self.max_damping, self.rcond, self.regularization, self.slack_tolerance,
+               self.identity_levels, self.level_shortcut)  # fmt: skip
+        if self._cfg is None or self._cfg[0] != key:
+            self._cfg = (key, np.array([*key[:5], _FEASIBLE, *map(float, key[5:]), CONTRADICTION_TOLERANCE]))
+        cfg = self._cfg[1]
+        # the start (in the first compiled call): joints whose box is one value (a rate window squeezed to a point, a
+        # joint held at its limit) are not unknowns but fixed first and left out of the basis, so that no level QP
+        # carries a window of zero width (as the pair of rows ±Z_j u ≤ tol, it left proxsuite a 1e-7-wide feasible
+        # set that it declared infeasible)
+        x = np.empty(n)
+        Z, N, F, f, slack, state, free, sel = plan.cascade_buffers(int(plan.meta[1, L]))
         stats = np.zeros((L, 7))
         z = built.rows.z if built.rows.z is not None else plan.zero
         notes: list[tuple[int, str]] = []
@@ -672,7 +676,12 @@ class HierarchicalQPResolver(QPResolverBase):
             diag.iterations += max(sol.iterations, 0)
             diag.backend = sol.backend
             u, absorb = sol.x[:r], True
-        for k in np.flatnonzero(stats[:, HK.QS_WORST] > CONTRADICTION_TOLERANCE).tolist():
+        contradicted: list[int] = (
+            np.flatnonzero(stats[:, HK.QS_WORST] > CONTRADICTION_TOLERANCE).tolist()
+            if state[HK.ST_CONTRADICTED]
+            else []
+        )
+        for k in contradicted:
             worst = float(stats[k, HK.QS_WORST])
             lv = built.levels[k]
             diag.contradicted[lv.priority] = worst
