@@ -408,6 +408,13 @@ def test_a_non_finite_intermediate_is_a_diagnosed_fallback(name: str) -> None:
     res = _step(name, robot, stack, q)
     assert np.isfinite(res.dq).all()
     assert res.fallback is not None and "non-finite" in res.fallback
+    assert "subtask 'broken'" in res.fallback  # the source is named
+    if name != "pinv":  # as a target subtask's row (a least-squares level under hqp, a weighted row under wqp)
+        target = rk.TaskStack([tip_task], [rk.TargetSubtask(_NaNPotential(), target=0.0, rate=1.0)])
+        with np.errstate(invalid="ignore"):
+            res = _step(name, robot, target, q)
+        assert np.isfinite(res.dq).all()
+        assert res.fallback is not None and "subtask 'broken'" in res.fallback, res.fallback
     # such a line is refused where it is made; a trajectory of one's own that asks for it anyway is resolved as
     # asked, and the overflow it causes is refused by the integration, never handed on as an infinite q
     with pytest.raises(rk.TaskError, match="line velocity"):

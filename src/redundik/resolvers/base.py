@@ -298,9 +298,28 @@ class LazyStepResult(StepResult):
         return {}
 
 
-def nonfinite_sources(terms: list[TaskTerm], **arrays: np.ndarray | None) -> list[str]:
-    """Names of the terms (and named arrays) holding NaN or infinite values, for a diagnosed fallback."""
+def nonfinite_sources(
+    terms: list[TaskTerm], robot: RobotModel | None = None, stack: TaskStack | None = None, **arrays: np.ndarray | None
+) -> list[str]:
+    """Names of the terms, of the stack's subtasks (with ``robot`` and ``stack``: a potential's value or gradient, a
+    barrier's rows) and of the named arrays holding NaN or infinite values, for a diagnosed fallback (a path taken
+    only after a non-finite q̇: the subtasks are evaluated once more here)."""
     bad = [t.name for t in terms if not (np.isfinite(t.J).all() and np.isfinite(t.v).all())]
+    if robot is not None and stack is not None:
+        for sub in stack.subtasks:
+            source = getattr(sub, "potential", None) or getattr(sub, "source", None)
+            if source is None:
+                continue
+            try:  # (by what the source offers: a potential's value and gradient, or a barrier's rows)
+                if hasattr(source, "gradient"):
+                    ok = math.isfinite(source.value(robot)) and bool(np.isfinite(source.gradient(robot)).all())
+                else:
+                    bt = source.evaluate(robot)
+                    ok = bool(np.isfinite(bt.h).all() and np.isfinite(bt.H).all())
+            except Exception:  # a diagnostic: a subtask that cannot be evaluated is named as a source
+                ok = False
+            if not ok:
+                bad.append(f"subtask '{sub.name}'")
     bad += [k for k, a in arrays.items() if a is not None and not np.isfinite(a).all()]
     return bad
 

@@ -104,7 +104,7 @@ class FeedbackResolver(Resolver):
         dq = dq_r + dq_n
         fallback = None
         if not np.isfinite(dq).all():
-            bad = nonfinite_sources(terms, z=z, subtask_gradients=N)
+            bad = nonfinite_sources(terms, robot, stack, z=z, subtask_gradients=N)
             fallback = f"non-finite q̇ (from {', '.join(bad) or 'the decoupling law'}): q̇ = 0 this step"
             dq = np.zeros(robot.nv)
         t2 = time.perf_counter()

@@ -120,7 +120,7 @@ class PinvResolver(Resolver):
         dq_r, dq_n, dq = out[0], out[1], out[2]
         fallback = None
         if not math.isfinite(dq.dot(dq)) and not np.isfinite(dq).all():  # the dot first: one call when all is well
-            bad = nonfinite_sources(terms, z=z)
+            bad = nonfinite_sources(terms, robot, stack, z=z)
             fallback = f"non-finite q̇ (from {', '.join(bad) or 'the pseudo-inverse'}): q̇ = 0 this step"
             dq = np.zeros(robot.nv)
         t2 = time.perf_counter()

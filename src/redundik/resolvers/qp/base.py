@@ -241,9 +241,12 @@ class QPResolverBase(Resolver):
         except SolverError as exc:
             x = self._closed_form(robot, stack, terms)
             fallback = f"{self.name} failed, damped closed form clipped to the limits: {exc}"
+            bad = nonfinite_sources(terms, robot, stack)  # (a rare path: a QP posed on NaN rows says where from)
+            if bad:
+                fallback += f" (non-finite values from {', '.join(bad)})"
             diag.backend = "fallback"
         if not finite(x):  # (one dot product when all is well)
-            bad = nonfinite_sources(terms)
+            bad = nonfinite_sources(terms, robot, stack)
             fallback = f"non-finite q̇ (from {', '.join(bad) or 'the solver'}): q̇ = 0 clipped to the limits"
             x = np.zeros(robot.nv)
             diag.backend = "fallback"
