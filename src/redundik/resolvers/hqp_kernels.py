@@ -139,6 +139,94 @@ SIGMA_MIN, DAMPING, RANK, FREE = 0, 1, 2, 3
 
 
 @_jit
+def _level_scale(w: np.ndarray, s: int, e: int) -> float:
+    """√ of the largest weight of the rows s..e (``Level.scale``; 1 when none is > 0): the damping rule relative to
+    the level's scale, so that scaling every row of a level leaves its optimum unchanged."""
+    wmax = 0.0
+    for i in range(s, e):
+        if w[i] > wmax:
+            wmax = w[i]
+    return math.sqrt(wmax) if wmax > 0.0 else 1.0
+
+
+@_jit
+def _projection(x: np.ndarray, Z: np.ndarray, r: int, v: np.ndarray, s: int) -> np.ndarray:
+    """Z Zᵀ(v[s:s + n] − x) (n,): the step to the target v projected on the basis Z (its first r columns)."""
+    n = x.shape[0]
+    t = np.zeros(r)
+    for i in range(n):
+        vi = v[s + i] - x[i]
+        for j in range(r):
+            t[j] += Z[i, j] * vi
+    out = np.empty(n)
+    for i in range(n):
+        acc = 0.0
+        for j in range(r):
+            acc += Z[i, j] * t[j]
+        out[i] = acc
+    return out
+
+
+@_jit
+def _weighted_rows(
+    A: np.ndarray, b: np.ndarray, w: np.ndarray, s: int, m: int, x: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The rows s..s + m as √w A and the residual target √w b − √w A x."""
+    n = x.shape[0]
+    Ak = np.empty((m, n))
+    rhs = np.empty(m)
+    for i in range(m):
+        wi = w[s + i]
+        sc = math.sqrt(wi) if wi != 1.0 else 1.0
+        acc = 0.0
+        for j in range(n):
+            a = A[s + i, j] * sc if wi != 1.0 else A[s + i, j]
+            Ak[i, j] = a
+            acc += a * x[j]
+        bi = b[s + i] * sc if wi != 1.0 else b[s + i]
+        rhs[i] = bi - acc
+    return Ak, rhs
+
+
+@_jit
+def _times_basis(Ak: np.ndarray, Z: np.ndarray, r: int) -> np.ndarray:
+    """A Z (m, r) for the basis Z's first r columns (zero entries of A skipped)."""
+    m, n = Ak.shape
+    M = np.zeros((m, r))
+    for i in range(m):
+        for l in range(n):
+            a = Ak[i, l]
+            if a != 0.0:
+                for j in range(r):
+                    M[i, j] += a * Z[l, j]
+    return M
+
+
+@_jit
+def _add_basis_step(x: np.ndarray, Z: np.ndarray, r: int, u: np.ndarray) -> None:
+    """x ← x + Z u for the basis Z's first r columns."""
+    for i in range(x.shape[0]):
+        acc = 0.0
+        for c in range(r):
+            acc += Z[i, c] * u[c]
+        x[i] += acc
+
+
+@_jit
+def _basis_product(Z: np.ndarray, r: int, N: np.ndarray, rp: int) -> np.ndarray:
+    """Z·N (n, rp): the basis Z (first r columns) times the null basis N (r, rp) of a level's projected rows."""
+    n = Z.shape[0]
+    T = np.zeros((n, rp))
+    for i in range(n):
+        for c in range(r):
+            zic = Z[i, c]
+            if zic != 0.0:
+                for j in range(rp):
+                    T[i, j] += zic * N[c, j]
+    return T
+
+
+@_jit
 def closed_cascade(
     A: np.ndarray,
     b: np.ndarray,
@@ -201,16 +289,9 @@ def closed_cascade(
                 for i in range(n):
                     x[i] = z[i]
             else:
-                t = np.zeros(r)
+                dx = _projection(x, Z, r, z, 0)
                 for i in range(n):
-                    zi = z[i] - x[i]
-                    for j in range(r):
-                        t[j] += Z[i, j] * zi
-                for i in range(n):
-                    acc = 0.0
-                    for j in range(r):
-                        acc += Z[i, j] * t[j]
-                    x[i] += acc
+                    x[i] += dx[i]
             r = 0
             continue
         s, e = meta[0, k], meta[0, k + 1]
@@ -219,27 +300,16 @@ def closed_cascade(
             continue
         # the damping rule relative to the level's largest weight (``Level.scale``): scaling every row of a level
         # leaves its optimum unchanged, and so does this cascade (a top task of weight 1e-4 is not damped away)
-        wmax = 0.0
-        for i in range(s, e):
-            if w[i] > wmax:
-                wmax = w[i]
-        sc_k = math.sqrt(wmax) if wmax > 0.0 else 1.0
+        sc_k = _level_scale(w, s, e)
         eps_k, lam_k = epsilon * sc_k, max_damping * sc_k
         if not exact and m == n and identity_rows(A, w, s, n, eps_k):
             # rows √w I (a posture as a level): M = √w Z has every singular value √w ≥ ε (Z orthonormal, I at the
             # top), nothing is damped and the rank is full, so M⁺ √w (b − x) = Zᵀ(b − x) with no factorisation
             # (σ_min left NaN, as a certified QR leaves it), and no direction is left below
             if projected:
-                t = np.zeros(r)
+                dx = _projection(x, Z, r, b, s)
                 for i in range(n):
-                    ri = b[s + i] - x[i]
-                    for j in range(r):
-                        t[j] += Z[i, j] * ri
-                for i in range(n):
-                    acc = 0.0
-                    for j in range(r):
-                        acc += Z[i, j] * t[j]
-                    x[i] += acc
+                    x[i] += dx[i]
             else:
                 for i in range(n):
                     x[i] = b[s + i]
@@ -250,29 +320,8 @@ def closed_cascade(
             projected = True
             r = 0
             continue
-        # the weighted rows √w A and the residual target √w b − √w A x
-        Ak = np.empty((m, n))
-        rhs = np.empty(m)
-        for i in range(m):
-            wi = w[s + i]
-            sc = math.sqrt(wi) if wi != 1.0 else 1.0
-            acc = 0.0
-            for j in range(n):
-                a = A[s + i, j] * sc if wi != 1.0 else A[s + i, j]
-                Ak[i, j] = a
-                acc += a * x[j]
-            bi = b[s + i] * sc if wi != 1.0 else b[s + i]
-            rhs[i] = bi - acc
-        if projected:  # M = A_k Z (m, r)
-            M = np.zeros((m, r))
-            for i in range(m):
-                for l in range(n):
-                    a = Ak[i, l]
-                    if a != 0.0:
-                        for j in range(r):
-                            M[i, j] += a * Z[l, j]
-        else:
-            M = Ak
+        Ak, rhs = _weighted_rows(A, b, w, s, m, x)  # √w A and the residual target √w b − √w A x
+        M = _times_basis(Ak, Z, r) if projected else Ak  # M = A_k Z (m, r)
         cols = M.shape[1]
         u = np.zeros(cols)
         N = np.empty((cols, 0))  # null(M), orthonormal columns
@@ -328,19 +377,8 @@ def closed_cascade(
             N = np.ascontiguousarray(Vt[rank:].T)
         nfree = N.shape[1]
         if projected:
-            for i in range(n):
-                acc = 0.0
-                for c in range(cols):
-                    acc += Z[i, c] * u[c]
-                x[i] += acc
-            Znew = np.zeros((n, nfree))  # Z·null(A_k Z)
-            for i in range(n):
-                for c in range(cols):
-                    zic = Z[i, c]
-                    if zic != 0.0:
-                        for j in range(nfree):
-                            Znew[i, j] += zic * N[c, j]
-            Z = Znew
+            _add_basis_step(x, Z, cols, u)
+            Z = _basis_product(Z, cols, N, nfree)  # Z·null(A_k Z)
         else:
             for i in range(n):
                 x[i] = u[i]
@@ -714,11 +752,7 @@ def _absorb(
         for i in range(n):
             x[i] += u[i]
     else:
-        for i in range(n):
-            acc = 0.0
-            for j in range(r):
-                acc += Z[i, j] * u[j]
-            x[i] += acc
+        _add_basis_step(x, Z, r, u)
     nf = state[ST_NF]
     worst = 0.0
     for i in range(meta[1, k], meta[1, k + 1]):
@@ -746,13 +780,7 @@ def _absorb(
                 for j in range(rp):
                     Z[i, j] = N[i, j]
         else:
-            T = np.zeros((n, rp))
-            for i in range(n):
-                for c in range(r):
-                    zic = Z[i, c]
-                    if zic != 0.0:
-                        for j in range(rp):
-                            T[i, j] += zic * N[c, j]
+            T = _basis_product(Z, r, N, rp)
             for i in range(n):
                 for j in range(rp):
                     Z[i, j] = T[i, j]
@@ -876,17 +904,7 @@ def qp_cascade_run(
         Ff = F[:nf]
         ff = f[:nf]
         if pure and p == 0 and mode != 0:  # the closed form P_Z(z − x) when it keeps the limits and the levels above
-            cand = np.empty(n)
-            t = np.zeros(r)
-            for i in range(n):
-                zi = z[i] - x[i]
-                for j in range(r):
-                    t[j] += Z[i, j] * zi
-            for i in range(n):
-                acc = 0.0
-                for j in range(r):
-                    acc += Z[i, j] * t[j]
-                cand[i] = x[i] + acc
+            cand = x + _projection(x, Z, r, z, 0)
             ok = in_box(cand, lb, ub, tol)
             if ok:
                 for i in range(nf):
@@ -930,32 +948,9 @@ def qp_cascade_run(
             rank, sigma_min = r, (1.0 if r else np.inf)
         elif m > 0:
             has_lsq = True
-            wmax = 0.0
-            for i in range(s, e):
-                if w[i] > wmax:
-                    wmax = w[i]
-            scale = math.sqrt(wmax) if wmax > 0.0 else 1.0
-            Ak = np.empty((m, n))
-            rhs = np.empty(m)
-            for i in range(m):
-                wi = w[s + i]
-                sc = math.sqrt(wi) if wi != 1.0 else 1.0
-                acc = 0.0
-                for j in range(n):
-                    a = A[s + i, j] * sc
-                    Ak[i, j] = a
-                    acc += a * x[j]
-                rhs[i] = b[s + i] * sc - acc
-            if mode == 0:
-                M = Ak
-            else:
-                M = np.zeros((m, r))
-                for i in range(m):
-                    for l in range(n):
-                        a = Ak[i, l]
-                        if a != 0.0:
-                            for j in range(r):
-                                M[i, j] += a * Z[l, j]
+            scale = _level_scale(w, s, e)
+            Ak, rhs = _weighted_rows(A, b, w, s, m, x)
+            M = Ak if mode == 0 else _times_basis(Ak, Z, r)
             if identity_levels and r > 0 and not mixed[k] and m == n and identity_rows(A, w, s, n, epsilon * scale):
                 sw = math.sqrt(w[s])
                 U = np.empty((n, r))
@@ -1002,11 +997,7 @@ def qp_cascade_run(
                 step = u
             else:
                 step = np.zeros(n)
-                for i in range(n):
-                    acc = 0.0
-                    for j in range(r):
-                        acc += Z[i, j] * u[j]
-                    step[i] = acc
+                _add_basis_step(step, Z, r, u)
             native = mode != 2
             if level_rows_ok(step, x, lb, ub, free, native, Ck, dk, Ff, ff, tol, feas):
                 _absorb(k, u, C, d, meta, tol, contra, state, x, Z, N, F, f, slack, stats)
