@@ -32,6 +32,7 @@ import numpy as np
 from redundik.kinematics.memory import jacobian_view, se3_vector_view
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult
+from redundik.resolvers.linalg import FK
 from redundik.tasks.base import Edits, Task, TaskTerm
 from redundik.tasks.frame import FrameTask
 from redundik.tasks.stack import StackLayout, TaskStack
@@ -85,6 +86,7 @@ class FusedPlan:
         self.weights: list[float] = []
         self.edits = -1
         self.m = 0
+        self.pinv_work = 0
         self.data: Any = None
         self.refs = np.zeros((0, REF))
         self.limit_args: tuple[Any, ...] | None = None
@@ -202,6 +204,7 @@ class FusedPlan:
         jstarts = np.cumsum([0] + [f[0].shape[0] for f in level_forms]).tolist()
         mf = int(starts[-1])
         self.m = mf + int(jstarts[-1])
+        self.pinv_work = FK.pinv_work_size(K, self.m, nv)  # a pinv step's flat work array
         main_rows = [0] * self.m
         for k, task in enumerate(self.frames):
             if index[id(task)] in main:

@@ -272,22 +272,22 @@ def fused_pinv_step(
     ints: np.ndarray,
     floats: np.ndarray,
     coef: np.ndarray,
-    Jf: np.ndarray,
-    Jm: np.ndarray,
-    ev: np.ndarray,
-    out: np.ndarray,
+    work: np.ndarray,
 ) -> tuple[float, int, float, float, float, float]:
-    """One ``pinv`` step of a fused stack: the frame tasks' rows stacked into J (``Jm`` (m, n)) and e, v (``ev``),
-    z of the null-space objective (``_null_objective``), and the closed form q̇ = J⁺V + (I − J⁺J) z (eq. 5.8,
-    ``closed_form_into``, σ_min lazily) into ``out`` (3, n).
+    """One ``pinv`` step of a fused stack: the frame tasks' rows stacked into J (m, n) and e, v, z of the
+    null-space objective (``_null_objective``), and the closed form q̇ = J⁺V + (I − J⁺J) z (eq. 5.8,
+    ``closed_form_into``, σ_min lazily).
 
-    ``coef``: gain (K) per frame task, the N null coefficients, then ε, λ_max and rcond.
+    ``work`` (flat, one allocation a step; :func:`pinv_work_views` names its parts): J⁺V, (I − J⁺J) z and q̇
+    (3, n), then J (m, n), e and v (2, m) and the frames' Jacobians (K, 6, n). ``coef``: gain (K) per frame task,
+    the N null coefficients, then ε, λ_max and rcond.
 
     Returns:
         (status — −1 a rotation error too large for the compiled log3, 1 done —, rank, σ_min (NaN: to compute on
         request), damping, Σ e², ‖q̇‖²).
     """
     K, N, m, nv = ints[0], ints[2], ints[3], ints[4]
+    out, Jm, ev, Jf = pinv_work_views(work, K, m, nv)
     e, v = ev[0], ev[1]
     if not frame_rows(Jw, poses, t, refs, ints, floats, coef[0:K], Jf, e, v):
         return -1.0, 0, 0.0, 0.0, 0.0, 0.0
@@ -303,6 +303,26 @@ def fused_pinv_step(
     o = K + N
     rank, sigma_min, damping = closed_form_into(Jm, v, z, N > 0, coef[o], coef[o + 1], coef[o + 2], out, True)
     return 1.0, rank, sigma_min, damping, _main_error2(ints, e[0:m]), _sumsq(out[2])
+
+
+def pinv_work_size(K: int, m: int, nv: int) -> int:
+    """Length of :func:`fused_pinv_step`'s ``work`` for K frame tasks, m main rows and nv velocity coordinates."""
+    return 3 * nv + m * nv + 2 * m + 6 * K * nv
+
+
+@_jit
+def pinv_work_views(work: np.ndarray, K: int, m: int, nv: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The parts of a ``pinv`` step's ``work``: (J⁺V, (I − J⁺J) z, q̇) (3, nv), J (m, nv), (e, v) (2, m) and the
+    frames' Jacobians (K, 6, nv); views, in this order."""
+    a = 3 * nv
+    b = a + m * nv
+    c = b + 2 * m
+    return (
+        work[0:a].reshape((3, nv)),
+        work[a:b].reshape((m, nv)),
+        work[b:c].reshape((2, m)),
+        work[c : c + 6 * K * nv].reshape((K, 6, nv)),
+    )
 
 
 @_jit

@@ -156,25 +156,25 @@ class PinvResolver(Resolver):
         n = robot._nv
         coef = plan.coefficients((self.epsilon, self.max_damping, RCOND))
         refs = plan.given_references(t) if plan.given else plan.refs
-        Jf = np.empty((len(plan.frames), 6, n))
-        Jm = np.empty((plan.m, n))
-        ev = np.empty((2, plan.m))
-        out = np.empty((3, n))
-        q = robot.q
+        work = np.empty(plan.pinv_work)  # q̇'s parts, J, e and v, the frames' Jacobians: one allocation
+        q = robot._q
         status, rank, sigma_min, damping, err2, dq2 = FK.fused_pinv_step(
-            plan.jw, plan.poses, float(t), refs, q, plan.ints, plan.floats, coef, Jf, Jm, ev, out
+            plan.jw, plan.poses, float(t), refs, q, plan.ints, plan.floats, coef, work
         )
-        dq = out[2]
+        dq = work[2 * n : 3 * n]
         if status < 0.0 or not math.isfinite(dq2):  # a non-finite q̇: the per-task path diagnoses it
             return None
         t1 = time.perf_counter()
+        K = len(plan.frames)
 
         def make_terms() -> list[TaskTerm]:
+            _, _, ev, Jf = FK.pinv_work_views(work, K, plan.m, n)
             return plan.terms(Jf, ev, q, robot)
 
         if sigma_min != sigma_min:  # NaN: J well conditioned and undamped, σ_min computed on first read
 
             def diagnostics() -> tuple[float, bool, dict[str, object]]:
+                Jm = FK.pinv_work_views(work, K, plan.m, n)[1]
                 smin = float(np.sqrt(max(float(np.linalg.eigvalsh(Jm @ Jm.T)[0]), 0.0)))
                 return smin, False, {"sigma_min": smin}
 
@@ -187,15 +187,15 @@ class PinvResolver(Resolver):
                 0.0,
                 main,
                 diagnostics,
-                out[0],
-                out[1],
+                work[0:n],
+                work[n : 2 * n],
                 dq_norm=math.sqrt(dq2),
             )
         return StepResult(
             dq=dq,
             terms=make_terms(),
-            dq_rank=out[0],
-            dq_null=out[1],
+            dq_rank=work[0:n],
+            dq_null=work[n : 2 * n],
             damped=damping > 0.0,
             damping=float(damping),
             sigma_min=float(sigma_min),
