@@ -157,7 +157,7 @@ class PinvResolver(Resolver):
         coef = plan.coefficients((self.epsilon, self.max_damping, RCOND))
         refs = plan.given_references(t) if plan.given else plan.refs
         work = np.empty(plan.pinv_work)  # q̇'s parts, J, e and v, the frames' Jacobians: one allocation
-        q: np.ndarray = robot._q  # set: the step updated the kinematics
+        q = robot.q
         status, rank, sigma_min, damping, err2, dq2 = FK.fused_pinv_step(
             plan.jw, plan.poses, float(t), refs, q, plan.ints, plan.floats, coef, work
         )
