@@ -518,7 +518,42 @@ def _project_row(row: np.ndarray, out: np.ndarray, mode: int, sel: np.ndarray, Z
 
 
 @_jit
-def level_qp_arrays(
+def qp_buffer_size(n: int, p_max: int, rows: int) -> int:
+    """Length of a flat buffer that holds any level QP of :func:`level_qp_into` for n joints, at most ``p_max``
+    inequality rows a level and ``rows`` in all (the levels above, fixed, are among them)."""
+    nvar, nr = n + p_max, p_max + rows + 2 * n
+    return nvar * nvar + nvar + nr * nvar + 2 * (nvar + nr)
+
+
+@_jit
+def cascade_qp_size(n: int, meta: np.ndarray) -> int:
+    """:func:`qp_buffer_size` for the levels packed in ``meta`` (their inequality rows start at ``meta[1]``)."""
+    L = meta.shape[1] - 1
+    p_max = 0
+    for k in range(L):
+        p_max = max(p_max, meta[1, k + 1] - meta[1, k])
+    return qp_buffer_size(n, p_max, meta[1, L])
+
+
+@_jit
+def qp_views(buf: np.ndarray, nvar: int, nr: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(P (nvar, nvar), q (nvar), G (nr, nvar), upper (nvar + nr), lower (nvar + nr)): the level QP in ``buf``, as
+    views in daqp's form — the bounds on the variables first, then the rows' (their lower bounds −∞)."""
+    a = nvar * nvar
+    b = a + nvar
+    c = b + nr * nvar
+    d = c + nvar + nr
+    return (
+        buf[0:a].reshape((nvar, nvar)),
+        buf[a:b],
+        buf[b:c].reshape((nr, nvar)),
+        buf[c:d],
+        buf[d : d + nvar + nr],
+    )
+
+
+@_jit
+def level_qp_into(
     M: np.ndarray,
     rhs: np.ndarray,
     eps: float,
@@ -534,8 +569,10 @@ def level_qp_arrays(
     ub: np.ndarray,
     free: np.ndarray,
     tol: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(P, q, G, h, l, u) of one ``hqp`` level QP over (u, w') (module docstring of :mod:`redundik.resolvers.qp.hqp`):
+    buf: np.ndarray,
+) -> tuple[int, int]:
+    """One ``hqp`` level QP over (u, w') (module docstring of :mod:`redundik.resolvers.qp.hqp`) into ``buf``, in the
+    layout of :func:`qp_views` (P, q, G, upper = (u_b, h), lower = (l, −∞)):
 
         minimise  ½ uᵀ(MᵀM + εI)u − (Mᵀ rhs)ᵀu + ½‖w'‖² + w₀ᵀw'
         subject to  C Z u − w' ≤ (d − C x) + w₀,  w₀ = max(C x − d, 0)          (the level's rows, w = w₀ + w')
@@ -545,13 +582,32 @@ def level_qp_arrays(
     ``mode``: 0 — Z = I (``Z`` not read), native bounds lb − x ≤ u ≤ ub − x; 1 — Z = I on the joints ``sel``
     (native bounds on those); 2 — the limits of the ``free`` joints with a finite bound as rows of Z. M has r
     columns (r = n in mode 0) and no rows for a level without least squares.
+
+    Returns:
+        (nvar, nr): the variables (u, w') and the rows of G.
     """
     n = x.shape[0]
     r = M.shape[1]
     p = C.shape[0]
     nvar = r + p
-    P = np.zeros((nvar, nvar))
-    q = np.zeros(nvar)
+    nfu = 0
+    nfl = 0
+    if mode == 2:
+        for j in range(n):
+            if free[j] and math.isfinite(ub[j]):
+                nfu += 1
+            if free[j] and math.isfinite(lb[j]):
+                nfl += 1
+    nf = F.shape[0]
+    nr = p + nf + nfu + nfl
+    if buf.shape[0] < nvar * nvar + nvar + nr * nvar + 2 * (nvar + nr):
+        raise ValueError("level_qp_into: the QP buffer is too small for this level")
+    P, q, G, up, low = qp_views(buf, nvar, nr)
+    P[:, :] = 0.0
+    q[:] = 0.0
+    G[:, :] = 0.0
+    lo, hi, h = low[:nvar], up[:nvar], up[nvar:]
+    low[nvar:] = -np.inf
     for a in range(M.shape[0]):
         ra = rhs[a]
         for i in range(r):
@@ -562,18 +618,6 @@ def level_qp_arrays(
                     P[i, j] += mi * M[a, j]
     for i in range(r):
         P[i, i] += eps
-    nfu = 0
-    nfl = 0
-    if mode == 2:
-        for j in range(n):
-            if free[j] and math.isfinite(ub[j]):
-                nfu += 1
-            if free[j] and math.isfinite(lb[j]):
-                nfl += 1
-    nf = F.shape[0]
-    G = np.zeros((p + nf + nfu + nfl, nvar))
-    h = np.empty(p + nf + nfu + nfl)
-
     for k in range(p):
         _project_row(C[k], G[k], mode, sel, Z, r)
         G[k, r + k] = -1.0
@@ -591,8 +635,8 @@ def level_qp_arrays(
         for j in range(n):
             fx += F[k, j] * x[j]
         h[p + k] = max(f[k] - fx, 0.0) + tol
-    lo = np.full(nvar, -np.inf)
-    hi = np.full(nvar, np.inf)
+    lo[:] = -np.inf
+    hi[:] = np.inf
     if mode == 0:
         for j in range(r):
             lo[j] = lb[j] - x[j]
@@ -615,7 +659,34 @@ def level_qp_arrays(
                     G[o, j] = -Z[i, j]
                 h[o] = max(x[i] - lb[i], 0.0) + tol
                 o += 1
-    return P, q, G, h, lo, hi
+    return nvar, nr
+
+
+@_jit
+def level_qp_arrays(
+    M: np.ndarray,
+    rhs: np.ndarray,
+    eps: float,
+    C: np.ndarray,
+    d: np.ndarray,
+    x: np.ndarray,
+    Z: np.ndarray,
+    mode: int,
+    sel: np.ndarray,
+    F: np.ndarray,
+    f: np.ndarray,
+    lb: np.ndarray,
+    ub: np.ndarray,
+    free: np.ndarray,
+    tol: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(P, q, G, h, l, u) of :func:`level_qp_into`'s level QP, in arrays of their own."""
+    n = x.shape[0]
+    p = C.shape[0]
+    buf = np.empty(qp_buffer_size(n, p, p + F.shape[0]))
+    nvar, nr = level_qp_into(M, rhs, eps, C, d, x, Z, mode, sel, F, f, lb, ub, free, tol, buf)
+    P, q, G, up, low = qp_views(buf, nvar, nr)
+    return P.copy(), q.copy(), G.copy(), up[nvar:].copy(), low[:nvar].copy(), up[:nvar].copy()
 
 
 @_jit
@@ -705,8 +776,8 @@ def first_run_cost() -> dict[str, float]:
     cfg = np.array([1e-2, 5e-2, 1e-10, 1e-9, 1e-7, 1e-12, 1.0, 1.0, 1e-6])
     qp_cascade_run(A, np.ones(3), np.ones(3), rows, none, np.zeros(n), meta, np.zeros(2, dtype=np.bool_), -inf, inf,
                    free.copy(), np.zeros(n, dtype=np.int64), cfg, state, np.zeros(n), np.zeros((n, n)),
-                   np.empty((n, n)), np.empty((1, n)), np.empty(1), np.zeros(1), np.zeros((2, 7)), 0, False,
-                   np.zeros(0))  # fmt: skip
+                   np.empty((n, n)), np.empty((1, n)), np.empty(1), np.zeros(1), np.zeros((2, 7)),
+                   np.empty(qp_buffer_size(n, 1, 1)), 0, False, np.zeros(0))  # fmt: skip
     out["qp_cascade_run"] = time.perf_counter() - t0
     return out
 
@@ -843,10 +914,11 @@ def qp_cascade_run(
     f: np.ndarray,
     slack: np.ndarray,
     stats: np.ndarray,
+    qbuf: np.ndarray,
     k0: int,
     absorb: bool,
     u_in: np.ndarray,
-) -> tuple[int, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+) -> tuple[int, int, int, int, float]:
     """``hqp``'s constrained cascade (module docstring of :mod:`redundik.resolvers.qp.hqp`) from level ``k0`` on,
     up to the next level that needs the backend: the whole of it but the level QPs, which the caller solves.
 
@@ -855,7 +927,7 @@ def qp_cascade_run(
     q̇ = x + Z u — the damped SVD of A_k Z (the rule relative to the level's largest weight), exact factors for
     identity rows (√w I, or the null-space objective's I) —, the ridge solution û and, with the level shortcut,
     the test that û keeps every row of the level QP (:func:`level_rows_ok`); when it does, û is the level's
-    optimum, else the QP's arrays (:func:`level_qp_arrays`) are returned for the backend. A pure null-space level
+    optimum, else the level QP is written into ``qbuf`` (:func:`level_qp_into`) for the backend. A pure null-space level
     whose projection keeps the limits and the levels above takes it without a QP.
 
     Args:
@@ -863,12 +935,14 @@ def qp_cascade_run(
             tolerance, identity levels (1/0), the level shortcut (1/0).
         state: ``ST_*`` (int64), kept between calls; x, Z (n, n), N (n, n), F, f (fixed rows), slack (one per C
             row), stats (L, 7) likewise.
+        qbuf: Where a level QP is written (:func:`qp_buffer_size` long for the largest level; read it through
+            :func:`qp_views`).
         k0: The level to start at; with ``absorb``, the level whose QP the caller solved: its u (``u_in``) is
             absorbed first and the cascade goes on at k0 + 1 (without it: a level the caller skipped, or the start).
 
     Returns:
-        (0, L, …) when the cascade is done (q̇ in x); (1, k, P, q, G, h, lo, hi, ε) when level k needs its QP
-        (the arrays of :func:`level_qp_arrays`, ε its regulariser on u).
+        (0, L, 0, 0, 0) when the cascade is done (q̇ in x); (1, k, nvar, nr, ε) when level k needs its QP: nvar
+        variables (u, w') and nr rows, in ``qbuf``; ε its regulariser on u.
     """
     n = x.shape[0]
     L = meta.shape[1] - 1
@@ -1016,17 +1090,18 @@ def qp_cascade_run(
         if pure or m == 0:
             Mq, rq = np.zeros((0, r)), empty1
         qmode = 0 if mode == 0 else (1 if mode == 1 else 2)
-        P, q, G, h, lo, hi = level_qp_arrays(
+        nvar, nr = level_qp_into(
             np.ascontiguousarray(Mq), rq, eq, np.ascontiguousarray(Ck), np.ascontiguousarray(dk), x,
             Z[:, :r] if mode == 2 else Z[:, :0], qmode, sel, np.ascontiguousarray(Ff), np.ascontiguousarray(ff),
-            lb, ub, free, tol,
+            lb, ub, free, tol, qbuf,
         )  # fmt: skip
         if pure:  # ½‖Zu − (z − x)‖²: MᵀM = I, Mᵀ rhs = Zᵀ(z − x)
+            P, q = qp_views(qbuf, nvar, nr)[:2]
             for i in range(r):
                 P[i, i] += 1.0
                 acc = 0.0
                 for l in range(n):
                     acc += U[l, i] * rhs[l]
                 q[i] = -acc
-        return 1, k, P, q, G, h, lo, hi, eq
-    return 0, L, empty2, empty1, empty2, empty1, empty1, empty1, 0.0
+        return 1, k, nvar, nr, eq
+    return 0, L, 0, 0, 0.0

@@ -74,6 +74,16 @@ class Backend(ABC):
             SolverError: the backend raised, reported infeasibility or an iteration limit, or returned NaN.
         """
 
+    def solve_stacked(
+        self, P: np.ndarray, q: np.ndarray, G: np.ndarray, upper: np.ndarray, lower: np.ndarray
+    ) -> tuple[np.ndarray, int] | None:
+        """A QP of inequality rows only, in daqp's form — lower ≤ (x, G x) ≤ upper, the n bounds on x first (the
+        rows' lower bounds −∞) — solved without copying, as (x, iterations); ``None`` when this backend has no such
+        path or did not solve it: the caller then poses the :class:`QPProblem` for :meth:`solve`, with every retry
+        and its error. The arrays are C-ordered float64, and no backend may keep or change them.
+        """
+        return None
+
     def reset(self) -> None:  # noqa: B027 - optional hook
         """Forget warm-start state."""
 
@@ -379,6 +389,26 @@ class DaqpBackend(Backend):
         if (flag != 1 and flag != 2) or type(y) is not np.ndarray or y.shape != (n + k,) or not finite(y):
             return None
         return QPSolution(y[:n].copy(), int(info.get("iterations", -1)), self.name, time.perf_counter() - t0)
+
+    def solve_stacked(
+        self, P: np.ndarray, q: np.ndarray, G: np.ndarray, upper: np.ndarray, lower: np.ndarray
+    ) -> tuple[np.ndarray, int] | None:
+        """daqp on the arrays as given: the call :meth:`solve` makes on a QP of inequality rows, without assembling
+        them (``None`` on a bounds-only QP that :meth:`solve` would split, and whenever daqp does not solve it at
+        once: :meth:`solve` then runs its retries)."""
+        n = q.shape[0]
+        if G.shape[0] == 0 and n >= self._split_min_n:
+            return None
+        try:
+            x, _, flag, info = self._solve(
+                P, q, G, upper, lower, np.zeros(upper.shape[0], dtype=np.int32), iter_limit=self.iter_limit,
+                primal_tol=self.primal_tol,
+            )  # fmt: skip
+        except Exception:  # (solve reports it)
+            return None
+        if (flag != 1 and flag != 2) or type(x) is not np.ndarray or x.shape != (n,) or not finite(x):
+            return None
+        return x, int(info.get("iterations", -1))
 
     def solve(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
         q = problem.q

@@ -78,7 +78,8 @@ from __future__ import annotations
 import math
 import time
 import weakref
-from dataclasses import dataclass, replace
+from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -88,7 +89,7 @@ from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, StepResult
 from redundik.resolvers.fused import FusedPlan, FusedStepResult
 from redundik.resolvers.linalg import FK
-from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, polish
+from redundik.resolvers.qp.backends import CHECKED_ANSWERS, DEFAULT_BACKEND, Backend, polish
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
@@ -120,28 +121,65 @@ _NO_U = np.zeros(0)
 _FEASIBLE = 1e-12
 
 
-@dataclass
 class HQPBuild:
     """A built ``hqp`` step: its rows as evaluated, the joint-limit box, and what the lean cascade left.
 
     Attributes:
-        rows: Every level's rows (:class:`~redundik.resolvers.qp.terms.StepRows`); :attr:`levels` stacks them.
+        rows: Every level's rows (:class:`~redundik.resolvers.qp.terms.StepRows`; given, or built on first access
+            from a callable); :attr:`levels` stacks them.
         box: The joint-limit box of the step.
         n: Number of velocity coordinates.
         stats: Per level (σ_min, λ, rank, free directions before it) of the unconstrained cascade when its answer
             was kept (:func:`redundik.resolvers.hqp_kernels.closed_cascade`), else ``None``; read by the
             diagnostics only.
+        infeasible: True when the unconstrained cascade was already found infeasible (the lean step): straight to
+            the QPs.
+        layout: The stack's layout; z: the null-space objective's target (``None`` without one) — the rows' own.
+        filled: True when the plan's buffers already hold these rows (the lean step wrote them there: the
+            constrained cascade reads them as they are, without :meth:`_Plan.fill`).
+        critical: False when no bound subtask is critical (no safety rows to guard: the rows need not be built for
+            them).
+        qp_stats: Per level the constrained cascade's records (``hqp_kernels.QS_*``), read by the diagnostics;
+            ``None`` when the step solved no constrained cascade.
     """
 
-    rows: StepRows
-    box: LimitBox
-    n: int
-    stats: np.ndarray | None = None
-    #: True when the unconstrained cascade was already found infeasible (the lean step): straight to the QPs.
-    infeasible: bool = False
-    #: Per level the constrained cascade's records (``hqp_kernels.QS_*``), read by the diagnostics; ``None`` when
-    #: the step solved no constrained cascade.
-    qp_stats: np.ndarray | None = None
+    __slots__ = ("_make_rows", "_rows", "box", "critical", "filled", "infeasible", "layout", "n", "qp_stats",
+                 "stats", "z")  # fmt: skip
+
+    def __init__(
+        self,
+        rows: StepRows | Callable[[], StepRows],
+        box: LimitBox,
+        n: int,
+        stats: np.ndarray | None = None,
+        infeasible: bool = False,
+        *,
+        layout: StackLayout | None = None,
+        z: np.ndarray | None = None,
+        filled: bool = False,
+        critical: bool = True,
+    ) -> None:
+        if isinstance(rows, StepRows):
+            self._rows: StepRows | None = rows
+            self._make_rows: Callable[[], StepRows] | None = None
+            self.layout: StackLayout = rows.layout
+            self.z: np.ndarray | None = rows.z
+        else:
+            if layout is None:
+                raise TypeError("HQPBuild: rows given as a callable need their layout")
+            self._rows, self._make_rows, self.layout, self.z = None, rows, layout, z
+        self.box, self.n, self.stats, self.infeasible = box, n, stats, infeasible
+        self.filled, self.critical = filled, critical
+        self.qp_stats: np.ndarray | None = None
+
+    @property
+    def rows(self) -> StepRows:
+        rows = self._rows
+        if rows is None:
+            assert self._make_rows is not None
+            rows = self._rows = self._make_rows()
+            self._make_rows = None
+        return rows
 
     @property
     def levels(self) -> list[Level]:
@@ -194,6 +232,8 @@ class _Plan:
         self.ls_offsets: list[int] = []
         self._written: tuple[weakref.ref[_Written], int] | None = None  # the last gather's record, its rows
         self._cascade: tuple[np.ndarray, ...] | None = None  # the constrained cascade's work arrays
+        self._qp_buf = np.zeros(0)  # where the cascade writes a level QP (``hqp_kernels.level_qp_into``)
+        self._qp_views: dict[tuple[int, int], tuple[np.ndarray, ...]] = {}  # its views, per (variables, rows)
 
     def _keep_written(self) -> None:
         """Before the buffers are written again: copy the last gather's damper rows if their record is held."""
@@ -484,6 +524,23 @@ class _Plan:
             )  # fmt: skip
         return bufs
 
+    def qp_buffer(self) -> np.ndarray:
+        """The level QPs' buffer, grown to the largest level QP of the rows now in ``meta`` (sizes from
+        ``hqp_kernels.cascade_qp_size``); growing it forgets the views of :meth:`qp_views`."""
+        size = HK.cascade_qp_size(self.n, self.meta)
+        if self._qp_buf.shape[0] < size:
+            self._qp_buf = np.empty(max(size, 2 * self._qp_buf.shape[0]))
+            self._qp_views = {}
+        return self._qp_buf
+
+    def qp_views(self, nvar: int, nr: int) -> tuple[np.ndarray, ...]:
+        """(P, q, G, upper, lower) of the level QP in the buffer (``hqp_kernels.qp_views``), kept per size: the
+        same few sizes come back step after step."""
+        views = self._qp_views.get((nvar, nr))
+        if views is None:
+            views = self._qp_views[(nvar, nr)] = HK.qp_views(self._qp_buf, nvar, nr)
+        return views
+
     def _grow_ineq(self, rows: int) -> tuple[np.ndarray, np.ndarray]:
         cap = max(rows, 2 * self.C.shape[0])
         self.C = np.concatenate([self.C, np.zeros((cap - self.C.shape[0], self.n))])
@@ -630,9 +687,10 @@ class HierarchicalQPResolver(QPResolverBase):
             (q̇, notes: the levels skipped after a backend failure and the levels contradicted by those above).
         """
         n, box = built.n, built.box
-        layout = built.rows.layout
+        layout = built.layout
         plan = self._plan_for(layout, n)
-        plan.fill(built.rows)
+        if not built.filled:  # (the lean steps wrote their rows into these buffers already)
+            plan.fill(built.rows)
         L = len(layout.levels)
         key = (self.epsilon, self.max_damping, self.rcond, self.regularization, self.slack_tolerance,
                self.identity_levels, self.level_shortcut)  # fmt: skip
@@ -646,20 +704,35 @@ class HierarchicalQPResolver(QPResolverBase):
         x = np.empty(n)
         Z, N, F, f, slack, state, free, sel = plan.cascade_buffers(int(plan.meta[1, L]))
         stats = np.zeros((L, 7))
-        z = built.rows.z if built.rows.z is not None else plan.zero
+        z = built.z if built.z is not None else plan.zero
         notes: list[tuple[int, str]] = []
         k, absorb, u = 0, False, _NO_U
+        qbuf = plan.qp_buffer()
+        backend = self.backend
+        # a built-in backend that checks its answers takes the QP in the kernel's buffer as it is (daqp: no copy);
+        # anything else, and any QP it does not solve at once, goes through QPProblem and the retries below
+        stacked = backend.solve_stacked if type(backend) in CHECKED_ANSWERS else None
         while True:
-            status, k, P, q, G, h, lo, hi, eps = HK.qp_cascade_run(
+            status, k, nvar, nr, eps = HK.qp_cascade_run(
                 plan.A, plan.b, plan.w, plan.C, plan.d, z, plan.meta, plan.mixed_flags, box.lb, box.ub, free, sel,
-                cfg, state, x, Z, N, F, f, slack, stats, k, absorb, u,
+                cfg, state, x, Z, N, F, f, slack, stats, qbuf, k, absorb, u,
             )  # fmt: skip
             if status == 0:
                 break
             r = int(state[HK.ST_R])
-            nvar = q.shape[0]
+            P, q, G, upper, lower = plan.qp_views(nvar, nr)
+            quick = None if stacked is None else stacked(P, q, G, upper, lower)
+            if quick is not None:
+                diag.qp += 1
+                diag.iterations += max(quick[1], 0)
+                diag.backend = backend.name
+                u, absorb = quick[0][:r], True
+                continue
             priority = layout.levels[k].priority
-            prob = QPProblem(P, q, G, h, np.zeros((0, nvar)), np.zeros(0), lo, hi, f"hqp level {priority}")
+            prob = QPProblem(
+                P.copy(), q.copy(), G.copy(), upper[nvar:].copy(), np.zeros((0, nvar)), np.zeros(0),
+                lower[:nvar].copy(), upper[:nvar].copy(), f"hqp level {priority}",
+            )  # fmt: skip
             try:
                 try:
                     sol = self._solve_qp(prob)
@@ -743,8 +816,8 @@ class HierarchicalQPResolver(QPResolverBase):
         windowed = prev.shape[0] > 0
         if status != 1:  # a constraint is active (0), or q̇ is not finite (2): the template, on the same rows
             built = HQPBuild(
-                plan.step_rows(terms, z, targets, bounds), limits.box_from(out[:4, 0], windowed), n,
-                infeasible=status == 0,
+                lambda: plan.step_rows(terms, z, targets, bounds), limits.box_from(out[:4, 0], windowed), n,
+                infeasible=status == 0, layout=layout, z=z, filled=status == 0, critical=False,
             )  # fmt: skip
             return self._finish(robot, stack, terms, built, t0, t1)
         kept = out[6, 0]
@@ -804,8 +877,8 @@ class HierarchicalQPResolver(QPResolverBase):
         if status != 1.0:  # a constraint is active (0), or q̇ is not finite (2): the template, on the same rows
             terms = make_terms()
             built = HQPBuild(
-                plan.step_rows(terms, zs, [], bounds), limits.box_from(out[:4, 0], windowed), n,
-                infeasible=status == 0.0,
+                lambda: plan.step_rows(terms, zs, [], bounds), limits.box_from(out[:4, 0], windowed), n,
+                infeasible=status == 0.0, layout=plan.layout, z=zs, filled=status == 0.0, critical=False,
             )  # fmt: skip
             return self._finish(robot, stack, terms, built, t0, t1)
         kept = out[6, 0]
@@ -833,13 +906,15 @@ class HierarchicalQPResolver(QPResolverBase):
 
     def _resolve(self, built: HQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
         if not built.infeasible:
-            x = self._lean_cascade(built, built.rows.layout)
+            x = self._lean_cascade(built, built.layout)
             if x is not None:
                 return x, None
         x, notes = self._qp_cascade(built, diag)
         return x, ("hqp: " + "; ".join(notes)) if notes else None
 
     def _safety_rows(self, built: HQPBuild, stack: TaskStack) -> tuple[np.ndarray, np.ndarray] | None:
+        if not built.critical:
+            return None
         Cs, ds = [], []
         for ineq in built.rows.ineq:
             for C, d, _, bsub in ineq:

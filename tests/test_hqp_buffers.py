@@ -1,0 +1,111 @@
+"""hqp's lean steps hand the constrained cascade rows that are already in the plan's buffers.
+
+When the unconstrained cascade is infeasible, the lean steps (the fused step, and the step that gathers its rows)
+pass the constrained cascade an ``HQPBuild`` marked ``filled``: the cascade then reads the buffers as the step
+wrote them, without copying the rows in again (``_Plan.fill``), and it builds the StepRows only if something asks
+for them. These tests check, on every such step of the benchmark's hqp cases and of a stack that is not fused,
+that ``fill`` would write exactly what the buffers already hold. They also check that the cascade's QPs, solved
+by daqp straight from the kernel's buffer (``Backend.solve_stacked``), give the same q̇ as the general backend call.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+
+import redundik as rk
+from redundik.resolvers.qp import backends
+from redundik.resolvers.qp.hqp import HierarchicalQPResolver, HQPBuild, _Plan
+
+
+def _buffers(plan: _Plan) -> tuple[np.ndarray, ...]:
+    L = plan.meta.shape[1] - 1
+    ms, cs = int(plan.meta[0, L]), int(plan.meta[1, L])
+    return (plan.meta.copy(), plan.A[:ms].copy(), plan.b[:ms].copy(), plan.w[:ms].copy(), plan.C[:cs].copy(),
+            plan.d[:cs].copy())  # fmt: skip
+
+
+def _watch_fill(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
+    """Before each constrained cascade of a ``filled`` build, fill the buffers again and require no change."""
+    seen = {"filled": 0, "other": 0}
+    original = HierarchicalQPResolver._qp_cascade
+
+    def checked(self: HierarchicalQPResolver, built: HQPBuild, diag: Any) -> Any:
+        if built.filled:
+            plan = self._plan_for(built.layout, built.n)
+            before = _buffers(plan)
+            plan.fill(built.rows)
+            after = _buffers(plan)
+            for a, b in zip(before, after, strict=True):
+                np.testing.assert_array_equal(a, b)
+            seen["filled"] += 1
+        else:
+            seen["other"] += 1
+        return original(self, built, diag)
+
+    monkeypatch.setattr(HierarchicalQPResolver, "_qp_cascade", checked)
+    return seen
+
+
+@pytest.mark.parametrize("scenario", ["panda_tight", "snake10", "talos"])
+def test_fused_qp_steps_find_their_rows_in_the_buffers(monkeypatch: pytest.MonkeyPatch, scenario: str) -> None:
+    from benchmarks.bench.runners import RedundikRunner
+    from benchmarks.bench.scenarios import SCENARIOS
+
+    seen = _watch_fill(monkeypatch)
+    runner = RedundikRunner(SCENARIOS[scenario](), "hqp", None, {})
+    runner.run(400)
+    assert seen["filled"] > 10, seen  # the case solves level QPs, and from the lean step's buffers
+    assert runner.record.fallbacks == 0
+
+
+def test_gathered_qp_steps_find_their_rows_in_the_buffers(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A target subtask keeps the stack from being fused: the step gathers its rows (``_Plan.gather``)."""
+    seen = _watch_fill(monkeypatch)
+    robot = rk.load_example_robot("panda")
+    q = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.02, 0.02])
+    robot.update(q)
+    lim = rk.JointLimits(velocity=0.3)
+    stack = rk.TaskStack(
+        [rk.FrameTask("panda_hand", rk.Circle(radius=0.15, omega=3.0), axes="position", priority=0),
+         rk.PostureTask(q.copy(), priority=2)],
+        [rk.TargetSubtask(rk.JointValue("panda_joint4", -1.2), target=0.0, rate=5.0, priority=1)],
+    )  # fmt: skip
+    res = HierarchicalQPResolver(limits=lim)
+    dt = 0.01
+    for k in range(150):
+        step = res.step(robot, stack, q, k * dt, dt)
+        assert step.fallback is None, step.fallback
+        q = robot.integrate(q, step.dq, dt)
+    assert seen["filled"] > 10, seen
+
+
+@pytest.mark.parametrize("scenario", ["panda_tight", "snake10"])
+def test_stacked_daqp_solves_equal_the_general_daqp_call(monkeypatch: pytest.MonkeyPatch, scenario: str) -> None:
+    """The same run with ``solve_stacked`` turned off: the general call (QPProblem, row assembly) on every level QP."""
+    from benchmarks.bench.runners import RedundikRunner
+    from benchmarks.bench.scenarios import SCENARIOS
+
+    def run() -> tuple[np.ndarray, int]:
+        runner = RedundikRunner(SCENARIOS[scenario](), "hqp", None, {})
+        dqs = []
+        res = runner.resolver
+        for k in range(300):
+            step = res.step(runner.robot, runner.stack, runner.q, k * runner.scenario.dt, runner.scenario.dt)
+            dqs.append(step.dq.copy())
+            runner.q = runner.robot.integrate(runner.q, step.dq, runner.scenario.dt)
+        return np.array(dqs), sum(1 for _ in dqs)
+
+    fast, _ = run()
+    calls = {"n": 0}
+
+    def refused(self: Any, *args: Any) -> None:
+        calls["n"] += 1
+        return None
+
+    monkeypatch.setattr(backends.DaqpBackend, "solve_stacked", refused)
+    general, _ = run()
+    assert calls["n"] > 10  # level QPs were solved, now through the general call
+    np.testing.assert_allclose(fast, general, rtol=0, atol=1e-12)
