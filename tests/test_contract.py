@@ -207,9 +207,13 @@ def test_step_validates_q_and_dt(name: str) -> None:
                 resolver.step(
                     robot, stack, np.array(bad_q, dtype=object if isinstance(bad_q[0], str) else float), 0.0, 0.01
                 )
-    with pytest.raises(rk.ResolverError, match=r"q\[2\] = -1e\+200 is beyond"):  # ‖q‖² overflows (numpy warns)
-        with np.errstate(over="ignore"):
-            resolver.step(robot, stack, np.array([0.0, 0.0, -1e200]), 0.0, 0.01)
+    # ‖q‖² overflows: the same error whether NumPy's overflow is ignored, warned of (silenced), raised as a
+    # warning (-W error) or as a floating-point error; never the bare warning or exception
+    for over, filt in (("ignore", "default"), ("warn", "error"), ("raise", "default")):
+        with warnings.catch_warnings(), np.errstate(over=over):
+            warnings.simplefilter(filt)
+            with pytest.raises(rk.ResolverError, match=r"q\[2\] = -1e\+200 is beyond"):
+                resolver.step(robot, stack, np.array([0.0, 0.0, -1e200]), 0.0, 0.01)
     for dt, msg in (
         (0.0, "dt must be > 0"),
         (-0.01, "dt must be > 0"),

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -41,6 +42,21 @@ _F64 = np.dtype(np.float64)
 #: bound, ``simulation.integrators.MAX_COORDINATE``): beyond it sin/cos of an angle have no significant digit left.
 MAX_Q = 1e9
 _MAX_Q2 = MAX_Q * MAX_Q
+
+
+def _small(q: np.ndarray) -> bool:
+    """qᵀq < MAX_Q²: every entry finite and ‖q‖ < MAX_Q, in one dot product. An entry beyond ~1e154 overflows the
+    square: NumPy's warning of it is silenced for this line (the caller's full check then says what is wrong), and
+    where warnings or floating-point errors are raised (``-W error``, ``np.seterr(over="raise")``) the answer is
+    False too, never the bare warning."""
+    try:
+        return bool(q.dot(q) < _MAX_Q2)
+    except (RuntimeWarning, FloatingPointError):
+        return False
+
+
+# the overflow of _small's square on a huge q: the full check reports it as a ResolverError
+warnings.filterwarnings("ignore", "overflow encountered in dot", RuntimeWarning, __name__)
 _CONTROLLER: Any = None  # the process's _BlasLimit, built on first use
 
 
@@ -399,7 +415,7 @@ class Resolver(ABC):
             and type(t) is float
             and 0.0 < dt < math.inf
             and math.isfinite(t)
-            and q.dot(q) < _MAX_Q2  # every entry finite and ‖q‖ < MAX_Q (NaN, inf, a huge q: the full check)
+            and _small(q)  # every entry finite and ‖q‖ < MAX_Q (NaN, inf, a huge q: the full check)
         ):
             robot._update_checked(q)
         else:
