@@ -86,7 +86,7 @@ class FusedPlan:
         self.weights: list[float] = []
         self.edits = -1
         self.m = 0
-        self.pinv_work = 0
+        self.pinv_work = self.wqp_work = 0
         self.data: Any = None
         self.refs = np.zeros((0, REF))
         self.limit_args: tuple[Any, ...] | None = None
@@ -205,6 +205,7 @@ class FusedPlan:
         mf = int(starts[-1])
         self.m = mf + int(jstarts[-1])
         self.pinv_work = FK.pinv_work_size(K, self.m, nv)  # a pinv step's flat work array
+        self.wqp_work = FK.wqp_work_size(K, self.m, nv)  # a wqp step's
         main_rows = [0] * self.m
         for k, task in enumerate(self.frames):
             if index[id(task)] in main:
@@ -331,15 +332,25 @@ class FusedPlan:
         return out
 
     def terms_once(
-        self, Jf: np.ndarray, ev: np.ndarray, q: np.ndarray, robot: RobotModel
+        self,
+        Jf: np.ndarray | Callable[[], tuple[np.ndarray, np.ndarray]],
+        ev: np.ndarray | None,
+        q: np.ndarray,
+        robot: RobotModel,
     ) -> Callable[[], list[TaskTerm]]:
         """A callable giving the step's :meth:`terms`, built on its first call: the result and its lazy
-        diagnostics share them without holding each other (no reference cycle keeps a step's result alive)."""
+        diagnostics share them without holding each other (no reference cycle keeps a step's result alive).
+        ``Jf`` may be a callable giving (Jf, ev) then (views of a step's work array, made only if asked)."""
         cell: list[list[TaskTerm]] = []
 
         def make() -> list[TaskTerm]:
             if not cell:
-                cell.append(self.terms(Jf, ev, q, robot))
+                if callable(Jf):
+                    J, e = Jf()
+                    cell.append(self.terms(J, e, q, robot))
+                else:
+                    assert ev is not None
+                    cell.append(self.terms(Jf, ev, q, robot))
             return cell[0]
 
         return make

@@ -176,9 +176,7 @@ def fused_wqp_step(
     dq_prev: np.ndarray,
     P: np.ndarray,
     g: np.ndarray,
-    Jf: np.ndarray,
-    ev: np.ndarray,
-    out: np.ndarray,
+    work: np.ndarray,
 ) -> tuple[float, float, float]:
     """One ``wqp`` step of a fused stack: frame rows (``frame_rows``) and joint rows (e = (q_ref − q)[sel],
     v = K e) into e, v (``ev`` (2, m)); P = Σ w JᵀJ and g = −Σ w Jᵀv (``gram_update``; a joint task adds w on P's
@@ -186,9 +184,11 @@ def fused_wqp_step(
     objective z (``_null_objective``); then ``wqp_free_step`` (the limit box from ``lim`` (4, nv): lower, upper
     [rad], velocity [rad/s], acceleration [rad/s²] limits; the optimum; its test).
 
-    ``Jf`` (K, 6, nv) receives the frames' Jacobians. ``coef``: gain (K), weight·ρ^k (K) per frame task; gain (J),
-    weight·ρ^k (J) per joint task; ρ of the null-space objective; its N coefficients; then position (0/1), rate (0/1),
-    the position gain and λ.
+    ``work`` (flat, one allocation a step; :func:`wqp_work_views` names its parts): ``out`` (7, nv) — the box and
+    the answers of ``wqp_free_step`` —, e and v (2, m), and the frames' Jacobians (K, 6, nv).
+
+    ``coef``: gain (K), weight·ρ^k (K) per frame task; gain (J), weight·ρ^k (J) per joint task; ρ of the null-space
+    objective; its N coefficients; then position (0/1), rate (0/1), the position gain and λ.
 
     Returns:
         (status, Σ e² of the main rows, ‖q̇‖² when inside): status −1 — a rotation error too large for the compiled
@@ -196,6 +196,7 @@ def fused_wqp_step(
         g and the box in out[0:4] are ready for the QP).
     """
     K, J, N, m, nv = ints[0], ints[1], ints[2], ints[3], ints[4]
+    out, ev, Jf = wqp_work_views(work, K, m, nv)
     e, v = ev[0], ev[1]
     if not frame_rows(Jw, poses, t, refs, ints, floats, coef[0:K], Jf, e, v):
         return -1.0, 0.0, 0.0
@@ -303,6 +304,20 @@ def fused_pinv_step(
     o = K + N
     rank, sigma_min, damping = closed_form_into(Jm, v, z, N > 0, coef[o], coef[o + 1], coef[o + 2], out, True)
     return 1.0, rank, sigma_min, damping, _main_error2(ints, e[0:m]), _sumsq(out[2])
+
+
+def wqp_work_size(K: int, m: int, nv: int) -> int:
+    """Length of :func:`fused_wqp_step`'s ``work`` for K frame tasks, m rows and nv velocity coordinates."""
+    return 7 * nv + 2 * m + 6 * K * nv
+
+
+@_jit
+def wqp_work_views(work: np.ndarray, K: int, m: int, nv: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The parts of a ``wqp`` step's ``work``: ``out`` (7, nv: lb, ub, pos_lo, pos_hi, the unconstrained optimum,
+    q̇, the copy kept), (e, v) (2, m) and the frames' Jacobians (K, 6, nv); views, in this order."""
+    a = 7 * nv
+    b = a + 2 * m
+    return work[0:a].reshape((7, nv)), work[a:b].reshape((2, m)), work[b : b + 6 * K * nv].reshape((K, 6, nv))
 
 
 def pinv_work_size(K: int, m: int, nv: int) -> int:

@@ -336,13 +336,15 @@ class WeightedQPResolver(QPResolverBase):
         kept: np.ndarray,
         lam: float,
     ) -> Callable[[], tuple[float, bool, dict[str, object]]]:
-        """The diagnostics of a lean step that solved no QP, computed on first read of the result's diagnostics."""
+        """The diagnostics of a lean step that solved no QP, computed on first read of the result's diagnostics
+        (``out``: the box rows lb, ub, pos_lo, pos_hi first, as (≥ 4, n) or flat)."""
         limits = self.limits
 
         def diagnostics() -> tuple[float, bool, dict[str, object]]:
             terms = terms_of()
             diag = QPDiagnostics()
-            diag.active_limits = limits.box_from(out, windowed).active(kept, limits.joint_names)
+            box_rows = out if out.ndim == 2 else out[: 4 * kept.shape[0]].reshape(4, -1)
+            diag.active_limits = limits.box_from(box_rows, windowed).active(kept, limits.joint_names)
             self._diagnose_terms([terms[i] for i in main], lam, kept, diag)
             return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
 
@@ -375,9 +377,7 @@ class WeightedQPResolver(QPResolverBase):
         coef = fused.coefficients((float(args[5]), float(args[6]), float(args[7]), lam))
         refs = fused.given_references(t) if fused.given else fused.refs
         prev = limits.previous(self._dq_prev)
-        Jf = np.empty((len(fused.frames), 6, n))
-        ev = np.empty((2, fused.m))
-        out = np.empty((7, n))
+        work = np.empty(fused.wqp_work)  # the box and answers, e and v, the frames' Jacobians: one allocation
         q = robot.q
         status, err2, dq2 = FK.fused_wqp_step(
             fused.jw,
@@ -393,21 +393,26 @@ class WeightedQPResolver(QPResolverBase):
             prev,
             P,
             g,
-            Jf,
-            ev,
-            out,
+            work,
         )
         if status < 0.0:
             return None
         t1 = time.perf_counter()
-        make_terms = fused.terms_once(Jf, ev, q, robot)
+        K, m = len(fused.frames), fused.m
+
+        def views() -> tuple[np.ndarray, np.ndarray]:
+            _, ev, Jf = FK.wqp_work_views(work, K, m, n)
+            return Jf, ev
+
+        make_terms = fused.terms_once(views, None, q, robot)
         windowed = prev.shape[0] > 0
         if status == 0.0:  # a limit binds: the backend, through the template
+            out = work[: 7 * n].reshape(7, n)
             return self._box_qp(robot, stack, make_terms(), plan, out, windowed, lam, t0, t1)
-        dq, kept = out[5], out[6]
+        dq, kept = work[5 * n : 6 * n], work[6 * n : 7 * n]
         self._dq_prev = kept
         main = plan.main
-        diagnostics = self._free_diagnostics(make_terms, main, out, windowed, kept, lam)
+        diagnostics = self._free_diagnostics(make_terms, main, work, windowed, kept, lam)
         res = FusedStepResult.fused(
             dq,
             make_terms,
