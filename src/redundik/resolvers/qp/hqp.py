@@ -46,9 +46,10 @@ A level QP whose rows are √w I with √w ≥ ε (a posture given a level) take
 (Z, √w, I), as the null-space objective's (Z, 1, I) — instead of an SVD.
 Compiled constrained cascade: all of the constrained cascade but the level QPs — projections, SVDs, shortcuts,
 the QP arrays, the slack bookkeeping, the bases — is one compiled call per backend call
-(``hqp_kernels.qp_cascade_run``, on the plan's buffers); the Level records are built only for a contradiction's
-row names and for the diagnostics. A QP step of the 10-joint snake 300 → 106 µs (its Python cascade is the
-reference of ``tests/test_hqp_lean.py``).
+(``hqp_kernels.qp_cascade_run``, on the plan's buffers); each level QP is written into a buffer in daqp's form,
+which daqp solves as it is (``Backend.solve_stacked``; other backends get it as a ``QPProblem``); the Level
+records are built only for a contradiction's row names and for the diagnostics. A QP step of the 10-joint snake
+300 → 72 µs (its Python cascade is the reference of ``tests/test_hqp_lean.py``).
 
 The levels are the stack's (:mod:`redundik.tasks.stack`): main tasks at their priority (0), target and bound
 subtasks below them, the null-space objective ½‖q̇ − z‖² (gradient subtasks and posture) last; restricted to Z it
@@ -680,8 +681,10 @@ class HierarchicalQPResolver(QPResolverBase):
 
     def _qp_cascade(self, built: HQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, list[str]]:
         """The constrained cascade (module docstring): every level but its QP in compiled code
-        (``hqp_kernels.qp_cascade_run``, on the step's rows in the plan's buffers), each level QP it returns solved
-        by the backend here; the per-level records (σ_min, damping, rank) are kept on ``built`` for the diagnostics.
+        (``hqp_kernels.qp_cascade_run``, on the step's rows in the plan's buffers), each level QP it writes into the
+        plan's QP buffer solved by the backend here — from the buffer as it is when the backend can
+        (``Backend.solve_stacked``), else as a ``QPProblem`` with the retries; the per-level records (σ_min, damping,
+        rank) are kept on ``built`` for the diagnostics.
 
         Returns:
             (q̇, notes: the levels skipped after a backend failure and the levels contradicted by those above).
