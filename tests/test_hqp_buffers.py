@@ -109,3 +109,26 @@ def test_stacked_daqp_solves_equal_the_general_daqp_call(monkeypatch: pytest.Mon
     general, _ = run()
     assert calls["n"] > 10  # level QPs were solved, now through the general call
     np.testing.assert_allclose(fast, general, rtol=0, atol=1e-12)
+
+
+def test_fused_qp_step_diagnostics_read_late_are_those_of_their_step() -> None:
+    """The rows of a fused QP step are built when first read: read after later steps, its diagnostics are the ones
+    read at once in a twin run."""
+    from benchmarks.bench.runners import RedundikRunner
+    from benchmarks.bench.scenarios import SCENARIOS
+
+    now = RedundikRunner(SCENARIOS["snake10"](), "hqp", None, {})
+    late = RedundikRunner(SCENARIOS["snake10"](), "hqp", None, {})
+    dt = now.scenario.dt
+    eager, held = [], []
+    for k in range(200):
+        a = now.resolver.step(now.robot, now.stack, now.q, k * dt, dt)
+        b = late.resolver.step(late.robot, late.stack, late.q, k * dt, dt)
+        if a.info["qp"]:
+            eager.append((dict(a.info), a.fallback))
+            held.append(b)
+        now.q = now.robot.integrate(now.q, a.dq, dt)
+        late.q = late.robot.integrate(late.q, b.dq, dt)
+    assert len(held) > 10
+    for (info, fallback), res in zip(eager, held, strict=True):
+        assert dict(res.info) == info and res.fallback == fallback
