@@ -121,6 +121,9 @@ def main(argv: list[str] | None = None) -> int:
             # ahead of the one-line error: every result is checked for finiteness and reported, so mute them here
             warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"numpy(\..*)?")
             warnings.filterwarnings("ignore", category=RuntimeWarning, module=r"redundik(\..*)?")
+            # a joint or frame name in a script the figure font lacks (CJK, ...) is drawn as boxes; matplotlib's
+            # per-glyph warnings (two lines each, with source) would otherwise fill stderr of a successful run
+            warnings.filterwarnings("ignore", message=r"Glyph \d+ .*missing from font", category=UserWarning)
             app(args=argv, standalone_mode=False)
     except RedundikError as exc:
         return _report(exc)

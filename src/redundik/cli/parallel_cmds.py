@@ -19,7 +19,7 @@ from redundik.cli._params import path_value
 if TYPE_CHECKING:
     import numpy as np
 
-from redundik.errors import ConfigError, MechanismError
+from redundik.errors import ConfigError, MechanismError, short_repr
 from redundik.reporting.paths import safe_path
 
 stewart_app = typer.Typer(
@@ -71,9 +71,21 @@ def _rotation(rpy: tuple[float, float, float] | None, rot: tuple[float, ...] | N
     return np.eye(3)
 
 
-def _out_file(out: Path) -> Path:
-    """``--out FILE``: the file name must be a safe name and the resolved path stay in its folder."""
-    return safe_path(out.parent, out.name)
+def _out_file(out: Path, suffix: str) -> Path:
+    """``--out FILE``: a safe file name ending in ``suffix`` (the format written), its resolved path in its folder.
+
+    Without the check, a folder (``--out out/``) or a name without the suffix was written as ``NAME.png`` *beside*
+    the path given (matplotlib appends the suffix), and another suffix was an internal error or a GIF in a PNG.
+    """
+    if out.suffix.lower() != suffix:
+        raise MechanismError(
+            f"--out: expected a {suffix} file name (this command writes {suffix[1:].upper()}), got "
+            f"{short_repr(str(out), 120)}"
+        )
+    target = safe_path(out.parent, out.name)
+    if target.is_dir():
+        raise MechanismError(f"--out: {short_repr(str(out), 120)} is a folder; give a {suffix} file name")
+    return target
 
 
 #: Largest magnitude of a number given on the command line (as |x| ≤ 1e6 in the YAML files): beyond it the
@@ -233,7 +245,7 @@ def stewart_draw(
     from redundik.reporting.parallel_plots import draw_stewart
 
     platform = _load(config, "stewart").build()
-    target = _out_file(out)
+    target = _out_file(out, ".png")
     draw_stewart(platform, _vec(p, "--p"), _rotation(rpy, rot), target)
     typer.echo(str(target))
 
@@ -254,7 +266,7 @@ def stewart_animate(
 
     platform = _load(config, "stewart").build()
     ps, Rs = linear_path(_vec(p, "--p"), _rotation(rpy, None), _vec(to_p, "--to-p"), _rotation(to_rpy, None), frames)
-    target = _out_file(out)
+    target = _out_file(out, ".gif")
     animate_stewart(platform, list(zip(ps, Rs, strict=True)), target)
     typer.echo(str(target))
 
@@ -299,7 +311,8 @@ def hybrid_ik(
     if method == "exact":
         sol = arm.ik_exact(pos, R, b)
     elif method == "book":
-        sol = arm.ik_book(pos, R, np.radians(theta6_prev), b)
+        prev = float(_vec((theta6_prev,), "--theta6-prev")[0])
+        sol = arm.ik_book(pos, R, np.radians(prev), b)
     else:
         raise MechanismError(f"--method must be one of ['exact', 'book'], got {method!r}")
     payload = _hybrid_payload(sol)

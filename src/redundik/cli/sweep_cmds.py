@@ -35,12 +35,17 @@ def sweep(
     from redundik.errors import RedundikError
     from redundik.reporting.paths import check_output_folder
     from redundik.sweep import load_sweep, run_sweep
+    from redundik.sweep.engine import check_scheduler_address, parse_local
     from redundik.sweep.output import FORMATS, write_outputs
 
     if fmt not in FORMATS:
         raise RedundikError(f"--format: expected one of {', '.join(FORMATS)}, got {fmt[:40]!r}")
     if dask is not None and scheduler is not None:
         raise RedundikError("give at most one of --dask local:N and --scheduler ADDRESS")
+    if dask is not None:
+        parse_local(dask)  # refused before the file is loaded
+    if scheduler is not None:
+        check_scheduler_address(scheduler)
     console = Console(stderr=True)
     plan = load_sweep(file)
     out_dir = check_output_folder(out if out is not None else Path("out") / plan.name)  # refused before the work

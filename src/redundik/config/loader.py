@@ -8,7 +8,6 @@ each run is assembled and its resolver's ``check`` called at q0. Any problem is 
 from __future__ import annotations
 
 import itertools
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -26,6 +25,7 @@ from redundik.config.builders import (
     check_frame,
     task_name,
 )
+from redundik.config.options import check_resolver_options
 from redundik.config.robot import LoadedRobot, angle_scale, configuration_from_file, load_robot
 from redundik.config.schema import MAX_STEPS, RunSpec, SubtaskSpec, TaskFileSpec
 from redundik.config.yamlio import join_path, read_yaml, validate
@@ -288,12 +288,6 @@ def _build_tasks(raws: list[dict[str, Any]], ctx: Context, path: str, offset: in
     return out
 
 
-def _check_options(options: dict[str, Any], path: str) -> None:
-    for key, val in options.items():
-        if isinstance(val, float) and not math.isfinite(val):
-            raise ConfigError(f"expected a finite number, got {val}", join_path(path, key))
-
-
 _KINDS = {"gradient": "gradient", "target": "target", "bound": "bound", "bounds": "bound"}
 
 
@@ -436,7 +430,7 @@ def _build_run(spec: TaskFileSpec, ctx: Context, name: str, run: RunSpec, q0_fil
             f"unknown resolver '{run.resolver}'; available: {', '.join(sorted(RESOLVERS))}",
             join_path(path, "resolver"),
         )
-    _check_options(run.options, join_path(path, "options"))
+    check_resolver_options(run.resolver, run.options, join_path(path, "options"))
     try:
         resolver = make_resolver(run.resolver, **run.options)
     except RedundikError as exc:

@@ -126,6 +126,50 @@ BoundedLoader.add_implicit_resolver(
 )
 
 
+#: YAML 1.1 integers that read as something else than they look: ``010`` is octal (8), ``1:30`` base 60 (90).
+_OCTAL = re.compile(r"^[-+]?0[0-9_]+$")
+_SEXAGESIMAL = re.compile(r"^[-+]?[0-9][0-9_]*(?::[0-5]?[0-9])+(?:\.[0-9_]*)?$")
+
+
+def _refuse_surprising_number(loader: BoundedLoader, node: yaml.ScalarNode, value: object) -> None:
+    """Refuse the YAML 1.1 number forms nobody means in a robot file (PyYAML reads them silently)."""
+    text = str(node.value)
+    shown = short_repr(text, 40)
+    if _OCTAL.match(text):
+        raise yaml.constructor.ConstructorError(
+            None,
+            None,
+            f"{shown}: YAML reads a number with a leading zero as octal (= {value}); write it without the leading "
+            "zero, or quote it if it is a name",
+            node.start_mark,
+        )
+    if _SEXAGESIMAL.match(text):
+        raise yaml.constructor.ConstructorError(
+            None,
+            None,
+            f"{shown}: YAML reads numbers with ':' as base 60 (= {value}); write the number itself, or quote it if "
+            "it is a name",
+            node.start_mark,
+        )
+
+
+def _construct_int(loader: BoundedLoader, node: yaml.ScalarNode) -> int:
+    value = loader.construct_yaml_int(node)
+    _refuse_surprising_number(loader, node, value)
+    return value
+
+
+def _construct_float(loader: BoundedLoader, node: yaml.ScalarNode) -> float:
+    value = loader.construct_yaml_float(node)
+    if ":" in str(node.value):
+        _refuse_surprising_number(loader, node, value)
+    return value
+
+
+BoundedLoader.add_constructor("tag:yaml.org,2002:int", _construct_int)
+BoundedLoader.add_constructor("tag:yaml.org,2002:float", _construct_float)
+
+
 def _one_line(text: str, limit: int = _MAX_MESSAGE) -> str:
     text = " ".join(text.split())
     return text if len(text) <= limit else text[: limit - 3] + "..."
@@ -319,6 +363,12 @@ def _message(err: dict[str, Any], allowed: list[str] | None, bounds: tuple[int |
         return f"unknown key '{key}'{tail}"
     if kind == "missing":
         return "required key is missing"
+    if kind == "invalid_key":
+        if got is None or isinstance(got, bool):
+            what = "null" if got is None else f"{str(got).lower()} (a boolean)"
+        else:
+            what = f"{_short(got)} ({'a number' if isinstance(got, (int, float)) else type(got).__name__})"
+        return f"key {what} is not text: keys are names (quote the key if it is one)"
     if kind in ("float_type", "float_parsing"):
         return f"expected a number, got {_short(got)}"
     if kind in ("int_type", "int_parsing", "int_from_float"):
@@ -410,6 +460,8 @@ def config_error(exc: ValidationError, model: type[BaseModel], prefix: str = "")
     errors = _relevant(exc.errors())
     err = errors[0]
     loc = tuple(p for p in err["loc"] if not _is_union_label(p))
+    if err["type"] == "invalid_key":  # the key itself is the last part: the error belongs to its mapping
+        loc = loc[:-1]
     allowed = _allowed_keys(model, loc[:-1]) if err["type"] == "extra_forbidden" else None
     path = join_path(prefix, *loc) if loc else (prefix.rstrip(": ") or "(top level)")
     bounds = _length_bounds(model, loc) if err["type"] in ("too_short", "too_long") else (None, None)

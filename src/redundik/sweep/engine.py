@@ -109,6 +109,39 @@ def parse_local(spec: str) -> int:
     return n
 
 
+#: Schemes of a Dask scheduler address another process can connect to (``inproc://`` lives inside one process).
+SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
+_ADDRESS = re.compile(
+    r"(?:(?P<scheme>[A-Za-z][A-Za-z0-9+.-]*)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):(?P<port>[0-9]+)"
+)
+
+
+def check_scheduler_address(address: str) -> str:
+    """``address`` if it has the shape of a Dask scheduler address, ``[SCHEME://]HOST:PORT`` (nothing is contacted).
+
+    Raises:
+        SweepError: anything else, saying what was expected (a malformed port otherwise waits out the 10 s connect
+            timeout, ``local:N`` is the ``--dask`` option's value, and ``inproc://`` cannot reach another process).
+    """
+    shown = repr(address[:60] + ("..." if len(address) > 60 else ""))
+    expected = "expected a scheduler address [SCHEME://]HOST:PORT, e.g. tcp://10.0.0.5:8786"
+    if re.fullmatch(r"local:.*", address.strip()):
+        raise SweepError(f"--scheduler: {shown} is a local cluster size: use --dask {address.strip()[:20]}")
+    m = _ADDRESS.fullmatch(address) if len(address) <= 255 else None
+    if m is None:
+        raise SweepError(f"--scheduler: {expected}, got {shown}")
+    scheme = m.group("scheme")
+    if scheme is not None and scheme.lower() not in SCHEMES:
+        raise SweepError(
+            f"--scheduler: scheme {scheme[:20]!r} cannot reach a scheduler in another process; "
+            f"expected one of {', '.join(SCHEMES)}, got {shown}"
+        )
+    port = int(m.group("port")[:6])
+    if not 1 <= port <= 65535:
+        raise SweepError(f"--scheduler: the port must be 1 to 65535, got {m.group('port')[:12]} in {shown}")
+    return address
+
+
 @contextmanager
 def dask_client(local: int | None = None, scheduler: str | None = None, processes: bool = True) -> Iterator[Any]:
     """A ``distributed.Client``: on a new ``LocalCluster`` of ``local`` single-threaded workers, or on ``scheduler``.
@@ -143,7 +176,9 @@ def dask_client(local: int | None = None, scheduler: str | None = None, processe
     try:
         client = distributed.Client(scheduler, timeout="10s")
     except (OSError, TimeoutError, ValueError) as exc:
-        raise SweepError(f"cannot reach the Dask scheduler {scheduler[:100]!r}: {exc}") from None
+        reason = " ".join(str(exc).split())
+        reason = reason if len(reason) <= 200 else reason[:197] + "..."
+        raise SweepError(f"cannot reach the Dask scheduler {scheduler[:100]!r}: {reason}") from None
     try:
         yield client
     finally:

@@ -19,13 +19,15 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from redundik.config.anyfile import detect_kind
+from redundik.config.builders import check_axes
+from redundik.config.options import check_resolver_options
 from redundik.config.robot import LoadedRobot, angle_scale, configuration_from_file, load_robot, rpy_matrix
 from redundik.config.yamlio import join_path, read_yaml, validate
 from redundik.errors import ConfigError, RedundikError
 from redundik.resolvers import make_resolver
 from redundik.resolvers.batch import BatchResolver
 from redundik.sweep.schema import MAX_PROBLEMS, MAX_WORK, GridSpec, RangeSpec, SweepFileSpec
-from redundik.tasks.frame import resolve_axes
 
 
 @dataclass
@@ -146,16 +148,20 @@ def _targets(spec: SweepFileSpec) -> np.ndarray:
     return np.array(t.points, dtype=float).reshape(-1, 3)
 
 
-def _check_within_limits(model: Any, q: np.ndarray, where: str, what: str) -> None:
+def _check_within_limits(model: Any, q: np.ndarray, where: str, what: str, hint: str) -> None:
     """Refuse a configuration outside the joint limits (the iteration would start, or be pulled, outside them)."""
     bad = np.flatnonzero(model.limit_violation(q, tol=1e-9) > 0)
     if bad.size:
         j = model.joints[int(bad[0])]
         raise ConfigError(
             f"{what} is outside the joint limits ({j.name} = {q[j.idx_q]:.4g} not in [{j.lower:.4g}, {j.upper:.4g}]); "
-            "give 'q0' (or a robot config with q0, e.g. configs/panda.yaml) or list start configurations",
+            + hint,
             where,
         )
+
+
+#: What to do about a home configuration outside the limits.
+_HOME_HINT = "give 'q0' (or a robot config with q0, e.g. configs/panda.yaml) or list start configurations"
 
 
 def _starts(spec: SweepFileSpec, robot: LoadedRobot, home: np.ndarray) -> np.ndarray:
@@ -167,7 +173,7 @@ def _starts(spec: SweepFileSpec, robot: LoadedRobot, home: np.ndarray) -> np.nda
     for i, values in enumerate(s.configurations):
         where = join_path("starts.configurations", i)
         q = configuration_from_file(values, model, spec.angle_unit, where)
-        _check_within_limits(model, q, where, "this start configuration")
+        _check_within_limits(model, q, where, "this start configuration", "give one within the limits")
         out.append(q[None, :])
     if s.random is not None:
         if model.nq != model.nv:
@@ -205,6 +211,12 @@ def load_sweep(source: str | Path | dict[str, Any], base_dir: Path | None = None
         base = (base_dir or path.resolve().parent).resolve()
         if "runs" in data:
             raise ConfigError(f"{path.name} is a task file, not a sweep file: run it with `redundik run {path}`")
+        kind = detect_kind(data)
+        if kind in ("robot", "mechanism"):
+            what = {"robot": "a sweep file names it under 'robot:'", "mechanism": "sweeps are of serial robots"}[kind]
+            raise ConfigError(
+                f"{path.name} is a {kind} config, not a sweep file: {what} (`redundik validate` checks any file)"
+            )
     spec: SweepFileSpec = validate(SweepFileSpec, data)
     n_t, n_s = _count(spec)
     if n_s == 0:
@@ -226,10 +238,13 @@ def load_sweep(source: str | Path | dict[str, Any], base_dir: Path | None = None
     robot = load_robot(spec.robot, base, "robot")
     model = robot.model
     task = spec.task
-    try:
-        axes = resolve_axes(task.axes)
-    except RedundikError as exc:
-        raise ConfigError(str(exc), "task.axes") from None
+    axes = check_axes(task.axes, "task.axes")
+    if spec.targets.orientation is not None and not any(a in ("rx", "ry", "rz") for a in axes):
+        raise ConfigError(
+            f"a target orientation is given but task.axes {list(axes)} has no rotation axis, so it would be ignored; "
+            "use axes: pose (or add rx, ry, rz), or leave 'orientation' out",
+            "targets.orientation",
+        )
     try:
         fid = model.frame_id(task.frame)
     except RedundikError as exc:
@@ -253,7 +268,7 @@ def load_sweep(source: str | Path | dict[str, Any], base_dir: Path | None = None
         home = robot.q0 if robot.q0 is not None else model.neutral()
     if spec.starts.home or spec.task.posture.target == "home":
         where = "q0" if spec.q0 is not None else "starts.home" if spec.starts.home else "task.posture.target"
-        _check_within_limits(model, home, where, "the home configuration")
+        _check_within_limits(model, home, where, "the home configuration", _HOME_HINT)
     if task.posture.target == "home":
         posture = home.copy()
     else:
@@ -278,15 +293,16 @@ def load_sweep(source: str | Path | dict[str, Any], base_dir: Path | None = None
         starts=starts,
         payload=payload,
     )
-    for key, val in spec.resolver.options.items():
-        if isinstance(val, float) and not np.isfinite(val):
-            raise ConfigError(f"expected a finite number, got {val}", join_path("resolver.options", key))
+    check_resolver_options(spec.resolver.name, spec.resolver.options, "resolver.options")
     try:
         limits = getattr(plan.batch_resolver().resolver, "limits", None)
         if limits is not None:
             limits.bind(model)  # unknown joint names in limit overrides fail now, not in a worker
     except RedundikError as exc:
-        raise ConfigError(f"resolver '{spec.resolver.name}': {exc}", "resolver.options") from None
+        msg, name = str(exc), spec.resolver.name
+        if not msg.startswith((f"resolver '{name}'", f"{name}:")):
+            msg = f"resolver '{name}': {msg}"
+        raise ConfigError(msg, "resolver.options") from None
     except (TypeError, ValueError) as exc:
         raise ConfigError(f"resolver '{spec.resolver.name}': bad options: {exc}", "resolver.options") from None
     return plan
