@@ -67,7 +67,7 @@ def test_gathered_qp_steps_find_their_rows_in_the_buffers(monkeypatch: pytest.Mo
     robot = rk.load_example_robot("panda")
     q = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.02, 0.02])
     robot.update(q)
-    lim = rk.JointLimits(velocity=0.3)
+    lim = rk.JointLimits(velocity_limits=dict.fromkeys(robot.joint_names, 0.3))
     stack = rk.TaskStack(
         [rk.FrameTask("panda_hand", rk.Circle(radius=0.15, omega=3.0), axes="position", priority=0),
          rk.PostureTask(q.copy(), priority=2)],

@@ -58,6 +58,13 @@ def test_overrides_and_errors_name_the_joint() -> None:
         JointLimits(position_gain=1.5)
     with pytest.raises(ResolverError, match="velocity_limits"):
         JointLimits(velocity_limits={"1": 0.0})
+    # the switches take True/False only: velocity=0.3 read as "on" kept the model's limits instead of 0.3 rad/s
+    with pytest.raises(ResolverError, match=r"velocity switches .* got 0\.3; a velocity limit for every joint is "
+                                            r"velocity_limits="):  # fmt: skip
+        JointLimits(velocity=0.3)  # type: ignore[arg-type]
+    with pytest.raises(ResolverError, match=r"position switches .* got 'no'"):
+        JointLimits(position="no")  # type: ignore[arg-type]
+    assert not JointLimits(position=np.bool_(False)).position
 
 
 def test_free_flyer_coordinates_carry_no_position_limits() -> None:

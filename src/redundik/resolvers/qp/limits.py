@@ -150,6 +150,15 @@ class JointLimits:
     ) -> None:
         if not (np.isfinite(position_gain) and 0.0 < position_gain <= 1.0):
             raise ResolverError(f"limits: position_gain must be in (0, 1], got {position_gain}")
+        for key, flag in (("position", position), ("velocity", velocity)):
+            if not isinstance(flag, (bool, np.bool_)):
+                hint = (
+                    f"; a velocity limit for every joint is velocity_limits={{joint name: {short_repr(flag)}, ...}}"
+                    if key == "velocity" and _is_number(flag)
+                    else ""
+                )
+                raise ResolverError(f"limits: {key} switches the model's {key} limits on or off (True/False), got "
+                                    f"{short_repr(flag)}{hint}")  # fmt: skip
         self.position, self.velocity = bool(position), bool(velocity)
         self.lower = dict(lower or {})
         self.upper = dict(upper or {})
