@@ -307,3 +307,14 @@ def test_names_the_figure_font_lacks_do_not_flood_stderr(tmp_path: Path) -> None
     assert proc.returncode == 0, proc.stderr
     assert "Glyph" not in proc.stderr and "Warning" not in proc.stderr, proc.stderr
     assert (tmp_path / "out" / "joints.png").is_file()
+
+
+def test_a_stall_window_that_could_never_fire_is_refused(cli: Cli, tmp_path: Path) -> None:
+    """A stall window of max_iterations steps or more compares the error over more steps than a problem runs."""
+    text = SWEEP.replace("stall: {window: 10,", "stall: {window: 80,")
+    assert text != SWEEP
+    code, _, err = cli("validate", _write(tmp_path, text))
+    _one_line_error(code, err)
+    assert "convergence" in err and "stall.window (80) must be < max_iterations (80)" in err, err
+    code, _, err = cli("validate", _write(tmp_path, SWEEP.replace("stall: {window: 10,", "stall: {window: 79,")))
+    assert code == 0, err

@@ -148,6 +148,15 @@ class ConvergenceSpec(StrictModel):
     max_iterations: int = Field(default=200, ge=1, le=MAX_ITERATIONS)
     stall: StallSpec | None = None
 
+    @model_validator(mode="after")
+    def _stall_can_fire(self) -> ConvergenceSpec:
+        if self.stall is not None and self.stall.window >= self.max_iterations:
+            raise ValueError(
+                f"stall.window ({self.stall.window}) must be < max_iterations ({self.max_iterations}): the stall "
+                "rule compares the error over that many steps, so it could never stop a problem"
+            )
+        return self
+
 
 class FigureSpec(StrictModel):
     """The map figure: the world plane it is drawn in (default: the two axes the targets spread most along)."""
