@@ -10,6 +10,7 @@ by daqp straight from the kernel's buffer (``Backend.solve_stacked``), give the 
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 import numpy as np
@@ -132,3 +133,37 @@ def test_fused_qp_step_diagnostics_read_late_are_those_of_their_step() -> None:
     assert len(held) > 10
     for (info, fallback), res in zip(eager, held, strict=True):
         assert dict(res.info) == info and res.fallback == fallback
+
+
+def test_a_fused_qp_step_whose_backend_fails_reports_its_fallback(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The fused QP step's result (terms built on read, the compiled task error) carries the template's fallback:
+    every level QP failing, the step skips the level (or, at the top level, falls back to the damped closed form
+    clipped to the limits) and says so."""
+    from benchmarks.bench.runners import RedundikRunner
+    from benchmarks.bench.scenarios import SCENARIOS
+
+    from redundik.errors import SolverError
+
+    def failing(self: Any, problem: Any, warm: Any = None) -> Any:
+        raise SolverError("refused for the test", problem)
+
+    monkeypatch.setattr(backends.DaqpBackend, "solve_stacked", lambda self, *a: None)
+    monkeypatch.setattr(backends.DaqpBackend, "solve", failing)
+    runner = RedundikRunner(SCENARIOS["snake10"](), "hqp", None, {})
+    res, robot, dt = runner.resolver, runner.robot, runner.scenario.dt
+    box_checked = 0
+    for k in range(200):
+        step = res.step(robot, runner.stack, runner.q, k * dt, dt)
+        if step.fallback is not None:
+            # a failed top level: the closed form; a failed level below it: that level skipped (said which)
+            closed = step.fallback.startswith("hqp failed, damped closed form clipped to the limits: ")
+            assert closed or re.fullmatch(r"hqp: level \d+ skipped \(refused for the test\)", step.fallback)
+            assert "refused for the test" in step.fallback
+            assert np.isfinite(step.task_error) and (step.info["backend"] == "fallback") == closed
+            terms = step.terms  # built on first read: the step's own
+            assert [t.name for t in terms] == [t.name for t in runner.stack.tasks]
+            main_error = np.sqrt(sum(float(terms[i].error @ terms[i].error) for i in step.main))
+            assert step.task_error == pytest.approx(main_error, rel=1e-12, abs=1e-15)
+            box_checked += 1
+        runner.q = robot.integrate(runner.q, step.dq, dt)
+    assert box_checked > 10

@@ -399,6 +399,7 @@ class FusedStepResult(LazyStepResult):
         dq_rank: np.ndarray | None = None,
         dq_null: np.ndarray | None = None,
         dq_norm: float | None = None,
+        fallback: str | None = None,
     ) -> FusedStepResult:
         """The result; ``make_terms()`` builds the terms when they are first read."""
         res = cls.__new__(cls)
@@ -408,7 +409,7 @@ class FusedStepResult(LazyStepResult):
             "dq_null": dq_null,
             "gains": None,
             "damping": 0.0,
-            "fallback": None,
+            "fallback": fallback,
             "_info": info,
             "build_time": build_time,
             "solve_time": solve_time,

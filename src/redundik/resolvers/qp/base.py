@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import time
 from abc import abstractmethod
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
@@ -234,11 +234,20 @@ class QPResolverBase(Resolver):
     ) -> StepResult:
         """Solve a built step, fall back if needed, clip to the limits, guard the safety rows, and report (the
         template's second half; ``t0``/``t1`` [s]: when the step started and its build ended)."""
+        dq, diagnostics, fallback, info, t2 = self._settle(robot, stack, lambda: terms, built)
+        return LazyStepResult.make(dq, terms, fallback, info, t1 - t0, t2 - t1, self.layout(stack).main, diagnostics)
+
+    def _settle(
+        self, robot: RobotModel, stack: TaskStack, terms_of: Callable[[], list[TaskTerm]], built: Any
+    ) -> tuple[np.ndarray, Callable[[], tuple[float, bool, dict[str, object]]], str | None, dict[str, object], float]:
+        """:meth:`_finish` but its result: (q̇, the diagnostics to compute on first read, the fallback note, the
+        info, when it ended [s]). ``terms_of`` gives the step's terms; only a fallback asks for them."""
         box: LimitBox = built.box
         diag = QPDiagnostics()
         try:
             x, fallback = self._resolve(built, diag)
         except SolverError as exc:
+            terms = terms_of()
             x = self._closed_form(robot, stack, terms)
             fallback = f"{self.name} failed, damped closed form clipped to the limits: {exc}"
             bad = nonfinite_sources(terms, robot, stack)  # (a rare path: a QP posed on NaN rows says where from)
@@ -246,7 +255,7 @@ class QPResolverBase(Resolver):
                 fallback += f" (non-finite values from {', '.join(bad)})"
             diag.backend = "fallback"
         if not finite(x):  # (one dot product when all is well)
-            bad = nonfinite_sources(terms, robot, stack)
+            bad = nonfinite_sources(terms_of(), robot, stack)
             fallback = f"non-finite q̇ (from {', '.join(bad) or 'the solver'}): q̇ = 0 clipped to the limits"
             x = np.zeros(robot.nv)
             diag.backend = "fallback"
@@ -269,16 +278,8 @@ class QPResolverBase(Resolver):
             self._diagnose(built, dq_kept, diag)
             return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
 
-        return LazyStepResult.make(
-            dq,
-            terms,
-            fallback,
-            {"backend": diag.backend, "qp": diag.qp, "iterations": diag.iterations},
-            t1 - t0,
-            t2 - t1,
-            self.layout(stack).main,
-            diagnostics,
-        )
+        info: dict[str, object] = {"backend": diag.backend, "qp": diag.qp, "iterations": diag.iterations}
+        return dq, diagnostics, fallback, info, t2
 
     def _safety_rows(self, built: Any, stack: TaskStack) -> tuple[np.ndarray, np.ndarray] | None:
         """The built step's safety rows (C, d) of C q̇ ≤ d (:attr:`BoundSubtask.critical`), or ``None`` without any."""

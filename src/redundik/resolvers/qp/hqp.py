@@ -878,12 +878,23 @@ class HierarchicalQPResolver(QPResolverBase):
         make_terms = fused.terms_once(Jf, ev, q, robot)
         windowed = prev.shape[0] > 0
         if status != 1.0:  # a constraint is active (0), or q̇ is not finite (2): the template, on the same rows
-            terms = make_terms()
+            if status != 0.0:  # q̇ not finite: the template, its terms at hand to say where from
+                terms = make_terms()
+                built = HQPBuild(
+                    lambda: plan.step_rows(terms, zs, [], bounds), limits.box_from(out[:4, 0], windowed), n,
+                    layout=plan.layout, z=zs, critical=False,
+                )  # fmt: skip
+                return self._finish(robot, stack, terms, built, t0, t1)
             built = HQPBuild(
-                lambda: plan.step_rows(terms, zs, [], bounds), limits.box_from(out[:4, 0], windowed), n,
-                infeasible=status == 0.0, layout=plan.layout, z=zs, filled=status == 0.0, critical=False,
+                lambda: plan.step_rows(make_terms(), zs, [], bounds), limits.box_from(out[:4, 0], windowed), n,
+                infeasible=True, layout=plan.layout, z=zs, filled=True, critical=False,
             )  # fmt: skip
-            return self._finish(robot, stack, terms, built, t0, t1)
+            # the constrained cascade; the terms are built only if read (or for a fallback), the task error is the
+            # compiled call's
+            dq, pending, fallback, info, t2 = self._settle(robot, stack, make_terms, built)
+            return FusedStepResult.fused(
+                dq, make_terms, math.sqrt(err2), info, t1 - t0, t2 - t1, plan.layout.main, pending, fallback=fallback
+            )
         kept = out[6, 0]
         self._dq_prev = kept
 
