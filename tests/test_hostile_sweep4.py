@@ -10,40 +10,17 @@ import os
 import subprocess
 import sys
 import time
-from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 
 from redundik.errors import ConfigError
-from tests.conftest import CONFIGS, TASKS
+from tests.conftest import CONFIGS
 
-ROOT = Path(__file__).resolve().parents[1]
-TASK = (TASKS / "planar3r_line.yaml").read_text(encoding="utf-8").replace("../configs/", f"{CONFIGS}/")
-SWEEP = (
-    (ROOT / "sweeps" / "panda_reach.yaml")
-    .read_text(encoding="utf-8")
-    .replace("../configs/", f"{CONFIGS}/")
-    .replace("num: 160", "num: 2")
-    .replace("num: 128", "num: 2")
-)
+# the third sweep's inputs and helpers (the same task and sweep files, the same one-line-error rule)
+from tests.test_hostile_sweep3 import HANG_GUARD_S, SWEEP, TASK, Cli, _one_line_error, _write
+
 GRID = "  grid:\n    x: {start: -1.0, stop: 1.0, num: 2}\n    y: 0.0\n    z: {start: -0.5, stop: 1.3, num: 2}\n"
-#: Seconds after which a refusal counts as a hang (generous: the machine may be loaded).
-HANG_GUARD_S = 10.0
-
-Cli = Callable[..., tuple[int, str, str]]
-
-
-def _one_line_error(code: int, err: str, expected_code: int = 3) -> None:
-    assert code == expected_code, err
-    assert err.startswith("error: ") and err.count("\n") == 1, err
-    assert "Traceback" not in err and "internal error" not in err
-
-
-def _write(tmp_path: Path, text: str, name: str = "f.yaml") -> Path:
-    path = tmp_path / name
-    path.write_text(text, encoding="utf-8")
-    return path
 
 
 def _with_options(resolver: str, options: str) -> str:
