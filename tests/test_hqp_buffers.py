@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import redundik as rk
-from redundik.resolvers.qp import backends
+from redundik.resolvers.qp import backends, daqp_native
 from redundik.resolvers.qp.hqp import HierarchicalQPResolver, HQPBuild, _Plan
 
 
@@ -84,32 +84,66 @@ def test_gathered_qp_steps_find_their_rows_in_the_buffers(monkeypatch: pytest.Mo
 
 
 @pytest.mark.parametrize("scenario", ["panda_tight", "snake10"])
-def test_stacked_daqp_solves_equal_the_general_daqp_call(monkeypatch: pytest.MonkeyPatch, scenario: str) -> None:
-    """The same run with ``solve_stacked`` turned off: the general call (QPProblem, row assembly) on every level QP."""
+def test_native_and_stacked_daqp_solves_equal_the_general_daqp_call(
+    monkeypatch: pytest.MonkeyPatch, scenario: str
+) -> None:
+    """The same run three ways: daqp called from the compiled cascade (``daqp_native``), then with that off (the
+    buffer handed to ``solve_stacked``), then with ``solve_stacked`` off too (QPProblem, row assembly): the same q̇
+    at every step, bit for bit, the same QP and iteration counts."""
     from benchmarks.bench.runners import RedundikRunner
     from benchmarks.bench.scenarios import SCENARIOS
 
-    def run() -> tuple[np.ndarray, int]:
+    assert daqp_native.status().startswith("on"), daqp_native.status()
+    calls = {"stacked": 0, "general": 0}
+    stacked, general = backends.DaqpBackend.solve_stacked, backends.DaqpBackend.solve
+
+    def counted_stacked(self: Any, *args: Any) -> Any:
+        calls["stacked"] += 1
+        return stacked(self, *args)
+
+    def counted_general(self: Any, *args: Any, **kw: Any) -> Any:
+        calls["general"] += 1
+        return general(self, *args, **kw)
+
+    monkeypatch.setattr(backends.DaqpBackend, "solve_stacked", counted_stacked)
+    monkeypatch.setattr(backends.DaqpBackend, "solve", counted_general)
+
+    def run() -> tuple[np.ndarray, list[tuple[object, object]], dict[str, int]]:
+        calls.update(stacked=0, general=0)
         runner = RedundikRunner(SCENARIOS[scenario](), "hqp", None, {})
-        dqs = []
+        dqs, counts = [], []
         res = runner.resolver
         for k in range(300):
             step = res.step(runner.robot, runner.stack, runner.q, k * runner.scenario.dt, runner.scenario.dt)
             dqs.append(step.dq.copy())
+            counts.append((step.info["qp"], step.info["iterations"]))
             runner.q = runner.robot.integrate(runner.q, step.dq, runner.scenario.dt)
-        return np.array(dqs), sum(1 for _ in dqs)
+        return np.array(dqs), counts, dict(calls)
 
-    fast, _ = run()
-    calls = {"n": 0}
+    native, native_counts, native_calls = run()
+    solved = sum(int(c[0]) for c in native_counts)  # type: ignore[call-overload]
+    assert solved > 10 and native_calls["stacked"] < solved / 10, (solved, native_calls)
+    monkeypatch.setattr(daqp_native, "enabled", False)
+    buffered, buffered_counts, buffered_calls = run()
+    assert buffered_calls["stacked"] >= solved
+    monkeypatch.setattr(backends.DaqpBackend, "solve_stacked", lambda self, *args: None)
+    assembled, assembled_counts, assembled_calls = run()
+    assert assembled_calls["general"] >= solved
+    np.testing.assert_array_equal(native, buffered)
+    np.testing.assert_array_equal(native, assembled)
+    assert native_counts == buffered_counts == assembled_counts
 
-    def refused(self: Any, *args: Any) -> None:
-        calls["n"] += 1
-        return None
 
-    monkeypatch.setattr(backends.DaqpBackend, "solve_stacked", refused)
-    general, _ = run()
-    assert calls["n"] > 10  # level QPs were solved, now through the general call
-    np.testing.assert_allclose(fast, general, rtol=0, atol=1e-12)
+def test_native_daqp_is_off_for_an_unchecked_daqp_version(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Another daqp version than those whose struct layouts were read: no native call, and the reason said."""
+    monkeypatch.setattr(daqp_native, "_decided", False)
+    monkeypatch.setattr(daqp_native, "_entry", None)
+    monkeypatch.setattr(daqp_native.metadata, "version", lambda name: "99.0")
+    assert daqp_native.entry() == 0
+    assert "daqp 99.0" in daqp_native.status() and "not checked" in daqp_native.status()
+    monkeypatch.undo()
+    monkeypatch.setattr(daqp_native, "_decided", False)
+    assert daqp_native.entry() != 0  # decided again on this daqp: on
 
 
 def test_fused_qp_step_diagnostics_read_late_are_those_of_their_step() -> None:
@@ -147,6 +181,7 @@ def test_a_fused_qp_step_whose_backend_fails_reports_its_fallback(monkeypatch: p
     def failing(self: Any, problem: Any, warm: Any = None) -> Any:
         raise SolverError("refused for the test", problem)
 
+    monkeypatch.setattr(daqp_native, "enabled", False)  # daqp is not called from the cascade, but through these:
     monkeypatch.setattr(backends.DaqpBackend, "solve_stacked", lambda self, *a: None)
     monkeypatch.setattr(backends.DaqpBackend, "solve", failing)
     runner = RedundikRunner(SCENARIOS["snake10"](), "hqp", None, {})

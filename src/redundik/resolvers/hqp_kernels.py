@@ -26,6 +26,9 @@ import math
 
 import numba as nb
 import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
 
 from redundik import _kernel_cache
 from redundik.resolvers.kernels import clip_twice, damped_svd_factors, frame_jacobian_lwa, in_box, limit_box
@@ -526,13 +529,89 @@ def qp_buffer_size(n: int, p_max: int, rows: int) -> int:
 
 
 @_jit
+def cascade_qp_dims(n: int, meta: np.ndarray) -> tuple[int, int]:
+    """(most variables, most rows) of a level QP of :func:`level_qp_into` for the levels packed in ``meta`` (their
+    inequality rows start at ``meta[1]``)."""
+    L = meta.shape[1] - 1
+    p_max = 0
+    for k in range(L):
+        p_max = max(p_max, meta[1, k + 1] - meta[1, k])
+    return n + p_max, p_max + meta[1, L] + 2 * n
+
+
+@_jit
 def cascade_qp_size(n: int, meta: np.ndarray) -> int:
-    """:func:`qp_buffer_size` for the levels packed in ``meta`` (their inequality rows start at ``meta[1]``)."""
+    """:func:`qp_buffer_size` for the levels packed in ``meta``."""
     L = meta.shape[1] - 1
     p_max = 0
     for k in range(L):
         p_max = max(p_max, meta[1, k + 1] - meta[1, k])
     return qp_buffer_size(n, p_max, meta[1, L])
+
+
+#: Words (int64) of the ``native`` array of :func:`native_quadprog`: the address of daqp's ``daqp_quadprog`` (0: no
+#: native call), of its settings, the smallest n of a bounds-only QP the backend splits (never solved here), the
+#: level QPs solved and their iterations (counted by :func:`qp_cascade_run`), the last level so solved; then daqp's
+#: ``DAQPProblem`` (10 words) and ``DAQPResult`` (8 words) structs, then the constraints' ``sense`` (int32).
+NAT_FN, NAT_SETTINGS, NAT_SPLIT_MIN, NAT_SOLVED, NAT_ITERS, NAT_LAST = range(6)
+NAT_PROBLEM, NAT_RESULT, NAT_SENSE = 8, 18, 26
+
+
+@intrinsic
+def _call_ppp(typingctx, fn, a, b, c):  # type: ignore[no-untyped-def]
+    """Call the C function at address ``fn`` as ``void fn(void*, void*, void*)`` with the three addresses."""
+    sig = types.void(types.int64, types.int64, types.int64, types.int64)
+
+    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+        vp = ir.IntType(8).as_pointer()
+        fnty = ir.FunctionType(ir.VoidType(), [vp, vp, vp])
+        target = builder.inttoptr(args[0], fnty.as_pointer())
+        builder.call(target, [builder.inttoptr(x, vp) for x in args[1:]])
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@_jit
+def native_quadprog(native: np.ndarray, nx: np.ndarray, qbuf: np.ndarray, nvar: int, nr: int) -> tuple[int, int]:
+    """daqp on the level QP in ``qbuf`` (the layout of :func:`qp_views`), called through its C entry point: the call
+    ``daqp.solve`` makes — the same structs, every setting but the two of the backend at daqp's defaults, the sense
+    all inequalities — without the Python wrapper. The solution goes to ``nx[:nvar]``, the multipliers after it.
+
+    ``native`` is laid out by :class:`redundik.resolvers.qp.daqp_native.NativeDaqp` (``NAT_*``), which checked the
+    layout of daqp's structs for its version. Returns (daqp's exit flag, iterations); (0, 0) when the QP does not fit
+    the buffers (never written past them).
+    """
+    m = nvar + nr
+    if 2 * (native.shape[0] - NAT_SENSE) < m or nx.shape[0] < nvar + m:
+        return 0, 0
+    sense = native[NAT_SENSE:].view(np.int32)
+    for i in range(m):
+        sense[i] = 0
+    a = nvar * nvar
+    b = a + nvar
+    c = b + nr * nvar
+    d = c + m
+    base = qbuf.ctypes.data
+    me = native.ctypes.data
+    xa = nx.ctypes.data
+    native[NAT_PROBLEM] = nvar | (m << 32)  # int n, int m
+    native[NAT_PROBLEM + 1] = nvar  # int ms: the bounds on the variables
+    native[NAT_PROBLEM + 2] = base  # H
+    native[NAT_PROBLEM + 3] = base + 8 * a  # f
+    native[NAT_PROBLEM + 4] = base + 8 * b if nr > 0 else 0  # A
+    native[NAT_PROBLEM + 5] = base + 8 * c  # bupper
+    native[NAT_PROBLEM + 6] = base + 8 * d  # blower
+    native[NAT_PROBLEM + 7] = me + 8 * NAT_SENSE  # sense
+    native[NAT_PROBLEM + 8] = 0  # break_points
+    native[NAT_PROBLEM + 9] = 0  # int nh, int problem_type (a QP)
+    native[NAT_RESULT] = xa  # x
+    native[NAT_RESULT + 1] = xa + 8 * nvar  # lam
+    for i in range(NAT_RESULT + 2, NAT_RESULT + 8):
+        native[i] = 0
+    _call_ppp(native[NAT_FN], me + 8 * NAT_RESULT, me + 8 * NAT_PROBLEM, native[NAT_SETTINGS])  # type: ignore[call-arg]
+    flags = native[NAT_RESULT + 4 : NAT_RESULT + 5].view(np.int32)  # int exitflag, int iter
+    return flags[0], flags[1]
 
 
 @_jit
@@ -777,7 +856,8 @@ def first_run_cost() -> dict[str, float]:
     qp_cascade_run(A, np.ones(3), np.ones(3), rows, none, np.zeros(n), meta, np.zeros(2, dtype=np.bool_), -inf, inf,
                    free.copy(), np.zeros(n, dtype=np.int64), cfg, state, np.zeros(n), np.zeros((n, n)),
                    np.empty((n, n)), np.empty((1, n)), np.empty(1), np.zeros(1), np.zeros((2, 7)),
-                   np.empty(qp_buffer_size(n, 1, 1)), 0, False, np.zeros(0))  # fmt: skip
+                   np.empty(qp_buffer_size(n, 1, 1)), 0, False, np.zeros(0), np.zeros(0, dtype=np.int64),
+                   np.zeros(0))  # fmt: skip
     out["qp_cascade_run"] = time.perf_counter() - t0
     return out
 
@@ -918,6 +998,8 @@ def qp_cascade_run(
     k0: int,
     absorb: bool,
     u_in: np.ndarray,
+    ctl: np.ndarray,
+    nx: np.ndarray,
 ) -> tuple[int, int, int, int, float]:
     """``hqp``'s constrained cascade (module docstring of :mod:`redundik.resolvers.qp.hqp`) from level ``k0`` on,
     up to the next level that needs the backend: the whole of it but the level QPs, which the caller solves.
@@ -939,6 +1021,11 @@ def qp_cascade_run(
             :func:`qp_views`).
         k0: The level to start at; with ``absorb``, the level whose QP the caller solved: its u (``u_in``) is
             absorbed first and the cascade goes on at k0 + 1 (without it: a level the caller skipped, or the start).
+        ctl, nx: With ``ctl[NAT_FN]`` set (daqp as the backend, :class:`~redundik.resolvers.qp.daqp_native.
+            NativeDaqp`), a level QP is solved here through daqp's C entry point (:func:`native_quadprog`) and
+            absorbed when daqp solves it (exit flag 1 or 2, a finite x) — what the caller would do with daqp's
+            answer; any other QP is returned to the caller, which poses it with every retry. Empty: every level QP
+            is returned.
 
     Returns:
         (0, L, 0, 0, 0) when the cascade is done (q̇ in x); (1, k, nvar, nr, ε) when level k needs its QP: nvar
@@ -1103,5 +1190,18 @@ def qp_cascade_run(
                 for l in range(n):
                     acc += U[l, i] * rhs[l]
                 q[i] = -acc
+        if ctl.shape[0] > NAT_SENSE and ctl[NAT_FN] != 0 and not (nr == 0 and nvar >= ctl[NAT_SPLIT_MIN]):
+            flag, iters = native_quadprog(ctl, nx, qbuf, nvar, nr)
+            solved = flag == 1 or flag == 2
+            for i in range(nvar):
+                if solved and not math.isfinite(nx[i]):
+                    solved = False
+            if solved:
+                ctl[NAT_SOLVED] += 1
+                ctl[NAT_ITERS] += max(iters, 0)
+                ctl[NAT_LAST] = k
+                _absorb(k, nx[:r], C, d, meta, tol, contra, state, x, Z, N, F, f, slack, stats)
+                k += 1
+                continue
         return 1, k, nvar, nr, eq
     return 0, L, 0, 0, 0.0

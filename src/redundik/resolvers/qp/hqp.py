@@ -89,9 +89,10 @@ from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, StepResult
 from redundik.resolvers.fused import FusedPlan, FusedStepResult
-from redundik.resolvers.linalg import FK
-from redundik.resolvers.qp.backends import CHECKED_ANSWERS, DEFAULT_BACKEND, Backend, polish
+from redundik.resolvers.linalg import FK, _Kernels
+from redundik.resolvers.qp.backends import CHECKED_ANSWERS, DEFAULT_BACKEND, Backend, DaqpBackend, polish
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
+from redundik.resolvers.qp.daqp_native import NativeDaqp
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
 from redundik.resolvers.qp.terms import Level, StepRows, gather_rows
@@ -103,21 +104,12 @@ from redundik.tasks.subtasks import BoundSubtask
 CONTRADICTION_TOLERANCE = 1e-6
 
 
-class _HQPKernels:
-    """:mod:`redundik.resolvers.hqp_kernels`, imported on first use (numba loads then, not when redundik is
-    imported); after the first access every kernel and constant is a plain attribute."""
-
-    def __getattr__(self, name: str) -> Any:
-        from redundik.resolvers import hqp_kernels
-
-        self.__dict__.update({k: v for k, v in vars(hqp_kernels).items() if not k.startswith("__")})
-        return getattr(hqp_kernels, name)
-
-
-HK = _HQPKernels()
+#: :mod:`redundik.resolvers.hqp_kernels`, imported on first use (numba loads then, not when redundik is imported).
+HK = _Kernels("hqp_kernels")
 _NO_BASIS = np.zeros((0, 0))
 _NO_SELECTION = np.zeros(0, dtype=np.int64)
 _NO_U = np.zeros(0)
+_NO_NATIVE = np.zeros(0, dtype=np.int64)
 #: Violation up to which a level QP's unconstrained optimum counts as satisfying the QP's rows (kept without a QP).
 _FEASIBLE = 1e-12
 
@@ -235,6 +227,7 @@ class _Plan:
         self._cascade: tuple[np.ndarray, ...] | None = None  # the constrained cascade's work arrays
         self._qp_buf = np.zeros(0)  # where the cascade writes a level QP (``hqp_kernels.level_qp_into``)
         self._qp_views: dict[tuple[int, int], tuple[np.ndarray, ...]] = {}  # its views, per (variables, rows)
+        self._native: NativeDaqp | None = None  # daqp's C call from the cascade (``daqp_native``)
 
     def _keep_written(self) -> None:
         """Before the buffers are written again: copy the last gather's damper rows if their record is held."""
@@ -534,6 +527,13 @@ class _Plan:
             self._qp_views = {}
         return self._qp_buf
 
+    def native(self, backend: Backend) -> NativeDaqp | None:
+        """The arrays through which the cascade calls daqp itself (:mod:`redundik.resolvers.qp.daqp_native`) for
+        ``backend``'s settings and the largest level QP of the rows now in ``meta``; ``None`` when that call is off."""
+        nvar, nr = HK.cascade_qp_dims(self.n, self.meta)
+        self._native = NativeDaqp.for_backend(backend, nvar, nr, self._native)
+        return self._native
+
     def qp_views(self, nvar: int, nr: int) -> tuple[np.ndarray, ...]:
         """(P, q, G, upper, lower) of the level QP in the buffer (``hqp_kernels.qp_views``), kept per size: the
         same few sizes come back step after step."""
@@ -715,13 +715,20 @@ class HierarchicalQPResolver(QPResolverBase):
         # a built-in backend that checks its answers takes the QP in the kernel's buffer as it is (daqp: no copy);
         # anything else, and any QP it does not solve at once, goes through QPProblem and the retries below
         stacked = backend.solve_stacked if type(backend) in CHECKED_ANSWERS else None
+        # daqp itself: the cascade calls its C entry point and absorbs what it solves at once (``daqp_native``)
+        native = plan.native(backend) if type(backend) is DaqpBackend else None
+        ctl, nx = (native.ctl, native.x) if native is not None else (_NO_NATIVE, _NO_U)
+        if native is not None:
+            ctl[HK.NAT_SOLVED] = ctl[HK.NAT_ITERS] = 0
+        last_here = -1  # the last level whose QP was solved here (the record's backend is the last solver's)
         while True:
             status, k, nvar, nr, eps = HK.qp_cascade_run(
                 plan.A, plan.b, plan.w, plan.C, plan.d, z, plan.meta, plan.mixed_flags, box.lb, box.ub, free, sel,
-                cfg, state, x, Z, N, F, f, slack, stats, qbuf, k, absorb, u,
+                cfg, state, x, Z, N, F, f, slack, stats, qbuf, k, absorb, u, ctl, nx,
             )  # fmt: skip
             if status == 0:
                 break
+            last_here = k
             r = int(state[HK.ST_R])
             P, q, G, upper, lower = plan.qp_views(nvar, nr)
             quick = None if stacked is None else stacked(P, q, G, upper, lower)
@@ -752,6 +759,11 @@ class HierarchicalQPResolver(QPResolverBase):
             diag.iterations += max(sol.iterations, 0)
             diag.backend = sol.backend
             u, absorb = sol.x[:r], True
+        if native is not None and ctl[HK.NAT_SOLVED]:
+            diag.qp += int(ctl[HK.NAT_SOLVED])
+            diag.iterations += int(ctl[HK.NAT_ITERS])
+            if ctl[HK.NAT_LAST] > last_here:
+                diag.backend = backend.name
         contradicted: list[int] = (
             np.flatnonzero(stats[:, HK.QS_WORST] > CONTRADICTION_TOLERANCE).tolist()
             if state[HK.ST_CONTRADICTED]
