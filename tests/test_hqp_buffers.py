@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import redundik as rk
+from redundik.resolvers import hqp_kernels as HK
 from redundik.resolvers.qp import backends, daqp_native
 from redundik.resolvers.qp.hqp import HierarchicalQPResolver, HQPBuild, _Plan
 
@@ -83,7 +84,7 @@ def test_gathered_qp_steps_find_their_rows_in_the_buffers(monkeypatch: pytest.Mo
     assert seen["filled"] > 10, seen
 
 
-@pytest.mark.parametrize("scenario", ["panda_tight", "snake10"])
+@pytest.mark.parametrize("scenario", ["panda_tight", "snake10", "snake40"])
 def test_native_and_stacked_daqp_solves_equal_the_general_daqp_call(
     monkeypatch: pytest.MonkeyPatch, scenario: str
 ) -> None:
@@ -108,8 +109,11 @@ def test_native_and_stacked_daqp_solves_equal_the_general_daqp_call(
     monkeypatch.setattr(backends.DaqpBackend, "solve_stacked", counted_stacked)
     monkeypatch.setattr(backends.DaqpBackend, "solve", counted_general)
 
+    joint_space = {"steps": 0}  # QP steps whose last level QP was posed in joint space (the complement mode)
+
     def run() -> tuple[np.ndarray, list[tuple[object, object]], dict[str, int]]:
         calls.update(stacked=0, general=0)
+        joint_space["steps"] = 0
         runner = RedundikRunner(SCENARIOS[scenario](), "hqp", None, {})
         dqs, counts = [], []
         res = runner.resolver
@@ -118,11 +122,16 @@ def test_native_and_stacked_daqp_solves_equal_the_general_daqp_call(
             dqs.append(step.dq.copy())
             counts.append((step.info["qp"], step.info["iterations"]))
             runner.q = runner.robot.integrate(runner.q, step.dq, runner.scenario.dt)
+            cascade = res._plan._cascade if res._plan is not None else None
+            if step.info["qp"] and cascade is not None and cascade[5][HK.ST_NEQ] > 0:
+                joint_space["steps"] += 1
         return np.array(dqs), counts, dict(calls)
 
     native, native_counts, native_calls = run()
     solved = sum(int(c[0]) for c in native_counts)  # type: ignore[call-overload]
     assert solved > 10 and native_calls["stacked"] < solved / 10, (solved, native_calls)
+    # the snake of 40 joints (nv ≥ complement_min_n) poses its level QPs in joint space: equalities reach each path
+    assert (joint_space["steps"] > 10) == (scenario == "snake40"), joint_space
     monkeypatch.setattr(daqp_native, "enabled", False)
     buffered, buffered_counts, buffered_calls = run()
     assert buffered_calls["stacked"] >= solved

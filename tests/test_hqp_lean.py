@@ -349,12 +349,16 @@ def _compare(
     tol: float = 1e-10,
     steps: int = 1,
     shortcut: bool = True,
+    complement: bool = False,
     **kw: object,
 ) -> str:
     """Step both resolvers from q (``steps`` steps, the reference's q̇ integrated); q̇, fallback and every numeric
     diagnostic agree to ``tol`` at every step; the path taken at the last. Without ``shortcut`` both send every
-    level of the constrained cascade to the backend."""
+    level of the constrained cascade to the backend; with ``complement`` the lean cascade poses its level QPs in
+    joint space below the first level of least squares (``complement_min_n``), whatever the robot's size."""
     lean, ref = HierarchicalQPResolver(**kw), _Reference(**kw)  # type: ignore[arg-type]
+    if complement:
+        lean.complement_min_n, lean.complement_fraction = 0, 0.0
     for res in (lean, ref):
         res.level_shortcut = shortcut
         prepared(res, robot, stack, q)
@@ -421,6 +425,65 @@ def test_lean_step_equals_the_general_path_with_pinned_joints(seed: int) -> None
     stack = _stack(robot, rng, depth=int(rng.integers(1, 5)), bound=bool(seed % 2))
     assert _compare(robot, stack, q, shortcut=False, limits=limits) == "qp"
     assert _compare(robot, stack, q, limits=limits) in ("qp", "closed")  # the cascade may settle every level itself
+
+
+def _complement_case(seed: int) -> tuple[rk.RobotModel, rk.TaskStack, np.ndarray, dict[str, object], bool]:
+    """A random robot, stack and start for the complement mode's tests: pinned joints, rate windows, bound
+    subtasks (often contradicted: a joint pushed past its bound) and the null-space objective; with or without the
+    level shortcut."""
+    rng = np.random.default_rng(300 + seed)
+    n = int(rng.integers(5, 10))
+    robot = random_robot(rng, n, velocity=float(rng.uniform(0.2, 0.8)))
+    q = robot.random_configuration(rng)
+    kw: dict[str, object] = {}
+    if seed % 3 == 1:
+        j = int(rng.integers(n))
+        name = robot.joint_names[j]
+        kw["limits"] = rk.JointLimits(lower={name: float(q[j])}, upper={name: float(q[j])})
+    elif seed % 3 == 2:
+        kw["limits"] = rk.JointLimits(acceleration=float(rng.uniform(2.0, 20.0)))
+    stack = _stack(robot, rng, depth=int(rng.integers(1, 5)), bound=bool(seed % 2))
+    return robot, stack, q, kw, bool(seed % 4 < 2)
+
+
+@pytest.mark.parametrize("seed", range(24))
+def test_lean_step_in_the_complement_mode_equals_the_general_path(seed: int) -> None:
+    """The level QPs posed in joint space (the limits as bounds, the fixed directions as equalities: ``hqp_kernels.
+    level_qp_joint_into``) have the optimum of the general path's, with every diagnostic. The regulariser is 1e-4
+    here, so that the directions it alone decides are decided to the solver's accuracy (see the next test)."""
+    robot, stack, q, kw, shortcut = _complement_case(seed)
+    _compare(robot, stack, q, tol=1e-8, steps=3, shortcut=shortcut, complement=True, regularization=1e-4, **kw)
+
+
+@pytest.mark.parametrize("seed", range(24))
+def test_complement_mode_at_the_default_regularization_keeps_every_level_optimum(seed: int) -> None:
+    """At the default regulariser (1e-9) the directions that no level's rows decide are set by ε‖q̇‖² alone, which
+    daqp resolves to ~1e-7 in either form (~1e-5 beside a level contradicted by a slack of 50: the slack's ½‖w‖²
+    outweighs ε‖q̇‖² by 1e12): there the two forms differ, neither nearer the minimum norm. What the levels decide
+    is the same: the residual of every level and the slack of every contradicted one, to 1e-8, the QP count, and
+    the norm of q̇ to 1e-6."""
+    robot, stack, q, kw, shortcut = _complement_case(seed)
+    lean, ref = HierarchicalQPResolver(**kw), _Reference(**kw)  # type: ignore[arg-type]
+    lean.complement_min_n, lean.complement_fraction = 0, 0.0
+    for res in (lean, ref):
+        res.level_shortcut = shortcut
+        prepared(res, robot, stack, q)
+    for k in range(3):
+        a = lean.step(robot, stack, q, 0.05 + 0.01 * k, 0.01)
+        b = ref.step(robot, stack, q, 0.05 + 0.01 * k, 0.01)
+        residuals = [key for key in b.info if key.startswith("residual_L")]
+        for key in residuals:
+            assert a.info[key] == pytest.approx(b.info[key], rel=1e-8, abs=1e-8), key
+        contradicted_a = a.info.get("contradicted_levels", {})
+        contradicted_b = b.info.get("contradicted_levels", {})
+        assert isinstance(contradicted_a, dict) and isinstance(contradicted_b, dict)
+        assert contradicted_a.keys() == contradicted_b.keys()
+        for level, slack in contradicted_b.items():
+            assert contradicted_a[level] == pytest.approx(slack, rel=1e-8), level
+        assert (a.info["qp"], a.fallback is None) == (b.info["qp"], b.fallback is None)
+        assert np.linalg.norm(a.dq) == pytest.approx(np.linalg.norm(b.dq), rel=1e-6)
+        np.testing.assert_allclose(a.dq, b.dq, rtol=0, atol=1e-4)
+        q = robot.integrate(q, b.dq, 0.01)
 
 
 @pytest.mark.parametrize("theta", [0.0, 1e-9, 1e-6, 1e-4, 1e-3, 5e-3, 2e-2])

@@ -31,7 +31,14 @@ from numba import types
 from numba.extending import intrinsic
 
 from redundik import _kernel_cache
-from redundik.resolvers.kernels import clip_twice, damped_svd_factors, frame_jacobian_lwa, in_box, limit_box
+from redundik.resolvers.kernels import (
+    clip_twice,
+    damped_svd_factors,
+    damped_svd_thin,
+    frame_jacobian_lwa,
+    in_box,
+    limit_box,
+)
 
 _kernel_cache.install()  # the on-disk cache stamped with every kernel source (redundik._kernel_cache)
 _jit = nb.njit(cache=True, nogil=True)
@@ -530,23 +537,23 @@ def qp_buffer_size(n: int, p_max: int, rows: int) -> int:
 
 @_jit
 def cascade_qp_dims(n: int, meta: np.ndarray) -> tuple[int, int]:
-    """(most variables, most rows) of a level QP of :func:`level_qp_into` for the levels packed in ``meta`` (their
-    inequality rows start at ``meta[1]``)."""
+    """(most variables, most rows) of a level QP of :func:`level_qp_into` or :func:`level_qp_joint_into` for the
+    levels packed in ``meta`` (their least-squares rows start at ``meta[0]``, their inequality rows at ``meta[1]``)."""
     L = meta.shape[1] - 1
     p_max = 0
+    m_max = 0
     for k in range(L):
         p_max = max(p_max, meta[1, k + 1] - meta[1, k])
-    return n + p_max, p_max + meta[1, L] + 2 * n
+        m_max = max(m_max, meta[0, k + 1] - meta[0, k])
+    return n + p_max + m_max, p_max + meta[1, L] + 2 * n + m_max
 
 
 @_jit
 def cascade_qp_size(n: int, meta: np.ndarray) -> int:
-    """:func:`qp_buffer_size` for the levels packed in ``meta``."""
-    L = meta.shape[1] - 1
-    p_max = 0
-    for k in range(L):
-        p_max = max(p_max, meta[1, k + 1] - meta[1, k])
-    return qp_buffer_size(n, p_max, meta[1, L])
+    """Length of a buffer (the layout of :func:`qp_views`) that holds any level QP of the levels packed in
+    ``meta``."""
+    nvar, nr = cascade_qp_dims(n, meta)
+    return nvar * nvar + nvar + nr * nvar + 2 * (nvar + nr)
 
 
 #: Words (int64) of the ``native`` array of :func:`native_quadprog`: the address of daqp's ``daqp_quadprog`` (0: no
@@ -573,10 +580,13 @@ def _call_ppp(typingctx, fn, a, b, c):  # type: ignore[no-untyped-def]
 
 
 @_jit
-def native_quadprog(native: np.ndarray, nx: np.ndarray, qbuf: np.ndarray, nvar: int, nr: int) -> tuple[int, int]:
+def native_quadprog(
+    native: np.ndarray, nx: np.ndarray, qbuf: np.ndarray, nvar: int, nr: int, neq: int
+) -> tuple[int, int]:
     """daqp on the level QP in ``qbuf`` (the layout of :func:`qp_views`), called through its C entry point: the call
     ``daqp.solve`` makes — the same structs, every setting but the two of the backend at daqp's defaults, the sense
-    all inequalities — without the Python wrapper. The solution goes to ``nx[:nvar]``, the multipliers after it.
+    of the last ``neq`` rows equality and of the others inequality — without the Python wrapper. The solution goes to
+    ``nx[:nvar]``, the multipliers after it.
 
     ``native`` is laid out by :class:`redundik.resolvers.qp.daqp_native.NativeDaqp` (``NAT_*``), which checked the
     layout of daqp's structs for its version. Returns (daqp's exit flag, iterations); (0, 0) when the QP does not fit
@@ -587,7 +597,7 @@ def native_quadprog(native: np.ndarray, nx: np.ndarray, qbuf: np.ndarray, nvar: 
         return 0, 0
     sense = native[NAT_SENSE:].view(np.int32)
     for i in range(m):
-        sense[i] = 0
+        sense[i] = 5 if i >= m - neq else 0  # (5: an equality)
     a = nvar * nvar
     b = a + nvar
     c = b + nr * nvar
@@ -851,8 +861,8 @@ def first_run_cost() -> dict[str, float]:
                    np.zeros((6, n)), True, np.empty(n), 1.0)  # fmt: skip
     out["clearance_into"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    state = np.zeros(7, dtype=np.int64)
-    cfg = np.array([1e-2, 5e-2, 1e-10, 1e-9, 1e-7, 1e-12, 1.0, 1.0, 1e-6])
+    state = np.zeros(ST_NEQ + 1, dtype=np.int64)
+    cfg = np.array([1e-2, 5e-2, 1e-10, 1e-9, 1e-7, 1e-12, 1.0, 1.0, 1e-6, 40.0, 3.0])
     qp_cascade_run(A, np.ones(3), np.ones(3), rows, none, np.zeros(n), meta, np.zeros(2, dtype=np.bool_), -inf, inf,
                    free.copy(), np.zeros(n, dtype=np.int64), cfg, state, np.zeros(n), np.zeros((n, n)),
                    np.empty((n, n)), np.empty((1, n)), np.empty(1), np.zeros(1), np.zeros((2, 7)),
@@ -864,12 +874,18 @@ def first_run_cost() -> dict[str, float]:
 
 #: Entries of the ``cfg`` array of :func:`qp_cascade_run`.
 (CFG_EPSILON, CFG_MAX_DAMPING, CFG_RCOND, CFG_REGULARIZATION, CFG_SLACK_TOL, CFG_FEASIBLE, CFG_IDENTITY, CFG_SHORTCUT,
- CFG_CONTRADICTION) = range(9)  # fmt: skip
+ CFG_CONTRADICTION, CFG_COMPLEMENT_MIN_N, CFG_COMPLEMENT_FRACTION) = range(11)  # fmt: skip
 #: Entries of the ``state`` array of :func:`qp_cascade_run`: the basis mode (0: Z = I, 1: I on the free joints,
 #: 2: the basis Z), r (its columns), the fixed rows so far, the pending level's null-basis columns, whether the
 #: pending level solved a least squares (its basis then shrinks to Z·N), the number of free joints (``sel``), and
 #: whether a level's slack exceeded the contradiction tolerance.
-ST_MODE, ST_R, ST_NF, ST_NCOLS, ST_LSQ, ST_NSEL, ST_CONTRADICTED = range(7)
+ST_MODE, ST_R, ST_NF, ST_NCOLS, ST_LSQ, ST_NSEL, ST_CONTRADICTED, ST_NU, ST_NEQ = range(9)
+#: Basis modes (``state[ST_MODE]``): Z = I, I on the free joints, the basis Z (n, r), or its complement W (n − r, n)
+#: (orthonormal rows, kept in the rows of the ``Z`` buffer: the free directions are null(W)).
+IDENTITY_BASIS, SELECTION_BASIS, GENERAL_BASIS, COMPLEMENT_BASIS = 0, 1, 2, 3
+#: A level of least squares goes over to the complement mode when n ≥ ``cfg[CFG_COMPLEMENT_MIN_N]`` and the
+#: complement it leaves — the directions fixed so far plus its rows — times ``cfg[CFG_COMPLEMENT_FRACTION]`` is at
+#: most n (a fraction of 0: whenever it has fewer rows than n).
 #: Columns of the ``stats`` array of :func:`qp_cascade_run`, per level: σ_min, damping λ, rank of A_k Z, free
 #: directions r before the level, projected (1: the basis was a general Z), solved (1: a least squares was solved:
 #: the record of ``HierarchicalQPResolver._record``), the worst slack w_k* of its inequality rows.
@@ -896,10 +912,14 @@ def _absorb(
 ) -> None:
     """Level k's step u into the cascade: x ← x + Z u; its inequality rows join the fixed rows with their optimal
     slack, C q̇ ≤ d + w* + tol, w* = max(C x − d, 0) (kept per row in ``slack``); and, for a level that solved a
-    least squares, Z ← Z·N (N: the null basis of A_k Z, ``state[ST_NCOLS]`` columns)."""
+    least squares, Z ← Z·N (N: the null basis of A_k Z, ``state[ST_NCOLS]`` columns).
+
+    In the complement mode u is the joint-space step y itself (x ← x + y) and the level's new fixed directions —
+    ``state[ST_NCOLS]`` rows of N — join the complement W; when it fills the space the mode becomes the empty basis
+    (mode 2, r = 0)."""
     n = x.shape[0]
     mode, r = state[ST_MODE], state[ST_R]
-    if mode == 0:
+    if mode == IDENTITY_BASIS or mode == COMPLEMENT_BASIS:
         for i in range(n):
             x[i] += u[i]
     else:
@@ -924,7 +944,18 @@ def _absorb(
     stats[k, QS_WORST] = worst
     if worst > contradiction:
         state[ST_CONTRADICTED] = 1
-    if state[ST_LSQ]:
+    if state[ST_LSQ] and mode == COMPLEMENT_BASIS:
+        added = state[ST_NCOLS]
+        if r - added > 0:
+            nw = n - r
+            for i in range(added):
+                for j in range(n):
+                    Z[nw + i, j] = N[i, j]
+            state[ST_R] = r - added
+        else:
+            state[ST_MODE] = GENERAL_BASIS
+            state[ST_R] = 0
+    elif state[ST_LSQ]:
         rp = state[ST_NCOLS]
         if mode == 0:
             for i in range(n):
@@ -969,6 +1000,141 @@ def _start(
     state[ST_LSQ] = 0
     state[ST_NSEL] = cnt if cnt < n else 0
     state[ST_CONTRADICTED] = 0
+    state[ST_NU] = 0
+    state[ST_NEQ] = 0
+
+
+@_jit
+def _to_complement(state: np.ndarray, Z: np.ndarray, free: np.ndarray) -> None:
+    """From Z = I (on the free joints) to the complement mode: W = the rows e_j of the pinned joints."""
+    n = Z.shape[0]
+    nw = 0
+    for j in range(n):
+        if not free[j]:
+            for c in range(n):
+                Z[nw, c] = 0.0
+            Z[nw, j] = 1.0
+            nw += 1
+    state[ST_MODE] = COMPLEMENT_BASIS
+    state[ST_R] = n - nw
+
+
+@_jit
+def _complement_projection(v: np.ndarray, Z: np.ndarray, nw: int) -> np.ndarray:
+    """(I − WᵀW) v (n,): v projected on null(W), W the complement's nw rows (kept in ``Z``'s rows)."""
+    n = v.shape[0]
+    out = v.copy()
+    for i in range(nw):
+        acc = 0.0
+        for j in range(n):
+            acc += Z[i, j] * v[j]
+        if acc != 0.0:
+            for j in range(n):
+                out[j] -= acc * Z[i, j]
+    return out
+
+
+@_jit
+def level_qp_joint_into(
+    M: np.ndarray,
+    rhs: np.ndarray,
+    eps: float,
+    diagonal: float,
+    C: np.ndarray,
+    d: np.ndarray,
+    x: np.ndarray,
+    W: np.ndarray,
+    F: np.ndarray,
+    f: np.ndarray,
+    lb: np.ndarray,
+    ub: np.ndarray,
+    free: np.ndarray,
+    native: bool,
+    tol: float,
+    buf: np.ndarray,
+) -> tuple[int, int, int]:
+    """The level QP of :func:`level_qp_into` posed in joint space, for the complement mode (the free directions
+    null(W), W (nw, n) with orthonormal rows): over y = Z u ∈ null(W) — ‖u‖ = ‖y‖ and A Z u = A y there — the same
+    problem, the same optimum, with the joint limits as simple bounds on y instead of 2n rows of Z, and without Z:
+
+        minimise  ½ ε‖y‖² + ½‖s − rhs‖² + ½ diagonal·‖y‖² − diagonal·rhsᵀy + ½‖w'‖² + w₀ᵀw'
+        subject to  C y − w' ≤ (d − C x) + w₀          F y ≤ max(f − F x, 0) + tol
+                    M y − s = 0,  W y = 0            (equalities, the last rows)
+                    −(max(x − lb, 0) + tol) ≤ y ≤ max(ub − x, 0) + tol   on the free joints with a bound
+                    (``native``, the level where the mode changes: lb − x ≤ y ≤ ub − x, as :func:`level_qp_into`'s
+                    modes 0 and 1 bound u)
+
+    The least squares ½‖M y − rhs‖² is lifted (s = M y, m more variables and rows) so that the Hessian stays
+    diagonal, which daqp factors in O(n); ``diagonal`` > 0 instead poses ½‖y − rhs‖² (scaled; the null-space
+    objective's rows I: M then has no rows). Variables (y, s, w'), in the layout of :func:`qp_views`.
+
+    Returns:
+        (nvar, nr, neq): the variables, the rows of G, and how many of them (the last) are equalities.
+    """
+    n = x.shape[0]
+    m = M.shape[0]
+    p = C.shape[0]
+    nw = W.shape[0]
+    nf = F.shape[0]
+    nvar = n + m + p
+    neq = m + nw
+    nr = p + nf + neq
+    if buf.shape[0] < nvar * nvar + nvar + nr * nvar + 2 * (nvar + nr):
+        raise ValueError("level_qp_joint_into: the QP buffer is too small for this level")
+    P, q, G, up, low = qp_views(buf, nvar, nr)
+    P[:, :] = 0.0
+    q[:] = 0.0
+    G[:, :] = 0.0
+    lo, hi, h = low[:nvar], up[:nvar], up[nvar:]
+    lo[:] = -np.inf
+    hi[:] = np.inf
+    for i in range(n):
+        P[i, i] = eps + diagonal
+        if diagonal != 0.0:
+            q[i] = -diagonal * rhs[i]
+    for a in range(m):
+        P[n + a, n + a] = 1.0
+        q[n + a] = -rhs[a]
+    for k in range(p):
+        G[k, :n] = C[k]
+        G[k, n + m + k] = -1.0
+        cx = 0.0
+        for j in range(n):
+            cx += C[k, j] * x[j]
+        s0 = d[k] - cx
+        w0 = max(-s0, 0.0)
+        P[n + m + k, n + m + k] = 1.0
+        q[n + m + k] = w0
+        h[k] = s0 + w0
+        low[nvar + k] = -np.inf
+    for k in range(nf):
+        G[p + k, :n] = F[k]
+        fx = 0.0
+        for j in range(n):
+            fx += F[k, j] * x[j]
+        h[p + k] = max(f[k] - fx, 0.0) + tol
+        low[nvar + p + k] = -np.inf
+    o = p + nf
+    for a in range(m):  # M y − s = 0
+        G[o + a, :n] = M[a]
+        G[o + a, n + a] = -1.0
+        h[o + a] = 0.0
+        low[nvar + o + a] = 0.0
+    o += m
+    for i in range(nw):  # W y = 0
+        G[o + i, :n] = W[i]
+        h[o + i] = 0.0
+        low[nvar + o + i] = 0.0
+    for j in range(n):
+        if free[j] and native:
+            lo[j] = lb[j] - x[j]
+            hi[j] = ub[j] - x[j]
+        elif free[j]:
+            if math.isfinite(ub[j]):
+                hi[j] = max(ub[j] - x[j], 0.0) + tol
+            if math.isfinite(lb[j]):
+                lo[j] = -(max(x[j] - lb[j], 0.0) + tol)
+    return nvar, nr, neq
 
 
 @_jit
@@ -1033,10 +1199,13 @@ def qp_cascade_run(
     """
     n = x.shape[0]
     L = meta.shape[1] - 1
+    if state.shape[0] <= ST_NEQ or cfg.shape[0] <= CFG_COMPLEMENT_FRACTION or Z.shape[0] < n or N.shape[0] < n:
+        raise ValueError("qp_cascade_run: state, cfg, Z or N is shorter than the layout it is read in")
     epsilon, max_damping, rcond = cfg[CFG_EPSILON], cfg[CFG_MAX_DAMPING], cfg[CFG_RCOND]
     reg, tol, feas = cfg[CFG_REGULARIZATION], cfg[CFG_SLACK_TOL], cfg[CFG_FEASIBLE]
     identity_levels, shortcut = cfg[CFG_IDENTITY] != 0.0, cfg[CFG_SHORTCUT] != 0.0
     contra = cfg[CFG_CONTRADICTION]
+    cmin, cfrac = cfg[CFG_COMPLEMENT_MIN_N], cfg[CFG_COMPLEMENT_FRACTION]
     empty2 = np.zeros((0, 0))
     empty1 = np.zeros(0)
     if k0 == 0 and not absorb:  # the start: x = 0 but on the pinned joints, Z = I (or I on the free joints)
@@ -1064,8 +1233,22 @@ def qp_cascade_run(
         dk = d[c0:c1]
         Ff = F[:nf]
         ff = f[:nf]
+        native = mode == IDENTITY_BASIS or mode == SELECTION_BASIS  # the limits as the variables' own bounds
+        if (  # a least-squares level that leaves few fixed directions: the complement mode from here on
+            native and m > 0 and m < n and n >= cmin and cfrac * ((n - r) + m) <= n
+        ):
+            _to_complement(state, Z, free)
+            mode = COMPLEMENT_BASIS
+            projected = False
+        else:
+            projected = mode == GENERAL_BASIS or mode == COMPLEMENT_BASIS
+        comp = mode == COMPLEMENT_BASIS
+        nw = n - r if comp else 0
         if pure and p == 0 and mode != 0:  # the closed form P_Z(z − x) when it keeps the limits and the levels above
-            cand = x + _projection(x, Z, r, z, 0)
+            if comp:
+                cand = x + _complement_projection(z - x, Z, nw)
+            else:
+                cand = x + _projection(x, Z, r, z, 0)
             ok = in_box(cand, lb, ub, tol)
             if ok:
                 for i in range(nf):
@@ -1080,10 +1263,13 @@ def qp_cascade_run(
                     x[i] = cand[i]
                 if mode == 0:
                     state[ST_MODE] = 2  # (Z = the empty basis; a selection stays one)
+                if comp:
+                    state[ST_MODE] = GENERAL_BASIS
                 state[ST_R] = 0
                 k += 1
                 continue
-        # the level's least squares over u: (U, σ, Vt, rank, σ_min, λ) and its null basis into N
+        # the level's least squares over u: (U, σ, Vt, rank, σ_min, λ) and its null basis into N (in the complement
+        # mode: over y ∈ null(W), Vt's rows in joint space, and the rows it fixes into N's rows)
         scale = 1.0
         has_lsq = False
         M = empty2
@@ -1095,7 +1281,11 @@ def qp_cascade_run(
         sigma_min = np.inf
         damping = 0.0
         ncols = 0
-        if pure:  # rows I: M = Z (orthonormal columns), its SVD is (Z, 1, I)
+        if pure and comp:  # rows I on null(W): every direction left, singular values 1
+            has_lsq = True
+            rhs = z - x
+            rank, sigma_min, ncols = r, (1.0 if r else np.inf), r
+        elif pure:  # rows I: M = Z (orthonormal columns), its SVD is (Z, 1, I)
             has_lsq = True
             rhs = np.empty(n)
             for i in range(n):
@@ -1107,6 +1297,19 @@ def qp_cascade_run(
             sv = np.ones(r)
             Vt = np.eye(r)
             rank, sigma_min = r, (1.0 if r else np.inf)
+        elif m > 0 and comp:  # M = A_k (I − WᵀW): its thin SVD, the fixed directions Vt[:rank]
+            has_lsq = True
+            scale = _level_scale(w, s, e)
+            Ak, rhs = _weighted_rows(A, b, w, s, m, x)
+            M = np.empty((m, n))
+            for a in range(m):
+                M[a] = _complement_projection(Ak[a], Z, nw)
+            U, sv, Vt, _, rank, sigma_min, damping = damped_svd_thin(M, epsilon * scale, max_damping * scale, rcond)
+            rank = min(rank, r)  # (M's rows lie in null(W), of dimension r)
+            for i in range(rank):
+                for j in range(n):
+                    N[i, j] = Vt[i, j]
+            ncols = rank
         elif m > 0:
             has_lsq = True
             scale = _level_scale(w, s, e)
@@ -1138,13 +1341,18 @@ def qp_cascade_run(
             stats[k, QS_DAMPING] = damping
             stats[k, QS_RANK] = rank
             stats[k, QS_FREE] = r
-            stats[k, QS_PROJECTED] = 1.0 if mode == 2 else 0.0
+            stats[k, QS_PROJECTED] = 1.0 if projected else 0.0
             stats[k, QS_SOLVED] = 1.0
         state[ST_NCOLS] = ncols
         state[ST_LSQ] = 1 if has_lsq else 0
         if shortcut:
-            u = np.zeros(r)
-            if has_lsq:  # the ridge solution V diag(σ/(σ² + ε)) Uᵀ rhs
+            nu = n if comp else r
+            u = np.zeros(nu)
+            if has_lsq and pure and comp:  # the ridge solution (I − WᵀW) rhs / (1 + ε)
+                proj = _complement_projection(rhs, Z, nw)
+                for i in range(n):
+                    u[i] = proj[i] / (1.0 + eps)
+            elif has_lsq:  # the ridge solution V diag(σ/(σ² + ε)) Uᵀ rhs
                 kk = sv.shape[0]
                 for j in range(kk):
                     acc = 0.0
@@ -1152,14 +1360,13 @@ def qp_cascade_run(
                         acc += U[i, j] * rhs[i]
                     tj = sv[j] / (sv[j] * sv[j] + eps) * acc
                     if tj != 0.0:
-                        for c in range(r):
+                        for c in range(nu):
                             u[c] += Vt[j, c] * tj
-            if mode == 0:
+            if mode == 0 or comp:
                 step = u
             else:
                 step = np.zeros(n)
                 _add_basis_step(step, Z, r, u)
-            native = mode != 2
             if level_rows_ok(step, x, lb, ub, free, native, Ck, dk, Ff, ff, tol, feas):
                 _absorb(k, u, C, d, meta, tol, contra, state, x, Z, N, F, f, slack, stats)
                 k += 1
@@ -1174,24 +1381,37 @@ def qp_cascade_run(
                     Mq[i, j] = M[i, j] / scale
                 rq[i] = rhs[i] / scale
             eq = eps / (scale * scale)
-        if pure or m == 0:
-            Mq, rq = np.zeros((0, r)), empty1
-        qmode = 0 if mode == 0 else (1 if mode == 1 else 2)
-        nvar, nr = level_qp_into(
-            np.ascontiguousarray(Mq), rq, eq, np.ascontiguousarray(Ck), np.ascontiguousarray(dk), x,
-            Z[:, :r] if mode == 2 else Z[:, :0], qmode, sel, np.ascontiguousarray(Ff), np.ascontiguousarray(ff),
-            lb, ub, free, tol, qbuf,
-        )  # fmt: skip
-        if pure:  # ½‖Zu − (z − x)‖²: MᵀM = I, Mᵀ rhs = Zᵀ(z − x)
-            P, q = qp_views(qbuf, nvar, nr)[:2]
-            for i in range(r):
-                P[i, i] += 1.0
-                acc = 0.0
-                for l in range(n):
-                    acc += U[l, i] * rhs[l]
-                q[i] = -acc
+        neq = 0
+        if comp:
+            if pure or m == 0:
+                Mq = np.zeros((0, n))
+            nvar, nr, neq = level_qp_joint_into(
+                np.ascontiguousarray(Mq), rq, eq, 1.0 if pure else 0.0, np.ascontiguousarray(Ck),
+                np.ascontiguousarray(dk), x, Z[:nw], np.ascontiguousarray(Ff), np.ascontiguousarray(ff), lb, ub, free,
+                native, tol, qbuf,
+            )  # fmt: skip
+            state[ST_NU] = n
+        else:
+            if pure or m == 0:
+                Mq, rq = np.zeros((0, r)), empty1
+            qmode = 0 if mode == 0 else (1 if mode == 1 else 2)
+            nvar, nr = level_qp_into(
+                np.ascontiguousarray(Mq), rq, eq, np.ascontiguousarray(Ck), np.ascontiguousarray(dk), x,
+                Z[:, :r] if mode == 2 else Z[:, :0], qmode, sel, np.ascontiguousarray(Ff), np.ascontiguousarray(ff),
+                lb, ub, free, tol, qbuf,
+            )  # fmt: skip
+            if pure:  # ½‖Zu − (z − x)‖²: MᵀM = I, Mᵀ rhs = Zᵀ(z − x)
+                P, q = qp_views(qbuf, nvar, nr)[:2]
+                for i in range(r):
+                    P[i, i] += 1.0
+                    acc = 0.0
+                    for l in range(n):
+                        acc += U[l, i] * rhs[l]
+                    q[i] = -acc
+            state[ST_NU] = r
+        state[ST_NEQ] = neq
         if ctl.shape[0] > NAT_SENSE and ctl[NAT_FN] != 0 and not (nr == 0 and nvar >= ctl[NAT_SPLIT_MIN]):
-            flag, iters = native_quadprog(ctl, nx, qbuf, nvar, nr)
+            flag, iters = native_quadprog(ctl, nx, qbuf, nvar, nr, neq)
             solved = flag == 1 or flag == 2
             for i in range(nvar):
                 if solved and not math.isfinite(nx[i]):
@@ -1200,7 +1420,7 @@ def qp_cascade_run(
                 ctl[NAT_SOLVED] += 1
                 ctl[NAT_ITERS] += max(iters, 0)
                 ctl[NAT_LAST] = k
-                _absorb(k, nx[:r], C, d, meta, tol, contra, state, x, Z, N, F, f, slack, stats)
+                _absorb(k, nx[: state[ST_NU]], C, d, meta, tol, contra, state, x, Z, N, F, f, slack, stats)
                 k += 1
                 continue
         return 1, k, nvar, nr, eq

@@ -204,10 +204,30 @@ def damped_svd_factors(
     """
     U, s, Vt = svd_full(M)
     inv, rank = damped_inverse_values(s, epsilon, max_damping, rcond)
+    sigma_min, damping = _damping_at(s, rank, epsilon, max_damping)
+    return U, s, Vt, inv, rank, sigma_min, damping
+
+
+@_jit
+def _damping_at(s: np.ndarray, rank: int, epsilon: float, max_damping: float) -> tuple[float, float]:
+    """(σ_min, λ at σ_min) of :func:`damped_svd_factors`: σ_min = ∞ without a direction kept."""
     sigma_min = s[rank - 1] if rank else np.inf
     damping = 0.0
     if rank and sigma_min < epsilon and epsilon > 0.0:
         damping = math.sqrt(1.0 - (sigma_min / epsilon) ** 2) * max_damping
+    return sigma_min, damping
+
+
+@_jit
+def damped_svd_thin(
+    M: np.ndarray, epsilon: float, max_damping: float, rcond: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, float, float]:
+    """:func:`damped_svd_factors` without the null directions: Vt (k, n) has only its first k = min(m, n) rows
+    (LAPACK's thin SVD: on a wide M of few rows, a fraction of the full one's cost — the snake's 6 × 160 level,
+    ~10 against ~100 µs)."""
+    U, s, Vt = np.linalg.svd(np.ascontiguousarray(M), full_matrices=False)
+    inv, rank = damped_inverse_values(s, epsilon, max_damping, rcond)
+    sigma_min, damping = _damping_at(s, rank, epsilon, max_damping)
     return U, s, Vt, inv, rank, sigma_min, damping
 
 

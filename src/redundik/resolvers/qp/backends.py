@@ -75,12 +75,13 @@ class Backend(ABC):
         """
 
     def solve_stacked(
-        self, P: np.ndarray, q: np.ndarray, G: np.ndarray, upper: np.ndarray, lower: np.ndarray
+        self, P: np.ndarray, q: np.ndarray, G: np.ndarray, upper: np.ndarray, lower: np.ndarray, equalities: int = 0
     ) -> tuple[np.ndarray, int] | None:
-        """A QP of inequality rows only, in daqp's form — lower ≤ (x, G x) ≤ upper, the n bounds on x first (the
-        rows' lower bounds −∞) — solved without copying, as (x, iterations); ``None`` when this backend has no such
-        path or did not solve it: the caller then poses the :class:`QPProblem` for :meth:`solve`, with every retry
-        and its error. The arrays are C-ordered float64, and no backend may keep or change them.
+        """A QP in daqp's form — lower ≤ (x, G x) ≤ upper, the n bounds on x first, the last ``equalities`` rows
+        equalities (lower = upper), the other rows' lower bounds −∞ — solved without copying, as (x, iterations);
+        ``None`` when this backend has no such path or did not solve it: the caller then poses the
+        :class:`QPProblem` for :meth:`solve`, with every retry and its error. The arrays are C-ordered float64, and
+        no backend may keep or change them.
         """
         return None
 
@@ -391,19 +392,21 @@ class DaqpBackend(Backend):
         return QPSolution(y[:n].copy(), int(info.get("iterations", -1)), self.name, time.perf_counter() - t0)
 
     def solve_stacked(
-        self, P: np.ndarray, q: np.ndarray, G: np.ndarray, upper: np.ndarray, lower: np.ndarray
+        self, P: np.ndarray, q: np.ndarray, G: np.ndarray, upper: np.ndarray, lower: np.ndarray, equalities: int = 0
     ) -> tuple[np.ndarray, int] | None:
-        """daqp on the arrays as given: the call :meth:`solve` makes on a QP of inequality rows, without assembling
-        them (``None`` on a bounds-only QP that :meth:`solve` would split, and whenever daqp does not solve it at
-        once: :meth:`solve` then runs its retries)."""
+        """daqp on the arrays as given: the call :meth:`solve` makes, without assembling them (``None`` on a
+        bounds-only QP that :meth:`solve` would split, and whenever daqp does not solve it at once: :meth:`solve`
+        then runs its retries)."""
         n = q.shape[0]
         if G.shape[0] == 0 and n >= self._split_min_n:
             return None
+        sense = np.zeros(upper.shape[0], dtype=np.int32)
+        if equalities:
+            sense[-equalities:] = 5
         try:
             x, _, flag, info = self._solve(
-                P, q, G, upper, lower, np.zeros(upper.shape[0], dtype=np.int32), iter_limit=self.iter_limit,
-                primal_tol=self.primal_tol,
-            )  # fmt: skip
+                P, q, G, upper, lower, sense, iter_limit=self.iter_limit, primal_tol=self.primal_tol
+            )
         except Exception:  # (solve reports it)
             return None
         if (flag != 1 and flag != 2) or type(x) is not np.ndarray or x.shape != (n,) or not finite(x):

@@ -89,7 +89,7 @@ def _self_test(quadprog: int, defaults: Any) -> str | None:
     import daqp
 
     rng = np.random.default_rng(7)
-    for nvar, nr, tight in ((3, 0, False), (4, 3, False), (5, 6, True), (6, 2, True)):
+    for nvar, nr, neq, tight in ((3, 0, 0, False), (4, 3, 0, False), (5, 6, 0, True), (6, 2, 0, True), (7, 4, 2, True)):
         B = rng.standard_normal((nvar, nvar))
         buf = np.zeros(nvar * nvar + nvar + nr * nvar + 2 * (nvar + nr))
         P, q, G, upper, lower = HK.qp_views(buf, nvar, nr)
@@ -100,13 +100,14 @@ def _self_test(quadprog: int, defaults: Any) -> str | None:
         lower[:nvar] = -0.5
         upper[nvar:] = 0.3
         lower[nvar:] = -np.inf
+        lower[nvar + nr - neq :] = upper[nvar + nr - neq :] = 0.1
         native = NativeDaqp.layout(quadprog, _settings(defaults, 1000, 1e-10), 10**9, nvar, nr)
-        flag, iters = HK.native_quadprog(native.ctl, native.x, buf, nvar, nr)
-        x_ref, _, flag_ref, info = daqp.solve(
-            P, q, G, upper, lower, np.zeros(nvar + nr, dtype=np.int32), iter_limit=1000, primal_tol=1e-10
-        )
+        flag, iters = HK.native_quadprog(native.ctl, native.x, buf, nvar, nr, neq)
+        sense = np.zeros(nvar + nr, dtype=np.int32)
+        sense[nvar + nr - neq :] = 5
+        x_ref, _, flag_ref, info = daqp.solve(P, q, G, upper, lower, sense, iter_limit=1000, primal_tol=1e-10)
         same = np.array_equal(native.x[:nvar], np.asarray(x_ref))
-        if not (same and flag == flag_ref and iters == info["iterations"]):
+        if not (same and flag == flag_ref and flag in (1, 2) and iters == info["iterations"]):
             return (
                 f"the self-test QP ({nvar} variables, {nr} rows) differs from daqp.solve (flag {flag} vs {flag_ref}, "
                 f"iterations {iters} vs {info['iterations']}, same x: {same})"

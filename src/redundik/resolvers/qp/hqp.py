@@ -49,7 +49,16 @@ the QP arrays, the slack bookkeeping, the bases — is one compiled call per bac
 (``hqp_kernels.qp_cascade_run``, on the plan's buffers); each level QP is written into a buffer in daqp's form,
 which daqp solves as it is (``Backend.solve_stacked``; other backends get it as a ``QPProblem``); the Level
 records are built only for a contradiction's row names and for the diagnostics. A QP step of the 10-joint snake
-300 → 72 µs (its Python cascade is the reference of ``tests/test_hqp_lean.py``).
+300 → 72 µs (its Python cascade is the reference of ``tests/test_hqp_lean.py``). With daqp as the backend the
+cascade calls daqp's C entry point itself (:mod:`redundik.resolvers.qp.daqp_native`) and goes on at once; a QP
+daqp does not solve at once comes back here for the retries (72 → ~50 µs).
+Complement mode (exact, large robots): below a least-squares level that leaves few directions fixed (at most a third
+of nv, from nv ≥ ``complement_min_n`` = 40 on), the cascade keeps W, an orthonormal basis of the fixed directions,
+instead of Z (null(W) = range(Z)), and poses each level QP over y = Z u in joint space: the joint limits become
+simple bounds on y instead of 2·nv rows of Z, W y = 0 and the lifted least squares s = A_k y are equalities, the
+Hessian stays diagonal (``hqp_kernels.level_qp_joint_into``); ‖u‖ = ‖y‖ and A_k Z u = A_k y on null(W), so the
+QP and its optimum are the same, and no null basis is ever formed (its full SVD was 100 µs of the 160-joint
+snake's step). A QP step of the 160-joint snake 660 → 365 µs.
 
 The levels are the stack's (:mod:`redundik.tasks.stack`): main tasks at their priority (0), target and bound
 subtasks below them, the null-space objective ½‖q̇ − z‖² (gradient subtasks and posture) last; restricted to Z it
@@ -102,6 +111,9 @@ from redundik.tasks.subtasks import BoundSubtask
 
 #: Slack above which a level's bound rows count as contradicted (reported as a fallback).
 CONTRADICTION_TOLERANCE = 1e-6
+#: Defaults of ``HierarchicalQPResolver.complement_min_n`` and ``complement_fraction`` (joint-space level QPs from
+#: this many joints on, below levels that leave at most a third of the directions fixed).
+COMPLEMENT_MIN_N, COMPLEMENT_FRACTION = 40, 3.0
 
 
 #: :mod:`redundik.resolvers.hqp_kernels`, imported on first use (numba loads then, not when redundik is imported).
@@ -514,7 +526,7 @@ class _Plan:
             n, cap = self.n, max(rows, 1, 2 * (bufs[2].shape[0] if bufs is not None else 0))
             bufs = self._cascade = (
                 np.zeros((n, n)), np.empty((n, n)), np.empty((cap, n)), np.empty(cap), np.zeros(cap),
-                np.zeros(7, dtype=np.int64), np.ones(n, dtype=np.bool_), np.zeros(n, dtype=np.int64),
+                np.zeros(9, dtype=np.int64), np.ones(n, dtype=np.bool_), np.zeros(n, dtype=np.int64),
             )  # fmt: skip
         return bufs
 
@@ -593,6 +605,13 @@ class HierarchicalQPResolver(QPResolverBase):
         #: Factor a level of rows √w I (√w ≥ ε) exactly — U = Z, σ = √w, V = I — instead of by its SVD (``False``:
         #: the SVD, the reference the tests hold these factors to).
         self.identity_levels = True
+        #: Smallest robot (nv) whose constrained cascade keeps, below a level that leaves few directions fixed, the
+        #: complement of its free directions instead of their basis, and poses the level QPs in joint space — the
+        #: limits as bounds, the fixed directions as equalities (``hqp_kernels.level_qp_joint_into``): the same
+        #: optimum; measured faster from about this size on. ``10**9``: never (the reference the tests hold it to).
+        self.complement_min_n = COMPLEMENT_MIN_N
+        #: "Few directions fixed": at most nv / ``complement_fraction`` (0: any level of fewer rows than nv).
+        self.complement_fraction = COMPLEMENT_FRACTION
         #: Take the fused step (:mod:`redundik.resolvers.fused`) when the stack allows it; the per-task path otherwise
         #: (``False``: always, the reference the tests hold the fused step to).
         self.fuse = True
@@ -696,9 +715,12 @@ class HierarchicalQPResolver(QPResolverBase):
             plan.fill(built.rows)
         L = len(layout.levels)
         key = (self.epsilon, self.max_damping, self.rcond, self.regularization, self.slack_tolerance,
-               self.identity_levels, self.level_shortcut)  # fmt: skip
+               self.identity_levels, self.level_shortcut, self.complement_min_n, self.complement_fraction)  # fmt: skip
         if self._cfg is None or self._cfg[0] != key:
-            self._cfg = (key, np.array([*key[:5], _FEASIBLE, *map(float, key[5:]), CONTRADICTION_TOLERANCE]))
+            self._cfg = (
+                key,
+                np.array([*key[:5], _FEASIBLE, *map(float, key[5:7]), CONTRADICTION_TOLERANCE, *map(float, key[7:])]),
+            )
         cfg = self._cfg[1]
         # the start (in the first compiled call): joints whose box is one value (a rate window squeezed to a point, a
         # joint held at its limit) are not unknowns but fixed first and left out of the basis, so that no level QP
@@ -729,25 +751,26 @@ class HierarchicalQPResolver(QPResolverBase):
             if status == 0:
                 break
             last_here = k
-            r = int(state[HK.ST_R])
+            nu, neq = int(state[HK.ST_NU]), int(state[HK.ST_NEQ])  # the step's variables, the equality rows (last)
             P, q, G, upper, lower = plan.qp_views(nvar, nr)
-            quick = None if stacked is None else stacked(P, q, G, upper, lower)
+            quick = None if stacked is None else stacked(P, q, G, upper, lower, neq)
             if quick is not None:
                 diag.qp += 1
                 diag.iterations += max(quick[1], 0)
                 diag.backend = backend.name
-                u, absorb = quick[0][:r], True
+                u, absorb = quick[0][:nu], True
                 continue
             priority = layout.levels[k].priority
+            ni = nr - neq
             prob = QPProblem(
-                P.copy(), q.copy(), G.copy(), upper[nvar:].copy(), np.zeros((0, nvar)), np.zeros(0),
-                lower[:nvar].copy(), upper[:nvar].copy(), f"hqp level {priority}",
+                P.copy(), q.copy(), G[:ni].copy(), upper[nvar : nvar + ni].copy(), G[ni:].copy(),
+                upper[nvar + ni :].copy(), lower[:nvar].copy(), upper[:nvar].copy(), f"hqp level {priority}",
             )  # fmt: skip
             try:
                 try:
                     sol = self._solve_qp(prob)
                 except SolverError:
-                    sol = self._regularized_retry(prob, r, eps, diag)
+                    sol = self._regularized_retry(prob, nu, eps, diag)
             except SolverError as exc:
                 if k == 0:
                     raise  # nothing of the cascade is worth keeping: the base falls back to the closed form
@@ -758,7 +781,7 @@ class HierarchicalQPResolver(QPResolverBase):
             diag.qp += 1
             diag.iterations += max(sol.iterations, 0)
             diag.backend = sol.backend
-            u, absorb = sol.x[:r], True
+            u, absorb = sol.x[:nu], True
         if native is not None and ctl[HK.NAT_SOLVED]:
             diag.qp += int(ctl[HK.NAT_SOLVED])
             diag.iterations += int(ctl[HK.NAT_ITERS])
