@@ -171,6 +171,20 @@ class NativeDaqp:
         self.x = np.zeros(nvar_max + m_max)
         return self
 
+    def serves(self, backend: Any, nvar: int, nr: int) -> bool:
+        """These arrays are :meth:`for_backend`'s answer for ``backend`` and QPs of that size (the native call still
+        on): the check made at every cascade, without building anything."""
+        key = self.key
+        return (
+            enabled
+            and len(key) == 6
+            and key[4] >= nvar
+            and key[5] >= nr
+            and key[1] == backend.iter_limit
+            and key[2] == backend.primal_tol
+            and key[3] == backend._split_min_n
+        )
+
     @classmethod
     def for_backend(cls, backend: Any, nvar: int, nr: int, cached: NativeDaqp | None) -> NativeDaqp | None:
         """The arrays for ``backend`` (a ``DaqpBackend``: its iteration limit, primal tolerance and split size) and QPs

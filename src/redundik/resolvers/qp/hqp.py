@@ -530,21 +530,22 @@ class _Plan:
             )  # fmt: skip
         return bufs
 
-    def qp_buffer(self) -> np.ndarray:
-        """The level QPs' buffer, grown to the largest level QP of the rows now in ``meta`` (sizes from
-        ``hqp_kernels.cascade_qp_size``); growing it forgets the views of :meth:`qp_views`."""
-        size = HK.cascade_qp_size(self.n, self.meta)
+    def qp_arrays(self, backend: Backend) -> tuple[np.ndarray, NativeDaqp | None]:
+        """The level QPs' buffer, grown to the largest level QP of the rows now in ``meta`` (``hqp_kernels.
+        cascade_qp_dims``; growing it forgets the views of :meth:`qp_views`), and, for daqp as ``backend``, the arrays
+        through which the cascade calls daqp itself (:mod:`redundik.resolvers.qp.daqp_native`; ``None`` when that
+        call is off)."""
+        nvar, nr = HK.cascade_qp_dims(self.n, self.meta)
+        size = nvar * nvar + nvar + nr * nvar + 2 * (nvar + nr)
         if self._qp_buf.shape[0] < size:
             self._qp_buf = np.empty(max(size, 2 * self._qp_buf.shape[0]))
             self._qp_views = {}
-        return self._qp_buf
-
-    def native(self, backend: Backend) -> NativeDaqp | None:
-        """The arrays through which the cascade calls daqp itself (:mod:`redundik.resolvers.qp.daqp_native`) for
-        ``backend``'s settings and the largest level QP of the rows now in ``meta``; ``None`` when that call is off."""
-        nvar, nr = HK.cascade_qp_dims(self.n, self.meta)
-        self._native = NativeDaqp.for_backend(backend, nvar, nr, self._native)
-        return self._native
+        if type(backend) is not DaqpBackend:
+            return self._qp_buf, None
+        native = self._native
+        if native is None or not native.serves(backend, nvar, nr):
+            native = self._native = NativeDaqp.for_backend(backend, nvar, nr, native)
+        return self._qp_buf, native
 
     def qp_views(self, nvar: int, nr: int) -> tuple[np.ndarray, ...]:
         """(P, q, G, upper, lower) of the level QP in the buffer (``hqp_kernels.qp_views``), kept per size: the
@@ -732,16 +733,17 @@ class HierarchicalQPResolver(QPResolverBase):
         z = built.z if built.z is not None else plan.zero
         notes: list[tuple[int, str]] = []
         k, absorb, u = 0, False, _NO_U
-        qbuf = plan.qp_buffer()
         backend = self.backend
+        # daqp itself: the cascade calls its C entry point and absorbs what it solves at once (``daqp_native``)
+        qbuf, native = plan.qp_arrays(backend)
         # a built-in backend that checks its answers takes the QP in the kernel's buffer as it is (daqp: no copy);
         # anything else, and any QP it does not solve at once, goes through QPProblem and the retries below
         stacked = backend.solve_stacked if type(backend) in CHECKED_ANSWERS else None
-        # daqp itself: the cascade calls its C entry point and absorbs what it solves at once (``daqp_native``)
-        native = plan.native(backend) if type(backend) is DaqpBackend else None
-        ctl, nx = (native.ctl, native.x) if native is not None else (_NO_NATIVE, _NO_U)
         if native is not None:
+            ctl, nx = native.ctl, native.x
             ctl[HK.NAT_SOLVED] = ctl[HK.NAT_ITERS] = 0
+        else:
+            ctl, nx = _NO_NATIVE, _NO_U
         last_here = -1  # the last level whose QP was solved here (the record's backend is the last solver's)
         while True:
             status, k, nvar, nr, eps = HK.qp_cascade_run(
