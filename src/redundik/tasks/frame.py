@@ -283,6 +283,12 @@ def _identity(n: int) -> np.ndarray:
     return eye
 
 
+def _read_only(arr: np.ndarray) -> np.ndarray:
+    """``arr`` with its write flag off (an array a task hands to a fused plan, which packs it once)."""
+    arr.setflags(write=False)
+    return arr
+
+
 class PostureTask(Task):
     """Joint-space posture: q̇ = K (q_ref ⊖ q) on every joint — a regularisation task.
 
@@ -293,7 +299,8 @@ class PostureTask(Task):
 
     Args:
         target: Reference configuration q_ref (size nq); the configuration at reset if ``None``. Settable at run
-            time with :meth:`set_target` (kept across resets).
+            time with :meth:`set_target` or by assigning :attr:`target` (kept across resets); the array in use is
+            read-only, since a fused step packs it when it plans the stack (an edit in place would be missed).
         gain: K [1/s] ≥ 0.
         weight: Weight (> 0), used only when the task is given an explicit level.
         priority: ``None`` (the null-space objective) or an explicit level.
@@ -316,9 +323,20 @@ class PostureTask(Task):
         given = None if target is None else _numbers(target, what, "a configuration")
         if given is not None and not np.all(np.isfinite(given)):
             raise TaskError(f"{what}: contains NaN or infinite values")  # as set_target says: refused where set
-        self._given = None if given is None else _bounded_configuration(given, what)
-        self.target: np.ndarray | None = self._given
+        self._given = None if given is None else _read_only(_bounded_configuration(given, what).copy())
+        self._target: np.ndarray | None = self._given
         self._sel: np.ndarray | None = None
+
+    @property
+    def target(self) -> np.ndarray | None:
+        """The reference configuration q_ref (nq,), read-only: the one in use, or the one set and not yet checked
+        against the robot (at the next evaluation); ``None`` until the first evaluation or reset when none was
+        given. Assigning it is :meth:`set_target`."""
+        return self._target if self._target is not None else self._given
+
+    @target.setter
+    def target(self, q: Sequence[float] | np.ndarray) -> None:
+        self.set_target(q)
 
     def set_target(self, q: Sequence[float] | np.ndarray) -> None:
         """A new reference configuration q_ref (size nq), checked against the robot at the next evaluation."""
@@ -327,25 +345,25 @@ class PostureTask(Task):
         if not np.all(np.isfinite(arr)):
             raise TaskError(f"{what}: contains NaN or infinite values")
         _bounded_configuration(arr, what)
-        self._given = arr
-        self.target = None
+        self._given = _read_only(arr.copy())
+        self._target = None
 
     def reset(self, robot: RobotModel) -> None:
         if self._given is None:
-            self.target = robot.q.copy()
+            self._target = _read_only(robot.q.copy())
         else:
-            self.target = robot.check_configuration(self._given, f"task '{self.name}': target")
+            self._target = _read_only(robot.check_configuration(self._given, f"task '{self.name}': target"))
 
     def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
-        if self.target is None:
+        if self._target is None:
             self.reset(robot)
-        assert self.target is not None  # set by reset()
-        e = robot.difference(robot.q, self.target)
+        assert self._target is not None  # set by reset()
+        e = robot.difference(robot.q, self._target)
         return TaskTerm(self._name, _identity(robot.nv), self._gain * e, e, self._weight)
 
     def joint_form(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray] | None:
         """(every velocity coordinate, q_ref) once the target is known (after the first evaluation or reset)."""
-        target = self.target
+        target = self._target
         if target is None or target.shape[0] != robot.nq:
             return None
         sel = self._sel
