@@ -430,6 +430,8 @@ class Resolver(ABC):
             and stack.tasks == members[2]
             and stack.subtasks == members[3]
         ):
+            if members is not None and members[1] is not robot:  # another robot: nothing kept of the last one's
+                self.reset()  # (its previous q̇ for a rate window, warm starts, plans sized for it)
             try:
                 sig = (id(robot), *stack.signature())
             except AttributeError:  # not a TaskStack (a list of tasks, one task, None): say so, not AttributeError

@@ -22,6 +22,7 @@ a limit with magnitude ≥ 1e10 or infinite means "no limit"; a URDF velocity of
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -182,7 +183,8 @@ class JointLimits:
                     raise ResolverError(f"limits: acceleration['{jn}'] must be > 0, got {val}")
         elif acceleration is not None and (not _is_number(acceleration) or not acceleration > 0):
             raise ResolverError(f"limits: acceleration must be > 0 or None, got {short_repr(acceleration)}")
-        self._robot_id: int | None = None
+        #: The robot bound (weakly: a robot freed and another made at its address is not taken for it).
+        self._robot: weakref.ref[RobotModel] | None = None
         self._args: tuple[Any, ...] | None = None  # kernel_args of the bound robot, kept while the options stay
 
     def bind(self, robot: RobotModel) -> None:
@@ -244,7 +246,8 @@ class JointLimits:
         self._has_rate = bool(np.isfinite(amax).any())
         self._no_prev = np.zeros((0, nv))
         self._names = names
-        self._robot_id = id(robot)
+        self._robot = weakref.ref(robot)
+        self._args = None  # (kernel_args of the robot bound before: its arrays are the wrong size for this one)
 
     @property
     def joint_names(self) -> list[str]:
@@ -265,7 +268,8 @@ class JointLimits:
         """(iq, lo, hi, vmax, amax, position, has_rate, gain): the arguments of ``K.limit_box`` between q and dt,
         bound to ``robot`` (for a compiled step that computes its box inside, as ``wqp``'s)."""
         args = self._args
-        if self._robot_id != id(robot):
+        bound = self._robot
+        if bound is None or bound() is not robot:
             self.bind(robot)
             args = None
         if args is None or args[5] is not self.position or args[7] != self.position_gain:  # options read as now
@@ -304,7 +308,8 @@ class JointLimits:
 
         ``q`` may also be a stack of N configurations (N, nq): the bounds are then (N, nv) (batches).
         """
-        if self._robot_id != id(robot):
+        bound = self._robot
+        if bound is None or bound() is not robot:
             self.bind(robot)
         if type(q) is np.ndarray and q.dtype == np.float64 and q.ndim == 1 and (dq_prev is None or not self._has_rate):
             # the control loop's case, in a few operations: one configuration, no rate window
