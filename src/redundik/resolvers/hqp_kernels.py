@@ -588,7 +588,7 @@ def native_quadprog(
     of the last ``neq`` rows equality and of the others inequality — without the Python wrapper. The solution goes to
     ``nx[:nvar]``, the multipliers after it.
 
-    ``native`` is laid out by :class:`redundik.resolvers.qp.daqp_native.NativeDaqp` (``NAT_*``), which checked the
+    ``native`` is laid out by ``redundik.resolvers.qp.daqp_native.NativeDaqp`` (``NAT_*``), which checked the
     layout of daqp's structs for its version. Returns (daqp's exit flag, iterations); (0, 0) when the QP does not fit
     the buffers (never written past them).
     """
@@ -1187,11 +1187,11 @@ def qp_cascade_run(
             :func:`qp_views`).
         k0: The level to start at; with ``absorb``, the level whose QP the caller solved: its u (``u_in``) is
             absorbed first and the cascade goes on at k0 + 1 (without it: a level the caller skipped, or the start).
-        ctl, nx: With ``ctl[NAT_FN]`` set (daqp as the backend, :class:`~redundik.resolvers.qp.daqp_native.
-            NativeDaqp`), a level QP is solved here through daqp's C entry point (:func:`native_quadprog`) and
-            absorbed when daqp solves it (exit flag 1 or 2, a finite x) — what the caller would do with daqp's
-            answer; any other QP is returned to the caller, which poses it with every retry. Empty: every level QP
-            is returned.
+        ctl: With ``ctl[NAT_FN]`` set (daqp as the backend, ``daqp_native.NativeDaqp``), a level QP is solved
+            here through daqp's C entry point (:func:`native_quadprog`) and absorbed when daqp solves it (exit flag
+            1 or 2, a finite x) — what the caller would do with daqp's answer; any other QP is returned to the
+            caller, which poses it with every retry. Empty: every level QP is returned.
+        nx: Where daqp writes its solution and multipliers (``NativeDaqp.x``).
 
     Returns:
         (0, L, 0, 0, 0) when the cascade is done (q̇ in x); (1, k, nvar, nr, ε) when level k needs its QP: nvar

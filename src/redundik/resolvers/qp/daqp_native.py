@@ -8,10 +8,10 @@ a 10-joint snake. daqp's Python extension exports its C functions, so the compil
 with the same settings.
 
 That call writes daqp's structs field by field, so it is made only for the daqp versions whose headers were read
-for their layout (:data:`LAYOUTS`), on a little-endian 64-bit process, and after two checks at first use: the
+for their layout (``LAYOUTS``), on a little-endian 64-bit process, and after two checks at first use: the
 settings that ``daqp_default_settings`` writes are read back at their offsets, and a few QPs solved both ways give
 the same x, exit flag and iteration count, bit for bit. Otherwise (another version, a failed check) every level QP
-goes back to Python as before, and :func:`status` says why. A QP daqp does not solve at once is always returned
+goes back to Python as before, and ``status()`` says why. A QP daqp does not solve at once is always returned
 to Python, which poses it with every retry.
 """
 
@@ -84,7 +84,7 @@ def _layout_ok(defaults: Any) -> bool:
 
 
 def _self_test(quadprog: int, defaults: Any) -> str | None:
-    """A few QPs solved through :func:`hqp_kernels.native_quadprog` and through ``daqp.solve``: the same x, exit flag
+    """A few QPs solved through ``hqp_kernels.native_quadprog`` and through ``daqp.solve``: the same x, exit flag
     and iterations (bit for bit: the same C call on the same arrays), else why not."""
     import daqp
 
@@ -116,8 +116,8 @@ def _self_test(quadprog: int, defaults: Any) -> str | None:
 
 
 def entry() -> int:
-    """The address of ``daqp_quadprog`` for :func:`hqp_kernels.native_quadprog`, 0 when the native call is off (see
-    :func:`status`); decided once per process."""
+    """The address of ``daqp_quadprog`` for ``hqp_kernels.native_quadprog``, 0 when the native call is off (see
+    ``status()``); decided once per process."""
     global _entry, _reason, _decided
     if not _decided:
         _decided = True
