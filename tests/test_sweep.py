@@ -183,3 +183,18 @@ def test_bad_engine_and_yaml_errors_through_the_cli(
     assert main(["sweep", str(bad)]) != 0
     err = capsys.readouterr().err.strip()
     assert "duplicate key" in err and len(err.splitlines()) == 1
+
+
+@pytest.mark.parametrize("address", ["tcp://10.0.0.5:99999", "local:2", "inproc://x", "not an address", 8786])
+def test_run_sweep_checks_a_scheduler_address_before_contacting_it(address: object) -> None:
+    """From Python as from the CLI: a malformed address is refused at once, saying what was expected (it used to
+    wait out the 10 s connect timeout, or reach Dask with an int)."""
+    import time
+
+    from redundik.sweep.engine import SweepError
+
+    plan = load_sweep(_small())
+    t0 = time.perf_counter()
+    with pytest.raises(SweepError, match="scheduler"):
+        run_sweep(plan, scheduler=address)  # type: ignore[arg-type]
+    assert time.perf_counter() - t0 < 5.0

@@ -224,6 +224,9 @@ def run_sweep(
         n = parse_local(dask)
         with dask_client(local=n) as c:
             return _run_on(c, plan, bounds, method, progress, f"dask local:{n}")
+    if not isinstance(scheduler, str):
+        raise SweepError(f"scheduler: expected an address string, got {type(scheduler).__name__}")
+    scheduler = check_scheduler_address(scheduler)  # (as the CLI checks it: a bad address said before any wait)
     with dask_client(scheduler=scheduler) as c:
         return _run_on(c, plan, bounds, method, progress, f"dask {scheduler}")
 
