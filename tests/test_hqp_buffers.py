@@ -211,3 +211,33 @@ def test_a_fused_qp_step_whose_backend_fails_reports_its_fallback(monkeypatch: p
             box_checked += 1
         runner.q = robot.integrate(runner.q, step.dq, dt)
     assert box_checked > 10
+
+
+@pytest.mark.parametrize("scenario", ["snake10", "snake40"])
+def test_a_level_qp_daqp_fails_natively_goes_back_to_python_as_written(
+    monkeypatch: pytest.MonkeyPatch, scenario: str
+) -> None:
+    """With an iteration limit of 1 daqp fails level QPs: called from the cascade, such a QP goes back to Python,
+    which poses it with every retry, from the buffer as the cascade wrote it (daqp's failed call changed nothing):
+    the same q̇, fallbacks, QP and iteration counts as with the native call off."""
+    from benchmarks.bench.runners import RedundikRunner
+    from benchmarks.bench.scenarios import SCENARIOS
+
+    def run() -> list[tuple[np.ndarray, object, object, object]]:
+        runner = RedundikRunner(SCENARIOS[scenario](), "hqp", None, {})
+        res = runner.resolver
+        res.backend.iter_limit = 1  # type: ignore[attr-defined]
+        out = []
+        for k in range(200):
+            step = res.step(runner.robot, runner.stack, runner.q, k * runner.scenario.dt, runner.scenario.dt)
+            out.append((step.dq.copy(), step.fallback, step.info["qp"], step.info["iterations"]))
+            runner.q = runner.robot.integrate(runner.q, step.dq, runner.scenario.dt)
+        return out
+
+    native = run()
+    monkeypatch.setattr(daqp_native, "enabled", False)
+    python = run()
+    assert sum(s[1] is not None for s in native) > 10  # levels did fail (skipped, or the top level's fallback)
+    for a, b in zip(native, python, strict=True):
+        np.testing.assert_array_equal(a[0], b[0])
+        assert a[1:] == b[1:]
