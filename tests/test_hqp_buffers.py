@@ -241,3 +241,39 @@ def test_a_level_qp_daqp_fails_natively_goes_back_to_python_as_written(
     for a, b in zip(native, python, strict=True):
         np.testing.assert_array_equal(a[0], b[0])
         assert a[1:] == b[1:]
+
+
+@pytest.mark.parametrize("method", ["pinv", "wqp", "hqp"])
+def test_a_copied_or_pickled_resolver_steps_as_the_original(method: str) -> None:
+    """A deep copy or a pickle of a resolver that has stepped (limits bound, bound subtasks' rows written, level QPs
+    solved) steps as the original does. hqp's native arrays hold addresses (this object's buffers, this process's
+    daqp): the copy's are empty, laid out again at first use; the limits' weak reference to their robot and hqp's to
+    its last rows are not copied (they made the pickle fail)."""
+    import copy
+    import pickle
+
+    from benchmarks.bench.runners import RedundikRunner
+    from benchmarks.bench.scenarios import SCENARIOS
+
+    runner = RedundikRunner(SCENARIOS["snake10"](), method, None, {})
+    res, robot, stack, dt = runner.resolver, runner.robot, runner.stack, runner.scenario.dt
+    q = runner.q
+    solved = 0
+    for k in range(150):
+        step = res.step(robot, stack, q, k * dt, dt)
+        solved += int(step.info.get("qp", 0))  # type: ignore[call-overload]
+        q = robot.integrate(q, step.dq, dt)
+    if method == "hqp":
+        plan = res._plan  # type: ignore[attr-defined]
+        assert solved > 0 and plan is not None and plan._native is not None
+    for twin in (copy.deepcopy(res), pickle.loads(pickle.dumps(res))):
+        if method == "hqp":
+            native = twin._plan._native  # type: ignore[attr-defined]
+            assert native is None or native.ctl.shape == (0,)
+        qa, qb = q.copy(), q.copy()
+        original = copy.deepcopy(res)  # (the original's state at the copy, stepped beside the twin)
+        for k in range(150, 250):
+            a = original.step(robot, stack, qa, k * dt, dt)
+            b = twin.step(robot, stack, qb, k * dt, dt)
+            np.testing.assert_array_equal(a.dq, b.dq)
+            qa, qb = robot.integrate(qa, a.dq, dt), robot.integrate(qb, b.dq, dt)

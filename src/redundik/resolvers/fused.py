@@ -94,7 +94,7 @@ class FusedPlan:
         self.tail: tuple[float, ...] = ()
         self.jw = np.zeros((6, 0))  # data.J: the joint Jacobians, world frame (a view on Pinocchio's memory)
         self.poses = np.zeros((0, 12))  # data.oMf: the frames' placements (a view on Pinocchio's memory)
-        self.frame_checks: list[tuple[FrameTask, Any, Any]] = []  # what ``current`` compares, member by member
+        self.frame_checks: list[tuple[FrameTask, Any, Any, Any, Any]] = []  # what ``current`` compares, per member
         self.joint_checks: list[tuple[Task, np.ndarray]] = []
         self.gradient_checks: list[tuple[GradientSubtask, Form]] = []
         self.slots: list[tuple[int, Any, int, int, int, Any]] = []  # per stack task, for ``terms``
@@ -171,7 +171,7 @@ class FusedPlan:
         plan.qp = scales is not None
         plan._pack(robot, iq, level_forms, identity, set(layout.main), index)
         plan.data = robot.data
-        plan.frame_checks = list(zip(plan.frames, plan.trajs, plan.kparams, strict=True))
+        plan.frame_checks = [(t, t.trajectory, t.trajectory._kparams, t._fid, t.rows) for t in plan.frames]
         plan.joint_checks = list(zip(plan.level_joints + plan.nulls, plan.targets + plan.null_targets, strict=True))
         plan.gradient_checks = list(zip(plan.gradients, plan.gradient_forms, strict=True))
         return plan
@@ -258,13 +258,19 @@ class FusedPlan:
 
     # ------------------------------------------------------------------ per step
     def current(self, robot: RobotModel) -> bool:
-        """The array-valued members are the objects packed (trajectories, targets, centres) and the robot's data the
-        same; False: the stack must be planned again."""
+        """The array-valued members are the objects packed (trajectories, targets, centres, a frame task's id and
+        rows: a new ``frame`` or ``axes``) and the robot's data the same; False: the stack must be planned again."""
         if robot.data is not self.data:
             return False
-        for task, traj, kparams in self.frame_checks:
+        for task, traj, kparams, fid, rows in self.frame_checks:
             now = task.trajectory
-            if now is not traj or now._kparams is not kparams or task._pending_position is not None:
+            if (
+                now is not traj
+                or now._kparams is not kparams
+                or task._pending_position is not None
+                or task._fid != fid
+                or task._rows is not rows
+            ):
                 return False
         for joint, target in self.joint_checks:
             form = joint.joint_form(robot)

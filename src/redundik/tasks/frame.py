@@ -140,23 +140,55 @@ class FrameTask(Task):
         if gain is None:
             gain = 0.0 if trajectory is not None else DEFAULT_HOLD_GAIN
         self._init_task(name or frame, weight=weight, gain=gain, priority=priority)
+        self._frame = ""
         self.frame = frame
         self.trajectory = trajectory if trajectory is not None else Hold()
         if not isinstance(self.trajectory, Trajectory):
             raise TaskError(
                 f"frame task '{self.name}': trajectory must be a Trajectory, got {type(trajectory).__name__}"
             )
-        self.axes = resolve_axes(axes)
-        self.rows = np.array([AXES[a] for a in self.axes], dtype=int)
-        self._m = int(self.rows.shape[0])
-        self._all_rows = self.rows.tolist() == list(range(6))
-        self._rotation_rows = bool(np.any(self.rows >= 3))
+        self.axes = axes  # (the setter takes a name or a list of axes, sets the rows)
         self._fid: int | None = None
         self._pending_position: np.ndarray | None = None
         # the target orientation at the last evaluation (or a fused step's reference row, R_d in entries 3:12)
         self._last_R: np.ndarray | None = None
         self._data: Any = None  # the robot data the task was reset on, and its live view of the frame's pose
         self._pose: Any = None
+
+    @property
+    def frame(self) -> str:
+        """The tracked frame's name. Assigning another frame takes effect at the next step: its id is looked up
+        again and the task is reset there (the trajectory anchored at the new frame's pose, a set target kept)."""
+        return self._frame
+
+    @frame.setter
+    def frame(self, value: str) -> None:
+        if not isinstance(value, str) or not value:
+            raise TaskError(f"frame task '{self.name}': frame must be a frame name (a string), got {value!r:.80}")
+        self._frame = value
+        self._fid = None  # (a fused step compares the id it packed: the stack is planned again)
+
+    @property
+    def axes(self) -> tuple[str, ...]:
+        """The controlled axes; assigning a name of :data:`AXIS_SETS` or a list of axes sets :attr:`rows` too."""
+        return self._axes
+
+    @axes.setter
+    def axes(self, value: str | Sequence[str]) -> None:
+        axes = resolve_axes(value)
+        rows = np.array([AXES[a] for a in axes], dtype=int)
+        rows.setflags(write=False)
+        self._axes = axes
+        self._m = int(rows.shape[0])
+        self._all_rows = rows.tolist() == list(range(6))
+        self._rotation_rows = bool(np.any(rows >= 3))
+        self._rows = rows
+
+    @property
+    def rows(self) -> np.ndarray:
+        """The rows of the twist this task controls (read-only: a fused step packs them; a new :attr:`axes` gives a
+        new array, which it sees)."""
+        return self._rows
 
     @property
     def dim(self) -> int:
@@ -236,7 +268,9 @@ class FrameTask(Task):
             self.reset(robot)  # checks the frame, and that the robot was updated (robot.frame_pose)
             fid = self._fid
             assert fid is not None  # for the type checker; set by reset()
-        elif data is not self._data:  # evaluated on another robot object than at reset: its own pose view
+        elif data is not self._data:  # evaluated on another robot object than at reset: its own pose view, and
+            self._fid = None  # its own id of the frame (another model numbers its frames its own way: the id of the
+            fid = self._frame_id(robot)  # first robot's frame named some other frame of this one, silently)
             self._data, self._pose = data, robot.frame_pose(fid)
         pose = self._pose  # a live view on data.oMf[fid] (robot.frame_pose without its checks, done at reset)
         if self._pending_position is not None:
@@ -355,8 +389,9 @@ class PostureTask(Task):
             self._target = _read_only(robot.check_configuration(self._given, f"task '{self.name}': target"))
 
     def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
-        if self._target is None:
-            self.reset(robot)
+        target = self._target
+        if target is None or target.shape[0] != robot.nq:  # (a stack stepped on a robot of another size: the
+            self.reset(robot)  # target it captured is not one of this robot's; a given one is checked against it)
         assert self._target is not None  # set by reset()
         e = robot.difference(robot.q, self._target)
         return TaskTerm(self._name, _identity(robot.nv), self._gain * e, e, self._weight)

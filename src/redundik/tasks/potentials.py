@@ -120,36 +120,67 @@ class JointCentering(Potential):
         name: str = "joint_centering",
     ) -> None:
         self.name = name
-        self.center = None if center is None else _finite_vec(center, f"subtask '{name}': center")
-        self.weights = None if weights is None else _finite_vec(weights, f"subtask '{name}': weights")
-        if self.weights is not None and np.any(self.weights < 0):
-            k = int(np.flatnonzero(self.weights < 0)[0])
-            raise TaskError(
-                f"subtask '{name}': weights must be ≥ 0 (a negative weight pushes joint {k} away from the centre), "
-                f"got weights[{k}] = {self.weights[k]:g}"
-            )
         self._c: np.ndarray | None = None
         self._w: np.ndarray | None = None
+        self.center = center
+        self.weights = weights
+
+    @property
+    def center(self) -> np.ndarray | None:
+        """q_c as given (read-only), or ``None`` for the middle of the joint ranges.
+
+        Assigning it is validated and takes effect at the next step: the (w, q_c) a fused step packs are computed
+        again from it. The array is read-only because an edit in place would reach the per-task path (which read a
+        view of it) but not the fused step's packed copy."""
+        return self._center
+
+    @center.setter
+    def center(self, value: Sequence[float] | np.ndarray | None) -> None:
+        arr = None if value is None else _finite_vec(value, f"subtask '{self.name}': center").copy()
+        if arr is not None:
+            arr.setflags(write=False)
+        self._center = arr
+        self._c = self._w = None  # computed again against the robot at the next evaluation
+
+    @property
+    def weights(self) -> np.ndarray | None:
+        """Per-joint weights w ≥ 0 (read-only), or ``None``; assigning them is validated, as :attr:`center`."""
+        return self._weights
+
+    @weights.setter
+    def weights(self, value: Sequence[float] | np.ndarray | None) -> None:
+        arr = None if value is None else _finite_vec(value, f"subtask '{self.name}': weights").copy()
+        if arr is not None:
+            if np.any(arr < 0):
+                k = int(np.flatnonzero(arr < 0)[0])
+                raise TaskError(
+                    f"subtask '{self.name}': weights must be ≥ 0 (a negative weight pushes joint {k} away from the "
+                    f"centre), got weights[{k}] = {arr[k]:g}"
+                )
+            arr.setflags(write=False)
+        self._weights = arr
+        self._c = self._w = None
 
     def check(self, robot: RobotModel) -> None:
         if self.center is None:
             lo, hi = robot.lower_limits, robot.upper_limits
             finite = np.isfinite(lo) & np.isfinite(hi) & (hi - lo < 1e9)
-            q = robot.neutral()
+            c = robot.neutral()
             w = np.zeros(robot.nv)
             for k, j in enumerate(robot.joints):
                 if finite[k] and j.idx_q >= 0:
-                    q[j.idx_q] = 0.5 * (lo[k] + hi[k])
+                    c[j.idx_q] = 0.5 * (lo[k] + hi[k])
                     w[k] = 1.0
-            self._c = q
-            self._w = w
         else:
-            self._c = robot.check_configuration(self.center, f"subtask '{self.name}': center")
-            self._w = np.ones(robot.nv)
+            c = np.array(robot.check_configuration(self.center, f"subtask '{self.name}': center"))
+            w = np.ones(robot.nv)
         if self.weights is not None:
             if self.weights.shape[0] != robot.nv:
                 raise TaskError(f"subtask '{self.name}': weights: expected {robot.nv} numbers")
-            self._w = self._w * self.weights
+            w = w * self.weights
+        c.setflags(write=False)  # (the arrays linear_gradient hands to a fused step, which packs them)
+        w.setflags(write=False)
+        self._c, self._w = c, w
 
     def _delta(self, robot: RobotModel) -> np.ndarray:
         if self._c is None:
@@ -172,7 +203,8 @@ class JointCentering(Potential):
 
     def gradient(self, robot: RobotModel) -> np.ndarray:
         # exact for vector-space joints (q_c ⊖ q is linear in q); the chart's first-order value on SO(3) bases
-        return self._w * self._delta(robot)
+        d = self._delta(robot)  # (first: it computes _w when a new centre or weights were set)
+        return self._w * d
 
     def __repr__(self) -> str:
         return f"JointCentering(name={self.name!r})"

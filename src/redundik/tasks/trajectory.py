@@ -97,6 +97,7 @@ class Trajectory(ABC):
     """
 
     _start: pin.SE3 | None = None
+    _prepared_for: pin.SE3 | None = None  # (Circle: the start its centre was found for)
     _kind: int = 0
     _kparams: np.ndarray | None = None
 
@@ -181,10 +182,36 @@ class Line(Trajectory):
     """
 
     def __init__(self, velocity: Sequence[float]) -> None:
-        v = _vec(velocity, int(np.size(velocity)), "line velocity")
+        v = _vec(velocity, int(np.size(velocity)), "line velocity")  # bounded by MAX_MAGNITUDE where it is made
         if v.shape[0] == 2:
             v = np.append(v, 0.0)
-        self.velocity = _vec(v, 3, "line velocity")
+        self.velocity = _vec(v, 3, "line velocity")  # (the setter keeps a read-only copy)
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """The line's velocity (3,), read-only: its compiled reference packs it when the line starts, so an edit in
+        place would be missed. Assigning a new one (2 or 3 finite numbers) takes effect at the next step
+        (p_d = p0 + v t from the same start)."""
+        return self._velocity
+
+    @velocity.setter
+    def velocity(self, value: Sequence[float] | np.ndarray) -> None:
+        # (not bounded by MAX_MAGNITUDE here: a trajectory of one's own may ask for more, as the contract tests do)
+        try:
+            raw = np.asarray(value)
+            if raw.dtype.kind not in "fiu":
+                raise TypeError(f"dtype {raw.dtype}")
+            v = np.array(raw, dtype=float).reshape(-1)  # a copy: the caller's array stays its own
+        except (TypeError, ValueError) as exc:
+            raise TaskError(f"line velocity: expected 2 or 3 numbers, got {type(value).__name__} ({exc})") from None
+        if v.shape[0] == 2:
+            v = np.append(v, 0.0)
+        if v.shape[0] != 3 or not np.all(np.isfinite(v)):
+            raise TaskError(f"line velocity: expected 2 or 3 finite numbers, got {v.tolist()}")
+        v.setflags(write=False)
+        self._velocity = v
+        if self._start is not None:
+            self._prepare()  # a new parameter row: the fused step, which compares it by identity, plans again
 
     def _prepare(self) -> None:
         self._params_row(LINE, self.velocity.tolist())
@@ -227,11 +254,51 @@ class Circle(Trajectory):
             raise TaskError(f"circle speed radius × omega = {radius * omega:g} exceeds {MAX_MAGNITUDE:g}")
         if len(plane) != 2 or any(a not in ("x", "y", "z") for a in plane) or plane[0] == plane[1]:
             raise TaskError(f"circle plane must be two different axes among x, y, z, got {plane}")
-        self.radius, self.omega, self.phase = float(radius), float(omega), float(phase)
+        self._radius, self._omega, self._phase = float(radius), float(omega), float(phase)
         self.e1 = np.eye(3)[AXES[plane[0]]]
         self.e2 = np.eye(3)[AXES[plane[1]]]
+        self.e1.setflags(write=False)
+        self.e2.setflags(write=False)
         self.plane = tuple(plane)
-        self._center = None if center is None else _vec(center, 3, "circle center")
+        self._center = None if center is None else _vec(center, 3, "circle center").copy()
+        if self._center is not None:
+            self._center.setflags(write=False)
+
+    # radius, omega, phase: validated on assignment, and a started circle's compiled parameter row is made again
+    # (a fused step compares it by identity), so that a new value is used from the next step on, not ignored
+    def _set(self, radius: float, omega: float, phase: float) -> None:
+        if abs(radius * omega) > MAX_MAGNITUDE:
+            raise TaskError(f"circle speed radius × omega = {radius * omega:g} exceeds {MAX_MAGNITUDE:g}")
+        self._radius, self._omega, self._phase = radius, omega, phase
+        if self._start is not None:
+            self._prepare()
+
+    @property
+    def radius(self) -> float:
+        """r [length] (> 0); an assignment takes effect at the next step (the centre found at the start is kept)."""
+        return self._radius
+
+    @radius.setter
+    def radius(self, value: float) -> None:
+        self._set(_number(value, "circle radius", positive=True), self._omega, self._phase)
+
+    @property
+    def omega(self) -> float:
+        """ω [rad/s]; an assignment takes effect at the next step."""
+        return self._omega
+
+    @omega.setter
+    def omega(self, value: float) -> None:
+        self._set(self._radius, _number(value, "circle omega"), self._phase)
+
+    @property
+    def phase(self) -> float:
+        """φ [rad]; an assignment takes effect at the next step (the centre found at the start is kept)."""
+        return self._phase
+
+    @phase.setter
+    def phase(self, value: float) -> None:
+        self._set(self._radius, self._omega, _number(value, "circle phase"))
 
     @property
     def center(self) -> np.ndarray:
@@ -242,7 +309,9 @@ class Circle(Trajectory):
         return p0 - self.radius * (np.cos(self.phase) * self.e1 + np.sin(self.phase) * self.e2)
 
     def _prepare(self) -> None:
-        self._c = self.center
+        if self._prepared_for is not self._start:  # the centre of this start (kept on a new r, φ)
+            self._c = self.center
+            self._prepared_for = self._start
         self._re1 = self.radius * self.e1
         self._re2 = self.radius * self.e2
         extra = [*self._c.tolist(), *self._re1.tolist(), *self._re2.tolist(), self.omega, self.phase]

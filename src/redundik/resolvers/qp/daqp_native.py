@@ -171,6 +171,12 @@ class NativeDaqp:
         self.x = np.zeros(nvar_max + m_max)
         return self
 
+    def __reduce__(self) -> tuple[type[NativeDaqp], tuple[()]]:
+        """A copy or a pickle is empty (laid out again at its first use): the arrays hold addresses of this object's
+        memory and of this process's daqp, which a copy must not call through (the original may be freed, another
+        process has daqp elsewhere)."""
+        return (NativeDaqp, ())
+
     def serves(self, backend: Any, nvar: int, nr: int) -> bool:
         """These arrays are :meth:`for_backend`'s answer for ``backend`` and QPs of that size (the native call still
         on): the check made at every cascade, without building anything."""

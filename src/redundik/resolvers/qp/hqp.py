@@ -241,6 +241,13 @@ class _Plan:
         self._qp_views: dict[tuple[int, int], tuple[np.ndarray, ...]] = {}  # its views, per (variables, rows)
         self._native: NativeDaqp | None = None  # daqp's C call from the cascade (``daqp_native``)
 
+    def __getstate__(self) -> dict[str, Any]:
+        """The plan without its weak reference to the last gather's record (a copy holds no step's rows): a copy
+        or a pickle of a resolver steps as the original."""
+        state = self.__dict__.copy()
+        state["_written"] = None
+        return state
+
     def _keep_written(self) -> None:
         """Before the buffers are written again: copy the last gather's damper rows if their record is held."""
         last = self._written

@@ -25,6 +25,7 @@ from __future__ import annotations
 import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -149,43 +150,140 @@ class JointLimits:
         acceleration: float | Mapping[str, float] | None = None,
         position_gain: float = 1.0,
     ) -> None:
-        if not (np.isfinite(position_gain) and 0.0 < position_gain <= 1.0):
-            raise ResolverError(f"limits: position_gain must be in (0, 1], got {position_gain}")
-        for key, flag in (("position", position), ("velocity", velocity)):
-            if not isinstance(flag, (bool, np.bool_)):
-                hint = (
-                    f"; a velocity limit for every joint is velocity_limits={{joint name: {short_repr(flag)}, ...}}"
-                    if key == "velocity" and _is_number(flag)
-                    else ""
-                )
-                raise ResolverError(f"limits: {key} switches the model's {key} limits on or off (True/False), got "
-                                    f"{short_repr(flag)}{hint}")  # fmt: skip
-        self.position, self.velocity = bool(position), bool(velocity)
-        self.lower = dict(lower or {})
-        self.upper = dict(upper or {})
-        self.velocity_limits = dict(velocity_limits or {})
-        self.acceleration = acceleration
-        self.position_gain = float(position_gain)
-        for key, table in (("lower", self.lower), ("upper", self.upper), ("velocity_limits", self.velocity_limits)):
-            for jn, val in table.items():
-                if not _is_number(val):
-                    raise ResolverError(f"limits: {key}['{jn}'] must be a number, got {short_repr(val)}")
-                if np.isnan(val):
-                    raise ResolverError(f"limits: {key}['{jn}'] is NaN")
-                if (key == "upper" and val == -np.inf) or (key == "lower" and val == np.inf):
-                    raise ResolverError(f"limits: {key}['{jn}'] = {val} leaves no admissible position")
-        for jn, val in self.velocity_limits.items():
-            if not val > 0:
-                raise ResolverError(f"limits: velocity_limits['{jn}'] must be > 0, got {val}")
-        if isinstance(acceleration, Mapping):
-            for jn, val in acceleration.items():
-                if not _is_number(val) or not val > 0:
-                    raise ResolverError(f"limits: acceleration['{jn}'] must be > 0, got {val}")
-        elif acceleration is not None and (not _is_number(acceleration) or not acceleration > 0):
-            raise ResolverError(f"limits: acceleration must be > 0 or None, got {short_repr(acceleration)}")
         #: The robot bound (weakly: a robot freed and another made at its address is not taken for it).
         self._robot: weakref.ref[RobotModel] | None = None
         self._args: tuple[Any, ...] | None = None  # kernel_args of the bound robot, kept while the options stay
+        self.position_gain = position_gain
+        self.position = position
+        self.velocity = velocity
+        self.lower = lower or {}
+        self.upper = upper or {}
+        self.velocity_limits = velocity_limits or {}
+        self.acceleration = acceleration
+
+    # Every option is a validated property. Those that ``bind`` turns into arrays (velocity, the overrides, the
+    # acceleration) bind the robot again at once when one is bound: set between steps, they used to be ignored
+    # until another robot came (a rate limit set after the first step was never applied). The override tables are
+    # read-only mappings for the same reason (an entry added in place would be missed); assign a new table.
+    def _rebind(self) -> None:
+        """Bind the bound robot again (the options changed); nothing to do before the first bind."""
+        robot = self._robot() if self._robot is not None else None
+        if robot is not None:
+            self.bind(robot)
+
+    @property
+    def position_gain(self) -> float:
+        """g ∈ (0, 1]: the fraction of the remaining range a single step may use."""
+        return self._position_gain
+
+    @position_gain.setter
+    def position_gain(self, value: float) -> None:
+        if not _is_number(value) or not (np.isfinite(value) and 0.0 < value <= 1.0):
+            raise ResolverError(f"limits: position_gain must be in (0, 1], got {short_repr(value)}")
+        self._position_gain = float(value)
+
+    @property
+    def position(self) -> bool:
+        """Enforce the position limits."""
+        return self._position
+
+    @position.setter
+    def position(self, flag: bool) -> None:
+        self._position = self._switch("position", flag)
+
+    @property
+    def velocity(self) -> bool:
+        """Enforce the velocity limits."""
+        return self._velocity
+
+    @velocity.setter
+    def velocity(self, flag: bool) -> None:
+        self._velocity = self._switch("velocity", flag)
+        self._rebind()
+
+    @staticmethod
+    def _switch(key: str, flag: object) -> bool:
+        if not isinstance(flag, (bool, np.bool_)):
+            hint = (
+                f"; a velocity limit for every joint is velocity_limits={{joint name: {short_repr(flag)}, ...}}"
+                if key == "velocity" and _is_number(flag)
+                else ""
+            )
+            raise ResolverError(f"limits: {key} switches the model's {key} limits on or off (True/False), got "
+                                f"{short_repr(flag)}{hint}")  # fmt: skip
+        return bool(flag)
+
+    @staticmethod
+    def _table(key: str, table: object) -> dict[str, float]:
+        """A validated copy of an override table (joint name → number); read through a read-only view."""
+        if not isinstance(table, Mapping):
+            raise ResolverError(f"limits: {key} must be a mapping of joint names to numbers, got {short_repr(table)}")
+        for jn, val in table.items():
+            if not _is_number(val):
+                raise ResolverError(f"limits: {key}['{jn}'] must be a number, got {short_repr(val)}")
+            if np.isnan(val):
+                raise ResolverError(f"limits: {key}['{jn}'] is NaN")
+            if (key == "upper" and val == -np.inf) or (key == "lower" and val == np.inf):
+                raise ResolverError(f"limits: {key}['{jn}'] = {val} leaves no admissible position")
+            if key == "velocity_limits" and not val > 0:
+                raise ResolverError(f"limits: velocity_limits['{jn}'] must be > 0, got {val}")
+        return dict(table)
+
+    @property
+    def lower(self) -> Mapping[str, float]:
+        """Overrides of lower position limits by joint name (read-only; assign a new mapping)."""
+        return MappingProxyType(self._lower)
+
+    @lower.setter
+    def lower(self, table: Mapping[str, float]) -> None:
+        self._lower = self._table("lower", table)
+        self._rebind()
+
+    @property
+    def upper(self) -> Mapping[str, float]:
+        """Overrides of upper position limits by joint name (read-only; assign a new mapping)."""
+        return MappingProxyType(self._upper)
+
+    @upper.setter
+    def upper(self, table: Mapping[str, float]) -> None:
+        self._upper = self._table("upper", table)
+        self._rebind()
+
+    @property
+    def velocity_limits(self) -> Mapping[str, float]:
+        """Overrides of velocity limits by joint name (read-only; assign a new mapping)."""
+        return MappingProxyType(self._velocity_limits)
+
+    @velocity_limits.setter
+    def velocity_limits(self, table: Mapping[str, float]) -> None:
+        self._velocity_limits = self._table("velocity_limits", table)
+        self._rebind()
+
+    @property
+    def acceleration(self) -> float | Mapping[str, float] | None:
+        """The rate limit a_max [rad/s²]: one number, a read-only mapping by joint name, or ``None`` (off)."""
+        acc = self._acceleration
+        return MappingProxyType(acc) if isinstance(acc, dict) else acc
+
+    @acceleration.setter
+    def acceleration(self, acceleration: float | Mapping[str, float] | None) -> None:
+        if isinstance(acceleration, Mapping):
+            for jn, val in acceleration.items():
+                if not _is_number(val) or not val > 0:
+                    raise ResolverError(f"limits: acceleration['{jn}'] must be > 0, got {short_repr(val)}")
+            acceleration = dict(acceleration)
+        elif acceleration is not None and (not _is_number(acceleration) or not acceleration > 0):
+            raise ResolverError(f"limits: acceleration must be > 0 or None, got {short_repr(acceleration)}")
+        self._acceleration = acceleration
+        self._rebind()
+
+    def __getstate__(self) -> dict[str, Any]:
+        """The options, without the binding (a weak reference, and the robot's arrays): a copy or a pickle binds
+        again at its first use."""
+        state = self.__dict__.copy()
+        state["_robot"] = None
+        state["_args"] = None
+        return state
 
     def bind(self, robot: RobotModel) -> None:
         """Resolve names and defaults against ``robot`` (done once per robot).

@@ -1,0 +1,165 @@
+"""What a user of the control-loop API changes between steps reaches the step, or is refused: never silently missed.
+
+Each case used to give a silent wrong answer or a bare traceback:
+
+* ``JointCentering.center`` edited in place reached the per-task path (which read a view of it) but not the fused
+  step's packed copy (0.32 rad/s apart on the Panda); an assigned centre or weights were ignored until the stack
+  was checked again (0.5 rad/s off a fresh resolver).
+* ``FrameTask.rows`` edited in place split the fused and per-task paths (0.31 rad/s); ``axes`` and ``frame``
+  assigned were ignored (the task kept its rows and its frame id).
+* A stack stepped on another robot model kept the first model's frame id (tracking another frame, silently), and
+  a posture's captured target of the first robot's size raised Pinocchio's bare ValueError.
+* ``Line.velocity`` edited in place or assigned, and ``Circle.radius`` assigned, were ignored once started.
+* ``JointLimits.position_gain`` assigned was not validated (−1 drove every joint at its velocity limit), and
+  ``acceleration`` (and the other options ``bind`` reads) assigned after the first step were ignored.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import redundik as rk
+from redundik.errors import ResolverError, TaskError
+from redundik.kinematics.dh import DHRow, from_dh
+from redundik.resolvers.registry import make_resolver
+
+Q0 = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.02, 0.02])
+METHODS = ["pinv", "wqp", "hqp"]
+
+
+def _hand(traj: rk.Trajectory | None, qp: bool, frame: str = "panda_hand", axes: str = "position") -> rk.FrameTask:
+    return rk.FrameTask(frame, traj, axes=axes, gain=1.0, priority=0 if qp else None)
+
+
+def _steps(res: rk.Resolver, robot: rk.RobotModel, stack: rk.TaskStack, n: int) -> None:
+    for k in range(n):
+        res.step(robot, stack, Q0, 0.01 * k, 0.01)
+
+
+def _per_task(method: str, **kw: object) -> rk.Resolver:
+    res = make_resolver(method, **kw)
+    res.fuse = False  # type: ignore[attr-defined]
+    return res
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_joint_centering_centre_is_read_only_and_an_assigned_one_is_used(method: str) -> None:
+    robot = rk.load_example_robot("panda")
+    jc = rk.JointCentering(center=Q0 + 0.1)
+    stack = rk.TaskStack([_hand(rk.Hold(), method != "pinv")], [rk.GradientSubtask(jc, gain=-1.0)])
+    res = make_resolver(method)
+    _steps(res, robot, stack, 3)
+    assert jc.center is not None
+    with pytest.raises(ValueError, match="read-only"):
+        jc.center[0] += 0.5
+    jc.center = Q0 + 0.6
+    got = res.step(robot, stack, Q0, 0.03, 0.01)
+    ref = _per_task(method).step(robot, stack, Q0, 0.03, 0.01)
+    sub = rk.GradientSubtask(rk.JointCentering(center=Q0 + 0.6), gain=-1.0)
+    fresh = make_resolver(method).step(robot, rk.TaskStack([_hand(rk.Hold(), method != "pinv")], [sub]), Q0, 0.0, 0.01)
+    np.testing.assert_allclose(got.dq, ref.dq, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got.dq, fresh.dq, rtol=0, atol=1e-12)
+    assert float(np.abs(got.dq).max()) > 0.3  # the new centre moves the arm (0.6 rad away)
+    with pytest.raises(TaskError, match="weights must be ≥ 0"):
+        jc.weights = -np.ones(9)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_frame_task_rows_are_read_only_and_new_axes_or_frame_are_used(method: str) -> None:
+    qp = method != "pinv"
+    robot = rk.load_example_robot("panda")
+    task = _hand(rk.Line([0.1, 0.0, 0.0]), qp)
+    post = rk.PostureTask(Q0.copy(), gain=0.5)
+    stack = rk.TaskStack([task, post], [])
+    res = make_resolver(method)
+    _steps(res, robot, stack, 3)
+    with pytest.raises(ValueError, match="read-only"):
+        task.rows[0] = 2
+    task.axes = ("y", "z")  # type: ignore[assignment]
+    got = res.step(robot, stack, Q0, 0.03, 0.01)
+    assert got.terms[0].v.shape == (2,)
+    np.testing.assert_allclose(got.dq, _per_task(method).step(robot, stack, Q0, 0.03, 0.01).dq, rtol=0, atol=1e-12)
+    task.frame = "panda_link5"  # reset there at the next step: anchored at that frame's pose
+    got = res.step(robot, stack, Q0, 0.04, 0.01)
+    line = rk.Line([0.1, 0.0, 0.0])
+    fresh_task = rk.FrameTask("panda_link5", line, axes=["y", "z"], gain=1.0, priority=task.priority)
+    own = rk.TaskStack([fresh_task, rk.PostureTask(Q0.copy(), gain=0.5)])
+    fresh = make_resolver(method).step(robot, own, Q0, 0.04, 0.01)
+    np.testing.assert_allclose(got.dq, fresh.dq, rtol=0, atol=1e-12)  # (the frame the step used is the new one)
+    assert task._fid == robot.frame_id("panda_link5")
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_stack_stepped_on_another_model_tracks_its_frame_and_its_posture(method: str) -> None:
+    qp = method != "pinv"
+    a = from_dh([DHRow(n, a=1.0) for n in "abc"], name="A")
+    b = from_dh([DHRow(n, a=1.0) for n in "xabc"], name="B")  # frame 'c' has another id here
+    tip = rk.FrameTask("c", rk.Line([0.1, 0.1]), axes="planar", priority=0 if qp else None)
+    post = rk.PostureTask(gain=0.5)  # the configuration at reset: of A's size first
+    stack = rk.TaskStack([tip, post], [])
+    res = make_resolver(method)
+    res.step(a, stack, np.full(3, 0.3), 0.0, 0.01)
+    got = res.step(b, stack, np.full(4, 0.3), 0.0, 0.01)  # used to raise Pinocchio's ValueError (posture)
+    own = rk.TaskStack([rk.FrameTask("c", rk.Line([0.1, 0.1]), axes="planar", priority=tip.priority),
+                        rk.PostureTask(gain=0.5)], [])  # fmt: skip
+    fresh = make_resolver(method).step(b, own, np.full(4, 0.3), 0.0, 0.01)
+    np.testing.assert_allclose(got.dq, fresh.dq, rtol=0, atol=1e-12)  # (open loop: the same twist of frame 'c')
+    assert tip._fid == b.frame_id("c")
+    with pytest.raises(rk.RedundikError):  # a given target of another size: a clear error, not Pinocchio's
+        rk_post = rk.PostureTask(np.zeros(3))
+        make_resolver(method).step(b, rk.TaskStack([own.tasks[0], rk_post]), np.full(4, 0.3), 0.0, 0.01)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_started_line_or_circle_uses_new_parameters(method: str) -> None:
+    qp = method != "pinv"
+    robot = rk.load_example_robot("panda")
+    line = rk.Line([0.1, 0.0, 0.0])
+    stack = rk.TaskStack([_hand(line, qp), rk.PostureTask(Q0.copy(), gain=0.5)], [])
+    res = make_resolver(method)
+    _steps(res, robot, stack, 3)
+    with pytest.raises(ValueError, match="read-only"):
+        line.velocity[0] = 0.3
+    line.velocity = [0.3, 0.0]  # type: ignore[assignment]
+    got = res.step(robot, stack, Q0, 0.03, 0.01)
+    fresh = rk.TaskStack([_hand(rk.Line([0.3, 0.0, 0.0]), qp), rk.PostureTask(Q0.copy(), gain=0.5)], [])
+    want = make_resolver(method).step(robot, fresh, Q0, 0.03, 0.01)
+    np.testing.assert_allclose(got.dq, want.dq, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got.terms[0].v[0], 0.3 + 1.0 * 0.3 * 0.03, atol=1e-12)  # v_d + K (v t)
+
+    circle = rk.Circle(0.05, 1.0, plane=("y", "z"))
+    stack = rk.TaskStack([_hand(circle, qp), rk.PostureTask(Q0.copy(), gain=0.5)], [])
+    res = make_resolver(method)
+    _steps(res, robot, stack, 3)
+    center = circle._c.copy()
+    circle.radius = 0.1
+    got = res.step(robot, stack, Q0, 0.03, 0.01)
+    np.testing.assert_allclose(got.dq, _per_task(method).step(robot, stack, Q0, 0.03, 0.01).dq, rtol=0, atol=1e-12)
+    fresh_c = rk.Circle(0.1, 1.0, plane=("y", "z"), center=center)
+    fresh = rk.TaskStack([_hand(fresh_c, qp), rk.PostureTask(Q0.copy(), gain=0.5)], [])
+    np.testing.assert_allclose(got.dq, make_resolver(method).step(robot, fresh, Q0, 0.03, 0.01).dq, rtol=0, atol=1e-12)
+    with pytest.raises(TaskError, match="circle radius"):
+        circle.radius = -1.0
+
+
+@pytest.mark.parametrize("method", ["wqp", "hqp"])
+def test_joint_limit_options_set_between_steps_are_validated_and_used(method: str) -> None:
+    robot = rk.load_example_robot("panda")
+    stack = rk.TaskStack([_hand(rk.Line([0.3, 0.0, 0.0]), True), rk.PostureTask(Q0.copy(), gain=0.5)], [])
+    lim = rk.JointLimits()
+    res = make_resolver(method, limits=lim)
+    own = make_resolver(method, limits=rk.JointLimits(acceleration=0.5))
+    res.step(robot, stack, Q0, 0.0, 0.01)
+    own.step(robot, stack, Q0, 0.0, 0.01)  # (the same first q̇: no previous one, no rate window)
+    for bad in (0.0, -1.0, float("nan"), 5.0, True):
+        with pytest.raises(ResolverError, match="position_gain"):
+            lim.position_gain = bad  # type: ignore[assignment]
+    with pytest.raises(TypeError):
+        lim.lower["panda_joint1"] = 0.0  # type: ignore[index]
+    lim.acceleration = 0.5  # used to be ignored until another robot came
+    got = res.step(robot, stack, Q0, 0.01, 0.01)
+    want = own.step(robot, stack, Q0, 0.01, 0.01)
+    np.testing.assert_allclose(got.dq, want.dq, rtol=0, atol=1e-12)
+    lim.velocity_limits = {"panda_joint2": 0.01}
+    assert abs(res.step(robot, stack, Q0, 0.02, 0.01).dq[1]) <= 0.01 + 1e-12
