@@ -163,3 +163,63 @@ def test_joint_limit_options_set_between_steps_are_validated_and_used(method: st
     np.testing.assert_allclose(got.dq, want.dq, rtol=0, atol=1e-12)
     lim.velocity_limits = {"panda_joint2": 0.01}
     assert abs(res.step(robot, stack, Q0, 0.02, 0.01).dq[1]) <= 0.01 + 1e-12
+
+
+# --------------------------------------------------------------------------- target and bound subtasks' numbers
+_Q0 = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.02, 0.02])
+
+
+def _subtask_stack(sub: rk.Subtask) -> rk.TaskStack:
+    return rk.TaskStack([rk.FrameTask("panda_hand", rk.Hold(), axes="position", priority=0)], [sub])
+
+
+@pytest.mark.parametrize(
+    ("kind", "attr", "value"),
+    [("target", "rate", float("nan")), ("target", "rate", -1.0), ("target", "weight", float("nan")),
+     ("target", "weight", -1.0), ("target", "target", float("nan")), ("target", "target_rate", float("inf")),
+     ("bound", "lower", float("nan")), ("bound", "upper", -np.inf), ("bound", "rate", float("nan")),
+     ("bound", "rate", -3.0), ("bound", "upper", None), ("bound", "lower", 1.0)],
+)  # fmt: skip
+def test_a_subtask_number_assigned_between_ticks_is_checked_as_the_constructor_checks_it(
+    kind: str, attr: str, value: object
+) -> None:
+    """A NaN or negative rate or weight used to reach the resolvers: hqp raised a bare LinAlgError (weight NaN or
+    −1), a negative rate pushed the potential away from its target, a NaN bound rate was silently ignored."""
+    potential = rk.JointValue("panda_joint4", -1.2)
+    sub: rk.Subtask = (
+        rk.TargetSubtask(potential, target=0.0, rate=5.0, priority=1)
+        if kind == "target"
+        else rk.BoundSubtask(potential, upper=0.0, rate=5.0, priority=1)
+    )
+    with pytest.raises(TaskError, match="subtask 'value_panda_joint4'"):
+        setattr(sub, attr, value)
+
+
+@pytest.mark.parametrize("method", ["wqp", "hqp"])
+@pytest.mark.parametrize(("kind", "attr", "value"), [("target", "rate", 2.0), ("target", "weight", 0.25),
+                                                     ("target", "target", -0.4), ("bound", "upper", -0.8),
+                                                     ("bound", "rate", 1.0)])  # fmt: skip
+def test_a_valid_subtask_number_assigned_between_ticks_takes_effect(
+    method: str, kind: str, attr: str, value: float
+) -> None:
+    robot = rk.load_example_robot("panda")
+
+    def make(**kw: float) -> rk.Subtask:
+        potential = rk.JointValue("panda_joint4", -1.2)
+        if kind == "target":
+            args = {"target": 0.0, "rate": 5.0, "weight": 1.0} | kw
+            return rk.TargetSubtask(potential, priority=1, **args)
+        args = {"upper": 0.0, "rate": 5.0} | kw
+        return rk.BoundSubtask(potential, priority=1, **args)
+
+    sub = make()
+    stack = _subtask_stack(sub)
+    res = make_resolver(method)
+    res.step(robot, stack, _Q0, 0.0, 0.01)
+    setattr(sub, attr, value)
+    got = res.step(robot, stack, _Q0, 0.01, 0.01)
+    fresh = make_resolver(method)
+    fresh_stack = _subtask_stack(make(**{attr: value}))
+    fresh.step(robot, fresh_stack, _Q0, 0.0, 0.01)
+    want = fresh.step(robot, fresh_stack, _Q0, 0.01, 0.01)
+    np.testing.assert_allclose(got.dq, want.dq, rtol=0, atol=1e-12)

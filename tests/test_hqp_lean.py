@@ -615,9 +615,10 @@ class _BarrierPotential(rk.Barrier, rk.Potential):
 
 def test_lean_gather_leaves_other_bound_rows_to_rows() -> None:
     """The lean gather lets ``BoundSubtask.rows_into`` write a potential's rows (an upper and a two-sided bound here)
-    but takes ``rows()`` for a barrier that is also a potential (even with a lower bound set on the subtask after
-    construction), and the buffers hold the rows of ``gather_rows`` bitwise; the step agrees with the general path
-    on such a stack."""
+    but takes ``rows()`` for a barrier that is also a potential, and the buffers hold the rows of ``gather_rows``
+    bitwise; the step agrees with the general path on such a stack. (A lower bound assigned to the barrier's subtask
+    after construction, which this test used to set to see it ignored, is now refused as the constructor refuses
+    it.)"""
     from redundik.resolvers.qp.hqp import _Plan
     from redundik.resolvers.qp.terms import gather_rows
 
@@ -625,7 +626,9 @@ def test_lean_gather_leaves_other_bound_rows_to_rows() -> None:
     robot = random_robot(rng, 6)
     names = robot.joint_names
     barrier = rk.BoundSubtask(_BarrierPotential(2), priority=1)
-    barrier.lower = 0.0  # not a potential's bound for BoundSubtask.values (a barrier is read first)
+    with pytest.raises(rk.TaskError, match="a barrier is kept ≥ 0"):
+        barrier.lower = 0.0
+    assert barrier.lower is None
     subs: list[rk.Subtask] = [
         barrier,
         rk.BoundSubtask(rk.JointValue(names[1], 0.0, name="u"), upper=0.3, rate=5.0, priority=1),

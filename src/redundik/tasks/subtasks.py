@@ -149,14 +149,52 @@ class TargetSubtask(Subtask):
         self.potential = _potential(potential, "TargetSubtask")
         self.name = name or potential.name
         self.set_target(target, target_rate)
-        self.rate = check_number(rate, f"subtask '{self.name}': rate (K)", low=0.0)
-        self.weight = check_number(weight, f"subtask '{self.name}': weight", low=0.0, strict=True)
+        self.rate = rate
+        self.weight = weight
         self.priority = check_priority(priority, f"subtask '{self.name}'")
 
     def set_target(self, target: float, target_rate: float = 0.0) -> None:
         """Move the target p_d (and its rate ṗ_d) at run time, between ticks."""
-        self.target = check_number(target, f"subtask '{self.name}': target")
-        self.target_rate = check_number(target_rate, f"subtask '{self.name}': target_rate")
+        self.target = target
+        self.target_rate = target_rate
+
+    # the numbers are validated properties: assigned between ticks they are checked as the constructor checks them
+    # (a NaN or negative rate or weight used to reach the resolvers: a bare LinAlgError from hqp, a silent push away)
+    @property
+    def target(self) -> float:
+        """p_d [unit of p]."""
+        return self._target
+
+    @target.setter
+    def target(self, value: float) -> None:
+        self._target = check_number(value, f"subtask '{self.name}': target")
+
+    @property
+    def target_rate(self) -> float:
+        """ṗ_d [unit of p / s]."""
+        return self._target_rate
+
+    @target_rate.setter
+    def target_rate(self, value: float) -> None:
+        self._target_rate = check_number(value, f"subtask '{self.name}': target_rate")
+
+    @property
+    def rate(self) -> float:
+        """K [1/s] ≥ 0."""
+        return self._rate
+
+    @rate.setter
+    def rate(self, value: float) -> None:
+        self._rate = check_number(value, f"subtask '{self.name}': rate (K)", low=0.0)
+
+    @property
+    def weight(self) -> float:
+        """> 0, among the rows of its level in a QP."""
+        return self._weight
+
+    @weight.setter
+    def weight(self, value: float) -> None:
+        self._weight = check_number(value, f"subtask '{self.name}': weight", low=0.0, strict=True)
 
     def check(self, robot: RobotModel) -> None:
         self.potential.check(robot)
@@ -202,21 +240,57 @@ class BoundSubtask(Subtask):
             raise TaskError(f"BoundSubtask: expected a Potential or a Barrier, got {type(source).__name__}")
         self.source = source
         self.name = name or source.name
-        if isinstance(source, Barrier):
-            if lower is not None or upper is not None:
-                raise TaskError(f"subtask '{self.name}': a barrier is kept ≥ 0; lower/upper apply to potentials only")
-        elif lower is None and upper is None:
-            raise TaskError(f"subtask '{self.name}': a bound subtask needs lower and/or upper")
-        self.lower = None if lower is None else check_number(lower, f"subtask '{self.name}': lower")
-        self.upper = None if upper is None else check_number(upper, f"subtask '{self.name}': upper")
-        if self.lower is not None and self.upper is not None and self.lower > self.upper:
-            raise TaskError(f"subtask '{self.name}': lower ({self.lower}) > upper ({self.upper})")
-        self.rate = check_number(rate, f"subtask '{self.name}': rate (K)", low=0.0)
+        self._lower = None if lower is None else check_number(lower, f"subtask '{self.name}': lower")
+        self._upper = None if upper is None else check_number(upper, f"subtask '{self.name}': upper")
+        self._check_bounds(self._lower, self._upper)
+        self.rate = rate
         self.priority = check_priority(priority, f"subtask '{self.name}'")
         self._names_of: tuple[str, list[str]] | None = None  # (name, a barrier's last row names), prefixed:
         self._names: list[str] = []
         self._row_names_of: tuple[str, bool, bool] | None = None  # (name, lower set, upper set) of _row_names
         self._row_names: list[str] = []
+
+    # lower, upper and rate are validated properties: assigned between ticks they are checked as the constructor
+    # checks them (a NaN bound or rate used to reach the resolvers: the level skipped, or the bound silently ignored)
+    def _check_bounds(self, lower: float | None, upper: float | None) -> None:
+        if lower is not None and upper is not None and lower > upper:
+            raise TaskError(f"subtask '{self.name}': lower ({lower}) > upper ({upper})")
+        if isinstance(self.source, Barrier):
+            if lower is not None or upper is not None:
+                raise TaskError(f"subtask '{self.name}': a barrier is kept ≥ 0; lower/upper apply to potentials only")
+        elif lower is None and upper is None:
+            raise TaskError(f"subtask '{self.name}': a bound subtask needs lower and/or upper")
+
+    @property
+    def lower(self) -> float | None:
+        """Lower bound [unit of p], or ``None``."""
+        return self._lower
+
+    @lower.setter
+    def lower(self, value: float | None) -> None:
+        lower = None if value is None else check_number(value, f"subtask '{self.name}': lower")
+        self._check_bounds(lower, self._upper)
+        self._lower = lower
+
+    @property
+    def upper(self) -> float | None:
+        """Upper bound [unit of p], or ``None``."""
+        return self._upper
+
+    @upper.setter
+    def upper(self, value: float | None) -> None:
+        upper = None if value is None else check_number(value, f"subtask '{self.name}': upper")
+        self._check_bounds(self._lower, upper)
+        self._upper = upper
+
+    @property
+    def rate(self) -> float:
+        """Approach gain K [1/s] ≥ 0 (0: γ = 1/dt)."""
+        return self._rate
+
+    @rate.setter
+    def rate(self, value: float) -> None:
+        self._rate = check_number(value, f"subtask '{self.name}': rate (K)", low=0.0)
 
     @property
     def potential(self) -> Potential | None:
