@@ -14,7 +14,7 @@
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import ClassVar
+from typing import ClassVar, overload
 
 import numpy as np
 
@@ -46,6 +46,32 @@ def _writes_into(obj: object) -> bool:
     if known is None:
         known = _WRITES_INTO[kind] = callable(getattr(kind, "value_and_gradient_into", None))
     return known
+
+
+class _Number:
+    """A subtask's number attribute, checked on every assignment as its constructor checks it (``check_number``:
+    finite, and ≥ or > ``low``); the error names the subtask and the attribute."""
+
+    def __init__(self, label: str, *, low: float | None = None, strict: bool = False) -> None:
+        self.label, self.low, self.strict = label, low, strict
+        self.slot = ""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.slot = f"_{name}"
+
+    @overload
+    def __get__(self, obj: None, objtype: type | None = None) -> _Number: ...
+    @overload
+    def __get__(self, obj: object, objtype: type | None = None) -> float: ...
+    def __get__(self, obj: object | None, objtype: type | None = None) -> float | _Number:
+        if obj is None:
+            return self
+        value: float = getattr(obj, self.slot)
+        return value
+
+    def __set__(self, obj: object, value: float) -> None:
+        what = f"subtask '{getattr(obj, 'name', '?')}': {self.label}"
+        setattr(obj, self.slot, check_number(value, what, low=self.low, strict=self.strict))
 
 
 class Subtask(ABC):
@@ -158,43 +184,12 @@ class TargetSubtask(Subtask):
         self.target = target
         self.target_rate = target_rate
 
-    # the numbers are validated properties: assigned between ticks they are checked as the constructor checks them
-    # (a NaN or negative rate or weight used to reach the resolvers: a bare LinAlgError from hqp, a silent push away)
-    @property
-    def target(self) -> float:
-        """p_d [unit of p]."""
-        return self._target
-
-    @target.setter
-    def target(self, value: float) -> None:
-        self._target = check_number(value, f"subtask '{self.name}': target")
-
-    @property
-    def target_rate(self) -> float:
-        """ṗ_d [unit of p / s]."""
-        return self._target_rate
-
-    @target_rate.setter
-    def target_rate(self, value: float) -> None:
-        self._target_rate = check_number(value, f"subtask '{self.name}': target_rate")
-
-    @property
-    def rate(self) -> float:
-        """K [1/s] ≥ 0."""
-        return self._rate
-
-    @rate.setter
-    def rate(self, value: float) -> None:
-        self._rate = check_number(value, f"subtask '{self.name}': rate (K)", low=0.0)
-
-    @property
-    def weight(self) -> float:
-        """> 0, among the rows of its level in a QP."""
-        return self._weight
-
-    @weight.setter
-    def weight(self, value: float) -> None:
-        self._weight = check_number(value, f"subtask '{self.name}': weight", low=0.0, strict=True)
+    # checked on assignment as the constructor checks them (a NaN or negative rate or weight used to reach the
+    # resolvers: a bare LinAlgError from hqp, a silent push away from the target)
+    target = _Number("target")
+    target_rate = _Number("target_rate")
+    rate = _Number("rate (K)", low=0.0)
+    weight = _Number("weight", low=0.0, strict=True)
 
     def check(self, robot: RobotModel) -> None:
         self.potential.check(robot)
@@ -283,14 +278,7 @@ class BoundSubtask(Subtask):
         self._check_bounds(self._lower, upper)
         self._upper = upper
 
-    @property
-    def rate(self) -> float:
-        """Approach gain K [1/s] ≥ 0 (0: γ = 1/dt)."""
-        return self._rate
-
-    @rate.setter
-    def rate(self, value: float) -> None:
-        self._rate = check_number(value, f"subtask '{self.name}': rate (K)", low=0.0)
+    rate = _Number("rate (K)", low=0.0)
 
     @property
     def potential(self) -> Potential | None:
