@@ -91,6 +91,41 @@ def test_jacobi_eigen_and_svd_match_lapack() -> None:
         np.testing.assert_allclose(V @ np.diag(w) @ V.T, A, atol=1e-12 * max(1.0, abs(w).max()))
 
 
+def test_wide_svd_routes_match_lapack() -> None:
+    """The Jacobi SVD of Mᵀ for a wide M of few rows (full: Householder-completed null directions; thin), on
+    random, rank-deficient, scaled and zero matrices up to and beyond the widths where LAPACK takes over."""
+    rng = np.random.default_rng(12)
+    for trial in range(300):
+        m = int(rng.integers(1, kernels.JACOBI_SVD_MAX + 2))
+        n = m + int(rng.integers(1, 40))
+        M = rng.normal(size=(m, n)) * 10.0 ** rng.uniform(-6, 6)
+        if trial % 5 == 1 and m > 1:
+            M[-1] = M[0]
+        elif trial % 5 == 2:
+            M[0] = 0.0
+        elif trial % 5 == 3 and m > 2:
+            M[2] = M[0] + 1e-9 * M[1]  # nearly rank deficient
+        elif trial % 5 == 4:
+            M[:] = 0.0 if trial % 10 == 4 else M
+        scale = max(1.0, float(np.abs(M).max()))
+        want = np.linalg.svd(M, compute_uv=False)
+        U, s, Vt = kernels.svd_full(M)
+        np.testing.assert_allclose(s, want, atol=1e-13 * scale * n)
+        np.testing.assert_allclose(Vt @ Vt.T, np.eye(n), atol=1e-13)
+        np.testing.assert_allclose((U * s) @ Vt[:m], M, atol=1e-12 * scale)
+        assert np.all(np.abs(M @ Vt[m:].T) <= 1e-12 * scale)  # the null directions: M v = 0
+        Ut, st, Vtt, _, rank, _, _ = kernels.damped_svd_thin(M, 1e-2, 5e-2, 1e-10)
+        np.testing.assert_allclose(st, want, atol=1e-13 * scale * n)
+        assert Vtt.shape == (m, n)
+        assert rank == (int(np.sum(want > 1e-10 * want[0])) if want[0] > 0 else 0)
+        np.testing.assert_allclose(Vtt[:rank] @ Vtt[:rank].T, np.eye(rank), atol=1e-13)
+        np.testing.assert_allclose((Ut[:, :rank] * st[:rank]) @ Vtt[:rank], M, atol=1e-12 * scale)
+    bad = np.ones((3, 10))
+    bad[1, 2] = np.nan
+    with pytest.raises(np.linalg.LinAlgError):  # not finite: LAPACK's refusal, as before the Jacobi route
+        kernels.svd_full(bad)
+
+
 def test_gram_update_equals_numpy() -> None:
     rng = np.random.default_rng(3)
     P, q = rng.normal(size=(9, 9)), rng.normal(size=9)

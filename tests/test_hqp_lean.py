@@ -350,6 +350,7 @@ def _compare(
     steps: int = 1,
     shortcut: bool = True,
     complement: bool = False,
+    qp_tol: float | None = None,
     **kw: object,
 ) -> str:
     """Step both resolvers from q (``steps`` steps, the reference's q̇ integrated); q̇, fallback and every numeric
@@ -366,13 +367,19 @@ def _compare(
     for k in range(steps):
         a = lean.step(robot, stack, q, 0.05 + 0.01 * k, 0.01)
         b = ref.step(robot, stack, q, 0.05 + 0.01 * k, 0.01)
-        path = _agree(a, b, tol)
+        path = _agree(a, b, tol, qp_tol)
         q = robot.integrate(q, b.dq, 0.01)
     return path
 
 
-def _agree(a: rk.StepResult, b: rk.StepResult, tol: float) -> str:
-    """q̇, fallback and diagnostics of the lean step ``a`` and the reference ``b`` agree; the reference's path."""
+def _agree(a: rk.StepResult, b: rk.StepResult, tol: float, qp_tol: float | None = None) -> str:
+    """q̇, fallback and diagnostics of the lean step ``a`` and the reference ``b`` agree; the reference's path.
+
+    With ``qp_tol``, a step that called the backend is held to what the hierarchy decides (:func:`_same_optima`)
+    rather than to the same q̇: see :func:`test_lean_step_equals_the_general_path_on_random_robots`."""
+    if qp_tol is not None and b.info["qp"] > 0:
+        _same_optima(a, b, qp_tol)
+        return "qp"
     scale = max(1.0, float(np.max(np.abs(b.dq))))
     np.testing.assert_allclose(a.dq, b.dq, rtol=0, atol=tol * scale)
     assert (a.fallback is None) == (b.fallback is None), (a.fallback, b.fallback)
@@ -396,8 +403,30 @@ def _agree(a: rk.StepResult, b: rk.StepResult, tol: float) -> str:
     return "closed" if closed else "qp"
 
 
+def _same_optima(a: rk.StepResult, b: rk.StepResult, tol: float) -> None:
+    """Two constrained steps with the same optimum of every level: the residual of each level and the slack of each
+    contradicted one to ``tol`` (relative, or absolute below 1), ‖q̇‖ to ``tol``, q̇ to 10·``tol``, the same
+    fallback; the lean step calls the backend no more often."""
+    assert (a.fallback is None) == (b.fallback is None), (a.fallback, b.fallback)
+    for key in (k for k in b.info if k.startswith("residual_L")):
+        assert a.info[key] == pytest.approx(b.info[key], rel=tol, abs=tol), key
+    ca, cb = a.info.get("contradicted_levels", {}), b.info.get("contradicted_levels", {})
+    assert isinstance(ca, dict) and isinstance(cb, dict) and ca.keys() == cb.keys()
+    for level, slack in cb.items():
+        assert ca[level] == pytest.approx(slack, rel=tol, abs=tol), level
+    assert np.linalg.norm(a.dq) == pytest.approx(np.linalg.norm(b.dq), rel=tol, abs=tol)
+    np.testing.assert_allclose(a.dq, b.dq, rtol=0, atol=10 * tol * max(1.0, float(np.max(np.abs(b.dq)))))
+    assert 0 < a.info["qp"] <= b.info["qp"] or a.info["qp"] == b.info["qp"]
+
+
 @pytest.mark.parametrize("seed", range(40))
 def test_lean_step_equals_the_general_path_on_random_robots(seed: int) -> None:
+    """Closed-form steps to 1e-10 with every diagnostic; steps that call the backend to the same optimum of every
+    level (1e-6). The two paths pose the same level QPs in different but equivalent forms (the buffer's stacked form
+    and ``QPProblem``'s), and where the optimum sits on several nearly tied limits the solver ends at different points
+    of its tolerance: over 600 seeds of this construction, 3 steps differed by up to 2.6e-8 in q̇ with LAPACK's null
+    bases, 5 by up to 9.5e-7 with the Jacobi ones (seed 18: level 0's residual 4e-7 apart relative, the other path's
+    the nearer in one case, this one's in another; quadprog on both paths: 1e-7 in q̇, 1e-15 in the residuals)."""
     rng = np.random.default_rng(seed)
     n = int(rng.integers(4, 9))
     tight = seed % 3 == 0  # tight velocity limits: the QP path, level by level
@@ -407,9 +436,11 @@ def test_lean_step_equals_the_general_path_on_random_robots(seed: int) -> None:
         q = q * 1e-4
     stack = _stack(robot, rng, depth=int(rng.integers(1, 5)), bound=bool(seed % 2))
     if seed % 5 == 2:  # a rate limit: the window of the previous q̇ in the box (three steps)
-        _compare(robot, stack, q, steps=3, limits=rk.JointLimits(acceleration=float(rng.uniform(2.0, 20.0))))
+        _compare(
+            robot, stack, q, steps=3, qp_tol=1e-6, limits=rk.JointLimits(acceleration=float(rng.uniform(2.0, 20.0)))
+        )
     else:
-        _compare(robot, stack, q)
+        _compare(robot, stack, q, qp_tol=1e-6)
 
 
 @pytest.mark.parametrize("seed", range(12))
