@@ -226,3 +226,24 @@ def test_pinv_sigma_min_on_request_equals_the_singular_value() -> None:
     assert res.sigma_min == pytest.approx(smin, rel=1e-9)
     assert res.info["sigma_min"] == pytest.approx(smin, rel=1e-9)
     assert not res.damped and res.info["rank"] == 6
+
+
+def test_gram_diagonal_matches_is_allclose_of_the_gram_diagonal() -> None:
+    """``wqp``'s test of its lifted factor: diag(FᵀF) + δ against P's diagonal, NumPy's allclose rule."""
+    rng = np.random.default_rng(21)
+    for trial in range(400):
+        m, n = int(rng.integers(1, 12)), int(rng.integers(1, 50))
+        F = rng.normal(size=(m, n)) * 10.0 ** rng.uniform(-4, 4)
+        shift = float(10.0 ** rng.uniform(-9, 1))
+        want = np.einsum("ij,ij->j", F, F) + shift
+        diag = want.copy()
+        if trial % 3 == 1:
+            diag[int(rng.integers(n))] *= 1.0 + float(10.0 ** rng.uniform(-12, -6))  # around the 1e-9 tolerance
+        elif trial % 3 == 2:
+            diag[int(rng.integers(n))] = np.nan
+        expected = np.allclose(want, diag, rtol=1e-9, atol=1e-12 * float(np.max(np.abs(want), initial=1.0)))
+        strided = np.zeros((n, n))
+        strided.reshape(-1)[:: n + 1] = diag
+        view = strided.reshape(-1)[:: n + 1]  # the Hessian's diagonal, as wqp passes it
+        assert kernels.gram_diagonal_matches(F, shift, view, 1e-9) == expected, trial
+    assert not kernels.gram_diagonal_matches(np.ones((2, 3)), 0.0, np.ones(4), 1e-9)

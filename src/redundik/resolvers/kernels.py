@@ -603,6 +603,30 @@ def closed_form_batch(
 
 
 @_jit
+def gram_diagonal_matches(F: np.ndarray, shift: float, diag: np.ndarray, rtol: float) -> bool:
+    """diag(FᵀF) + shift equals ``diag`` to ``rtol`` relative (NumPy's ``allclose`` rule, |a − b| ≤ atol + rtol |b|,
+    with atol = 1e-12·max|diag(FᵀF) + shift|, at least 1e-12): the test that a weighted QP's Hessian is the one its
+    rows FᵀF + δI make (``wqp``'s lifted factor), in one pass."""
+    m, n = F.shape
+    if diag.shape[0] != n:
+        return False
+    g = np.empty(n)
+    big = 1.0
+    for j in range(n):
+        t = shift
+        for i in range(m):
+            t += F[i, j] * F[i, j]
+        g[j] = t
+        if abs(t) > big or t != t:
+            big = abs(t)
+    atol = 1e-12 * big
+    for j in range(n):
+        if not abs(g[j] - diag[j]) <= atol + rtol * abs(diag[j]):
+            return False
+    return True
+
+
+@_jit
 def in_box(x: np.ndarray, lb: np.ndarray, ub: np.ndarray, tol: float) -> bool:
     """True when lb − tol ≤ x ≤ ub + tol elementwise."""
     for i in range(x.shape[0]):

@@ -187,8 +187,7 @@ class WeightedQPResolver(QPResolverBase):
         if not blocks:
             return None
         F = blocks[0] if len(blocks) == 1 else np.vstack(blocks)
-        diag = np.einsum("ij,ij->j", F, F) + shift
-        if not np.allclose(diag, self._diag, rtol=1e-9, atol=1e-12 * float(np.max(np.abs(diag), initial=1.0))):
+        if not K.gram_diagonal_matches(np.ascontiguousarray(F), float(shift), self._diag, 1e-9):
             return None
         return F, float(shift)
 
