@@ -45,11 +45,11 @@ _jit = nb.njit(cache=True, nogil=True)
 JACOBI_EIG_MAX = 4
 JACOBI_SVD_MAX = 8
 #: Widest matrix (m ≤ :data:`JACOBI_SVD_MAX` rows) whose full SVD is the Jacobi SVD of its transpose plus a Householder
-#: completion of the null directions (:func:`_svd_wide`); LAPACK beyond. Measured inside compiled code: 6×10 3.4
+#: completion of the null directions (``_svd_wide``); LAPACK beyond. Measured inside compiled code: 6×10 3.4
 #: against 9.3 µs for ``np.linalg.svd``, 3×10 0.9 against 4.6, 6×20 7.3 against 13.5 (the thin SVD: 6×40 11.7 against
 #: 16.4); the completion's O(r n (n − r)) makes it lose beyond some 24 columns (6×32: 16.1 against 15.6).
 JACOBI_WIDE_MAX = 24
-#: Singular values of a wide matrix at or below this fraction of ‖M‖_F are exact zeros in :func:`_svd_wide` (their
+#: Singular values of a wide matrix at or below this fraction of ‖M‖_F are exact zeros in ``_svd_wide`` (their
 #: right singular vectors are the completion): far below any rank tolerance (``RCOND`` = 1e-10 of σ_max).
 _WIDE_NULL = 1e-14
 _JACOBI_TOL = 1e-15
@@ -113,7 +113,7 @@ def sym_eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def svd_full(M: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """U (m, k), σ (k,) descending, Vt (n, n) of M (m, n), k = min(m, n): one-sided (Hestenes) Jacobi for tall or
     square M with n ≤ :data:`JACOBI_SVD_MAX` (orthogonalises the columns of M V), the same on Mᵀ for a wide M of at
-    most that many rows and :data:`JACOBI_WIDE_MAX` columns (:func:`_svd_wide`), LAPACK (``np.linalg.svd``)
+    most that many rows and :data:`JACOBI_WIDE_MAX` columns (``_svd_wide``), LAPACK (``np.linalg.svd``)
     otherwise. Columns of U for σ = 0 are zero on the tall route (they multiply a zero inverse value)."""
     m, n = M.shape
     k = min(m, n)
@@ -130,8 +130,8 @@ def svd_full(M: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 @_jit
 def _svd_wide(M: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`svd_full` of a wide M (m < n) from the Jacobi SVD of Mᵀ = U' Σ V'ᵀ: M = V' Σ U'ᵀ, so U = V' and the
-    first rows of Vt are U'ᵀ; the directions whose σ ≤ :data:`_WIDE_NULL`·‖M‖_F (set to exact zeros) and the n − m
-    null directions are the orthonormal complement of the others (:func:`_complete_rows`). Empty arrays when M is
+    first rows of Vt are U'ᵀ; the directions whose σ ≤ ``_WIDE_NULL``·‖M‖_F (set to exact zeros) and the n − m
+    null directions are the orthonormal complement of the others (``_complete_rows``). Empty arrays when M is
     not finite (the caller's LAPACK call then reports it)."""
     m, n = M.shape
     fro2 = _frobenius2(M)
@@ -327,7 +327,7 @@ def damped_svd_thin(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, float, float]:
     """:func:`damped_svd_factors` without the null directions: Vt (k, n) has only its first k = min(m, n) rows
     (on a wide M of few rows, a fraction of the full SVD's cost — the snake's 6 × 160 level, ~10 against ~100 µs).
-    A wide M of at most :data:`JACOBI_SVD_MAX` rows takes the Jacobi SVD of Mᵀ (σ ≤ :data:`_WIDE_NULL`·‖M‖_F an
+    A wide M of at most :data:`JACOBI_SVD_MAX` rows takes the Jacobi SVD of Mᵀ (σ ≤ ``_WIDE_NULL``·‖M‖_F an
     exact zero, its row of Vt zero; measured 5.1 against 8.1 µs for LAPACK's thin SVD at 6×10, 9.1 against 17.3 at
     6×40, even at 6×160), anything else LAPACK's thin SVD."""
     m, n = M.shape
