@@ -163,6 +163,19 @@ def _frobenius2(M: np.ndarray) -> float:
 
 
 @_jit
+def _reflect(v: np.ndarray, beta: float, X: np.ndarray, j: int, c0: int) -> None:
+    """X[j:, c] ← (I − β v vᵀ) X[j:, c] for the columns c ≥ c0: a Householder reflection (v zero above j)."""
+    n = X.shape[0]
+    for c in range(c0, X.shape[1]):
+        t = 0.0
+        for i in range(j, n):
+            t += v[i] * X[i, c]
+        t *= beta
+        for i in range(j, n):
+            X[i, c] -= t * v[i]
+
+
+@_jit
 def _complete_rows(Q: np.ndarray, r: int) -> None:
     """Rows r … n − 1 of Q (n, n) set to an orthonormal basis of the complement of its first r rows (orthonormal):
     the last n − r columns of H_0 ⋯ H_{r−1}, the Householder reflections of the QR factorisation of Q[:r]ᵀ."""
@@ -184,26 +197,13 @@ def _complete_rows(Q: np.ndarray, r: int) -> None:
         if vv == 0.0:
             continue
         beta[j] = 2.0 / vv
-        for c in range(j, r):
-            t = 0.0
-            for i in range(j, n):
-                t += V[j, i] * B[i, c]
-            t *= beta[j]
-            for i in range(j, n):
-                B[i, c] -= t * V[j, i]
+        _reflect(V[j], beta[j], B, j, j)
     C = np.zeros((n, n - r))
     for c in range(n - r):
         C[r + c, c] = 1.0
     for j in range(r - 1, -1, -1):
-        if beta[j] == 0.0:
-            continue
-        for c in range(n - r):
-            t = 0.0
-            for i in range(j, n):
-                t += V[j, i] * C[i, c]
-            t *= beta[j]
-            for i in range(j, n):
-                C[i, c] -= t * V[j, i]
+        if beta[j] != 0.0:
+            _reflect(V[j], beta[j], C, j, 0)
     for c in range(n - r):
         for i in range(n):
             Q[r + c, i] = C[i, c]
