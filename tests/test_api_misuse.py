@@ -9,14 +9,20 @@ Each case used to give a silent wrong answer or a bare traceback:
   assigned were ignored (the task kept its rows and its frame id).
 * A stack stepped on another robot model kept the first model's frame id (tracking another frame, silently), and
   a posture's captured target of the first robot's size raised Pinocchio's bare ValueError.
-* ``Line.velocity`` edited in place or assigned, and ``Circle.radius`` assigned, were ignored once started.
+* ``Line.velocity`` edited in place or assigned, ``Circle.radius``, ``plane`` or ``center``, ``Hold.pose``, and a
+  ``PoseInterpolation``'s goal or duration assigned, were ignored once started (``Circle.e1``/``e2`` could be
+  assigned, to no effect).
 * ``JointLimits.position_gain`` assigned was not validated (−1 drove every joint at its velocity limit), and
   ``acceleration`` (and the other options ``bind`` reads) assigned after the first step were ignored.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import numpy as np
+import pinocchio as pin
 import pytest
 
 import redundik as rk
@@ -141,6 +147,90 @@ def test_a_started_line_or_circle_uses_new_parameters(method: str) -> None:
     np.testing.assert_allclose(got.dq, make_resolver(method).step(robot, fresh, Q0, 0.03, 0.01).dq, rtol=0, atol=1e-12)
     with pytest.raises(TaskError, match="circle radius"):
         circle.radius = -1.0
+
+
+def _after_edit(
+    method: str, make: Callable[[], Any], edit: Callable[[Any], None], fresh: rk.Trajectory, axes: str = "position"
+) -> Any:
+    """Three steps on ``make()``, ``edit`` it, then the next step equals a fresh run's on ``fresh`` (the edited
+    trajectory as it would have been built), on the fused and on the per-task path, and differs from the unedited
+    trajectory's step (the edit matters). Returns the edited trajectory."""
+    qp = method != "pinv"
+    robot = rk.load_example_robot("panda")
+
+    def stack(t: rk.Trajectory) -> rk.TaskStack:
+        return rk.TaskStack([_hand(t, qp, axes=axes), rk.PostureTask(Q0.copy(), gain=0.5)], [])
+
+    traj, kept = make(), make()
+    edited, unedited = stack(traj), stack(kept)
+    res, same = make_resolver(method), make_resolver(method)
+    _steps(res, robot, edited, 3)
+    _steps(same, robot, unedited, 3)
+    edit(traj)
+    got = res.step(robot, edited, Q0, 0.03, 0.01)
+    per_task = _per_task(method).step(robot, edited, Q0, 0.03, 0.01)
+    before = same.step(robot, unedited, Q0, 0.03, 0.01)
+    want = make_resolver(method).step(robot, stack(fresh), Q0, 0.03, 0.01)
+    np.testing.assert_allclose(got.dq, want.dq, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(per_task.dq, want.dq, rtol=0, atol=1e-12)
+    assert np.abs(got.dq - before.dq).max() > 1e-3
+    return traj
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_started_circle_uses_a_new_plane_or_centre(method: str) -> None:
+    robot = rk.load_example_robot("panda")
+    robot.update(Q0)
+    p0 = robot.frame_position("panda_hand")
+    centre = p0 - np.array([0.0, 0.05, 0.0])  # where the start pose puts it (phase 0: p0 = c + r e1)
+    circle = _after_edit(method, lambda: rk.Circle(0.05, 1.0, plane=("y", "z")),
+                         lambda c: setattr(c, "plane", ("x", "z")),
+                         rk.Circle(0.05, 1.0, plane=("x", "z"), center=centre))  # fmt: skip
+    assert circle.plane == ("x", "z") and circle.e1.tolist() == [1.0, 0.0, 0.0]
+    with pytest.raises(ValueError, match="read-only"):
+        circle.e1[0] = 2.0
+    with pytest.raises(AttributeError):
+        circle.e2 = np.array([0.0, 1.0, 0.0])  # type: ignore[misc]
+    for bad in (("x", "x"), ("x",), ("x", "w"), "xy", None, (1, 2)):
+        with pytest.raises(TaskError, match="circle plane"):
+            circle.plane = bad  # type: ignore[assignment]
+    assert circle.plane == ("x", "z")  # a refused value changes nothing
+
+    there = p0 + np.array([0.0, 0.0, 0.02])
+    circle = _after_edit(method, lambda: rk.Circle(0.05, 1.0, plane=("y", "z")), lambda c: setattr(c, "center", there),
+                rk.Circle(0.05, 1.0, plane=("y", "z"), center=there))  # fmt: skip
+    np.testing.assert_array_equal(circle.center, there)
+    with pytest.raises(TaskError, match="circle center"):
+        circle.center = [0.0, float("nan"), 0.0]
+    circle.center = None  # placed again from the start pose
+    np.testing.assert_allclose(circle.center, centre, atol=1e-15)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_started_hold_or_interpolation_uses_new_values(method: str) -> None:
+    robot = rk.load_example_robot("panda")
+    robot.update(Q0)
+    pose = robot.frame_pose("panda_hand").copy()
+    pose.translation = pose.translation + np.array([0.05, -0.02, 0.03])
+    hold = _after_edit(method, rk.Hold, lambda h: setattr(h, "pose", pose), rk.Hold(pose), axes="pose")
+    assert hold.pose is not None and np.allclose(hold.pose.homogeneous, pose.homogeneous)
+    with pytest.raises(TaskError, match="hold pose"):
+        hold.pose = np.eye(3)  # type: ignore[assignment]
+
+    goal = pose.translation
+    _after_edit(method, lambda: rk.PoseInterpolation(goal - 0.1, 2.0), lambda i: setattr(i, "goal_position", goal),
+                rk.PoseInterpolation(goal, 2.0))  # fmt: skip
+    _after_edit(method, lambda: rk.PoseInterpolation(goal, 2.0), lambda i: setattr(i, "duration", 0.5),
+                rk.PoseInterpolation(goal, 0.5))  # fmt: skip
+    R = pin.rpy.rpyToMatrix(0.1, -0.2, 0.3) @ pose.rotation
+    interp = _after_edit(method, lambda: rk.PoseInterpolation(goal, 1.0), lambda i: setattr(i, "goal_rotation", R),
+                         rk.PoseInterpolation(goal, 1.0, R), axes="pose")  # fmt: skip
+    for key, bad in (("duration", 0.0), ("duration", True), ("goal_position", [0.0, 1.0]),
+                     ("goal_rotation", 2 * np.eye(3)), ("goal_rotation", np.full((3, 3), np.nan))):  # fmt: skip
+        with pytest.raises(TaskError):
+            setattr(interp, key, bad)
+    with pytest.raises(ValueError, match="read-only"):
+        interp.goal_position[0] = 1.0
 
 
 @pytest.mark.parametrize("method", ["wqp", "hqp"])

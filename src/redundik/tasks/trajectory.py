@@ -157,10 +157,22 @@ class Hold(Trajectory):
     """
 
     def __init__(self, pose: pin.SE3 | np.ndarray | None = None) -> None:
-        self.pose = None if pose is None else _rigid(pose, "hold pose")
+        self._pose = None if pose is None else _rigid(pose, "hold pose")
+
+    @property
+    def pose(self) -> pin.SE3 | None:
+        """The given pose held (``None``: the pose captured at start). Assigning a pose (an SE3 or a rigid 4×4
+        matrix) to a started hold takes effect at the next step; assigning ``None`` keeps holding the current pose."""
+        return self._pose
+
+    @pose.setter
+    def pose(self, value: pin.SE3 | np.ndarray | None) -> None:
+        self._pose = None if value is None else _rigid(value, "hold pose")
+        if self._pose is not None and self._start is not None:
+            super().start(self._pose)  # a new parameter row: a fused step, which compares it by identity, plans again
 
     def start(self, pose: pin.SE3) -> None:
-        super().start(self.pose if self.pose is not None else pose)
+        super().start(self._pose if self._pose is not None else pose)
 
     def _prepare(self) -> None:
         self._zero = np.zeros(6)
@@ -252,17 +264,29 @@ class Circle(Trajectory):
         phase = _number(phase, "circle phase")
         if abs(radius * omega) > MAX_MAGNITUDE:
             raise TaskError(f"circle speed radius × omega = {radius * omega:g} exceeds {MAX_MAGNITUDE:g}")
-        if len(plane) != 2 or any(a not in ("x", "y", "z") for a in plane) or plane[0] == plane[1]:
-            raise TaskError(f"circle plane must be two different axes among x, y, z, got {plane}")
         self._radius, self._omega, self._phase = float(radius), float(omega), float(phase)
-        self.e1 = np.eye(3)[AXES[plane[0]]]
-        self.e2 = np.eye(3)[AXES[plane[1]]]
-        self.e1.setflags(write=False)
-        self.e2.setflags(write=False)
-        self.plane = tuple(plane)
-        self._center = None if center is None else _vec(center, 3, "circle center").copy()
-        if self._center is not None:
-            self._center.setflags(write=False)
+        self._set_plane(plane)
+        self._set_center(center)
+
+    def _set_plane(self, plane: object) -> None:
+        if (
+            not isinstance(plane, (tuple, list))
+            or len(plane) != 2
+            or any(not isinstance(a, str) or a not in ("x", "y", "z") for a in plane)
+            or plane[0] == plane[1]
+        ):
+            raise TaskError(f"circle plane must be two different axes among x, y, z, got {plane!r:.80}")
+        e1, e2 = np.eye(3)[AXES[plane[0]]], np.eye(3)[AXES[plane[1]]]
+        e1.setflags(write=False)
+        e2.setflags(write=False)
+        self._e1, self._e2, self._plane = e1, e2, (str(plane[0]), str(plane[1]))
+
+    def _set_center(self, center: Sequence[float] | np.ndarray | None) -> None:
+        c = None if center is None else _vec(center, 3, "circle center").copy()
+        if c is not None:
+            c.setflags(write=False)
+        self._center = c
+        self._prepared_for = None  # the centre is found again for the start (``_prepare``)
 
     # radius, omega, phase: validated on assignment, and a started circle's compiled parameter row is made again
     # (a fused step compares it by identity), so that a new value is used from the next step on, not ignored
@@ -301,12 +325,42 @@ class Circle(Trajectory):
         self._set(self._radius, self._omega, _number(value, "circle phase"))
 
     @property
+    def plane(self) -> tuple[str, str]:
+        """The two world axes spanning the circle's plane (e1, e2). Assigning two other axes takes effect at the
+        next step, about the same centre."""
+        return self._plane
+
+    @plane.setter
+    def plane(self, value: tuple[str, str]) -> None:
+        self._set_plane(value)
+        if self._start is not None:
+            self._prepare()
+
+    @property
+    def e1(self) -> np.ndarray:
+        """The unit vector of the plane's first axis (read-only; set :attr:`plane`)."""
+        return self._e1
+
+    @property
+    def e2(self) -> np.ndarray:
+        """The unit vector of the plane's second axis (read-only; set :attr:`plane`)."""
+        return self._e2
+
+    @property
     def center(self) -> np.ndarray:
-        """The circle's centre in the world frame."""
+        """The circle's centre in the world frame: the given one, or the one that puts the start on the circle at
+        phase φ. Assigning a centre (3 finite numbers) takes effect at the next step; assigning ``None`` places it
+        again from the start pose with the current radius, plane and phase."""
         if self._center is not None:
             return self._center
         p0 = self.start_pose.translation
         return p0 - self.radius * (np.cos(self.phase) * self.e1 + np.sin(self.phase) * self.e2)
+
+    @center.setter
+    def center(self, value: Sequence[float] | np.ndarray | None) -> None:
+        self._set_center(value)
+        if self._start is not None:
+            self._prepare()
 
     def _prepare(self) -> None:
         if self._prepared_for is not self._start:  # the centre of this start (kept on a new r, φ)
@@ -341,19 +395,77 @@ class PoseInterpolation(Trajectory):
     """
 
     def __init__(self, position: Sequence[float], duration: float, rotation: np.ndarray | None = None) -> None:
+        self._duration = self._checked_duration(duration)
+        self._goal_position = self._checked_position(position)
+        self._goal_rotation = self._checked_rotation(rotation)
+
+    # goal and duration: validated on assignment; a started interpolation is prepared again from the same start, so
+    # that a new value is used from the next step on, not ignored
+    @staticmethod
+    def _checked_duration(duration: object) -> float:
         if isinstance(duration, bool) or not isinstance(duration, (int, float, np.integer, np.floating)):
             raise TaskError(f"pose interpolation duration must be a number [s], got {type(duration).__name__}")
         if not (np.isfinite(duration) and duration > 0):
-            raise TaskError(f"pose interpolation duration must be > 0, got {duration}")
-        self.goal_position = _vec(position, 3, "goal position")
-        if rotation is not None and np.asarray(rotation).dtype.kind not in "fiu":
+            raise TaskError(f"pose interpolation duration must be > 0 [s], got {duration}")
+        return float(duration)
+
+    @staticmethod
+    def _checked_position(position: Sequence[float] | np.ndarray) -> np.ndarray:
+        p = _vec(position, 3, "goal position").copy()
+        p.setflags(write=False)
+        return p
+
+    @staticmethod
+    def _checked_rotation(rotation: np.ndarray | None) -> np.ndarray | None:
+        if rotation is None:
+            return None
+        if np.asarray(rotation).dtype.kind not in "fiu":
             raise TaskError(f"goal rotation must be a 3×3 matrix of numbers, got {type(rotation).__name__}")
-        self.goal_rotation = None if rotation is None else np.asarray(rotation, dtype=float)
-        if self.goal_rotation is not None:
-            r = self.goal_rotation
-            if r.shape != (3, 3) or not np.allclose(r @ r.T, np.eye(3), atol=1e-6) or np.linalg.det(r) < 0:
-                raise TaskError("goal rotation must be a proper 3×3 rotation matrix")
-        self.duration = float(duration)
+        r = np.array(rotation, dtype=float)
+        if (
+            r.shape != (3, 3)
+            or not np.all(np.isfinite(r))
+            or not np.allclose(r @ r.T, np.eye(3), atol=1e-6)
+            or np.linalg.det(r) < 0
+        ):
+            raise TaskError("goal rotation must be a proper 3×3 rotation matrix")
+        r.setflags(write=False)
+        return r
+
+    def _changed(self) -> None:
+        if self._start is not None:
+            self._prepare()
+
+    @property
+    def duration(self) -> float:
+        """T [s] > 0; an assignment takes effect at the next step (from the same start, at the same t)."""
+        return self._duration
+
+    @duration.setter
+    def duration(self, value: float) -> None:
+        self._duration = self._checked_duration(value)
+        self._changed()
+
+    @property
+    def goal_position(self) -> np.ndarray:
+        """Goal position [length] (3,), read-only; assigning a new one takes effect at the next step."""
+        return self._goal_position
+
+    @goal_position.setter
+    def goal_position(self, value: Sequence[float] | np.ndarray) -> None:
+        self._goal_position = self._checked_position(value)
+        self._changed()
+
+    @property
+    def goal_rotation(self) -> np.ndarray | None:
+        """Goal rotation (3×3, read-only), or ``None`` for the start orientation; an assignment takes effect at the
+        next step."""
+        return self._goal_rotation
+
+    @goal_rotation.setter
+    def goal_rotation(self, value: np.ndarray | None) -> None:
+        self._goal_rotation = self._checked_rotation(value)
+        self._changed()
 
     def _prepare(self) -> None:
         r1 = self._R0 if self.goal_rotation is None else self.goal_rotation
