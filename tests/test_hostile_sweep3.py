@@ -106,6 +106,16 @@ def test_run_into_the_root_is_refused_before_running(cli: Cli, tmp_path: Path, m
         (SWEEP.replace("plane: [x, z]", "plane: [x, x]"), "error: figure.plane: expected two different axes"),
         (SWEEP.replace(f"robot: {CONFIGS}/panda.yaml", "robot: 5"), "error: robot: expected a config path"),
         (TASK.replace(f"robot: {CONFIGS}/planar3r.yaml", "robot: [a]"), "error: robot: expected a config path"),
+        # YAML 1.1 reads an unquoted on/off/yes/no as a boolean: the error says so
+        (
+            TASK.replace("name: planar3r_line", "name: on"),
+            "error: name: expected a string, got True (YAML reads an unquoted yes, no, on, off, true or false as a "
+            "boolean: quote the text, e.g. 'on')",
+        ),
+        (
+            TASK.replace("resolver: feedback", "resolver: off"),
+            "error: runs.feedback.resolver: expected a string, got False (YAML reads",
+        ),
     ],
 )
 def test_the_error_reported_is_the_one_the_user_made(cli: Cli, tmp_path: Path, text: str, expected: str) -> None:
@@ -285,3 +295,13 @@ def test_the_cli_parser_keeps_paths_and_defaults() -> None:
     assert path_value(".") == Path(".")
     assert path_value(Path("a")) == Path("a")
     assert os.fspath(path_value("/tmp")) == "/tmp"
+
+
+def test_a_value_refused_by_every_member_of_a_union_counts_as_one_error(cli: Cli, tmp_path: Path) -> None:
+    """A union reports one error per member at the same key: they are one mistake, not "(and 1 more error)"."""
+    code, _, err = cli("validate", _write(tmp_path, SWEEP.replace("x: {start: -1.0, stop: 1.0, num: 2}", "x: abc")))
+    _one_line_error(code, err)
+    assert err == "error: targets.grid.x: expected a number, got 'abc'\n", err
+    two = SWEEP.replace("x: {start: -1.0, stop: 1.0, num: 2}", "x: abc").replace("y: 0.0", "y: def")
+    code, _, err = cli("validate", _write(tmp_path, two))
+    assert err == "error: targets.grid.x: expected a number, got 'abc' (and 1 more error)\n", err  # two keys: two

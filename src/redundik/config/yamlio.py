@@ -353,6 +353,13 @@ def _short(value: Any) -> str:
     return short_repr(value, 60)
 
 
+def _yaml_bool_hint(got: object) -> str:
+    """For a boolean where text was expected: YAML 1.1 (PyYAML) reads an unquoted yes/no/on/off as true/false."""
+    if isinstance(got, bool):
+        return " (YAML reads an unquoted yes, no, on, off, true or false as a boolean: quote the text, e.g. 'on')"
+    return ""
+
+
 def _message(err: dict[str, Any], allowed: list[str] | None, bounds: tuple[int | None, int | None]) -> str:
     kind = err["type"]
     ctx = err.get("ctx") or {}
@@ -376,7 +383,7 @@ def _message(err: dict[str, Any], allowed: list[str] | None, bounds: tuple[int |
     if kind == "finite_number":
         return f"expected a finite number, got {_short(got)}"
     if kind == "string_type":
-        return f"expected a string, got {_short(got)}"
+        return f"expected a string, got {_short(got)}{_yaml_bool_hint(got)}"
     if kind == "bool_type":
         return f"expected true or false, got {_short(got)}"
     if kind == "list_type":
@@ -384,7 +391,7 @@ def _message(err: dict[str, Any], allowed: list[str] | None, bounds: tuple[int |
     if kind in ("dict_type", "model_type", "model_attributes_type"):
         return f"expected a mapping, got {_short(got)}"
     if kind == "literal_error":
-        return f"expected one of {ctx.get('expected', '?')}, got {_short(got)}"
+        return f"expected one of {ctx.get('expected', '?')}, got {_short(got)}{_yaml_bool_hint(got)}"
     if kind in ("too_short", "too_long"):
         lo = ctx.get("min_length", bounds[0])
         hi = ctx.get("max_length", bounds[1])
@@ -460,14 +467,16 @@ def config_error(exc: ValidationError, model: type[BaseModel], prefix: str = "")
     errors = _relevant(exc.errors())
     err = errors[0]
     loc = tuple(p for p in err["loc"] if not _is_union_label(p))
+    # the other errors, counted once per key path (a union reports one error per member at the same path)
+    others = {tuple(p for p in e["loc"] if not _is_union_label(p)) for e in errors[1:]} - {loc}
     if err["type"] == "invalid_key":  # the key itself is the last part: the error belongs to its mapping
         loc = loc[:-1]
     allowed = _allowed_keys(model, loc[:-1]) if err["type"] == "extra_forbidden" else None
     path = join_path(prefix, *loc) if loc else (prefix.rstrip(": ") or "(top level)")
     bounds = _length_bounds(model, loc) if err["type"] in ("too_short", "too_long") else (None, None)
     msg = _message(dict(err, loc=loc), allowed, bounds)
-    if len(errors) > 1:
-        msg += f" (and {len(errors) - 1} more error{'s' if len(errors) > 2 else ''})"
+    if others:
+        msg += f" (and {len(others)} more error{'s' if len(others) > 1 else ''})"
     return ConfigError(msg, path)
 
 
