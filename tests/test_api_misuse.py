@@ -313,3 +313,100 @@ def test_a_valid_subtask_number_assigned_between_ticks_takes_effect(
     fresh.step(robot, fresh_stack, _Q0, 0.0, 0.01)
     want = fresh.step(robot, fresh_stack, _Q0, 0.01, 0.01)
     np.testing.assert_allclose(got.dq, want.dq, rtol=0, atol=1e-12)
+
+
+# --------------------------------------------------------------------------- frame potentials' members
+_PANDA_LINKS = ("panda_link4", "panda_link6")
+
+
+def _frame_potentials() -> list[tuple[str, Callable[[], Any], str, object, Callable[[], Any]]]:
+    """(label, the potential as built, the member assigned, the value, the potential built with that value)."""
+    C, P = rk.Clearance, rk.VirtualPoint
+    return [
+        ("clearance.frame", lambda: C("panda_link4", [0.3, 0.2, 0.4], 0.05), "frame", "panda_link6",
+         lambda: C("panda_link6", [0.3, 0.2, 0.4], 0.05)),
+        ("clearance.axes", lambda: C("panda_link4", [0.3, 0.2, 0.4], 0.05), "axes", ("x", "z"),
+         lambda: C("panda_link4", [0.3, 0.2, 0.4], 0.05, axes=("x", "z"))),
+        ("clearance.center", lambda: C("panda_link4", [0.3, 0.2, 0.4], 0.05), "center", [0.1, -0.2, 0.5],
+         lambda: C("panda_link4", [0.1, -0.2, 0.5], 0.05)),
+        ("clearance.radius", lambda: C("panda_link4", [0.3, 0.2, 0.4], 0.05), "radius", 0.2,
+         lambda: C("panda_link4", [0.3, 0.2, 0.4], 0.2)),
+        ("virtual_point.frame", lambda: P("panda_link4", [0.3, 0.2, 0.4]), "frame", "panda_link6",
+         lambda: P("panda_link6", [0.3, 0.2, 0.4])),
+        ("virtual_point.point", lambda: P("panda_link4", [0.3, 0.2, 0.4]), "point", [0.0, 0.1, 0.2],
+         lambda: P("panda_link4", [0.0, 0.1, 0.2])),
+        ("manipulability.frame", lambda: rk.Manipulability("panda_link4"), "frame", "panda_hand",
+         lambda: rk.Manipulability("panda_hand")),
+        ("manipulability.axes", lambda: rk.Manipulability("panda_hand"), "axes", "position",
+         lambda: rk.Manipulability("panda_hand", axes="position")),
+        ("best_posture.frames", lambda: rk.BestPosture("panda_link4", axes="position"), "frames",
+         ["panda_hand", "panda_link6"], lambda: rk.BestPosture(["panda_hand", "panda_link6"], axes="position")),
+    ]  # fmt: skip
+
+
+@pytest.mark.parametrize("case", _frame_potentials(), ids=lambda c: c[0])
+def test_a_frame_potential_member_assigned_after_use_is_used(case: tuple[Any, ...]) -> None:
+    """An assigned frame used to keep the first frame's id (the potential measured the old frame, silently); an
+    assigned axes kept the old rows; a NaN centre or a negative radius reached the rows."""
+    _, make, attr, value, fresh = case
+    robot = rk.load_example_robot("panda")
+    robot.update(_Q0)
+    pot = make()
+    pot.check(robot)
+    before = pot.value(robot), pot.gradient(robot)
+    setattr(pot, attr, value)
+    want = fresh()
+    want.check(robot)
+    assert pot.value(robot) == pytest.approx(want.value(robot), abs=1e-14)
+    np.testing.assert_allclose(pot.gradient(robot), want.gradient(robot), rtol=0, atol=1e-14)
+    assert abs(pot.value(robot) - before[0]) > 1e-6  # (the assignment changed something)
+
+
+@pytest.mark.parametrize(
+    ("make", "attr", "bad"),
+    [(lambda: rk.Clearance("panda_link4", [0, 0, 0]), "center", [0.0, float("nan"), 0.0]),
+     (lambda: rk.Clearance("panda_link4", [0, 0, 0]), "center", [0.0, 1.0]),
+     (lambda: rk.Clearance("panda_link4", [0, 0, 0]), "radius", -0.1),
+     (lambda: rk.Clearance("panda_link4", [0, 0, 0]), "radius", float("inf")),
+     (lambda: rk.Clearance("panda_link4", [0, 0, 0]), "axes", ("x", "rz")),
+     (lambda: rk.Clearance("panda_link4", [0, 0, 0]), "frame", ""),
+     (lambda: rk.VirtualPoint("panda_link4", [0, 0, 0]), "point", "abc"),
+     (lambda: rk.Manipulability("panda_link4"), "axes", ("x", "w")),
+     (lambda: rk.BestPosture("panda_link4"), "frames", [])],
+)  # fmt: skip
+def test_a_frame_potential_member_assigned_a_bad_value_is_refused(make: Any, attr: str, bad: object) -> None:
+    pot = make()
+    with pytest.raises(TaskError, match=f"subtask '{pot.name}'"):
+        setattr(pot, attr, bad)
+
+
+@pytest.mark.parametrize("method", ["wqp", "hqp"])
+def test_a_bound_clearance_moved_between_steps_is_used(method: str) -> None:
+    """A moving obstacle: the clearance's assigned centre and radius reach the next step, fused or not (its centre
+    is read-only: a fused step packs it)."""
+    robot = rk.load_example_robot("panda")
+    robot.update(_Q0)
+    p = robot.frame_position("panda_link4")
+
+    def stack(center: np.ndarray, radius: float) -> rk.TaskStack:
+        bound = rk.BoundSubtask(rk.Clearance("panda_link4", center, radius, axes=("x", "y")), lower=0.05,
+                                rate=10.0, priority=1)  # fmt: skip
+        return rk.TaskStack([_hand(rk.Circle(0.05, 2.0, ("y", "z")), True), rk.PostureTask(_Q0.copy(), gain=0.5,
+                            priority=2)], [bound])  # fmt: skip
+
+    far = p + np.array([0.0, 0.5, 0.0])
+    near = p + np.array([0.0, 0.10, 0.0])  # 10 cm − r 6 cm = 4 cm, under the 5 cm margin: the link must move off
+    moving = stack(far, 0.05)
+    res = make_resolver(method)
+    _steps(res, robot, moving, 3)
+    clear = moving.subtasks[0].source
+    with pytest.raises(ValueError, match="read-only"):
+        clear.center[1] = near[1]
+    clear.center, clear.radius = near, 0.06
+    got = res.step(robot, moving, _Q0, 0.03, 0.01)
+    want = make_resolver(method).step(robot, stack(near, 0.06), _Q0, 0.03, 0.01)
+    per_task = _per_task(method).step(robot, moving, _Q0, 0.03, 0.01)
+    np.testing.assert_allclose(got.dq, want.dq, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(per_task.dq, want.dq, rtol=0, atol=1e-9)
+    unmoved = make_resolver(method).step(robot, stack(far, 0.05), _Q0, 0.03, 0.01)
+    assert np.abs(got.dq - unmoved.dq).max() > 1e-4

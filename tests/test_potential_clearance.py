@@ -43,14 +43,16 @@ def test_clearance_equals_the_numpy_formula(name: str) -> None:
 
 
 def test_clearance_follows_moved_centres_radii_and_robots() -> None:
-    """The centre and radius are read at every call (moved in place or replaced), and a second robot's data gets
-    its own views."""
+    """An assigned centre and radius are used at the next call (the centre is read-only: an edit in place is
+    refused, as a fused step packs it), and a second robot's data gets its own views."""
     a, b = rk.load_example_robot("panda"), rk.load_example_robot("panda")
     rng = np.random.default_rng(2)
     c = Clearance("panda_link4", [0.3, 0.1, 0.4], radius=0.05, axes=("x", "y"))
     for robot in (a, b, a):
         robot.update(robot.random_configuration(rng))
-        c.center[1] += 0.01
+        with pytest.raises(ValueError, match="read-only"):
+            c.center[1] += 0.01
+        c.center = c.center + np.array([0.0, 0.01, 0.0])
         c.radius += 0.01
         p0, g0 = _reference(c, robot)
         p1, g1 = c.value_and_gradient(robot)

@@ -8,13 +8,13 @@ finite differences.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from redundik.errors import TaskError
 from redundik.kinematics.model import AXES, RobotModel
-from redundik.tasks.base import Potential
+from redundik.tasks.base import Edits, Potential, check_number
 from redundik.tasks.frame import resolve_axes
 
 
@@ -211,13 +211,54 @@ class JointCentering(Potential):
 
 
 class _FramePotential(Potential):
+    """A potential of one frame's motion: ``frame``, ``axes`` (and the twist ``rows`` they select) are validated on
+    assignment, and an assigned frame is looked up again at the next step (it used to keep the first frame's id:
+    the potential silently measured the old frame)."""
+
+    #: Only position axes (x, y, z) make sense for this potential.
+    _position_only: ClassVar[bool] = False
+
     def __init__(self, frame: str, axes: str | Sequence[str], name: str) -> None:
-        if not isinstance(frame, str) or not frame:
-            raise TaskError(f"subtask '{name}': frame must be a frame name (a string), got {frame!r}")
-        self.frame = frame
-        self.axes = resolve_axes(axes)
         self.name = name
         self._fid = -1
+        self.frame = frame
+        self.axes = axes  # (the setter takes a name or a list, keeps a tuple)
+
+    @property
+    def frame(self) -> str:
+        """The frame's name; an assignment takes effect at the next step (its id looked up again)."""
+        return self._frame
+
+    @frame.setter
+    def frame(self, value: str) -> None:
+        if not isinstance(value, str) or not value:
+            raise TaskError(f"subtask '{self.name}': frame must be a frame name (a string), got {value!r:.80}")
+        self._frame = value
+        self._fid = -1
+        Edits.count += 1
+
+    @property
+    def axes(self) -> tuple[str, ...]:
+        """The axes that count (a name of ``AXIS_SETS`` or a list of axes on assignment)."""
+        return self._axes
+
+    @axes.setter
+    def axes(self, value: str | Sequence[str]) -> None:
+        try:
+            axes = resolve_axes(value)
+        except TaskError as exc:
+            raise TaskError(f"subtask '{self.name}': {exc}") from None
+        if self._position_only and any(a not in ("x", "y", "z") for a in axes):
+            raise TaskError(f"subtask '{self.name}': axes must be among x, y, z, got {list(axes)}")
+        rows = np.array([AXES[a] for a in axes], dtype=np.int64)
+        rows.setflags(write=False)
+        self._axes, self._rows = axes, rows
+        Edits.count += 1
+
+    @property
+    def rows(self) -> np.ndarray:
+        """The twist rows :attr:`axes` select (read-only: assign ``axes``)."""
+        return self._rows
 
     def check(self, robot: RobotModel) -> None:
         try:
@@ -229,6 +270,13 @@ class _FramePotential(Potential):
         if self._fid < 0:
             self.check(robot)
         return self._fid
+
+
+def _point(value: Sequence[float] | np.ndarray, what: str) -> np.ndarray:
+    """A read-only copy of a finite point (3,) [m]."""
+    arr = _finite_vec(value, what, 3).copy()
+    arr.setflags(write=False)
+    return arr
 
 
 class VirtualPoint(_FramePotential):
@@ -252,10 +300,18 @@ class VirtualPoint(_FramePotential):
         name: str | None = None,
     ) -> None:
         super().__init__(frame, axes, name or f"virtual_point_{frame}")
-        if any(a not in ("x", "y", "z") for a in self.axes):
-            raise TaskError(f"subtask '{self.name}': axes must be among x, y, z")
-        self.point = _finite_vec(point, f"subtask '{self.name}': point", 3)
-        self.rows = np.array([AXES[a] for a in self.axes])
+        self.point = point
+
+    _position_only = True
+
+    @property
+    def point(self) -> np.ndarray:
+        """p_v [m] (3,), read-only; an assigned point (3 finite numbers) is used from the next step."""
+        return self._point
+
+    @point.setter
+    def point(self, value: Sequence[float] | np.ndarray) -> None:
+        self._point = _point(value, f"subtask '{self.name}': point")
 
     def _mu(self, robot: RobotModel) -> np.ndarray:
         return (robot.frame_position(self._id(robot)) - self.point)[self.rows]
@@ -290,18 +346,37 @@ class Clearance(_FramePotential):
         axes: str | Sequence[str] = "position",
         name: str | None = None,
     ) -> None:
-        super().__init__(frame, axes, name or f"clearance_{frame}")
-        if any(a not in ("x", "y", "z") for a in self.axes):
-            raise TaskError(f"subtask '{self.name}': axes must be among x, y, z")
-        if not (np.isfinite(radius) and radius >= 0):
-            raise TaskError(f"subtask '{self.name}': radius must be ≥ 0, got {radius}")
-        self.center = _finite_vec(center, f"subtask '{self.name}': center", 3)
-        self.radius = float(radius)
-        self.rows = np.array([AXES[a] for a in self.axes], dtype=np.int64)
         #: What the kernel reads for one robot's data: (data, frame id, p_f, data.J, supporting columns, J6 scratch,
         #: the kernel),
         #: p_f and data.J views on Pinocchio's memory, or ``None`` when those could not be verified.
         self._views: tuple[Any, ...] | None = None
+        super().__init__(frame, axes, name or f"clearance_{frame}")
+        self.center = center
+        self.radius = radius
+
+    _position_only = True
+
+    # centre and radius: validated on assignment (a NaN centre or a negative radius used to reach the rows); each
+    # assignment moves ``Edits``, which a fused step's packed copy of them compares
+    @property
+    def center(self) -> np.ndarray:
+        """p_o [m] (3,), read-only; an assigned centre (3 finite numbers) is used from the next step."""
+        return self._center
+
+    @center.setter
+    def center(self, value: Sequence[float] | np.ndarray) -> None:
+        self._center = _point(value, f"subtask '{self.name}': center")
+        Edits.count += 1
+
+    @property
+    def radius(self) -> float:
+        """r [m] ≥ 0; an assignment is used from the next step."""
+        return self._radius
+
+    @radius.setter
+    def radius(self, value: float) -> None:
+        self._radius = check_number(value, f"subtask '{self.name}': radius", low=0.0)
+        Edits.count += 1
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickled and copied without the views (they belong to one robot's data; rebuilt on first use)."""
@@ -365,7 +440,6 @@ class Manipulability(_FramePotential):
 
     def __init__(self, frame: str, axes: str | Sequence[str] = "pose", name: str | None = None) -> None:
         super().__init__(frame, axes, name or f"manipulability_{frame}")
-        self.rows = np.array([AXES[a] for a in self.axes])
 
     def value(self, robot: RobotModel) -> float:
         J = robot.frame_jacobian(self._id(robot))[self.rows]
@@ -404,16 +478,28 @@ class BestPosture(Potential):
         axes: str | Sequence[str] = "pose",
         name: str = "best_posture",
     ) -> None:
-        self.frames = [frames] if isinstance(frames, str) else list(frames)
-        if not self.frames:
-            raise TaskError(f"subtask '{name}': needs at least one frame")
+        self.name = name
+        self._fids: list[int] = []
+        self.frames = frames
         self.axes = resolve_axes(axes)
         self.rows = np.array([AXES[a] for a in self.axes])
-        self.name = name
         self.weights = None if weights is None else _finite_vec(weights, f"subtask '{name}': weights")
         if self.weights is not None and np.any(self.weights <= 0):
             raise TaskError(f"subtask '{name}': weights must be > 0 (W is positive definite)")
-        self._fids: list[int] = []
+
+    @property
+    def frames(self) -> tuple[str, ...]:
+        """The frames' names; an assignment (one name or several) takes effect at the next step (their ids looked
+        up again)."""
+        return self._frames
+
+    @frames.setter
+    def frames(self, value: str | Sequence[str]) -> None:
+        names = (value,) if isinstance(value, str) else tuple(value)
+        if not names or not all(isinstance(f, str) and f for f in names):
+            raise TaskError(f"subtask '{self.name}': frames must be one frame name or several, got {value!r:.80}")
+        self._frames = names
+        self._fids = []
 
     def check(self, robot: RobotModel) -> None:
         try:

@@ -72,6 +72,7 @@ class _Number:
     def __set__(self, obj: object, value: float) -> None:
         what = f"subtask '{getattr(obj, 'name', '?')}': {self.label}"
         setattr(obj, self.slot, check_number(value, what, low=self.low, strict=self.strict))
+        Edits.count += 1  # (a fused step's packed copy compares it)
 
 
 class Subtask(ABC):
@@ -88,6 +89,7 @@ class Subtask(ABC):
     @name.setter
     def name(self, value: str) -> None:
         self._name = check_name(value, f"{type(self).__name__}")
+        Edits.count += 1  # (a fused step's packed row names compare it)
 
     @abstractmethod
     def check(self, robot: RobotModel) -> None:
@@ -266,6 +268,7 @@ class BoundSubtask(Subtask):
         lower = None if value is None else check_number(value, f"subtask '{self.name}': lower")
         self._check_bounds(lower, self._upper)
         self._lower = lower
+        Edits.count += 1
 
     @property
     def upper(self) -> float | None:
@@ -277,6 +280,7 @@ class BoundSubtask(Subtask):
         upper = None if value is None else check_number(value, f"subtask '{self.name}': upper")
         self._check_bounds(self._lower, upper)
         self._upper = upper
+        Edits.count += 1
 
     rate = _Number("rate (K)", low=0.0)
 
