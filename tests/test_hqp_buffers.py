@@ -277,3 +277,57 @@ def test_a_copied_or_pickled_resolver_steps_as_the_original(method: str) -> None
             b = twin.step(robot, stack, qb, k * dt, dt)
             np.testing.assert_array_equal(a.dq, b.dq)
             qa, qb = robot.integrate(qa, a.dq, dt), robot.integrate(qb, b.dq, dt)
+
+
+def _clearance_stack(robot: rk.RobotModel, q0: np.ndarray, rng: np.random.Generator) -> rk.TaskStack:
+    """The Panda circle with 1–3 clearance bounds of random kinds: lower, upper or both, 1–3 axes, rate 0 or not,
+    some active at the start (a centre near the link), at levels 1 and 2."""
+    robot.update(q0)
+    bounds: list[rk.Subtask] = []
+    for i in range(int(rng.integers(1, 4))):
+        frame = str(rng.choice(["panda_link3", "panda_link4", "panda_link6", "panda_hand"]))
+        axes = [("x", "y"), ("x", "y", "z"), ("z",)][int(rng.integers(3))]
+        centre = robot.frame_position(frame) + rng.normal(0.0, 0.15, 3)
+        kind = int(rng.integers(3))
+        lower = float(rng.uniform(0.0, 0.2)) if kind != 1 else None
+        upper = float(rng.uniform(0.3, 0.6)) if kind != 0 else None
+        rate = 0.0 if rng.random() < 0.3 else float(rng.uniform(1.0, 50.0))
+        clear = rk.Clearance(frame, centre, radius=float(rng.uniform(0.0, 0.05)), axes=axes, name=f"c{i}")
+        bounds.append(rk.BoundSubtask(clear, lower=lower, upper=upper, rate=rate, priority=int(rng.integers(1, 3))))
+    hand = rk.FrameTask("panda_hand", rk.Circle(0.05, 2.0, ("y", "z")), gain=1.0, priority=0)
+    return rk.TaskStack([hand, rk.PostureTask(q0.copy(), gain=0.5, priority=3)], bounds)
+
+
+def test_packed_clearance_rows_equal_the_python_rows(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The fused step's compiled damper rows of clearance bounds (``fused_kernels.clearance_rows``) are bitwise those
+    ``BoundSubtask.rows_into`` writes: the same q̇ and the same diagnostics over random stacks, on closed-form and on
+    QP steps, with a centre, a bound and a rate assigned between steps."""
+    robot, twin = rk.load_example_robot("panda"), rk.load_example_robot("panda")
+    q0 = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.02, 0.02])
+    packed_steps = qp_steps = 0
+    for seed in range(12):
+        a, b = (
+            _clearance_stack(robot, q0, np.random.default_rng(seed)),
+            _clearance_stack(twin, q0, np.random.default_rng(seed)),
+        )
+        ra, rb = rk.make_resolver("hqp"), rk.make_resolver("hqp")
+        qa, qb = q0.copy(), q0.copy()
+        for k in range(60):
+            if k == 30:  # a moving obstacle, a new margin and rate, on both
+                for stack in (a, b):
+                    sub = stack.subtasks[0]
+                    sub.source.center = sub.source.center + np.array([0.0, 0.02, -0.01])
+                    sub.rate = 5.0
+                    if sub.lower is not None:
+                        sub.lower = sub.lower + 0.01
+            with monkeypatch.context() as m:
+                m.setattr(_Plan, "_pack_bounds", lambda self, robot: None)  # the Python rows (fused_bounds)
+                want = rb.step(twin, b, qb, 0.01 * k, 0.01)
+            got = ra.step(robot, a, qa, 0.01 * k, 0.01)
+            assert ra._plan is not None and rb._plan is not None
+            packed_steps += ra._plan._packed is not None
+            qp_steps += bool(got.info["qp"])
+            np.testing.assert_array_equal(got.dq, want.dq)
+            assert dict(got.info) == dict(want.info) and got.fallback == want.fallback
+            qa, qb = robot.integrate(qa, got.dq, 0.01), twin.integrate(qb, want.dq, 0.01)
+    assert packed_steps >= 12 * 59 and qp_steps > 20, (packed_steps, qp_steps)  # (a first step is not fused)

@@ -49,6 +49,12 @@ REF = 18
 #: then the offsets in ``floats`` of the trajectory parameters (K × 23), joint targets (J × nq), null weights (N × nv)
 #: and null centres (N × nq), then the offsets in ``ints`` of the frame ids (K) and the supporting columns (K × nv).
 HEADER = 22
+#: Columns of a packed bound subtask's integer row (``fused_kernels.clearance_rows``): frame id, first row of C,
+#: lower bound set, upper bound set, the number of axes, then the axes (indices into x, y, z).
+B_FID, B_ROW, B_LOWER, B_UPPER, B_NAXES, B_AXES = 0, 1, 2, 3, 4, 5
+#: Columns of a packed bound subtask's float row: the centre (3) [m], the radius [m], lower, upper [m], the rate K
+#: [1/s].
+B_CENTER, B_RADIUS, B_LO, B_UP, B_RATE = 0, 3, 4, 5, 6
 
 
 class FusedPlan:

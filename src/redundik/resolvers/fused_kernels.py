@@ -23,8 +23,22 @@ import math
 
 import numpy as np
 
-from redundik.resolvers.fused import HEADER, REF
-from redundik.resolvers.hqp_kernels import closed_step
+from redundik.resolvers.fused import (
+    B_AXES,
+    B_CENTER,
+    B_FID,
+    B_LO,
+    B_LOWER,
+    B_NAXES,
+    B_RADIUS,
+    B_RATE,
+    B_ROW,
+    B_UP,
+    B_UPPER,
+    HEADER,
+    REF,
+)
+from redundik.resolvers.hqp_kernels import clearance_into, closed_step
 from redundik.resolvers.kernels import (
     _jit,
     closed_form_into,
@@ -341,6 +355,47 @@ def pinv_work_views(work: np.ndarray, K: int, m: int, nv: int) -> tuple[np.ndarr
 
 
 @_jit
+def clearance_rows(
+    Jw: np.ndarray,
+    poses: np.ndarray,
+    dt: float,
+    bint: np.ndarray,
+    bcols: np.ndarray,
+    bfl: np.ndarray,
+    C: np.ndarray,
+    d: np.ndarray,
+) -> None:
+    """The damper rows of bound subtasks on clearances (``BoundSubtask.rows_into`` on a ``Clearance``, the same
+    operations in the same order): per packed bound, p and −η (a lower bound) or η into C's row ``bint[k, B_ROW]``
+    (``clearance_into``, from the joint Jacobians ``Jw`` and the frame's origin in ``poses``), d = γ (p − lower) and,
+    with an upper bound too, the row −C, d = γ (upper − p); γ = min(K or 1/dt, 1/dt) [1/s]. ``bint``, ``bfl``: a
+    row per bound (columns ``B_FID`` … and ``B_CENTER`` … of :mod:`redundik.resolvers.fused`); ``bcols``: per bound,
+    the columns of the joints that support its frame.
+    """
+    nv = C.shape[1]
+    J6 = np.empty((6, nv))
+    cap = 1.0 / dt
+    for k in range(bint.shape[0]):
+        ib, fb = bint[k], bfl[k]
+        fid, row = ib[B_FID], ib[B_ROW]
+        lower, upper = ib[B_LOWER] != 0, ib[B_UPPER] != 0
+        rate = fb[B_RATE]
+        gamma = cap if rate == 0 else min(rate, cap)
+        p = clearance_into(
+            Jw, poses[fid, 9:12], bcols[k], ib[B_AXES : B_AXES + ib[B_NAXES]], fb[B_CENTER : B_CENTER + 3],
+            fb[B_RADIUS], J6, True, C[row], -1.0 if lower else 1.0,
+        )  # fmt: skip
+        if lower:
+            d[row] = gamma * (p - fb[B_LO])
+            if upper:
+                for c in range(nv):
+                    C[row + 1, c] = -C[row, c]
+                d[row + 1] = gamma * (fb[B_UP] - p)
+        else:
+            d[row] = gamma * (fb[B_UP] - p)
+
+
+@_jit
 def fused_hqp_step(
     Jw: np.ndarray,
     poses: np.ndarray,
@@ -362,6 +417,9 @@ def fused_hqp_step(
     w: np.ndarray,
     C: np.ndarray,
     d: np.ndarray,
+    bint: np.ndarray,
+    bcols: np.ndarray,
+    bfl: np.ndarray,
     meta: np.ndarray,
     params: np.ndarray,
     z: np.ndarray,
@@ -372,7 +430,8 @@ def fused_hqp_step(
     e = (q_ref − q)[sel], v = K e) written into the cascade's least-squares buffers A, b, w at the rows ``dest[r]``
     of the stack's layout (the rows ``hqp``'s per-task gather would give them), z of the null-space objective
     (``_null_objective``) and, for a level that carries it after rows of its own, its identity rows at the starts
-    ``dest[m:]``; then ``closed_step`` on those rows and the inequality rows C, d the caller wrote (bound subtasks).
+    ``dest[m:]``; the packed bound subtasks' damper rows into C, d (``clearance_rows``; the caller wrote the others);
+    then ``closed_step`` on those rows and the inequality rows C, d.
 
     ``coef``: gain (K), weight (K) per frame task; gain (J), weight (J) per joint task; an unused slot; the N null
     coefficients; then position (0/1), rate (0/1) and the position gain of the limits. ``lim`` (4, nv): lower, upper
@@ -425,6 +484,8 @@ def fused_hqp_step(
             A[a + r, r] = 1.0
             b[a + r] = z[r]
             w[a + r] = 1.0
+    if bint.shape[0] > 0:
+        clearance_rows(Jw, poses, dt, bint, bcols, bfl, C, d)
     o = c0 + 2 * J + 1 + N
     status = closed_step(
         A, b, w, C, d, z, meta, params, q, iq, lim[0], lim[1], lim[2], lim[3],

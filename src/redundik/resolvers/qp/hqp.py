@@ -90,14 +90,28 @@ import time
 import weakref
 from collections.abc import Callable
 from dataclasses import replace
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, StepResult
-from redundik.resolvers.fused import FusedPlan, FusedStepResult
+from redundik.resolvers.fused import (
+    B_AXES,
+    B_CENTER,
+    B_FID,
+    B_LO,
+    B_LOWER,
+    B_NAXES,
+    B_RADIUS,
+    B_RATE,
+    B_ROW,
+    B_UP,
+    B_UPPER,
+    FusedPlan,
+    FusedStepResult,
+)
 from redundik.resolvers.linalg import FK, _Kernels
 from redundik.resolvers.qp.backends import CHECKED_ANSWERS, DEFAULT_BACKEND, Backend, DaqpBackend, polish
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
@@ -105,7 +119,8 @@ from redundik.resolvers.qp.daqp_native import NativeDaqp
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
 from redundik.resolvers.qp.terms import Level, StepRows, gather_rows
-from redundik.tasks.base import TaskTerm
+from redundik.tasks.base import Edits, TaskTerm
+from redundik.tasks.potentials import Clearance
 from redundik.tasks.stack import StackLayout, TaskStack
 from redundik.tasks.subtasks import BoundSubtask
 
@@ -204,6 +219,21 @@ class _Written:
         self.d: np.ndarray | None = None
 
 
+class _Packed(NamedTuple):
+    """Bound subtasks packed for ``fused_kernels.clearance_rows`` (:meth:`_Plan.packed_bounds`)."""
+
+    bint: np.ndarray  # (B, B_AXES + 3) integers per bound (``fused_kernels.B_FID`` …)
+    bcols: np.ndarray  # (B, nv) the columns of the joints supporting each frame
+    bfl: np.ndarray  # (B, B_RATE + 1) numbers per bound (``fused_kernels.B_CENTER`` …)
+    offsets: list[tuple[int, int]]  # the offsets table (least-squares row, inequality row) per level
+    slices: list[tuple[slice, list[str]]]  # per bound its rows of C, d and their names
+    rows: int  # the rows of C, d written
+
+
+#: No packed bounds (``fused_kernels.fused_hqp_step``'s arguments when :meth:`_Plan.fused_bounds` wrote the rows).
+_NO_BOUNDS = (np.zeros((0, B_AXES + 3), dtype=np.int64), np.zeros((0, 0), dtype=np.int64), np.zeros((0, B_RATE + 1)))
+
+
 class _Plan:
     """What the lean cascade does per level, fixed while the stack's membership is (see ``_plan_for``): the level
     kinds, the offsets table and the buffers the rows are copied into (grown when a level brings more rows)."""
@@ -240,6 +270,9 @@ class _Plan:
         self._qp_buf = np.zeros(0)  # where the cascade writes a level QP (``hqp_kernels.level_qp_into``)
         self._qp_views: dict[tuple[int, int], tuple[np.ndarray, ...]] = {}  # its views, per (variables, rows)
         self._native: NativeDaqp | None = None  # daqp's C call from the cascade (``daqp_native``)
+        #: (Edits.count, robot data) the bound subtasks were packed for, and the packing (``packed_bounds``)
+        self._packed_key: tuple[int, Any] | None = None
+        self._packed: _Packed | None = None
 
     def __getstate__(self) -> dict[str, Any]:
         """The plan without its weak reference to the last gather's record (a copy holds no step's rows): a copy
@@ -395,6 +428,82 @@ class _Plan:
                 meta[0, k], meta[1, k] = ls_row, ineq_row
             self._offsets = offsets
         return bounds
+
+    def packed_bounds(self, robot: RobotModel) -> _Packed | None:
+        """The bound subtasks packed for the fused step's compiled damper rows (``fused_kernels.clearance_rows``),
+        when every one is a ``BoundSubtask`` on a ``Clearance`` whose views of Pinocchio's memory are verified (the
+        views the fused step reads); ``None``: :meth:`fused_bounds` evaluates them in Python. Packed again when
+        ``Edits`` moved (an assigned centre, radius, frame, axes, bound, rate or name) or for another robot's data."""
+        key = self._packed_key
+        if key is not None and key[0] == Edits.count and key[1] is robot.data:
+            return self._packed
+        self._packed = self._pack_bounds(robot)
+        self._packed_key = (Edits.count, robot.data)
+        return self._packed
+
+    def _pack_bounds(self, robot: RobotModel) -> _Packed | None:
+        """:meth:`packed_bounds`' packing: the rows C, d of :meth:`fused_bounds`, laid out at the same offsets."""
+        bsubs = [bsub for _, _, bs, _, _ in self.members for bsub in bs]
+        for bsub in bsubs:
+            if type(bsub) is not BoundSubtask or type(bsub.source) is not Clearance:
+                return None
+        n = self.n
+        bint = np.zeros((len(bsubs), B_AXES + 3), dtype=np.int64)
+        bcols = np.zeros((len(bsubs), n), dtype=np.int64)
+        bfl = np.zeros((len(bsubs), B_RATE + 1))
+        slices: list[tuple[slice, list[str]]] = []
+        offsets = []
+        cs = k = 0
+        for (_, _, bs, _, _), ls_row in zip(self.members, self.ls_offsets, strict=False):
+            offsets.append((ls_row, cs))
+            for bsub in bs:
+                src: Clearance = bsub.source  # type: ignore[assignment]  # (checked above)
+                views = src._views
+                if views is None or views[0] is not robot.data or views[1] != src._fid:
+                    views = src._prepare(robot)
+                if views[2] is None:  # Pinocchio's memory not as verified: the Python rows
+                    return None
+                rows = src.rows
+                lower, upper = bsub.lower, bsub.upper
+                bint[k, [B_FID, B_ROW, B_LOWER, B_UPPER, B_NAXES]] = (
+                    views[1],
+                    cs,
+                    lower is not None,
+                    upper is not None,
+                    rows.shape[0],
+                )
+                bint[k, B_AXES : B_AXES + rows.shape[0]] = rows
+                bcols[k] = views[4]
+                bfl[k, B_CENTER : B_CENTER + 3] = src.center
+                bfl[k, [B_RADIUS, B_LO, B_UP, B_RATE]] = (
+                    src.radius,
+                    0.0 if lower is None else lower,
+                    0.0 if upper is None else upper,
+                    bsub.rate,
+                )
+                e = cs + (lower is not None) + (upper is not None)
+                slices.append((slice(cs, e), bsub.row_names))
+                cs, k = e, k + 1
+        offsets.append((self.ls_offsets[-1], cs))
+        if cs > self.C.shape[0]:
+            self._grow_ineq(cs)
+        return _Packed(bint, bcols, bfl, offsets, slices, cs)
+
+    def written_bounds(self, packed: _Packed) -> list[tuple[Any, Any, list[str]]]:
+        """:meth:`fused_bounds` for packed bounds, whose rows the compiled call writes: the offsets table, the
+        previous record's rows kept if held, and this step's record (``bounds`` of :meth:`gather`)."""
+        if self._written is not None:
+            self._keep_written()
+        if self._offsets is not packed.offsets:
+            if self._offsets != packed.offsets:
+                for k, (ls_row, ineq_row) in enumerate(packed.offsets):
+                    self.meta[0, k], self.meta[1, k] = ls_row, ineq_row
+            self._offsets = packed.offsets
+        if not packed.slices:
+            return []
+        written = _Written()
+        self._written = (weakref.ref(written), packed.rows)
+        return [(written, sl, names) for sl, names in packed.slices]
 
     def fuse(self, robot: RobotModel, stack: TaskStack) -> FusedPlan | str | bool:
         """The fused form of this plan's stack (:mod:`redundik.resolvers.fused`): every task a frame task or a
@@ -898,7 +1007,13 @@ class HierarchicalQPResolver(QPResolverBase):
         per-task path (a rotation error beyond the compiled log3's range)."""
         t0 = time.perf_counter()
         n = robot._nv
-        bounds = plan.fused_bounds(robot, dt)
+        packed = plan.packed_bounds(robot)
+        if packed is None:
+            bounds = plan.fused_bounds(robot, dt)
+            bint, bcols, bfl = _NO_BOUNDS
+        else:  # their rows written in the compiled call
+            bounds = plan.written_bounds(packed)
+            bint, bcols, bfl = packed.bint, packed.bcols, packed.bfl
         limits = self.limits
         args = limits.kernel_args(robot)
         coef = fused.coefficients((float(args[5]), float(args[6]), float(args[7])))
@@ -912,8 +1027,8 @@ class HierarchicalQPResolver(QPResolverBase):
         q = robot.q
         status, err2, dq2 = FK.fused_hqp_step(
             fused.jw, fused.poses, float(t), refs, q, fused.ints, fused.floats, coef, fused.limits(args), args[0],
-            float(dt), prev, Jf, ev, plan.dest, plan.A, plan.b, plan.w, plan.C, plan.d, plan.meta, plan.params, z,
-            out, stats,
+            float(dt), prev, Jf, ev, plan.dest, plan.A, plan.b, plan.w, plan.C, plan.d, bint, bcols, bfl, plan.meta,
+            plan.params, z, out, stats,
         )  # fmt: skip
         if status < 0.0:
             return None
