@@ -294,8 +294,8 @@ def fused_pinv_step(
     ``closed_form_into``, σ_min lazily).
 
     ``work`` (flat, one allocation a step; :func:`pinv_work_views` names its parts): J⁺V, (I − J⁺J) z and q̇
-    (3, n), then J (m, n), e and v (2, m) and the frames' Jacobians (K, 6, n). ``coef``: gain (K) per frame task,
-    the N null coefficients, then ε, λ_max and rcond.
+    (3, n), then J (m, n), e and v (2, m), the frames' Jacobians (K, 6, n) and z (n,). ``coef``: gain (K) per frame
+    task, the N null coefficients, then ε, λ_max and rcond.
 
     Returns:
         (status — −1 a rotation error too large for the compiled log3, 1 done —, rank, σ_min (NaN: to compute on
@@ -312,7 +312,10 @@ def fused_pinv_step(
         Jk = Jf[k]
         for r in range(starts[k], starts[k + 1]):
             Jm[r, :] = Jk[rows[r], :]
-    z = np.zeros(nv)
+    c = 3 * nv + m * nv + 2 * m + 6 * K * nv
+    z = work[c : c + nv]  # the null-space objective's target (zero without one)
+    for i in range(nv):
+        z[i] = 0.0
     if N > 0:
         _null_objective(q, ints, floats, coef[K : K + N], z)
     o = K + N
@@ -336,7 +339,7 @@ def wqp_work_views(work: np.ndarray, K: int, m: int, nv: int) -> tuple[np.ndarra
 
 def pinv_work_size(K: int, m: int, nv: int) -> int:
     """Length of :func:`fused_pinv_step`'s ``work`` for K frame tasks, m main rows and nv velocity coordinates."""
-    return 3 * nv + m * nv + 2 * m + 6 * K * nv
+    return 3 * nv + m * nv + 2 * m + 6 * K * nv + nv
 
 
 @_jit

@@ -455,10 +455,10 @@ def _chol_in_place(A: np.ndarray) -> bool:
 
 
 @_jit
-def _chol_solve(L: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """y = (L Lᵀ)⁻¹ b from the lower factor L."""
+def _chol_solve(L: np.ndarray, b: np.ndarray, y: np.ndarray) -> None:
+    """y = (L Lᵀ)⁻¹ b from the lower factor L, into ``y`` (which may be ``b`` itself: each entry of b is read
+    before it is overwritten)."""
     m = L.shape[0]
-    y = np.empty(m)
     for i in range(m):
         t = b[i]
         for k in range(i):
@@ -469,7 +469,6 @@ def _chol_solve(L: np.ndarray, b: np.ndarray) -> np.ndarray:
         for k in range(i + 1, m):
             t -= L[k, i] * y[k]
         y[i] = t / L[i, i]
-    return y
 
 
 @_jit
@@ -481,7 +480,10 @@ def _cholesky_solve_rows(
     damped) and λ_min/λ_max > FAST_PATH_RCOND, the conditions of :func:`factor`'s fast path. False (nothing
     written) otherwise."""
     m, n = J.shape
-    A = np.empty((m, m))
+    buf = np.empty(2 * m * m + m)  # A = JJᵀ, its shifted copy S and a vector of m: one allocation
+    A = buf[0 : m * m].reshape((m, m))
+    S = buf[m * m : 2 * m * m].reshape((m, m))
+    y = buf[2 * m * m :]
     tr = 0.0
     for i in range(m):
         for j in range(i, m):
@@ -494,23 +496,25 @@ def _cholesky_solve_rows(
     if not (tr > 0.0 and math.isfinite(tr)):
         return False
     shift = max(epsilon * epsilon, FAST_PATH_RCOND * tr)
-    S = A.copy()
     for i in range(m):
+        for j in range(m):
+            S[i, j] = A[i, j]
         S[i, i] -= shift
     if not _chol_in_place(S) or not _chol_in_place(A):
         return False
-    y = _chol_solve(A, V)
+    _chol_solve(A, V, y)
     for j in range(n):
         t = 0.0
         for i in range(m):
             t += J[i, j] * y[i]
         out[0, j] = t
     if has_z:
-        Jz = np.zeros(m)
+        w = y  # J z, then (JJᵀ)⁻¹ J z in place (y is read no more)
         for i in range(m):
+            w[i] = 0.0
             for j in range(n):
-                Jz[i] += J[i, j] * z[j]
-        w = _chol_solve(A, Jz)
+                w[i] += J[i, j] * z[j]
+        _chol_solve(A, w, w)
         for j in range(n):
             t = z[j]
             for i in range(m):
@@ -1238,11 +1242,11 @@ def frame_error_rp(
     v: np.ndarray,
 ) -> bool:
     """:func:`frame_error` of a pose given as its rotation R (3, 3) and position p (3,)."""
-    err = np.zeros(6)
+    err = np.zeros(15)  # the error (6,), then M (3, 3): one allocation
     for i in range(3):
         err[i] = p_d[i] - p[i]
     if rotation:
-        M = np.empty((3, 3))
+        M = err[6:15].reshape((3, 3))
         for i in range(3):
             for j in range(3):
                 M[i, j] = R_d[i, 0] * R[j, 0] + R_d[i, 1] * R[j, 1] + R_d[i, 2] * R[j, 2]
