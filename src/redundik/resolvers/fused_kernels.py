@@ -312,8 +312,7 @@ def fused_pinv_step(
         Jk = Jf[k]
         for r in range(starts[k], starts[k + 1]):
             Jm[r, :] = Jk[rows[r], :]
-    c = 3 * nv + m * nv + 2 * m + 6 * K * nv
-    z = work[c : c + nv]  # the null-space objective's target (zero without one)
+    z = work[work.shape[0] - nv :]  # the null-space objective's target, work's tail (zero without one)
     for i in range(nv):
         z[i] = 0.0
     if N > 0:
