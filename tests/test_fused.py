@@ -89,6 +89,11 @@ def _compare(
         scale = max(1.0, float(np.abs(b.dq).max()))
         np.testing.assert_allclose(a.dq, b.dq, rtol=0, atol=1e-12 * scale, err_msg=f"step {k}")
         assert a.fallback == b.fallback
+        for part in ("dq_rank", "dq_null"):  # the split of q̇ (pinv: J⁺V and (I − J⁺J) z; read lazily when fused)
+            pa, pb = getattr(a, part), getattr(b, part)
+            assert (pa is None) == (pb is None), part
+            if pb is not None:
+                np.testing.assert_allclose(pa, pb, rtol=0, atol=1e-12 * scale, err_msg=f"{part}, step {k}")
         if fallbacks is not None and a.fallback is not None:
             fallbacks.append(a.fallback)
         if qp_steps is not None and a.info["qp"]:

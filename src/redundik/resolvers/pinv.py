@@ -64,9 +64,30 @@ class PinvResolver(Resolver):
     accepts: ClassVar[tuple[str, ...]] = ("gradient",)
 
     def __init__(self, epsilon: float = 1e-2, max_damping: float = 5e-2) -> None:
-        self.epsilon, self.max_damping = check_damping_options("pinv", epsilon, max_damping)
+        self._epsilon, self._max_damping = check_damping_options("pinv", epsilon, max_damping)
+        self._tail = (self._epsilon, self._max_damping, RCOND)  # the fused step's coefficients of the resolver
         self._layout: tuple[tuple[int, ...], StackLayout] | None = None
         self._fused: tuple[StackLayout, FusedPlan | str | bool] | None = None
+
+    @property
+    def epsilon(self) -> float:
+        """Singular value under which a direction is damped [unit of J] (validated on assignment)."""
+        return self._epsilon
+
+    @epsilon.setter
+    def epsilon(self, value: float) -> None:
+        self._epsilon, _ = check_damping_options("pinv", value, self._max_damping)
+        self._tail = (self._epsilon, self._max_damping, RCOND)
+
+    @property
+    def max_damping(self) -> float:
+        """Damping λ_max as σ → 0 (validated on assignment)."""
+        return self._max_damping
+
+    @max_damping.setter
+    def max_damping(self, value: float) -> None:
+        _, self._max_damping = check_damping_options("pinv", self._epsilon, value)
+        self._tail = (self._epsilon, self._max_damping, RCOND)
 
     def _stack_layout(self, stack: TaskStack) -> StackLayout:
         sig = self.stack_key(stack)
@@ -153,56 +174,114 @@ class PinvResolver(Resolver):
     ) -> StepResult | None:
         """The step of a fused stack (:mod:`redundik.resolvers.fused`) in one compiled call; ``None`` when this step
         needs the per-task path (a rotation error beyond the compiled log3's range, a non-finite q̇ to diagnose)."""
-        n = robot._nv
-        coef = plan.coefficients((self.epsilon, self.max_damping, RCOND))
+        coef = plan.coefficients(self._tail)
         refs = plan.given_references(t) if plan.given else plan.refs
         work = np.empty(plan.pinv_work)  # q̇'s parts, J, e and v, the frames' Jacobians: one allocation
         q = robot.q
         status, rank, sigma_min, damping, err2, dq2 = FK.fused_pinv_step(
             plan.jw, plan.poses, float(t), refs, q, plan.ints, plan.floats, coef, work
         )
-        dq = work[2 * n : 3 * n]
         if status < 0.0 or not math.isfinite(dq2):  # a non-finite q̇: the per-task path diagnoses it
             return None
-        t1 = time.perf_counter()
-        K = len(plan.frames)
-
-        def make_terms() -> list[TaskTerm]:
-            _, _, ev, Jf = FK.pinv_work_views(work, K, plan.m, n)
-            return plan.terms(Jf, ev, q, robot)
-
-        if sigma_min != sigma_min:  # NaN: J well conditioned and undamped, σ_min computed on first read
-
-            def diagnostics() -> tuple[float, bool, dict[str, object]]:
-                Jm = FK.pinv_work_views(work, K, plan.m, n)[1]
-                smin = float(np.sqrt(max(float(np.linalg.eigvalsh(Jm @ Jm.T)[0]), 0.0)))
-                return smin, False, {"sigma_min": smin}
-
-            return FusedStepResult.fused(
-                dq,
-                make_terms,
-                math.sqrt(err2),
-                {"rank": int(rank)},
-                t1 - t0,
-                0.0,
-                main,
-                diagnostics,
-                work[0:n],
-                work[n : 2 * n],
-                dq_norm=math.sqrt(dq2),
-            )
-        return StepResult(
-            dq=dq,
-            terms=make_terms(),
-            dq_rank=work[0:n],
-            dq_null=work[n : 2 * n],
-            damped=damping > 0.0,
-            damping=float(damping),
-            sigma_min=float(sigma_min),
-            info={"sigma_min": float(sigma_min), "rank": int(rank)},
-            build_time=t1 - t0,
-            main=main,
+        return FusedPinvResult.of(
+            work, plan, q, robot, rank, sigma_min, damping, err2, dq2, time.perf_counter() - t0, main
         )
 
     def __repr__(self) -> str:
         return f"PinvResolver(epsilon={self.epsilon}, max_damping={self.max_damping})"
+
+
+class FusedPinvResult(FusedStepResult):
+    """The result of a fused ``pinv`` step: q̇ a view on the step's work array, and what a control loop seldom reads
+    — J⁺V, (I − J⁺J) z, the task terms, σ_min when the Cholesky route left it — read from that array when asked."""
+
+    @classmethod
+    def of(
+        cls,
+        work: np.ndarray,
+        plan: FusedPlan,
+        q: np.ndarray,
+        robot: RobotModel,
+        rank: int,
+        sigma_min: float,
+        damping: float,
+        err2: float,
+        dq2: float,
+        build_time: float,
+        main: list[int],
+    ) -> FusedPinvResult:
+        """The result of ``fused_pinv_step``'s outputs (σ_min NaN: J well conditioned and undamped, computed on
+        first read)."""
+        n = robot._nv
+        res = cls.__new__(cls)
+        lazy = sigma_min != sigma_min
+        res.__dict__ = {
+            "dq": work[2 * n : 3 * n],
+            "gains": None,
+            "damping": damping,
+            "fallback": None,
+            "_info": {"rank": rank} if lazy else {"sigma_min": sigma_min, "rank": rank},
+            "build_time": build_time,
+            "solve_time": 0.0,
+            "main": main,
+            "pending": True if lazy else None,  # ``_resolve`` computes σ_min from the step's J
+            "_task_error": math.sqrt(err2),
+            "_dq_norm": math.sqrt(dq2),  # ‖q̇‖ from the compiled call (the divergence watch reads it)
+            "_step": (work, plan, q, robot),
+        }
+        if not lazy:
+            res.__dict__["_sigma_min"], res.__dict__["_damped"] = sigma_min, damping > 0.0
+        return res
+
+    def _views(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        work, plan, _, robot = self.__dict__["_step"]
+        return FK.pinv_work_views(work, len(plan.frames), plan.m, robot._nv)
+
+    def _resolve(self) -> None:
+        d = self.__dict__
+        if d.get("pending") is True:
+            d["pending"] = self._sigma
+        super()._resolve()
+
+    def _sigma(self) -> tuple[float, bool, dict[str, object]]:
+        Jm = self._views()[1]
+        smin = float(np.sqrt(max(float(np.linalg.eigvalsh(Jm @ Jm.T)[0]), 0.0)))
+        return smin, False, {"sigma_min": smin}
+
+    @property
+    def terms(self) -> list[TaskTerm]:
+        d = self.__dict__
+        terms = d.get("_terms")
+        if terms is None:
+            _, plan, q, robot = d["_step"]
+            _, _, ev, Jf = self._views()
+            terms = d["_terms"] = plan.terms(Jf, ev, q, robot)
+        return terms
+
+    @terms.setter
+    def terms(self, value: list[TaskTerm]) -> None:
+        self.__dict__["_terms"] = value
+
+    @property
+    def dq_rank(self) -> np.ndarray | None:
+        d = self.__dict__
+        if "_dq_rank" not in d:
+            n = d["_step"][3]._nv
+            d["_dq_rank"] = d["_step"][0][0:n]
+        return d["_dq_rank"]
+
+    @dq_rank.setter
+    def dq_rank(self, value: np.ndarray | None) -> None:
+        self.__dict__["_dq_rank"] = value
+
+    @property
+    def dq_null(self) -> np.ndarray | None:
+        d = self.__dict__
+        if "_dq_null" not in d:
+            n = d["_step"][3]._nv
+            d["_dq_null"] = d["_step"][0][n : 2 * n]
+        return d["_dq_null"]
+
+    @dq_null.setter
+    def dq_null(self, value: np.ndarray | None) -> None:
+        self.__dict__["_dq_null"] = value

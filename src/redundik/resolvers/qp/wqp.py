@@ -137,6 +137,8 @@ class WeightedQPResolver(QPResolverBase):
         self._plan: _Plan | None = None
         self._no_rows, self._no_rhs = np.zeros((0, 0)), np.zeros(0)
         self._diag = np.zeros(0)
+        #: (the limits' kernel arguments, λ, the fused step's coefficients of the resolver) as last read
+        self._tail: tuple[object, float, tuple[float, ...]] = (None, math.nan, ())
 
     def build(
         self, robot: RobotModel, stack: TaskStack, t: float, dt: float, terms: list[TaskTerm] | None = None
@@ -373,7 +375,10 @@ class WeightedQPResolver(QPResolverBase):
         limits = self.limits
         args = limits.kernel_args(robot)
         lam = self.damping * plan.last_scale
-        coef = fused.coefficients((float(args[5]), float(args[6]), float(args[7]), lam))
+        tail = self._tail
+        if tail[0] is not args or tail[1] != lam:  # the limits' options or the damping changed: re-read
+            tail = self._tail = (args, lam, (float(args[5]), float(args[6]), float(args[7]), lam))
+        coef = fused.coefficients(tail[2])
         refs = fused.given_references(t) if fused.given else fused.refs
         prev = limits.previous(self._dq_prev)
         work = np.empty(fused.wqp_work)  # the box and answers, e and v, the frames' Jacobians: one allocation
@@ -397,33 +402,14 @@ class WeightedQPResolver(QPResolverBase):
         if status < 0.0:
             return None
         t1 = time.perf_counter()
-        K, m = len(fused.frames), fused.m
-
-        def views() -> tuple[np.ndarray, np.ndarray]:
-            _, ev, Jf = FK.wqp_work_views(work, K, m, n)
-            return Jf, ev
-
-        make_terms = fused.terms_once(views, None, q, robot)
         windowed = prev.shape[0] > 0
         if status == 0.0:  # a limit binds: the backend, through the template
+            K, m = len(fused.frames), fused.m
+            _, ev, Jf = FK.wqp_work_views(work, K, m, n)
             out = work[: 7 * n].reshape(7, n)
-            return self._box_qp(robot, stack, make_terms(), plan, out, windowed, lam, t0, t1)
-        dq, kept = work[5 * n : 6 * n], work[6 * n : 7 * n]
-        self._dq_prev = kept
-        main = plan.main
-        diagnostics = self._free_diagnostics(make_terms, main, work, windowed, kept, lam)
-        res = FusedStepResult.fused(
-            dq,
-            make_terms,
-            math.sqrt(err2),
-            {"backend": "closed-form", "qp": 0, "iterations": 0},
-            t1 - t0,
-            time.perf_counter() - t1,
-            main,
-            diagnostics,
-            dq_norm=math.sqrt(dq2),
-        )
-        return res
+            return self._box_qp(robot, stack, fused.terms(Jf, ev, q, robot), plan, out, windowed, lam, t0, t1)
+        self._dq_prev = work[6 * n : 7 * n]
+        return FusedWqpResult.of(self, fused, work, q, robot, windowed, lam, err2, dq2, t1 - t0, t1, plan.main)
 
     def _plan_for(self, stack: TaskStack, layout: StackLayout) -> _Plan:
         """The level weights ρ^k of every member, laid out once per stack membership (the layout object)."""
@@ -508,3 +494,76 @@ class WeightedQPResolver(QPResolverBase):
         return (
             f"WeightedQPResolver(backend={self.backend.name!r}, level_ratio={self.level_ratio}, limits={self.limits!r})"
         )
+
+
+class FusedWqpResult(FusedStepResult):
+    """The result of a fused ``wqp`` step that solved no QP: q̇ a view on the step's work array; the task terms and
+    the diagnostics (active limits, residuals, σ_min) computed from that array on first read."""
+
+    @classmethod
+    def of(
+        cls,
+        resolver: WeightedQPResolver,
+        fused: FusedPlan,
+        work: np.ndarray,
+        q: np.ndarray,
+        robot: RobotModel,
+        windowed: bool,
+        lam: float,
+        err2: float,
+        dq2: float,
+        build_time: float,
+        t1: float,
+        main: list[int],
+    ) -> FusedWqpResult:
+        """The result of ``fused_wqp_step``'s outputs (``t1``: when the compiled call returned)."""
+        n = robot._nv
+        res = cls.__new__(cls)
+        res.__dict__ = {
+            "dq": work[5 * n : 6 * n],
+            "dq_rank": None,
+            "dq_null": None,
+            "gains": None,
+            "damping": 0.0,
+            "fallback": None,
+            "_info": {"backend": "closed-form", "qp": 0, "iterations": 0},
+            "build_time": build_time,
+            "main": main,
+            "pending": True,  # ``_resolve`` computes the diagnostics from the step's work array
+            "_task_error": math.sqrt(err2),
+            "_dq_norm": math.sqrt(dq2),  # ‖q̇‖ from the compiled call (the divergence watch reads it)
+            "_step": (resolver, fused, work, q, robot, windowed, lam),
+        }
+        res.__dict__["solve_time"] = time.perf_counter() - t1
+        return res
+
+    def _resolve(self) -> None:
+        d = self.__dict__
+        if d.get("pending") is True:
+            d["pending"] = self._diagnostics
+        super()._resolve()
+
+    def _diagnostics(self) -> tuple[float, bool, dict[str, object]]:
+        resolver, _, work, _, robot, windowed, lam = self.__dict__["_step"]
+        n = robot._nv
+        terms = self.terms
+        diag = QPDiagnostics()
+        limits = resolver.limits
+        kept = work[6 * n : 7 * n]
+        diag.active_limits = limits.box_from(work[: 4 * n].reshape(4, n), windowed).active(kept, limits.joint_names)
+        resolver._diagnose_terms([terms[i] for i in self.__dict__["main"]], lam, kept, diag)
+        return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
+
+    @property
+    def terms(self) -> list[TaskTerm]:
+        d = self.__dict__
+        terms = d.get("_terms")
+        if terms is None:
+            _, fused, work, q, robot, _, _ = d["_step"]
+            _, ev, Jf = FK.wqp_work_views(work, len(fused.frames), fused.m, robot._nv)
+            terms = d["_terms"] = fused.terms(Jf, ev, q, robot)
+        return terms
+
+    @terms.setter
+    def terms(self, value: list[TaskTerm]) -> None:
+        self.__dict__["_terms"] = value
