@@ -351,13 +351,16 @@ def _compare(
     shortcut: bool = True,
     complement: bool = False,
     qp_tol: float | None = None,
+    certified_qr: bool = True,
     **kw: object,
 ) -> str:
     """Step both resolvers from q (``steps`` steps, the reference's q̇ integrated); q̇, fallback and every numeric
     diagnostic agree to ``tol`` at every step; the path taken at the last. Without ``shortcut`` both send every
     level of the constrained cascade to the backend; with ``complement`` the lean cascade poses its level QPs in
-    joint space below the first level of least squares (``complement_min_n``), whatever the robot's size."""
+    joint space below the first level of least squares (``complement_min_n``), whatever the robot's size; without
+    ``certified_qr`` the lean cascade factors every level by its SVD, as the reference does (the same null bases)."""
     lean, ref = HierarchicalQPResolver(**kw), _Reference(**kw)  # type: ignore[arg-type]
+    lean.certified_qr = certified_qr
     if complement:
         lean.complement_min_n, lean.complement_fraction = 0, 0.0
     for res in (lean, ref):
@@ -445,7 +448,10 @@ def test_lean_step_equals_the_general_path_on_random_robots(seed: int) -> None:
 
 @pytest.mark.parametrize("seed", range(12))
 def test_lean_step_equals_the_general_path_with_pinned_joints(seed: int) -> None:
-    """A joint whose limits are one value (its q̇ pinned to 0): the constrained cascade with the joint fixed."""
+    """A joint whose limits are one value (its q̇ pinned to 0): the constrained cascade with the joint fixed — with
+    the reference's SVD at every level to 1e-10, and with the certified QR (other null bases of the same spaces) to
+    the same optimum of every level: their q̇ may differ by the level QPs' conditioning (seed 11: 1.5e-6 with daqp,
+    2.5e-7 with quadprog, the residuals 1e-9 apart, the QR's level 0 the lower)."""
     rng = np.random.default_rng(100 + seed)
     n = int(rng.integers(5, 9))
     robot = random_robot(rng, n, velocity=float(rng.uniform(0.3, 2.0)))
@@ -454,8 +460,11 @@ def test_lean_step_equals_the_general_path_with_pinned_joints(seed: int) -> None
     name = robot.joint_names[j]
     limits = rk.JointLimits(lower={name: float(q[j])}, upper={name: float(q[j])})
     stack = _stack(robot, rng, depth=int(rng.integers(1, 5)), bound=bool(seed % 2))
-    assert _compare(robot, stack, q, shortcut=False, limits=limits) == "qp"
-    assert _compare(robot, stack, q, limits=limits) in ("qp", "closed")  # the cascade may settle every level itself
+    assert _compare(robot, stack, q, shortcut=False, certified_qr=False, limits=limits) == "qp"
+    assert _compare(robot, stack, q, shortcut=False, qp_tol=1e-6, limits=limits) == "qp"
+    # (the cascade may settle every level itself)
+    assert _compare(robot, stack, q, certified_qr=False, limits=limits) in ("qp", "closed")
+    assert _compare(robot, stack, q, qp_tol=1e-6, limits=limits) in ("qp", "closed")
 
 
 def _complement_case(seed: int) -> tuple[rk.RobotModel, rk.TaskStack, np.ndarray, dict[str, object], bool]:
@@ -843,7 +852,8 @@ def test_level_shortcut_is_the_exact_optimum_of_the_level_qp(monkeypatch: pytest
     gets the exact optimum of its level QP, argmin ½‖M u − rhs‖² + ½ε‖u‖² (an augmented least squares, no squared
     condition number), to 1e-12 — over random robots whose cascade a bound at level 1 or tight velocity limits
     send there. The reference cascade in Python is spied on; the compiled one (hqp's own) agrees with it at
-    every step (to the backend's conditioning)."""
+    every step (to the backend's conditioning) when it factors every level by its SVD, as the reference does (its
+    certified QR gives other null bases of the same spaces: :func:`test_certified_qr_levels_keep_the_svd_optima`)."""
     seen: list[tuple[bool, np.ndarray, np.ndarray, float, np.ndarray]] = []
     level_qp = _PythonCascade._level_qp
 
@@ -863,6 +873,7 @@ def test_level_shortcut_is_the_exact_optimum_of_the_level_qp(monkeypatch: pytest
         q = robot.random_configuration(rng)
         stack = _stack(robot, rng, depth=int(rng.integers(1, 5)), bound=True)
         res, lean = _Reference(), HierarchicalQPResolver()
+        lean.certified_qr = False
         prepared(res, robot, stack, q)
         prepared(lean, robot, stack, q)
         for k in range(6):
@@ -880,3 +891,72 @@ def test_level_shortcut_is_the_exact_optimum_of_the_level_qp(monkeypatch: pytest
         exact = np.linalg.lstsq(np.vstack([M, np.sqrt(eps) * np.eye(r)]), np.concatenate([rhs, np.zeros(r)]))[0]
         scale = max(1.0, float(np.abs(exact).max()))
         np.testing.assert_allclose(u, exact, rtol=0, atol=1e-12 * scale)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_certified_qr_factors_a_level_as_its_svd(seed: int) -> None:
+    """``_certified_null`` on M (m, r), m ≤ r: when it certifies, N's first r − m columns are an orthonormal basis
+    of null(M), the next m complete it to an orthogonal Q, R's singular values are M's, and ``_ridge_triangular``'s
+    t gives Q₁t = argmin ‖Mu − rhs‖² + ε‖u‖² (the augmented least squares) to 1e-12; a level with σ_min < ε (what
+    the SVD would damp) is refused."""
+    rng = np.random.default_rng(seed)
+    r = int(rng.integers(2, 12))
+    m = int(rng.integers(1, r + 1))
+    U, _ = np.linalg.qr(rng.standard_normal((m, m)))
+    V, _ = np.linalg.qr(rng.standard_normal((r, r)))
+    sigma = np.sort(10.0 ** rng.uniform(-1.5, 0.5, m))[::-1]
+    M = U @ np.diag(sigma) @ V[:, :m].T
+    N, rrow = np.full((r + 2, r + 2), np.nan), np.full(m * m + 3, np.nan)
+    assert HK._certified_null(M, 1e-3, 1e-10, N, rrow)
+    Q = N[:r, :r]
+    np.testing.assert_allclose(Q.T @ Q, np.eye(r), rtol=0, atol=1e-13)
+    np.testing.assert_allclose(M @ Q[:, : r - m], 0.0, rtol=0, atol=1e-13 * sigma[0])
+    R = rrow[: m * m].reshape(m, m)
+    np.testing.assert_allclose(np.linalg.svd(R, compute_uv=False), sigma, rtol=1e-12)
+    rhs = rng.standard_normal(m)
+    for eps in (0.0, 1e-9, 1e-3, 0.5):
+        u = Q[:, r - m :] @ HK._ridge_triangular(rrow, m, rhs, eps)
+        exact = np.linalg.lstsq(np.vstack([M, np.sqrt(eps) * np.eye(r)]), np.concatenate([rhs, np.zeros(r)]))[0]
+        np.testing.assert_allclose(u, exact, rtol=0, atol=1e-12 * max(1.0, float(np.abs(exact).max())))
+    weak = M.copy()
+    weak -= sigma[-1] * np.outer(U[:, -1], V[:, m - 1]) * (1.0 - 1e-4 / sigma[-1])  # σ_min → 1e-4 < ε = 1e-3
+    assert not HK._certified_null(weak, 1e-3, 1e-10, N, rrow)
+
+
+def test_certified_qr_levels_keep_the_svd_optima(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The constrained cascade with the certified QR against the same cascade with the SVD at every level, over
+    random robots whose bound at level 1 or tight velocity limits send it there: the same optimum of every level
+    (residuals, contradicted slacks, ‖q̇‖; q̇ to the level QPs' conditioning, :func:`_same_optima`), and the same
+    σ_min per level in the diagnostics (from R's singular values, to 1e-10) — on steps where the QR did factor."""
+    factored = [0]
+    diagnose = HierarchicalQPResolver._diagnose
+
+    def spy(self, built, dq, diag):  # type: ignore[no-untyped-def]
+        if built.qp_stats is not None:
+            factored[0] += int(np.isnan(built.qp_stats[:, HK.QS_SIGMA]).sum())
+        return diagnose(self, built, dq, diag)
+
+    monkeypatch.setattr(HierarchicalQPResolver, "_diagnose", spy)
+    steps = 0
+    for seed in range(16):
+        rng = np.random.default_rng(500 + seed)
+        n = int(rng.integers(5, 9))
+        robot = random_robot(rng, n, velocity=float(rng.uniform(0.2, 0.6)) if seed % 2 == 0 else np.inf)
+        q = robot.random_configuration(rng)
+        stack = _stack(robot, rng, depth=int(rng.integers(1, 5)), bound=True)
+        qr, svd = HierarchicalQPResolver(), HierarchicalQPResolver()
+        svd.certified_qr = False
+        for res in (qr, svd):
+            prepared(res, robot, stack, q)
+        for k in range(4):
+            a = qr.step(robot, stack, q, 0.05 + 0.01 * k, 0.01)
+            b = svd.step(robot, stack, q, 0.05 + 0.01 * k, 0.01)
+            if b.info["qp"]:
+                steps += 1
+                _same_optima(a, b, 1e-6)
+                sig = [key for key in b.info if key.startswith("sigma_min")]
+                assert sig and set(sig) <= set(a.info)
+                for key in sig:
+                    assert a.info[key] == pytest.approx(b.info[key], rel=1e-10), key
+            q = robot.integrate(q, b.dq, 0.01)
+    assert steps >= 20 and factored[0] >= 20, (steps, factored[0])

@@ -536,23 +536,24 @@ def qp_buffer_size(n: int, p_max: int, rows: int) -> int:
 
 
 @_jit
-def cascade_qp_dims(n: int, meta: np.ndarray) -> tuple[int, int]:
+def cascade_qp_dims(n: int, meta: np.ndarray) -> tuple[int, int, int]:
     """(most variables, most rows) of a level QP of :func:`level_qp_into` or :func:`level_qp_joint_into` for the
-    levels packed in ``meta`` (their least-squares rows start at ``meta[0]``, their inequality rows at ``meta[1]``)."""
+    levels packed in ``meta`` (their least-squares rows start at ``meta[0]``, their inequality rows at ``meta[1]``),
+    and the most least-squares rows of a level."""
     L = meta.shape[1] - 1
     p_max = 0
     m_max = 0
     for k in range(L):
         p_max = max(p_max, meta[1, k + 1] - meta[1, k])
         m_max = max(m_max, meta[0, k + 1] - meta[0, k])
-    return n + p_max + m_max, p_max + meta[1, L] + 2 * n + m_max
+    return n + p_max + m_max, p_max + meta[1, L] + 2 * n + m_max, m_max
 
 
 @_jit
 def cascade_qp_size(n: int, meta: np.ndarray) -> int:
     """Length of a buffer (the layout of :func:`qp_views`) that holds any level QP of the levels packed in
     ``meta``."""
-    nvar, nr = cascade_qp_dims(n, meta)
+    nvar, nr, _ = cascade_qp_dims(n, meta)
     return nvar * nvar + nvar + nr * nvar + 2 * (nvar + nr)
 
 
@@ -862,10 +863,10 @@ def first_run_cost() -> dict[str, float]:
     out["clearance_into"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     state = np.zeros(ST_NEQ + 1, dtype=np.int64)
-    cfg = np.array([1e-2, 5e-2, 1e-10, 1e-9, 1e-7, 1e-12, 1.0, 1.0, 1e-6, 40.0, 3.0])
+    cfg = np.array([1e-2, 5e-2, 1e-10, 1e-9, 1e-7, 1e-12, 1.0, 1.0, 1e-6, 40.0, 3.0, 1.0])
     qp_cascade_run(A, np.ones(3), np.ones(3), rows, none, np.zeros(n), meta, np.zeros(2, dtype=np.bool_), -inf, inf,
                    free.copy(), np.zeros(n, dtype=np.int64), cfg, state, np.zeros(n), np.zeros((n, n)),
-                   np.empty((n, n)), np.empty((1, n)), np.empty(1), np.zeros(1), np.zeros((2, 7)),
+                   np.empty((n, n)), np.empty((1, n)), np.empty(1), np.zeros(1), np.zeros((2, 7)), np.empty((2, 9)),
                    np.empty(qp_buffer_size(n, 1, 1)), 0, False, np.zeros(0), np.zeros(0, dtype=np.int64),
                    np.zeros(0))  # fmt: skip
     out["qp_cascade_run"] = time.perf_counter() - t0
@@ -874,7 +875,7 @@ def first_run_cost() -> dict[str, float]:
 
 #: Entries of the ``cfg`` array of :func:`qp_cascade_run`.
 (CFG_EPSILON, CFG_MAX_DAMPING, CFG_RCOND, CFG_REGULARIZATION, CFG_SLACK_TOL, CFG_FEASIBLE, CFG_IDENTITY, CFG_SHORTCUT,
- CFG_CONTRADICTION, CFG_COMPLEMENT_MIN_N, CFG_COMPLEMENT_FRACTION) = range(11)  # fmt: skip
+ CFG_CONTRADICTION, CFG_COMPLEMENT_MIN_N, CFG_COMPLEMENT_FRACTION, CFG_CERTIFIED_QR) = range(12)  # fmt: skip
 #: Entries of the ``state`` array of :func:`qp_cascade_run`: the basis mode (0: Z = I, 1: I on the free joints,
 #: 2: the basis Z), r (its columns), the fixed rows so far, the pending level's null-basis columns, whether the
 #: pending level solved a least squares (its basis then shrinks to Z·N), the number of free joints (``sel``), and
@@ -1138,6 +1139,80 @@ def level_qp_joint_into(
 
 
 @_jit
+def _certified_null(M: np.ndarray, epsilon: float, rcond: float, N: np.ndarray, rrow: np.ndarray) -> bool:
+    """For M (m, r), m ≤ r, the Householder QR Mᵀ = Q [R; 0] when it certifies σ_min(M) ≥ ε and the full rank
+    (:func:`qr_certificate`: what the damped SVD would leave undamped): Q₂ = Q[:, m:] (null(M), orthonormal)
+    into N[:r, :r − m], Q₁ into N[:r, r − m : r], R row by row into rrow[:m²]; False (nothing written that is
+    read) otherwise."""
+    m, r = M.shape
+    Q, R = householder_qr(np.ascontiguousarray(M.T))
+    Ri, ok = upper_inverse(R)
+    if not ok or not qr_certificate(R, Ri, epsilon, rcond):
+        return False
+    for i in range(r):
+        for j in range(r - m):
+            N[i, j] = Q[i, m + j]
+        for j in range(m):
+            N[i, r - m + j] = Q[i, j]
+    for i in range(m):
+        for j in range(m):
+            rrow[i * m + j] = R[i, j]
+    return True
+
+
+@_jit
+def _ridge_triangular(rrow: np.ndarray, m: int, rhs: np.ndarray, eps: float) -> np.ndarray:
+    """t = argmin ‖Rᵀt − rhs‖² + ε‖t‖² for R (m, m) upper triangular, stored row by row in rrow[:m²]: the
+    Householder QR of [Rᵀ; √ε I] (2m, m) applied to [rhs; 0] and back substitution (no normal equations: the
+    accuracy of the SVD's σ/(σ² + ε), without squaring R's condition number)."""
+    p = 2 * m
+    B = np.zeros((p, m))
+    c = np.zeros(p)
+    se = math.sqrt(eps)
+    for i in range(m):
+        for j in range(i + 1):
+            B[i, j] = rrow[j * m + i]  # Rᵀ: lower triangular
+        B[m + i, i] = se
+        c[i] = rhs[i]
+    v = np.empty(p)
+    for j in range(m):
+        nrm2 = 0.0
+        for i in range(j, p):
+            nrm2 += B[i, j] * B[i, j]
+        if nrm2 == 0.0:
+            continue
+        alpha = -math.sqrt(nrm2) if B[j, j] >= 0.0 else math.sqrt(nrm2)
+        vv = 0.0
+        for i in range(j, p):
+            v[i] = B[i, j]
+        v[j] -= alpha
+        for i in range(j, p):
+            vv += v[i] * v[i]
+        if vv == 0.0:
+            continue
+        for col in range(j, m):
+            acc = 0.0
+            for i in range(j, p):
+                acc += v[i] * B[i, col]
+            f = 2.0 * acc / vv
+            for i in range(j, p):
+                B[i, col] -= f * v[i]
+        acc = 0.0
+        for i in range(j, p):
+            acc += v[i] * c[i]
+        f = 2.0 * acc / vv
+        for i in range(j, p):
+            c[i] -= f * v[i]
+    t = np.zeros(m)
+    for i in range(m - 1, -1, -1):
+        acc = c[i]
+        for j in range(i + 1, m):
+            acc -= B[i, j] * t[j]
+        t[i] = acc / B[i, i]
+    return t
+
+
+@_jit
 def qp_cascade_run(
     A: np.ndarray,
     b: np.ndarray,
@@ -1160,6 +1235,7 @@ def qp_cascade_run(
     f: np.ndarray,
     slack: np.ndarray,
     stats: np.ndarray,
+    rfac: np.ndarray,
     qbuf: np.ndarray,
     k0: int,
     absorb: bool,
@@ -1180,9 +1256,15 @@ def qp_cascade_run(
 
     Args:
         cfg: ``CFG_*``: ε, λ_max, rcond, the regulariser, the slack tolerance, the shortcut's feasibility
-            tolerance, identity levels (1/0), the level shortcut (1/0).
+            tolerance, identity levels (1/0), the level shortcut (1/0), the contradiction tolerance, the complement
+            mode's smallest n and fraction, and the certified QR (1/0: a least-squares level of m ≤ r rows whose
+            QR of (A_k Z)ᵀ certifies σ_min ≥ ε, :func:`qr_certificate`, is factored by it — the same ridge and null
+            basis as its SVD's, nothing damped — instead of its SVD).
         state: ``ST_*`` (int64), kept between calls; x, Z (n, n), N (n, n), F, f (fixed rows), slack (one per C
             row), stats (L, 7) likewise.
+        rfac: (L, ≥ m²) per level the R (m, m) of a level of m rows whose QR certified σ_min ≥ ε (``cfg[
+            CFG_CERTIFIED_QR]``; its σ_min then NaN in ``stats``: the singular values of R are the level's, for the
+            diagnostics); a level of more than √(rfac.shape[1]) rows takes the SVD.
         qbuf: Where a level QP is written (:func:`qp_buffer_size` long for the largest level; read it through
             :func:`qp_views`).
         k0: The level to start at; with ``absorb``, the level whose QP the caller solved: its u (``u_in``) is
@@ -1199,13 +1281,14 @@ def qp_cascade_run(
     """
     n = x.shape[0]
     L = meta.shape[1] - 1
-    if state.shape[0] <= ST_NEQ or cfg.shape[0] <= CFG_COMPLEMENT_FRACTION or Z.shape[0] < n or N.shape[0] < n:
+    if state.shape[0] <= ST_NEQ or cfg.shape[0] <= CFG_CERTIFIED_QR or Z.shape[0] < n or N.shape[0] < n:
         raise ValueError("qp_cascade_run: state, cfg, Z or N is shorter than the layout it is read in")
     epsilon, max_damping, rcond = cfg[CFG_EPSILON], cfg[CFG_MAX_DAMPING], cfg[CFG_RCOND]
     reg, tol, feas = cfg[CFG_REGULARIZATION], cfg[CFG_SLACK_TOL], cfg[CFG_FEASIBLE]
     identity_levels, shortcut = cfg[CFG_IDENTITY] != 0.0, cfg[CFG_SHORTCUT] != 0.0
     contra = cfg[CFG_CONTRADICTION]
     cmin, cfrac = cfg[CFG_COMPLEMENT_MIN_N], cfg[CFG_COMPLEMENT_FRACTION]
+    certified_qr = cfg[CFG_CERTIFIED_QR] != 0.0
     empty2 = np.zeros((0, 0))
     empty1 = np.zeros(0)
     if k0 == 0 and not absorb:  # the start: x = 0 but on the pinned joints, Z = I (or I on the free joints)
@@ -1281,6 +1364,7 @@ def qp_cascade_run(
         sigma_min = np.inf
         damping = 0.0
         ncols = 0
+        qr_level = False  # the level's factors are the certified QR's (rfac[k], N), not U, σ, Vt
         if pure and comp:  # rows I on null(W): every direction left, singular values 1
             has_lsq = True
             rhs = z - x
@@ -1326,6 +1410,14 @@ def qp_cascade_run(
                 rank, sigma_min = r, sw
             elif r == 0:
                 U, sv, Vt = np.zeros((m, 0)), np.zeros(0), np.eye(0)
+            elif (
+                certified_qr and m <= r and m * m <= rfac.shape[1]
+                and _certified_null(M, epsilon * scale, rcond, N, rfac[k])
+            ):  # fmt: skip
+                # Mᵀ = Q₁R certifies σ_min ≥ ε (nothing damped, rank m): null(M) = Q₂ is in N, R in rfac[k] (σ_min
+                # from it when the diagnostics are read), and the ridge below takes R instead of the SVD
+                qr_level = True
+                rank, sigma_min, ncols = m, np.nan, r - m
             else:
                 U, sv, Vt, _, rank, sigma_min, damping = damped_svd_factors(
                     np.ascontiguousarray(M), epsilon * scale, max_damping * scale, rcond
@@ -1352,6 +1444,13 @@ def qp_cascade_run(
                 proj = _complement_projection(rhs, Z, nw)
                 for i in range(n):
                     u[i] = proj[i] / (1.0 + eps)
+            elif qr_level:  # the same ridge solution from M = RᵀQ₁ᵀ: u = Q₁ t, t = argmin ‖Rᵀt − rhs‖² + ε‖t‖²
+                t = _ridge_triangular(rfac[k], m, rhs, eps)
+                for c in range(nu):
+                    acc = 0.0
+                    for j in range(m):
+                        acc += N[c, r - m + j] * t[j]
+                    u[c] = acc
             elif has_lsq:  # the ridge solution V diag(σ/(σ² + ε)) Uᵀ rhs
                 kk = sv.shape[0]
                 for j in range(kk):
