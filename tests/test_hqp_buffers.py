@@ -30,9 +30,13 @@ def _buffers(plan: _Plan) -> tuple[np.ndarray, ...]:
 
 
 def _watch_fill(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
-    """Before each constrained cascade of a ``filled`` build, fill the buffers again and require no change."""
+    """Before each constrained cascade of a ``filled`` build, fill the buffers again and require no change. The
+    fused step's lean cascade (``_native_cascade``, which reads the same buffers) is switched off so that every
+    constrained cascade goes through the template and is seen here; :func:`test_native_cascade_result_equals_the_
+    template` holds the lean one to the template."""
     seen = {"filled": 0, "other": 0}
     original = HierarchicalQPResolver._qp_cascade
+    monkeypatch.setattr(HierarchicalQPResolver, "_native_cascade", lambda self, *args: None)
 
     def checked(self: HierarchicalQPResolver, built: HQPBuild, diag: Any) -> Any:
         if built.filled:
@@ -331,3 +335,43 @@ def test_packed_clearance_rows_equal_the_python_rows(monkeypatch: pytest.MonkeyP
             assert dict(got.info) == dict(want.info) and got.fallback == want.fallback
             qa, qb = robot.integrate(qa, got.dq, 0.01), twin.integrate(qb, want.dq, 0.01)
     assert packed_steps >= 12 * 59 and qp_steps > 20, (packed_steps, qp_steps)  # (a first step is not fused)
+
+
+@pytest.mark.parametrize("scenario", ["panda_tight", "snake10", "talos"])
+def test_native_cascade_result_equals_the_template(scenario: str) -> None:
+    """A fused QP step whose cascade daqp settles from the compiled call (``_native_cascade``, ``_native_result``)
+    against the template on the same run (``_settle`` over an ``HQPBuild``): q̇ bit for bit, the fallback, the
+    kept q̇ (the next step's rate window), and the whole info with its diagnostics — read at once on some steps,
+    after later steps on others (the rows the lean result holds are its step's)."""
+    from benchmarks.bench.runners import RedundikRunner
+    from benchmarks.bench.scenarios import SCENARIOS
+
+    runs = [RedundikRunner(SCENARIOS[scenario](), "hqp", None, {}) for _ in range(2)]
+    template = runs[1].resolver
+    lean_steps = [0]
+    native = HierarchicalQPResolver._native_cascade
+
+    def counted(self: HierarchicalQPResolver, *args: Any) -> Any:
+        out = native(self, *args)
+        lean_steps[0] += out is not None
+        return out
+
+    runs[0].resolver._native_cascade = counted.__get__(runs[0].resolver)  # type: ignore[method-assign]
+    template._native_cascade = lambda *args: None  # type: ignore[method-assign]
+    held: list[tuple[rk.StepResult, rk.StepResult]] = []
+    dt = runs[0].scenario.dt
+    for k in range(300):
+        a, b = (r.resolver.step(r.robot, r.stack, r.q, k * dt, dt) for r in runs)
+        np.testing.assert_array_equal(a.dq, b.dq)
+        assert a.fallback == b.fallback
+        np.testing.assert_array_equal(runs[0].resolver._dq_prev, template._dq_prev)
+        if k % 3 == 0:
+            assert dict(a.info) == dict(b.info)
+            assert a.sigma_min == b.sigma_min and a.damped == b.damped
+        elif k % 3 == 1:
+            held.append((a, b))
+        for r, res in zip(runs, (a, b), strict=True):
+            r.q = r.robot.integrate(r.q, res.dq, dt)
+    for a, b in held:
+        assert dict(a.info) == dict(b.info)
+    assert lean_steps[0] > 10, lean_steps

@@ -56,7 +56,10 @@ whose QR (A_k Z)ᵀ = Q [R; 0] certifies σ_min ≥ ε (``certified_qr``; nothin
 null basis and the ridge û from R (``hqp_kernels._ridge_triangular``, no normal equations) instead of the SVD —
 another orthonormal basis of the same space, so the same level optima, q̇ to the level QPs' conditioning; its σ_min
 comes from R's singular values when the diagnostics are read (the snake's 6 × 10 level 7.3 → 2.3 µs, its
-compiled QP cascade 21 → 16 µs).
+compiled QP cascade 21 → 16 µs). A fused step whose cascade daqp settles entirely from the compiled call, no level
+contradicted, keeps nothing of the template but that call and the clipping (``_native_cascade``, ``_native_result``:
+no HQPBuild, limit box or QPDiagnostics until the diagnostics are read; the same q̇ and info bit for bit,
+``tests/test_hqp_buffers.py``; the snake's QP step 54 → 50 µs); anything else runs the template from the start.
 Complement mode (exact, large robots): below a least-squares level that leaves few directions fixed (at most a third
 of nv, from nv ≥ ``complement_min_n`` = 40 on), the cascade keeps W, an orthonormal basis of the fixed directions,
 instead of Z (null(W) = range(Z)), and poses each level QP over y = Z u in joint space: the joint limits become
@@ -117,8 +120,8 @@ from redundik.resolvers.fused import (
     FusedPlan,
     FusedStepResult,
 )
-from redundik.resolvers.linalg import FK, _Kernels
-from redundik.resolvers.qp.backends import CHECKED_ANSWERS, DEFAULT_BACKEND, Backend, DaqpBackend, polish
+from redundik.resolvers.linalg import FK, K, _Kernels
+from redundik.resolvers.qp.backends import CHECKED_ANSWERS, DEFAULT_BACKEND, Backend, DaqpBackend, finite, polish
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
 from redundik.resolvers.qp.daqp_native import NativeDaqp
 from redundik.resolvers.qp.limits import LimitBox
@@ -829,6 +832,44 @@ class HierarchicalQPResolver(QPResolverBase):
         assert last is not None
         raise last
 
+    def _cascade_cfg(self) -> np.ndarray:
+        """The ``cfg`` array of ``hqp_kernels.qp_cascade_run`` for the resolver's settings as they are now."""
+        key = (self.epsilon, self.max_damping, self.rcond, self.regularization, self.slack_tolerance,
+               self.identity_levels, self.level_shortcut, self.complement_min_n, self.complement_fraction,
+               self.certified_qr)  # fmt: skip
+        if self._cfg is None or self._cfg[0] != key:
+            self._cfg = (
+                key,
+                np.array([*key[:5], _FEASIBLE, *map(float, key[5:7]), CONTRADICTION_TOLERANCE, *map(float, key[7:])]),
+            )
+        return self._cfg[1]
+
+    def _native_cascade(
+        self, plan: _Plan, lb: np.ndarray, ub: np.ndarray, z: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int] | None:
+        """:meth:`_qp_cascade` of a fused step when daqp, called from the compiled cascade (``daqp_native``),
+        solves every level QP at once and no level is contradicted: the one compiled call and nothing of the loop
+        around it. Returns (x, the per-level records, the certified R's, QPs solved, iterations), or ``None`` when
+        the native call is off or the cascade needs more (a level QP daqp did not solve at once, a contradicted
+        level): :meth:`_qp_cascade` then runs it from the start (the same answer) and goes on."""
+        qbuf, native = plan.qp_arrays(self.backend)
+        if native is None:
+            return None
+        L = plan.meta.shape[1] - 1
+        Z, N, F, f, slack, state, free, sel = plan.cascade_buffers(int(plan.meta[1, L]))
+        x = np.empty(plan.n)
+        stats = np.zeros((L, 7))
+        rfac = np.empty((L, plan.r_size))
+        ctl = native.ctl
+        ctl[HK.NAT_SOLVED] = ctl[HK.NAT_ITERS] = 0
+        status = HK.qp_cascade_run(
+            plan.A, plan.b, plan.w, plan.C, plan.d, z, plan.meta, plan.mixed_flags, lb, ub, free, sel,
+            self._cascade_cfg(), state, x, Z, N, F, f, slack, stats, rfac, qbuf, 0, False, _NO_U, ctl, native.x,
+        )[0]  # fmt: skip
+        if status != 0 or state[HK.ST_CONTRADICTED]:
+            return None
+        return x, stats, rfac, int(ctl[HK.NAT_SOLVED]), int(ctl[HK.NAT_ITERS])
+
     def _qp_cascade(self, built: HQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, list[str]]:
         """The constrained cascade (module docstring): every level but its QP in compiled code
         (``hqp_kernels.qp_cascade_run``, on the step's rows in the plan's buffers), each level QP it writes into the
@@ -845,15 +886,7 @@ class HierarchicalQPResolver(QPResolverBase):
         if not built.filled:  # (the lean steps wrote their rows into these buffers already)
             plan.fill(built.rows)
         L = len(layout.levels)
-        key = (self.epsilon, self.max_damping, self.rcond, self.regularization, self.slack_tolerance,
-               self.identity_levels, self.level_shortcut, self.complement_min_n, self.complement_fraction,
-               self.certified_qr)  # fmt: skip
-        if self._cfg is None or self._cfg[0] != key:
-            self._cfg = (
-                key,
-                np.array([*key[:5], _FEASIBLE, *map(float, key[5:7]), CONTRADICTION_TOLERANCE, *map(float, key[7:])]),
-            )
-        cfg = self._cfg[1]
+        cfg = self._cascade_cfg()
         # the start (in the first compiled call): joints whose box is one value (a rate window squeezed to a point, a
         # joint held at its limit) are not unknowns but fixed first and left out of the basis, so that no level QP
         # carries a window of zero width (as the pair of rows ±Z_j u ≤ tol, it left proxsuite a 1e-7-wide feasible
@@ -1060,6 +1093,9 @@ class HierarchicalQPResolver(QPResolverBase):
                     layout=plan.layout, z=zs, critical=False,
                 )  # fmt: skip
                 return self._finish(robot, stack, terms, built, t0, t1)
+            lean = self._native_cascade(plan, out[0, 0], out[1, 0], plan.zero if zs is None else zs)
+            if lean is not None and finite(lean[0]):  # (a non-finite q̇ takes the template: it says where from)
+                return self._native_result(plan, lean, out, windowed, zs, bounds, make_terms, err2, t0, t1)
             built = HQPBuild(
                 lambda: plan.step_rows(make_terms(), zs, [], bounds), limits.box_from(out[:4, 0], windowed), n,
                 infeasible=True, layout=plan.layout, z=zs, filled=True, critical=False,
@@ -1092,6 +1128,45 @@ class HierarchicalQPResolver(QPResolverBase):
             diagnostics,
             dq_norm=math.sqrt(dq2),
         )
+
+    def _native_result(
+        self,
+        plan: _Plan,
+        lean: tuple[np.ndarray, np.ndarray, np.ndarray, int, int],
+        out: np.ndarray,
+        windowed: bool,
+        zs: np.ndarray | None,
+        bounds: list[tuple[Any, Any, list[str]]],
+        make_terms: Callable[[], list[TaskTerm]],
+        err2: float,
+        t0: float,
+        t1: float,
+    ) -> StepResult:
+        """The result of a fused step whose constrained cascade :meth:`_native_cascade` settled: what
+        :meth:`_settle` makes of it — q̇ clipped to the limit box (both rows: returned and kept), the same info,
+        the same diagnostics on first read — without the template's records."""
+        x, qstats, rfac, nqp, iters = lean
+        lb, ub = out[0, 0], out[1, 0]
+        clipped = np.empty((2, x.shape[0]))
+        K.clip_twice(x, lb, ub, clipped)
+        kept = clipped[1]
+        self._dq_prev = kept
+        t2 = time.perf_counter()
+        limits, name = self.limits, self.backend.name
+
+        def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
+            box = limits.box_from(out[:4, 0], windowed)
+            built = HQPBuild(plan.step_rows(make_terms(), zs, [], bounds), box, plan.n, infeasible=True)
+            built.qp_stats, built.qp_r = qstats, rfac
+            diag = QPDiagnostics(backend=name, qp=nqp, iterations=iters)
+            diag.active_limits = box.active(kept, limits.joint_names)
+            self._diagnose(built, kept, diag)
+            return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
+
+        return FusedStepResult.fused(
+            clipped[0], make_terms, math.sqrt(err2), {"backend": name, "qp": nqp, "iterations": iters}, t1 - t0,
+            t2 - t1, plan.layout.main, diagnostics,
+        )  # fmt: skip
 
     def _resolve(self, built: HQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
         if not built.infeasible:
