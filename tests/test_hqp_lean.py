@@ -919,16 +919,27 @@ def test_certified_qr_factors_a_level_as_its_svd(seed: int) -> None:
         u = Q[:, r - m :] @ HK._ridge_triangular(rrow, m, rhs, eps)
         exact = np.linalg.lstsq(np.vstack([M, np.sqrt(eps) * np.eye(r)]), np.concatenate([rhs, np.zeros(r)]))[0]
         np.testing.assert_allclose(u, exact, rtol=0, atol=1e-12 * max(1.0, float(np.abs(exact).max())))
+    # the complement mode's thin form: Q₁ᵀ in N's first m rows, an orthonormal basis of M's row space, the same R
+    rows, rrow2 = np.full((m + 1, r + 2), np.nan), np.full(m * m + 3, np.nan)
+    assert HK._certified_rows(M, 1e-3, 1e-10, rows, rrow2)
+    Q1t = rows[:m, :r]
+    np.testing.assert_allclose(Q1t @ Q1t.T, np.eye(m), rtol=0, atol=1e-13)
+    np.testing.assert_allclose(M - M @ Q1t.T @ Q1t, 0.0, rtol=0, atol=1e-13 * sigma[0])
+    np.testing.assert_allclose(rrow2[: m * m], rrow[: m * m], rtol=0, atol=1e-13 * sigma[0])
+    np.testing.assert_allclose(np.abs(Q1t), np.abs(Q[:, r - m :].T), rtol=0, atol=1e-13)  # (the same reflections)
     weak = M.copy()
     weak -= sigma[-1] * np.outer(U[:, -1], V[:, m - 1]) * (1.0 - 1e-4 / sigma[-1])  # σ_min → 1e-4 < ε = 1e-3
     assert not HK._certified_null(weak, 1e-3, 1e-10, N, rrow)
+    assert not HK._certified_rows(weak, 1e-3, 1e-10, rows, rrow2)
 
 
-def test_certified_qr_levels_keep_the_svd_optima(monkeypatch: pytest.MonkeyPatch) -> None:
+@pytest.mark.parametrize("complement", [False, True])
+def test_certified_qr_levels_keep_the_svd_optima(monkeypatch: pytest.MonkeyPatch, complement: bool) -> None:
     """The constrained cascade with the certified QR against the same cascade with the SVD at every level, over
     random robots whose bound at level 1 or tight velocity limits send it there: the same optimum of every level
     (residuals, contradicted slacks, ‖q̇‖; q̇ to the level QPs' conditioning, :func:`_same_optima`), and the same
-    σ_min per level in the diagnostics (from R's singular values, to 1e-10) — on steps where the QR did factor."""
+    σ_min per level in the diagnostics (from R's singular values, to 1e-10) — on steps where the QR did factor;
+    in the basis mode and in the complement mode (joint-space level QPs, whatever the robot's size)."""
     factored = [0]
     diagnose = HierarchicalQPResolver._diagnose
 
@@ -948,6 +959,8 @@ def test_certified_qr_levels_keep_the_svd_optima(monkeypatch: pytest.MonkeyPatch
         qr, svd = HierarchicalQPResolver(), HierarchicalQPResolver()
         svd.certified_qr = False
         for res in (qr, svd):
+            if complement:
+                res.complement_min_n, res.complement_fraction = 0, 0.0
             prepared(res, robot, stack, q)
         for k in range(4):
             a = qr.step(robot, stack, q, 0.05 + 0.01 * k, 0.01)

@@ -1161,6 +1161,66 @@ def _certified_null(M: np.ndarray, epsilon: float, rcond: float, N: np.ndarray, 
 
 
 @_jit
+def _certified_rows(M: np.ndarray, epsilon: float, rcond: float, N: np.ndarray, rrow: np.ndarray) -> bool:
+    """:func:`_certified_null` for the complement mode, M (m, n) with m ≤ n: the thin Householder QR Mᵀ = Q₁R
+    (Q₁ (n, m) formed from the reflections alone, O(n m²) — no n × n Q) when it certifies σ_min(M) ≥ ε; Q₁ᵀ, an
+    orthonormal basis of M's row space (the SVD's Vt[:m] up to a rotation), into N[:m, :n], R into rrow[:m²]."""
+    m, n = M.shape
+    W = np.ascontiguousarray(M.T)  # (n, m), reduced in place to R
+    V = np.zeros((m, n))  # the reflections' vectors v_j (zero above j)
+    beta = np.zeros(m)  # 2 / vᵀv (0: no reflection)
+    for j in range(m):
+        nrm2 = 0.0
+        for i in range(j, n):
+            nrm2 += W[i, j] * W[i, j]
+        if nrm2 == 0.0:
+            continue
+        alpha = -math.sqrt(nrm2) if W[j, j] >= 0.0 else math.sqrt(nrm2)
+        vv = 0.0
+        for i in range(j, n):
+            V[j, i] = W[i, j]
+        V[j, j] -= alpha
+        for i in range(j, n):
+            vv += V[j, i] * V[j, i]
+        if vv == 0.0:
+            continue
+        beta[j] = 2.0 / vv
+        for c in range(j, m):
+            acc = 0.0
+            for i in range(j, n):
+                acc += V[j, i] * W[i, c]
+            f = beta[j] * acc
+            for i in range(j, n):
+                W[i, c] -= f * V[j, i]
+    R = np.zeros((m, m))
+    for i in range(m):
+        for c in range(i, m):
+            R[i, c] = W[i, c]
+    Ri, ok = upper_inverse(R)
+    if not ok or not qr_certificate(R, Ri, epsilon, rcond):
+        return False
+    Q1 = np.zeros((n, m))  # H_0 ⋯ H_{m−1} [I; 0], from the last reflection on (H_j leaves the columns < j alone)
+    for i in range(m):
+        Q1[i, i] = 1.0
+    for j in range(m - 1, -1, -1):
+        if beta[j] == 0.0:
+            continue
+        for c in range(j, m):
+            acc = 0.0
+            for i in range(j, n):
+                acc += V[j, i] * Q1[i, c]
+            f = beta[j] * acc
+            for i in range(j, n):
+                Q1[i, c] -= f * V[j, i]
+    for i in range(m):
+        for j in range(n):
+            N[i, j] = Q1[j, i]
+        for j in range(m):
+            rrow[i * m + j] = R[i, j]
+    return True
+
+
+@_jit
 def _ridge_triangular(rrow: np.ndarray, m: int, rhs: np.ndarray, eps: float) -> np.ndarray:
     """t = argmin ‖Rᵀt − rhs‖² + ε‖t‖² for R (m, m) upper triangular, stored row by row in rrow[:m²]: the
     Householder QR of [Rᵀ; √ε I] (2m, m) applied to [rhs; 0] and back substitution (no normal equations: the
@@ -1388,12 +1448,20 @@ def qp_cascade_run(
             M = np.empty((m, n))
             for a in range(m):
                 M[a] = _complement_projection(Ak[a], Z, nw)
-            U, sv, Vt, _, rank, sigma_min, damping = damped_svd_thin(M, epsilon * scale, max_damping * scale, rcond)
-            rank = min(rank, r)  # (M's rows lie in null(W), of dimension r)
-            for i in range(rank):
-                for j in range(n):
-                    N[i, j] = Vt[i, j]
-            ncols = rank
+            if (
+                certified_qr and m <= r and m * m <= rfac.shape[1]
+                and _certified_rows(M, epsilon * scale, rcond, N, rfac[k])
+            ):  # fmt: skip
+                # Mᵀ = Q₁R certifies σ_min ≥ ε: the fixed directions Q₁ᵀ are N's first m rows, R in rfac[k]
+                qr_level = True
+                rank, sigma_min, ncols = m, np.nan, m
+            else:
+                U, sv, Vt, _, rank, sigma_min, damping = damped_svd_thin(M, epsilon * scale, max_damping * scale, rcond)
+                rank = min(rank, r)  # (M's rows lie in null(W), of dimension r)
+                for i in range(rank):
+                    for j in range(n):
+                        N[i, j] = Vt[i, j]
+                ncols = rank
         elif m > 0:
             has_lsq = True
             scale = _level_scale(w, s, e)
@@ -1449,7 +1517,7 @@ def qp_cascade_run(
                 for c in range(nu):
                     acc = 0.0
                     for j in range(m):
-                        acc += N[c, r - m + j] * t[j]
+                        acc += (N[j, c] if comp else N[c, r - m + j]) * t[j]
                     u[c] = acc
             elif has_lsq:  # the ridge solution V diag(σ/(σ² + ε)) Uᵀ rhs
                 kk = sv.shape[0]

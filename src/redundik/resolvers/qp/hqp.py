@@ -56,10 +56,12 @@ whose QR (A_k Z)ᵀ = Q [R; 0] certifies σ_min ≥ ε (``certified_qr``; nothin
 null basis and the ridge û from R (``hqp_kernels._ridge_triangular``, no normal equations) instead of the SVD —
 another orthonormal basis of the same space, so the same level optima, q̇ to the level QPs' conditioning; its σ_min
 comes from R's singular values when the diagnostics are read (the snake's 6 × 10 level 7.3 → 2.3 µs, its
-compiled QP cascade 21 → 16 µs). A fused step whose cascade daqp settles entirely from the compiled call, no level
-contradicted, keeps nothing of the template but that call and the clipping (``_native_cascade``, ``_native_result``:
-no HQPBuild, limit box or QPDiagnostics until the diagnostics are read; the same q̇ and info bit for bit,
-``tests/test_hqp_buffers.py``; the snake's QP step 54 → 50 µs); anything else runs the template from the start.
+compiled QP cascade 21 → 16 µs); in the complement mode the thin QR's Q₁ᵀ gives the level's fixed directions
+(``hqp_kernels._certified_rows``: the 40-joint snake's QP cascade 38 → 20 µs, measured on captured steps).
+A fused step whose cascade daqp settles entirely from the compiled call, no level contradicted, keeps nothing of
+the template but that call and the clipping (``_native_cascade``, ``_native_result``: no HQPBuild, limit box or
+QPDiagnostics until the diagnostics are read; the same q̇ and info bit for bit, ``tests/test_hqp_buffers.py``; the
+snake's QP step 54 → 50 µs); anything else runs the template from the start.
 Complement mode (exact, large robots): below a least-squares level that leaves few directions fixed (at most a third
 of nv, from nv ≥ ``complement_min_n`` = 40 on), the cascade keeps W, an orthonormal basis of the fixed directions,
 instead of Z (null(W) = range(Z)), and poses each level QP over y = Z u in joint space: the joint limits become
