@@ -6,8 +6,10 @@ posture: the stack's null-space objective, :mod:`redundik.tasks.stack`).
 
 from __future__ import annotations
 
+import functools
 import math
 import time
+from collections.abc import Callable
 from typing import ClassVar
 
 import numpy as np
@@ -191,6 +193,14 @@ class PinvResolver(Resolver):
         return f"PinvResolver(epsilon={self.epsilon}, max_damping={self.max_damping})"
 
 
+def _fused_sigma(step: tuple[np.ndarray, FusedPlan, np.ndarray, RobotModel]) -> tuple[float, bool, dict[str, object]]:
+    """σ_min of a fused ``pinv`` step's main Jacobian (read from its work array; the step was undamped)."""
+    work, plan, _, robot = step
+    Jm = FK.pinv_work_views(work, len(plan.frames), plan.m, robot._nv)[1]
+    smin = float(np.sqrt(max(float(np.linalg.eigvalsh(Jm @ Jm.T)[0]), 0.0)))
+    return smin, False, {"sigma_min": smin}
+
+
 class FusedPinvResult(FusedStepResult):
     """The result of a fused ``pinv`` step: q̇ a view on the step's work array, and what a control loop seldom reads
     — J⁺V, (I − J⁺J) z, the task terms, σ_min when the Cholesky route left it — read from that array when asked."""
@@ -237,16 +247,11 @@ class FusedPinvResult(FusedStepResult):
         work, plan, _, robot = self.__dict__["_step"]
         return FK.pinv_work_views(work, len(plan.frames), plan.m, robot._nv)
 
-    def _resolve(self) -> None:
+    def _pending_fn(self) -> Callable[[], tuple[float, bool, dict[str, object]]]:
         d = self.__dict__
-        if d.get("pending") is True:
-            d["pending"] = self._sigma
-        super()._resolve()
-
-    def _sigma(self) -> tuple[float, bool, dict[str, object]]:
-        Jm = self._views()[1]
-        smin = float(np.sqrt(max(float(np.linalg.eigvalsh(Jm @ Jm.T)[0]), 0.0)))
-        return smin, False, {"sigma_min": smin}
+        if d.get("pending") is True:  # σ_min from the step's J (the step's arrays, not this result)
+            return functools.partial(_fused_sigma, d["_step"])
+        return super()._pending_fn()
 
     @property
     def terms(self) -> list[TaskTerm]:

@@ -25,10 +25,12 @@ safety rows hold (q̇ = 0 always does); ``StepResult.fallback`` says which.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -496,6 +498,26 @@ class WeightedQPResolver(QPResolverBase):
         )
 
 
+def _fused_terms(step: tuple[Any, ...]) -> list[TaskTerm]:
+    """The task terms of a fused ``wqp`` step, from its work array."""
+    _, fused, work, q, robot, _, _ = step
+    _, ev, Jf = FK.wqp_work_views(work, len(fused.frames), fused.m, robot._nv)
+    return fused.terms(Jf, ev, q, robot)
+
+
+def _fused_diagnostics(step: tuple[Any, ...], main: list[int]) -> tuple[float, bool, dict[str, object]]:
+    """The diagnostics of a fused ``wqp`` step (σ_min, damped, info entries), from its work array."""
+    resolver, _, work, _, robot, windowed, lam = step
+    n = robot._nv
+    terms = _fused_terms(step)
+    diag = QPDiagnostics()
+    limits = resolver.limits
+    kept = work[6 * n : 7 * n]
+    diag.active_limits = limits.box_from(work[: 4 * n].reshape(4, n), windowed).active(kept, limits.joint_names)
+    resolver._diagnose_terms([terms[i] for i in main], lam, kept, diag)
+    return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
+
+
 class FusedWqpResult(FusedStepResult):
     """The result of a fused ``wqp`` step that solved no QP: q̇ a view on the step's work array; the task terms and
     the diagnostics (active limits, residuals, σ_min) computed from that array on first read."""
@@ -537,31 +559,18 @@ class FusedWqpResult(FusedStepResult):
         res.__dict__["solve_time"] = time.perf_counter() - t1
         return res
 
-    def _resolve(self) -> None:
+    def _pending_fn(self) -> Callable[[], tuple[float, bool, dict[str, object]]]:
         d = self.__dict__
-        if d.get("pending") is True:
-            d["pending"] = self._diagnostics
-        super()._resolve()
-
-    def _diagnostics(self) -> tuple[float, bool, dict[str, object]]:
-        resolver, _, work, _, robot, windowed, lam = self.__dict__["_step"]
-        n = robot._nv
-        terms = self.terms
-        diag = QPDiagnostics()
-        limits = resolver.limits
-        kept = work[6 * n : 7 * n]
-        diag.active_limits = limits.box_from(work[: 4 * n].reshape(4, n), windowed).active(kept, limits.joint_names)
-        resolver._diagnose_terms([terms[i] for i in self.__dict__["main"]], lam, kept, diag)
-        return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
+        if d.get("pending") is True:  # the diagnostics from the step's work array (the step's arrays, not this result)
+            return functools.partial(_fused_diagnostics, d["_step"], d["main"])
+        return super()._pending_fn()
 
     @property
     def terms(self) -> list[TaskTerm]:
         d = self.__dict__
         terms = d.get("_terms")
         if terms is None:
-            _, fused, work, q, robot, _, _ = d["_step"]
-            _, ev, Jf = FK.wqp_work_views(work, len(fused.frames), fused.m, robot._nv)
-            terms = d["_terms"] = fused.terms(Jf, ev, q, robot)
+            terms = d["_terms"] = _fused_terms(d["_step"])
         return terms
 
     @terms.setter
