@@ -284,6 +284,9 @@ class _Plan:
         self._qp_views: dict[tuple[int, int], tuple[np.ndarray, ...]] = {}  # its views, per (variables, rows)
         self._native: NativeDaqp | None = None  # daqp's C call from the cascade (``daqp_native``)
         self.r_size = 0  # m² of the level of most least-squares rows (``qp_arrays``): a row of the cascade's rfac
+        #: (the ``_offsets`` they were read for, most variables and rows of a level QP, inequality rows in all) of
+        #: :meth:`qp_arrays`: read again only when meta was rewritten
+        self._dims: tuple[object, int, int, int] | None = None
         #: (Edits.count, robot data) the bound subtasks were packed for, and the packing (``packed_bounds``)
         self._packed_key: tuple[int, Any] | None = None
         self._packed: _Packed | None = None
@@ -665,12 +668,17 @@ class _Plan:
         cascade_qp_dims``; growing it forgets the views of :meth:`qp_views`), and, for daqp as ``backend``, the arrays
         through which the cascade calls daqp itself (:mod:`redundik.resolvers.qp.daqp_native`; ``None`` when that
         call is off)."""
-        nvar, nr, m_max = HK.cascade_qp_dims(self.n, self.meta)
-        self.r_size = m_max * m_max
-        size = nvar * nvar + nvar + nr * nvar + 2 * (nvar + nr)
-        if self._qp_buf.shape[0] < size:
-            self._qp_buf = np.empty(max(size, 2 * self._qp_buf.shape[0]))
-            self._qp_views = {}
+        dims = self._dims
+        if dims is None or dims[0] is not self._offsets:  # meta rewritten since (its writers renew _offsets)
+            nvar, nr, m_max = HK.cascade_qp_dims(self.n, self.meta)
+            L = self.meta.shape[1] - 1
+            dims = self._dims = (self._offsets, nvar, nr, int(self.meta[1, L]))
+            self.r_size = m_max * m_max
+            size = nvar * nvar + nvar + nr * nvar + 2 * (nvar + nr)
+            if self._qp_buf.shape[0] < size:
+                self._qp_buf = np.empty(max(size, 2 * self._qp_buf.shape[0]))
+                self._qp_views = {}
+        nvar, nr = dims[1], dims[2]
         if type(backend) is not DaqpBackend:
             return self._qp_buf, None
         native = self._native
@@ -858,7 +866,8 @@ class HierarchicalQPResolver(QPResolverBase):
         if native is None:
             return None
         L = plan.meta.shape[1] - 1
-        Z, N, F, f, slack, state, free, sel = plan.cascade_buffers(int(plan.meta[1, L]))
+        assert plan._dims is not None
+        Z, N, F, f, slack, state, free, sel = plan.cascade_buffers(plan._dims[3])
         x = np.empty(plan.n)
         stats = np.zeros((L, 7))
         rfac = np.empty((L, plan.r_size))
