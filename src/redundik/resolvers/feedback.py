@@ -27,7 +27,8 @@ from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver, StepResult, nonfinite_sources
 from redundik.resolvers.linalg import damped_svd, pseudo_inverse
-from redundik.resolvers.pinv import check_damping_options, main_system
+from redundik.resolvers.pinv import main_system
+from redundik.resolvers.settings import Setting, nonnegative
 from redundik.tasks.stack import StackLayout, TaskStack
 
 
@@ -47,9 +48,12 @@ class FeedbackResolver(Resolver):
     name = "feedback"
     accepts: ClassVar[tuple[str, ...]] = ("gradient", "target")
 
+    epsilon = Setting(nonnegative)
+    max_damping = Setting(nonnegative)
+    d_epsilon = Setting(nonnegative)
+
     def __init__(self, epsilon: float = 1e-2, max_damping: float = 5e-2, d_epsilon: float = 1e-3) -> None:
-        self.epsilon, self.max_damping = check_damping_options("feedback", epsilon, max_damping)
-        self.d_epsilon = check_damping_options("feedback", d_epsilon, 0.0)[0]
+        self.epsilon, self.max_damping, self.d_epsilon = epsilon, max_damping, d_epsilon  # (validated: Setting)
         self._layout: tuple[tuple[int, ...], StackLayout] | None = None
 
     def check(self, robot: RobotModel, stack: TaskStack) -> None:

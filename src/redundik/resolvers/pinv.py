@@ -19,6 +19,7 @@ from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, Resolver, StepResult, nonfinite_sources
 from redundik.resolvers.fused import FusedPlan, FusedStepResult
 from redundik.resolvers.linalg import FK, RCOND, K, contiguous
+from redundik.resolvers.settings import Setting, flag
 from redundik.tasks.base import TaskTerm, stack_terms
 from redundik.tasks.stack import StackLayout, TaskStack
 
@@ -62,7 +63,7 @@ class PinvResolver(Resolver):
     name = "pinv"
     #: Take the fused step (:mod:`redundik.resolvers.fused`) when the stack allows it; the per-task path otherwise
     #: (the same answer: a switch for comparisons and tests).
-    fuse: bool = True
+    fuse = Setting(flag, default=True)
     accepts: ClassVar[tuple[str, ...]] = ("gradient",)
 
     def __init__(self, epsilon: float = 1e-2, max_damping: float = 5e-2) -> None:

@@ -26,6 +26,7 @@ from redundik.resolvers.pinv import check_damping_options, main_system
 from redundik.resolvers.qp.backends import CHECKED_ANSWERS, DEFAULT_BACKEND, Backend, finite, make_backend
 from redundik.resolvers.qp.limits import JointLimits, LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
+from redundik.resolvers.settings import Setting, nonnegative
 from redundik.tasks.base import TaskTerm
 from redundik.tasks.stack import StackLayout, TaskStack
 
@@ -174,6 +175,8 @@ class QPResolverBase(Resolver):
     """
 
     accepts: ClassVar[tuple[str, ...]] = ("gradient", "target", "bound")
+    epsilon = Setting(nonnegative, resets=("_plan",))
+    max_damping = Setting(nonnegative, resets=("_plan",))
 
     def __init__(
         self,

@@ -104,7 +104,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from redundik.errors import ResolverError, SolverError
+from redundik.errors import SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, StepResult
 from redundik.resolvers.fused import (
@@ -129,6 +129,7 @@ from redundik.resolvers.qp.daqp_native import NativeDaqp
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
 from redundik.resolvers.qp.terms import Level, StepRows, gather_rows
+from redundik.resolvers.settings import Setting, count, flag, nonnegative, positive, unit_interval
 from redundik.tasks.base import Edits, TaskTerm
 from redundik.tasks.potentials import Clearance
 from redundik.tasks.stack import StackLayout, TaskStack
@@ -719,6 +720,17 @@ class HierarchicalQPResolver(QPResolverBase):
     """
 
     name = "hqp"
+    epsilon = Setting(nonnegative, resets=("_plan", "_cfg"))
+    max_damping = Setting(nonnegative, resets=("_plan", "_cfg"))
+    regularization = Setting(positive, resets=("_cfg",))
+    rcond = Setting(unit_interval, resets=("_plan", "_cfg"))
+    slack_tolerance = Setting(nonnegative, resets=("_cfg",))
+    level_shortcut = Setting(flag, resets=("_cfg",))
+    identity_levels = Setting(flag, resets=("_cfg",))
+    complement_min_n = Setting(count, resets=("_cfg",))
+    complement_fraction = Setting(nonnegative, resets=("_cfg",))
+    certified_qr = Setting(flag, resets=("_cfg",))
+    fuse = Setting(flag, resets=("_plan",))  # (whether the stack is fused is the plan's)
 
     def __init__(
         self,
@@ -731,14 +743,12 @@ class HierarchicalQPResolver(QPResolverBase):
         rcond: float = 1e-10,
     ) -> None:
         super().__init__(backend, limits, levels, epsilon, max_damping)
-        if not (isinstance(regularization, (int, float)) and np.isfinite(regularization) and regularization > 0):
-            raise ResolverError(f"hqp: regularization must be a finite number > 0, got {regularization!r}")
-        if not (isinstance(rcond, (int, float)) and 0 < rcond < 1):
-            raise ResolverError(f"hqp: rcond must be in (0, 1), got {rcond!r}")
-        self.regularization, self.rcond = float(regularization), float(rcond)
+        self.regularization, self.rcond = regularization, rcond  # (validated: Setting)
         self.slack_tolerance = 1e-7  # feasibility margin of the rows that carry higher levels and limits
         self._plan: _Plan | None = None
-        self._cfg: tuple[tuple[object, ...], np.ndarray] | None = None  # the cascade's settings, as read last
+        self._cfg: np.ndarray | None = (
+            None  # the cascade's settings (``_cascade_cfg``; a Setting's assignment drops it)
+        )
         #: Keep a level QP's unconstrained optimum when it satisfies the level's rows (exact; ``False`` solves
         #: every level by the backend, the reference the tests hold the shortcut to).
         self.level_shortcut = True
@@ -844,15 +854,15 @@ class HierarchicalQPResolver(QPResolverBase):
 
     def _cascade_cfg(self) -> np.ndarray:
         """The ``cfg`` array of ``hqp_kernels.qp_cascade_run`` for the resolver's settings as they are now."""
-        key = (self.epsilon, self.max_damping, self.rcond, self.regularization, self.slack_tolerance,
-               self.identity_levels, self.level_shortcut, self.complement_min_n, self.complement_fraction,
-               self.certified_qr)  # fmt: skip
-        if self._cfg is None or self._cfg[0] != key:
-            self._cfg = (
-                key,
-                np.array([*key[:5], _FEASIBLE, *map(float, key[5:7]), CONTRADICTION_TOLERANCE, *map(float, key[7:])]),
+        cfg = self._cfg
+        if cfg is None:  # (every setting read here is a Setting: its assignment drops the array)
+            key = (self.epsilon, self.max_damping, self.rcond, self.regularization, self.slack_tolerance,
+                   self.identity_levels, self.level_shortcut, self.complement_min_n, self.complement_fraction,
+                   self.certified_qr)  # fmt: skip
+            cfg = self._cfg = np.array(
+                [*key[:5], _FEASIBLE, *map(float, key[5:7]), CONTRADICTION_TOLERANCE, *map(float, key[7:])]
             )
-        return self._cfg[1]
+        return cfg
 
     def _native_cascade(
         self, plan: _Plan, lb: np.ndarray, ub: np.ndarray, z: np.ndarray

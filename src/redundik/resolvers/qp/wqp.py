@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from redundik.errors import ResolverError, SolverError
+from redundik.errors import SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, StepResult
 from redundik.resolvers.fused import FusedPlan, FusedStepResult
@@ -43,6 +43,7 @@ from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem
+from redundik.resolvers.settings import Setting, flag, nonnegative, unit_interval
 from redundik.tasks.base import TaskTerm
 from redundik.tasks.stack import StackLayout, TaskStack
 from redundik.tasks.subtasks import BoundSubtask, TargetSubtask
@@ -114,7 +115,10 @@ class WeightedQPResolver(QPResolverBase):
     name = "wqp"
     #: Take the fused step (:mod:`redundik.resolvers.fused`) when the stack allows it; the per-task path otherwise
     #: (the same answer: a switch for comparisons and tests).
-    fuse: bool = True
+    fuse = Setting(flag, resets=("_plan",), default=True)
+    damping = Setting(nonnegative)
+    lm_damping = Setting(nonnegative, resets=("_plan",))  # (whether the stack is fused depends on it)
+    level_ratio = Setting(unit_interval, resets=("_plan",))  # (the level weights ρ^k are the plan's)
 
     def __init__(
         self,
@@ -128,12 +132,7 @@ class WeightedQPResolver(QPResolverBase):
         max_damping: float = 5e-2,
     ) -> None:
         super().__init__(backend, limits, levels, epsilon, max_damping)
-        for key, val in (("damping", damping), ("lm_damping", lm_damping)):
-            if not (isinstance(val, (int, float)) and np.isfinite(val) and val >= 0):
-                raise ResolverError(f"wqp: {key} must be a finite number ≥ 0, got {val!r}")
-        if not (isinstance(level_ratio, (int, float)) and 0 < level_ratio < 1):
-            raise ResolverError(f"wqp: level_ratio must be in (0, 1), got {level_ratio!r}")
-        self.damping, self.lm_damping, self.level_ratio = float(damping), float(lm_damping), float(level_ratio)
+        self.damping, self.lm_damping, self.level_ratio = damping, lm_damping, level_ratio  # (validated: Setting)
         self._P: np.ndarray | None = None
         self._q: np.ndarray | None = None
         self._plan: _Plan | None = None
