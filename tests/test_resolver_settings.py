@@ -97,3 +97,53 @@ def test_a_setting_assigned_after_steps_is_used_from_the_next_step(
         scale = max(1.0, float(np.abs(b.dq).max()))
         np.testing.assert_allclose(a.dq, b.dq, rtol=0, atol=1e-12 * scale)
         q = robot.integrate(q, b.dq, dt)
+
+
+@pytest.mark.parametrize("method", ["wqp", "hqp"])
+@pytest.mark.parametrize(
+    ("option", "value"),
+    [
+        ("backend", "quadprog"),
+        ("limits", {"velocity_limits": {"panda_joint2": 0.2, "panda_joint4": 0.2}}),
+        ("limits", False),
+        ("levels", {"posture": 0}),
+    ],
+)
+def test_backend_limits_and_levels_assigned_after_steps_are_the_constructors(
+    method: str, option: str, value: object
+) -> None:
+    """``backend``, ``limits`` and ``levels`` take what the constructor takes (a name, a mapping, True/False) and
+    are used from the next step: the steps of a resolver constructed with them (before, a mapping or a name was
+    stored as given and failed later, and new levels were ignored: the layout was cached)."""
+    robot, q0 = _panda()
+    moved, fresh = rk.make_resolver(method), rk.make_resolver(method, **{option: value})
+    stack_m, stack_f = _stack(q0), _stack(q0)
+    for stack in (stack_m, stack_f):
+        stack.reset(robot)
+    dt, q = 0.01, q0.copy()
+    for k in range(10):
+        q = robot.integrate(q, moved.step(robot, stack_m, q, k * dt, dt).dq, dt)
+    setattr(moved, option, value)
+    for k in range(10, 20):
+        a = moved.step(robot, stack_m, q, k * dt, dt)
+        b = fresh.step(robot, stack_f, q, k * dt, dt)
+        np.testing.assert_allclose(a.dq, b.dq, rtol=0, atol=1e-12 * max(1.0, float(np.abs(b.dq).max())))
+        assert a.info["backend"] == b.info["backend"]
+        q = robot.integrate(q, b.dq, dt)
+
+
+def test_a_bad_backend_limits_or_levels_assignment_says_what_is_wrong() -> None:
+    robot, q0 = _panda()
+    res = rk.make_resolver("hqp")
+    with pytest.raises(rk.SolverError, match="unknown QP backend 'nosuch'"):
+        res.backend = "nosuch"
+    with pytest.raises(ResolverError, match=r"limits: unknown option\(s\) \['speed'\]"):
+        res.limits = {"speed": 1.0}
+    with pytest.raises(ResolverError, match="levels: 'posture' must be an integer level"):
+        res.levels = {"posture": -1}
+    assert res.backend.name == "daqp" and res.levels == {}
+    res.levels = {"nosuch": 0}  # (a name is checked against the stack it is used with, at the next step)
+    stack = _stack(q0)
+    stack.reset(robot)
+    with pytest.raises(ResolverError, match=r"levels: 'nosuch': no such task or subtask.*'posture'"):
+        res.step(robot, stack, q0, 0.0, 0.01)

@@ -177,6 +177,12 @@ class QPResolverBase(Resolver):
     accepts: ClassVar[tuple[str, ...]] = ("gradient", "target", "bound")
     epsilon = Setting(nonnegative, resets=("_plan",))
     max_damping = Setting(nonnegative, resets=("_plan",))
+    #: The QP backend: a name or a ``Backend`` (:func:`~redundik.resolvers.qp.backends.make_backend`).
+    backend = Setting(lambda who, key, val: make_backend(val), resets=("_plan",))  # type: ignore[arg-type]
+    #: The joint limits: as the constructor's ``limits`` (:func:`make_limits`).
+    limits = Setting(lambda who, key, val: make_limits(val), resets=("_plan",))  # type: ignore[arg-type]
+    #: Level overrides: as the constructor's ``levels`` (:func:`make_levels`); the stack's layout is made again.
+    levels = Setting(lambda who, key, val: make_levels(val), resets=("_layout", "_plan"))  # type: ignore[arg-type]
 
     def __init__(
         self,
