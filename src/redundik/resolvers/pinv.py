@@ -63,10 +63,11 @@ class PinvResolver(Resolver):
     name = "pinv"
     #: Take the fused step (:mod:`redundik.resolvers.fused`) when the stack allows it; the per-task path otherwise
     #: (the same answer: a switch for comparisons and tests).
-    fuse = Setting(flag, default=True)
+    fuse = Setting(flag)
     accepts: ClassVar[tuple[str, ...]] = ("gradient",)
 
     def __init__(self, epsilon: float = 1e-2, max_damping: float = 5e-2) -> None:
+        self.fuse = True
         self._epsilon, self._max_damping = check_damping_options("pinv", epsilon, max_damping)
         self._tail = (self._epsilon, self._max_damping, RCOND)  # the fused step's coefficients of the resolver
         self._layout: tuple[tuple[int, ...], StackLayout] | None = None

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any, Generic, TypeVar, overload
+from typing import TYPE_CHECKING, Any, Generic, TypeVar, overload
 
 import numpy as np
 
@@ -65,44 +65,35 @@ def count(who: str, key: str, val: object) -> int:
     return int(val)
 
 
-_UNSET: Any = object()
-
-
 class Setting(Generic[T]):
     """A resolver option checked on assignment by ``check(resolver name, option name, value)``; an assignment
-    sets each attribute named in ``resets`` to ``None`` (the caches built from the old value). ``default``: the
-    value read before any assignment (none: the constructor assigns it)."""
+    sets each attribute named in ``resets`` to ``None`` (the caches built from the old value).
 
-    def __init__(
-        self, check: Callable[[str, str, object], T], resets: tuple[str, ...] = (), default: T = _UNSET
-    ) -> None:
+    The value lives in the instance's ``__dict__`` under the option's own name and the descriptor defines no
+    ``__get__`` (only for the type checker): reading it is Python's plain attribute lookup, as fast as before on
+    the hot path; the resolver's constructor assigns every one of its settings.
+    """
+
+    def __init__(self, check: Callable[[str, str, object], T], resets: tuple[str, ...] = ()) -> None:
         self._check = check
         self._resets = resets
-        self._default = default
         self._name = ""
-        self._slot = ""
 
     def __set_name__(self, owner: type, name: str) -> None:
-        self._name, self._slot = name, f"_setting_{name}"
+        self._name = name
 
-    @overload
-    def __get__(self, obj: None, objtype: type | None = None) -> Setting[T]: ...
+    if TYPE_CHECKING:
 
-    @overload
-    def __get__(self, obj: object, objtype: type | None = None) -> T: ...
+        @overload
+        def __get__(self, obj: None, objtype: type | None = None) -> Setting[T]: ...
 
-    def __get__(self, obj: object | None, objtype: type | None = None) -> Setting[T] | T:
-        if obj is None:
-            return self
-        try:
-            return obj.__dict__[self._slot]
-        except KeyError:
-            if self._default is not _UNSET:
-                return self._default
-            raise AttributeError(f"{type(obj).__name__}.{self._name} is not set") from None
+        @overload
+        def __get__(self, obj: object, objtype: type | None = None) -> T: ...
+
+        def __get__(self, obj: object | None, objtype: type | None = None) -> Setting[T] | T: ...
 
     def __set__(self, obj: Any, value: object) -> None:
         d = obj.__dict__
-        d[self._slot] = self._check(str(getattr(obj, "name", type(obj).__name__)), self._name, value)
+        d[self._name] = self._check(str(getattr(obj, "name", type(obj).__name__)), self._name, value)
         for attr in self._resets:
             d[attr] = None

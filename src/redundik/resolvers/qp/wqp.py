@@ -115,7 +115,7 @@ class WeightedQPResolver(QPResolverBase):
     name = "wqp"
     #: Take the fused step (:mod:`redundik.resolvers.fused`) when the stack allows it; the per-task path otherwise
     #: (the same answer: a switch for comparisons and tests).
-    fuse = Setting(flag, resets=("_plan",), default=True)
+    fuse = Setting(flag, resets=("_plan",))
     damping = Setting(nonnegative)
     lm_damping = Setting(nonnegative, resets=("_plan",))  # (whether the stack is fused depends on it)
     level_ratio = Setting(unit_interval, resets=("_plan",))  # (the level weights ρ^k are the plan's)
@@ -133,6 +133,7 @@ class WeightedQPResolver(QPResolverBase):
     ) -> None:
         super().__init__(backend, limits, levels, epsilon, max_damping)
         self.damping, self.lm_damping, self.level_ratio = damping, lm_damping, level_ratio  # (validated: Setting)
+        self.fuse = True
         self._P: np.ndarray | None = None
         self._q: np.ndarray | None = None
         self._plan: _Plan | None = None
