@@ -239,10 +239,11 @@ class _Deferred:
 
     def __call__(self) -> tuple[float, bool, dict[str, object]]:
         out = self.out
-        if out is None:
-            fn, self.fn = self.fn, None
+        if out is None:  # (fn kept until it returns: a diagnostics error is raised again at the next read)
+            fn = self.fn
             assert fn is not None
             out = self.out = fn()
+            self.fn = None
         return out
 
     def extra(self) -> dict[str, object]:
