@@ -32,10 +32,12 @@ from numba.extending import intrinsic
 
 from redundik import _kernel_cache
 from redundik.resolvers.kernels import (
+    _reflect,
     clip_twice,
     damped_svd_factors,
     damped_svd_thin,
     frame_jacobian_lwa,
+    householder_reflectors,
     in_box,
     limit_box,
 )
@@ -1166,32 +1168,8 @@ def _certified_rows(M: np.ndarray, epsilon: float, rcond: float, N: np.ndarray, 
     (Q₁ (n, m) formed from the reflections alone, O(n m²) — no n × n Q) when it certifies σ_min(M) ≥ ε; Q₁ᵀ, an
     orthonormal basis of M's row space (the SVD's Vt[:m] up to a rotation), into N[:m, :n], R into rrow[:m²]."""
     m, n = M.shape
-    W = np.ascontiguousarray(M.T)  # (n, m), reduced in place to R
-    V = np.zeros((m, n))  # the reflections' vectors v_j (zero above j)
-    beta = np.zeros(m)  # 2 / vᵀv (0: no reflection)
-    for j in range(m):
-        nrm2 = 0.0
-        for i in range(j, n):
-            nrm2 += W[i, j] * W[i, j]
-        if nrm2 == 0.0:
-            continue
-        alpha = -math.sqrt(nrm2) if W[j, j] >= 0.0 else math.sqrt(nrm2)
-        vv = 0.0
-        for i in range(j, n):
-            V[j, i] = W[i, j]
-        V[j, j] -= alpha
-        for i in range(j, n):
-            vv += V[j, i] * V[j, i]
-        if vv == 0.0:
-            continue
-        beta[j] = 2.0 / vv
-        for c in range(j, m):
-            acc = 0.0
-            for i in range(j, n):
-                acc += V[j, i] * W[i, c]
-            f = beta[j] * acc
-            for i in range(j, n):
-                W[i, c] -= f * V[j, i]
+    W = np.ascontiguousarray(M.T).copy()  # (n, m), reduced in place to R
+    V, beta = householder_reflectors(W, m)
     R = np.zeros((m, m))
     for i in range(m):
         for c in range(i, m):
@@ -1203,15 +1181,8 @@ def _certified_rows(M: np.ndarray, epsilon: float, rcond: float, N: np.ndarray, 
     for i in range(m):
         Q1[i, i] = 1.0
     for j in range(m - 1, -1, -1):
-        if beta[j] == 0.0:
-            continue
-        for c in range(j, m):
-            acc = 0.0
-            for i in range(j, n):
-                acc += V[j, i] * Q1[i, c]
-            f = beta[j] * acc
-            for i in range(j, n):
-                Q1[i, c] -= f * V[j, i]
+        if beta[j] != 0.0:
+            _reflect(V[j], beta[j], Q1, j, j)
     for i in range(m):
         for j in range(n):
             N[i, j] = Q1[j, i]
@@ -1225,47 +1196,17 @@ def _ridge_triangular(rrow: np.ndarray, m: int, rhs: np.ndarray, eps: float) -> 
     """t = argmin ‖Rᵀt − rhs‖² + ε‖t‖² for R (m, m) upper triangular, stored row by row in rrow[:m²]: the
     Householder QR of [Rᵀ; √ε I] (2m, m) applied to [rhs; 0] and back substitution (no normal equations: the
     accuracy of the SVD's σ/(σ² + ε), without squaring R's condition number)."""
-    p = 2 * m
-    B = np.zeros((p, m))
-    c = np.zeros(p)
+    B = np.zeros((2 * m, m + 1))  # [Rᵀ rhs; √ε I 0]: the right-hand side as its last column
     se = math.sqrt(eps)
     for i in range(m):
         for j in range(i + 1):
             B[i, j] = rrow[j * m + i]  # Rᵀ: lower triangular
         B[m + i, i] = se
-        c[i] = rhs[i]
-    v = np.empty(p)
-    for j in range(m):
-        nrm2 = 0.0
-        for i in range(j, p):
-            nrm2 += B[i, j] * B[i, j]
-        if nrm2 == 0.0:
-            continue
-        alpha = -math.sqrt(nrm2) if B[j, j] >= 0.0 else math.sqrt(nrm2)
-        vv = 0.0
-        for i in range(j, p):
-            v[i] = B[i, j]
-        v[j] -= alpha
-        for i in range(j, p):
-            vv += v[i] * v[i]
-        if vv == 0.0:
-            continue
-        for col in range(j, m):
-            acc = 0.0
-            for i in range(j, p):
-                acc += v[i] * B[i, col]
-            f = 2.0 * acc / vv
-            for i in range(j, p):
-                B[i, col] -= f * v[i]
-        acc = 0.0
-        for i in range(j, p):
-            acc += v[i] * c[i]
-        f = 2.0 * acc / vv
-        for i in range(j, p):
-            c[i] -= f * v[i]
+        B[i, m] = rhs[i]
+    householder_reflectors(B, m)
     t = np.zeros(m)
     for i in range(m - 1, -1, -1):
-        acc = c[i]
+        acc = B[i, m]
         for j in range(i + 1, m):
             acc -= B[i, j] * t[j]
         t[i] = acc / B[i, i]
