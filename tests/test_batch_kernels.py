@@ -59,6 +59,60 @@ def test_limit_bound_problems_go_straight_to_the_backend(
     assert got.qp.sum() >= 5
 
 
+def test_binding_problems_take_daqps_c_entry_with_the_wrappers_answer(
+    panda_problems: tuple, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Under daqp the binding problems' box QPs are solved in one compiled loop through daqp's C entry point, not
+    one ``backend.solve`` each, with the answer of the Python wrapper bit for bit (the same C call on the same
+    arrays); with the native call off they go through ``backend.solve`` as before."""
+    from redundik.resolvers.qp import daqp_native
+
+    if daqp_native.entry() == 0:
+        pytest.fail(f"daqp's native call is off here: {daqp_native.status()}")
+    robot, Q, T = panda_problems
+    resolver = make_resolver("wqp")
+    batch = BatchResolver(resolver, robot, "panda_hand", gain=5.0, posture_gain=1.0, posture_target=Q0)
+    calls = []
+    solve = type(resolver.backend).solve
+    monkeypatch.setattr(type(resolver.backend), "solve", lambda self, *a, **k: calls.append(1) or solve(self, *a, **k))
+    native = batch.solve(Q, T, 0.01)
+    assert native.qp.sum() >= 5 and not calls  # every binding problem solved natively
+    monkeypatch.setattr(daqp_native, "enabled", False)
+    wrapped = batch.solve(Q, T, 0.01)
+    assert len(calls) == native.qp.sum()  # now one backend.solve per binding problem
+    np.testing.assert_array_equal(native.dq, wrapped.dq)
+    np.testing.assert_array_equal(native.qp, wrapped.qp)
+
+
+def test_box_qps_native_leaves_an_infeasible_box_to_the_caller() -> None:
+    """A box QP daqp does not solve (lb > ub: infeasible) is flagged unsolved and its row of dq left untouched; the
+    others are solved and clipped to their box."""
+    from redundik.resolvers.qp import daqp_native
+    from redundik.resolvers.qp.backends import DaqpBackend
+
+    if daqp_native.entry() == 0:
+        pytest.fail(f"daqp's native call is off here: {daqp_native.status()}")
+    rng = np.random.default_rng(5)
+    N, n = 4, 5
+    B = rng.standard_normal((N, n, n))
+    P = B @ B.transpose(0, 2, 1) + 0.5 * np.eye(n)
+    q = 3.0 * rng.standard_normal((N, n))
+    lb, ub = np.full((N, n), -0.2), np.full((N, n), 0.2)
+    lb[2, 1], ub[2, 1] = 0.5, 0.1  # problem 2 cannot be solved
+    native = daqp_native.NativeDaqp.for_backend(DaqpBackend(), n, 0, None)
+    assert native is not None
+    dq = np.full((N, n), 7.0)
+    solved = np.zeros(N, dtype=np.bool_)
+    daqp_native.HK.box_qps_native(native.ctl, native.x, np.empty(n * n + 3 * n), P, q, lb, ub, np.arange(N), dq, solved)
+    assert solved.tolist() == [True, True, False, True]
+    np.testing.assert_array_equal(dq[2], 7.0)
+    for i in (0, 1, 3):  # the KKT conditions of the box QP: a gradient that only pushes against active bounds
+        g = P[i] @ dq[i] + q[i]
+        at_lb, at_ub = np.isclose(dq[i], lb[i], atol=1e-9), np.isclose(dq[i], ub[i], atol=1e-9)
+        assert np.all((np.abs(g) < 1e-8) | (at_lb & (g > -1e-8)) | (at_ub & (g < 1e-8)))
+        assert at_lb.any() or at_ub.any()  # the box binds (q was scaled so that it does)
+
+
 def test_solve_batch_refuses_other_resolvers(panda_problems: tuple) -> None:
     robot, Q, T = panda_problems
     with pytest.raises(rk.ResolverError, match="batches take 'pinv'"):

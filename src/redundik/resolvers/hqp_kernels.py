@@ -628,6 +628,47 @@ def native_quadprog(
 
 
 @_jit
+def box_qps_native(
+    native: np.ndarray,
+    nx: np.ndarray,
+    qbuf: np.ndarray,
+    P: np.ndarray,
+    q: np.ndarray,
+    lb: np.ndarray,
+    ub: np.ndarray,
+    idx: np.ndarray,
+    dq: np.ndarray,
+    solved: np.ndarray,
+) -> int:
+    """The box QPs min ½xᵀP_i x + q_iᵀx s.t. lb_i ≤ x ≤ ub_i of the problems ``idx`` of a batch (P (N, n, n), q, lb,
+    ub (N, n)), each through :func:`native_quadprog` — the call ``DaqpBackend.solve`` makes on a bounds-only QP
+    below its split size, on the same arrays. Where daqp solves problem i at once (exit flag 1 or 2, x finite),
+    ``dq[i]`` = x clipped to the box and ``solved[k]`` = True; elsewhere ``solved[k]`` = False and ``dq[i]`` is left
+    as it was (the caller poses that QP with the backend's retries). Returns daqp's iterations summed."""
+    n = P.shape[1]
+    Pv, qv, _, upper, lower = qp_views(qbuf, n, 0)
+    total = 0
+    for k in range(idx.shape[0]):
+        i = idx[k]
+        Pv[:, :] = P[i]
+        qv[:] = q[i]
+        upper[:] = ub[i]
+        lower[:] = lb[i]
+        flag, iters = native_quadprog(native, nx, qbuf, n, 0, 0)
+        ok = flag == 1 or flag == 2
+        if ok:
+            for j in range(n):
+                if not math.isfinite(nx[j]):
+                    ok = False
+        solved[k] = ok
+        if ok:
+            total += iters
+            for j in range(n):
+                dq[i, j] = min(max(nx[j], lb[i, j]), ub[i, j])
+    return total
+
+
+@_jit
 def qp_views(buf: np.ndarray, nvar: int, nr: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(P (nvar, nvar), q (nvar), G (nr, nvar), upper (nvar + nr), lower (nvar + nr)): the level QP in ``buf``, as
     views in daqp's form — the bounds on the variables first, then the rows' (their lower bounds −∞)."""
