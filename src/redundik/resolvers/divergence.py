@@ -57,6 +57,12 @@ class DivergenceWatch:
         A value extends its streak when it and the previous one are ≥ ``FLOOR`` (1e-9) and it grew by the streak's
         factor; otherwise the streak restarts (written out once here: this runs on every control tick)."""
         err, dqs = self.error, self.dq
+        if not (error >= err.growth * err.last or norm >= dqs.growth * dqs.last or self.warned):
+            # the common tick, decided in one test: neither value grew by its streak's factor (or one is NaN), so
+            # both streaks restart, as the branches below would conclude
+            err.count = dqs.count = 0
+            err.last, dqs.last = error, norm
+            return None
         before, last = err.count, err.last
         if error >= FLOOR and last >= FLOOR and error >= err.growth * last:
             if before == 0:
