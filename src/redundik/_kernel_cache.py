@@ -29,6 +29,7 @@ KERNEL_SOURCES: tuple[str, ...] = (
     "resolvers/fused_kernels.py",
     "resolvers/fused.py",
     "tasks/trajectory.py",
+    "tasks/target_kernels.py",
     "collision/kernels.py",
 )
 

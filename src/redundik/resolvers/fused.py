@@ -33,7 +33,7 @@ from redundik.kinematics.memory import jacobian_view, se3_vector_view
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult
 from redundik.resolvers.linalg import FK
-from redundik.tasks.base import Edits, Task, TaskTerm
+from redundik.tasks.base import NOT_READY, Edits, FrameForm, Task, TaskTerm
 from redundik.tasks.frame import FrameTask
 from redundik.tasks.stack import StackLayout, TaskStack
 from redundik.tasks.subtasks import GradientSubtask
@@ -100,7 +100,10 @@ class FusedPlan:
         self.tail: tuple[float, ...] = ()
         self.jw = np.zeros((6, 0))  # data.J: the joint Jacobians, world frame (a view on Pinocchio's memory)
         self.poses = np.zeros((0, 12))  # data.oMf: the frames' placements (a view on Pinocchio's memory)
-        self.frame_checks: list[tuple[FrameTask, Any, Any, Any, Any]] = []  # what ``current`` compares, per member
+        self.forms: list[FrameForm] = []
+        self.frame_checks: list[tuple[Any, int]] = []  # per frame member: its task and form revision when packed
+        self.revisions: list[int] = []  # the trajectories' revisions as last copied into ``floats``
+        self.param_offset = 0  # where the trajectories' parameter rows (K × PARAMS) start in ``floats``
         self.joint_checks: list[tuple[Task, np.ndarray]] = []
         self.gradient_checks: list[tuple[GradientSubtask, Form]] = []
         self.slots: list[tuple[int, Any, int, int, int, Any]] = []  # per stack task, for ``terms``
@@ -129,19 +132,18 @@ class FusedPlan:
         null_tasks = set(layout.null_tasks)
         identity: list[bool] = []
         level_forms: list[Form] = []
+        forms: list[FrameForm] = []
         for i, task in enumerate(stack.tasks):
-            if type(task) is FrameTask:
+            frame_form = task.frame_form(robot)
+            if frame_form is not None:
                 if i in null_tasks:
                     return None
-                if not (
-                    task._fid is not None
-                    and task.trajectory._start is not None
-                    and task._data is robot.data
-                    and task._pending_position is None
-                ):
+                if frame_form == NOT_READY:
                     return cls.NOT_YET
+                assert isinstance(frame_form, FrameForm)
                 plan.order.append(("f", len(plan.frames)))
-                plan.frames.append(task)
+                plan.frames.append(task)  # type: ignore[arg-type]  # (a task with a frame form)
+                forms.append(frame_form)
                 continue
             form = task.joint_form(robot)
             if form is None or (iq[form[0]] < 0).any():  # no form, or a Lie-group coordinate (not a subtraction)
@@ -175,9 +177,11 @@ class FusedPlan:
         plan.scales = [scale.get(index[id(t)], (1.0, False))[0] for t in plan.frames + plan.level_joints]
         plan.null_scale = float(null_scale) if (plan.nulls or plan.gradients) else 0.0
         plan.qp = scales is not None
+        plan.forms = forms
         plan._pack(robot, iq, level_forms, identity, set(layout.main), index)
         plan.data = robot.data
-        plan.frame_checks = [(t, t.trajectory, t.trajectory._kparams, t._fid, t.rows) for t in plan.frames]
+        plan.frame_checks = [(f.task, f.revision) for f in forms]
+        plan.revisions = [f.trajectory.revision for f in forms]
         plan.joint_checks = list(zip(plan.level_joints + plan.nulls, plan.targets + plan.null_targets, strict=True))
         plan.gradient_checks = list(zip(plan.gradients, plan.gradient_forms, strict=True))
         return plan
@@ -196,16 +200,14 @@ class FusedPlan:
         K, J = len(self.frames), len(self.level_joints)
         nulls = self.gradient_forms + [(np.ones(nv), target) for target in self.null_targets]
         N = len(nulls)
-        self.fids = [int(t._fid) for t in self.frames]  # type: ignore[arg-type]
-        self.trajs = [t.trajectory for t in self.frames]
-        self.kparams = [t.trajectory._kparams for t in self.frames]
-        kinds = [int(t.trajectory._kind) if t.trajectory._kparams is not None else GIVEN for t in self.frames]
+        forms = self.forms
+        self.fids = [int(f.fid) for f in forms]
+        self.trajs = [f.trajectory for f in forms]
+        self.kparams = [f.trajectory.parameters for f in forms]
+        kinds = [int(f.trajectory.kind) if f.trajectory.parameters is not None else GIVEN for f in forms]
         self.given = [k for k in range(K) if kinds[k] == GIVEN]
-        for k, task in enumerate(self.frames):  # the orientation target a position-only set_target keeps
-            if kinds[k] != GIVEN:
-                task._last_R = task.trajectory._R0
-        frows = [int(r) for t in self.frames for r in t.rows]
-        starts = np.cumsum([0] + [t._m for t in self.frames]).tolist()
+        frows = [int(r) for f in forms for r in f.rows]
+        starts = np.cumsum([0] + [len(f.rows) for f in forms]).tolist()
         jsel = [int(s) for f in level_forms for s in f[0]]
         jstarts = np.cumsum([0] + [f[0].shape[0] for f in level_forms]).tolist()
         mf = int(starts[-1])
@@ -223,7 +225,7 @@ class FusedPlan:
             kinds,
             frows,
             starts,
-            [int(t._rotation_rows) for t in self.frames],
+            [int(f.rotation_rows) for f in forms],
             jsel,
             jstarts,
             [int(x) for x in identity],
@@ -232,9 +234,9 @@ class FusedPlan:
         ]
         columns: list[int] = []
         model = robot.model
-        for task in self.frames:  # the velocity columns of the joints that move the frame
+        for fid in self.fids:  # the velocity columns of the joints that move the frame
             col = [0] * nv
-            for j in model.supports[model.frames[task._fid].parentJoint]:
+            for j in model.supports[model.frames[fid].parentJoint]:
                 if j > 0:
                     jm = model.joints[j]
                     col[jm.idx_v : jm.idx_v + jm.nv] = [1] * jm.nv
@@ -245,11 +247,7 @@ class FusedPlan:
             ints += part
         floats: list[float] = []
         chunks = [
-            [
-                float(x)
-                for t in self.frames
-                for x in (t.trajectory._kparams if t.trajectory._kparams is not None else np.zeros(PARAMS))
-            ],
+            [float(x) for row in self.kparams for x in (row if row is not None else np.zeros(PARAMS))],
             [float(x) for target in self.targets for x in target],
             [float(x) for w, _ in nulls for x in w],
             [float(x) for _, c in nulls for x in c],
@@ -257,6 +255,7 @@ class FusedPlan:
         for slot, chunk in zip(range(16, 20), chunks, strict=True):
             ints[slot] = len(floats)
             floats += chunk
+        self.param_offset = int(ints[16])
         self._slots(robot, level_forms, [int(x) for x in starts], [int(x) for x in jstarts])
         self.ints = np.array(ints, dtype=np.int64)
         self.floats = np.array(floats, dtype=float)
@@ -265,19 +264,24 @@ class FusedPlan:
     # ------------------------------------------------------------------ per step
     def current(self, robot: RobotModel) -> bool:
         """The array-valued members are the objects packed (trajectories, targets, centres, a frame task's id and
-        rows: a new ``frame`` or ``axes``) and the robot's data the same; False: the stack must be planned again."""
+        rows: a new ``frame`` or ``axes``) and the robot's data the same; False: the stack must be planned again.
+
+        A trajectory whose parameter row was rewritten in place (a new target of a hold: its ``revision`` moved)
+        is copied into ``floats`` again here: a target is data, not a reason to plan again."""
         if robot.data is not self.data:
             return False
-        for task, traj, kparams, fid, rows in self.frame_checks:
-            now = task.trajectory
-            if (
-                now is not traj
-                or now._kparams is not kparams
-                or task._pending_position is not None
-                or task._fid != fid
-                or task._rows is not rows
-            ):
+        revisions = self.revisions
+        for k, (task, revision) in enumerate(self.frame_checks):
+            if task.form_revision != revision:
                 return False
+            now = task.trajectory.revision
+            if now != revisions[k]:
+                row = task.trajectory.parameters
+                if row is None:
+                    return False
+                start = self.param_offset + k * PARAMS
+                self.floats[start : start + PARAMS] = row
+                revisions[k] = now
         for joint, target in self.joint_checks:
             form = joint.joint_form(robot)
             if form is None or form[1] is not target:
@@ -376,8 +380,8 @@ class FusedPlan:
         slots: list[tuple[int, Any, int, int, int, Any]] = []
         for kind, k in self.order:
             if kind == "f":
-                task = self.frames[k]
-                slots.append((0, task, k, starts[k], starts[k + 1], None if task._all_rows else task.rows))
+                form = self.forms[k]
+                slots.append((0, form.task, k, starts[k], starts[k + 1], None if form.all_rows else form.rows))
             elif kind == "j":
                 rows = _identity_rows(robot.nv, level_forms[k][0])
                 slots.append((1, self.level_joints[k], K + k, mf + jstarts[k], mf + jstarts[k + 1], rows))

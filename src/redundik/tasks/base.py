@@ -18,7 +18,7 @@ import math
 import re
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
@@ -67,6 +67,34 @@ def check_priority(value: object, what: str) -> int | None:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or int(value) < 0:
         raise TaskError(f"{what}: priority must be an integer level ≥ 0 (0 = highest) or None, got {value!r}")
     return int(value)
+
+
+#: What :meth:`Task.frame_form` returns while a frame task cannot describe its rows yet (not evaluated on this robot).
+NOT_READY = "not ready"
+
+
+class FrameForm(NamedTuple):
+    """The rows of a frame task in the form a fused step computes itself (:meth:`Task.frame_form`): the selected
+    rows of the frame's base-aligned Jacobian, e = (p_d − p, log3(R_d Rᵀ))[rows], v = V_d[rows] + K e, with
+    (p_d, R_d, V_d) the trajectory's reference.
+
+    Attributes:
+        task: The task (its ``gain`` and ``weight`` are read when :class:`Edits` moved).
+        fid: The frame's id in the robot's model.
+        rows: The controlled rows of the twist (int array, read-only).
+        rotation_rows: Whether any of them is a rotation row.
+        all_rows: Whether they are all six, in order.
+        trajectory: The reference (its compiled parameter row is packed; ``revision`` says when it was rewritten).
+        revision: The task's :attr:`Task.form_revision` when the form was made.
+    """
+
+    task: Any
+    fid: int
+    rows: np.ndarray
+    rotation_rows: bool
+    all_rows: bool
+    trajectory: Any
+    revision: int
 
 
 class Edits:
@@ -126,6 +154,7 @@ class Task(ABC):
     _weight: float = 1.0
     _gain: float = 0.0
     _priority: int | None = None
+    _form_revision: int = 0
 
     def _init_task(self, name: str, *, weight: float = 1.0, gain: float = 0.0, priority: int | None = None) -> None:
         """Set the shared fields with their validation (call from a subclass's ``__init__``)."""
@@ -187,6 +216,19 @@ class Task(ABC):
     @abstractmethod
     def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
         """The task at time ``t`` [s]; ``robot`` has been :meth:`~RobotModel.update`-d at the current q."""
+
+    @property
+    def form_revision(self) -> int:
+        """A counter the task moves whenever the form of its rows changes (another frame, axes or trajectory, a
+        reset on another robot): a fused step plans the stack again when it moved. Targets, gains and weights are
+        data and do not move it."""
+        return self._form_revision
+
+    def frame_form(self, robot: RobotModel) -> FrameForm | str | None:
+        """The :class:`FrameForm` of this task's rows, when they are those of a frame task that a fused step may
+        compute itself; :data:`NOT_READY` when they will be (after the first evaluation on ``robot``); ``None``
+        (the default): only :meth:`evaluate` gives them."""
+        return None
 
     def joint_form(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray] | None:
         """(sel, q_ref) when this task's rows are J = I[sel], e = (q_ref ⊖ q)[sel], v = K e — a posture on the

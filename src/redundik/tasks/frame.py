@@ -10,7 +10,8 @@ import pinocchio as pin
 
 from redundik.errors import TaskError
 from redundik.kinematics.model import AXES, LWA, RobotModel
-from redundik.tasks.base import Task, TaskTerm
+from redundik.tasks import target_kernels as _TK
+from redundik.tasks.base import NOT_READY, FrameForm, Task, TaskTerm
 from redundik.tasks.trajectory import Hold, Trajectory
 
 #: Named axis sets.
@@ -58,6 +59,9 @@ DEFAULT_HOLD_GAIN = 10.0
 #: Largest target coordinate accepted [length unit of the model] (the task files' bound on numbers too): a target
 #: beyond it is a unit or sign mistake, and its error would only make every step fall back.
 MAX_COORDINATE = 1e6
+#: Largest |RRᵀ − I| entry of a target rotation taken without a message (the 4×4 check of ``_as_pose`` is looser on
+#: the diagonal: a target refused here is checked again there, and taken if it passes).
+RIGID_TOLERANCE = 1e-6
 
 
 def _numbers(value: object, what: str, expected: str) -> np.ndarray:
@@ -143,10 +147,9 @@ class FrameTask(Task):
         self._frame = ""
         self.frame = frame
         self.trajectory = trajectory if trajectory is not None else Hold()
-        if not isinstance(self.trajectory, Trajectory):
-            raise TaskError(
-                f"frame task '{self.name}': trajectory must be a Trajectory, got {type(trajectory).__name__}"
-            )
+        # the hold this task made itself (its targets are written into it in place); a hold given by the caller
+        # may be shared, so a first set_target replaces it with one of the task's own
+        self._held: Trajectory | None = self.trajectory if trajectory is None else None
         self.axes = axes  # (the setter takes a name or a list of axes, sets the rows)
         self._fid: int | None = None
         self._pending_position: np.ndarray | None = None
@@ -154,6 +157,19 @@ class FrameTask(Task):
         self._last_R: np.ndarray | None = None
         self._data: Any = None  # the robot data the task was reset on, and its live view of the frame's pose
         self._pose: Any = None
+
+    @property
+    def trajectory(self) -> Trajectory:
+        """The reference the frame follows. Assigning another trajectory takes effect at the next step (it is
+        anchored at the frame's pose then, unless already started)."""
+        return self._trajectory
+
+    @trajectory.setter
+    def trajectory(self, value: Trajectory) -> None:
+        if not isinstance(value, Trajectory):
+            raise TaskError(f"frame task '{self.name}': trajectory must be a Trajectory, got {type(value).__name__}")
+        self._trajectory = value
+        self._form_revision += 1
 
     @property
     def frame(self) -> str:
@@ -166,7 +182,8 @@ class FrameTask(Task):
         if not isinstance(value, str) or not value:
             raise TaskError(f"frame task '{self.name}': frame must be a frame name (a string), got {value!r:.80}")
         self._frame = value
-        self._fid = None  # (a fused step compares the id it packed: the stack is planned again)
+        self._fid = None
+        self._form_revision += 1  # (a fused step plans the stack again)
 
     @property
     def axes(self) -> tuple[str, ...]:
@@ -183,6 +200,7 @@ class FrameTask(Task):
         self._all_rows = rows.tolist() == list(range(6))
         self._rotation_rows = bool(np.any(rows >= 3))
         self._rows = rows
+        self._form_revision += 1
 
     @property
     def rows(self) -> np.ndarray:
@@ -201,18 +219,49 @@ class FrameTask(Task):
         A position keeps the current target orientation (or the frame's own at the next evaluation if the task has
         not run yet). The reference twist becomes zero; the gain closes the error, so it must be > 0 to move.
 
+        Call it as often as every control tick: once the task holds a target of its own, a new one is checked and
+        written in place into the hold's parameter row (:mod:`redundik.tasks.target_kernels`), which a fused step
+        reads as data — no re-planning, no allocation for an SE3 or a float64 array.
+
         Raises:
             TaskError: malformed target.
         """
-        pose = _as_pose(target, f"frame task '{self.name}': set_target")
+        traj = self.trajectory
+        row = traj._kparams if traj is self._held else None
+        if row is not None:  # our own started hold: the target is data, written in place
+            status = -1
+            if type(target) is pin.SE3:
+                T = target.homogeneous  # type: ignore[union-attr]  # (an SE3)
+                status = _TK.pose_into(T, row, RIGID_TOLERANCE, MAX_COORDINATE)
+            elif type(target) is np.ndarray and target.dtype == np.float64:
+                if target.shape == (4, 4):
+                    status = _TK.pose_into(target, row, RIGID_TOLERANCE, MAX_COORDINATE)
+                elif target.shape == (3,):
+                    status = _TK.position_into(target, row, MAX_COORDINATE)
+            if status == _TK.OK:
+                traj._revision += 1
+                traj._given = True  # type: ignore[attr-defined]  # (traj is self._held, a Hold): kept by a reset
+                self._pending_position = None
+                return
+        pose = _as_pose(target, f"frame task '{self.name}': set_target")  # the checks, and their messages
+        if row is not None:
+            if isinstance(pose, np.ndarray):
+                row[0:3] = pose
+                traj._revision += 1
+                traj._given = True  # type: ignore[attr-defined]
+            else:
+                traj._write(pose)  # type: ignore[attr-defined]  # (traj is self._held, a Hold)
+            self._pending_position = None
+            return
         if isinstance(pose, np.ndarray):
-            last = self._last_R
+            last = self._last_R if traj._kparams is None else traj._R0  # (a compiled reference holds R0)
             if last is not None:
                 if last.shape != (3, 3):  # a fused step's reference row (p_d, R_d row-major, twist)
                     last = last[3:12].reshape(3, 3)
                 self._hold(pin.SE3(np.array(last), pose))
             else:
                 self._pending_position = pose
+                self._form_revision += 1
             return
         self._pending_position = None
         self._hold(pose)
@@ -229,8 +278,10 @@ class FrameTask(Task):
         return traj.pose if isinstance(traj, Hold) else None
 
     def _hold(self, pose: pin.SE3) -> None:
-        self.trajectory = Hold(pose)
-        self.trajectory.start(pose)
+        """Hold ``pose`` with a hold of the task's own (later targets are written into it in place)."""
+        hold = Hold(pose)
+        hold.start(pose)
+        self.trajectory = self._held = hold
 
     def _frame_id(self, robot: RobotModel) -> int:
         if self._fid is None:
@@ -247,8 +298,11 @@ class FrameTask(Task):
             TaskError: unknown frame, or a frame that no joint moves (its parent joint is the world: the task
                 could never be met).
         """
+        before = (self._fid, self._data)
         self._fid = None
         fid = self._frame_id(robot)
+        if before[0] != fid or before[1] is not robot.data:
+            self._form_revision += 1
         if robot.model.frames[fid].parentJoint == 0:
             raise TaskError(
                 f"task '{self.name}': frame '{self.frame}' is fixed to the world (no joint moves it): a task on it can "
@@ -261,6 +315,21 @@ class FrameTask(Task):
             self._hold(pin.SE3(np.array(pose.rotation), self._pending_position))
             self._pending_position = None
 
+    def frame_form(self, robot: RobotModel) -> FrameForm | str | None:
+        """This task's :class:`~redundik.tasks.base.FrameForm` (a fused step computes its rows itself), or
+        ``NOT_READY`` until it has been evaluated (or reset) on ``robot``. A subclass that overrides
+        :meth:`evaluate` has rows of its own: ``None``, unless it overrides this method too."""
+        if type(self).evaluate is not FrameTask.evaluate:
+            return None
+        fid = self._fid
+        if fid is None or not self._trajectory.has_start or self._data is not robot.data:
+            return NOT_READY
+        if self._pending_position is not None:
+            return NOT_READY
+        return FrameForm(
+            self, fid, self._rows, self._rotation_rows, self._all_rows, self._trajectory, self._form_revision
+        )
+
     def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
         fid = self._fid
         data = robot.data
@@ -272,6 +341,7 @@ class FrameTask(Task):
             self._fid = None  # its own id of the frame (another model numbers its frames its own way: the id of the
             fid = self._frame_id(robot)  # first robot's frame named some other frame of this one, silently)
             self._data, self._pose = data, robot.frame_pose(fid)
+            self._form_revision += 1
         pose = self._pose  # a live view on data.oMf[fid] (robot.frame_pose without its checks, done at reset)
         if self._pending_position is not None:
             self._hold(pin.SE3(np.array(pose.rotation), self._pending_position))

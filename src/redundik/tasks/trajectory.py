@@ -100,15 +100,39 @@ class Trajectory(ABC):
     _prepared_for: pin.SE3 | None = None  # (Circle: the start its centre was found for)
     _kind: int = 0
     _kparams: np.ndarray | None = None
+    _revision: int = 0
+    _p0: np.ndarray  # the start position [length] (a view of ``_kparams`` once it exists)
+    _R0: np.ndarray  # the start rotation (a view of ``_kparams`` once it exists)
+
+    @property
+    def revision(self) -> int:
+        """A counter that moves whenever the parameter row's values are rewritten in place (a new target of a
+        :class:`Hold`): a fused step copies the row again when it moved, without planning the stack again."""
+        return self._revision
+
+    @property
+    def kind(self) -> int:
+        """The kind of compiled reference (``HOLD``, ``LINE``, ``CIRCLE``), or ``GIVEN`` (sampled in Python)."""
+        return self._kind
+
+    @property
+    def parameters(self) -> np.ndarray | None:
+        """The compiled reference's parameter row (``PARAMS``,) once started, else ``None``: the data a fused step
+        packs (read it, do not write it: a new target goes through the task or the trajectory's setters)."""
+        return self._kparams
 
     def _params_row(self, kind: int, extra: Sequence[float] = ()) -> None:
-        """Set ``_kind`` and ``_kparams`` = (p0, R0 row-major, extra...) for the compiled reference."""
+        """Set ``_kind`` and ``_kparams`` = (p0, R0 row-major, extra...) for the compiled reference; ``_p0`` and
+        ``_R0`` become views of the row (one copy of the data, which in-place target writes update)."""
         row = np.zeros(PARAMS)
         row[0:3] = self._p0
         row[3:12] = np.asarray(self._R0).reshape(-1)
         row[12 : 12 + len(extra)] = extra
         self._kparams = row
         self._kind = kind
+        self._revision += 1
+        self._p0 = row[0:3]
+        self._R0 = row[3:12].reshape(3, 3)
 
     def start(self, pose: pin.SE3) -> None:
         """Anchor the trajectory at the frame pose at t = 0."""
@@ -152,26 +176,52 @@ class Trajectory(ABC):
 class Hold(Trajectory):
     """Hold a pose (zero twist): the start pose — the (6+1) robot's 'end-effector held still' — or a given one.
 
+    A started hold keeps its pose in its parameter row (p0, R0): a new pose (:attr:`pose`, or a frame task's
+    ``set_target``) is written there in place and moves :attr:`revision`, so a fused step takes it as data.
+
     Args:
         pose: A fixed pose to hold (a target set at run time); ``None`` holds the pose captured at start.
     """
 
     def __init__(self, pose: pin.SE3 | np.ndarray | None = None) -> None:
         self._pose = None if pose is None else _rigid(pose, "hold pose")
+        self._given = pose is not None
 
     @property
     def pose(self) -> pin.SE3 | None:
-        """The given pose held (``None``: the pose captured at start). Assigning a pose (an SE3 or a rigid 4×4
-        matrix) to a started hold takes effect at the next step; assigning ``None`` keeps holding the current pose."""
+        """The given pose held (a copy; ``None``: the pose captured at start). Assigning a pose (an SE3 or a rigid
+        4×4 matrix) to a started hold takes effect at the next step; assigning ``None`` keeps holding the current
+        pose."""
+        if not self._given:
+            return None
+        if self._kparams is not None:
+            return pin.SE3(np.array(self._R0), np.array(self._p0))
         return self._pose
 
     @pose.setter
     def pose(self, value: pin.SE3 | np.ndarray | None) -> None:
-        self._pose = None if value is None else _rigid(value, "hold pose")
-        if self._pose is not None and self._start is not None:
-            super().start(self._pose)  # a new parameter row: a fused step, which compares it by identity, plans again
+        if value is None:
+            self._pose, self._given = None, False
+            return
+        pose = _rigid(value, "hold pose")
+        self._pose, self._given = pose, True
+        if self._kparams is not None:
+            self._write(pose)
+
+    def _write(self, pose: pin.SE3) -> None:
+        """Hold ``pose`` (checked) from now on: written into the started hold's parameter row in place."""
+        row = self._kparams
+        assert row is not None  # (started)
+        row[0:3] = pose.translation
+        row[3:12] = np.asarray(pose.rotation).reshape(-1)
+        self._given = True
+        self._revision += 1
 
     def start(self, pose: pin.SE3) -> None:
+        """Anchor at ``pose``, or keep holding the given pose (a started hold keeps its row: a target written in
+        place survives a reset)."""
+        if self._given and self._kparams is not None:
+            return
         super().start(self._pose if self._pose is not None else pose)
 
     def _prepare(self) -> None:
@@ -179,7 +229,8 @@ class Hold(Trajectory):
         self._params_row(HOLD)
 
     def __repr__(self) -> str:
-        return "Hold()" if self.pose is None else f"Hold(pose at {np.round(self.pose.translation, 6).tolist()})"
+        pose = self.pose
+        return "Hold()" if pose is None else f"Hold(pose at {np.round(pose.translation, 6).tolist()})"
 
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         self.start_pose  # noqa: B018 - raises if start() was never called

@@ -1,0 +1,88 @@
+"""Compiled writers of frame targets: a target pose checked and written into a trajectory's parameter row in one call.
+
+A teleoperated frame task receives a new target every control tick (``FrameTask.set_target``). The target is data:
+it is checked (finite, bounded, a rotation) and written in place into the parameter row (p0, R0 row-major) that the
+task's :class:`~redundik.tasks.trajectory.Hold` and a fused step read, so nothing is re-planned or allocated.
+
+Status codes returned by the writers: :data:`OK`, :data:`NOT_FINITE`, :data:`TOO_FAR` (a coordinate beyond the
+bound), :data:`NOT_RIGID` (the rotation is not orthonormal with det +1, or a 4×4 matrix's last row is not
+(0, 0, 0, 1)), :data:`BAD_SHAPE`. Nothing is written unless the status is :data:`OK`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from redundik import _kernel_cache
+
+_kernel_cache.install()
+_jit = nb.njit(cache=True, nogil=True)
+
+#: The writers' status codes.
+OK, NOT_FINITE, TOO_FAR, NOT_RIGID, BAD_SHAPE = 0, 1, 2, 3, 4
+
+
+@_jit
+def _rotation_status(T: np.ndarray, tol: float) -> int:
+    """:data:`OK` when the upper-left 3×3 block of ``T`` is finite, orthonormal to ``tol`` (max |RRᵀ − I|) with
+    det > 0."""
+    for i in range(3):
+        for j in range(3):
+            if not math.isfinite(T[i, j]):
+                return NOT_FINITE
+    for i in range(3):
+        for j in range(3):
+            s = T[i, 0] * T[j, 0] + T[i, 1] * T[j, 1] + T[i, 2] * T[j, 2]
+            if abs(s - (1.0 if i == j else 0.0)) > tol:
+                return NOT_RIGID
+    det = (
+        T[0, 0] * (T[1, 1] * T[2, 2] - T[1, 2] * T[2, 1])
+        - T[0, 1] * (T[1, 0] * T[2, 2] - T[1, 2] * T[2, 0])
+        + T[0, 2] * (T[1, 0] * T[2, 1] - T[1, 1] * T[2, 0])
+    )
+    return OK if det > 0.0 else NOT_RIGID
+
+
+@_jit
+def pose_into(T: np.ndarray, row: np.ndarray, tol: float, max_coordinate: float) -> int:
+    """Check the homogeneous matrix ``T`` (4, 4) and write its position [length] into ``row[0:3]`` and its rotation
+    (row-major) into ``row[3:12]``; the status (module docstring)."""
+    if T.shape[0] != 4 or T.shape[1] != 4:
+        return BAD_SHAPE
+    for i in range(3):
+        x = T[i, 3]
+        if not math.isfinite(x):
+            return NOT_FINITE
+        if abs(x) > max_coordinate:
+            return TOO_FAR
+    status = _rotation_status(T, tol)
+    if status != OK:
+        return status
+    for j in range(4):
+        if not math.isfinite(T[3, j]):
+            return NOT_FINITE
+        if abs(T[3, j] - (1.0 if j == 3 else 0.0)) > tol:
+            return NOT_RIGID
+    for i in range(3):
+        row[i] = T[i, 3]
+        for j in range(3):
+            row[3 + 3 * i + j] = T[i, j]
+    return OK
+
+
+@_jit
+def position_into(p: np.ndarray, row: np.ndarray, max_coordinate: float) -> int:
+    """Check the position ``p`` (3,) [length] and write it into ``row[0:3]`` (the orientation is kept)."""
+    if p.shape[0] != 3:
+        return BAD_SHAPE
+    for i in range(3):
+        if not math.isfinite(p[i]):
+            return NOT_FINITE
+        if abs(p[i]) > max_coordinate:
+            return TOO_FAR
+    for i in range(3):
+        row[i] = p[i]
+    return OK

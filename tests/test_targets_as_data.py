@@ -1,0 +1,154 @@
+"""Targets are data (issue 31): a frame target set every tick is written in place, the fused plan is kept, and the
+answer is the per-task path's; a subclass of a frame task keeps the fused step unless it has rows of its own."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import redundik as rk
+from redundik.errors import TaskError
+from redundik.resolvers.fused import plan_of
+
+TOOL = "panda_hand_tcp"
+Q0 = np.array([0, -0.785, 0, -2.356, 0, 1.571, 0.785, 0.02, 0.02])
+
+
+class MyFrameTask(rk.FrameTask):
+    """A user's subclass that changes nothing about the rows."""
+
+
+class ScaledFrameTask(rk.FrameTask):
+    """A user's subclass with rows of its own (half the desired velocity)."""
+
+    def evaluate(self, robot, t):  # type: ignore[no-untyped-def]
+        term = super().evaluate(robot, t)
+        term.v = 0.5 * term.v
+        return term
+
+
+def _target(home: pin.SE3, t: float) -> pin.SE3:
+    offset = np.array([0.0, 0.05 * np.sin(2.0 * t), 0.03 * np.sin(4.0 * t)])
+    if t >= 0.1:
+        offset[0] += 0.02  # a jump
+    return pin.SE3(home.rotation, home.translation + offset)
+
+
+def _teleop(method: str, fuse: bool, form: str, steps: int = 150, task_class=rk.FrameTask):
+    robot = rk.load_example_robot("panda")
+    task = task_class(TOOL, gain=40.0)
+    stack = rk.TaskStack([task, rk.PostureTask(gain=1.0)])
+    resolver = rk.make_resolver(method)
+    resolver.fuse = fuse
+    q, dt = Q0.copy(), 2e-3
+    robot.update(q)
+    stack.reset(robot)
+    home = robot.frame_pose(TOOL).copy()
+    out, plans = [], []
+    for k in range(steps):
+        T = _target(home, k * dt)
+        if form == "se3":
+            task.set_target(T)
+        elif form == "matrix":
+            task.set_target(T.homogeneous)
+        elif form == "position":
+            task.set_target(T.translation.copy())
+        else:
+            task.set_target(list(T.translation))  # a list: the checked slow path, still in place
+        if k == 80:
+            stack.reset(robot)  # a restart keeps the target
+        res = resolver.step(robot, stack, q, k * dt, dt)
+        out.append(res.dq.copy())
+        plans.append(plan_of(resolver))
+        q = robot.integrate(q, res.dq, dt)
+    return np.array(out), plans, task
+
+
+@pytest.mark.parametrize("method", ["pinv", "wqp", "hqp"])
+@pytest.mark.parametrize("form", ["se3", "matrix", "position", "list"])
+def test_teleop_targets_keep_the_plan_and_equal_the_per_task_path(method: str, form: str) -> None:
+    fused, plans, task = _teleop(method, True, form)
+    general, _, _ = _teleop(method, False, form)
+    np.testing.assert_allclose(fused, general, rtol=0, atol=1e-12)
+    later = plans[5:]
+    assert later[0] is not None, "the teleop stack did not take the fused step"
+    assert all(p is later[0] for p in later), "a set_target or a reset planned the stack again"
+    assert np.abs(fused[100:]).max() > 1e-3  # it moved
+
+
+def test_set_target_in_place_keeps_the_hold_and_validates() -> None:
+    robot = rk.load_example_robot("panda")
+    task = rk.FrameTask(TOOL, gain=10.0)
+    stack = rk.TaskStack([task])
+    robot.update(Q0)
+    stack.reset(robot)
+    hold = task.trajectory
+    T = robot.frame_pose(TOOL)
+    T.translation = T.translation + np.array([0.1, 0.0, 0.0])
+    task.set_target(T)
+    assert task.trajectory is hold
+    np.testing.assert_allclose(task.target.translation, T.translation, atol=0)
+    np.testing.assert_allclose(task.target.rotation, T.rotation, atol=0)
+    task.set_target(np.array([0.3, 0.1, 0.5]))  # position: the orientation target is kept
+    np.testing.assert_allclose(task.target.translation, [0.3, 0.1, 0.5], atol=0)
+    np.testing.assert_allclose(task.target.rotation, T.rotation, atol=0)
+    before = task.target
+    bad_rotation = T.homogeneous.copy()
+    bad_rotation[:3, :3] *= 1.01
+    nan_pose = T.homogeneous.copy()
+    nan_pose[0, 3] = np.nan
+    flipped = T.homogeneous.copy()
+    flipped[:3, 0] *= -1.0  # det −1
+    far = np.array([2e6, 0.0, 0.0])
+    bad_last_row = T.homogeneous.copy()
+    bad_last_row[3, 0] = 0.5
+    for bad in (bad_rotation, nan_pose, flipped, far, bad_last_row, np.zeros((2, 2)), "x", np.array([np.inf, 0, 0])):
+        with pytest.raises(TaskError, match="set_target"):
+            task.set_target(bad)
+        assert task.trajectory is hold
+        np.testing.assert_array_equal(task.target.homogeneous, before.homogeneous)  # nothing written
+    stack.reset(robot)  # a reset keeps a target set in place
+    np.testing.assert_array_equal(task.target.homogeneous, before.homogeneous)
+
+
+def test_a_given_hold_is_not_written_through() -> None:
+    robot = rk.load_example_robot("panda")
+    shared = rk.Hold()
+    a, b = rk.FrameTask(TOOL, shared, gain=5.0), rk.FrameTask(TOOL, shared, gain=5.0, name="b")
+    robot.update(Q0)
+    rk.TaskStack([a]).reset(robot)
+    rk.TaskStack([b]).reset(robot)
+    T = robot.frame_pose(TOOL)
+    T.translation = T.translation + 0.05
+    a.set_target(T)
+    assert a.trajectory is not shared and b.trajectory is shared
+    assert shared.pose is None  # the caller's hold keeps holding its start pose
+
+
+@pytest.mark.parametrize("method", ["pinv", "wqp", "hqp"])
+def test_a_subclass_keeps_the_fused_step_and_one_with_its_own_rows_does_not(method: str) -> None:
+    def run(task_class):
+        robot = rk.load_example_robot("panda")
+        task = task_class(TOOL, rk.Circle(0.1, np.pi, plane=("y", "z")), gain=50.0)
+        stack = rk.TaskStack([task, rk.PostureTask(gain=1.0)])
+        resolver = rk.make_resolver(method)
+        q, dt = Q0.copy(), 1e-3
+        robot.update(q)
+        stack.reset(robot)
+        out = []
+        for k in range(40):
+            res = resolver.step(robot, stack, q, k * dt, dt)
+            out.append(res.dq.copy())
+            q = robot.integrate(q, res.dq, dt)
+        return np.array(out), plan_of(resolver), res
+
+    base, base_plan, _ = run(rk.FrameTask)
+    sub, sub_plan, sub_res = run(MyFrameTask)
+    own, own_plan, own_res = run(ScaledFrameTask)
+    np.testing.assert_array_equal(sub, base)
+    assert base_plan is not None and sub_plan is not None
+    assert sub_res.info["path"] == "compiled"
+    assert own_plan is None and own_res.info["path"] == "interpreted"
+    assert own_res.info["interpreted"] == ["panda_hand_tcp"]
+    assert np.abs(own - base).max() > 1e-6  # its own rows are used
