@@ -341,7 +341,8 @@ class RobotModel:
         """Base-aligned 6×nv Jacobian of a frame: rows (v_x, v_y, v_z, ω_x, ω_y, ω_z), eq. (5.6)."""
         fid = frame if isinstance(frame, int) else self.frame_id(frame)
         self.q  # noqa: B018
-        return np.asarray(pin.getFrameJacobian(self.model, self.data, fid, LWA))
+        J = np.asarray(pin.getFrameJacobian(self.model, self.data, fid, LWA))
+        return J if J.ndim == 2 else J.reshape(6, self._nv)  # the bindings return a 6×1 matrix as shape (6,)
 
     def frame_jacobian_derivatives(self, frame: str | int) -> np.ndarray:
         """∂J/∂q_k of the base-aligned frame Jacobian, shape (6, nv, nv): ``H[:, :, k] = ∂J/∂q_k``.

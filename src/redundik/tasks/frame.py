@@ -279,6 +279,7 @@ class FrameTask(Task):
         p_d, R_d, twist_d = self.trajectory.reference(t)
         self._last_R = R_d
         J = pin.getFrameJacobian(robot.model, data, fid, LWA)  # robot.frame_jacobian without its checks
+        J = J if J.ndim == 2 else J.reshape(6, -1)  # a 1-joint robot: the bindings return its 6×1 as shape (6,)
         m = self._m
         e, v = np.empty(m), np.empty(m)
         # one compiled call for e = (p_d − p, log3(R_d Rᵀ))[rows] and v = V_d[rows] + K e (rotations under 0.45 rad)
