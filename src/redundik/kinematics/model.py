@@ -327,15 +327,21 @@ class RobotModel:
         return self._q
 
     def frame_pose(self, frame: str | int) -> pin.SE3:
-        """Pose of a frame in the world (base) frame at the last :meth:`update` — a live view on the kinematic data
-        (it changes at the next update): ``.copy()`` it to keep it."""
+        """Pose of a frame in the world (base) frame at the last :meth:`update`: a copy, the caller's to keep (a
+        "home" pose stored in a loop does not follow the robot)."""
+        return self.frame_pose_view(frame).copy()
+
+    def frame_pose_view(self, frame: str | int) -> pin.SE3:
+        """:meth:`frame_pose` as a live view on the kinematic data, for internal hot paths (a task that reads its
+        frame every tick): it changes at every :meth:`update`, and writing to it corrupts the model's state until
+        the next one. Use :meth:`frame_pose` to keep a pose."""
         fid = frame if isinstance(frame, int) else self.frame_id(frame)
         self.q  # noqa: B018 - raises if update() was never called
         return self.data.oMf[fid]
 
     def frame_position(self, frame: str | int) -> np.ndarray:
-        """Origin of a frame in the world frame, shape (3,)."""
-        return np.array(self.frame_pose(frame).translation)
+        """Origin of a frame in the world frame, shape (3,) (a copy)."""
+        return np.array(self.frame_pose_view(frame).translation)
 
     def frame_jacobian(self, frame: str | int) -> np.ndarray:
         """Base-aligned 6×nv Jacobian of a frame: rows (v_x, v_y, v_z, ω_x, ω_y, ω_z), eq. (5.6)."""
