@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pinocchio as pin
 
-from redundik.errors import ModelError
+from redundik.errors import ModelError, short_repr
 from redundik.kinematics.model import MAX_NV, RobotModel
 
 #: URDF paths (relative to the example-robot-data ``robots`` folder) of the robots known to load offline.
@@ -213,8 +213,8 @@ def load_example_robot(name: str) -> RobotModel:
         ModelError: unknown name (lists the known ones).
         MissingDependencyError: example-robot-data is not installed (`pip install 'redundik[robots]'`).
     """
-    if name not in EXAMPLE_ROBOTS:
-        raise ModelError(f"unknown example robot '{name}'; known: {sorted(EXAMPLE_ROBOTS)}")
+    if not isinstance(name, str) or name not in EXAMPLE_ROBOTS:
+        raise ModelError(f"unknown example robot {short_repr(name)}; known: {sorted(EXAMPLE_ROBOTS)}")
     rel, free_flyer = EXAMPLE_ROBOTS[name]
     path = example_robot_data_dir() / rel
     if not path.is_file():
