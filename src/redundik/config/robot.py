@@ -17,7 +17,7 @@ import pinocchio as pin
 
 from redundik.config.schema import RobotSpec
 from redundik.config.yamlio import join_path, not_a_file, read_yaml, validate
-from redundik.errors import ConfigError, RedundikError, short_repr
+from redundik.errors import ConfigError, ModelError, RedundikError, short_repr
 from redundik.kinematics import EXAMPLE_ROBOTS, DHRow, RobotModel, example_robot_data_dir, from_dh, from_urdf
 
 EXAMPLE_PREFIX = "example-robot-data:"
@@ -69,7 +69,8 @@ def configuration_from_file(
         size: ``"nq"`` (a configuration) or ``"nv"`` (one value per velocity coordinate).
 
     Raises:
-        ConfigError: wrong length (says the expected one and the joint names).
+        ConfigError: wrong length (says the expected one and the joint names), or a quaternion farther than
+            ``QUATERNION_TOLERANCE`` from unit norm (names the joint).
     """
     n = robot.nq if size == "nq" else robot.nv
     if len(values) != n:
@@ -86,6 +87,11 @@ def configuration_from_file(
             idx = j.idx_q if size == "nq" else j.idx_v
             if j.kind == "revolute" and idx >= 0:
                 arr[idx] *= scale
+    if size == "nq" and robot._quaternions:  # a free-flyer / spherical joint: a unit quaternion (normalised if near)
+        try:
+            arr = robot._unit_quaternions(arr, path)
+        except ModelError as exc:
+            raise ConfigError(str(exc)) from None
     return arr
 
 

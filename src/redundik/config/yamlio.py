@@ -27,10 +27,16 @@ MAX_FILE_BYTES = 4 * 1024 * 1024
 MAX_DEPTH = 48
 #: Largest number of nodes a document may stand for once its aliases are expanded (billion laughs: 10⁹).
 MAX_EXPANDED_NODES = 500_000
-#: Largest number of nodes a document may hold as written (aliases counted once): the pure-Python parser takes
-#: ~30 µs a node on a loaded machine, so this bounds a refusal to a few seconds (the shipped files hold < 10 000;
-#: a sweep's explicit ``points`` list up to ~25 000 points: use ``grid`` or ``random`` for more).
-MAX_NODES = 100_000
+#: Largest number of nodes a document may hold as written (aliases counted once). With libyaml (PyYAML's C
+#: parser, the usual install) a node costs ~2 µs to check and build, so a refusal takes well under a second; the
+#: shipped files hold < 10 000, a sweep's explicit ``points`` list of 30 000 points ~120 000. Without libyaml the
+#: pure-Python parser (~30 µs a node) is bounded at :data:`MAX_NODES_PURE_PYTHON`.
+MAX_NODES = 400_000
+MAX_NODES_PURE_PYTHON = 100_000
+#: Longest list under a top-level key, refused while parsing (before the rest of the file is read): ``dh`` rows
+#: (a 10 000-row table took 3-24 s to be refused after a full parse). 5× the schema's ``MAX_DH_ROWS`` = 200, so a
+#: table just over the schema's limit still gets the schema's own message ("at most 200 D-H rows, got 201").
+MAX_TOP_LEVEL_LIST: dict[str, int] = {"dh": 1000}
 #: Longest error message built from a YAML problem [characters].
 _MAX_MESSAGE = 240
 
@@ -68,9 +74,12 @@ class BoundedLoader(yaml.SafeLoader):
             return super().compose_node(parent, index)
         event = self.peek_event()  # type: ignore[no-untyped-call]  # untyped in types-PyYAML
         self._nodes += 1
-        if self._nodes > MAX_NODES:  # checked as the nodes come, so a huge file is refused before it is all parsed
+        if self._nodes > MAX_NODES_PURE_PYTHON:  # checked as the nodes come: a huge file is refused before its end
             raise yaml.composer.ComposerError(
-                None, None, f"more than {MAX_NODES} values in one file (a generated file too large?)", event.start_mark
+                None,
+                None,
+                f"more than {MAX_NODES_PURE_PYTHON} values in one file (a generated file too large?)",
+                event.start_mark,
             )
         self._depth += 1
         try:
@@ -169,6 +178,116 @@ def _construct_float(loader: BoundedLoader, node: yaml.ScalarNode) -> float:
 BoundedLoader.add_constructor("tag:yaml.org,2002:int", _construct_int)
 BoundedLoader.add_constructor("tag:yaml.org,2002:float", _construct_float)
 
+_CLoader: Any = getattr(yaml, "CSafeLoader", None)  # None: PyYAML built without libyaml
+
+
+if _CLoader is not None:
+
+    class FastLoader(_CLoader):  # type: ignore[misc]
+        """libyaml's parser with :class:`BoundedLoader`'s constructors and resolvers (duplicate keys refused, YAML
+        1.2 exponent floats, octal / base-60 numbers refused); used after :func:`_check_events` bounded the
+        document."""
+
+    FastLoader.yaml_constructors = dict(BoundedLoader.yaml_constructors)
+    FastLoader.yaml_implicit_resolvers = {k: list(v) for k, v in BoundedLoader.yaml_implicit_resolvers.items()}
+
+
+def _error(problem: str, event: Any) -> yaml.composer.ComposerError:
+    return yaml.composer.ComposerError(None, None, problem, event.start_mark)
+
+
+def _check_events(text: str) -> None:
+    """Walk libyaml's event stream once (no nodes built) and refuse, as soon as it is seen: more than
+    :data:`MAX_NODES` nodes, nesting deeper than :data:`MAX_DEPTH`, a node that expands through aliases to more than
+    :data:`MAX_EXPANDED_NODES` nodes, a recursive alias, or a top-level list longer than its
+    :data:`MAX_TOP_LEVEL_LIST` bound.
+
+    Raises:
+        yaml.YAMLError: with the mark of the offending node (syntax errors too, from libyaml).
+    """
+    loader = _CLoader(text)
+    # per open collection: [expanded weight so far, anchor, items, bounded key it is the list of, is a mapping,
+    # the next node is a key, the last key]
+    stack: list[list[Any]] = []
+    weights: dict[str, int] = {}
+    open_anchors: set[str] = set()
+    nodes = 0
+    Scalar, Alias = yaml.ScalarEvent, yaml.AliasEvent
+    starts = (yaml.SequenceStartEvent, yaml.MappingStartEvent)
+    ends = (yaml.SequenceEndEvent, yaml.MappingEndEvent)
+    try:
+        while True:
+            event = loader.get_event()
+            if event is None or isinstance(event, yaml.StreamEndEvent):
+                return
+            weight = 0
+            if isinstance(event, Scalar) or isinstance(event, Alias) or isinstance(event, starts):
+                if isinstance(event, Alias):
+                    if event.anchor in open_anchors:
+                        raise _error(f"recursive alias *{short_repr(event.anchor, 40)}", event)
+                    weight = weights.get(event.anchor or "", 1)
+                else:
+                    nodes += 1
+                    if nodes > MAX_NODES:
+                        raise _error(f"more than {MAX_NODES} values in one file (a generated file too large?)", event)
+                if stack:
+                    top = stack[-1]
+                    top[2] += 1
+                    if top[3] is not None and top[2] > MAX_TOP_LEVEL_LIST[top[3]]:
+                        raise _error(
+                            f"'{top[3]}' has more than {MAX_TOP_LEVEL_LIST[top[3]]} entries: refused while parsing",
+                            event,
+                        )
+                if isinstance(event, starts):
+                    if len(stack) >= MAX_DEPTH:
+                        raise _error(f"nesting deeper than {MAX_DEPTH} levels", event)
+                    key = None
+                    last = stack[0][6] if len(stack) == 1 and stack[0][4] and not stack[0][5] else None
+                    if (
+                        isinstance(last, str)
+                        and last in MAX_TOP_LEVEL_LIST
+                        and isinstance(event, yaml.SequenceStartEvent)
+                    ):
+                        key = last
+                    if event.anchor:
+                        open_anchors.add(event.anchor)
+                    is_map = isinstance(event, yaml.MappingStartEvent)
+                    stack.append([1, event.anchor, 0, key, is_map, is_map, None])
+                    continue
+                if isinstance(event, Scalar):
+                    weight = 1
+                    if event.anchor:
+                        weights[event.anchor] = 1
+            elif isinstance(event, ends):
+                done = stack.pop()
+                weight = done[0]
+                if weight > MAX_EXPANDED_NODES:
+                    raise _error(
+                        f"the document expands to more than {MAX_EXPANDED_NODES} nodes through its aliases "
+                        "(an alias bomb?)",
+                        event,
+                    )
+                if done[1]:
+                    open_anchors.discard(done[1])
+                    weights[done[1]] = weight
+            else:
+                continue
+            if stack:
+                top = stack[-1]
+                top[0] += weight
+                if top[0] > MAX_EXPANDED_NODES:
+                    raise _error(
+                        f"the document expands to more than {MAX_EXPANDED_NODES} nodes through its aliases "
+                        "(an alias bomb?)",
+                        event,
+                    )
+                if top[4]:  # a mapping: alternate key / value
+                    if top[5]:
+                        top[6] = event.value if isinstance(event, Scalar) else None
+                    top[5] = not top[5]
+    finally:
+        loader.dispose()
+
 
 def _one_line(text: str, limit: int = _MAX_MESSAGE) -> str:
     text = " ".join(text.split())
@@ -215,9 +334,13 @@ def _read_text(path: Path, what: str) -> str:
 
 
 def parse_yaml(text: str, where: str) -> Any:
-    """Parse YAML text with :class:`BoundedLoader`; a problem is a one-line ConfigError at ``where:line``."""
-    loader = BoundedLoader(text)
+    """Parse YAML text with libyaml (:func:`_check_events` first, then :class:`FastLoader`) or, without libyaml,
+    :class:`BoundedLoader`; a problem is a one-line ConfigError at ``where:line``."""
+    loader = BoundedLoader(text) if _CLoader is None else None
     try:
+        if loader is None:
+            _check_events(text)
+            loader = FastLoader(text)
         return loader.get_single_data()
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
@@ -231,7 +354,8 @@ def parse_yaml(text: str, where: str) -> Any:
     except RecursionError:  # belt and braces: the depth bound should make this unreachable
         raise ConfigError(f"invalid YAML: nesting deeper than {MAX_DEPTH} levels", where) from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
 
 
 def read_yaml(path: Path, what: str = "file") -> dict[str, Any]:

@@ -17,13 +17,14 @@ axis z_2, and their frames are fixed on the same Pinocchio joint.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
 
-from redundik.errors import ModelError
+from redundik.errors import ModelError, short_repr
 from redundik.kinematics.model import MAX_NV, RobotModel
 
 
@@ -66,7 +67,21 @@ class DHRow:
 
 
 def dh_matrix(theta: float, d: float, a: float, alpha: float) -> np.ndarray:
-    """Standard D-H homogeneous transform Rz(θ)·Tz(d)·Tx(a)·Rx(α) (the chapter's A matrices)."""
+    """Standard D-H homogeneous transform Rz(θ)·Tz(d)·Tx(a)·Rx(α) (the chapter's A matrices).
+
+    Args:
+        theta: θ [rad]. d: d [length unit]. a: a [length unit]. alpha: α [rad].
+
+    Raises:
+        ModelError: a parameter that is not a finite real number (names it).
+    """
+    for key, value in (("theta", theta), ("d", d), ("a", a), ("alpha", alpha)):
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, (int, float, np.integer, np.floating))
+            or not math.isfinite(value)
+        ):
+            raise ModelError(f"dh_matrix: {key} must be a finite real number, got {short_repr(value)}")
     ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
     return np.array(
         [
@@ -168,8 +183,14 @@ def from_dh(
             f"robot '{name}': base_frame must be a non-empty name other than 'universe' (Pinocchio's world frame), "
             f"got {base_frame!r}"
         )
-    base_m = np.eye(4) if base is None else np.asarray(base, dtype=float)
-    if base_m.shape != (4, 4) or not np.all(np.isfinite(base_m)):
+    raw = np.eye(4) if base is None else base if isinstance(base, np.ndarray) else np.asarray(base, dtype=object)
+    if raw.shape != (4, 4) or raw.dtype.kind not in "fiuO":
+        raise ModelError(f"robot '{name}': base must be a finite 4×4 homogeneous matrix, got {short_repr(base)}")
+    try:
+        base_m = np.asarray(raw, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(f"robot '{name}': base must be a 4×4 matrix of real numbers, got {short_repr(base)}") from None
+    if not np.all(np.isfinite(base_m)):
         raise ModelError(f"robot '{name}': base must be a finite 4×4 homogeneous matrix")
     rot = base_m[:3, :3]
     if not np.allclose(rot @ rot.T, np.eye(3), atol=1e-9) or np.linalg.det(rot) < 0:

@@ -51,6 +51,8 @@ def jacobian_view(data: Any) -> np.ndarray | None:
     array the bindings return — verified to be a view on Data's memory (not a copy), float64, column-major."""
     J = data.J
     again = data.J
+    if isinstance(J, np.ndarray) and J.ndim == 1 and J.shape == (6,):  # nv = 1: the bindings drop the unit axis
+        J = J.reshape(6, 1)  # (a view still: a contiguous vector reshaped)
     if not (
         isinstance(J, np.ndarray)
         and not J.flags.owndata

@@ -35,6 +35,12 @@ AXES: dict[str, int] = {"x": 0, "y": 1, "z": 2, "rx": 3, "ry": 4, "rz": 5}
 MAX_NV = 256
 
 
+#: How far a configuration's quaternion (free-flyer base, spherical joint) may be from unit norm and still be
+#: accepted: | ‖q_quat‖ − 1 | ≤ 1e-3 is rounding or a float32 round trip, normalised silently; anything farther (a
+#: zero, tiny or scaled quaternion) is a ModelError naming the joint (it was a rotation scaled by ‖q‖², silently).
+QUATERNION_TOLERANCE = 1e-3
+
+
 @dataclass(frozen=True)
 class JointInfo:
     """One actuated degree of freedom as the user sees it.
@@ -80,6 +86,8 @@ class RobotModel:
     _support: np.ndarray | None = field(init=False, default=None, repr=False)
     _nq: int = field(init=False, default=0, repr=False)
     _nv: int = field(init=False, default=0, repr=False)
+    #: (joint name, index of the quaternion's first coordinate in q) of every free-flyer / spherical joint
+    _quaternions: tuple[tuple[str, int], ...] = field(init=False, default=(), repr=False)
 
     def __post_init__(self) -> None:
         if int(self.model.nv) > MAX_NV:
@@ -130,6 +138,14 @@ class RobotModel:
                         )
                     )
         self.joints = tuple(joints)
+        quats = []
+        for jid in range(1, self.model.njoints):
+            short = self.model.joints[jid].shortname()
+            if short == "JointModelFreeFlyer":
+                quats.append((self.model.names[jid], self.model.joints[jid].idx_q + 3))
+            elif short == "JointModelSpherical":
+                quats.append((self.model.names[jid], self.model.joints[jid].idx_q))
+        self._quaternions = tuple(quats)
         self._check_model()
 
     def _check_model(self) -> None:
@@ -271,7 +287,31 @@ class RobotModel:
             raise ModelError(f"{where}: expected {self.nq} values for robot '{self.name}', got {arr.shape[0]}")
         if not np.all(np.isfinite(arr)):
             raise ModelError(f"{where}: contains NaN or infinite values: {arr.tolist()}")
-        return arr
+        return self._unit_quaternions(arr, where) if self._quaternions else arr
+
+    def _unit_quaternions(self, q: np.ndarray, where: str) -> np.ndarray:
+        """``q`` with its quaternions normalised (a copy when one is changed), if each is within
+        :data:`QUATERNION_TOLERANCE` of unit norm.
+
+        Raises:
+            ModelError: a quaternion farther from unit norm; names the joint and its coordinates.
+        """
+        out = q
+        for name, i in self._quaternions:
+            x, y, z, w = q[i : i + 4].tolist()
+            norm = math.sqrt(x * x + y * y + z * z + w * w)
+            if norm == 1.0:
+                continue
+            if not abs(norm - 1.0) <= QUATERNION_TOLERANCE:
+                raise ModelError(
+                    f"{where}: joint '{name}': the quaternion (x, y, z, w) = q[{i}:{i + 4}] = "
+                    f"{[round(v, 6) for v in (x, y, z, w)]} has norm {norm:.3g}; expected a unit quaternion (norm "
+                    f"within {QUATERNION_TOLERANCE:g} of 1, e.g. (0, 0, 0, 1) for no rotation)"
+                )
+            if out is q:
+                out = q.copy()
+            out[i : i + 4] /= norm
+        return out
 
     # ------------------------------------------------------------------ limits
     @property
@@ -310,7 +350,10 @@ class RobotModel:
         self._update_checked(q)
 
     def _update_checked(self, q: np.ndarray) -> None:
-        """:meth:`update` for a q already checked (float64, shape (nq,), finite): a resolver's step checks it once."""
+        """:meth:`update` for a q already checked (float64, shape (nq,), finite): a resolver's step checks it once.
+        A model with quaternions has them checked and normalised here (a few operations per quaternion)."""
+        if self._quaternions:
+            q = self._unit_quaternions(q, f"robot '{self.name}': q")
         pin.computeJointJacobians(self.model, self.data, q)
         pin.updateFramePlacements(self.model, self.data)
         self._q = q.copy()
@@ -327,21 +370,28 @@ class RobotModel:
         return self._q
 
     def frame_pose(self, frame: str | int) -> pin.SE3:
-        """Pose of a frame in the world (base) frame at the last :meth:`update` — a live view on the kinematic data
-        (it changes at the next update): ``.copy()`` it to keep it."""
+        """Pose of a frame in the world (base) frame at the last :meth:`update`: a copy, the caller's to keep (a
+        "home" pose stored in a loop does not follow the robot)."""
+        return self.frame_pose_view(frame).copy()
+
+    def frame_pose_view(self, frame: str | int) -> pin.SE3:
+        """:meth:`frame_pose` as a live view on the kinematic data, for internal hot paths (a task that reads its
+        frame every tick): it changes at every :meth:`update`, and writing to it corrupts the model's state until
+        the next one. Use :meth:`frame_pose` to keep a pose."""
         fid = frame if isinstance(frame, int) else self.frame_id(frame)
         self.q  # noqa: B018 - raises if update() was never called
         return self.data.oMf[fid]
 
     def frame_position(self, frame: str | int) -> np.ndarray:
-        """Origin of a frame in the world frame, shape (3,)."""
-        return np.array(self.frame_pose(frame).translation)
+        """Origin of a frame in the world frame, shape (3,) (a copy)."""
+        return np.array(self.frame_pose_view(frame).translation)
 
     def frame_jacobian(self, frame: str | int) -> np.ndarray:
         """Base-aligned 6×nv Jacobian of a frame: rows (v_x, v_y, v_z, ω_x, ω_y, ω_z), eq. (5.6)."""
         fid = frame if isinstance(frame, int) else self.frame_id(frame)
         self.q  # noqa: B018
-        return np.asarray(pin.getFrameJacobian(self.model, self.data, fid, LWA))
+        J = np.asarray(pin.getFrameJacobian(self.model, self.data, fid, LWA))
+        return J if J.ndim == 2 else J.reshape(6, self._nv)  # the bindings return a 6×1 matrix as shape (6,)
 
     def frame_jacobian_derivatives(self, frame: str | int) -> np.ndarray:
         """∂J/∂q_k of the base-aligned frame Jacobian, shape (6, nv, nv): ``H[:, :, k] = ∂J/∂q_k``.

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pinocchio as pin
 
-from redundik.errors import ModelError
-from redundik.kinematics.model import RobotModel
+from redundik.errors import ModelError, short_repr
+from redundik.kinematics.model import MAX_NV, RobotModel
 
 #: URDF paths (relative to the example-robot-data ``robots`` folder) of the robots known to load offline.
 EXAMPLE_ROBOTS: dict[str, tuple[str, bool]] = {
@@ -46,8 +46,82 @@ def example_robot_data_dir() -> Path:
     raise missing("example_robot_data", "loading an example robot (its URDFs were not found)")
 
 
-#: Largest URDF file parsed [bytes].
-MAX_URDF_BYTES = 64 * 1024 * 1024
+#: Largest URDF file parsed [bytes] (TALOS's is 0.11 MB; meshes live in their own files).
+MAX_URDF_BYTES = 16 * 1024 * 1024
+#: Most ``<link>`` / ``<joint>`` elements a URDF may declare (TALOS: 60 / 59). Pinocchio's URDF reader recurses once
+#: per link of a chain, so a chain of 7 000 links overflows its stack (a segfault) before ``MAX_NV`` could refuse the
+#: model: the file is counted here, by a streaming XML pass, before any C++ library sees it.
+MAX_URDF_LINKS = 1024
+MAX_URDF_JOINTS = 1024
+#: Longest chain of joints from the root link to a leaf (``MAX_NV`` moving joints, plus fixed ones).
+MAX_URDF_DEPTH = 512
+#: Deepest nesting of XML elements (a URDF nests about 4: robot / link / visual / geometry / mesh).
+MAX_URDF_NESTING = 32
+
+
+def _check_urdf_structure(p: Path) -> None:
+    """Count a URDF's links, joints, XML nesting and chain depth in one streaming pass (expat, no C++ model), and
+    refuse it before Pinocchio parses it when any is beyond its bound.
+
+    Raises:
+        ModelError: names the file, what is too large, and the bound.
+    """
+    import xml.etree.ElementTree as ET
+
+    counts = {"link": 0, "joint": 0}
+    bound = {"link": MAX_URDF_LINKS, "joint": MAX_URDF_JOINTS}
+    parent_of: dict[str, str] = {}  # child link -> parent link
+    nesting = 0
+    pending: tuple[str, str] = ("", "")  # the current joint's (parent, child) links
+    try:
+        for event, elem in ET.iterparse(str(p), events=("start", "end")):
+            if event == "start":
+                nesting += 1
+                if nesting > MAX_URDF_NESTING:
+                    raise ModelError(f"URDF '{p}': XML elements nested deeper than {MAX_URDF_NESTING} levels")
+                if nesting == 2 and elem.tag in counts:
+                    counts[elem.tag] += 1
+                    if counts[elem.tag] > bound[elem.tag]:
+                        raise ModelError(
+                            f"URDF '{p}': more than {bound[elem.tag]} <{elem.tag}> elements: refused before parsing "
+                            f"(redundik models at most {MAX_NV} joints)"
+                        )
+                    pending = ("", "")
+                elif nesting == 3 and elem.tag in ("parent", "child"):
+                    link = elem.get("link", "")
+                    pending = (link, pending[1]) if elem.tag == "parent" else (pending[0], link)
+                continue
+            nesting -= 1
+            if nesting == 1:
+                if elem.tag == "joint" and pending[0] and pending[1]:
+                    parent_of[pending[1]] = pending[0]
+                elem.clear()  # keep memory flat: the elements are not needed after they are counted
+    except ET.ParseError as exc:
+        raise ModelError(f"could not parse URDF '{p}': {exc}") from None
+    deepest = 0
+    depth_of: dict[str, int] = {}
+    for link in parent_of:
+        chain: list[str] = []
+        seen: set[str] = set()
+        node = link
+        while node in parent_of and node not in depth_of and len(chain) <= MAX_URDF_DEPTH:
+            if node in seen:
+                raise ModelError(f"URDF '{p}': the joints form a loop through link '{node[:80]}' (a tree is expected)")
+            seen.add(node)
+            chain.append(node)
+            node = parent_of[node]
+        if len(chain) > MAX_URDF_DEPTH:
+            deepest = len(chain)
+            break
+        base = depth_of.get(node, 0)
+        for k, name in enumerate(reversed(chain), start=1):
+            depth_of[name] = base + k
+        deepest = max(deepest, depth_of.get(link, 0))
+    if deepest > MAX_URDF_DEPTH:
+        raise ModelError(
+            f"URDF '{p}': a chain of more than {MAX_URDF_DEPTH} joints from the root link: refused before parsing "
+            f"(redundik models at most {MAX_NV} joints)"
+        )
 
 
 @contextlib.contextmanager
@@ -89,7 +163,9 @@ def from_urdf(path: str | os.PathLike[str], *, free_flyer: bool = False, name: s
         name: Robot name for reports; the URDF's robot name if ``None``.
 
     Raises:
-        ModelError: if the file is missing or Pinocchio cannot parse it.
+        ModelError: if the file is missing, larger than ``MAX_URDF_BYTES``, declares more than ``MAX_URDF_LINKS``
+            links or ``MAX_URDF_JOINTS`` joints, has a chain deeper than ``MAX_URDF_DEPTH``, or Pinocchio cannot
+            parse it.
     """
     if not isinstance(path, (str, os.PathLike)):
         raise ModelError(f"URDF path must be a file path (str or Path), got {type(path).__name__}")
@@ -111,6 +187,7 @@ def from_urdf(path: str | os.PathLike[str], *, free_flyer: bool = False, name: s
         raise ModelError(f"URDF file '{str(p)[:200]}' does not exist")
     if size > MAX_URDF_BYTES:
         raise ModelError(f"URDF file '{p}' is larger than {MAX_URDF_BYTES // (1024 * 1024)} MiB")
+    _check_urdf_structure(p)
     chatter: list[str] = []
     try:
         with _captured_stderr() as chatter:
@@ -136,8 +213,8 @@ def load_example_robot(name: str) -> RobotModel:
         ModelError: unknown name (lists the known ones).
         MissingDependencyError: example-robot-data is not installed (`pip install 'redundik[robots]'`).
     """
-    if name not in EXAMPLE_ROBOTS:
-        raise ModelError(f"unknown example robot '{name}'; known: {sorted(EXAMPLE_ROBOTS)}")
+    if not isinstance(name, str) or name not in EXAMPLE_ROBOTS:
+        raise ModelError(f"unknown example robot {short_repr(name)}; known: {sorted(EXAMPLE_ROBOTS)}")
     rel, free_flyer = EXAMPLE_ROBOTS[name]
     path = example_robot_data_dir() / rel
     if not path.is_file():

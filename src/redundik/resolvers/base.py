@@ -392,6 +392,11 @@ class Resolver(ABC):
 
     Subclasses implement :meth:`solve`, which reads a robot already updated at the current configuration, and
     declare the subtask kinds they accept in :attr:`accepts`. :meth:`step` is the call for a control loop.
+
+    Threads: use one resolver per thread (and one robot and stack per thread). A resolver keeps scratch buffers,
+    warm starts and plans between steps, so it is not safe to share: a :meth:`step` called while another thread is
+    inside a step of the same resolver raises :class:`ResolverError` instead of mixing the two (which gave silently
+    wrong answers). Copies (``copy.deepcopy``, ``pickle``) of a resolver are independent and may go to other threads.
     """
 
     name: str = "resolver"
@@ -451,8 +456,23 @@ class Resolver(ABC):
 
         Raises:
             ResolverError: q not finite or of the wrong size, dt not finite and > 0, t not finite, a refused stack,
-                or a task gain with K·dt > 2.
+                a task gain with K·dt > 2, or another thread inside a step of this resolver (one resolver per thread).
         """
+        state, token = self.__dict__, object()
+        # dict.setdefault is one atomic operation under the GIL: the first caller's token wins; no lock object, so
+        # pickling and copying a resolver are unaffected (the entry exists only during a step)
+        if state.setdefault("_stepping_token", token) is not token:
+            raise ResolverError(
+                f"{self.name}: step() called while another thread is inside a step of this resolver; a resolver keeps "
+                "buffers between steps and is not thread-safe: use one resolver per thread (copy.deepcopy it)"
+            )
+        try:
+            return self._step_owned(robot, stack, q, t, dt)
+        finally:
+            del state["_stepping_token"]
+
+    def _step_owned(self, robot: RobotModel, stack: TaskStack, q: np.ndarray, t: float, dt: float) -> StepResult:
+        """:meth:`step` once this thread holds the resolver."""
         if (  # the common case checked in a few operations; anything unusual goes through check_inputs
             type(q) is np.ndarray
             and q.dtype is _F64

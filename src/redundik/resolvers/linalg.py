@@ -26,11 +26,14 @@ relative (tested at 1e-9).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
 import numpy as np
+
+from redundik.errors import ResolverError
 
 
 class _Kernels:
@@ -168,17 +171,15 @@ class PseudoInverse:
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """J⁺_λ rhs for rhs of shape (m,) (minimum-norm, damped least squares), shape (n,)."""
+        rhs = _real_array(rhs, 1, "rhs", self._J.shape[0])
         if self._J.shape[0] == 0:
             return np.zeros(self.n)
-        return K.solve_factored(
-            self.fast, self._J, self._U, self._inv, self._Vt, np.ascontiguousarray(rhs, dtype=float)
-        )
+        return K.solve_factored(self.fast, self._J, self._U, self._inv, self._Vt, rhs)
 
     def null_project(self, z: np.ndarray) -> np.ndarray:
         """P_n z = (I − V_r V_rᵀ) z, the projection of z (n,) on the null space of J (numerical rank r)."""
-        return K.null_project_factored(
-            self.fast, self._J, self._U, self._inv, self._Vt, self.rank, np.ascontiguousarray(z, dtype=float)
-        )
+        z = _real_array(z, 1, "z", self.n)
+        return K.null_project_factored(self.fast, self._J, self._U, self._inv, self._Vt, self.rank, z)
 
     @property
     def pinv(self) -> np.ndarray:
@@ -219,8 +220,33 @@ def pseudo_inverse(
         max_damping: λ_max, the damping reached as σ → 0.
         rcond: Relative threshold of the numerical rank.
 
+    Raises:
+        ResolverError: J not a 2-D array of finite real numbers, or an option not a finite number ≥ 0.
+
     Returns:
         A :class:`PseudoInverse` (``solve``/``null_project`` for the hot path; ``pinv``/``null_projector`` formed on
         request).
     """
-    return PseudoInverse(contiguous(J), float(epsilon), float(max_damping), float(rcond))
+    options = {"epsilon": epsilon, "max_damping": max_damping, "rcond": rcond}
+    for key, value in options.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+            raise ResolverError(f"pseudo_inverse: {key} must be a number, got {type(value).__name__}")
+        if not (math.isfinite(value) and value >= 0):
+            raise ResolverError(f"pseudo_inverse: {key} must be finite and ≥ 0, got {value}")
+    return PseudoInverse(_real_array(J, 2, "J"), float(epsilon), float(max_damping), float(rcond))
+
+
+def _real_array(value: object, ndim: int, what: str, size: int | None = None) -> np.ndarray:
+    """``value`` as a C-contiguous float array of ``ndim`` dimensions (and ``size`` entries when given), finite;
+    else a :class:`ResolverError` saying what it got (a numba TypingError or a NaN output before)."""
+    raw = value if isinstance(value, np.ndarray) else np.asarray(value) if isinstance(value, (list, tuple)) else None
+    if raw is None or raw.dtype.kind not in "fiu":
+        kind = type(value).__name__ if raw is None else f"{raw.dtype} array"
+        raise ResolverError(f"pseudo_inverse: {what} must be an array of real numbers, got {kind}")
+    if raw.ndim != ndim or (size is not None and raw.shape[0] != size):
+        want = f"shape ({size},)" if size is not None else f"{ndim} dimensions"
+        raise ResolverError(f"pseudo_inverse: {what} must have {want}, got shape {raw.shape}")
+    arr = np.ascontiguousarray(raw, dtype=float)
+    if not math.isfinite(float(np.add.reduce(arr, axis=None))) and not np.isfinite(arr).all():
+        raise ResolverError(f"pseudo_inverse: {what} contains NaN or infinite values")
+    return arr

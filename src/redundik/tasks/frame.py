@@ -308,7 +308,7 @@ class FrameTask(Task):
                 f"task '{self.name}': frame '{self.frame}' is fixed to the world (no joint moves it): a task on it can "
                 "never be met; choose a frame on a moving link"
             )
-        pose = robot.frame_pose(fid)
+        pose = robot.frame_pose_view(fid)
         self._data, self._pose = robot.data, pose  # the frame's placement, updated in place by every robot.update
         self.trajectory.start(pose)  # a Hold(pose) keeps its pose
         if self._pending_position is not None:
@@ -340,15 +340,16 @@ class FrameTask(Task):
         elif data is not self._data:  # evaluated on another robot object than at reset: its own pose view, and
             self._fid = None  # its own id of the frame (another model numbers its frames its own way: the id of the
             fid = self._frame_id(robot)  # first robot's frame named some other frame of this one, silently)
-            self._data, self._pose = data, robot.frame_pose(fid)
+            self._data, self._pose = data, robot.frame_pose_view(fid)
             self._form_revision += 1
-        pose = self._pose  # a live view on data.oMf[fid] (robot.frame_pose without its checks, done at reset)
+        pose = self._pose  # a live view on data.oMf[fid] (robot.frame_pose_view without its checks, done at reset)
         if self._pending_position is not None:
             self._hold(pin.SE3(np.array(pose.rotation), self._pending_position))
             self._pending_position = None
         p_d, R_d, twist_d = self.trajectory.reference(t)
         self._last_R = R_d
         J = pin.getFrameJacobian(robot.model, data, fid, LWA)  # robot.frame_jacobian without its checks
+        J = J if J.ndim == 2 else J.reshape(6, -1)  # a 1-joint robot: the bindings return its 6×1 as shape (6,)
         m = self._m
         e, v = np.empty(m), np.empty(m)
         # one compiled call for e = (p_d − p, log3(R_d Rᵀ))[rows] and v = V_d[rows] + K e (rotations under 0.45 rad)

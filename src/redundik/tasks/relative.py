@@ -107,7 +107,7 @@ class RelativePoseTask(Task):
         if self._ids is None:
             self.reset(robot)
         assert self._ids is not None  # set by reset()
-        return robot.frame_pose(self._ids[1]).actInv(robot.frame_pose(self._ids[0]))
+        return robot.frame_pose_view(self._ids[1]).actInv(robot.frame_pose_view(self._ids[0]))
 
     def jacobian(self, robot: RobotModel) -> np.ndarray:
         """The full 6×nv relative Jacobian J_rel (rows v, ω of A relative to B, in frame B)."""
@@ -115,7 +115,7 @@ class RelativePoseTask(Task):
             self.reset(robot)
         assert self._ids is not None
         ia, ib = self._ids
-        pose_a, pose_b = robot.frame_pose(ia), robot.frame_pose(ib)
+        pose_a, pose_b = robot.frame_pose_view(ia), robot.frame_pose_view(ib)
         ja, jb = robot.frame_jacobian(ia), robot.frame_jacobian(ib)  # (6, nv) each
         rbt = pose_b.rotation.T
         d = pose_a.translation - pose_b.translation
