@@ -102,7 +102,7 @@ def test_identical_runs_stay_visible_and_are_named() -> None:
 
 
 def test_far_joint_limits_are_named_in_the_title_not_on_the_curves() -> None:
-    robot = rk.from_dh([rk.DHRow("1", a=1.0, lower=-3.0, upper=3.0), rk.DHRow("2", a=1.0, lower=-0.2, upper=0.9)])
+    robot = rk.from_dh([rk.DHRow("1", a=1.0, lower=-3.0, upper=3.0), rk.DHRow("2", a=1.0, lower=0.4, upper=0.6)])
     stack = rk.TaskStack([rk.FrameTask("2", rk.Line([0.0, -0.01]), axes=["x", "y"])])
     log = rk.simulate(robot, stack, rk.PinvResolver(), np.array([0.0, 0.5]), dt=0.01, steps=30)
     fig = joints_figure({"r": LoggedRun(log, stack)}, robot)
@@ -110,6 +110,9 @@ def test_far_joint_limits_are_named_in_the_title_not_on_the_curves() -> None:
         for ax in fig.axes:
             assert not ax.texts  # no text inside the plotting area
         assert "limits off the axis" in fig.axes[0].get_title()  # ±172° are far from a motion of a few degrees
+        near = [ln for ln in fig.axes[1].get_lines() if ln.get_color() == "tab:red"]
+        assert len(near) == 2  # joint 2's limits (23°, 34°) are near its motion: two lines, one legend entry
+        assert [ln.get_label() for ln in near].count("joint limit") == 1
     finally:
         _close(fig)
 

@@ -161,7 +161,8 @@ def joints_figure(runs: Runs, robot: RobotModel, options: FigureOptions | None =
                 continue
             v = float(np.degrees(lim)) if revolute else float(lim)
             if lo - span <= v <= hi + span:  # near the motion: draw the limit line, widening the axis to it
-                ax.axhline(v, color="tab:red", ls="--", lw=1.2, label="joint limit" if not far else None)
+                first = not any(ln.get_label() == "joint limit" for ln in ax.get_lines())
+                ax.axhline(v, color="tab:red", ls="--", lw=1.2, label="joint limit" if first else None)
                 lo, hi = min(lo, v), max(hi, v)
             else:  # far away: drawing it would flatten the motion, so name it
                 far.append(f"{side} {v:.4g}")
