@@ -5,6 +5,7 @@
 * ``potentials.png``: subtask / watched potential / monitor values over time, with targets;
 * ``world.png`` (tasks with a collision world, :mod:`redundik.reporting.world_plots`): obstacles, closest-pair
   segments and the smallest distance over time;
+* ``arm_world.png`` (idem): the arm at a few instants among the obstacles, with each instant's closest pair;
 * ``configurations.png``: the arm drawn every k samples with the tip path, one panel per run — the chapter's
   Figs. 5.7 and 5.8 for a planar arm (a 3-D stick drawing for spatial robots).
 
@@ -25,6 +26,7 @@ import numpy as np
 
 from redundik.kinematics.model import RobotModel
 from redundik.reporting.paths import safe_path
+from redundik.reporting.styles import potential_unit, run_style, same_as, with_note
 from redundik.simulation.loop import SimulationLog
 from redundik.tasks.base import Potential
 from redundik.tasks.stack import TaskStack
@@ -127,6 +129,12 @@ def _finish(fig: Any, path: Path) -> Path:
 
 def plot_joints(runs: Runs, robot: RobotModel, path: Path, options: FigureOptions | None = None) -> Path:
     """Joint profiles: q_j(t) in degrees (revolute) or the length unit (prismatic), runs overlaid."""
+    return _finish(joints_figure(runs, robot, options), path)
+
+
+def joints_figure(runs: Runs, robot: RobotModel, options: FigureOptions | None = None) -> Any:
+    """The figure of :func:`plot_joints` (a matplotlib ``Figure``): each run its colour and marker, a run equal to
+    an earlier one says so in the legend; limits near the motion are lines, limits far off are named in the title."""
     plt = _plt()
     results, options = logged_runs(runs), options or FigureOptions()
     joints = [j for j in robot.joints if j.idx_q >= 0]
@@ -138,11 +146,12 @@ def plot_joints(runs: Runs, robot: RobotModel, path: Path, options: FigureOption
     for ax, j in zip(axes.flat, shown, strict=False):
         revolute = j.kind == "revolute"
         lo, hi = np.inf, -np.inf
-        for i, ((name, r), c) in enumerate(zip(results.items(), colors, strict=True)):
-            y = r.log.q[:, j.idx_q]
+        curves = [(name, r.log.t, r.log.q[:, j.idx_q]) for name, r in results.items()]
+        same = same_as(curves)
+        for i, ((name, t, y), c) in enumerate(zip(curves, colors, strict=True)):
             y = np.degrees(y) if revolute else y
             lo, hi = min(lo, float(np.min(y))), max(hi, float(np.max(y)))
-            ax.plot(r.log.t, y, color=c, label=name, lw=_lw(i, n_runs))
+            ax.plot(t, y, color=c, label=with_note(name, name, same), lw=_lw(i, n_runs), **run_style(i, n_runs, t.size))
         pad = max(0.08 * (hi - lo), 1.0 if revolute else 1e-3)
         span = max(hi - lo, 10.0 if revolute else 0.05)
         far: list[str] = []
@@ -152,23 +161,14 @@ def plot_joints(runs: Runs, robot: RobotModel, path: Path, options: FigureOption
                 continue
             v = float(np.degrees(lim)) if revolute else float(lim)
             if lo - span <= v <= hi + span:  # near the motion: draw the limit line, widening the axis to it
-                ax.axhline(v, color="tab:red", ls="--", lw=1.2, label="joint limit" if not far else None)
+                first = not any(ln.get_label() == "joint limit" for ln in ax.get_lines())
+                ax.axhline(v, color="tab:red", ls="--", lw=1.2, label="joint limit" if first else None)
                 lo, hi = min(lo, v), max(hi, v)
             else:  # far away: drawing it would flatten the motion, so name it
                 far.append(f"{side} {v:.4g}")
         ax.set_ylim(lo - pad, hi + pad)
-        if far:
-            ax.text(
-                0.99,
-                0.03,
-                "limit " + ", ".join(far) + f" {unit}",
-                transform=ax.transAxes,
-                ha="right",
-                va="bottom",
-                fontsize=7,
-                color="tab:red",
-            )
-        ax.set_title(f"joint {j.name}", fontsize=10)
+        far_text = f"\nlimits off the axis: {', '.join(far)} {unit}" if far else ""  # in the title, not on the data
+        ax.set_title(f"joint {j.name}{far_text}", fontsize=10 if not far else 9)
         ax.set_ylabel(f"{'θ' if revolute else 'd'} [{unit}]")
         ax.grid(alpha=0.3)
     for ax in axes.flat[len(shown) :]:
@@ -178,12 +178,17 @@ def plot_joints(runs: Runs, robot: RobotModel, path: Path, options: FigureOption
     axes.flat[0].legend(fontsize=8)
     more = f" (first 12 of {len(joints)})" if len(joints) > 12 else ""
     fig.suptitle(f"{options.title}: joint profiles{more}", fontsize=12)
-    return _finish(fig, path)
+    return fig
 
 
 def plot_task_errors(runs: Runs, robot: RobotModel, path: Path, options: FigureOptions | None = None) -> Path:
     """Main-task errors on a log scale, runs overlaid: one panel per task and unit (a pose task gets a position
     panel [length unit] and an orientation panel [rad], recomputed from the logged q), so no axis mixes units."""
+    return _finish(task_errors_figure(runs, robot, options), path)
+
+
+def task_errors_figure(runs: Runs, robot: RobotModel, options: FigureOptions | None = None) -> Any:
+    """The figure of :func:`plot_task_errors`; runs as in :func:`joints_figure`."""
     plt = _plt()
     results, options = logged_runs(runs), options or FigureOptions()
     unit = robot.length_unit
@@ -211,14 +216,17 @@ def plot_task_errors(runs: Runs, robot: RobotModel, path: Path, options: FigureO
         panels["(none)"] = ("no main task", "‖e‖")
         curves["(none)"] = []
     colors = dict(zip(results, _colors(len(results)), strict=True))
+    index = {name: i for i, name in enumerate(results)}
     rows, cols = _grid(len(panels), 2)
     fig, axes = plt.subplots(rows, cols, figsize=(6.0 * cols, 3.4 * rows), squeeze=False)
     for ax, (key, (title, ylabel)) in zip(axes.flat, panels.items(), strict=False):
+        same = same_as(curves[key])
         for i, (name, t, e) in enumerate(curves[key]):
             y = np.array(e, dtype=float)
             y[y <= 0] = np.nan  # log scale: exact zeros (t = 0) are not drawn
-            label = f"{name} (max {np.nanmax(e) if np.any(np.isfinite(y)) else 0.0:.2g})"
-            ax.semilogy(t, y, color=colors[name], label=label, lw=_lw(i, len(results)))
+            label = with_note(f"{name} (max {np.nanmax(e) if np.any(np.isfinite(y)) else 0.0:.2g})", name, same)
+            style = run_style(index[name], len(results), t.size)
+            ax.semilogy(t, y, color=colors[name], label=label, lw=_lw(i, len(results)), **style)
         peak = max((float(np.nanmax(e)) for _, _, e in curves[key] if np.any(np.asarray(e) > 0)), default=0.0)
         if peak > 0:  # the exact start (e ≈ 1e-16) would stretch the log axis over 12 decades
             ax.set_ylim(bottom=peak * 1e-5)
@@ -231,7 +239,7 @@ def plot_task_errors(runs: Runs, robot: RobotModel, path: Path, options: FigureO
     for ax in axes.flat[len(panels) :]:
         ax.set_visible(False)
     fig.suptitle(f"{options.title}: main-task error", fontsize=12)
-    return _finish(fig, path)
+    return fig
 
 
 def split_task_errors(
@@ -270,8 +278,45 @@ def split_task_errors(
     return out
 
 
-def plot_potentials(runs: Runs, path: Path, options: FigureOptions | None = None) -> Path | None:
-    """Potential and monitor values over time, runs overlaid; controlled subtasks solid, watched ones dashed."""
+def plot_potentials(
+    runs: Runs, path: Path, options: FigureOptions | None = None, robot: RobotModel | None = None
+) -> Path | None:
+    """Potential and monitor values over time, runs overlaid; controlled subtasks solid, watched ones dashed.
+
+    ``robot`` gives the length unit and joint kinds of the values' units (metres and both joint kinds without it).
+    """
+    fig = potentials_figure(runs, options, robot)
+    return None if fig is None else _finish(fig, path)
+
+
+def _potential_of(results: Mapping[str, LoggedRun], pname: str) -> Any:
+    """The potential object logged as ``pname`` (a subtask's, a watched one or a monitor), or ``None``."""
+    for r in results.values():
+        for sub in _subtasks(r):
+            if sub.name == pname:
+                return getattr(sub, "potential", getattr(sub, "source", None))
+        for pot in r.watched:
+            if getattr(pot, "name", None) == pname:
+                return pot
+    return None
+
+
+def _bounds(ax: Any, sub: Any, name: str, color: Any, unit: str) -> None:
+    """A target or bound subtask's target / bounds as labelled dotted lines (in the legend, off the curves)."""
+    if isinstance(sub, TargetSubtask):
+        ax.axhline(sub.target, color=color, ls=":", lw=1.2, label=f"{name}: target p_d = {sub.target:g} {unit}")
+    if isinstance(sub, BoundSubtask):
+        safety = getattr(sub.source, "safety", None)  # a collision damper bounds each pair's distance, not p
+        if sub.lower is None and sub.upper is None and safety is not None:
+            ax.plot([], [], " ", label=f"{name}: bound d ≥ d_s = {safety:g} on each pair (world.png)")
+        for bound, side in ((sub.lower, "lower"), (sub.upper, "upper")):
+            if bound is not None:
+                ax.axhline(bound, color=color, ls=(0, (1, 1.5)), lw=1.4, label=f"{name}: {side} bound {bound:g} {unit}")
+
+
+def potentials_figure(runs: Runs, options: FigureOptions | None = None, robot: RobotModel | None = None) -> Any:
+    """The figure of :func:`plot_potentials` (``None`` without a potential): y axes in the potential's unit,
+    targets and bounds drawn and in the legend, each run its colour and marker, equal runs noted."""
     plt = _plt()
     results, options = logged_runs(runs), options or FigureOptions()
     series: list[str] = []
@@ -285,41 +330,45 @@ def plot_potentials(runs: Runs, path: Path, options: FigureOptions | None = None
         return None
     colors = _colors(len(results))
     rows, cols = _grid(len(panels), 2)
-    fig, axes = plt.subplots(rows, cols, figsize=(6.0 * cols, 3.4 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, cols, figsize=(6.4 * cols, 3.6 * rows), squeeze=False)
+    n = len(results)
     for ax, pname in zip(axes.flat, panels, strict=False):
         kind = options.kinds.get(pname, "")
         monitor = any(pname in r.monitors for r in results.values())
+        unit = potential_unit(_potential_of(results, pname), robot)
+        same = same_as(
+            [(name, r.log.t, r.log.potentials[pname]) for name, r in results.items() if pname in r.log.potentials]
+        )
         for i, ((name, r), c) in enumerate(zip(results.items(), colors, strict=True)):
             if pname in r.log.potentials:
                 sub = next((s for s in _subtasks(r) if s.name == pname), None)
                 style = "-" if sub is not None or monitor else "--"
                 label = name if monitor else f"{name} (not controlled)" if sub is None else f"{name} ({sub.kind})"
                 t, p = r.log.t, r.log.potentials[pname]
-                ax.plot(t, p, color=c, ls=style, label=label, lw=_lw(i, len(results)))
+                marks = run_style(i, n, t.size)
+                ax.plot(t, p, color=c, ls=style, label=with_note(label, name, same), lw=_lw(i, n), **marks)
                 if isinstance(sub, TargetSubtask):
-                    ax.axhline(sub.target, color=c, ls=":", lw=1)
                     ideal = sub.target + (p[0] - sub.target) * np.exp(-sub.rate * (t - t[0]))
                     ax.plot(
                         t, ideal, color="k", ls=":", lw=1.2, label=f"{name}: p_d + (p₀ − p_d)e^(−Kt), K = {sub.rate:g}"
                     )
-                for bound in (sub.lower, sub.upper) if isinstance(sub, BoundSubtask) else ():
-                    if bound is not None:
-                        ax.axhline(bound, color=c, ls=":", lw=1)
+                _bounds(ax, sub, name, c, unit)
             elif pname in torque_names and f"m.{pname}.max" in r.series:
                 for stat, ls in (("max", "-"), ("mean", "--"), ("min", ":")):
                     ax.plot(r.log.t, r.series[f"m.{pname}.{stat}"], color=c, ls=ls, label=f"{name}: {stat} |τ|")
         role = "monitor" if monitor else "potential"
+        ylabel = f"p [{unit}]"
         if pname in torque_names:
-            role, kind = "monitor", "torques τ = JᵀF"
+            role, kind, ylabel = "monitor", "torques τ = JᵀF", "|τ| [N·m; N for prismatic joints]"
         ax.set_title(f"{role} '{pname}' ({kind})", fontsize=10)
         ax.set_xlabel("t [s]")
-        ax.set_ylabel("value")
+        ax.set_ylabel(ylabel)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=7)
     for ax in axes.flat[len(panels) :]:
         ax.set_visible(False)
     fig.suptitle(f"{options.title}: subtask potentials and monitors", fontsize=12)
-    return _finish(fig, path)
+    return fig
 
 
 def _desired_path(r: LoggedRun, frame: str | None) -> np.ndarray | None:
@@ -360,8 +409,9 @@ def frame_task_paths(robot: RobotModel, r: LoggedRun) -> list[tuple[str, np.ndar
     return [(p.frame, p.desired, p.actual) for p in stack_paths(robot, r.stack, r.log.t, r.log.q)]
 
 
-def _draw_obstacles(ax: Any, r: LoggedRun, ids: list[int], spatial: bool) -> None:
-    """Round obstacles of the run's clearance potentials: circles (posts) in a plane, wire spheres / posts in 3-D."""
+def _draw_obstacles(ax: Any, r: LoggedRun, ids: list[int], spatial: bool, zspan: tuple[float, float]) -> None:
+    """Round obstacles of the run's clearance potentials: circles (posts) in a plane, wire spheres / posts in 3-D
+    (a post over ``zspan`` [length unit], the drawing's height: its distance ignores z)."""
     from redundik.viewer.html import clearance_obstacles
 
     potentials = [getattr(s, "potential", None) for s in _subtasks(r)] + list(r.watched)
@@ -379,12 +429,12 @@ def _draw_obstacles(ax: Any, r: LoggedRun, ids: list[int], spatial: bool) -> Non
             )
             continue
         if ob.vertical:
-            for z in (c[2] - 0.5 * ob.height, c[2] + 0.5 * ob.height):
+            for z in zspan:
                 ax.plot(c[0] + ob.radius * np.cos(a), c[1] + ob.radius * np.sin(a), z, color="tab:red", alpha=0.5)
             ax.plot(
                 [c[0], c[0]],
                 [c[1], c[1]],
-                [c[2] - 0.5 * ob.height, c[2] + 0.5 * ob.height],
+                list(zspan),
                 color="tab:red",
                 lw=3,
                 alpha=0.5,
@@ -455,7 +505,7 @@ def plot_configurations(runs: Runs, robot: RobotModel, path: Path, options: Figu
             ax.plot(*[actual[:, i] for i in ids], color="tab:orange", lw=2.0, label="actual paths" if first else None)
             ax.plot(*[desired[:, i] for i in ids], color="k", ls="--", lw=1.0, label="desired paths" if first else None)
             del frame
-        _draw_obstacles(ax, r, ids, plane is None)
+        _draw_obstacles(ax, r, ids, plane is None, (float(min(lo[2], 0.0)), float(hi[2])))
         ax.plot([], [], color="tab:blue", lw=2.4, label="t = 0")
         ax.plot([], [], color="tab:red", lw=2.4, label=f"t = {r.log.t[-1]:.3g} s")
         ax.plot([], [], color="0.55", lw=1.0, label=f"every {every * dt:.3g} s")
@@ -489,10 +539,11 @@ def write_figures(runs: Runs, robot: RobotModel, out_dir: Path, options: FigureO
     written = [
         plot_joints(runs, robot, safe_path(out_dir, "joints.png"), options),
         plot_task_errors(runs, robot, safe_path(out_dir, "task_error.png"), options),
-        plot_potentials(runs, safe_path(out_dir, "potentials.png"), options),
+        plot_potentials(runs, safe_path(out_dir, "potentials.png"), options, robot),
         plot_configurations(runs, robot, safe_path(out_dir, "configurations.png"), options),
     ]
-    from redundik.reporting.world_plots import plot_world  # obstacles, closest pairs, distance over time
+    from redundik.reporting.world_plots import plot_arm_world, plot_world  # obstacles, closest pairs, the arm
 
     written.append(plot_world(runs, robot, safe_path(out_dir, "world.png"), options))
+    written.append(plot_arm_world(runs, robot, safe_path(out_dir, "arm_world.png"), options))
     return [p for p in written if p is not None]

@@ -1,4 +1,4 @@
-"""The collision world of a task run as a PNG figure (``world.png``; matplotlib, Agg backend).
+"""The collision world of a task run as PNG figures (``world.png``, ``arm_world.png``; matplotlib, Agg backend).
 
 Left: the smallest signed distance over every candidate pair against time, one curve per run, with d = 0
 (penetration below) and the runs' safety distances d_s. Right: a 3-D view of the obstacles at t = 0 (boxes,
@@ -6,7 +6,10 @@ spheres, capsules, cylinders, convex meshes as their vertices; planes as a patch
 the closest pair's segment p₁ → p₂ every few samples (thin) and at the run's closest sample (thick, labelled with
 the pair and its distance). Witness points are recomputed from the logged configurations with the
 :class:`~redundik.collision.CollisionWorld` of the runs' collision subtasks (:func:`run_world`; at most
-:data:`MAX_SAMPLES` samples per run).
+:data:`MAX_SAMPLES` samples per run). The safety distance's label sits beside the axes, not on the curves.
+
+``arm_world.png``: per run, the arm (sticks between the joint origins) at the start, the end, the closest sample
+and one more, among the obstacles, with each instant's closest pair p₁ → p₂ (dashed) and the closest one (thick).
 """
 
 from __future__ import annotations
@@ -19,7 +22,17 @@ import numpy as np
 
 from redundik.collision import CollisionAvoidance, CollisionWorld
 from redundik.kinematics.model import RobotModel
-from redundik.reporting.plots import FigureOptions, LoggedRun, Runs, _colors, _plt, frame_task_paths, logged_runs
+from redundik.reporting.plots import (
+    FigureOptions,
+    LoggedRun,
+    Runs,
+    _colors,
+    _finish,
+    _plt,
+    frame_task_paths,
+    logged_runs,
+)
+from redundik.reporting.styles import outside_right, run_style, same_as, with_note
 from redundik.tasks.subtasks import BoundSubtask
 
 #: Samples per run at which the witness points are recomputed.
@@ -117,6 +130,17 @@ def run_world(runs: dict[str, LoggedRun]) -> CollisionWorld | None:
 
 def plot_world(runs: Runs, robot: RobotModel, path: Path, options: FigureOptions | None = None) -> Path | None:
     """Write ``world.png`` (module docstring); ``None`` without a collision world or a run."""
+    fig = world_figure(runs, robot, options)
+    if fig is None:
+        return None
+    fig.tight_layout(rect=(0, 0, 1, 0.95))
+    fig.savefig(path, dpi=110)
+    _plt().close(fig)
+    return path
+
+
+def world_figure(runs: Runs, robot: RobotModel, options: FigureOptions | None = None) -> Any:
+    """The figure of :func:`plot_world` (``None`` without a collision world or a run)."""
     results, options = logged_runs(runs), options or FigureOptions()
     world = run_world(results)
     if world is None or not world.n_pairs or not results:
@@ -129,15 +153,24 @@ def plot_world(runs: Runs, robot: RobotModel, path: Path, options: FigureOptions
     draw_obstacles(ax_3, world)
     colors = _colors(len(results))
     safeties: set[float] = set()
+    segments = {
+        name: closest_segments(world, robot, np.asarray(r.log.t), np.asarray(r.log.q)) for name, r in results.items()
+    }
+    curves = []
+    for name, r in results.items():
+        t, dmin = np.asarray(r.log.t), r.series.get("min_distance")
+        if dmin is not None and len(dmin) == len(t):
+            curves.append((name, t, np.asarray(dmin)))
+        else:
+            idx, d = segments[name][0], segments[name][1]
+            curves.append((name, t[idx], d))
+    same = same_as(curves)
     for i, (name, r) in enumerate(results.items()):
         col = colors[i]
-        t, q = np.asarray(r.log.t), np.asarray(r.log.q)
-        idx, d, p1, p2, pairs = closest_segments(world, robot, t, q)
-        dmin = r.series.get("min_distance")
-        if dmin is not None and len(dmin) == len(t):
-            ax_d.plot(t, dmin, color=col, lw=1.6, label=name)
-        else:
-            ax_d.plot(t[idx], d, color=col, lw=1.6, label=name)
+        t = np.asarray(r.log.t)
+        idx, d, p1, p2, pairs = segments[name]
+        _, tc, dc = curves[i]
+        ax_d.plot(tc, dc, color=col, lw=1.6, label=with_note(name, name, same), **run_style(i, len(results), tc.size))
         for sub in r.stack.subtasks if r.stack is not None else []:
             src = getattr(sub, "source", None)
             if isinstance(src, CollisionAvoidance) and isinstance(sub, BoundSubtask):
@@ -156,24 +189,101 @@ def plot_world(runs: Runs, robot: RobotModel, path: Path, options: FigureOptions
             label=f"{name}: {pairs[k]} {d[k] * 1e3:.1f} mm at t = {t[idx[k]]:.2f} s",
         )
         ax_d.plot(t[idx[k]], d[k], "o", color=col, ms=5)
+    unit = robot.length_unit
     ax_d.axhline(0.0, color="k", lw=0.8)
+    outside_right(ax_d, 0.0, "d = 0", color="k")
     for ds in sorted(safeties):
-        ax_d.axhline(ds, color="grey", lw=0.8, ls="--")
-        ax_d.text(ax_d.get_xlim()[0], ds, f" d_s = {ds * 1e3:.0f} mm", va="bottom", fontsize=8, color="grey")
+        ax_d.axhline(ds, color="grey", lw=0.8, ls="--", label=f"safety distance d_s = {ds:g} {unit}")
+        outside_right(ax_d, ds, f"d_s = {ds:g} {unit}")  # beside the axes, not on the curves
     ax_d.set_xlabel("t [s]")
-    ax_d.set_ylabel("smallest signed distance [m] (< 0: penetration)")
+    ax_d.set_ylabel(f"smallest signed distance [{unit}] (< 0: penetration)")
     ax_d.set_title("closest pair's distance over time")
     ax_d.grid(alpha=0.3)
     ax_d.legend(fontsize=8)
     spans = [np.ptp(lim) for lim in (ax_3.get_xlim(), ax_3.get_ylim(), ax_3.get_zlim())]
     ax_3.set_box_aspect(spans)  # metres alike on the three axes
-    ax_3.set_xlabel("x [m]")
-    ax_3.set_ylabel("y [m]")
-    ax_3.set_zlabel("z [m]")
+    ax_3.set_xlabel(f"x [{unit}]")
+    ax_3.set_ylabel(f"y [{unit}]")
+    ax_3.set_zlabel(f"z [{unit}]")
     ax_3.set_title("obstacles, frame paths, closest-pair segments (thick: closest sample)")
     ax_3.legend(fontsize=7, loc="upper left")
     fig.suptitle(f"{options.title}: collision world", fontsize=12)
-    fig.tight_layout(rect=(0, 0, 1, 0.95))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return fig
+
+
+# ---------------------------------------------------------------------------------------------------- the arm
+def arm_points(robot: RobotModel, q: np.ndarray) -> list[np.ndarray]:
+    """The arm as sticks at q: per joint, the segment from its parent joint's origin to its own [length unit] (2, 3)."""
+    robot.update(q)
+    model, data = robot.model, robot.data
+    return [
+        np.stack([data.oMi[int(model.parents[j])].translation, data.oMi[j].translation])
+        for j in range(1, model.njoints)
+    ]
+
+
+def _instants(n: int, closest: int, count: int = 4) -> list[int]:
+    """Up to ``count`` sample indices: the start, the end, the closest sample and evenly spread others."""
+    picked = {0, n - 1, closest}
+    for k in np.linspace(0, n - 1, count).round().astype(int).tolist():
+        if len(picked) >= count:
+            break
+        if all(abs(k - p) > n // (2 * count) for p in picked):
+            picked.add(int(k))
+    return sorted(picked)
+
+
+def plot_arm_world(runs: Runs, robot: RobotModel, path: Path, options: FigureOptions | None = None) -> Path | None:
+    """Write ``arm_world.png``: per run the arm at a few instants among the obstacles, with each instant's closest
+    pair (p₁ → p₂) and the closest one's distance; ``None`` without a collision world."""
+    fig = arm_world_figure(runs, robot, options)
+    return None if fig is None else _finish(fig, path)
+
+
+def arm_world_figure(runs: Runs, robot: RobotModel, options: FigureOptions | None = None) -> Any:
+    """The figure of :func:`plot_arm_world` (``None`` without a collision world or a run)."""
+    results, options = logged_runs(runs), options or FigureOptions()
+    world = run_world(results)
+    if world is None or not world.n_pairs or not results:
+        return None
+    plt = _plt()
+    n = len(results)
+    cols = min(n, 2)
+    rows = -(-n // cols)
+    fig = plt.figure(figsize=(6.2 * cols, 5.6 * rows))
+    unit = robot.length_unit
+    cmap = plt.get_cmap("viridis")
+    for i, (name, r) in enumerate(results.items()):
+        ax = fig.add_subplot(rows, cols, i + 1, projection="3d")
+        t, q = np.asarray(r.log.t), np.asarray(r.log.q)
+        idx, d, p1, p2, pairs = closest_segments(world, robot, t, q)
+        worst = int(np.argmin(d))
+        samples = _instants(t.size, int(idx[worst]))
+        world.set_time(float(t[idx[worst]]))
+        draw_obstacles(ax, world)  # at the closest instant (moving obstacles)
+        world.set_time(0.0)
+        for j, k in enumerate(samples):
+            col = cmap(0.9 * j / max(len(samples) - 1, 1))
+            for m, seg in enumerate(arm_points(robot, q[k])):
+                ax.plot(*seg.T, color=col, lw=2.2, marker="o", ms=3, label=f"t = {t[k]:.2f} s" if m == 0 else None)
+            s = int(np.argmin(np.abs(idx - k)))
+            ax.plot(*np.stack([p1[s], p2[s]], axis=1), color=col, lw=1.0, ls="--", marker=".", ms=5)
+        ax.plot(
+            *np.stack([p1[worst], p2[worst]], axis=1),
+            color="k",
+            lw=2.5,
+            marker="o",
+            ms=5,
+            label=f"closest: {pairs[worst]} {d[worst]:.3g} {unit} (t = {t[idx[worst]]:.2f} s)",
+        )
+        spans = [max(np.ptp(lim), 1e-9) for lim in (ax.get_xlim(), ax.get_ylim(), ax.get_zlim())]
+        ax.set_box_aspect(spans)
+        ax.set_xlabel(f"x [{unit}]")
+        ax.set_ylabel(f"y [{unit}]")
+        ax.set_zlabel(f"z [{unit}]")
+        ax.set_title(f"{name} ({r.label})" if r.label else name, fontsize=10)
+        ax.legend(fontsize=7, loc="upper left")
+    fig.suptitle(
+        f"{options.title}: the arm among the obstacles (dashed: each instant's closest pair p₁ → p₂)", fontsize=12
+    )
+    return fig

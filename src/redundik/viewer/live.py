@@ -29,7 +29,7 @@ import pinocchio as pin
 from redundik._optional import require_extra
 from redundik.errors import ModelError
 from redundik.kinematics.model import RobotModel
-from redundik.viewer.scene import DEFAULT_COLOR, Obstacle, _geometry_mesh, _package_dirs, limit_proximity
+from redundik.viewer.scene import DEFAULT_COLOR, Obstacle, _package_dirs, geometry_mesh, limit_proximity
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -64,7 +64,7 @@ def light_visuals(model: pin.Model, urdf: str | Path, max_triangles: int = 3000)
         raise ModelError(f"could not load the visual geometry of '{urdf}': {exc}") from exc
     light = pin.GeometryModel()
     for g in full.geometryObjects:
-        mesh = _geometry_mesh(g.geometry, max_triangles)
+        mesh = geometry_mesh(g.geometry, max_triangles)
         if mesh is None:
             continue
         v = mesh[0].astype(np.float64) * np.asarray(g.meshScale)

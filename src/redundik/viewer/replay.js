@@ -1,6 +1,6 @@
 // redundik offline replay: a small WebGL renderer for the data embedded in the page (no network, no libraries).
 // URL parameters (query or hash): run=NAME, t=SECONDS (shows that instant, paused), play=1, speed=X,
-// az=DEG, el=DEG (camera), robot=0 (hide the robot), paths=0 (hide paths).
+// az=DEG, el=DEG (camera), robot=0 (hide the robot), paths=0 (hide paths), capsules=1 (show the collision shapes).
 (function () {
   "use strict";
   const D = JSON.parse(document.getElementById("replay-data").textContent);
@@ -59,11 +59,11 @@
   const VS = "attribute vec3 pos; uniform mat4 uModel, uViewProj; uniform float uPoint; varying vec3 vW;" +
     "void main(){ vec4 w = uModel * vec4(pos, 1.0); vW = w.xyz; gl_Position = uViewProj * w; gl_PointSize = uPoint; }";
   const FS = (deriv ? "#extension GL_OES_standard_derivatives : enable\n" : "") +
-    "precision highp float; uniform vec3 uColor, uLight, uEye; uniform float uLit; varying vec3 vW;" +
+    "precision highp float; uniform vec3 uColor, uLight, uEye; uniform float uLit, uAlpha; varying vec3 vW;" +
     "void main(){ vec3 c = uColor;" +
     (deriv ? " if (uLit > 0.5) { vec3 n = normalize(cross(dFdx(vW), dFdy(vW))); if (dot(n, uEye - vW) < 0.0) n = -n;" +
       " float d = max(dot(n, uLight), 0.0); c = uColor * (0.38 + 0.5 * d + 0.17 * (0.5 + 0.5 * n.z)); }" : "") +
-    " gl_FragColor = vec4(min(c, vec3(1.0)), 1.0); }";
+    " gl_FragColor = vec4(min(c, vec3(1.0)), uAlpha); }";
   function shader(type, src) {
     const s = gl.createShader(type);
     gl.shaderSource(s, src);
@@ -78,9 +78,10 @@
   gl.useProgram(prog);
   const aPos = gl.getAttribLocation(prog, "pos");
   const U = {};
-  for (const n of ["uModel", "uViewProj", "uPoint", "uColor", "uLight", "uEye", "uLit"]) U[n] = gl.getUniformLocation(prog, n);
+  for (const n of ["uModel", "uViewProj", "uPoint", "uColor", "uLight", "uEye", "uLit", "uAlpha"]) U[n] = gl.getUniformLocation(prog, n);
   gl.enableVertexAttribArray(aPos);
   gl.enable(gl.DEPTH_TEST);
+  gl.uniform1f(U.uAlpha, 1);
 
   function meshBuffers(m) {
     const vb = gl.createBuffer();
@@ -96,6 +97,9 @@
   }
   const parts = D.parts.map((p) => Object.assign(meshBuffers(p), { color: p.color }));
   const obstacles = D.obstacles.map((o) => Object.assign(meshBuffers(o), { color: o.color, model: affine(f32(o.pose), 0) }));
+  const W = D.world || { obstacles: [], shapes: [], pair_names: [] };
+  const worldObs = W.obstacles.map((o) => Object.assign(meshBuffers(o), { color: o.color, model: affine(f32(o.pose), 0) }));
+  const shapes = W.shapes.map((o) => Object.assign(meshBuffers(o), { color: o.color }));
   const lineBuf = gl.createBuffer();
 
   function drawLines(points, color, mode, size) {
@@ -124,6 +128,10 @@
     name: r.name, t: r.t, info: r.info, poses: f32(r.poses), prox: f32(r.proximity),
     paths: r.paths.map((p) => ({ name: p.name, desired: f32(p.desired), actual: f32(p.actual), t: r.path_t })),
     frames: r.task_frames.map((f) => ({ name: f.name, actual: f32(f.actual), desired: f32(f.desired) })),
+    world: r.world && {
+      obPoses: f32(r.world.obstacle_poses), shPoses: f32(r.world.shape_poses), d: r.world.distance,
+      p1: f32(r.world.p1), p2: f32(r.world.p2), pair: r.world.pair,
+    },
   }));
   const sel = document.getElementById("run");
   runs.forEach((r, i) => { const o = document.createElement("option"); o.value = i; o.textContent = r.name; sel.appendChild(o); });
@@ -133,6 +141,15 @@
   let frame = 0, playing = !P.has("t") || P.get("play") === "1", clock = 0, last = null;
   const speed = parseFloat(P.get("speed") || "1");
   const showRobot = P.get("robot") !== "0", showPaths = P.get("paths") !== "0";
+  let showShapes = P.get("capsules") === "1";
+  const capsBtn = document.getElementById("capsules");
+  if (shapes.length) {
+    capsBtn.hidden = false;
+    capsBtn.addEventListener("click", () => { showShapes = !showShapes; render(); });
+  }
+  if (worldObs.length || runs.some((r) => r.world)) document.getElementById("legend-world").hidden = false;
+  const UNIT = D.length_unit || "m";
+  const fmtDist = (d) => (UNIT === "m" ? `${(d * 1000).toFixed(1)} mm` : `${d.toPrecision(3)} ${UNIT}`);
 
   const ORANGE = [0.96, 0.6, 0.12], RED = [0.9, 0.12, 0.1];
   const smooth = (a, b, x) => { const u = Math.min(1, Math.max(0, (x - a) / (b - a))); return u * u * (3 - 2 * u); };
@@ -184,6 +201,28 @@
       for (let p = 0; p < np; p++)
         drawMesh(parts[p], affine(r.poses, (frame * np + p) * 12), partColor(parts[p].color, r.prox[frame * np + p]));
     for (const o of obstacles) drawMesh(o, o.model, o.color);
+    const rw = r.world, nob = worldObs.length, nsh = shapes.length;
+    for (let i = 0; i < nob; i++) drawMesh(worldObs[i], rw ? affine(rw.obPoses, (frame * nob + i) * 12) : worldObs[i].model, worldObs[i].color);
+    if (showShapes && rw && nsh) { // translucent, after the opaque scene, not writing depth
+      gl.enable(gl.BLEND);
+      gl.blendFunc(gl.SRC_ALPHA, gl.ONE_MINUS_SRC_ALPHA);
+      gl.depthMask(false);
+      gl.uniform1f(U.uAlpha, 0.35);
+      for (let i = 0; i < nsh; i++) drawMesh(shapes[i], affine(rw.shPoses, (frame * nsh + i) * 12), shapes[i].color);
+      gl.uniform1f(U.uAlpha, 1);
+      gl.depthMask(true);
+      gl.disable(gl.BLEND);
+    }
+    let closest = "";
+    if (rw && rw.d[frame] !== null && rw.pair[frame] >= 0) {
+      const a = rw.p1.subarray(3 * frame, 3 * frame + 3), b = rw.p2.subarray(3 * frame, 3 * frame + 3), d = rw.d[frame];
+      const col = d < 0 ? [0.9, 0.1, 0.1] : [0.76, 0.12, 0.76];
+      gl.disable(gl.DEPTH_TEST);
+      drawLines([a[0], a[1], a[2], b[0], b[1], b[2]], col, gl.LINES);
+      drawLines([a[0], a[1], a[2], b[0], b[1], b[2]], col, gl.POINTS, 7);
+      gl.enable(gl.DEPTH_TEST);
+      closest = `${W.pair_names[rw.pair[frame]]} ${fmtDist(d)}${d < 0 ? " (penetration)" : ""}`;
+    }
     if (showPaths) {
       const tNow = r.t[frame];
       for (const path of r.paths) {
@@ -206,7 +245,11 @@
     slider.value = frame;
     document.getElementById("time").textContent = `t = ${r.t[frame].toFixed(3)} s`;
     const info = Object.entries(r.info).map(([k, v]) => `${k}: ${typeof v === "number" ? v.toPrecision(3) : v}`);
+    if (closest) info.unshift(`closest: ${closest}`);
     document.getElementById("info").textContent = info.join(" · ");
+    capsBtn.textContent = showShapes ? "hide capsules" : "capsules";
+    body.dataset.capsules = showShapes && nsh ? "shown" : "hidden";
+    body.dataset.closest = closest;
     body.dataset.status = "drawn";
     body.dataset.frame = frame;
     body.dataset.run = r.name;

@@ -188,7 +188,7 @@ def _package_dirs(urdf: Path) -> list[str]:
     return dirs
 
 
-def _geometry_mesh(geom: object, max_triangles: int) -> tuple[np.ndarray, np.ndarray] | None:
+def geometry_mesh(geom: object, max_triangles: int) -> tuple[np.ndarray, np.ndarray] | None:
     """Vertices and triangles of a coal geometry, or ``None`` for a kind not drawn."""
     kind = type(geom).__name__
     if kind.startswith("BVHModel") or kind.startswith("Convex"):
@@ -232,7 +232,7 @@ def visual_parts(robot: RobotModel, urdf: Path, max_triangles: int = 2500) -> li
         raise ModelError(f"could not load the visual geometry of '{urdf}': {exc}") from exc
     parts: list[MeshPart] = []
     for g in gmodel.geometryObjects:
-        mesh = _geometry_mesh(g.geometry, max_triangles)
+        mesh = geometry_mesh(g.geometry, max_triangles)
         if mesh is None:
             continue
         v, t = mesh
