@@ -78,3 +78,12 @@ def test_view_live_without_meshcat_exits_5(cli, tmp_path: Path) -> None:  # type
     # the offline replay needs no meshcat: it goes on to read the folder (and says what is missing there)
     code, _, err = cli("view", tmp_path, "--html", tmp_path / "r.html")
     assert code == 3 and "redundik[viewer]" not in err, err
+
+
+def test_example_urdf_finds_the_shipped_arm_and_names_the_others() -> None:
+    from redundik.errors import ConfigError
+    from redundik.shipped import example_urdf
+
+    assert example_urdf("arm4").read_text(encoding="utf-8").count("<joint ") == 5
+    with pytest.raises(ConfigError, match="shipped: arm4"):
+        example_urdf("../tasks/planar3r_line")
