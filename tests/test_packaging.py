@@ -213,7 +213,7 @@ def test_examples_list_and_copy(cli, tmp_path: Path) -> None:  # type: ignore[no
     assert code == 0
     assert names == {("task", p.stem) for p in TASKS.glob("*.yaml")} | {
         ("config", p.stem) for p in CONFIGS.glob("*.yaml")
-    }
+    } | {("sweep", p.stem) for p in (ROOT / "sweeps").glob("*.yaml")}
     code, _, err = cli("examples", "copy", tmp_path / "ex")
     assert code == 0 and "copied" in err
     assert cli("validate", tmp_path / "ex" / "tasks" / "planar3r_line.yaml")[0] == 0  # ../configs resolves
@@ -266,9 +266,10 @@ def test_wheel_ships_the_examples_license_and_metadata(wheel: Path) -> None:
         names = set(zf.namelist())
         meta = next(zf.read(n).decode() for n in names if n.endswith(".dist-info/METADATA"))
         task = zf.read("redundik/_data/tasks/planar3r_line.yaml").decode()
-    for folder, src in (("tasks", TASKS), ("configs", CONFIGS)):
+    for folder, src in (("tasks", TASKS), ("configs", CONFIGS), ("sweeps", ROOT / "sweeps")):
         assert {f"redundik/_data/{folder}/{p.name}" for p in src.glob("*.yaml")} <= names
     assert "robot: ../configs/planar3r.yaml" in task and "redundik/_data/configs/planar3r.yaml" in names
+    assert {"redundik/_data/sweeps/panda_reach.yaml", "redundik/_data/configs/arm4.urdf"} <= names  # issue 32
     assert any(n.endswith("licenses/LICENSE") for n in names) and "redundik/py.typed" in names
     assert "License-Expression: BSD-3-Clause" in meta
     core = sorted(

@@ -1,4 +1,4 @@
-"""The example task files and robot configs shipped with redundik (``tasks/*.yaml``, ``configs/*.yaml``).
+"""The example files shipped with redundik: ``tasks/``, ``configs/`` (YAML and the URDFs they name), ``sweeps/``.
 
 An installed wheel carries them under ``redundik/_data/`` (copied there by the build, see ``setup.py``); a source
 checkout (editable install) uses the repository's own ``tasks/`` and ``configs/``. Both keep the relative layout
@@ -14,11 +14,13 @@ from pathlib import Path
 from redundik.errors import ConfigError
 
 #: Folders shipped, in the order they are listed and copied.
-FOLDERS = ("tasks", "configs")
+FOLDERS = ("tasks", "configs", "sweeps")
+#: Files shipped besides the YAML ones (found by pattern in every folder): URDFs a robot config names.
+EXTRA_PATTERNS = ("*.urdf",)
 
 
 def data_dir() -> Path:
-    """The folder holding ``tasks/`` and ``configs/``: the wheel's ``redundik/_data``, else the source checkout.
+    """The folder holding ``tasks/``, ``configs/``, ``sweeps/``: the wheel's ``redundik/_data``, else the checkout.
 
     Raises:
         ConfigError: neither exists (a broken installation).
@@ -35,8 +37,8 @@ class Example:
     """One shipped YAML file.
 
     Attributes:
-        name: File name without ``.yaml`` (what ``redundik run NAME`` accepts for a task).
-        folder: ``tasks`` or ``configs``.
+        name: File name without ``.yaml`` (what ``redundik run NAME`` / ``redundik sweep NAME`` accept).
+        folder: ``tasks``, ``configs`` or ``sweeps``.
         path: Where it is.
     """
 
@@ -84,8 +86,31 @@ def find_example(name: str, folder: str = "tasks") -> Path | None:
     return path if path.is_file() else None
 
 
+def shipped_files() -> list[tuple[str, Path]]:
+    """(folder, path) of every shipped file: the YAML examples, then the URDFs the configs name."""
+    root = data_dir()
+    files = [(ex.folder, ex.path) for ex in examples()]
+    for f in FOLDERS:
+        files += [(f, p) for pattern in EXTRA_PATTERNS for p in sorted((root / f).glob(pattern))]
+    return files
+
+
+def example_urdf(name: str) -> Path:
+    """The shipped URDF ``configs/NAME.urdf``: ``arm4``, the tutorials' 4-joint arm (yaw, shoulder, elbow, wrist).
+
+    Raises:
+        ConfigError: no such file (the message lists the shipped URDFs).
+    """
+    root = data_dir() / "configs"
+    path = root / f"{name}.urdf"
+    if "/" in name or "\\" in name or name.startswith(".") or not path.is_file():
+        shipped = ", ".join(p.stem for p in sorted(root.glob("*.urdf")))
+        raise ConfigError(f"no shipped URDF named {name[:60]!r}; shipped: {shipped}")
+    return path
+
+
 def copy_examples(target: Path, overwrite: bool = False) -> list[Path]:
-    """Copy ``tasks/`` and ``configs/`` into ``target`` (same layout, so the relative robot paths still resolve).
+    """Copy ``tasks/``, ``configs/``, ``sweeps/`` into ``target`` (same layout: relative robot paths still resolve).
 
     Args:
         target: Destination folder (created if missing).
@@ -104,8 +129,8 @@ def copy_examples(target: Path, overwrite: bool = False) -> list[Path]:
         target.mkdir(parents=True, exist_ok=True)
         root = target.resolve(strict=True)
         plan = []
-        for ex in examples():  # every destination checked before the first write
-            dst = target / ex.folder / ex.path.name
+        for folder, path in shipped_files():  # every destination checked before the first write
+            dst = target / folder / path.name
             if dst.exists() and not overwrite:
                 continue
             if dst.is_symlink() or not dst.resolve().is_relative_to(root):
@@ -114,7 +139,7 @@ def copy_examples(target: Path, overwrite: bool = False) -> list[Path]:
                     f"refusing to copy into '{dst}': it is a symlink or resolves outside '{target}' (to "
                     f"'{dst.resolve()}'); remove it or copy into another folder"
                 )
-            plan.append((ex.path, dst))
+            plan.append((path, dst))
         for src, dst in plan:
             dst.parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(src, dst)

@@ -1,7 +1,8 @@
-"""``redundik examples list`` / ``redundik examples copy DIR``: the task files and robot configs shipped with redundik.
+"""``redundik examples list`` / ``redundik examples copy DIR``: the task, config and sweep files shipped with redundik.
 
-``redundik run NAME`` (and ``validate NAME``) find a shipped task by its name, so the main job runs from any
-folder once the package is installed: ``redundik run planar3r_line``.
+``redundik run NAME`` (and ``validate NAME``) find a shipped task by its name, ``redundik sweep NAME`` a shipped sweep
+file, so both run from any folder once the package is installed: ``redundik run planar3r_line``,
+``redundik sweep panda_reach``.
 """
 
 from __future__ import annotations
@@ -30,14 +31,18 @@ def resolve_file(file: Path, folder: str = "tasks") -> Path:
         return found
     if file.suffix or len(file.parts) > 1:
         return file  # a path: let the reader say it does not exist
-    names = ", ".join(e.name for e in examples(folder))
-    raise ConfigError(f"'{file}' is neither a file nor a shipped {folder[:-1]}; shipped: {names}")
+    import difflib
+
+    shipped = [e.name for e in examples(folder)]
+    close = difflib.get_close_matches(str(file), shipped, n=3)
+    hint = f"did you mean {' or '.join(repr(c) for c in close)}? " if close else ""
+    raise ConfigError(f"'{file}' is neither a file nor a shipped {folder[:-1]}; {hint}shipped: {', '.join(shipped)}")
 
 
 def list_examples(
     json_out: Annotated[bool, typer.Option("--json", help="One JSON document on stdout.")] = False,
 ) -> None:
-    """List the shipped task files (run one with `redundik run NAME`) and robot configs."""
+    """List the shipped task files (`redundik run NAME`), robot configs and sweep files (`redundik sweep NAME`)."""
     from redundik.cli._console import console, emit_json
     from redundik.shipped import data_dir, examples
 
@@ -57,7 +62,11 @@ def list_examples(
     from rich.table import Table
 
     out = console()
-    for folder, title in (("tasks", "task files (redundik run NAME)"), ("configs", "robot and mechanism configs")):
+    for folder, title in (
+        ("tasks", "task files (redundik run NAME)"),
+        ("configs", "robot and mechanism configs"),
+        ("sweeps", "sweep files (redundik sweep NAME)"),
+    ):
         table = Table(title=title, title_justify="left", padding=(0, 1))
         table.add_column("name", no_wrap=True)
         table.add_column("description")
@@ -70,19 +79,20 @@ def list_examples(
 
 def copy(
     target: Annotated[
-        Path, typer.Argument(help="Folder to copy tasks/ and configs/ into.", show_default=False, parser=path_value)
+        Path,
+        typer.Argument(help="Folder to copy tasks/, configs/ and sweeps/ into.", show_default=False, parser=path_value),
     ],
     force: Annotated[bool, typer.Option("--force", help="Overwrite files that exist.")] = False,
 ) -> None:
-    """Copy the shipped tasks/ and configs/ into a folder (same layout: the tasks' robot paths still resolve)."""
+    """Copy the shipped tasks/, configs/ and sweeps/ into a folder (same layout: their robot paths still resolve)."""
     from redundik.cli._console import console
-    from redundik.shipped import copy_examples, examples
+    from redundik.shipped import copy_examples, shipped_files
 
     written = copy_examples(target, overwrite=force)
-    kept = len(examples()) - len(written)
+    kept = len(shipped_files()) - len(written)
     note = f"; kept {kept} that were already there (--force overwrites them)" if kept else ""
     console(stderr=True).print(
-        f"copied {len(written)} files into {target}/ (tasks/, configs/){note}; run one with "
+        f"copied {len(written)} files into {target}/ (tasks/, configs/, sweeps/){note}; run one with "
         f"`redundik run {target}/tasks/planar3r_line.yaml`",
         highlight=False,
         markup=False,
@@ -92,7 +102,9 @@ def copy(
 def register(app: typer.Typer) -> None:
     """Add the ``examples`` group."""
     group = typer.Typer(
-        help="The task files and robot configs shipped with redundik.", no_args_is_help=True, rich_markup_mode=None
+        help="The task files, robot configs and sweep files shipped with redundik.",
+        no_args_is_help=True,
+        rich_markup_mode=None,
     )
     group.command("list")(list_examples)
     group.command("copy")(copy)

@@ -40,7 +40,9 @@ _APP: Any = None
 
 def exit_code(exc: RedundikError) -> int:
     """The exit code of an error: :data:`EXIT_FAILED` for failures of a running job, else :data:`EXIT_INVALID`."""
-    if isinstance(exc, MissingDependencyError):
+    from redundik._optional import ExtraImportError  # standard library and redundik.errors only
+
+    if isinstance(exc, (MissingDependencyError, ExtraImportError)):
         return EXIT_MISSING
     if isinstance(exc, (SimulationError, ResolverError)):  # SolverError is a ResolverError
         return EXIT_FAILED

@@ -72,6 +72,10 @@ def run(
     from redundik.reporting.terminal import print_summary
 
     JSON_MODE["on"] = json_out
+    if view:  # refused before any work: the run would otherwise finish and only then find meshcat missing
+        from redundik._extras import require
+
+        require("meshcat", "--view (the live meshcat replay)")
     file = resolve_file(file)
     plan = load_task(file)
     names = select_runs(plan, None if runs is None else runs.split(","))

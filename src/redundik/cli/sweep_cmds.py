@@ -15,7 +15,13 @@ from redundik.cli._params import path_value
 
 
 def sweep(
-    file: Annotated[Path, typer.Argument(help="Sweep file (YAML), e.g. sweeps/panda_reach.yaml.", show_default=False)],
+    file: Annotated[
+        Path,
+        typer.Argument(
+            help="Sweep file (YAML), e.g. sweeps/panda_reach.yaml, or the name of a shipped one (panda_reach).",
+            show_default=False,
+        ),
+    ],
     out: Annotated[
         Path | None, typer.Option("--out", "-o", parser=path_value, help="Output folder (default: out/NAME).")
     ] = None,
@@ -32,6 +38,7 @@ def sweep(
     """Run every problem of a sweep file; write NAME.parquet (or .csv), NAME_map.png and summary.json."""
     from rich.console import Console
 
+    from redundik.cli.example_cmds import resolve_file
     from redundik.errors import RedundikError
     from redundik.reporting.paths import check_output_folder
     from redundik.sweep import load_sweep, run_sweep
@@ -47,7 +54,7 @@ def sweep(
     if scheduler is not None:
         check_scheduler_address(scheduler)
     console = Console(stderr=True)
-    plan = load_sweep(file)
+    plan = load_sweep(resolve_file(file, "sweeps"))  # a path, or the name of a shipped sweep file
     out_dir = check_output_folder(out if out is not None else Path("out") / plan.name)  # refused before the work
     where = f"dask {dask}" if dask else f"dask {scheduler}" if scheduler else "in-process"
     if not quiet:

@@ -207,6 +207,10 @@ def view(
     from rich.console import Console
 
     _check_view_options(at, speed, loops)
+    if html is None and png is None:  # the live replay: meshcat is checked before the folder is read
+        from redundik._extras import require
+
+        require("meshcat", "the live replay (redundik view without --html/--png)")
     plan, runs = load_output(out_dir, task)
     if run is not None and run not in runs:
         raise ConfigError(f"--run: no run named '{run}' in '{out_dir}'; runs: {', '.join(runs)}")

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
+from redundik._names import did_you_mean
 from redundik.errors import ModelError
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -205,7 +206,8 @@ class RobotModel:
         """
         if not self.model.existFrame(name):
             raise ModelError(
-                f"frame '{name}' does not exist in robot '{self.name}'; available: {_listing(self.frame_names)}"
+                f"frame '{name}' does not exist in robot '{self.name}'; {did_you_mean(name, self.frame_names)}"
+                f"available: {_listing(self.frame_names)}"
             )
         return int(self.model.getFrameId(name))
 
@@ -218,7 +220,10 @@ class RobotModel:
         for j in self.joints:
             if j.name == name:
                 return j
-        raise ModelError(f"joint '{name}' does not exist in robot '{self.name}'; available: {self.joint_names}")
+        raise ModelError(
+            f"joint '{name}' does not exist in robot '{self.name}'; {did_you_mean(name, self.joint_names)}"
+            f"available: {self.joint_names}"
+        )
 
     # ------------------------------------------------------------------ configurations
     def neutral(self) -> np.ndarray:

@@ -8,7 +8,9 @@
   the grid tolerance); its leg lengths are nevertheless exact because the joint points lie on the circles.
 * :func:`forward_kinematics` solves the six leg-length equations ‖R p_6^i + p − p_0^i‖ = q_i exactly with
   :func:`scipy.optimize.least_squares` from many initial poses, parametrising R on SO(3) (always a proper
-  rotation), and returns every distinct assembly it finds, best residual first.
+  rotation), and returns every distinct assembly it finds, best residual first. For a 3-3 / 6-3 platform each
+  answer also carries the circle angles θ1–θ3 of its top joints (:func:`circle_angles`), as the listing prints
+  them for its grid answer: :func:`circle_points` rebuilds the joints from them.
 """
 
 from __future__ import annotations
@@ -40,7 +42,10 @@ class FKSolution:
         R: R_0^6 (a proper rotation for the exact solver; only approximately one for the grid search).
         residual: ‖q(p, R) − q_given‖ for the exact solver; for the grid search the norm of the top-triangle
             side errors [length unit] (the leg lengths of a grid answer are exact by construction).
-        theta: the three circle angles θ_i [deg] of the grid search (None for the exact solver).
+        theta: the three circle angles θ1–θ3 [deg] of the top joints on their circles (5.19)–(5.21), for a
+            platform with three top joints (3-3, 6-3): the grid point for the grid search, the exact angles for
+            the exact solver (in (−180°, 180°]; a joint above the base plane has θ in (0°, 180°)); ``None`` for a
+            6-6 platform.
     """
 
     p: FloatArray
@@ -85,6 +90,40 @@ def _circles(platform: StewartPlatform, q: FloatArray) -> list[tuple[FloatArray,
         u /= np.linalg.norm(u)
         circles.append((P + l1 * cos_a * e, u, np.array([0.0, 0.0, 1.0]), l1 * np.sqrt(1.0 - cos_a**2)))
     return circles
+
+
+def circle_points(platform: StewartPlatform, lengths: ArrayLike, theta: ArrayLike) -> FloatArray:
+    """The top joints at circle angles θ1–θ3 [deg]: row j is ``Q_j + h_j (cos θ_j u_j + sin θ_j z_0)`` (5.19)–(5.21).
+
+    Args:
+        platform: a platform with three top joints, each shared by two legs (3-3, 6-3).
+        lengths: the six leg lengths q_i [length unit].
+        theta: the three circle angles [deg].
+
+    Returns:
+        The three joint points in the base frame [length unit], shape (3, 3).
+
+    Raises:
+        MechanismError: wrong platform type, or a leg pair violating the triangle inequality.
+    """
+    angles = np.radians(as_vector(theta, 3, "circle angles"))
+    circles = _circles(platform, _check_lengths(lengths))
+    return np.stack([c + h * (np.cos(a) * u + np.sin(a) * z) for (c, u, z, h), a in zip(circles, angles, strict=True)])
+
+
+def circle_angles(platform: StewartPlatform, lengths: ArrayLike, p: ArrayLike, R: ArrayLike) -> FloatArray:
+    """The circle angles θ1–θ3 [deg] of the top joints of the pose (p, R): the inverse of :func:`circle_points`.
+
+    θ_j = atan2((w_j − Q_j)·z_0, (w_j − Q_j)·u_j) for the joint w_j = R p_6^j + p, in (−180°, 180°]. Exact when the
+    pose assembles the legs (then w_j lies on its circle); otherwise the angle of w_j's projection on the circle's
+    plane.
+
+    Raises:
+        MechanismError: wrong platform type, or a leg pair violating the triangle inequality.
+    """
+    circles = _circles(platform, _check_lengths(lengths))
+    world = platform.top_points @ np.asarray(R, dtype=float).T + as_vector(p, 3, "p")
+    return np.degrees([np.arctan2((w - c) @ z, (w - c) @ u) for w, (c, u, z, _) in zip(world, circles, strict=True)])
 
 
 def grid_search_fk(
@@ -228,6 +267,7 @@ def forward_kinematics(
     guesses += _initial_guesses(platform, q, starts, seed)
     found: list[FKSolution] = []
     best = np.inf
+    three_circles = len(platform.top_points) == 3 and all(sum(t == j for t, _ in platform.legs) == 2 for j in range(3))
     for x0 in guesses:
         p, R = _solve_from(platform, q, x0)
         residual = float(np.linalg.norm(platform._legs(p, R).lengths - q)) if np.all(np.isfinite(p)) else np.inf
@@ -238,7 +278,8 @@ def forward_kinematics(
             continue
         if any(np.linalg.norm(s.p - p) + np.linalg.norm(s.R - R) < 1e-6 for s in found):
             continue
-        found.append(FKSolution(p, R, residual))
+        theta = circle_angles(platform, q, p, R) if three_circles else None
+        found.append(FKSolution(p, R, residual, theta))
     if not found:
         where = {"above": " above the base", "below": " below the base", "any": ""}[half_space]
         raise MechanismError(
@@ -255,4 +296,4 @@ def nearest_solution(solutions: list[FKSolution], p: ArrayLike, R: ArrayLike) ->
     return min(solutions, key=lambda s: float(np.linalg.norm(s.p - p) + np.linalg.norm(s.R - R)))
 
 
-__all__ = ["FKSolution", "forward_kinematics", "grid_search_fk", "nearest_solution"]
+__all__ = ["FKSolution", "circle_angles", "circle_points", "forward_kinematics", "grid_search_fk", "nearest_solution"]

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from redundik._names import did_you_mean
 from redundik.errors import ResolverError, short_repr
 from redundik.resolvers.base import Resolver
 from redundik.resolvers.feedback import FeedbackResolver
@@ -28,7 +29,8 @@ def make_resolver(name: str, **options: Any) -> Resolver:
         ResolverError: unknown name (lists the known ones) or bad options (names them).
     """
     if not isinstance(name, str) or name not in RESOLVERS:
-        raise ResolverError(f"unknown resolver {short_repr(name)}; available: {sorted(RESOLVERS)}")
+        hint = did_you_mean(name, RESOLVERS)
+        raise ResolverError(f"unknown resolver {short_repr(name)}; {hint}available: {sorted(RESOLVERS)}")
     try:
         return RESOLVERS[name](**options)
     except TypeError as exc:

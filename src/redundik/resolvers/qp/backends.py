@@ -42,6 +42,7 @@ from typing import Any
 
 import numpy as np
 
+from redundik._names import did_you_mean
 from redundik.errors import SolverError
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
 
@@ -733,7 +734,8 @@ def make_backend(name: str | Backend = DEFAULT_BACKEND) -> Backend:
         return QpsolversBackend(name.split(":", 1)[1])
     if name not in _FACTORIES:
         raise SolverError(
-            f"unknown QP backend '{name}'; installed: {available_backends()} (or 'qpsolvers:NAME' for another "
+            f"unknown QP backend '{name}'; {did_you_mean(name, _FACTORIES)}installed: {available_backends()} (or "
+            "'qpsolvers:NAME' for another "
             "solver qpsolvers knows)"
         )
     if not _installed(name):
