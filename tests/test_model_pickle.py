@@ -1,4 +1,4 @@
-"""A robot model survives a pickle and a deep copy on every Pinocchio the project declares (pin>=3.8 included).
+"""A robot model survives a pickle and a deep copy on every Pinocchio the project declares (pin>=3.3.1, 3.8, 4).
 
 Pinocchio before 4 pickles a ``pin.Model`` through a Boost text archive, which writes an infinite limit as ``inf`` and
 cannot read it back (``RuntimeError: input stream error``). redundik's own builders leave the effort limit (and,
