@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 import pinocchio as pin
@@ -40,6 +41,18 @@ MAX_NV = 256
 #: accepted: | ‖q_quat‖ − 1 | ≤ 1e-3 is rounding or a float32 round trip, normalised silently; anything farther (a
 #: zero, tiny or scaled quaternion) is a ModelError naming the joint (it was a rotation scaled by ‖q‖², silently).
 QUATERNION_TOLERANCE = 1e-3
+
+
+def _float_vectors(model: pin.Model) -> dict[str, np.ndarray]:
+    """Copies of the model's float vectors (limits, armature, friction, ...) by attribute name; the names differ
+    between Pinocchio versions, so they are found on the model."""
+    vectors: dict[str, np.ndarray] = {}
+    for name in dir(model):
+        if not name.startswith("_"):
+            value = getattr(model, name)
+            if isinstance(value, np.ndarray) and value.dtype.kind == "f":
+                vectors[name] = np.array(value, dtype=float)
+    return vectors
 
 
 @dataclass(frozen=True)
@@ -148,6 +161,37 @@ class RobotModel:
                 quats.append((self.model.names[jid], self.model.joints[jid].idx_q))
         self._quaternions = tuple(quats)
         self._check_model()
+
+    def __getstate__(self) -> dict[str, object]:
+        """The state for a pickle or a deep copy, with a copy of the model whose non-finite entries are set to 0.
+
+        Pinocchio before 4 pickles a ``pin.Model`` through a Boost text archive that writes ``inf`` and cannot read
+        it back (``input stream error``), and an unlimited joint has infinite limits: the entries are recorded
+        beside the model and put back by :meth:`__setstate__`. The model in use is not touched.
+        """
+        state = dict(self.__dict__)
+        model = pin.Model(self.model)
+        nonfinite: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        for name, value in _float_vectors(model).items():
+            bad = ~np.isfinite(value)
+            if bad.any():
+                nonfinite[name] = (np.flatnonzero(bad), value[bad])
+                value[bad] = 0.0
+                setattr(model, name, value)
+        state["model"] = model
+        state["_nonfinite"] = nonfinite
+        return state
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        """Restore a pickled or copied robot: the model's non-finite entries go back where they were."""
+        state = dict(state)
+        nonfinite = cast("dict[str, tuple[np.ndarray, np.ndarray]]", state.pop("_nonfinite", {}))
+        model = state["model"]
+        for name, (index, value) in nonfinite.items():
+            vector = np.array(getattr(model, name), dtype=float)
+            vector[index] = value
+            setattr(model, name, vector)
+        self.__dict__.update(state)
 
     def _check_model(self) -> None:
         """Refuse a model no resolver could use: no moving joint, a NaN or inverted limit, a zero joint axis.
