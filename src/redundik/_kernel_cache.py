@@ -30,6 +30,7 @@ KERNEL_SOURCES: tuple[str, ...] = (
     "resolvers/fused.py",
     "tasks/trajectory.py",
     "collision/kernels.py",
+    "ik/kernels.py",
 )
 
 _memo: dict[tuple[object, ...], bytes] = {}

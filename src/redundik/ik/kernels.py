@@ -9,8 +9,8 @@ Residual of frame k (rows selected by ``mode[k]``: 0 pose, 1 position):
 
     r_k = (p_d − p, log3(R_d Rᵀ))   [m, rad],    ∂r_k/∂q ≈ −J_k   (J_k: the frame's LOCAL_WORLD_ALIGNED Jacobian)
 
-The rotation rows use J_ω in place of Jr⁻¹(θ) J_ω; since θᵀ Jr⁻¹(θ) = θᵀ, the gradient of ½‖θ‖² is exact, so the
-damped step is a descent direction and the accept/reject rule below stays sound.
+With E = R_d Rᵀ and a world angular velocity ω, Ė = −E[ω]ₓ (a right perturbation of E), so θ = log3(E) moves by
+−Jr⁻¹(θ) ω: the rotation rows are Jr⁻¹(θ) J_ω (:func:`jr_inv`), the exact Jacobian of the residual.
 
 Step: (JᵀJ + λ I) Δ = Jᵀ r on the free joints, Δ clipped into the box [lo − q, hi − q]; a joint whose step leaves
 the box while it already sits on that bound is fixed and the system solved again without it (projected LM with an
@@ -75,6 +75,29 @@ def log3(R: np.ndarray, out: np.ndarray) -> None:
 
 
 @_jit
+def jr_inv(w: np.ndarray, out: np.ndarray) -> None:
+    """out ← Jr⁻¹(θ) = I + ½[θ]ₓ + c(θ)[θ]ₓ², c = 1/θ² − (1 + cos θ)/(2θ sin θ) (Barfoot, State Estimation for
+    Robotics, §7.1.5), the inverse right Jacobian of SO(3) at the rotation vector ``w`` [rad]; c → 1/12 as θ → 0 and
+    1/π² as θ → π, written with sin θ / (1 − cos θ) so that it stays finite at π."""
+    t2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
+    t = math.sqrt(t2)
+    if t < 1e-4:
+        c = 1.0 / 12.0 + t2 / 720.0
+    else:
+        c = 1.0 / t2 - math.sin(t) / (2.0 * t * (1.0 - math.cos(t)))
+    x, y, z = w[0], w[1], w[2]
+    out[0, 0] = 1.0 - c * (y * y + z * z)
+    out[1, 1] = 1.0 - c * (x * x + z * z)
+    out[2, 2] = 1.0 - c * (x * x + y * y)
+    out[0, 1] = -0.5 * z + c * x * y
+    out[1, 0] = 0.5 * z + c * x * y
+    out[0, 2] = 0.5 * y + c * x * z
+    out[2, 0] = -0.5 * y + c * x * z
+    out[1, 2] = -0.5 * x + c * y * z
+    out[2, 1] = 0.5 * x + c * y * z
+
+
+@_jit
 def residual(
     J6: np.ndarray, M: np.ndarray, T: np.ndarray, mode: np.ndarray, Jr: np.ndarray, r: np.ndarray, err: np.ndarray
 ) -> float:
@@ -82,6 +105,7 @@ def residual(
     error [m], orientation error [rad], 0 for a position frame). Returns the cost ½‖r‖²."""
     row = 0
     Rd = np.empty((3, 3))
+    Ji = np.empty((3, 3))
     w = np.empty(3)
     nv = J6.shape[2]
     for k in range(M.shape[0]):
@@ -99,10 +123,11 @@ def residual(
                 for j in range(3):
                     Rd[i, j] = T[k, i, 0] * M[k, j, 0] + T[k, i, 1] * M[k, j, 1] + T[k, i, 2] * M[k, j, 2]
             log3(Rd, w)
+            jr_inv(w, Ji)
             for i in range(3):
                 r[row + i] = w[i]
                 for j in range(nv):
-                    Jr[row + i, j] = J6[k, 3 + i, j]
+                    Jr[row + i, j] = Ji[i, 0] * J6[k, 3, j] + Ji[i, 1] * J6[k, 4, j] + Ji[i, 2] * J6[k, 5, j]
             err[k, 1] = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
             row += 3
         else:

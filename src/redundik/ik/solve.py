@@ -152,7 +152,9 @@ class Solver:
                 qt = np.minimum(np.maximum(pin.integrate(self.model, self.cur[3], dq), p.q_lo), p.q_hi)
         return K.STALLED, s.max_iterations, False
 
-    def run(self, q_start: np.ndarray, T: np.ndarray, mode: np.ndarray, s: Settings, rng: np.random.Generator) -> IKResult:
+    def run(
+        self, q_start: np.ndarray, T: np.ndarray, mode: np.ndarray, s: Settings, rng: np.random.Generator
+    ) -> IKResult:
         """Attempts from ``q_start`` then from random configurations until success, the time budget or
         ``max_restarts``."""
         t0 = time.perf_counter()
@@ -214,7 +216,7 @@ def generator(seed: Seed) -> np.random.Generator:
     if isinstance(seed, np.random.Generator):
         return seed
     try:
-        return np.random.default_rng(seed)  # type: ignore[arg-type]
+        return np.random.default_rng(seed)
     except (TypeError, ValueError) as exc:
         raise ResolverError(f"solve_ik: seed must be an int ≥ 0, a list of them or a numpy Generator: {exc}") from None
 
