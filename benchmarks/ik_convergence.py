@@ -90,7 +90,7 @@ def run_ours(robot: rk.RobotModel, frame: str, Ts: list[pin.SE3]) -> tuple[np.nd
     for i, T in enumerate(Ts):
         t = time.perf_counter()
         res = rk.solve_ik(robot, frame, T, position_tolerance=TOL_P, orientation_tolerance=TOL_R, timeout=TIMEOUT,
-                          seed=i)  # fmt: skip
+                          seed=(1, i))  # fmt: skip
         times.append(time.perf_counter() - t)
         qs.append(res.q)
     return np.array(qs), np.array(times)
