@@ -72,6 +72,7 @@ API_PAGES = {
     "redundik.kinematics": "kinematics.md",
     "redundik.simulation": "simulation.md",
     "redundik.parallel": "parallel.md",
+    "redundik.ik": "ik.md",
 }
 
 

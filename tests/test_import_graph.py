@@ -1,6 +1,6 @@
 """The import graph points one way: the library layers never import the application layers.
 
-Library: ``kinematics``, ``tasks``, ``resolvers``, ``simulation``, ``collision``, ``parallel`` and the top-level
+Library: ``kinematics``, ``tasks``, ``resolvers``, ``simulation``, ``collision``, ``parallel``, ``ik`` and the top-level
 modules (``errors``, ``shipped``, ...). Application: ``config`` (YAML), ``cli``, ``reporting`` (files, figures),
 ``viewer``, ``peers``, ``sweep``, and ``__main__`` (``python -m redundik``, the command itself). Every import is
 checked, module level, lazy (function-level) and ``TYPE_CHECKING`` alike, from the source's syntax tree; every
@@ -13,7 +13,7 @@ import ast
 from pathlib import Path
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "redundik"
-LIBRARY = ("kinematics", "tasks", "resolvers", "simulation", "collision", "parallel")
+LIBRARY = ("kinematics", "tasks", "resolvers", "simulation", "collision", "parallel", "ik")
 APPLICATION = ("config", "cli", "reporting", "viewer", "peers", "sweep")
 ENTRY_POINTS = ("__main__.py",)
 

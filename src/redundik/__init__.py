@@ -33,6 +33,7 @@ from redundik.errors import (
 )
 
 if TYPE_CHECKING:
+    from redundik.ik import IKBatchResult, IKResult, solve_ik, solve_ik_batch
     from redundik.kinematics import DHRow, RobotModel, dh_matrix, from_dh, from_urdf, load_example_robot
     from redundik.resolvers import (
         FeedbackResolver,
@@ -77,6 +78,10 @@ if TYPE_CHECKING:
 
 #: Public name → the module that defines it (imported on first access).
 _LAZY: dict[str, str] = {
+    "IKBatchResult": "redundik.ik",
+    "IKResult": "redundik.ik",
+    "solve_ik": "redundik.ik",
+    "solve_ik_batch": "redundik.ik",
     "DHRow": "redundik.kinematics",
     "RobotModel": "redundik.kinematics",
     "dh_matrix": "redundik.kinematics",
@@ -151,6 +156,8 @@ __all__ = [
     "GradientSubtask",
     "HierarchicalQPResolver",
     "Hold",
+    "IKBatchResult",
+    "IKResult",
     "JointCentering",
     "JointCoupling",
     "JointLimits",
@@ -188,4 +195,6 @@ __all__ = [
     "make_resolver",
     "pseudo_inverse",
     "simulate",
+    "solve_ik",
+    "solve_ik_batch",
 ]

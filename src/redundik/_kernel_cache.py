@@ -31,6 +31,7 @@ KERNEL_SOURCES: tuple[str, ...] = (
     "tasks/trajectory.py",
     "tasks/target_kernels.py",
     "collision/kernels.py",
+    "ik/kernels.py",
 )
 
 _memo: dict[tuple[object, ...], bytes] = {}
