@@ -68,12 +68,13 @@ def _teleop(method: str, fuse: bool, form: str, steps: int = 150, task_class=rk.
 @pytest.mark.parametrize("method", ["pinv", "wqp", "hqp"])
 @pytest.mark.parametrize("form", ["se3", "matrix", "position", "list"])
 def test_teleop_targets_keep_the_plan_and_equal_the_per_task_path(method: str, form: str) -> None:
-    fused, plans, task = _teleop(method, True, form)
+    fused, plans, _ = _teleop(method, True, form)
     general, _, _ = _teleop(method, False, form)
     np.testing.assert_allclose(fused, general, rtol=0, atol=1e-12)
-    later = plans[5:]
-    assert later[0] is not None, "the teleop stack did not take the fused step"
-    assert all(p is later[0] for p in later), "a set_target or a reset planned the stack again"
+    # planned once, and again only after the reset at step 80 (the posture captures a new target there)
+    for seg in (plans[5:80], plans[82:]):
+        assert seg[0] is not None, "the teleop stack did not take the fused step"
+        assert all(p is seg[0] for p in seg), "a set_target planned the stack again"
     assert np.abs(fused[100:]).max() > 1e-3  # it moved
 
 

@@ -14,6 +14,7 @@ The contract of :meth:`Resolver.step` (the call a control loop makes once per ti
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 from abc import ABC, abstractmethod
@@ -93,6 +94,13 @@ def _blas_limiter() -> _BlasLimit:
     if _CONTROLLER is None:
         _CONTROLLER = _BlasLimit()
     return _CONTROLLER
+
+
+#: ``result.info["path"]``: the step's rows were written by compiled writers (the fused step), or by the members'
+#: Python ``evaluate`` (``result.info["interpreted"]`` names the members without a compiled form).
+COMPILED, INTERPRETED = "compiled", "interpreted"
+_LOG = logging.getLogger("redundik")
+_WARNED_INTERPRETED: set[tuple[str, tuple[str, ...]]] = set()
 
 
 @dataclass
@@ -540,6 +548,14 @@ class Resolver(ABC):
                         limiter.restore(changed)
         finally:
             self._stepping = None
+        d = res.__dict__
+        info = d["_info"] if "_info" in d else d.get("info")
+        if info is not None:  # which path wrote the rows (issue 31): one entry, not a diagnostic to compute
+            if d.get("_compiled"):
+                dict.__setitem__(info, "path", COMPILED)
+            else:
+                dict.__setitem__(info, "path", INTERPRETED)
+                dict.__setitem__(info, "interpreted", self._interpreted_members(robot, stack))
         watch = self._watch
         if watch is None:
             watch = self._watch = DivergenceWatch()
@@ -551,6 +567,37 @@ class Resolver(ABC):
         if factor is not None:
             watch.flag(self.name, norm, factor, res.info)
         return res
+
+    def _interpreted_members(self, robot: RobotModel, stack: TaskStack) -> list[str]:
+        """The names of the stack's members whose rows only their Python ``evaluate`` gives (no frame or joint form;
+        a subtask without a linear gradient), worked out once per checked membership; a one-time ``logging``
+        warning names them when this resolver could have taken the compiled step. Every member when the resolver
+        has no compiled step (``feedback``) or it is switched off (``fuse = False``)."""
+        cached = self.__dict__.get("_interpreted_cache")
+        if cached is not None and cached[0] is self._checked and cached[1] is stack:
+            return list(cached[2])
+        compiled_capable = bool(getattr(self, "fuse", False))
+        names: list[str] = []
+        for task in stack.tasks:
+            if not compiled_capable or (task.frame_form(robot) is None and task.joint_form(robot) is None):
+                names.append(task.name)
+        for sub in stack.subtasks:
+            potential = getattr(sub, "potential", None)
+            if not compiled_capable or potential is None or potential.linear_gradient(robot) is None:
+                names.append(str(getattr(sub, "name", type(sub).__name__)))
+        self.__dict__["_interpreted_cache"] = (self._checked, stack, tuple(names))
+        if compiled_capable and names:
+            key = (self.name, tuple(names))
+            if key not in _WARNED_INTERPRETED:
+                _WARNED_INTERPRETED.add(key)
+                _LOG.warning(
+                    "%s: the stack runs interpreted (each member's Python evaluate, then the solve): %s %s no "
+                    "compiled form; result.info['path'] says which path each step took",
+                    self.name,
+                    ", ".join(names),
+                    "has" if len(names) == 1 else "have",
+                )
+        return names
 
     def stack_key(self, stack: TaskStack) -> tuple[int, ...]:
         """The membership key of ``stack`` (its :meth:`TaskStack.signature`), for caches of what depends on it.

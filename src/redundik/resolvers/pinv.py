@@ -118,6 +118,7 @@ class PinvResolver(Resolver):
                 if plan.current(robot):
                     res = self._fused_solve(robot, plan, main, t, t0)
                     if res is not None:
+                        res.__dict__["_compiled"] = True  # (Resolver.step reports the path)
                         return res
                 else:
                     self._fused = None  # a member changed: planned again at the next step

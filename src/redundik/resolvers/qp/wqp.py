@@ -267,6 +267,7 @@ class WeightedQPResolver(QPResolverBase):
             if fused.current(robot):
                 res = self._fused_solve(robot, stack, fused, plan, t, dt)
                 if res is not None:
+                    res.__dict__["_compiled"] = True  # (Resolver.step reports the path)
                     return res
             else:
                 plan.fused = None  # a member changed (a new target, trajectory): planned again at the next step
