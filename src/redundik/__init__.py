@@ -74,6 +74,7 @@ if TYPE_CHECKING:
         TaskTerm,
         VirtualPoint,
     )
+    from redundik.warmup import warm_up
 
 
 #: Public name → the module that defines it (imported on first access).
@@ -82,6 +83,7 @@ _LAZY: dict[str, str] = {
     "IKResult": "redundik.ik",
     "solve_ik": "redundik.ik",
     "solve_ik_batch": "redundik.ik",
+    "warm_up": "redundik.warmup",
     "DHRow": "redundik.kinematics",
     "RobotModel": "redundik.kinematics",
     "dh_matrix": "redundik.kinematics",
@@ -197,4 +199,5 @@ __all__ = [
     "simulate",
     "solve_ik",
     "solve_ik_batch",
+    "warm_up",
 ]

@@ -85,6 +85,15 @@ def run(
     pictures = output_steps(figures, html, gif)
     unit = max(plan.steps // 4, 1)  # progress units of one output step (figures, html, gif)
     total = plan.steps * len(names) + unit * len(pictures)
+    if not quiet:  # the first run after an install compiles the kernels: say so, rather than a bar sitting at 0
+        from redundik.warmup import RESOLVERS, warm_up
+
+        used = sorted({plan.runs[n].resolver_name for n in names} & set(RESOLVERS))
+        with bar_console.status(
+            "loading compiled kernels (the first run after an install compiles them, up to a minute; "
+            "`redundik compile` does it ahead)"
+        ):
+            warm_up(used)
     if quiet or total < 2000:
         results = run_task(plan, names)
         summary = write_outputs(plan, results, out_dir)
@@ -152,10 +161,23 @@ def schema(
         raise ConfigError(f"cannot write '{out}': {exc.strerror or exc}") from None
 
 
+def compile_kernels() -> None:
+    """Compile the resolvers' kernels into numba's on-disk cache now (a first run on an empty cache spends up to a
+    minute there; a container image can bake this in), then print how long each resolver took."""
+    import typer
+
+    from redundik.warmup import warm_up
+
+    typer.echo("compiling redundik's kernels (or loading them from the cache) ...", err=True)
+    for name, seconds in warm_up().items():
+        typer.echo(f"{name}: {seconds:.1f} s")
+
+
 def register(app: typer.Typer) -> None:
     """Add ``run`` and ``validate`` to the ``redundik`` command."""
     from redundik.cli.main import EPILOG
 
     app.command("run", epilog=EPILOG)(run)
+    app.command("compile", epilog=EPILOG)(compile_kernels)
     app.command("validate", epilog=EPILOG)(validate)
     app.command("schema")(schema)

@@ -92,7 +92,12 @@ class FeedbackResolver(Resolver):
         t1 = time.perf_counter()
         pi = pseudo_inverse(J, epsilon=self.epsilon, max_damping=self.max_damping)
         dq_r = pi.solve(V)
-        Pz = pi.null_project(z) if z is not None else np.zeros(robot.nv)
+        if z is None:
+            Pz = np.zeros(robot.nv)
+        elif np.isfinite(z).all():
+            Pz = pi.null_project(z)
+        else:  # (null_project refuses a non-finite z: the NaN goes on to the step's diagnosed fallback instead)
+            Pz = np.full(robot.nv, np.nan)
         d_damped, d_rank = False, 0
         k = np.zeros(r)
         if r:

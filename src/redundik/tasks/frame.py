@@ -10,7 +10,6 @@ import pinocchio as pin
 
 from redundik.errors import TaskError
 from redundik.kinematics.model import AXES, LWA, RobotModel
-from redundik.tasks import target_kernels as _TK
 from redundik.tasks.base import NOT_READY, FrameForm, Task, TaskTerm
 from redundik.tasks.trajectory import Hold, Trajectory
 
@@ -50,6 +49,17 @@ def _kernels() -> Any:
 
     _K = K
     return K
+
+
+_TK: Any = None  # the compiled target writers (redundik.tasks.target_kernels): numba is imported at first use
+
+
+def _target_kernels() -> Any:
+    global _TK
+    from redundik.tasks import target_kernels
+
+    _TK = target_kernels
+    return target_kernels
 
 
 #: Gain [1/s] of a frame task built without a trajectory (hold the start pose, or track targets set at run time).
@@ -229,16 +239,17 @@ class FrameTask(Task):
         traj = self.trajectory
         row = traj._kparams if traj is self._held else None
         if row is not None:  # our own started hold: the target is data, written in place
+            tk = _TK or _target_kernels()
             status = -1
             if type(target) is pin.SE3:
                 T = target.homogeneous  # type: ignore[union-attr]  # (an SE3)
-                status = _TK.pose_into(T, row, RIGID_TOLERANCE, MAX_COORDINATE)
+                status = tk.pose_into(T, row, RIGID_TOLERANCE, MAX_COORDINATE)
             elif type(target) is np.ndarray and target.dtype == np.float64:
                 if target.shape == (4, 4):
-                    status = _TK.pose_into(target, row, RIGID_TOLERANCE, MAX_COORDINATE)
+                    status = tk.pose_into(target, row, RIGID_TOLERANCE, MAX_COORDINATE)
                 elif target.shape == (3,):
-                    status = _TK.position_into(target, row, MAX_COORDINATE)
-            if status == _TK.OK:
+                    status = tk.position_into(target, row, MAX_COORDINATE)
+            if status == tk.OK:
                 traj._revision += 1
                 traj._given = True  # type: ignore[attr-defined]  # (traj is self._held, a Hold): kept by a reset
                 self._pending_position = None

@@ -1,0 +1,153 @@
+"""What users run (issue 31): a trajectory tick against a teleop tick (``set_target`` every tick, its cost included),
+a ``FrameTask`` subclass, a 10-line custom task, and TALOS with the library's ``PostureTask`` — public classes only,
+cases interleaved tick by tick in one process, medians and p90 per case, ratios against the trajectory tick.
+
+Run: ``python benchmarks/user_cases.py [--steps N] [--json FILE]``; prints a table and the path each case took
+(``result.info["path"]``). Ratios from one run; the machine is shared, so report the spread of several runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import json
+import time
+from typing import Any
+
+import numpy as np
+import pinocchio as pin
+
+import redundik as rk
+
+TOOL = "panda_hand_tcp"
+Q0 = np.array([0, -0.785, 0, -2.356, 0, 1.571, 0.785, 0.02, 0.02])
+DT = 1e-3
+
+
+class MyFrameTask(rk.FrameTask):
+    """A user's subclass that changes nothing about the rows (the issue's ``class MyFrameTask(FrameTask): pass``)."""
+
+
+class ElbowHeight(rk.Task):
+    """A user's 10-line task: keep the elbow's height at z_d (one row of its frame Jacobian)."""
+
+    def __init__(self, z_d: float, gain: float = 5.0) -> None:
+        self._init_task("elbow_height", gain=gain)
+        self.z_d = z_d
+
+    def evaluate(self, robot: rk.RobotModel, t: float) -> rk.TaskTerm:
+        J = robot.frame_jacobian("panda_link4")[2:3]
+        e = np.array([self.z_d - robot.frame_position("panda_link4")[2]])
+        return rk.TaskTerm(self.name, J, self.gain * e, e, self.weight)
+
+    def __repr__(self) -> str:
+        return f"ElbowHeight(z_d={self.z_d})"
+
+
+def _panda_case(kind: str, method: str) -> dict[str, Any]:
+    robot = rk.load_example_robot("panda")
+    circle = rk.Circle(0.1, np.pi, plane=("y", "z"))
+    if kind == "trajectory":
+        tasks: list[rk.Task] = [rk.FrameTask(TOOL, circle, gain=50.0)]
+    elif kind == "subclass":
+        tasks = [MyFrameTask(TOOL, circle, gain=50.0)]
+    elif kind == "custom_task":
+        tasks = [rk.FrameTask(TOOL, circle, gain=50.0), ElbowHeight(0.55, gain=5.0)]
+    else:  # teleop
+        tasks = [rk.FrameTask(TOOL, gain=40.0)]
+    stack = rk.TaskStack([*tasks, rk.PostureTask(gain=1.0)])
+    robot.update(Q0)
+    stack.reset(robot)
+    home = robot.frame_pose(TOOL)
+    return {"robot": robot, "stack": stack, "res": rk.make_resolver(method), "q": Q0.copy(), "k": 0, "home": home}
+
+
+def _talos_case(method: str) -> dict[str, Any]:
+    robot = rk.load_example_robot("talos")
+    q0 = robot.neutral()
+    robot.update(q0)
+    hands = [rk.FrameTask(f, rk.Circle(0.05, np.pi, plane=("y", "z")), gain=20.0) for f in ("gripper_left_joint",)]
+    stack = rk.TaskStack([*hands, rk.PostureTask(gain=1.0)])
+    stack.reset(robot)
+    return {"robot": robot, "stack": stack, "res": rk.make_resolver(method), "q": q0.copy(), "k": 0, "home": None}
+
+
+def _tick(case: dict[str, Any], teleop: bool) -> tuple[float, Any]:
+    k = case["k"]
+    t = k * DT
+    target = None
+    if teleop:  # the operator's new pose (made outside the timed tick: the user's cost, not the library's)
+        h = case["home"]
+        target = pin.SE3(h.rotation, h.translation + np.array([0.0, 0.05 * np.sin(2 * t), 0.03 * np.sin(4 * t)]))
+    t0 = time.perf_counter()
+    if target is not None:
+        case["stack"].tasks[0].set_target(target)  # timed: set_target is part of a teleop tick
+    res = case["res"].step(case["robot"], case["stack"], case["q"], t, DT)
+    elapsed = time.perf_counter() - t0
+    case["q"] = case["robot"].integrate(case["q"], res.dq, DT)
+    case["k"] = k + 1
+    return elapsed, res
+
+
+def run(steps: int) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for method in ("pinv", "wqp", "hqp"):
+        cases = {kind: _panda_case(kind, method) for kind in ("trajectory", "teleop", "subclass", "custom_task")}
+        cases["talos_posture"] = _talos_case(method)
+        for name, c in cases.items():
+            for _ in range(30):
+                _tick(c, name == "teleop")
+        times: dict[str, list[float]] = {name: [] for name in cases}
+        gc.disable()
+        try:
+            names = list(cases)
+            for i in range(steps):
+                shift = i % len(names)  # each case first as often as the others (no position bias)
+                for name in names[shift:] + names[:shift]:
+                    times[name].append(_tick(cases[name], name == "teleop")[0])
+        finally:
+            gc.enable()
+        paths = {name: _tick(c, name == "teleop")[1].info["path"] for name, c in cases.items()}
+        base = float(np.median(times["trajectory"]))
+        for name, ts in times.items():
+            arr = np.array(ts) * 1e6
+            out[f"{method}/{name}"] = {
+                "median_us": float(np.median(arr)),
+                "p90_us": float(np.percentile(arr, 90)),
+                "x_trajectory": float(np.median(arr)) / (base * 1e6),
+                "path": paths[name],
+            }
+    task = rk.FrameTask(TOOL, gain=40.0)
+    robot = rk.load_example_robot("panda")
+    robot.update(Q0)
+    rk.TaskStack([task]).reset(robot)
+    T = robot.frame_pose(TOOL)
+    for _ in range(100):
+        task.set_target(T)
+    n = 20000
+    t0 = time.perf_counter()
+    for _ in range(n):
+        task.set_target(T)
+    out["set_target_us"] = (time.perf_counter() - t0) / n * 1e6
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=2000)
+    parser.add_argument("--json", default=None)
+    args = parser.parse_args(argv)
+    res = run(args.steps)
+    print(f"{'case':28s} {'median µs':>10s} {'p90 µs':>8s} {'× traj':>7s}  path")
+    for key, v in res.items():
+        if isinstance(v, dict):
+            print(f"{key:28s} {v['median_us']:10.1f} {v['p90_us']:8.1f} {v['x_trajectory']:7.2f}  {v['path']}")
+    print(f"set_target alone: {res['set_target_us']:.2f} µs")
+    if args.json:
+        with open(args.json, "w", encoding="utf-8") as fh:
+            json.dump(res, fh, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,52 @@
+"""Compile (or load from numba's on-disk cache) the kernels a control loop uses, before the loop starts.
+
+The resolvers' closed forms and their fused steps are numba kernels, compiled at their first call and cached on disk
+(next to the package, or in numba's user-wide cache folder when the package folder is read-only). On an empty cache
+the first step of each resolver compiles for tens of seconds; :func:`warm_up` pays that ahead — at start-up, in a
+container build (``redundik compile``), or before a real-time loop — and says so in a ``logging`` line.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import numpy as np
+
+_LOG = logging.getLogger("redundik")
+
+#: The resolvers :func:`warm_up` steps by default.
+RESOLVERS: tuple[str, ...] = ("pinv", "feedback", "wqp", "hqp")
+
+
+def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS) -> dict[str, float]:
+    """Step each resolver of ``resolvers`` a few times on a small arm (a frame task on a trajectory, a target set
+    at run time, a posture and a joint centering, joint limits), so that the kernels of their compiled and
+    interpreted steps are compiled or loaded; returns the seconds each took.
+
+    Raises:
+        ResolverError: an unknown resolver name (the message lists the known ones).
+    """
+    import redundik as rk
+
+    _LOG.info("redundik: loading the compiled kernels (a first run on an empty cache compiles them: up to a minute)")
+    robot = rk.from_dh([rk.DHRow(str(k), a=0.3, alpha=np.pi / 2 if k % 2 else -np.pi / 2) for k in range(1, 8)])
+    q0 = np.full(robot.nq, 0.3)
+    out: dict[str, float] = {}
+    for name in resolvers:
+        t0 = time.perf_counter()
+        resolver = rk.make_resolver(name)
+        for teleop in (False, True):
+            task = rk.FrameTask("7", None if teleop else rk.Circle(0.02, np.pi, plane=("y", "z")), gain=5.0)
+            stack = rk.TaskStack([task, rk.PostureTask(gain=1.0)], [rk.GradientSubtask(rk.JointCentering(), gain=-1.0)])
+            q = q0.copy()
+            robot.update(q)
+            stack.reset(robot)
+            home = robot.frame_pose("7")
+            for k in range(3):
+                if teleop:
+                    task.set_target(home.translation + 0.001 * k)
+                q = robot.integrate(q, resolver.step(robot, stack, q, k * 0.01, 0.01).dq, 0.01)
+        out[name] = time.perf_counter() - t0
+    _LOG.info("redundik: kernels ready in %.1f s", sum(out.values()))
+    return out
