@@ -26,7 +26,7 @@ import numpy as np
 from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver, StepResult, nonfinite_sources
-from redundik.resolvers.linalg import damped_svd, pseudo_inverse
+from redundik.resolvers.linalg import damped_svd, pseudo_inverse, pseudo_inverse_unchecked
 from redundik.resolvers.pinv import main_system
 from redundik.resolvers.settings import Setting, nonnegative
 from redundik.tasks.stack import StackLayout, TaskStack
@@ -90,7 +90,7 @@ class FeedbackResolver(Resolver):
             N[:, i] = eta
             rhs[i] = v
         t1 = time.perf_counter()
-        pi = pseudo_inverse(J, epsilon=self.epsilon, max_damping=self.max_damping)
+        pi = pseudo_inverse_unchecked(J, self.epsilon, self.max_damping)
         dq_r = pi.solve(V)
         if z is None:
             Pz = np.zeros(robot.nv)

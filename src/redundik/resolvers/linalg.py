@@ -154,13 +154,14 @@ class PseudoInverse:
         fast: True when the fast path Jᵀ(JJᵀ)⁻¹ was taken.
     """
 
-    __slots__ = ("_J", "_U", "_Vt", "_inv", "_null", "_pinv", "damping", "fast", "n", "rank", "sigma_min")
+    __slots__ = ("checked", "_J", "_U", "_Vt", "_inv", "_null", "_pinv", "damping", "fast", "n", "rank", "sigma_min")
 
     def __init__(self, J: np.ndarray, epsilon: float, max_damping: float, rcond: float) -> None:
         fast, U, _, Vt, inv, rank, smin, damping = K.factor(J, epsilon, max_damping, rcond)
         self._J, self._U, self._Vt, self._inv = J, U, Vt, inv
         self.fast, self.rank, self.sigma_min, self.damping = bool(fast), int(rank), float(smin), float(damping)
         self.n = int(J.shape[1])
+        self.checked = True  # solve / null_project check their argument (off for the resolvers' own rows)
         self._pinv: np.ndarray | None = None
         self._null: np.ndarray | None = None
 
@@ -171,14 +172,16 @@ class PseudoInverse:
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """J⁺_λ rhs for rhs of shape (m,) (minimum-norm, damped least squares), shape (n,)."""
-        rhs = _real_array(rhs, 1, "rhs", self._J.shape[0])
+        if self.checked:
+            rhs = _real_array(rhs, 1, "rhs", self._J.shape[0])
         if self._J.shape[0] == 0:
             return np.zeros(self.n)
         return K.solve_factored(self.fast, self._J, self._U, self._inv, self._Vt, rhs)
 
     def null_project(self, z: np.ndarray) -> np.ndarray:
         """P_n z = (I − V_r V_rᵀ) z, the projection of z (n,) on the null space of J (numerical rank r)."""
-        z = _real_array(z, 1, "z", self.n)
+        if self.checked:
+            z = _real_array(z, 1, "z", self.n)
         return K.null_project_factored(self.fast, self._J, self._U, self._inv, self._Vt, self.rank, z)
 
     @property
@@ -234,6 +237,14 @@ def pseudo_inverse(
         if not (math.isfinite(value) and value >= 0):
             raise ResolverError(f"pseudo_inverse: {key} must be finite and ≥ 0, got {value}")
     return PseudoInverse(_real_array(J, 2, "J"), float(epsilon), float(max_damping), float(rcond))
+
+
+def pseudo_inverse_unchecked(J: np.ndarray, epsilon: float, max_damping: float) -> PseudoInverse:
+    """:func:`pseudo_inverse` for the resolvers' own rows: no input checks, so a non-finite row reaches the step's
+    diagnosed fallback as a non-finite q̇ (the resolvers report it) instead of raising mid-step."""
+    pi = PseudoInverse(contiguous(J), float(epsilon), float(max_damping), RCOND)
+    pi.checked = False
+    return pi
 
 
 def _real_array(value: object, ndim: int, what: str, size: int | None = None) -> np.ndarray:

@@ -21,7 +21,7 @@ import numpy as np
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, Resolver, StepResult, nonfinite_sources
-from redundik.resolvers.linalg import K, pseudo_inverse
+from redundik.resolvers.linalg import K, pseudo_inverse_unchecked
 from redundik.resolvers.pinv import check_damping_options, main_system
 from redundik.resolvers.qp.backends import CHECKED_ANSWERS, DEFAULT_BACKEND, Backend, finite, make_backend
 from redundik.resolvers.qp.limits import JointLimits, LimitBox
@@ -329,7 +329,7 @@ class QPResolverBase(Resolver):
     def _closed_form(self, robot: RobotModel, stack: TaskStack, terms: list[TaskTerm]) -> np.ndarray:
         """The damped closed form J⁺V + (I − J⁺J)z on the main tasks and the null-space objective (the fallback)."""
         J, V, z = main_system(robot, stack, terms, self.layout(stack))
-        pi = pseudo_inverse(J, epsilon=self.epsilon, max_damping=max(self.max_damping, 1e-3))
+        pi = pseudo_inverse_unchecked(J, self.epsilon, max(self.max_damping, 1e-3))
         out = pi.solve(V)
         if z is not None:
             out = out + pi.null_project(z)
