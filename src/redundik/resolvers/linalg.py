@@ -154,7 +154,7 @@ class PseudoInverse:
         fast: True when the fast path Jᵀ(JJᵀ)⁻¹ was taken.
     """
 
-    __slots__ = ("checked", "_J", "_U", "_Vt", "_inv", "_null", "_pinv", "damping", "fast", "n", "rank", "sigma_min")
+    __slots__ = ("_J", "_U", "_Vt", "_inv", "_null", "_pinv", "checked", "damping", "fast", "n", "rank", "sigma_min")
 
     def __init__(self, J: np.ndarray, epsilon: float, max_damping: float, rcond: float) -> None:
         fast, U, _, Vt, inv, rank, smin, damping = K.factor(J, epsilon, max_damping, rcond)
