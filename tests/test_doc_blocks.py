@@ -23,11 +23,7 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Pages another part of the project owns, with why they are not checked here (keep empty when possible).
-NOT_CHECKED = {
-    # its one python block (the mink adapter) names an undefined `urdf_path`; the page belongs to the benchmark's
-    # owner: remove this entry once the block defines it
-    "docs/benchmark.md": "owned by the benchmark work; its block is reported for a fix",
-}
+NOT_CHECKED: dict[str, str] = {}
 #: Most blocks that may say ``<!-- no-run: ... -->``.
 MAX_NO_RUN = 2
 TIMEOUT = 300.0  # [s] per block (a first numba compile of the kernels takes 30-60 s on a loaded machine)
