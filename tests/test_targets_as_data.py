@@ -151,5 +151,5 @@ def test_a_subclass_keeps_the_fused_step_and_one_with_its_own_rows_does_not(meth
     assert base_plan is not None and sub_plan is not None
     assert sub_res.info["path"] == "compiled"
     assert own_plan is None and own_res.info["path"] == "interpreted"
-    assert own_res.info["interpreted"] == ["panda_hand_tcp"]
+    assert own_res.info["interpreted"] == ("panda_hand_tcp",)
     assert np.abs(own - base).max() > 1e-6  # its own rows are used

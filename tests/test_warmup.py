@@ -35,4 +35,4 @@ def test_feedback_reports_every_member_interpreted() -> None:
     robot.update(q)
     stack.reset(robot)
     res = rk.make_resolver("feedback").step(robot, stack, q, 0.0, 0.01)
-    assert res.info["path"] == "interpreted" and res.info["interpreted"] == ["3"]
+    assert res.info["path"] == "interpreted" and res.info["interpreted"] == ("3",)

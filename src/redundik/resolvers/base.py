@@ -97,7 +97,7 @@ def _blas_limiter() -> _BlasLimit:
 
 
 #: ``result.info["path"]``: the step's rows were written by compiled writers (the fused step), or by the members'
-#: Python ``evaluate`` (``result.info["interpreted"]`` names the members without a compiled form).
+#: Python ``evaluate``; ``result.info["interpreted"]`` names the members without a compiled form (empty when compiled).
 COMPILED, INTERPRETED = "compiled", "interpreted"
 _LOG = logging.getLogger("redundik")
 _WARNED_INTERPRETED: set[tuple[str, tuple[str, ...]]] = set()
@@ -553,6 +553,7 @@ class Resolver(ABC):
         if info is not None:  # which path wrote the rows (issue 31): one entry, not a diagnostic to compute
             if d.get("_compiled"):
                 dict.__setitem__(info, "path", COMPILED)
+                dict.__setitem__(info, "interpreted", ())
             else:
                 dict.__setitem__(info, "path", INTERPRETED)
                 dict.__setitem__(info, "interpreted", self._interpreted_members(robot, stack))
@@ -568,14 +569,14 @@ class Resolver(ABC):
             watch.flag(self.name, norm, factor, res.info)
         return res
 
-    def _interpreted_members(self, robot: RobotModel, stack: TaskStack) -> list[str]:
+    def _interpreted_members(self, robot: RobotModel, stack: TaskStack) -> tuple[str, ...]:
         """The names of the stack's members whose rows only their Python ``evaluate`` gives (no frame or joint form;
         a subtask without a linear gradient), worked out once per checked membership; a one-time ``logging``
         warning names them when this resolver could have taken the compiled step. Every member when the resolver
         has no compiled step (``feedback``) or it is switched off (``fuse = False``)."""
         cached = self.__dict__.get("_interpreted_cache")
         if cached is not None and cached[0] is self._checked and cached[1] is stack:
-            return list(cached[2])
+            return cached[2]
         compiled_capable = bool(getattr(self, "fuse", False))
         names: list[str] = []
         for task in stack.tasks:
@@ -597,7 +598,7 @@ class Resolver(ABC):
                     ", ".join(names),
                     "has" if len(names) == 1 else "have",
                 )
-        return names
+        return tuple(names)
 
     def stack_key(self, stack: TaskStack) -> tuple[int, ...]:
         """The membership key of ``stack`` (its :meth:`TaskStack.signature`), for caches of what depends on it.
