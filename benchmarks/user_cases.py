@@ -101,9 +101,10 @@ def run(steps: int) -> dict[str, Any]:
         gc.disable()
         try:
             names = list(cases)
-            for i in range(steps):
-                shift = i % len(names)  # each case first as often as the others (no position bias)
-                for name in names[shift:] + names[:shift]:
+            order = np.random.default_rng(0)
+            for _ in range(steps):  # a new random order every round: no case always follows the same neighbour
+                for i in order.permutation(len(names)):
+                    name = names[i]
                     times[name].append(_tick(cases[name], name == "teleop")[0])
         finally:
             gc.enable()

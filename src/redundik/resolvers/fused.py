@@ -101,7 +101,9 @@ class FusedPlan:
         self.jw = np.zeros((6, 0))  # data.J: the joint Jacobians, world frame (a view on Pinocchio's memory)
         self.poses = np.zeros((0, 12))  # data.oMf: the frames' placements (a view on Pinocchio's memory)
         self.forms: list[FrameForm] = []
-        self.frame_checks: list[tuple[Any, int]] = []  # per frame member: its task and form revision when packed
+        #: per frame member: its task, its form revision when packed, its trajectory, and the trajectory's
+        #: parameter row in ``floats`` (a view)
+        self.frame_checks: list[tuple[Any, int, Any, np.ndarray]] = []
         self.revisions: list[int] = []  # the trajectories' revisions as last copied into ``floats``
         self.param_offset = 0  # where the trajectories' parameter rows (K × PARAMS) start in ``floats``
         self.joint_checks: list[tuple[Task, np.ndarray]] = []
@@ -180,7 +182,11 @@ class FusedPlan:
         plan.forms = forms
         plan._pack(robot, iq, level_forms, identity, set(layout.main), index)
         plan.data = robot.data
-        plan.frame_checks = [(f.task, f.revision) for f in forms]
+        start = plan.param_offset
+        plan.frame_checks = [
+            (f.task, f.revision, f.trajectory, plan.floats[start + k * PARAMS : start + (k + 1) * PARAMS])
+            for k, f in enumerate(forms)
+        ]
         plan.revisions = [f.trajectory.revision for f in forms]
         plan.joint_checks = list(zip(plan.level_joints + plan.nulls, plan.targets + plan.null_targets, strict=True))
         plan.gradient_checks = list(zip(plan.gradients, plan.gradient_forms, strict=True))
@@ -271,16 +277,15 @@ class FusedPlan:
         if robot.data is not self.data:
             return False
         revisions = self.revisions
-        for k, (task, revision) in enumerate(self.frame_checks):
-            if task.form_revision != revision:
+        for k, (task, revision, traj, packed) in enumerate(self.frame_checks):
+            if task.form_revision != revision:  # (another trajectory moves it too: ``traj`` is still the task's)
                 return False
-            now = task.trajectory.revision
+            now = traj.revision
             if now != revisions[k]:
-                row = task.trajectory.parameters
+                row = traj.parameters
                 if row is None:
                     return False
-                start = self.param_offset + k * PARAMS
-                self.floats[start : start + PARAMS] = row
+                packed[:] = row
                 revisions[k] = now
         for joint, target in self.joint_checks:
             form = joint.joint_form(robot)
