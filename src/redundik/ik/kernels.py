@@ -10,7 +10,7 @@ Residual of frame k (rows selected by ``mode[k]``: 0 pose, 1 position):
     r_k = (p_d − p, log3(R_d Rᵀ))   [m, rad],    ∂r_k/∂q ≈ −J_k   (J_k: the frame's LOCAL_WORLD_ALIGNED Jacobian)
 
 With E = R_d Rᵀ and a world angular velocity ω, Ė = −E[ω]ₓ (a right perturbation of E), so θ = log3(E) moves by
-−Jr⁻¹(θ) ω: the rotation rows are Jr⁻¹(θ) J_ω (:func:`jr_inv`), the exact Jacobian of the residual.
+−Jr⁻¹(θ) ω: the rotation rows are Jr⁻¹(θ) J_ω (``jr_inv``), the exact Jacobian of the residual.
 
 Step: (JᵀJ + λ I) Δ = Jᵀ r on the free joints, Δ clipped into the box [lo − q, hi − q]; a joint whose step leaves
 the box while it already sits on that bound is fixed and the system solved again without it (projected LM with an

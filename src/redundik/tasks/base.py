@@ -69,12 +69,12 @@ def check_priority(value: object, what: str) -> int | None:
     return int(value)
 
 
-#: What :meth:`Task.frame_form` returns while a frame task cannot describe its rows yet (not evaluated on this robot).
+#: What ``Task.frame_form`` returns while a frame task cannot describe its rows yet (not evaluated on this robot).
 NOT_READY = "not ready"
 
 
 class FrameForm(NamedTuple):
-    """The rows of a frame task in the form a fused step computes itself (:meth:`Task.frame_form`): the selected
+    """The rows of a frame task in the form a fused step computes itself (``Task.frame_form``): the selected
     rows of the frame's base-aligned Jacobian, e = (p_d − p, log3(R_d Rᵀ))[rows], v = V_d[rows] + K e, with
     (p_d, R_d, V_d) the trajectory's reference.
 
@@ -85,7 +85,7 @@ class FrameForm(NamedTuple):
         rotation_rows: Whether any of them is a rotation row.
         all_rows: Whether they are all six, in order.
         trajectory: The reference (its compiled parameter row is packed; ``revision`` says when it was rewritten).
-        revision: The task's :attr:`Task.form_revision` when the form was made.
+        revision: The task's ``Task.form_revision`` when the form was made.
     """
 
     task: Any
@@ -225,8 +225,8 @@ class Task(ABC):
         return self._form_revision
 
     def frame_form(self, robot: RobotModel) -> FrameForm | str | None:
-        """The :class:`FrameForm` of this task's rows, when they are those of a frame task that a fused step may
-        compute itself; :data:`NOT_READY` when they will be (after the first evaluation on ``robot``); ``None``
+        """The ``FrameForm`` of this task's rows, when they are those of a frame task that a fused step may
+        compute itself; ``NOT_READY`` when they will be (after the first evaluation on ``robot``); ``None``
         (the default): only :meth:`evaluate` gives them."""
         return None
 

@@ -327,7 +327,7 @@ class FrameTask(Task):
             self._pending_position = None
 
     def frame_form(self, robot: RobotModel) -> FrameForm | str | None:
-        """This task's :class:`~redundik.tasks.base.FrameForm` (a fused step computes its rows itself), or
+        """This task's ``FrameForm`` (a fused step computes its rows itself), or
         ``NOT_READY`` until it has been evaluated (or reset) on ``robot``. A subclass that overrides
         :meth:`evaluate` has rows of its own: ``None``, unless it overrides this method too."""
         if type(self).evaluate is not FrameTask.evaluate:

@@ -4,9 +4,9 @@ A teleoperated frame task receives a new target every control tick (``FrameTask.
 it is checked (finite, bounded, a rotation) and written in place into the parameter row (p0, R0 row-major) that the
 task's :class:`~redundik.tasks.trajectory.Hold` and a fused step read, so nothing is re-planned or allocated.
 
-Status codes returned by the writers: :data:`OK`, :data:`NOT_FINITE`, :data:`TOO_FAR` (a coordinate beyond the
-bound), :data:`NOT_RIGID` (the rotation is not orthonormal with det +1, or a 4×4 matrix's last row is not
-(0, 0, 0, 1)), :data:`BAD_SHAPE`. Nothing is written unless the status is :data:`OK`.
+Status codes returned by the writers: ``OK``, ``NOT_FINITE``, ``TOO_FAR`` (a coordinate beyond the
+bound), ``NOT_RIGID`` (the rotation is not orthonormal with det +1, or a 4×4 matrix's last row is not
+(0, 0, 0, 1)), ``BAD_SHAPE``. Nothing is written unless the status is ``OK``.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ OK, NOT_FINITE, TOO_FAR, NOT_RIGID, BAD_SHAPE = 0, 1, 2, 3, 4
 
 @_jit
 def _rotation_status(T: np.ndarray, tol: float) -> int:
-    """:data:`OK` when the upper-left 3×3 block of ``T`` is finite, orthonormal to ``tol`` (max |RRᵀ − I|) with
+    """``OK`` when the upper-left 3×3 block of ``T`` is finite, orthonormal to ``tol`` (max |RRᵀ − I|) with
     det > 0."""
     for i in range(3):
         for j in range(3):

@@ -177,7 +177,7 @@ class Hold(Trajectory):
     """Hold a pose (zero twist): the start pose — the (6+1) robot's 'end-effector held still' — or a given one.
 
     A started hold keeps its pose in its parameter row (p0, R0): a new pose (:attr:`pose`, or a frame task's
-    ``set_target``) is written there in place and moves :attr:`revision`, so a fused step takes it as data.
+    ``set_target``) is written there in place and moves ``revision``, so a fused step takes it as data.
 
     Args:
         pose: A fixed pose to hold (a target set at run time); ``None`` holds the pose captured at start.
