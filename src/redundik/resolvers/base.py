@@ -121,6 +121,11 @@ class StepResult:
         build_time: Seconds spent building the problem.
         solve_time: Seconds spent solving it.
         main: Indices into ``terms`` of the main tasks (``None``: all of them).
+        scale: The fraction α ∈ [0, 1] of the main tasks' commanded velocity the step delivers when the resolver
+            scales it to keep its direction (``scaling="direction"``); 1.0 when it does not scale.
+        stuck: True when ``scale`` fell below the resolver's threshold (the limits leave almost no motion along V).
+        relaxed: The documented relaxations this step made (for instance an inequality level that could not be
+            fully met), by member name; empty when the stack was met as asked. Not an alarm: ``fallback`` is.
     """
 
     dq: np.ndarray
@@ -136,6 +141,9 @@ class StepResult:
     build_time: float = 0.0
     solve_time: float = 0.0
     main: list[int] | None = None
+    scale: float = 1.0
+    stuck: bool = False
+    relaxed: tuple[str, ...] = ()
 
     @property
     def main_terms(self) -> list[TaskTerm]:
