@@ -50,6 +50,7 @@ def _compare(
     fused_expected: bool = True,
     fallbacks: list[str] | None = None,
     qp_steps: list[int] | None = None,
+    paths: list[str] | None = None,
     **options,
 ) -> list[bool]:
     """Step a fused and a per-task copy on the fused copy's trajectory; q̇ and what the result reports must agree.
@@ -96,6 +97,8 @@ def _compare(
                 np.testing.assert_allclose(pa, pb, rtol=0, atol=1e-12 * scale, err_msg=f"{part}, step {k}")
         if fallbacks is not None and a.fallback is not None:
             fallbacks.append(a.fallback)
+        if paths is not None:
+            paths.append(str(a.info["path"]))
         if qp_steps is not None and a.info["qp"]:
             qp_steps.append(k)
         assert a.task_error == pytest.approx(b.task_error, rel=1e-12, abs=1e-15)
@@ -221,14 +224,22 @@ def test_large_rotation_error_takes_the_per_task_path() -> None:
         assert all(took[-10:]), "the fused step resumed once the rotation error is small"
 
 
-def test_stacks_without_a_compiled_form_are_not_fused() -> None:
-    """A potential without a linear gradient: the per-task path, and the same answer."""
+@pytest.mark.parametrize("method", ["pinv", "wqp", "hqp"])
+def test_a_potential_without_a_compiled_form_runs_mixed(method: str) -> None:
+    """A potential without a linear gradient: its direction is written from Python into the compiled step's z (a
+    mixed step, naming it), and the answer is the per-task path's."""
     from redundik.tasks.potentials import JointSine2
 
     def stack(robot: RobotModel) -> TaskStack:
-        return TaskStack([_hand(Circle(0.05, 1.5, plane=("y", "z")))], [GradientSubtask(JointSine2("panda_joint4"))])
+        return TaskStack(
+            [_hand(Circle(0.05, 1.5, plane=("y", "z"))), PostureTask(gain=1.0)],
+            [GradientSubtask(JointSine2("panda_joint4"))],
+        )
 
-    assert not any(_compare(stack, "pinv", steps=20, fused_expected=False))
+    paths: list[str] = []
+    took = _compare(stack, method, steps=40, paths=paths)
+    assert sum(took) >= 32
+    assert set(paths[2:]) == {"mixed"}
 
 
 def test_frame_jacobian_from_joint_jacobians_is_pinocchios() -> None:

@@ -96,11 +96,14 @@ def _blas_limiter() -> _BlasLimit:
     return _CONTROLLER
 
 
-#: ``result.info["path"]``: the step's rows were written by compiled writers (the fused step), or by the members'
-#: Python ``evaluate``; ``result.info["interpreted"]`` names the members without a compiled form (empty when compiled).
-COMPILED, INTERPRETED = "compiled", "interpreted"
+#: ``result.info["path"]``: the step's rows were written by compiled writers (the fused step), by compiled writers
+#: and the Python ``evaluate`` of the members without a compiled form before one compiled solve (mixed), or by every
+#: member's Python ``evaluate``; ``result.info["interpreted"]`` names the members written from Python (empty when
+#: compiled).
+COMPILED, MIXED, INTERPRETED = "compiled", "mixed", "interpreted"
 _LOG = logging.getLogger("redundik")
 _WARNED_INTERPRETED: set[tuple[str, tuple[str, ...]]] = set()
+_WARNED_MIXED: set[tuple[str, tuple[str, ...]]] = set()
 
 
 @dataclass
@@ -559,9 +562,24 @@ class Resolver(ABC):
         d = res.__dict__
         info = d["_info"] if "_info" in d else d.get("info")
         if info is not None:  # which path wrote the rows (issue 31): one entry, not a diagnostic to compute
-            if d.get("_compiled"):
+            compiled = d.get("_compiled")
+            if compiled is True:
                 dict.__setitem__(info, "path", COMPILED)
                 dict.__setitem__(info, "interpreted", ())
+            elif compiled:  # the names of the members a mixed plan wrote from Python
+                dict.__setitem__(info, "path", MIXED)
+                dict.__setitem__(info, "interpreted", compiled)
+                if (self.name, compiled) not in _WARNED_MIXED:
+                    _WARNED_MIXED.add((self.name, compiled))
+                    _LOG.warning(
+                        "%s: the stack runs mixed: %s %s no compiled form and %s written by %s Python evaluate "
+                        "before the compiled solve (result.info['path'] == 'mixed')",
+                        self.name,
+                        ", ".join(compiled),
+                        "has" if len(compiled) == 1 else "have",
+                        "is" if len(compiled) == 1 else "are",
+                        "its" if len(compiled) == 1 else "their",
+                    )
             else:
                 dict.__setitem__(info, "path", INTERPRETED)
                 dict.__setitem__(info, "interpreted", self._interpreted_members(robot, stack))

@@ -33,7 +33,7 @@ from redundik.kinematics.memory import jacobian_view, se3_vector_view
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult
 from redundik.resolvers.linalg import FK
-from redundik.tasks.base import NOT_READY, Edits, FrameForm, Task, TaskTerm
+from redundik.tasks.base import NOT_READY, Edits, FrameForm, Task, TaskTerm, check_term
 from redundik.tasks.frame import FrameTask
 from redundik.tasks.stack import StackLayout, TaskStack
 from redundik.tasks.subtasks import GradientSubtask
@@ -48,7 +48,15 @@ REF = 18
 #: joint rows, joint row starts (J + 1), identity flags (J), q index per velocity coordinate (nv), main-row flags (m),
 #: then the offsets in ``floats`` of the trajectory parameters (K × 23), joint targets (J × nq), null weights (N × nv)
 #: and null centres (N × nq), then the offsets in ``ints`` of the frame ids (K) and the supporting columns (K × nv).
-HEADER = 22
+HEADER = 24
+#: Header slots of a mixed plan (issue 31's row protocol): the rows the members without a compiled form write from
+#: Python (their ``evaluate``) after the compiled rows, and 1 when Python writers add to the null-space objective z.
+H_EXTERNAL_ROWS, H_EXTERNAL_Z = 22, 23
+#: Roles of a member written from Python in a mixed plan: rows of the main system / of its level (``ROW``), a term of
+#: the null-space objective z (``NULL``: z += v), a joint-space null term on Lie-group coordinates (``LIE_NULL``:
+#: z[sel] += K (q_ref ⊖ q)[sel], Pinocchio's difference), a gradient subtask (``GRADIENT``: z += k η), or evaluated
+#: for the step's terms only (``TERM``: a task the resolver leaves out of its closed form).
+ROW, NULL, LIE_NULL, GRADIENT, TERM = 0, 1, 2, 3, 4
 #: Columns of a packed bound subtask's integer row (``fused_kernels.clearance_rows``): frame id, first row of C,
 #: lower bound set, upper bound set, the number of axes, then the axes (indices into x, y, z).
 B_FID, B_ROW, B_LOWER, B_UPPER, B_NAXES, B_AXES = 0, 1, 2, 3, 4, 5
@@ -110,6 +118,17 @@ class FusedPlan:
         self.gradient_checks: list[tuple[GradientSubtask, Form]] = []
         self.slots: list[tuple[int, Any, int, int, int, Any]] = []  # per stack task, for ``terms``
         self.qp = False  # built for wqp (weights, joint tasks at a level) rather than pinv
+        #: the members written from Python, in stack order (tasks) then the gradient subtasks: (role, member, ρ^k)
+        self.external: list[tuple[int, Any, float]] = []
+        self.external_rows: list[int] = []  # rows each ``ROW`` member wrote at the last packing
+        self.external_starts: list[int] = []  # where they start among the step's rows
+        self.external_names: tuple[str, ...] = ()
+        self.mx = 0  # rows written from Python (after the compiled rows)
+        self.index: dict[int, int] = {}
+        self.level_forms: list[Form] = []
+        self.identity: list[bool] = []
+        self.main_set: set[int] = set()
+        self.robot: RobotModel | None = None
 
     # ------------------------------------------------------------------ building
     @classmethod
@@ -120,26 +139,29 @@ class FusedPlan:
         layout: StackLayout,
         scales: dict[int, tuple[float, bool]] | None,
         null_scale: float,
+        mixed: bool | str = False,
     ) -> FusedPlan | str | None:
-        """The plan of ``stack``; ``None`` when a member has no compiled form (the per-task path then runs), or
-        ``NOT_YET`` when a frame task has not been evaluated on this robot yet.
+        """The plan of ``stack``; ``None`` when a member has no compiled form and ``mixed`` is off (the per-task
+        path then runs), or ``NOT_YET`` when a frame task has not been evaluated on this robot yet.
 
         Args:
-            scales: Per task index, (ρ^k of its level, identity Jacobian) for ``wqp``; ``None`` for ``pinv``, whose
-                main tasks must then all be frame tasks.
+            scales: Per task index, (ρ^k of its level, identity Jacobian) for ``wqp``; ``None`` for ``pinv``.
             null_scale: ρ^k of the null-space objective's level (``wqp``; 1 for ``pinv``).
+            mixed: Members without a compiled form are written from Python (their ``evaluate``, a subtask's
+                ``direction``) into the step's buffers before the compiled call (:attr:`external`), instead of
+                sending the whole stack down the per-task path; ``"null"``: only terms of the null-space objective
+                (a resolver whose compiled step takes no Python-written rows: ``hqp``).
         """
         plan = cls()
         iq = np.array([j.idx_q for j in robot.joints], dtype=np.int64)
         null_tasks = set(layout.null_tasks)
+        main_set = set(layout.main)
         identity: list[bool] = []
         level_forms: list[Form] = []
         forms: list[FrameForm] = []
         for i, task in enumerate(stack.tasks):
             frame_form = task.frame_form(robot)
-            if frame_form is not None:
-                if i in null_tasks:
-                    return None
+            if frame_form is not None and i not in null_tasks:
                 if frame_form == NOT_READY:
                     return cls.NOT_YET
                 assert isinstance(frame_form, FrameForm)
@@ -147,50 +169,76 @@ class FusedPlan:
                 plan.frames.append(task)  # type: ignore[arg-type]  # (a task with a frame form)
                 forms.append(frame_form)
                 continue
-            form = task.joint_form(robot)
-            if form is None or (iq[form[0]] < 0).any():  # no form, or a Lie-group coordinate (not a subtraction)
-                return None
+            form = task.joint_form(robot) if frame_form is None else None
+            lie = form is not None and bool((iq[form[0]] < 0).any())  # a coordinate that is not a subtraction
             if i in null_tasks:
-                if not task.identity_jacobian or form[0].shape[0] != robot.nv:
+                if form is not None and task.identity_jacobian and form[0].shape[0] == robot.nv and not lie:
+                    plan.order.append(("n", len(plan.nulls)))
+                    plan.nulls.append(task)
+                    plan.null_targets.append(form[1])
+                elif not mixed:
                     return None
-                plan.order.append(("n", len(plan.nulls)))
-                plan.nulls.append(task)
-                plan.null_targets.append(form[1])
-            elif scales is None:  # pinv: the main tasks are the frames' rows only
-                return None
-            else:
+                else:
+                    plan._external(task, LIE_NULL if form is not None and lie else NULL, 1.0)
+            elif scales is None:  # pinv: a main task without a frame form; a task below it is only evaluated
+                if not mixed:
+                    return None
+                plan._external(task, ROW if i in main_set else TERM, 1.0)
+            elif form is not None and not lie:
                 plan.order.append(("j", len(plan.level_joints)))
                 plan.level_joints.append(task)
                 plan.targets.append(form[1])
                 level_forms.append(form)
                 identity.append(bool(scales.get(i, (1.0, False))[1]))
+            elif not mixed or scales.get(i, (1.0, False))[1]:  # (an identity task is a diagonal shift: per-task)
+                return None
+            else:
+                plan._external(task, ROW, scales.get(i, (1.0, False))[0])
         for sub in layout.gradients:
             lin = sub.potential.linear_gradient(robot)
             if lin is None or (iq[np.flatnonzero(lin[0])] < 0).any():
-                return None
+                if not mixed:
+                    return None
+                plan._external(sub, GRADIENT, 1.0)
+                continue
             plan.gradients.append(sub)
             plan.gradient_forms.append(lin)
+        if mixed == "null" and any(role in (ROW, TERM) for role, _, _ in plan.external):
+            return None
         jw, poses = jacobian_view(robot.data), se3_vector_view(robot.data.oMf)
         if jw is None or poses is None:  # Pinocchio's memory not laid out as checked: the per-task path
             return None
         plan.jw, plan.poses = jw, poses
         index = {id(t): i for i, t in enumerate(stack.tasks)}
+        plan.index = index
         scale = scales or {}
         plan.scales = [scale.get(index[id(t)], (1.0, False))[0] for t in plan.frames + plan.level_joints]
-        plan.null_scale = float(null_scale) if (plan.nulls or plan.gradients) else 0.0
+        has_null = plan.nulls or plan.gradients or any(r in (NULL, LIE_NULL, GRADIENT) for r, _, _ in plan.external)
+        plan.null_scale = float(null_scale) if has_null else 0.0
         plan.qp = scales is not None
         plan.forms = forms
-        plan._pack(robot, iq, level_forms, identity, set(layout.main), index)
+        plan.level_forms, plan.identity, plan.main_set = level_forms, identity, main_set
+        plan._pack(robot, iq, level_forms, identity, main_set, index)
         plan.data = robot.data
-        start = plan.param_offset
-        plan.frame_checks = [
-            (f.task, f.revision, f.trajectory, plan.floats[start + k * PARAMS : start + (k + 1) * PARAMS])
-            for k, f in enumerate(forms)
-        ]
-        plan.revisions = [f.trajectory.revision for f in forms]
         plan.joint_checks = list(zip(plan.level_joints + plan.nulls, plan.targets + plan.null_targets, strict=True))
         plan.gradient_checks = list(zip(plan.gradients, plan.gradient_forms, strict=True))
         return plan
+
+    def _frame_checks(self) -> None:
+        """Per frame member: its task, its form revision when packed, its trajectory, and a view of its packed
+        parameter row (after every packing: the views are into the new ``floats``)."""
+        start = self.param_offset
+        self.frame_checks = [
+            (f.task, f.revision, f.trajectory, self.floats[start + k * PARAMS : start + (k + 1) * PARAMS])
+            for k, f in enumerate(self.forms)
+        ]
+        self.revisions = [f.trajectory.revision for f in self.forms]
+
+    def _external(self, member: Any, role: int, scale: float) -> None:
+        """Register a member written from Python (role ``ROW``, ``NULL``, ``LIE_NULL``, ``GRADIENT`` or ``TERM``)."""
+        if role != GRADIENT:
+            self.order.append(("x", len(self.external)))
+        self.external.append((role, member, scale))
 
     def _pack(
         self,
@@ -204,6 +252,14 @@ class FusedPlan:
         """Write ``ints`` and ``floats`` in the layout of ``fused_kernels.HEADER``."""
         nv, nq = robot.nv, robot.nq
         K, J = len(self.frames), len(self.level_joints)
+        self.robot = robot
+        rows_of = [r for r in self.external_rows]
+        if len(rows_of) != sum(1 for role, _, _ in self.external if role == ROW):
+            rows_of = self.external_rows = [0] * sum(1 for role, _, _ in self.external if role == ROW)
+        self.mx = sum(rows_of)
+        self.external_names = tuple(
+            str(getattr(member, "name", type(member).__name__)) for role, member, _ in self.external if role != LIE_NULL
+        )
         nulls = self.gradient_forms + [(np.ones(nv), target) for target in self.null_targets]
         N = len(nulls)
         forms = self.forms
@@ -217,9 +273,9 @@ class FusedPlan:
         jsel = [int(s) for f in level_forms for s in f[0]]
         jstarts = np.cumsum([0] + [f[0].shape[0] for f in level_forms]).tolist()
         mf = int(starts[-1])
-        self.m = mf + int(jstarts[-1])
+        self.m = mf + int(jstarts[-1]) + self.mx
         self.pinv_work = FK.pinv_work_size(K, self.m, nv)  # a pinv step's flat work array
-        self.wqp_work = FK.wqp_work_size(K, self.m, nv)  # a wqp step's
+        self.wqp_work = FK.wqp_work_size(K, self.m, nv, self.mx)  # a wqp step's
         main_rows = [0] * self.m
         for k, task in enumerate(self.frames):
             if index[id(task)] in main:
@@ -227,6 +283,13 @@ class FusedPlan:
         for k, joint in enumerate(self.level_joints):
             if index[id(joint)] in main:
                 main_rows[mf + jstarts[k] : mf + jstarts[k + 1]] = [1] * (jstarts[k + 1] - jstarts[k])
+        a = mf + int(jstarts[-1])
+        self.external_starts.clear()
+        for (role, member, _), rows in zip([x for x in self.external if x[0] == ROW], rows_of, strict=True):
+            self.external_starts.append(a)
+            if role == ROW and index[id(member)] in main:
+                main_rows[a : a + rows] = [1] * rows
+            a += rows
         parts: list[list[int]] = [
             kinds,
             frows,
@@ -248,6 +311,8 @@ class FusedPlan:
                     col[jm.idx_v : jm.idx_v + jm.nv] = [1] * jm.nv
             columns += col
         ints = [K, J, N, self.m, nv, nq] + [0] * (HEADER - 6)
+        ints[H_EXTERNAL_ROWS] = self.mx
+        ints[H_EXTERNAL_Z] = int(any(role in (NULL, LIE_NULL, GRADIENT) for role, _, _ in self.external))
         for slot, part in zip([*range(6, 15), 20, 21], [*parts, self.fids, columns], strict=True):
             ints[slot] = len(ints)
             ints += part
@@ -266,6 +331,77 @@ class FusedPlan:
         self.ints = np.array(ints, dtype=np.int64)
         self.floats = np.array(floats, dtype=float)
         self.refs = np.zeros((K, REF))
+        self._frame_checks()
+
+    # ------------------------------------------------------------------ Python writers (a mixed plan)
+    def evaluate_external(self, robot: RobotModel, t: float) -> list[TaskTerm | None] | None:
+        """Each Python-written member's term at t (``None`` for what has no term of its own: a gradient subtask, a
+        Lie-group null term), in :attr:`external` order; the plan is packed again when a member's row count moved.
+        ``None``: a term is not a (r, nv) Jacobian with r-vectors v and e (the per-task path says what is wrong)."""
+        nv = robot._nv
+        out: list[TaskTerm | None] = []
+        rows: list[int] = []
+        for role, member, _ in self.external:
+            if role == ROW or role == NULL or role == TERM:
+                term = member.evaluate(robot, t)
+                J, v, e = term.J, term.v, term.error
+                if not (
+                    type(J) is np.ndarray
+                    and type(v) is np.ndarray
+                    and type(e) is np.ndarray
+                    and J.ndim == 2
+                    and J.shape[1] == nv
+                    and v.shape == e.shape == (J.shape[0],)
+                ):
+                    check_term(term, nv)  # raises, naming the task and its shapes
+                    return None  # (a term of numbers that are not float arrays: the per-task path takes it)
+                if role == NULL and J.shape[0] != nv:
+                    return None
+                if role == ROW:
+                    rows.append(J.shape[0])
+                out.append(term)
+            else:
+                out.append(None)
+        if rows != self.external_rows:
+            self.external_rows = rows
+            iq = np.array([j.idx_q for j in robot.joints], dtype=np.int64)
+            self._pack(robot, iq, self.level_forms, self.identity, self.main_set, self.index)
+        return out
+
+    def write_external(
+        self,
+        robot: RobotModel,
+        terms: list[TaskTerm | None],
+        Jrows: np.ndarray,
+        offset: int,
+        ev: np.ndarray,
+        weights: np.ndarray | None,
+        zx: np.ndarray,
+    ) -> None:
+        """Write the Python members' blocks into a step's buffers: a ``ROW`` member's J into ``Jrows`` (its rows
+        from ``offset``), its e and v into ``ev`` and its weight × ρ^k into ``weights`` (``wqp``); the null-space
+        objective's Python terms into ``zx`` (z += v, z[sel] += K (q_ref ⊖ q)[sel], z += k η)."""
+        zx[:] = 0.0
+        k = 0
+        for (role, member, scale), term in zip(self.external, terms, strict=True):
+            if role == ROW:
+                assert term is not None
+                a = self.external_starts[k]
+                b = a + self.external_rows[k]
+                k += 1
+                Jrows[a - offset : b - offset] = term.J
+                ev[0, a:b] = term.error
+                ev[1, a:b] = term.v
+                if weights is not None:
+                    weights[a - offset : b - offset] = term.weight * scale
+            elif role == NULL:
+                assert term is not None
+                zx += term.v
+            elif role == LIE_NULL:
+                sel, target = member.joint_form(robot)
+                zx[sel] += member.gain * robot.difference(robot.q, target)[sel]
+            elif role == GRADIENT and member.gain != 0.0:
+                zx += member.direction(robot)
 
     # ------------------------------------------------------------------ per step
     def current(self, robot: RobotModel) -> bool:
@@ -335,8 +471,16 @@ class FusedPlan:
         return refs
 
     # ------------------------------------------------------------------ results
-    def terms(self, Jf: np.ndarray, ev: np.ndarray, q: np.ndarray, robot: RobotModel) -> list[TaskTerm]:
-        """The step's task terms in stack order: what every task's ``evaluate`` would have returned."""
+    def terms(
+        self,
+        Jf: np.ndarray,
+        ev: np.ndarray,
+        q: np.ndarray,
+        robot: RobotModel,
+        external: list[TaskTerm | None] | tuple[()] = (),
+    ) -> list[TaskTerm]:
+        """The step's task terms in stack order: what every task's ``evaluate`` would have returned (``external``:
+        the terms the Python-written members gave at this step, :meth:`evaluate_external`)."""
         out: list[TaskTerm] = []
         e_all, v_all = ev[0], ev[1]
         weights = self.weights
@@ -346,9 +490,13 @@ class FusedPlan:
                 out.append(TaskTerm(task.name, Jk, v_all[a:b], e_all[a:b], weights[k]))
             elif kind == 1:  # a joint-space task of a level (``extra``: its rows of the identity)
                 out.append(TaskTerm(task.name, extra, v_all[a:b], e_all[a:b], weights[k]))
+            elif kind == 3:  # a member written from Python: the term its evaluate gave at this step
+                out.append(external[k])
             else:  # a regularisation task: its e from the step's q, as its evaluate computes it
                 sel, target = task.joint_form(robot)
                 e = robot.difference(q, target)[sel]
+                if extra is None:
+                    extra = _identity_rows(robot.nv, sel)
                 out.append(TaskTerm(task.name, extra, task.gain * e, e, task.weight))
         return out
 
@@ -358,6 +506,7 @@ class FusedPlan:
         ev: np.ndarray | None,
         q: np.ndarray,
         robot: RobotModel,
+        external: list[TaskTerm | None] | tuple[()] = (),
     ) -> Callable[[], list[TaskTerm]]:
         """A callable giving the step's :meth:`terms`, built on its first call: the result and its lazy
         diagnostics share them without holding each other (no reference cycle keeps a step's result alive).
@@ -368,10 +517,10 @@ class FusedPlan:
             if not cell:
                 if callable(Jf):
                     J, e = Jf()
-                    cell.append(self.terms(J, e, q, robot))
+                    cell.append(self.terms(J, e, q, robot, external))
                 else:
                     assert ev is not None
-                    cell.append(self.terms(Jf, ev, q, robot))
+                    cell.append(self.terms(Jf, ev, q, robot, external))
             return cell[0]
 
         return make
@@ -390,6 +539,9 @@ class FusedPlan:
             elif kind == "j":
                 rows = _identity_rows(robot.nv, level_forms[k][0])
                 slots.append((1, self.level_joints[k], K + k, mf + jstarts[k], mf + jstarts[k + 1], rows))
+            elif kind == "x":
+                role, member, _ = self.external[k]
+                slots.append((2, member, -1, 0, 0, None) if role == LIE_NULL else (3, member, k, 0, 0, None))
             else:
                 rows = _identity_rows(robot.nv, null_forms[k][0])  # type: ignore[index]
                 slots.append((2, self.nulls[k], -1, 0, 0, rows))

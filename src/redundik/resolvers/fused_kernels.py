@@ -35,6 +35,8 @@ from redundik.resolvers.fused import (
     B_ROW,
     B_UP,
     B_UPPER,
+    H_EXTERNAL_ROWS,
+    H_EXTERNAL_Z,
     HEADER,
     REF,
 )
@@ -249,10 +251,28 @@ def fused_wqp_step(
                 P[s, s] += w
         if jident[k] != 0:
             shift += w
+    mx = ints[H_EXTERNAL_ROWS]
+    Jx, wx, zx = wqp_external_views(work, K, m, nv, mx)
+    base = m - mx
+    for r in range(mx):  # the rows Python writers gave (a mixed plan): P += w JᵀJ, g −= w Jᵀv, row by row
+        w = wx[r]
+        if w != 0.0:
+            Jr = Jx[r]
+            vr = w * v[base + r]
+            for i in range(nv):
+                a = w * Jr[i]
+                if a != 0.0:
+                    g[i] -= vr * Jr[i]
+                    for j in range(nv):
+                        P[i, j] += a * Jr[j]
     z_scale = coef[c0 + 2 * J]
     z = np.zeros(nv)
-    if z_scale != 0.0 and N > 0:
-        _null_objective(q, ints, floats, coef[c0 + 2 * J + 1 : c0 + 2 * J + 1 + N], z)
+    if z_scale != 0.0:
+        if N > 0:
+            _null_objective(q, ints, floats, coef[c0 + 2 * J + 1 : c0 + 2 * J + 1 + N], z)
+        if ints[H_EXTERNAL_Z] != 0:
+            for i in range(nv):
+                z[i] += zx[i]
         shift += z_scale
     o = c0 + 2 * J + 1 + N
     inside = wqp_free_step(
@@ -317,14 +337,30 @@ def fused_pinv_step(
         z[i] = 0.0
     if N > 0:
         _null_objective(q, ints, floats, coef[K : K + N], z)
+    has_z = N > 0
+    if ints[H_EXTERNAL_Z] != 0:  # the null-space terms Python writers gave (a mixed plan), before z
+        zx = work[work.shape[0] - 2 * nv : work.shape[0] - nv]
+        for i in range(nv):
+            z[i] += zx[i]
+        has_z = True
     o = K + N
-    rank, sigma_min, damping = closed_form_into(Jm, v, z, N > 0, coef[o], coef[o + 1], coef[o + 2], out, True)
+    rank, sigma_min, damping = closed_form_into(Jm, v, z, has_z, coef[o], coef[o + 1], coef[o + 2], out, True)
     return 1.0, rank, sigma_min, damping, _main_error2(ints, e[0:m]), _sumsq(out[2])
 
 
-def wqp_work_size(K: int, m: int, nv: int) -> int:
-    """Length of :func:`fused_wqp_step`'s ``work`` for K frame tasks, m rows and nv velocity coordinates."""
-    return 7 * nv + 2 * m + 6 * K * nv
+def wqp_work_size(K: int, m: int, nv: int, mx: int = 0) -> int:
+    """Length of :func:`fused_wqp_step`'s ``work`` for K frame tasks, m rows (mx of them written from Python) and nv
+    velocity coordinates."""
+    return 7 * nv + 2 * m + 6 * K * nv + mx * nv + mx + nv
+
+
+@_jit
+def wqp_external_views(work: np.ndarray, K: int, m: int, nv: int, mx: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The parts of a ``wqp`` step's ``work`` that Python writers fill (a mixed plan): their rows' Jacobian (mx, nv),
+    weights × ρ^k (mx,) and null-space objective terms (nv,); views, after :func:`wqp_work_views`' parts."""
+    a = 7 * nv + 2 * m + 6 * K * nv
+    b = a + mx * nv
+    return work[a:b].reshape((mx, nv)), work[b : b + mx], work[b + mx : b + mx + nv]
 
 
 @_jit
@@ -337,8 +373,9 @@ def wqp_work_views(work: np.ndarray, K: int, m: int, nv: int) -> tuple[np.ndarra
 
 
 def pinv_work_size(K: int, m: int, nv: int) -> int:
-    """Length of :func:`fused_pinv_step`'s ``work`` for K frame tasks, m main rows and nv velocity coordinates."""
-    return 3 * nv + m * nv + 2 * m + 6 * K * nv + nv
+    """Length of :func:`fused_pinv_step`'s ``work`` for K frame tasks, m main rows and nv velocity coordinates: the
+    parts of :func:`pinv_work_views`, then the null-space terms Python writers give (nv,) and z (nv,)."""
+    return 3 * nv + m * nv + 2 * m + 6 * K * nv + 2 * nv
 
 
 @_jit
@@ -478,7 +515,13 @@ def fused_hqp_step(
             b[a] = gain * err
             w[a] = wk
     if N > 0:
-        _null_objective(q, ints, floats, coef[c0 + 2 * J + 1 : c0 + 2 * J + 1 + N], z)
+        if ints[H_EXTERNAL_Z] != 0:  # z holds the terms Python writers gave (a mixed plan): kept, added after
+            zx = z.copy()
+            _null_objective(q, ints, floats, coef[c0 + 2 * J + 1 : c0 + 2 * J + 1 + N], z)
+            for i in range(nv):
+                z[i] += zx[i]
+        else:
+            _null_objective(q, ints, floats, coef[c0 + 2 * J + 1 : c0 + 2 * J + 1 + N], z)
     for i in range(m, dest.shape[0]):  # a level with rows of its own and the null-space objective: ½‖q̇ − z‖² rows
         a = dest[i]
         for r in range(nv):

@@ -10,7 +10,7 @@ import functools
 import math
 import time
 from collections.abc import Callable
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -111,14 +111,15 @@ class PinvResolver(Resolver):
         if self.fuse:
             fused = self._fused
             if fused is None or fused[0] is not layout or fused[1] == FusedPlan.NOT_YET:
-                built = FusedPlan.build(robot, stack, layout, None, 1.0)
+                built = FusedPlan.build(robot, stack, layout, None, 1.0, mixed=True)
                 fused = self._fused = (layout, built if built is not None else False)
             plan = fused[1]
             if isinstance(plan, FusedPlan):
                 if plan.current(robot):
                     res = self._fused_solve(robot, plan, main, t, t0)
                     if res is not None:
-                        res.__dict__["_compiled"] = True  # (Resolver.step reports the path)
+                        # (Resolver.step reports the path: compiled, or mixed naming the Python-written members)
+                        res.__dict__["_compiled"] = plan.external_names or True
                         return res
                 else:
                     self._fused = None  # a member changed: planned again at the next step
@@ -181,7 +182,17 @@ class PinvResolver(Resolver):
         needs the per-task path (a rotation error beyond the compiled log3's range, a non-finite q̇ to diagnose)."""
         coef = plan.coefficients(self._tail)
         refs = plan.given_references(t) if plan.given else plan.refs
+        external: list[TaskTerm | None] | tuple[()] = ()
+        if plan.external:  # the members without a compiled form: their evaluate, written into the step's rows
+            evaluated = plan.evaluate_external(robot, t)
+            if evaluated is None:
+                return None
+            external = evaluated
         work = np.empty(plan.pinv_work)  # q̇'s parts, J, e and v, the frames' Jacobians: one allocation
+        if external:
+            n = robot._nv
+            _, Jm, ev, _ = FK.pinv_work_views(work, len(plan.frames), plan.m, n)
+            plan.write_external(robot, external, Jm, 0, ev, None, work[work.shape[0] - 2 * n : work.shape[0] - n])
         q = robot.q
         status, rank, sigma_min, damping, err2, dq2 = FK.fused_pinv_step(
             plan.jw, plan.poses, float(t), refs, q, plan.ints, plan.floats, coef, work
@@ -189,16 +200,16 @@ class PinvResolver(Resolver):
         if status < 0.0 or not math.isfinite(dq2):  # a non-finite q̇: the per-task path diagnoses it
             return None
         return FusedPinvResult.of(
-            work, plan, q, robot, rank, sigma_min, damping, err2, dq2, time.perf_counter() - t0, main
+            work, plan, q, robot, rank, sigma_min, damping, err2, dq2, time.perf_counter() - t0, main, external
         )
 
     def __repr__(self) -> str:
         return f"PinvResolver(epsilon={self.epsilon}, max_damping={self.max_damping})"
 
 
-def _fused_sigma(step: tuple[np.ndarray, FusedPlan, np.ndarray, RobotModel]) -> tuple[float, bool, dict[str, object]]:
+def _fused_sigma(step: tuple[Any, ...]) -> tuple[float, bool, dict[str, object]]:
     """σ_min of a fused ``pinv`` step's main Jacobian (read from its work array; the step was undamped)."""
-    work, plan, _, robot = step
+    work, plan, _, robot, _ = step
     Jm = FK.pinv_work_views(work, len(plan.frames), plan.m, robot._nv)[1]
     smin = float(np.sqrt(max(float(np.linalg.eigvalsh(Jm @ Jm.T)[0]), 0.0)))
     return smin, False, {"sigma_min": smin}
@@ -222,6 +233,7 @@ class FusedPinvResult(FusedStepResult):
         dq2: float,
         build_time: float,
         main: list[int],
+        external: list[TaskTerm | None] | tuple[()] = (),
     ) -> FusedPinvResult:
         """The result of ``fused_pinv_step``'s outputs (σ_min NaN: J well conditioned and undamped, computed on
         first read)."""
@@ -240,14 +252,14 @@ class FusedPinvResult(FusedStepResult):
             "pending": True if lazy else None,  # ``_resolve`` computes σ_min from the step's J
             "_task_error": math.sqrt(err2),
             "_dq_norm": math.sqrt(dq2),  # ‖q̇‖ from the compiled call (the divergence watch reads it)
-            "_step": (work, plan, q, robot),
+            "_step": (work, plan, q, robot, external),
         }
         if not lazy:
             res.__dict__["_sigma_min"], res.__dict__["_damped"] = sigma_min, damping > 0.0
         return res
 
     def _views(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        work, plan, _, robot = self.__dict__["_step"]
+        work, plan, _, robot, _ = self.__dict__["_step"]
         return FK.pinv_work_views(work, len(plan.frames), plan.m, robot._nv)
 
     def _pending_fn(self) -> Callable[[], tuple[float, bool, dict[str, object]]]:
@@ -261,9 +273,9 @@ class FusedPinvResult(FusedStepResult):
         d = self.__dict__
         terms = d.get("_terms")
         if terms is None:
-            _, plan, q, robot = d["_step"]
+            _, plan, q, robot, external = d["_step"]
             _, _, ev, Jf = self._views()
-            terms = d["_terms"] = plan.terms(Jf, ev, q, robot)
+            terms = d["_terms"] = plan.terms(Jf, ev, q, robot, external)
         return terms
 
     @terms.setter

@@ -317,4 +317,28 @@ def stack_terms(terms: list[TaskTerm], nv: int) -> tuple[np.ndarray, np.ndarray]
         return np.zeros((0, nv)), np.zeros(0)
     if len(terms) == 1:
         return terms[0].J, terms[0].v
-    return np.vstack([t.J for t in terms]), np.concatenate([t.v for t in terms])
+    try:
+        return np.vstack([t.J for t in terms]), np.concatenate([t.v for t in terms])
+    except ValueError:  # a term of the wrong shape (a user's evaluate): say which
+        for t in terms:
+            check_term(t, nv)
+        raise
+
+
+def check_term(term: TaskTerm, nv: int) -> None:
+    """``term`` is a (m, nv) Jacobian with a velocity and an error of shape (m,).
+
+    Raises:
+        TaskError: naming the task and the shapes it gave.
+    """
+    J, v, e = term.J, term.v, term.error
+    try:
+        shapes: list[tuple[int, ...] | None] = [tuple(np.shape(x)) for x in (J, v, e)]
+    except ValueError:  # ragged nested lists
+        shapes = [None, None, None]
+    m = shapes[0][0] if shapes[0] is not None and len(shapes[0]) == 2 else None
+    if m is None or shapes[0] != (m, nv) or shapes[1] != (m,) or shapes[2] != (m,):
+        raise TaskError(
+            f"task '{term.name}': evaluate returned J of shape {shapes[0]}, v of shape {shapes[1]} and error of "
+            f"shape {shapes[2]}; expected J (m, {nv}) and v, error (m,) (m rows, {nv} velocity coordinates)"
+        )

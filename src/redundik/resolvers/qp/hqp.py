@@ -533,7 +533,7 @@ class _Plan:
             return False
         null = set(layout.null_tasks)
         scales = {i: (1.0, bool(task.identity_jacobian)) for i, task in enumerate(stack.tasks) if i not in null}
-        built = FusedPlan.build(robot, stack, layout, scales, 1.0)
+        built = FusedPlan.build(robot, stack, layout, scales, 1.0, mixed="null")
         if not isinstance(built, FusedPlan):
             return False if built is None else built
         ints = built.ints
@@ -1012,7 +1012,8 @@ class HierarchicalQPResolver(QPResolverBase):
             if fused.current(robot):
                 res = self._fused_solve(robot, stack, plan, fused, t, dt)
                 if res is not None:
-                    res.__dict__["_compiled"] = True  # (Resolver.step reports the path)
+                    # (Resolver.step reports the path: compiled, or mixed naming the Python-written members)
+                    res.__dict__["_compiled"] = fused.external_names or True
                     return res
             else:
                 plan.fused = None  # a member changed (a new target, trajectory): planned again at the next step
@@ -1093,6 +1094,13 @@ class HierarchicalQPResolver(QPResolverBase):
         Jf = np.empty((len(fused.frames), 6, n))
         ev = np.empty((2, fused.m))
         z = np.zeros(n)
+        external: list[TaskTerm | None] | tuple[()] = ()
+        if fused.external:  # null-space terms without a compiled form: written into z before the compiled call
+            evaluated = fused.evaluate_external(robot, t)
+            if evaluated is None:
+                return None
+            external = evaluated
+            fused.write_external(robot, external, Jf, 0, ev, None, z)
         out = np.empty((7, 1, n))
         stats = np.empty((plan.meta.shape[1] - 1, 4))
         q = robot.q
@@ -1105,7 +1113,7 @@ class HierarchicalQPResolver(QPResolverBase):
             return None
         t1 = time.perf_counter()
         zs = z if plan.layout.has_null_objective else None
-        make_terms = fused.terms_once(Jf, ev, q, robot)
+        make_terms = fused.terms_once(Jf, ev, q, robot, external)
         windowed = prev.shape[0] > 0
         if status != 1.0:  # a constraint is active (0), or q̇ is not finite (2): the template, on the same rows
             if status != 0.0:  # q̇ not finite: the template, its terms at hand to say where from

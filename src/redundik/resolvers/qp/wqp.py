@@ -267,7 +267,8 @@ class WeightedQPResolver(QPResolverBase):
             if fused.current(robot):
                 res = self._fused_solve(robot, stack, fused, plan, t, dt)
                 if res is not None:
-                    res.__dict__["_compiled"] = True  # (Resolver.step reports the path)
+                    # (Resolver.step reports the path: compiled, or mixed naming the Python-written members)
+                    res.__dict__["_compiled"] = fused.external_names or True
                     return res
             else:
                 plan.fused = None  # a member changed (a new target, trajectory): planned again at the next step
@@ -359,7 +360,7 @@ class WeightedQPResolver(QPResolverBase):
         if self.lm_damping:  # λ grows with the error: the per-task path computes it
             return False
         scales = {i: (scale, identity) for i, scale, identity in plan.tasks}
-        built = FusedPlan.build(robot, stack, plan.layout, scales, plan.null_scale)
+        built = FusedPlan.build(robot, stack, plan.layout, scales, plan.null_scale, mixed=True)
         return False if built is None else built
 
     def _fused_solve(
@@ -384,7 +385,18 @@ class WeightedQPResolver(QPResolverBase):
         coef = fused.coefficients(tail[2])
         refs = fused.given_references(t) if fused.given else fused.refs
         prev = limits.previous(self._dq_prev)
+        external: list[TaskTerm | None] | tuple[()] = ()
+        if fused.external:  # the members without a compiled form: their evaluate, written into the step's rows
+            evaluated = fused.evaluate_external(robot, t)
+            if evaluated is None:
+                return None
+            external = evaluated
         work = np.empty(fused.wqp_work)  # the box and answers, e and v, the frames' Jacobians: one allocation
+        if external:
+            Kf, m, mx = len(fused.frames), fused.m, fused.mx
+            _, ev, _ = FK.wqp_work_views(work, Kf, m, n)
+            Jx, wx, zx = FK.wqp_external_views(work, Kf, m, n, mx)
+            fused.write_external(robot, external, Jx, m - mx, ev, wx, zx)
         q = robot.q
         status, err2, dq2 = FK.fused_wqp_step(
             fused.jw,
@@ -410,9 +422,12 @@ class WeightedQPResolver(QPResolverBase):
             K, m = len(fused.frames), fused.m
             _, ev, Jf = FK.wqp_work_views(work, K, m, n)
             out = work[: 7 * n].reshape(7, n)
-            return self._box_qp(robot, stack, fused.terms(Jf, ev, q, robot), plan, out, windowed, lam, t0, t1)
+            terms = fused.terms(Jf, ev, q, robot, external)
+            return self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1)
         self._dq_prev = work[6 * n : 7 * n]
-        return FusedWqpResult.of(self, fused, work, q, robot, windowed, lam, err2, dq2, t1 - t0, t1, plan.main)
+        return FusedWqpResult.of(
+            self, fused, work, q, robot, windowed, lam, err2, dq2, t1 - t0, t1, plan.main, external
+        )
 
     def _plan_for(self, stack: TaskStack, layout: StackLayout) -> _Plan:
         """The level weights ρ^k of every member, laid out once per stack membership (the layout object)."""
@@ -501,14 +516,14 @@ class WeightedQPResolver(QPResolverBase):
 
 def _fused_terms(step: tuple[Any, ...]) -> list[TaskTerm]:
     """The task terms of a fused ``wqp`` step, from its work array."""
-    _, fused, work, q, robot, _, _ = step
+    _, fused, work, q, robot, _, _, external = step
     _, ev, Jf = FK.wqp_work_views(work, len(fused.frames), fused.m, robot._nv)
-    return fused.terms(Jf, ev, q, robot)
+    return fused.terms(Jf, ev, q, robot, external)
 
 
 def _fused_diagnostics(step: tuple[Any, ...], main: list[int]) -> tuple[float, bool, dict[str, object]]:
     """The diagnostics of a fused ``wqp`` step (σ_min, damped, info entries), from its work array."""
-    resolver, _, work, _, robot, windowed, lam = step
+    resolver, _, work, _, robot, windowed, lam, _ = step
     n = robot._nv
     terms = _fused_terms(step)
     diag = QPDiagnostics()
@@ -538,6 +553,7 @@ class FusedWqpResult(FusedStepResult):
         build_time: float,
         t1: float,
         main: list[int],
+        external: list[TaskTerm | None] | tuple[()] = (),
     ) -> FusedWqpResult:
         """The result of ``fused_wqp_step``'s outputs (``t1``: when the compiled call returned)."""
         n = robot._nv
@@ -555,7 +571,7 @@ class FusedWqpResult(FusedStepResult):
             "pending": True,  # ``_resolve`` computes the diagnostics from the step's work array
             "_task_error": math.sqrt(err2),
             "_dq_norm": math.sqrt(dq2),  # ‖q̇‖ from the compiled call (the divergence watch reads it)
-            "_step": (resolver, fused, work, q, robot, windowed, lam),
+            "_step": (resolver, fused, work, q, robot, windowed, lam, external),
         }
         res.__dict__["solve_time"] = time.perf_counter() - t1
         return res

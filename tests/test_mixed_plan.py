@@ -1,0 +1,162 @@
+"""The mixed step (issue 31's row protocol): members without a compiled form write their rows from Python (their
+``evaluate``) into the compiled step's buffers; the rest of the stack stays compiled, and the answer is the per-task
+path's. A floating-base ``PostureTask`` (Lie-group coordinates) is on the compiled path."""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import redundik as rk
+from redundik.errors import RedundikError
+from redundik.kinematics.model import RobotModel
+from redundik.tasks.base import Task, TaskTerm
+
+DT = 0.01
+
+
+class Height(Task):
+    """A user's task: a frame's height (one row), or its x and z (two rows) when ``rows`` is 2."""
+
+    def __init__(self, frame: str, z: float, *, rows: int = 1, name: str = "height") -> None:
+        self._init_task(name, gain=2.0, weight=0.5)
+        self.frame, self.z, self.rows = frame, z, rows
+
+    def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
+        sel = [2] if self.rows == 1 else [0, 2]
+        p = robot.frame_pose(self.frame).translation
+        J = robot.frame_jacobian(self.frame)[sel]
+        target = np.array([0.3, self.z])[-len(sel) :]
+        e = target - p[sel]
+        return TaskTerm(self.name, J, self.gain * e, e, self.weight)
+
+    def __repr__(self) -> str:
+        return f"Height({self.frame!r})"
+
+
+def _panda_q0(robot: RobotModel) -> np.ndarray:
+    q = pin.neutral(robot.model)
+    q[:7] = [0.0, -0.4, 0.0, -2.0, 0.0, 1.6, 0.8]
+    return q
+
+
+def _run(make, robot_name: str, method: str, steps: int, edit=None, **options) -> tuple[list[np.ndarray], list[str]]:
+    """Step a fused copy and a per-task copy on the fused copy's trajectory; return the q̇ differences and paths."""
+    copies = []
+    for fuse in (True, False):
+        robot = rk.load_example_robot(robot_name)
+        q = _panda_q0(robot) if robot_name == "panda" else robot.neutral()
+        robot.update(q)
+        stack = make(robot)
+        stack.reset(robot)
+        res = rk.make_resolver(method, **options)
+        res.fuse = fuse  # type: ignore[attr-defined]
+        copies.append((robot, stack, res))
+    q = copies[0][0].q.copy()
+    diffs: list[np.ndarray] = []
+    paths: list[str] = []
+    for k in range(steps):
+        for robot, stack, _ in copies:
+            if edit is not None:
+                edit(k, robot, stack)
+        a, b = (res.step(robot, stack, q, k * DT, DT) for robot, stack, res in copies)
+        assert b.info["path"] == "interpreted"
+        paths.append(str(a.info["path"]))
+        diffs.append(a.dq - b.dq)
+        assert [t.name for t in a.terms] == [t.name for t in b.terms]
+        for ta, tb in zip(a.terms, b.terms, strict=True):
+            np.testing.assert_allclose(ta.J, tb.J, rtol=0, atol=1e-13)
+            np.testing.assert_allclose(ta.v, tb.v, rtol=0, atol=1e-11)
+        assert a.task_error == pytest.approx(b.task_error, rel=1e-12, abs=1e-15)
+        q = copies[0][0].integrate(q, a.dq, DT)
+    return diffs, paths
+
+
+@pytest.mark.parametrize("method", ["pinv", "wqp"])
+def test_a_user_task_runs_mixed_with_the_per_task_answer(method: str, caplog: pytest.LogCaptureFixture) -> None:
+    def make(robot: RobotModel) -> rk.TaskStack:
+        hand = rk.FrameTask("panda_hand", rk.Circle(0.05, 1.5, plane=("y", "z")), gain=5.0)
+        return rk.TaskStack(
+            [hand, Height("panda_link4", 0.45), rk.PostureTask(gain=1.0)],
+            [rk.GradientSubtask(rk.JointCentering(), gain=-0.5)],
+        )
+
+    with caplog.at_level(logging.WARNING, logger="redundik"):
+        diffs, paths = _run(make, "panda", method, 60)
+    assert max(float(np.abs(d).max()) for d in diffs) <= 1e-12
+    assert set(paths) == {"mixed"}
+    assert any("runs mixed" in r.getMessage() and "height" in r.getMessage() for r in caplog.records)
+
+
+@pytest.mark.parametrize("method", ["pinv", "wqp"])
+def test_a_user_task_whose_row_count_changes_is_packed_again(method: str) -> None:
+    def edit(k: int, robot: RobotModel, stack: rk.TaskStack) -> None:
+        if k == 15:
+            stack.tasks[1].rows = 2  # type: ignore[attr-defined]
+        if k == 30:
+            stack.tasks[1].rows = 1  # type: ignore[attr-defined]
+
+    def make(robot: RobotModel) -> rk.TaskStack:
+        hand = rk.FrameTask("panda_hand", rk.Circle(0.05, 1.5, plane=("y", "z")), gain=5.0, axes="position")
+        return rk.TaskStack([hand, Height("panda_link4", 0.45), rk.PostureTask(gain=1.0)])
+
+    diffs, paths = _run(make, "panda", method, 45, edit=edit)
+    assert max(float(np.abs(d).max()) for d in diffs) <= 1e-12
+    assert set(paths) == {"mixed"}
+
+
+def test_mixed_wqp_with_binding_limits_agrees() -> None:
+    """A tight joint limit binds: the mixed plan's P, g (its Python rows included) reach the backend."""
+    from redundik.resolvers.qp.limits import JointLimits
+
+    def make(robot: RobotModel) -> rk.TaskStack:
+        hand = rk.FrameTask("panda_hand", rk.Circle(0.08, 3.0, plane=("y", "z")), gain=5.0)
+        return rk.TaskStack([hand, Height("panda_link4", 0.45), rk.PostureTask(gain=1.0)])
+
+    tight = {"lower": {"panda_joint1": -0.01}, "upper": {"panda_joint1": 0.01}}
+    try:
+        diffs, paths = _run(make, "panda", "wqp", 80, limits=JointLimits(**tight))
+    except TypeError:  # the limits option takes the mapping itself
+        diffs, paths = _run(make, "panda", "wqp", 80, limits=tight)
+    assert max(float(np.abs(d).max()) for d in diffs) <= 1e-9
+    assert set(paths) == {"mixed"}
+
+
+@pytest.mark.parametrize("method", ["pinv", "wqp", "hqp"])
+def test_floating_base_posture_is_compiled(method: str) -> None:
+    """TALOS with the library's PostureTask (free-flyer coordinates: a Lie-group difference): compiled, and the
+    per-task path's answer, while a hand's target is set every few ticks."""
+
+    def make(robot: RobotModel) -> rk.TaskStack:
+        left = rk.FrameTask("gripper_left_joint", rk.Circle(0.05, np.pi, plane=("y", "z")), gain=20.0)
+        right = rk.FrameTask("gripper_right_joint", None, gain=5.0)
+        return rk.TaskStack([left, right, rk.PostureTask(gain=1.0)])
+
+    def edit(k: int, robot: RobotModel, stack: rk.TaskStack) -> None:
+        if k % 3 == 0:
+            right = stack.tasks[1]
+            right.set_target(robot.frame_pose("gripper_right_joint").translation + [0.0, 0.0, 0.001])  # type: ignore[attr-defined]
+
+    diffs, paths = _run(make, "talos", method, 30, edit=edit)
+    assert max(float(np.abs(d).max()) for d in diffs) <= 1e-12
+    assert paths.count("compiled") >= 28
+
+
+def test_a_user_task_with_a_wrong_shape_gets_the_per_task_error() -> None:
+    """A term whose Jacobian has the wrong width never reaches the compiled step: the per-task path says why."""
+
+    class Wrong(Height):
+        def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
+            term = super().evaluate(robot, t)
+            return TaskTerm(self.name, term.J[:, :3], term.v, term.error, term.weight)
+
+    robot = rk.load_example_robot("panda")
+    robot.update(_panda_q0(robot))
+    stack = rk.TaskStack([rk.FrameTask("panda_hand", None, gain=5.0), Wrong("panda_link4", 0.45)])
+    stack.reset(robot)
+    for method in ("pinv", "wqp"):
+        with pytest.raises(RedundikError):
+            rk.make_resolver(method).step(robot, stack, robot.q.copy(), 0.0, DT)
