@@ -43,7 +43,9 @@ def _panda_q0(robot: RobotModel) -> np.ndarray:
     return q
 
 
-def _run(make, robot_name: str, method: str, steps: int, edit=None, **options) -> tuple[list[np.ndarray], list[str]]:
+def _run(
+    make, robot_name: str, method: str, steps: int, edit=None, qp: list[int] | None = None, **options
+) -> tuple[list[np.ndarray], list[str]]:
     """Step a fused copy and a per-task copy on the fused copy's trajectory; return the q̇ differences and paths."""
     copies = []
     for fuse in (True, False):
@@ -65,6 +67,8 @@ def _run(make, robot_name: str, method: str, steps: int, edit=None, **options) -
         a, b = (res.step(robot, stack, q, k * DT, DT) for robot, stack, res in copies)
         assert b.info["path"] == "interpreted"
         paths.append(str(a.info["path"]))
+        if qp is not None:
+            qp.append(int(bool(a.info.get("qp"))))
         diffs.append(a.dq - b.dq)
         assert [t.name for t in a.terms] == [t.name for t in b.terms]
         for ta, tb in zip(a.terms, b.terms, strict=True):
@@ -138,7 +142,7 @@ def test_floating_base_posture_is_compiled(method: str) -> None:
     def edit(k: int, robot: RobotModel, stack: rk.TaskStack) -> None:
         if k % 3 == 0:
             right = stack.tasks[1]
-            right.set_target(robot.frame_pose("gripper_right_joint").translation + [0.0, 0.0, 0.001])  # type: ignore[attr-defined]
+            right.set_target(robot.frame_pose("gripper_right_joint").translation + np.array([0.0, 0.0, 0.001]))  # type: ignore[attr-defined]
 
     diffs, paths = _run(make, "talos", method, 30, edit=edit)
     assert max(float(np.abs(d).max()) for d in diffs) <= 1e-12
@@ -160,3 +164,25 @@ def test_a_user_task_with_a_wrong_shape_gets_the_per_task_error() -> None:
     for method in ("pinv", "wqp"):
         with pytest.raises(RedundikError):
             rk.make_resolver(method).step(robot, stack, robot.q.copy(), 0.0, DT)
+
+
+@pytest.mark.parametrize("bound", ["clearance", "joint"])
+def test_wqp_with_bound_subtasks_takes_the_compiled_step(bound: str) -> None:
+    """Bound subtasks under wqp: the compiled step writes the task rows, the bound rows come from Python as the QP's
+    inequalities; the free optimum is tested against them, the backend called when one binds — the per-task answer."""
+
+    def make(robot: RobotModel) -> rk.TaskStack:
+        hand = rk.FrameTask("panda_hand", rk.Circle(0.08, 2.0, plane=("y", "z")), gain=5.0)
+        if bound == "clearance":
+            p4 = robot.frame_pose("panda_link4").translation
+            source: object = rk.Clearance("panda_link4", p4 + np.array([0.12, 0.0, 0.0]), 0.05, axes=("x", "y"))
+            sub = rk.BoundSubtask(source, lower=0.06)
+        else:
+            sub = rk.BoundSubtask(rk.JointValue("panda_joint1", 0.0, name="j1"), lower=0.05, upper=0.3, rate=5.0)
+        return rk.TaskStack([hand, rk.PostureTask(gain=1.0)], [sub])
+
+    qp: list[int] = []
+    diffs, paths = _run(make, "panda", "wqp", 80, qp=qp)
+    assert max(float(np.abs(d).max()) for d in diffs) <= 1e-9
+    assert paths.count("compiled") >= 75
+    assert sum(qp) > 0, "the bound rows bind (the backend is called with them)"

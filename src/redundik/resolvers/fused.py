@@ -491,7 +491,9 @@ class FusedPlan:
             elif kind == 1:  # a joint-space task of a level (``extra``: its rows of the identity)
                 out.append(TaskTerm(task.name, extra, v_all[a:b], e_all[a:b], weights[k]))
             elif kind == 3:  # a member written from Python: the term its evaluate gave at this step
-                out.append(external[k])
+                term = external[k]
+                assert term is not None  # (a task's: only gradients and Lie-group null terms have none)
+                out.append(term)
             else:  # a regularisation task: its e from the step's q, as its evaluate computes it
                 sel, target = task.joint_form(robot)
                 e = robot.difference(q, target)[sel]

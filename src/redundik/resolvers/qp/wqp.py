@@ -155,17 +155,7 @@ class WeightedQPResolver(QPResolverBase):
         layout = self.layout(stack)
         plan = self._plan_for(stack, layout)
         shift, z, lam = self._accumulate(robot, stack, terms, plan)
-        G, h, names, safe = self._no_rows, self._no_rhs, [], None
-        if plan.bounds:
-            Cs, ds, critical = [], [], []
-            for bsub in plan.bounds:
-                C, d, rn = bsub.rows(robot, dt)
-                Cs.append(C)
-                ds.append(d)
-                names += rn
-                critical += [bsub.critical] * len(rn)
-            G, h = (Cs[0], ds[0]) if len(Cs) == 1 else (np.vstack(Cs), np.concatenate(ds))
-            safe = np.array(critical, dtype=bool)
+        G, h, names, safe = self._bound_rows(robot, plan, dt)
         P, q = self._P, self._q
         assert P is not None and q is not None  # allocated by _accumulate
         if shift:
@@ -176,6 +166,23 @@ class WeightedQPResolver(QPResolverBase):
         prob = QPProblem(P, q, G, h, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp", names)
         gram = None if plan.targets else (lambda: self._gram_factor(plan, terms, shift))
         return WQPBuild(prob, box, [terms[i] for i in plan.main], lam, safe, gram=gram)
+
+    def _bound_rows(
+        self, robot: RobotModel, plan: _Plan, dt: float
+    ) -> tuple[np.ndarray, np.ndarray, list[str], np.ndarray | None]:
+        """The bound subtasks' rows G q̇ ≤ h (each subtask's ``rows``), their names and which are safety rows
+        (``None``: no bound subtask)."""
+        if not plan.bounds:
+            return self._no_rows, self._no_rhs, [], None
+        Cs, ds, critical, names = [], [], [], []
+        for bsub in plan.bounds:
+            C, d, rn = bsub.rows(robot, dt)
+            Cs.append(C)
+            ds.append(d)
+            names += rn
+            critical += [bsub.critical] * len(rn)
+        G, h = (Cs[0], ds[0]) if len(Cs) == 1 else (np.vstack(Cs), np.concatenate(ds))
+        return G, h, names, np.array(critical, dtype=bool)
 
     def _gram_factor(self, plan: _Plan, terms: list[TaskTerm], shift: float) -> tuple[np.ndarray, float] | None:
         """(F, δ) with P = FᵀF + δI for a stack of tasks (no target subtask): F the rows √(ρ^k w) J of the tasks
@@ -258,7 +265,7 @@ class WeightedQPResolver(QPResolverBase):
         if plan is None or stack is not self._stepping or plan.key is not self._checked:  # else: the step's plan
             plan = self._plan_for(stack, self.layout(stack))
             plan.key = self._checked if stack is self._stepping else None
-        if plan.targets or plan.bounds:
+        if plan.targets:
             return super().solve(robot, stack, t, dt)
         fused = plan.fused
         if fused is None or fused == FusedPlan.NOT_YET:
@@ -272,6 +279,8 @@ class WeightedQPResolver(QPResolverBase):
                     return res
             else:
                 plan.fused = None  # a member changed (a new target, trajectory): planned again at the next step
+        if plan.bounds:  # the template: the bound rows as the QP's inequalities
+            return super().solve(robot, stack, t, dt)
         t0 = time.perf_counter()
         terms = [task.evaluate(robot, t) for task in stack.tasks]  # stack.evaluate, inlined
         shift, z, lam = self._accumulate(robot, stack, terms, plan)
@@ -319,17 +328,22 @@ class WeightedQPResolver(QPResolverBase):
         lam: float,
         t0: float,
         t1: float,
+        bounds: tuple[np.ndarray, np.ndarray, list[str], np.ndarray | None] | None = None,
     ) -> StepResult:
-        """A lean step whose unconstrained optimum left the box (rows of ``out``: lb, ub, pos_lo, pos_hi): the
-        backend solves P, q with that box, through the template's second half."""
+        """A lean step whose unconstrained optimum left the box (rows of ``out``: lb, ub, pos_lo, pos_hi) or the
+        bound rows ``bounds`` (G, h, names, safety flags): the backend solves P, q with that box and those rows,
+        through the template's second half."""
         P, q = self._P, self._q
         assert P is not None and q is not None
         box = self.limits.box_from(out, windowed)
-        prob = QPProblem(P, q, self._no_rows, self._no_rhs, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp")
+        G, h, names, safe = bounds if bounds is not None else (self._no_rows, self._no_rhs, [], None)
+        prob = QPProblem(P, q, G, h, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp", names)
         identity = sum(scale * terms[i].weight for i, scale, ident in plan.tasks if ident)
         shift = lam + identity + plan.null_scale  # (the diagonal the lean and fused paths added to P)
         gram = None if plan.targets else (lambda: self._gram_factor(plan, terms, shift))
-        built = WQPBuild(prob, box, [terms[i] for i in plan.main], lam, free_outside=True, gram=gram)
+        built = WQPBuild(
+            prob, box, [terms[i] for i in plan.main], lam, safe, free_outside=True, gram=gram
+        )  # (the free optimum is known to leave the box or to break a bound row)
         return self._finish(robot, stack, terms, built, t0, t1)
 
     def _free_diagnostics(
@@ -416,14 +430,19 @@ class WeightedQPResolver(QPResolverBase):
         )
         if status < 0.0:
             return None
+        bounds = self._bound_rows(robot, plan, dt) if plan.bounds else None  # (Python writers of inequality rows)
+        if bounds is not None and status == 1.0:  # the optimum inside the box: is it inside the bound rows too?
+            G, h = bounds[0], bounds[1]
+            if G.shape[0] and not (G @ work[4 * n : 5 * n] <= h + 1e-12).all():
+                status = 0.0
         t1 = time.perf_counter()
         windowed = prev.shape[0] > 0
-        if status == 0.0:  # a limit binds: the backend, through the template
+        if status == 0.0:  # a limit or a bound row binds: the backend, through the template
             K, m = len(fused.frames), fused.m
             _, ev, Jf = FK.wqp_work_views(work, K, m, n)
             out = work[: 7 * n].reshape(7, n)
             terms = fused.terms(Jf, ev, q, robot, external)
-            return self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1)
+            return self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1, bounds)
         self._dq_prev = work[6 * n : 7 * n]
         return FusedWqpResult.of(
             self, fused, work, q, robot, windowed, lam, err2, dq2, t1 - t0, t1, plan.main, external
