@@ -129,15 +129,18 @@ def test_mixed_wqp_with_binding_limits_agrees() -> None:
     assert set(paths) == {"mixed"}
 
 
-@pytest.mark.parametrize("method", ["pinv", "wqp", "hqp"])
-def test_floating_base_posture_is_compiled(method: str) -> None:
-    """TALOS with the library's PostureTask (free-flyer coordinates: a Lie-group difference): compiled, and the
-    per-task path's answer, while a hand's target is set every few ticks."""
+@pytest.mark.parametrize(
+    ("method", "priority"), [("pinv", None), ("wqp", None), ("hqp", None), ("wqp", 0), ("hqp", 2), ("hqp", 0)]
+)
+def test_floating_base_posture_is_compiled(method: str, priority: int | None) -> None:
+    """TALOS with the library's PostureTask (free-flyer coordinates: a Lie-group difference), in the null-space
+    objective or at a level of its own: compiled, and the per-task path's answer, while a hand's target is set every
+    few ticks."""
 
     def make(robot: RobotModel) -> rk.TaskStack:
         left = rk.FrameTask("gripper_left_joint", rk.Circle(0.05, np.pi, plane=("y", "z")), gain=20.0)
         right = rk.FrameTask("gripper_right_joint", None, gain=5.0)
-        return rk.TaskStack([left, right, rk.PostureTask(gain=1.0)])
+        return rk.TaskStack([left, right, rk.PostureTask(gain=1.0, weight=0.01, priority=priority)])
 
     def edit(k: int, robot: RobotModel, stack: rk.TaskStack) -> None:
         if k % 3 == 0:

@@ -57,6 +57,9 @@ H_EXTERNAL_ROWS, H_EXTERNAL_Z = 22, 23
 #: z[sel] += K (q_ref ⊖ q)[sel], Pinocchio's difference), a gradient subtask (``GRADIENT``: z += k η), or evaluated
 #: for the step's terms only (``TERM``: a task the resolver leaves out of its closed form).
 ROW, NULL, LIE_NULL, GRADIENT, TERM = 0, 1, 2, 3, 4
+#: Bits of a level joint task's flag (the header's identity flags): an identity task (a diagonal shift), and an error
+#: the caller writes before the compiled call (Lie-group coordinates: K (q_ref ⊖ q) from Pinocchio's difference).
+IDENTITY, GIVEN_ERROR = 1, 2
 #: Columns of a packed bound subtask's integer row (``fused_kernels.clearance_rows``): frame id, first row of C,
 #: lower bound set, upper bound set, the number of axes, then the axes (indices into x, y, z).
 B_FID, B_ROW, B_LOWER, B_UPPER, B_NAXES, B_AXES = 0, 1, 2, 3, 4, 5
@@ -122,6 +125,8 @@ class FusedPlan:
         self.external: list[tuple[int, Any, float]] = []
         self.external_rows: list[int] = []  # rows each ``ROW`` member wrote at the last packing
         self.external_starts: list[int] = []  # where they start among the step's rows
+        self.lie_joints: list[int] = []  # the level joint tasks on Lie-group coordinates (their error given)
+        self.joint_spans: list[tuple[int, int]] = []  # each level joint task's rows among the step's rows
         self.external_names: tuple[str, ...] = ()
         self.mx = 0  # rows written from Python (after the compiled rows)
         self.index: dict[int, int] = {}
@@ -184,7 +189,9 @@ class FusedPlan:
                 if not mixed:
                     return None
                 plan._external(task, ROW if i in main_set else TERM, 1.0)
-            elif form is not None and not lie:
+            elif form is not None and (not lie or mixed):
+                if lie:
+                    plan.lie_joints.append(len(plan.level_joints))
                 plan.order.append(("j", len(plan.level_joints)))
                 plan.level_joints.append(task)
                 plan.targets.append(form[1])
@@ -283,6 +290,7 @@ class FusedPlan:
         for k, joint in enumerate(self.level_joints):
             if index[id(joint)] in main:
                 main_rows[mf + jstarts[k] : mf + jstarts[k + 1]] = [1] * (jstarts[k + 1] - jstarts[k])
+        self.joint_spans = [(mf + int(jstarts[k]), mf + int(jstarts[k + 1])) for k in range(J)]
         a = mf + int(jstarts[-1])
         self.external_starts.clear()
         for (role, member, _), rows in zip([x for x in self.external if x[0] == ROW], rows_of, strict=True):
@@ -297,7 +305,10 @@ class FusedPlan:
             [int(f.rotation_rows) for f in forms],
             jsel,
             jstarts,
-            [int(x) for x in identity],
+            [
+                (IDENTITY if ident else 0) | (GIVEN_ERROR if k in self.lie_joints else 0)
+                for k, ident in enumerate(identity)
+            ],
             np.maximum(iq, 0).tolist(),
             main_rows,
         ]
@@ -367,6 +378,15 @@ class FusedPlan:
             iq = np.array([j.idx_q for j in robot.joints], dtype=np.int64)
             self._pack(robot, iq, self.level_forms, self.identity, self.main_set, self.index)
         return out
+
+    def write_joint_errors(self, robot: RobotModel, e: np.ndarray) -> None:
+        """The errors (q_ref ⊖ q)[sel] of the level joint tasks on Lie-group coordinates (Pinocchio's
+        ``difference``) into their rows of the step's e, before the compiled call reads them."""
+        q = robot.q
+        for k in self.lie_joints:
+            a, b = self.joint_spans[k]
+            sel, target = self.level_forms[k]
+            e[a:b] = robot.difference(q, target)[sel]
 
     def write_external(
         self,

@@ -35,9 +35,11 @@ from redundik.resolvers.fused import (
     B_ROW,
     B_UP,
     B_UPPER,
+    GIVEN_ERROR,
     H_EXTERNAL_ROWS,
     H_EXTERNAL_Z,
     HEADER,
+    IDENTITY,
     REF,
 )
 from redundik.resolvers.hqp_kernels import clearance_into, closed_step
@@ -243,13 +245,16 @@ def fused_wqp_step(
         for r in range(jstarts[k], jstarts[k + 1]):
             s = jsel[r]
             j = iq[s]
-            err = floats[to + k * nq + j] - q[j]
+            if jident[k] & GIVEN_ERROR:  # a Lie-group coordinate: e written by the caller (Pinocchio's difference)
+                err = e[mf + r]
+            else:
+                err = floats[to + k * nq + j] - q[j]
             e[mf + r] = err
             v[mf + r] = gain * err
             g[s] -= w * v[mf + r]
-            if jident[k] == 0:
+            if jident[k] & IDENTITY == 0:
                 P[s, s] += w
-        if jident[k] != 0:
+        if jident[k] & IDENTITY:
             shift += w
     mx = ints[H_EXTERNAL_ROWS]
     Jx, wx, zx = wqp_external_views(work, K, m, nv, mx)
@@ -498,6 +503,7 @@ def fused_hqp_step(
     jq = _part(ints, 13, nv)
     jstarts = _part(ints, 11, J + 1)
     jsel = _part(ints, 10, jstarts[J])
+    jflags = _part(ints, 12, J)
     to = ints[17]
     mf = starts[K]
     c0 = 2 * K
@@ -506,7 +512,10 @@ def fused_hqp_step(
         for r in range(jstarts[k], jstarts[k + 1]):
             s = jsel[r]
             j = jq[s]
-            err = floats[to + k * nq + j] - q[j]
+            if jflags[k] & GIVEN_ERROR:  # a Lie-group coordinate: e written by the caller (Pinocchio's difference)
+                err = e[mf + r]
+            else:
+                err = floats[to + k * nq + j] - q[j]
             e[mf + r] = err
             v[mf + r] = gain * err
             a = dest[mf + r]

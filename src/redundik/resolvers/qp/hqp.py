@@ -1094,6 +1094,8 @@ class HierarchicalQPResolver(QPResolverBase):
         Jf = np.empty((len(fused.frames), 6, n))
         ev = np.empty((2, fused.m))
         z = np.zeros(n)
+        if fused.lie_joints:
+            fused.write_joint_errors(robot, ev[0])
         external: list[TaskTerm | None] | tuple[()] = ()
         if fused.external:  # null-space terms without a compiled form: written into z before the compiled call
             evaluated = fused.evaluate_external(robot, t)

@@ -406,6 +406,8 @@ class WeightedQPResolver(QPResolverBase):
                 return None
             external = evaluated
         work = np.empty(fused.wqp_work)  # the box and answers, e and v, the frames' Jacobians: one allocation
+        if fused.lie_joints:
+            fused.write_joint_errors(robot, FK.wqp_work_views(work, len(fused.frames), fused.m, n)[1][0])
         if external:
             Kf, m, mx = len(fused.frames), fused.m, fused.mx
             _, ev, _ = FK.wqp_work_views(work, Kf, m, n)
