@@ -1,0 +1,262 @@
+"""Alarms that mean something (issue 33, item 6): ``result.fallback`` only when the answer is not what the stack asked
+beyond its documented relaxations; the relaxations themselves (an ``hqp`` level contradicted by those above, bound
+subtasks ``wqp`` drops from an infeasible QP, a QP a documented retry solved) in ``result.relaxed``."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import numpy as np
+import pytest
+
+import redundik as rk
+from redundik.errors import SolverError
+from redundik.resolvers.qp import QPProblem, QPSolution, available_backends
+from redundik.resolvers.qp.daqp_native import NativeDaqp
+from redundik.resolvers.qp.problem import infeasible
+
+BACKENDS = available_backends()
+TIP = "panda_hand_tcp"
+DT = 0.01
+
+
+@pytest.fixture(scope="module")
+def panda() -> rk.RobotModel:
+    return rk.load_example_robot("panda")
+
+
+def conflict_problem(
+    robot: rk.RobotModel, rng: np.random.Generator, depth: int
+) -> tuple[np.ndarray, rk.TaskStack, dict[str, int]]:
+    """A random ``depth``-level (3 or 4) hqp problem: a tip position task on level 0, a random joint bound on each of
+    levels 1 and 2 (keep a joint inside or outside a random radius of a random value, at a random rate: often beyond
+    what the velocity limits, or the level above, allow), and a posture on level 3 when ``depth`` is 4."""
+    arm = robot.joint_names[:7]
+    lo, hi = robot.lower_limits, robot.upper_limits
+    q = rng.uniform(lo, hi)
+    robot.update(rng.uniform(lo, hi))
+    task = rk.FrameTask(TIP, axes="position", gain=float(rng.uniform(1.0, 50.0)), name="tip")
+    task.set_target(robot.frame_position(TIP))
+    subs: list[rk.Subtask] = []
+    levels: dict[str, int] = {}
+    for k in (1, 2):
+        j = str(rng.choice(arm))
+        i = robot.joint_names.index(j)
+        centre, radius = float(rng.uniform(lo[i], hi[i])), float(rng.uniform(0.05, 0.5) * (hi[i] - lo[i]))
+        key = "lower" if rng.random() < 0.5 else "upper"
+        pot = rk.JointValue(j, centre)
+        subs.append(rk.BoundSubtask(pot, **{key: radius**2}, rate=float(rng.uniform(0.0, 20.0)), name=f"b{k}"))
+        levels[f"b{k}"] = k
+    tasks: list[rk.Task] = [task]
+    if depth == 4:
+        tasks.append(rk.PostureTask(gain=1.0, name="posture"))
+    return q, rk.TaskStack(tasks, subs), levels
+
+
+@pytest.mark.parametrize("fuse", [True, False])
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_conflicting_inequality_levels_are_relaxed_not_an_alarm(panda: rk.RobotModel, backend: str, fuse: bool) -> None:
+    """Random 3–4-level problems whose bound levels often cannot all be met: every step with a contradicted level
+    names its members in ``relaxed`` and raises no ``fallback`` (before: ``fallback`` on every such step)."""
+    rng = np.random.default_rng(33)
+    contradicted = 0
+    paths = set()
+    for _ in range(40):
+        q, stack, levels = conflict_problem(panda, rng, int(rng.integers(3, 5)))
+        res = rk.make_resolver("hqp", backend=backend, levels=levels)
+        res.fuse = fuse
+        panda.update(q)
+        stack.reset(panda)
+        step = res.step(panda, stack, q, 0.0, DT)
+        paths.add(step.info["path"])
+        assert step.fallback is None, step.fallback
+        members = {s.name for s in stack.subtasks}
+        if step.info.get("contradicted_levels"):
+            contradicted += 1
+            assert set(step.relaxed) & members, step.relaxed
+        retried = {r for r in step.relaxed if r.endswith("(backend retried)")}
+        assert set(step.relaxed) - retried <= members, step.relaxed
+        assert bool(retried) == ("retries" in step.info)
+    assert contradicted >= 20  # the problems do conflict (the assertions above are not vacuous)
+    assert paths == {"compiled" if fuse else "interpreted"}
+
+
+# ------------------------------------------------------------------------------------------- forced backend failures
+def far_target_problem(robot: rk.RobotModel, bounds: bool) -> tuple[np.ndarray, rk.TaskStack]:
+    """The Panda asked to move its tip 0.5 m in one step: the velocity limits bind, so a QP is posed; with
+    ``bounds`` a feasible bound subtask too (a joint kept below a value it is far from)."""
+    q = np.array([0.0, -0.5, 0.0, -2.0, 0.0, 1.6, 0.8, 0.02, 0.02])
+    robot.update(q)
+    task = rk.FrameTask(TIP, axes="position", gain=0.5 / DT, name="tip")
+    task.set_target(robot.frame_position(TIP) + np.array([0.3, 0.3, -0.3]))
+    subs: list[rk.Subtask] = []
+    if bounds:
+        subs.append(rk.BoundSubtask(rk.JointValue("panda_joint1", 0.0), upper=2.0**2, name="keep_j1"))
+    return q, rk.TaskStack([task], subs)
+
+
+@contextmanager
+def failing(res: Any, failures: int | None, mode: str = "raise") -> Iterator[list[int]]:
+    """The resolver's backend made to fail on its next ``failures`` QPs (``None``: on all), by raising or by
+    returning ``None``; daqp's compiled calls (the one-call cascade and the stacked form) are switched off, so that
+    every QP reaches the Python ``solve`` — where a QP they do not solve goes too. Yields [calls, failures made]."""
+    backend = res.backend
+    solve = backend.solve
+    seen = [0, 0]
+
+    def broken(problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution | None:
+        seen[0] += 1
+        if failures is None or seen[1] < failures:
+            seen[1] += 1
+            if mode == "raise":
+                raise SolverError(f"forced failure on {problem.label}", problem)
+            return None
+        return solve(problem, warm)
+
+    backend.solve = broken
+    backend.solve_stacked = lambda *args, **kwargs: None
+    original = NativeDaqp.for_backend
+    NativeDaqp.for_backend = classmethod(lambda cls, *args: None)  # type: ignore[method-assign, assignment]
+    try:
+        yield seen
+    finally:
+        NativeDaqp.for_backend = original  # type: ignore[method-assign]
+        del backend.solve, backend.solve_stacked
+
+
+ROUTES = [("wqp", True, False), ("wqp", False, False), ("wqp", False, True), ("hqp", True, False),
+          ("hqp", False, False), ("hqp", False, True)]  # fmt: skip
+
+
+def _route(robot: rk.RobotModel, resolver: str, fuse: bool, bounds: bool, backend: str) -> tuple[Any, Callable]:
+    q, stack = far_target_problem(robot, bounds)
+    res = rk.make_resolver(resolver, backend=backend)
+    res.fuse = fuse
+    stack.reset(robot)
+    return res, lambda: res.step(robot, stack, q, 0.0, DT)
+
+
+@pytest.mark.parametrize("mode", ["raise", "none"])
+@pytest.mark.parametrize(("resolver", "fuse", "bounds"), ROUTES)
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_backend_that_keeps_failing_is_a_fallback_on_every_route(
+    panda: rk.RobotModel, backend: str, resolver: str, fuse: bool, bounds: bool, mode: str
+) -> None:
+    """Every QP of the step fails (raised, or no answer): the step falls back, says so, and q̇ stays finite."""
+    res, step = _route(panda, resolver, fuse, bounds, backend)
+    with failing(res, None, mode) as seen:
+        out = step()
+    assert seen[1] >= 1  # the route reached the backend
+    assert out.fallback is not None and "closed form" in out.fallback, out.fallback
+    assert np.all(np.isfinite(out.dq))
+
+
+@pytest.mark.parametrize(("resolver", "fuse", "bounds"), ROUTES)
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_backend_failure_a_retry_rescued_is_counted(
+    panda: rk.RobotModel, backend: str, resolver: str, fuse: bool, bounds: bool
+) -> None:
+    """The backend fails once. ``hqp`` solves the level again with a stronger regulariser (documented): counted in
+    ``relaxed`` and told in ``info["retries"]``, not an alarm (before: only ``info["regularization_retry"]``, read
+    with the diagnostics). ``wqp`` has no retry: without bound subtasks the closed form, with one the QP relaxed
+    although it was feasible — both an alarm."""
+    res, step = _route(panda, resolver, fuse, bounds, backend)
+    with failing(res, 1) as seen:
+        out = step()
+    assert seen[1] == 1 and seen[0] >= (1 if resolver == "wqp" and not bounds else 2)  # (then solved again)
+    if resolver == "hqp":
+        assert out.fallback is None, out.fallback
+        assert "hqp level 0 (backend retried)" in out.relaxed
+        assert any("forced failure" in note for note in out.info["retries"])  # type: ignore[attr-defined]
+    else:
+        assert out.fallback is not None
+        assert ("feasible QP the backend failed on" in out.fallback) == bounds, out.fallback
+        assert out.relaxed == (("keep_j1",) if bounds else ())
+
+
+@pytest.mark.parametrize("resolver", ["wqp", "hqp"])
+def test_a_backends_own_retry_is_counted(panda: rk.RobotModel, resolver: str) -> None:
+    """A backend whose answer came from a retry of its own (``QPSolution.retried``) is counted in ``relaxed``."""
+    res, step = _route(panda, resolver, False, False, "quadprog")
+    solve = res.backend.solve
+
+    def retried(problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
+        sol = solve(problem, warm)
+        sol.retried = "first attempt stalled (forced)"
+        return sol
+
+    res.backend.solve = retried
+    out = step()
+    assert out.fallback is None
+    assert any(r.endswith("(backend retried)") for r in out.relaxed), out.relaxed
+    assert any("stalled (forced)" in note for note in out.info["retries"])  # type: ignore[attr-defined]
+
+
+def test_an_infeasible_wqp_is_relaxed_without_an_alarm(panda: rk.RobotModel) -> None:
+    """A bound subtask the velocity limits cannot meet (joint 1 to leave a 2.5 rad radius of where it is, at once):
+    the QP is infeasible (a linear program says so), the bound dropped is named in ``relaxed``, no fallback."""
+    q = np.zeros(9)
+    stack = rk.TaskStack(
+        [rk.FrameTask(TIP, axes="position", gain=1.0, name="tip")],
+        [rk.BoundSubtask(rk.JointValue("panda_joint1", 0.0), lower=2.5**2, rate=0.0, name="leave")],
+    )
+    panda.update(q)
+    stack.reset(panda)
+    out = rk.make_resolver("wqp").step(panda, stack, q, 0.0, DT)
+    assert out.relaxed == ("leave",) and out.fallback is None, (out.relaxed, out.fallback)
+
+
+def test_infeasible_reads_the_constraints() -> None:
+    """``infeasible``: x₀ + x₁ ≤ −2 against |x| ≤ 0.5 has no point; with ≤ −0.5 it has."""
+    P, c = np.eye(2), np.zeros(2)
+    none = np.zeros((0, 2))
+    box = (-0.5 * np.ones(2), 0.5 * np.ones(2))
+    assert infeasible(QPProblem(P, c, np.array([[1.0, 1.0]]), np.array([-2.0]), none, np.zeros(0), *box))
+    assert not infeasible(QPProblem(P, c, np.array([[1.0, 1.0]]), np.array([-0.5]), none, np.zeros(0), *box))
+
+
+# ------------------------------------------------------------------------------------------------------- stress
+def test_no_fallback_in_a_stress_where_no_backend_failed(panda: rk.RobotModel) -> None:
+    """A few thousand steps of random target jumps and conflicting bound levels on the Panda, ``wqp`` and ``hqp``,
+    every backend: a step whose backend never failed (a refused QP that was infeasible is no failure) reports no
+    fallback; the relaxations are there, and counted in ``relaxed``."""
+    rng = np.random.default_rng(7)
+    steps = relaxed = 0
+    for resolver in ("wqp", "hqp"):
+        for backend in BACKENDS:
+            res = rk.make_resolver(resolver, backend=backend, limits={"acceleration": 20.0})
+            failed = [False]
+            solve = res.backend.solve
+
+            def watched(
+                problem: QPProblem, warm: np.ndarray | None = None, solve: Any = solve, failed: list[bool] = failed
+            ) -> QPSolution:
+                try:
+                    return solve(problem, warm)
+                except SolverError:
+                    failed[0] |= not infeasible(problem)
+                    raise
+
+            res.backend.solve = watched
+            for _episode in range(6):
+                q, stack, levels = conflict_problem(panda, rng, int(rng.integers(3, 5)))
+                if resolver == "hqp":
+                    res.levels = levels
+                res.reset()
+                panda.update(q)
+                stack.reset(panda)
+                for k in range(50):
+                    if k % 10 == 0:  # a target jump
+                        panda.update(rng.uniform(panda.lower_limits, panda.upper_limits))
+                        stack.tasks[0].set_target(panda.frame_position(TIP))
+                    failed[0] = False
+                    out = res.step(panda, stack, q, k * DT, DT)
+                    steps += 1
+                    relaxed += bool(out.relaxed)
+                    if not failed[0]:
+                        assert out.fallback is None, (resolver, backend, k, out.fallback)
+                    q = panda.integrate(q, out.dq, DT)
+    assert steps == 2 * len(BACKENDS) * 300
+    assert relaxed > steps // 20  # the stress does relax (the no-fallback assertion is not vacuous)
