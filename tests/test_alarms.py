@@ -6,6 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -260,3 +261,32 @@ def test_no_fallback_in_a_stress_where_no_backend_failed(panda: rk.RobotModel) -
                     q = panda.integrate(q, out.dq, DT)
     assert steps == 2 * len(BACKENDS) * 300
     assert relaxed > steps // 20  # the stress does relax (the no-fallback assertion is not vacuous)
+
+
+# ------------------------------------------------------------------------------------------------ run summary, CSV
+def test_run_summary_and_csv_count_fallbacks_and_relaxations(
+    planar_task_data: dict[str, Any], write_yaml: Callable[..., Path], tmp_path: Path
+) -> None:
+    """A task file whose bound sin²θ3 ≥ 1.5 can never hold: the ``hqp`` and ``wqp`` runs relax it at every step.
+    ``summary.json`` counts ``relaxed_steps`` (and names ``relaxed_members``) beside ``fallbacks``, the CSV has a
+    ``fallback`` and a ``relaxed`` column per step, and the two agree."""
+    import csv
+    import json
+
+    from redundik.cli.main import main
+
+    data = planar_task_data
+    data["steps"] = 40
+    data["runs"] = {
+        name: {"resolver": name, "subtasks": {"sin2_q3": {"kind": "bound", "lower": 1.5}}} for name in ("hqp", "wqp")
+    }
+    out = tmp_path / "out"
+    assert main(["run", str(write_yaml(data)), "--out", str(out), "--quiet", "--no-figures"]) == 0
+    summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    for name in ("hqp", "wqp"):
+        run = summary["runs"][name]
+        assert (run["fallbacks"], run["relaxed_steps"], run["relaxed_members"]) == (0, 40, ["sin2_q3"]), run
+        with (out / f"{name}.csv").open(encoding="utf-8") as fh:
+            rows = list(csv.DictReader(fh))
+        assert [r["relaxed"] for r in rows] == ["1"] * 40 + [""]
+        assert [r["fallback"] for r in rows] == ["0"] * 40 + [""]
