@@ -290,3 +290,28 @@ def test_run_summary_and_csv_count_fallbacks_and_relaxations(
             rows = list(csv.DictReader(fh))
         assert [r["relaxed"] for r in rows] == ["1"] * 40 + [""]
         assert [r["fallback"] for r in rows] == ["0"] * 40 + [""]
+
+
+def test_a_batch_counts_a_backend_retry(panda: rk.RobotModel) -> None:
+    """The batch form of ``wqp`` (``BatchResolver``) counts a QP a backend retry solved in its ``relaxed``, per
+    problem, as the single step does; problems that solved no QP relax nothing."""
+    from redundik.resolvers.batch import BatchResolver
+
+    resolver = rk.make_resolver("wqp", backend="quadprog")
+    solve = resolver.backend.solve
+
+    def retried(problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
+        sol = solve(problem, warm)
+        sol.retried = "first attempt stalled (forced)"
+        return sol
+
+    resolver.backend.solve = retried
+    batch = BatchResolver(resolver, panda, TIP, axes="position", gain=0.5 / DT, posture_gain=0.0)
+    rng = np.random.default_rng(3)
+    q = np.array([rng.uniform(panda.lower_limits, panda.upper_limits) for _ in range(8)])
+    targets = np.repeat(np.eye(4)[None], 8, axis=0)
+    targets[:, :3, 3] = [0.3, 0.3, 0.5]  # (a position task reads only the translation)
+    out = batch.solve(q, targets, DT)
+    assert out.qp.any()  # the limits bind on some problems (the assertion below is not vacuous)
+    assert out.relaxed == [("wqp (backend retried)",) if used else () for used in out.qp]
+    assert out.fallback == [None] * 8
