@@ -837,8 +837,8 @@ class HierarchicalQPResolver(QPResolverBase):
         only as infeasible (every level below 0 is feasible by construction: u = 0, w' = 0). First ε = 1e-6, kept as
         solved (far below the slack's unit weight); then ε = 1e-4, kept only as the verified exact optimum of the
         level as posed (``polish`` from its active set: on a degenerate vertex of the stress run, 5 rows active in
-        4 unknowns, daqp needed it and quadprog agrees). ``failed``: the backend's first error (for the fallback
-        note the retry leaves in :attr:`QPDiagnostics.retries`).
+        4 unknowns, daqp needed it and quadprog agrees). ``failed``: the backend's first error (for the note the
+        retry leaves in :attr:`QPDiagnostics.retries`: counted in ``StepResult.relaxed``, told in ``info``).
         """
         diag.regularization_retry = 1
         last: SolverError | None = None
