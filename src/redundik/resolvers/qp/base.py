@@ -318,9 +318,12 @@ class QPResolverBase(Resolver):
             return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
 
         info: dict[str, object] = {"backend": diag.backend, "qp": diag.qp, "iterations": diag.iterations}
+        relaxed: tuple[str, ...] = ()
         if diag.retries:  # counted in relaxed, told here (eager: a logger reads it without the diagnostics)
             info["retries"] = [f"{label}: {why}" for label, why in diag.retries]
-        relaxed = tuple(dict.fromkeys(diag.relaxed + [f"{label} (backend retried)" for label, _ in diag.retries]))
+            relaxed = tuple(f"{label} (backend retried)" for label, _ in diag.retries)
+        if diag.relaxed or relaxed:
+            relaxed = tuple(dict.fromkeys([*diag.relaxed, *relaxed]))  # (in order, each name once)
         return dq, diagnostics, fallback, relaxed, info, t2
 
     def _safety_rows(self, built: Any, stack: TaskStack) -> tuple[np.ndarray, np.ndarray] | None:
