@@ -85,16 +85,21 @@ def test_conflicting_inequality_levels_are_relaxed_not_an_alarm(panda: rk.RobotM
 
 
 # ------------------------------------------------------------------------------------------- forced backend failures
-def far_target_problem(robot: rk.RobotModel, bounds: bool) -> tuple[np.ndarray, rk.TaskStack]:
-    """The Panda asked to move its tip 0.5 m in one step: the velocity limits bind, so a QP is posed; with
-    ``bounds`` a feasible bound subtask too (a joint kept below a value it is far from)."""
-    q = np.array([0.0, -0.5, 0.0, -2.0, 0.0, 1.6, 0.8, 0.02, 0.02])
+def far_target_problem(robot: rk.RobotModel, bounds: str) -> tuple[np.ndarray, rk.TaskStack]:
+    """The Panda asked to move its tip 0.5 m in one step: the velocity limits bind, so a QP is posed. ``bounds``:
+    ``"inactive"``, a bound subtask the answer keeps anyway (joint 1 kept within 2 rad of 0); ``"binding"``, two
+    that hold q̇₁ within ±1e-3 rad/s (joint 1 at 0.009 rad kept within 0.01 rad of 0 and of 0.018, at rate 1 /s):
+    feasible, and binding; ``""``: none."""
+    q = np.array([0.009, -0.5, 0.0, -2.0, 0.0, 1.6, 0.8, 0.02, 0.02])
     robot.update(q)
     task = rk.FrameTask(TIP, axes="position", gain=0.5 / DT, name="tip")
     task.set_target(robot.frame_position(TIP) + np.array([0.3, 0.3, -0.3]))
     subs: list[rk.Subtask] = []
-    if bounds:
+    if bounds == "inactive":
         subs.append(rk.BoundSubtask(rk.JointValue("panda_joint1", 0.0), upper=2.0**2, name="keep_j1"))
+    elif bounds == "binding":
+        for name, centre in (("j1_hi", 0.0), ("j1_lo", 0.018)):
+            subs.append(rk.BoundSubtask(rk.JointValue("panda_joint1", centre), upper=0.01**2, rate=1.0, name=name))
     return q, rk.TaskStack([task], subs)
 
 
@@ -127,11 +132,11 @@ def failing(res: Any, failures: int | None, mode: str = "raise") -> Iterator[lis
         del backend.solve, backend.solve_stacked
 
 
-ROUTES = [("wqp", True, False), ("wqp", False, False), ("wqp", False, True), ("hqp", True, False),
-          ("hqp", False, False), ("hqp", False, True)]  # fmt: skip
+ROUTES = [("wqp", True, ""), ("wqp", False, ""), ("wqp", False, "inactive"), ("wqp", False, "binding"),
+          ("hqp", True, ""), ("hqp", False, ""), ("hqp", False, "inactive"), ("hqp", False, "binding")]  # fmt: skip
 
 
-def _route(robot: rk.RobotModel, resolver: str, fuse: bool, bounds: bool, backend: str) -> tuple[Any, Callable]:
+def _route(robot: rk.RobotModel, resolver: str, fuse: bool, bounds: str, backend: str) -> tuple[Any, Callable]:
     q, stack = far_target_problem(robot, bounds)
     res = rk.make_resolver(resolver, backend=backend)
     res.fuse = fuse
@@ -143,7 +148,7 @@ def _route(robot: rk.RobotModel, resolver: str, fuse: bool, bounds: bool, backen
 @pytest.mark.parametrize(("resolver", "fuse", "bounds"), ROUTES)
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_a_backend_that_keeps_failing_is_a_fallback_on_every_route(
-    panda: rk.RobotModel, backend: str, resolver: str, fuse: bool, bounds: bool, mode: str
+    panda: rk.RobotModel, backend: str, resolver: str, fuse: bool, bounds: str, mode: str
 ) -> None:
     """Every QP of the step fails (raised, or no answer): the step falls back, says so, and q̇ stays finite."""
     res, step = _route(panda, resolver, fuse, bounds, backend)
@@ -157,24 +162,25 @@ def test_a_backend_that_keeps_failing_is_a_fallback_on_every_route(
 @pytest.mark.parametrize(("resolver", "fuse", "bounds"), ROUTES)
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_a_backend_failure_a_retry_rescued_is_counted(
-    panda: rk.RobotModel, backend: str, resolver: str, fuse: bool, bounds: bool
+    panda: rk.RobotModel, backend: str, resolver: str, fuse: bool, bounds: str
 ) -> None:
-    """The backend fails once. ``hqp`` solves the level again with a stronger regulariser (documented): counted in
-    ``relaxed`` and told in ``info["retries"]``, not an alarm (before: only ``info["regularization_retry"]``, read
-    with the diagnostics). ``wqp`` has no retry: without bound subtasks the closed form, with one the QP relaxed
-    although it was feasible — both an alarm."""
+    """The backend fails once. ``hqp`` solves the level again with a stronger regulariser (documented), and ``wqp``
+    solves the QP without its bound rows, whose optimum keeps them when they were not binding: counted in
+    ``relaxed`` and told in ``info["retries"]``, not an alarm (before: ``hqp``'s only in
+    ``info["regularization_retry"]``, read with the diagnostics; ``wqp``'s a fallback). ``wqp`` without bound
+    subtasks falls back to the closed form, and with binding ones relaxes a QP that was feasible: both an alarm."""
     res, step = _route(panda, resolver, fuse, bounds, backend)
     with failing(res, 1) as seen:
         out = step()
     assert seen[1] == 1 and seen[0] >= (1 if resolver == "wqp" and not bounds else 2)  # (then solved again)
-    if resolver == "hqp":
+    if resolver == "hqp" or bounds == "inactive":
         assert out.fallback is None, out.fallback
-        assert "hqp level 0 (backend retried)" in out.relaxed
+        assert f"{'hqp level 0' if resolver == 'hqp' else 'wqp'} (backend retried)" in out.relaxed, out.relaxed
         assert any("forced failure" in note for note in out.info["retries"])  # type: ignore[attr-defined]
     else:
         assert out.fallback is not None
-        assert ("feasible QP the backend failed on" in out.fallback) == bounds, out.fallback
-        assert out.relaxed == (("keep_j1",) if bounds else ())
+        assert ("feasible QP the backend failed on" in out.fallback) == (bounds == "binding"), out.fallback
+        assert out.relaxed == (("j1_hi", "j1_lo") if bounds else ())
 
 
 @pytest.mark.parametrize("resolver", ["wqp", "hqp"])
@@ -210,12 +216,17 @@ def test_an_infeasible_wqp_is_relaxed_without_an_alarm(panda: rk.RobotModel) -> 
 
 
 def test_infeasible_reads_the_constraints() -> None:
-    """``infeasible``: x₀ + x₁ ≤ −2 against |x| ≤ 0.5 has no point; with ≤ −0.5 it has."""
+    """``infeasible``: x₀ + x₁ ≤ −2 against |x| ≤ 0.5 has no point; with ≤ −0.5 it has (a row at a time, in closed
+    form)."""
     P, c = np.eye(2), np.zeros(2)
     none = np.zeros((0, 2))
     box = (-0.5 * np.ones(2), 0.5 * np.ones(2))
     assert infeasible(QPProblem(P, c, np.array([[1.0, 1.0]]), np.array([-2.0]), none, np.zeros(0), *box))
     assert not infeasible(QPProblem(P, c, np.array([[1.0, 1.0]]), np.array([-0.5]), none, np.zeros(0), *box))
+    # two rows the box meets one by one (x₀ ≥ 0.4, x₀ ≤ 0.3): only together infeasible (the linear program)
+    G = np.array([[-1.0, 0.0], [1.0, 0.0]])
+    assert infeasible(QPProblem(P, c, G, np.array([-0.4, 0.3]), none, np.zeros(0), *box))
+    assert not infeasible(QPProblem(P, c, G, np.array([-0.2, 0.3]), none, np.zeros(0), *box))
 
 
 # ------------------------------------------------------------------------------------------------------- stress

@@ -23,8 +23,10 @@ distances — which stay hard), then replaced by the damped closed form clipped 
 safety rows hold (q̇ = 0 always does). ``StepResult.relaxed`` names the bound subtasks dropped; when the QP was
 infeasible (:func:`~redundik.resolvers.qp.problem.infeasible`, a linear program on its constraints) that is the
 documented relaxation and no alarm, otherwise the backend failed on a feasible QP and ``StepResult.fallback`` says
-so, as it does for the closed form. A backend's own retry that solved the QP (``QPSolution.retried``) is counted in
-``relaxed`` as ``"wqp (backend retried)"`` and told in ``info["retries"]``.
+so, as it does for the closed form. When the relaxed optimum keeps the rows dropped it is the QP's own optimum:
+nothing was relaxed, and the refusal counts as a backend failure that a retry rescued — as a backend's own retry
+that solved the QP (``QPSolution.retried``) does: in ``relaxed`` as ``"wqp (backend retried)"``, told in
+``info["retries"]``.
 """
 
 from __future__ import annotations
@@ -462,6 +464,11 @@ class WeightedQPResolver(QPResolverBase):
             sol = self._solve_qp(relaxed, self._dq_prev, diag)  # a SolverError here goes to the closed form
             diag.backend, diag.iterations, diag.qp = sol.backend, sol.iterations, 2
             dropped = sorted({r.split(":")[0] for r, k in zip(prob.row_names, keep, strict=True) if not k})
+            if np.all(prob.G[~keep] @ sol.x <= prob.h[~keep] + 1e-9 * np.maximum(1.0, np.abs(prob.h[~keep]))):
+                # the relaxed optimum keeps the rows dropped: it is the QP's own optimum (nothing was relaxed), and
+                # the backend's refusal a failure that this second solve rescued
+                diag.retries.append((prob.label, f"{exc}; solved without the bound rows, whose optimum keeps them"))
+                return sol.x, None
             diag.relaxed += dropped
             if infeasible(prob):  # the documented relaxation: StepResult.relaxed names them, no alarm
                 return sol.x, None
