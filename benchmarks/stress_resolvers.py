@@ -18,15 +18,18 @@ q̇):
 * ``violations``: q̇ outside the box (beyond 1e-9), |q̇| above a velocity limit, or a joint that started inside
   its range leaving it (beyond 1e-9 rad), or one that started outside moving further out — must be 0;
 * ``nans``: a non-finite q̇ — must be 0 (and a "non-finite" fallback counts here too);
-* ``silent``: a step that reports no fallback while a bound row C q̇ ≤ d is violated beyond max(the backend's
-  tolerance, 1e-6) relative to max(1, ‖d‖∞) — a silent wrong answer, must be 0;
-* ``fallbacks`` by class:
-  - ``infeasible: bound subtasks vs limits``: the bound rows C q̇ ≤ d have no solution inside the box (checked by
-    a linear program) — a truly infeasible problem;
-  - ``contradicted by a higher level``: hqp only: the bound rows are feasible inside the box but not together with
-    the higher levels' optimum — the hierarchy's answer (daqp from the same state reports it too);
-  - ``backend failure``: anything else (a backend failing where daqp solves, or a relaxation that was not
-    needed) — must be 0.
+* ``silent``: a step that reports neither a fallback nor a relaxation (``result.relaxed``) while a bound row
+  C q̇ ≤ d is violated beyond max(the backend's tolerance, 1e-6) relative to max(1, ‖d‖∞) — a silent wrong answer,
+  must be 0;
+* ``fallbacks``: the steps that report something, by class:
+  - ``infeasible: bound subtasks vs limits``: a relaxation (no fallback) where the bound rows C q̇ ≤ d have no
+    solution inside the box (checked by a linear program) — a truly infeasible problem;
+  - ``contradicted by a higher level``: hqp only: a relaxation (no fallback) where the bound rows are feasible inside
+    the box but not together with the higher levels' optimum — the hierarchy's answer (daqp from the same state
+    relaxes them too);
+  - ``backend retried``: a relaxation that only counts a QP a documented retry solved (``"… (backend retried)"``);
+  - ``backend failure``: anything else — a ``result.fallback`` (a backend failure no retry rescued, a relaxation
+    that was not needed) — must be 0.
 
 Prints one line per pair and writes ``--json`` ``{"pairs": [...], "total_steps": N}``.
 """
@@ -58,6 +61,7 @@ RESOLVERS = ("wqp", "hqp")
 INFEASIBLE = "infeasible: bound subtasks vs limits"
 CONTRADICTED = "contradicted by a higher level"
 FAILURE = "backend failure"
+RETRIED = "backend retried"
 
 
 @dataclass
@@ -232,14 +236,21 @@ def _feasible(C: np.ndarray, d: np.ndarray, lb: np.ndarray, ub: np.ndarray) -> b
     return bool(out.status == 0)
 
 
-def _classify(message: str, feasible: bool, resolver: str, reference_note: str | None) -> str:
-    if "non-finite" in message:
-        return "non-finite"
-    if not feasible and ("relaxed" in message or "contradicted" in message):
+def _members(relaxed: tuple[str, ...]) -> set[str]:
+    """The members a step relaxed (its ``relaxed`` without the QPs a retry solved)."""
+    return {r for r in relaxed if not r.endswith("(backend retried)")}
+
+
+def _classify(fallback: str | None, relaxed: tuple[str, ...], feasible: bool, resolver: str,
+              reference: tuple[str, ...] | None) -> str:  # fmt: skip
+    if fallback is not None:
+        return "non-finite" if "non-finite" in fallback else FAILURE
+    if not _members(relaxed):
+        return RETRIED
+    if not feasible:
         return INFEASIBLE
-    if resolver == "hqp" and "contradicted" in message and "skipped" not in message:
-        if reference_note is not None and "contradicted" in reference_note:
-            return CONTRADICTED
+    if resolver == "hqp" and reference is not None and _members(reference):
+        return CONTRADICTED
     return FAILURE
 
 
@@ -274,30 +285,32 @@ def run_pair(resolver: str, backend: str, episodes: list[Episode]) -> PairResult
             if not np.all(np.isfinite(dq)):
                 out.nans += 1
                 break
-            if step.fallback is None and stack.bound_subtasks:
-                # no fallback reported: every bound row must hold (within the backend's accuracy), else the step
-                # was a silent wrong answer
+            if step.fallback is None and not _members(step.relaxed) and stack.bound_subtasks:
+                # nothing reported: every bound row must hold (within the backend's accuracy), else the step was a
+                # silent wrong answer
                 C, d = _bound_rows(robot, stack, ep.dt)
                 over = float(np.max(C @ dq - d, initial=0.0))
                 if over > max(TOLERANCE[backend], 1e-6) * max(1.0, float(np.max(np.abs(d), initial=0.0))):
                     out.silent += 1
                     out.max_silent = max(out.max_silent, over)
                     out.first.setdefault("silent", f"episode {ep.seed} step {k}: bound rows violated by {over:.3g}")
-            if step.fallback is not None:
+            if step.fallback is not None or step.relaxed:
                 C, d = _bound_rows(robot, stack, ep.dt)
-                note = None
+                reference = None
                 if ref is not None:
                     with warnings.catch_warnings():
                         warnings.simplefilter("ignore")
-                        note = ref.step(robot, stack, q, t, ep.dt).fallback
+                        reference = ref.step(robot, stack, q, t, ep.dt).relaxed
                     robot.update(q)
                 elif resolver == "hqp":
-                    note = step.fallback
-                cls = _classify(step.fallback, _feasible(C, d, box.lb, box.ub), resolver, note)
+                    reference = step.relaxed
+                feasible = _feasible(C, d, box.lb, box.ub)
+                cls = _classify(step.fallback, step.relaxed, feasible, resolver, reference)
                 if cls == "non-finite":
                     out.nans += 1
                 out.fallbacks[cls] += 1
-                out.first.setdefault(cls, f"episode {ep.seed} step {k}: {step.fallback[:300]}")
+                what = step.fallback if step.fallback is not None else f"relaxed {step.relaxed}"
+                out.first.setdefault(cls, f"episode {ep.seed} step {k}: {what[:300]}")
             q_next = robot.integrate(q, dq, ep.dt)
             v = _violation(box, dq, q, q_next, lo, hi, vmax)
             if v > TOL:

@@ -189,6 +189,7 @@ def summarise(plan: TaskPlan, result: RunResult) -> dict[str, Any]:
         "max_limit_violation": float(np.max(result.limit_violation, initial=0.0)),
         "damped_steps": int(np.count_nonzero(log.damped)),
         "fallbacks": len(log.fallbacks),
+        "relaxed_steps": len(log.relaxed),
     }
     for s in run.stack.subtasks:  # a waypoint round trip that stalled short of a waypoint says so
         pot = getattr(s, "potential", None)
@@ -200,6 +201,8 @@ def summarise(plan: TaskPlan, result: RunResult) -> dict[str, Any]:
             }
     if log.fallbacks:
         summary["fallback_reasons"] = sorted({reason for _, reason in log.fallbacks})
+    if log.relaxed:
+        summary["relaxed_members"] = sorted({name for _, names in log.relaxed for name in names})
     if "sigma_min" in log.extras:
         summary["min_sigma_min"] = float(np.nanmin(log.extras["sigma_min"]))
     monitors: dict[str, Any] = {m.name: _stats(log.potentials[m.name]) for m in run.monitors}

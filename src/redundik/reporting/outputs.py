@@ -38,7 +38,8 @@ def run_table(plan: TaskPlan, result: RunResult) -> tuple[list[str], np.ndarray]
 
     Columns: ``t`` [s]; ``q.<joint>`` [rad or length]; ``dq.<joint>`` (q̇ applied after the sample); ``e.<task>``
     (task error norm); ``p.<potential>`` (every potential of the file, controlled or watched); ``m.<monitor>``;
-    ``limit_violation``; per-step diagnostics (``step_time_us``, ``damped``, ``sigma_min``, ... — empty on the
+    ``limit_violation``; per-step diagnostics (``step_time_us``, ``damped``, ``fallback`` (1 when the step fell
+    back), ``relaxed`` (the number of members it relaxed as documented), ``sigma_min``, ... — empty on the
     last sample, which has no step); ``x.<frame>``, ``y.<frame>``, ``z.<frame>`` of the logged frame origins.
     """
     robot = plan.robot.model
@@ -61,6 +62,12 @@ def run_table(plan: TaskPlan, result: RunResult) -> tuple[list[str], np.ndarray]
 
     cols.append(("step_time_us", per_step(log.step_time * 1e6)))
     cols.append(("damped", per_step(log.damped.astype(float))))
+    flags = np.zeros((2, log.step_time.shape[0]))  # per step: fell back (1/0), members relaxed (their number)
+    for k, _ in log.fallbacks:
+        flags[0, k] = 1.0
+    for k, names in log.relaxed:
+        flags[1, k] = len(names)
+    cols += [("fallback", per_step(flags[0])), ("relaxed", per_step(flags[1]))]
     cols += [(k, per_step(v)) for k, v in log.extras.items()]
     for f, xyz in log.frame_positions.items():
         cols += [(f"{a}.{f}", xyz[:, i]) for i, a in enumerate("xyz")]

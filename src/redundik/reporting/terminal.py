@@ -74,7 +74,9 @@ def summary_table(summary: dict[str, Any]) -> Table:
             effort = max(r.get("actuator_effort", {}).get("max_abs", {}).values(), default=None)
             items.append(f"{r['plant']} plant; kinematic max {_num(r.get('kinematic_max_task_error'), '.2g')}")
             items.append(f"max |τ| {_num(effort)} N·m")
-        damped = str(r.get("damped_steps", 0)) + (f" ({r['fallbacks']} fb)" if r.get("fallbacks") else "")
+        alarms = [f"{r['fallbacks']} fb"] if r.get("fallbacks") else []
+        alarms += [f"{r['relaxed_steps']} relaxed"] if r.get("relaxed_steps") else []
+        damped = str(r.get("damped_steps", 0)) + (f" ({', '.join(alarms)})" if alarms else "")
         cells = [
             f"[bold]{name}[/bold]\n[dim]({r['resolver']})[/dim]",
             f"{_num(r['max_task_error'], '.2g')} / {_num(r['final_task_error'], '.2g')}",

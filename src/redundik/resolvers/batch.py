@@ -59,12 +59,15 @@ class BatchResult:
         task_error: Norm of each problem's frame-task error before the step, shape (N,) [m and rad mixed].
         qp: True where the QP backend was called (a limit bound), shape (N,) (all false for ``pinv``).
         fallback: Per problem, why its step fell back (``None`` for none), only filled for problems run one by one.
+        relaxed: Per problem, the documented relaxations of its step (``StepResult.relaxed``: a QP a backend retry
+            solved, ``"wqp (backend retried)"``); an empty tuple for none.
     """
 
     dq: np.ndarray
     task_error: np.ndarray
     qp: np.ndarray
     fallback: list[str | None] = field(default_factory=list)
+    relaxed: list[tuple[str, ...]] = field(default_factory=list)
 
     @property
     def qp_fraction(self) -> float:
@@ -160,6 +163,7 @@ class BatchResolver:
         err = np.empty(N)
         used = np.zeros(N, dtype=bool)
         notes: list[str | None] = []
+        relaxed: list[tuple[str, ...]] = []
         stack = self.loop_stack(q[0], targets[0]) if N else TaskStack()
         for i in range(N):
             stack.tasks[0].set_target(targets[i])  # type: ignore[attr-defined]
@@ -175,7 +179,8 @@ class BatchResolver:
             err[i] = res.terms[0].error_norm
             used[i] = bool(res.info.get("qp", 0))
             notes.append(res.fallback)
-        return BatchResult(dq, err, used, notes)
+            relaxed.append(res.relaxed)
+        return BatchResult(dq, err, used, notes, relaxed)
 
     # ------------------------------------------------------------------ the batch
     def _kinematics(self, q: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -257,7 +262,7 @@ class BatchResolver:
             dq_r, dq_n, _, _, _ = K.closed_form_batch(
                 np.ascontiguousarray(J), V, z, self.posture_gain > 0, r.epsilon, r.max_damping, RCOND
             )
-            return BatchResult(dq_r + dq_n, err, np.zeros(N, dtype=bool), [None] * N)
+            return BatchResult(dq_r + dq_n, err, np.zeros(N, dtype=bool), [None] * N, [()] * N)
         return self._solve_wqp(cast(WeightedQPResolver, r), q, targets, J, V, z, e, err, dt)
 
     def _solve_wqp(
@@ -293,6 +298,7 @@ class BatchResolver:
         x, _, inside = K.spd_solve_batch(np.ascontiguousarray(P), qv, lb, ub, 1e-12)
         dq = np.minimum(np.maximum(x, lb), ub)
         notes: list[str | None] = [None] * N
+        relaxed: list[tuple[str, ...]] = [()] * N
         bind = np.flatnonzero(~inside)
         if bind.size:
             bind = self._native_box_qps(r, P, qv, lb, ub, bind, dq)
@@ -301,16 +307,20 @@ class BatchResolver:
         for i in bind:  # a limit binds: the single step's QP (same P, q, box), straight to its backend
             prob = QPProblem(P[i], qv[i], empty_rows, empty, empty_rows, empty, lb[i], ub[i], "wqp")
             try:
-                dq[i] = np.minimum(np.maximum(r._solve_qp(prob).x, lb[i]), ub[i])
+                sol = r._solve_qp(prob)
             except SolverError:
                 hard.append(int(i))
+                continue
+            dq[i] = np.minimum(np.maximum(sol.x, lb[i]), ub[i])
+            if getattr(sol, "retried", None):  # a backend failure a retry rescued: counted, as in the single step
+                relaxed[i] = ("wqp (backend retried)",)
         if hard:  # the backend refused: the single-problem step (its fallbacks), exactly as the loop
             sub = self.solve_loop(q[hard], targets[hard], dt)
             dq[hard] = sub.dq
             for k, j in enumerate(hard):
-                notes[j] = sub.fallback[k]
+                notes[j], relaxed[j] = sub.fallback[k], sub.relaxed[k]
         used = ~inside
-        return BatchResult(dq, err, used, notes)
+        return BatchResult(dq, err, used, notes, relaxed)
 
     def _native_box_qps(
         self,

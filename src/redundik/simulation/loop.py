@@ -44,7 +44,11 @@ class SimulationLog:
         potentials: Per subtask potential, its value at each sample, shape (N,).
         step_time: Wall time of each resolver step (kinematics update + solve) [s], shape (N−1,).
         damped: Whether the step was damped, shape (N−1,).
-        fallbacks: (step index, reason) for each step that fell back.
+        fallbacks: (step index, reason) for each step that fell back (``StepResult.fallback``: the answer is not
+            what the stack asked beyond its documented relaxations — an alarm).
+        relaxed: (step index, member names) for each step that made a documented relaxation
+            (``StepResult.relaxed``: an ``hqp`` level contradicted by those above, a ``wqp`` bound subtask dropped
+            from an infeasible QP — not an alarm).
         extras: Per-step scalar diagnostics by name (e.g. ``"sigma_min"``), shape (N−1,).
         frame_positions: Logged frame origins by frame name, shape (N, 3).
         main_tasks: Names of the main tasks (regularisation tasks such as a posture are logged but not counted in
@@ -59,6 +63,7 @@ class SimulationLog:
     step_time: np.ndarray
     damped: np.ndarray
     fallbacks: list[tuple[int, str]] = field(default_factory=list)
+    relaxed: list[tuple[int, tuple[str, ...]]] = field(default_factory=list)
     extras: dict[str, np.ndarray] = field(default_factory=dict)
     frame_positions: dict[str, np.ndarray] = field(default_factory=dict)
     main_tasks: list[str] | None = None
@@ -182,6 +187,7 @@ def simulate(
     damped = np.zeros(steps, dtype=bool)
     extras: dict[str, np.ndarray] = {}
     fallbacks: list[tuple[int, str]] = []
+    relaxed: list[tuple[int, tuple[str, ...]]] = []
     times = np.arange(n) * dt
     guard = StateGuard([resolver, *stack.tasks, *stack.subtasks, *watched])
 
@@ -217,6 +223,8 @@ def simulate(
                     extras.setdefault(key, np.full(steps, np.nan))[k] = float(val)
             if res.fallback:
                 fallbacks.append((k, res.fallback))
+            if res.relaxed:
+                relaxed.append((k, tuple(res.relaxed)))
             DQ[k] = res.dq
             if progress is not None:
                 progress(k + 1)
@@ -229,6 +237,7 @@ def simulate(
         step_time=step_time,
         damped=damped,
         fallbacks=fallbacks,
+        relaxed=relaxed,
         extras=extras,
         frame_positions=F,
         main_tasks=[t.name for t in stack.tasks if not t.regularization],

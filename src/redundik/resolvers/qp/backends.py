@@ -124,6 +124,11 @@ def finite(x: np.ndarray) -> bool:
     return bool(np.isfinite(x).all())
 
 
+def _joined(first: str | None, then: str) -> str:
+    """``then`` after ``first`` (``None``: ``then`` alone), for :attr:`QPSolution.retried`."""
+    return then if first is None else f"{first}; {then}"
+
+
 def _checked(x: np.ndarray | None, problem: QPProblem, backend: str, status: object = "") -> np.ndarray:
     if x is None:
         raise SolverError(f"{backend}: no finite solution for {problem.label} (status {status})", problem)
@@ -289,6 +294,8 @@ class DaqpBackend(Backend):
         #: (``_solve_lifted``); ``LIFT_MIN_N`` by default.
         self.lift_min_n = LIFT_MIN_N
         self._lift_cache: dict[tuple[int, int], tuple[np.ndarray, float]] = {}
+        #: What failed in this solve before its answer (``QPSolution.retried``), reset at each :meth:`solve`.
+        self._miss: str | None = None
 
     def _split_views(self, n: int, nc: int) -> tuple[np.ndarray, ...]:
         """The work buffers of the split kernel (:func:`split_kernel`) for n variables and the views daqp reads for
@@ -337,9 +344,11 @@ class DaqpBackend(Backend):
             xc, _, flag, info = self._solve(
                 Pc, qc, M, ubc, lbc, sense, iter_limit=self.iter_limit, primal_tol=self.primal_tol
             )
-        except Exception:  # (the whole problem's solve reports it)
+        except Exception as exc:  # (the whole problem's solve reports it)
+            self._miss = f"daqp raised on the split problem ({exc})"
             return None
         if (flag != 1 and flag != 2) or type(xc) is not np.ndarray or xc.shape != (nc,) or not finite(xc):
+            self._miss = f"daqp did not solve the split problem (exit flag {flag})"
             return None
         x = work[0].copy()  # (the separable entries are finite: the kernel checked them)
         x[ic] = xc
@@ -386,9 +395,11 @@ class DaqpBackend(Backend):
                 self._lifted_hessian(n, k, delta), f, M, bu, bl, sense, iter_limit=self.iter_limit,
                 primal_tol=self.primal_tol,
             )  # fmt: skip
-        except Exception:  # (the problem as given reports it)
+        except Exception as exc:  # (the problem as given reports it)
+            self._miss = f"daqp raised on the lifted problem ({exc})"
             return None
         if (flag != 1 and flag != 2) or type(y) is not np.ndarray or y.shape != (n + k,) or not finite(y):
+            self._miss = f"daqp did not solve the lifted problem (exit flag {flag})"
             return None
         return QPSolution(y[:n].copy(), int(info.get("iterations", -1)), self.name, time.perf_counter() - t0)
 
@@ -415,6 +426,7 @@ class DaqpBackend(Backend):
         return x, int(info.get("iterations", -1))
 
     def solve(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
+        self._miss = None
         q = problem.q
         n = q.shape[0]
         G, A = problem.G, problem.A
@@ -461,6 +473,7 @@ class DaqpBackend(Backend):
                 # allows, else kept only if it violates no constraint by more than ITERATE_VIOLATION.
                 x2, _, flag2, info2 = self._solve(P, q, M, bu, bl, sense, iter_limit=self.iter_limit, primal_tol=1e-6)
                 xp = _stalled(problem, x2) if flag2 in (1, 2) and x2 is not None else None
+                self._miss = _joined(self._miss, f"daqp exit flag {flag} at primal_tol {self.primal_tol:g}")
                 if xp is not None:
                     x, flag, info = xp, flag2, info2
             if flag not in (1, 2, -1):
@@ -474,6 +487,7 @@ class DaqpBackend(Backend):
                     P + eps * np.eye(n), q, M, bu, bl, sense, iter_limit=self.iter_limit, primal_tol=self.primal_tol
                 )
                 xp = polish(problem, x3) if flag3 in (1, 2) and x3 is not None else None
+                self._miss = _joined(self._miss, f"daqp exit flag {flag} (solved with P + {eps:.2g} I, then polished)")
                 if xp is not None:
                     x, flag, info = xp, flag3, info3
         except Exception as exc:
@@ -481,7 +495,7 @@ class DaqpBackend(Backend):
         if flag not in (1, 2):
             raise SolverError(f"daqp: {problem.label} not solved (exit flag {flag})", problem)
         x = _checked(x, problem, self.name, flag)
-        return QPSolution(x, int(info.get("iterations", -1)), self.name, time.perf_counter() - t0)
+        return QPSolution(x, int(info.get("iterations", -1)), self.name, time.perf_counter() - t0, self._miss)
 
 
 class QuadprogBackend(Backend):
@@ -595,8 +609,9 @@ class ProxsuiteBackend(Backend):
                 # 2-variable hqp level whose feasible window is 3e-7 wide made ProxQP report a plainly feasible QP
                 # "primal infeasible" (it solves it in 10 iterations without the check, and daqp agrees)
                 xp = _stalled(problem, np.array(qp.results.x))
+                note = f"proxsuite status {status} (its iterate polished)"
                 if xp is not None:
-                    return QPSolution(xp, int(qp.results.info.iter), self.name, time.perf_counter() - t0)
+                    return QPSolution(xp, int(qp.results.info.iter), self.name, time.perf_counter() - t0, note)
                 qp = self._new_qp(n, e, p, duality_gap=False)
                 qp.init(problem.P, problem.q, A, b, C, l_in if p else None, u_in if p else None, lb, ub)
                 qp.solve()
@@ -605,7 +620,8 @@ class ProxsuiteBackend(Backend):
                     raise SolverError(f"proxsuite: {problem.label} not solved ({status}, then {retry})", problem)
                 x = polish(problem, np.array(qp.results.x))
                 x = _checked(np.array(qp.results.x) if x is None else x, problem, self.name, retry)
-                return QPSolution(x, int(qp.results.info.iter), self.name, time.perf_counter() - t0)
+                note = f"proxsuite status {status} (solved again without the duality-gap check)"
+                return QPSolution(x, int(qp.results.info.iter), self.name, time.perf_counter() - t0, note)
         except SolverError:
             raise
         except Exception as exc:
@@ -693,10 +709,10 @@ class OsqpBackend(QpsolversBackend):
         if sol.found and sol.x is not None and np.all(np.isfinite(sol.x)):
             return QPSolution(np.asarray(sol.x, dtype=float), iters, self.name, time.perf_counter() - t0)
         x = _stalled(problem, sol.x)
+        status = getattr(info, "status", "?")
         if x is None:
-            status = getattr(info, "status", "?")
             raise SolverError(f"osqp: {problem.label} not solved ({status})", problem)
-        return QPSolution(x, iters, self.name, time.perf_counter() - t0)
+        return QPSolution(x, iters, self.name, time.perf_counter() - t0, f"osqp status {status} (its iterate polished)")
 
     def __repr__(self) -> str:
         return "OsqpBackend()"

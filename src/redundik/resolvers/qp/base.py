@@ -100,6 +100,13 @@ class QPDiagnostics:
         active_limits: Joint-limit bounds q̇ sits on.
         bound_violation: Largest bound-subtask violation (wqp), or ``None`` without bound subtasks.
         regularization_retry: 1 when a level QP was retried with a stronger regulariser.
+        relaxed: The members this step relaxed as documented (an ``hqp`` level's bound rows contradicted by the
+            levels above and the limits, the bound subtasks ``wqp`` dropped from an infeasible QP), by name:
+            ``StepResult.relaxed``.
+        retries: Per QP that a backend failed on and a documented retry then solved (the backend's own retry,
+            ``QPSolution.retried``, or ``hqp``'s stronger regulariser), (its label, what failed): each is counted
+            in ``StepResult.relaxed`` as ``"<label> (backend retried)"`` and told in ``info["retries"]``. A
+            failure no retry rescued is a fallback.
     """
 
     backend: str = "closed-form"
@@ -114,6 +121,8 @@ class QPDiagnostics:
     active_limits: list[str] = field(default_factory=list)
     bound_violation: float | None = None
     regularization_retry: int = 0
+    relaxed: list[str] = field(default_factory=list)
+    retries: list[tuple[str, str]] = field(default_factory=list)
 
     def as_info(self) -> dict[str, object]:
         """The flat dict of ``StepResult.info`` (numbers are logged per step)."""
@@ -158,6 +167,13 @@ def keep_safe(dq: np.ndarray, C: np.ndarray, d: np.ndarray, tol: float = 1e-6) -
         return dq, 1.0
     alpha = float(np.clip(np.min((np.maximum(d[over], 0.0) + tol) / v[over]), 0.0, 1.0))
     return alpha * dq, alpha
+
+
+def with_relaxed(res: StepResult, relaxed: tuple[str, ...]) -> StepResult:
+    """``res`` with :attr:`StepResult.relaxed` set to ``relaxed`` (left at its default ``()`` when empty)."""
+    if relaxed:
+        res.__dict__["relaxed"] = relaxed
+    return res
 
 
 class QPResolverBase(Resolver):
@@ -243,14 +259,28 @@ class QPResolverBase(Resolver):
     ) -> StepResult:
         """Solve a built step, fall back if needed, clip to the limits, guard the safety rows, and report (the
         template's second half; ``t0``/``t1`` [s]: when the step started and its build ended)."""
-        dq, diagnostics, fallback, info, t2 = self._settle(robot, stack, lambda: terms, built)
-        return LazyStepResult.make(dq, terms, fallback, info, t1 - t0, t2 - t1, self.layout(stack).main, diagnostics)
+        dq, diagnostics, fallback, relaxed, info, t2 = self._settle(robot, stack, lambda: terms, built)
+        res = LazyStepResult.make(dq, terms, fallback, info, t1 - t0, t2 - t1, self.layout(stack).main, diagnostics)
+        return with_relaxed(res, relaxed)
 
     def _settle(
         self, robot: RobotModel, stack: TaskStack, terms_of: Callable[[], list[TaskTerm]], built: Any
-    ) -> tuple[np.ndarray, Callable[[], tuple[float, bool, dict[str, object]]], str | None, dict[str, object], float]:
+    ) -> tuple[
+        np.ndarray,
+        Callable[[], tuple[float, bool, dict[str, object]]],
+        str | None,
+        tuple[str, ...],
+        dict[str, object],
+        float,
+    ]:
         """:meth:`_finish` but its result: (q̇, the diagnostics to compute on first read, the fallback note, the
-        info, when it ended [s]). ``terms_of`` gives the step's terms; only a fallback asks for them."""
+        members relaxed as documented, the info, when it ended [s]). ``terms_of`` gives the step's terms; only a
+        fallback asks for them.
+
+        The fallback note says what is not what the stack asked beyond its documented relaxations — a backend
+        failure no retry rescued (the closed form, an ``hqp`` level skipped), a non-finite q̇, a q̇ scaled to keep
+        the safety rows; the relaxations (:attr:`QPDiagnostics.relaxed`, and the QPs a documented retry solved,
+        :attr:`QPDiagnostics.retries`) are the step's ``relaxed``, not an alarm."""
         box: LimitBox = built.box
         diag = QPDiagnostics()
         try:
@@ -288,16 +318,25 @@ class QPResolverBase(Resolver):
             return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
 
         info: dict[str, object] = {"backend": diag.backend, "qp": diag.qp, "iterations": diag.iterations}
-        return dq, diagnostics, fallback, info, t2
+        relaxed: tuple[str, ...] = ()
+        if diag.retries:  # counted in relaxed, told here (eager: a logger reads it without the diagnostics)
+            info["retries"] = [f"{label}: {why}" for label, why in diag.retries]
+            relaxed = tuple(f"{label} (backend retried)" for label, _ in diag.retries)
+        if diag.relaxed or relaxed:
+            relaxed = tuple(dict.fromkeys([*diag.relaxed, *relaxed]))  # (in order, each name once)
+        return dq, diagnostics, fallback, relaxed, info, t2
 
     def _safety_rows(self, built: Any, stack: TaskStack) -> tuple[np.ndarray, np.ndarray] | None:
         """The built step's safety rows (C, d) of C q̇ ≤ d (:attr:`BoundSubtask.critical`), or ``None`` without any."""
         return None
 
-    def _solve_qp(self, problem: QPProblem, warm: np.ndarray | None = None) -> QPSolution:
+    def _solve_qp(
+        self, problem: QPProblem, warm: np.ndarray | None = None, diag: QPDiagnostics | None = None
+    ) -> QPSolution:
         """The backend's answer; anything it raises (also a user backend's own exception) becomes SolverError, and
         an answer that is not a finite x of size n does too (tested here unless the backend is one of
-        :data:`~redundik.resolvers.qp.backends.CHECKED_ANSWERS`, which test it themselves)."""
+        :data:`~redundik.resolvers.qp.backends.CHECKED_ANSWERS`, which test it themselves). With ``diag``, a
+        backend's own retry (``QPSolution.retried``) is noted in :attr:`QPDiagnostics.retries`."""
         try:
             sol = self.backend.solve(problem, warm)
         except SolverError:
@@ -306,6 +345,10 @@ class QPResolverBase(Resolver):
             raise SolverError(
                 f"{self.backend.name} raised {type(exc).__name__} on {problem.label}: {exc}", problem
             ) from exc
+        if diag is not None:
+            retried = getattr(sol, "retried", None)
+            if retried:
+                diag.retries.append((problem.label, str(retried)))
         try:
             x = sol.x
             if type(sol) is QPSolution and type(self.backend) in CHECKED_ANSWERS:

@@ -82,9 +82,12 @@ level leaves the step unchanged — a main task of weight 1e-4 alone at the top 
 damped away (``tests/test_hqp_weights.py``); a level QP of least squares only is posed to the backend divided by its
 scale², on the scale of a unit weight.
 
-A level that cannot be met — its bound rows contradicted by the levels above and the limits (slack w_k* > 1e-6),
-or a level QP the backend fails — is a recorded fallback (``StepResult.fallback`` names the level and by how much;
-``info["contradicted_levels"]``).
+A level that cannot be met — its bound rows contradicted by the levels above and the limits (slack w_k* > 1e-6) —
+is the hierarchy's documented relaxation, not an alarm: ``StepResult.relaxed`` names its members and
+``info["contradicted_levels"]`` says by how much; a level QP the backend failed on and a documented retry solved (a
+stronger regulariser, ``_regularized_retry``, or the backend's own retry, ``QPSolution.retried``) is counted there
+too (``"hqp level k (backend retried)"``, what failed in ``info["retries"]``). A level QP no retry solves is a
+recorded fallback (``StepResult.fallback``): the level skipped, or on level 0 the closed form.
 
 Diagnostics in ``StepResult.info``: ``residual_L<k>`` (per level: ‖J_k q̇ − v_k‖ of its task rows, or ‖q̇ − z‖ for a
 pure gradient level, combined with the norm of its inequality violations),
@@ -124,7 +127,7 @@ from redundik.resolvers.fused import (
 )
 from redundik.resolvers.linalg import FK, K, _Kernels
 from redundik.resolvers.qp.backends import CHECKED_ANSWERS, DEFAULT_BACKEND, Backend, DaqpBackend, finite, polish
-from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
+from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase, with_relaxed
 from redundik.resolvers.qp.daqp_native import NativeDaqp
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
@@ -135,7 +138,7 @@ from redundik.tasks.potentials import Clearance
 from redundik.tasks.stack import StackLayout, TaskStack
 from redundik.tasks.subtasks import BoundSubtask
 
-#: Slack above which a level's bound rows count as contradicted (reported as a fallback).
+#: Slack above which a level's bound rows count as contradicted (reported in ``StepResult.relaxed``).
 CONTRADICTION_TOLERANCE = 1e-6
 #: Defaults of ``HierarchicalQPResolver.complement_min_n`` and ``complement_fraction`` (joint-space level QPs from
 #: this many joints on, below levels that leave at most a third of the directions fixed).
@@ -825,14 +828,17 @@ class HierarchicalQPResolver(QPResolverBase):
         built.stats = stats
         return x
 
-    def _regularized_retry(self, prob: QPProblem, r: int, eps: float, diag: QPDiagnostics) -> QPSolution:
+    def _regularized_retry(
+        self, prob: QPProblem, r: int, eps: float, diag: QPDiagnostics, failed: SolverError | None = None
+    ) -> QPSolution:
         """Solve a level QP the backend refused, with a stronger minimum-norm regulariser on u.
 
         Dual active-set solvers (daqp) work with P⁻¹ and can misjudge a level whose u-block is regularised by 1e-9
         only as infeasible (every level below 0 is feasible by construction: u = 0, w' = 0). First ε = 1e-6, kept as
         solved (far below the slack's unit weight); then ε = 1e-4, kept only as the verified exact optimum of the
         level as posed (``polish`` from its active set: on a degenerate vertex of the stress run, 5 rows active in
-        4 unknowns, daqp needed it and quadprog agrees).
+        4 unknowns, daqp needed it and quadprog agrees). ``failed``: the backend's first error (for the note the
+        retry leaves in :attr:`QPDiagnostics.retries`: counted in ``StepResult.relaxed``, told in ``info``).
         """
         diag.regularization_retry = 1
         last: SolverError | None = None
@@ -840,14 +846,16 @@ class HierarchicalQPResolver(QPResolverBase):
             P = prob.P.copy()
             P[:r, :r] += (boost - eps) * np.eye(r)
             try:
-                sol = self._solve_qp(replace(prob, P=P))
+                sol = self._solve_qp(replace(prob, P=P), None, diag)
             except SolverError as exc:
                 last = exc
                 continue
             if not verify:
+                diag.retries.append((prob.label, f"{failed}; solved with the regulariser raised to {boost:.3g}"))
                 return sol
             exact = polish(prob, sol.x)
             if exact is not None:
+                diag.retries.append((prob.label, f"{failed}; solved with the regulariser raised to {boost:.3g}"))
                 return replace(sol, x=exact)
         assert last is not None
         raise last
@@ -899,7 +907,8 @@ class HierarchicalQPResolver(QPResolverBase):
         rank) are kept on ``built`` for the diagnostics.
 
         Returns:
-            (q̇, notes: the levels skipped after a backend failure and the levels contradicted by those above).
+            (q̇, notes: the levels skipped after a backend failure); the members of the levels contradicted by
+            those above go to :attr:`QPDiagnostics.relaxed`.
         """
         n, box = built.n, built.box
         layout = built.layout
@@ -956,9 +965,9 @@ class HierarchicalQPResolver(QPResolverBase):
             )  # fmt: skip
             try:
                 try:
-                    sol = self._solve_qp(prob)
-                except SolverError:
-                    sol = self._regularized_retry(prob, nu, eps, diag)
+                    sol = self._solve_qp(prob, None, diag)
+                except SolverError as first:
+                    sol = self._regularized_retry(prob, nu, eps, diag, first)
             except SolverError as exc:
                 if k == 0:
                     raise  # nothing of the cascade is worth keeping: the base falls back to the closed form
@@ -980,16 +989,14 @@ class HierarchicalQPResolver(QPResolverBase):
             if state[HK.ST_CONTRADICTED]
             else []
         )
-        for k in contradicted:
+        for k in contradicted:  # the documented relaxation: named in StepResult.relaxed, not a fallback
             worst = float(stats[k, HK.QS_WORST])
             lv = built.levels[k]
             diag.contradicted[lv.priority] = worst
             c0, c1 = int(plan.meta[1, k]), int(plan.meta[1, k + 1])
-            names = [lv.c_names[i] for i in np.flatnonzero(slack[c0:c1] > CONTRADICTION_TOLERANCE)]
-            notes.append(
-                (k, f"level {lv.priority} contradicted by the levels above and the limits: {names} violated by up to "
-                    f"{worst:.3g}")
-            )  # fmt: skip
+            owner = [bsub.name for C, _, _, bsub in built.rows.ineq[k] for _ in range(C.shape[0])]
+            over = np.flatnonzero(slack[c0:c1] > CONTRADICTION_TOLERANCE).tolist()
+            diag.relaxed += [owner[i] for i in over if i < len(owner)] or [f"level {lv.priority}"]
         built.qp_stats, built.qp_r = stats, rfac
         notes.sort(key=lambda item: item[0])
         return x, [text for _, text in notes]
@@ -1134,10 +1141,11 @@ class HierarchicalQPResolver(QPResolverBase):
             )  # fmt: skip
             # the constrained cascade; the terms are built only if read (or for a fallback), the task error is the
             # compiled call's
-            dq, pending, fallback, info, t2 = self._settle(robot, stack, make_terms, built)
-            return FusedStepResult.fused(
+            dq, pending, fallback, relaxed, info, t2 = self._settle(robot, stack, make_terms, built)
+            res = FusedStepResult.fused(
                 dq, make_terms, math.sqrt(err2), info, t1 - t0, t2 - t1, plan.layout.main, pending, fallback=fallback
             )
+            return with_relaxed(res, relaxed)
         kept = out[6, 0]
         self._dq_prev = kept
 

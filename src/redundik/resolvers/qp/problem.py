@@ -10,6 +10,7 @@ on presence.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -148,9 +149,55 @@ class QPSolution:
         iterations: Backend iterations (-1 if unknown).
         backend: Backend name.
         solve_time: Seconds spent in the backend.
+        retried: What failed before this answer, when the backend's first attempt did not solve the problem and a
+            retry of its own did (another tolerance, a regularised Hessian, a polished stalled iterate, the problem
+            posed another way); ``None`` when the first attempt solved it. The resolvers count it in
+            ``StepResult.relaxed`` (``"<label> (backend retried)"``) and tell it in ``info["retries"]``.
     """
 
     x: np.ndarray
     iterations: int = -1
     backend: str = ""
     solve_time: float = 0.0
+    retried: str | None = None
+
+
+def infeasible(problem: QPProblem, tol: float = 1e-9) -> bool:
+    """True when the constraints of ``problem`` — G x ≤ h + ``tol``, A x = b, lb ≤ x ≤ ub — admit no x (run only
+    after a backend refused the QP).
+
+    A row that no x of the box meets (min over the box of Gᵢ x, in closed form, above hᵢ + ``tol``) decides it at
+    once, and a single row that the box meets means a feasible problem; several rows that the box meets one by one,
+    or equalities, go to a linear program (scipy's HiGHS, ~1–4 ms), whose end other than "infeasible" (an iteration
+    limit, a numerical failure) says False: the backend's refusal then counts as its failure.
+    """
+    n, lb, ub = problem.n, problem.lb, problem.ub
+    if np.any(lb > ub):
+        return True
+    G, h = problem.G, problem.h
+    keep = np.isfinite(h)
+    if not keep.all():
+        G, h = G[keep], h[keep]
+    with np.errstate(invalid="ignore"):  # (0 · inf terms are dropped by the where)
+        low = np.where(G > 0.0, G * lb, np.where(G < 0.0, G * ub, 0.0)).sum(axis=1)
+    if np.any(low > h + tol):
+        return True
+    A = problem.A if problem.A.shape[0] else None
+    if A is None and G.shape[0] <= 1:
+        return False
+    from scipy.optimize import linprog
+
+    bounds = [(a if math.isfinite(a) else None, b if math.isfinite(b) else None) for a, b in zip(lb, ub, strict=True)]
+    try:
+        out = linprog(
+            np.zeros(n),
+            A_ub=G if G.shape[0] else None,
+            b_ub=h + tol if G.shape[0] else None,
+            A_eq=A,
+            b_eq=problem.b if A is not None else None,
+            bounds=bounds,
+            method="highs",
+        )
+    except (ValueError, np.linalg.LinAlgError):
+        return False
+    return bool(out.status == 2)

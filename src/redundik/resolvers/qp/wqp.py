@@ -20,7 +20,13 @@ of identity tasks, null objective and λ) handed to it as the problem's factor, 
 F q̇), with a diagonal Hessian (:mod:`redundik.resolvers.qp.backends`). A backend failure or an infeasible QP (bound
 subtasks that the limits do not allow) is relaxed first (the bound subtasks dropped, except safety rows — collision
 distances — which stay hard), then replaced by the damped closed form clipped to the limits and scaled down until the
-safety rows hold (q̇ = 0 always does); ``StepResult.fallback`` says which.
+safety rows hold (q̇ = 0 always does). ``StepResult.relaxed`` names the bound subtasks dropped; when the QP was
+infeasible (:func:`~redundik.resolvers.qp.problem.infeasible`, a linear program on its constraints) that is the
+documented relaxation and no alarm, otherwise the backend failed on a feasible QP and ``StepResult.fallback`` says
+so, as it does for the closed form. When the relaxed optimum keeps the rows dropped it is the QP's own optimum:
+nothing was relaxed, and the refusal counts as a backend failure that a retry rescued — as a backend's own retry
+that solved the QP (``QPSolution.retried``) does: in ``relaxed`` as ``"wqp (backend retried)"``, told in
+``info["retries"]``.
 """
 
 from __future__ import annotations
@@ -42,7 +48,7 @@ from redundik.resolvers.linalg import FK, K
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
 from redundik.resolvers.qp.limits import LimitBox
-from redundik.resolvers.qp.problem import QPProblem
+from redundik.resolvers.qp.problem import QPProblem, infeasible
 from redundik.resolvers.settings import Setting, flag, nonnegative, unit_interval
 from redundik.tasks.base import TaskTerm
 from redundik.tasks.stack import StackLayout, TaskStack
@@ -477,7 +483,7 @@ class WeightedQPResolver(QPResolverBase):
         if built.gram is not None and prob.factor is None:
             prob.factor = built.gram()
         try:
-            sol = self._solve_qp(prob, self._dq_prev)
+            sol = self._solve_qp(prob, self._dq_prev, diag)
             diag.backend, diag.iterations = sol.backend, sol.iterations
             return sol.x, None
         except SolverError as exc:
@@ -491,10 +497,18 @@ class WeightedQPResolver(QPResolverBase):
                 prob.P, prob.q, prob.G[keep], prob.h[keep], prob.A, prob.b, prob.lb, prob.ub, "wqp relaxed", kept,
                 prob.factor,
             )  # fmt: skip
-            sol = self._solve_qp(relaxed, self._dq_prev)  # a SolverError here goes to the closed form
+            sol = self._solve_qp(relaxed, self._dq_prev, diag)  # a SolverError here goes to the closed form
             diag.backend, diag.iterations, diag.qp = sol.backend, sol.iterations, 2
             dropped = sorted({r.split(":")[0] for r, k in zip(prob.row_names, keep, strict=True) if not k})
-            note = f"wqp relaxed (bound subtasks {dropped} dropped"
+            if np.all(prob.G[~keep] @ sol.x <= prob.h[~keep] + 1e-9 * np.maximum(1.0, np.abs(prob.h[~keep]))):
+                # the relaxed optimum keeps the rows dropped: it is the QP's own optimum (nothing was relaxed), and
+                # the backend's refusal a failure that this second solve rescued
+                diag.retries.append((prob.label, f"{exc}; solved without the bound rows, whose optimum keeps them"))
+                return sol.x, None
+            diag.relaxed += dropped
+            if infeasible(prob):  # the documented relaxation: StepResult.relaxed names them, no alarm
+                return sol.x, None
+            note = f"wqp relaxed a feasible QP the backend failed on (bound subtasks {dropped} dropped"
             if kept:
                 note += f"; safety rows of {sorted({r.split(':')[0] for r in kept})} kept"
             return sol.x, f"{note}): {exc}"
