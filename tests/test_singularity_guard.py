@@ -315,3 +315,59 @@ def test_options_survive_copy_and_reset(panda: rk.RobotModel) -> None:
     assert clone.singularity == SingularityGuard() and clone.max_joint_speed == 1.5
     resolver.singularity = None
     assert resolver.singularity is None and clone.singularity is not None
+
+
+def _yaml_run(planar_task_data: dict[str, Any], write_yaml: Any, options: dict[str, Any]) -> Any:
+    from redundik.config import load_task
+    from redundik.config.runner import run_task
+
+    data = planar_task_data
+    data["runs"] = {
+        "plain": {"resolver": "pinv", "options": {"max_joint_speed": None}},
+        "guarded": {"resolver": "pinv", "options": options},
+    }
+    return run_task(load_task(write_yaml(data)))
+
+
+def test_yaml_options_and_csv_columns(planar_task_data: dict[str, Any], write_yaml: Any) -> None:
+    """The task file's ``options`` carry both settings; the measures are columns of the run's per-step record
+    (``log.extras``, which the CSV writes), and on the chapter's line, away from singularities, the guarded run is
+    the plain one."""
+    options = {"max_joint_speed": 5.0, "singularity": {"slow_at": 40, "halt_at": 120, "release_at": 30}}
+    results = _yaml_run(planar_task_data, write_yaml, options)
+    log, plain = results["guarded"].log, results["plain"].log
+    for column in ("condition", "manipulability", "singularity_state", "singularity_scale"):
+        assert column in log.extras and np.isfinite(log.extras[column]).all(), column
+    assert np.all(log.extras["singularity_state"] == 0)
+    np.testing.assert_array_equal(log.dq, plain.dq)
+    # the manipulability column is the chapter's 3R arm's √det(J Jᵀ) along the run
+    w = [math.sqrt(np.linalg.det(_planar_jacobian(q) @ _planar_jacobian(q).T)) for q in log.q[:-1]]
+    np.testing.assert_allclose(log.extras["manipulability"], w, rtol=1e-9)
+
+
+def test_yaml_bad_guard_key_is_named(planar_task_data: dict[str, Any], write_yaml: Any) -> None:
+    with pytest.raises(rk.RedundikError, match=r"singularity.*unknown key.*slow"):
+        _yaml_run(planar_task_data, write_yaml, {"singularity": {"slow": 40}})
+
+
+@pytest.mark.parametrize("name", ["pinv", "wqp"])
+def test_batch_caps_as_the_loop(panda: rk.RobotModel, name: str) -> None:
+    """The batch applies each problem's cap as its step would (and says where); a guard is refused there."""
+    from redundik.resolvers import BatchResolver
+
+    rng = np.random.default_rng(7)
+    Q = np.array([panda.random_configuration(rng) for _ in range(12)])
+    T = np.empty((12, 4, 4))
+    for i in range(12):
+        panda.update(panda.random_configuration(rng))
+        T[i] = panda.frame_pose(TOOL).homogeneous
+    batch = BatchResolver(
+        rk.make_resolver(name, limits=False) if name == "wqp" else rk.make_resolver(name), panda, TOOL, gain=50.0
+    )
+    got, ref = batch.solve(Q, T, 0.01), batch.solve_loop(Q, T, 0.01)
+    np.testing.assert_allclose(got.dq, ref.dq, atol=1e-9, rtol=0)
+    assert got.capped.any() and np.array_equal(got.capped, ref.capped)
+    assert np.all(np.abs(got.dq) <= panda.velocity_limits * (1 + 1e-12))
+    guarded = BatchResolver(rk.make_resolver(name, singularity=True), panda, TOOL)
+    with pytest.raises(ResolverError, match="singularity guard"):
+        guarded.solve(Q, T, 0.01)

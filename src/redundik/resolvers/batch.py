@@ -43,6 +43,7 @@ from redundik.resolvers.qp.backends import DaqpBackend
 from redundik.resolvers.qp.daqp_native import HK, NativeDaqp
 from redundik.resolvers.qp.problem import QPProblem
 from redundik.resolvers.qp.wqp import WeightedQPResolver
+from redundik.resolvers.singularity import cap_rows
 from redundik.tasks.base import Task
 from redundik.tasks.frame import FrameTask, PostureTask, resolve_axes
 from redundik.tasks.stack import TaskStack
@@ -59,12 +60,14 @@ class BatchResult:
         task_error: Norm of each problem's frame-task error before the step, shape (N,) [m and rad mixed].
         qp: True where the QP backend was called (a limit bound), shape (N,) (all false for ``pinv``).
         fallback: Per problem, why its step fell back (``None`` for none), only filled for problems run one by one.
+        capped: True where the resolver's joint-speed cap scaled q̇ (``max_joint_speed``), shape (N,).
     """
 
     dq: np.ndarray
     task_error: np.ndarray
     qp: np.ndarray
     fallback: list[str | None] = field(default_factory=list)
+    capped: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
 
     @property
     def qp_fraction(self) -> float:
@@ -159,6 +162,7 @@ class BatchResolver:
         dq = np.empty((N, self.robot.nv))
         err = np.empty(N)
         used = np.zeros(N, dtype=bool)
+        capped = np.zeros(N, dtype=bool)
         notes: list[str | None] = []
         stack = self.loop_stack(q[0], targets[0]) if N else TaskStack()
         for i in range(N):
@@ -175,7 +179,8 @@ class BatchResolver:
             err[i] = res.terms[0].error_norm
             used[i] = bool(res.info.get("qp", 0))
             notes.append(res.fallback)
-        return BatchResult(dq, err, used, notes)
+            capped[i] = "max_joint_speed" in res.relaxed
+        return BatchResult(dq, err, used, notes, capped)
 
     # ------------------------------------------------------------------ the batch
     def _kinematics(self, q: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -253,12 +258,22 @@ class BatchResolver:
         z = self.posture_gain * ep
         err = np.linalg.norm(e, axis=1)
         r = self.resolver
+        if r.singularity is not None:
+            raise ResolverError(
+                f"batch: {r.name} has a singularity guard, whose state follows one robot from step to step; a batch "
+                "resolves independent problems: set singularity=None for the batch, or step the problems one by one"
+            )
         if isinstance(r, PinvResolver):
             dq_r, dq_n, _, _, _ = K.closed_form_batch(
                 np.ascontiguousarray(J), V, z, self.posture_gain > 0, r.epsilon, r.max_damping, RCOND
             )
-            return BatchResult(dq_r + dq_n, err, np.zeros(N, dtype=bool), [None] * N)
-        return self._solve_wqp(cast(WeightedQPResolver, r), q, targets, J, V, z, e, err, dt)
+            out = BatchResult(dq_r + dq_n, err, np.zeros(N, dtype=bool), [None] * N)
+        else:
+            out = self._solve_wqp(cast(WeightedQPResolver, r), q, targets, J, V, z, e, err, dt)
+        limiter = r._limiter  # the joint-speed cap, as each problem's step applies it (resolvers/singularity.py)
+        caps = None if limiter is None else limiter.caps(self.robot)
+        out.capped = np.zeros(N, dtype=bool) if caps is None else cap_rows(out.dq, caps)
+        return out
 
     def _solve_wqp(
         self,

@@ -1,6 +1,6 @@
 """Singularity-aware stepping and the joint-speed cap, shared by every resolver (issue 33, item 3).
 
-Every :meth:`~redundik.resolvers.base.Resolver.step` passes its answer q̇ through a :class:`SpeedLimiter` before
+Every :meth:`~redundik.resolvers.Resolver.step` passes its answer q̇ through a ``SpeedLimiter`` before
 returning it. Two things may act there, both reported on the step's result:
 
 **The joint-speed cap** (resolver option ``max_joint_speed`` [rad/s, or m/s for a prismatic joint]). When some
@@ -34,8 +34,8 @@ Acting, it sets ``result.info["capped"] = True`` and ``info["speed_scale"] = s``
   gradient (a main task whose ∂J/∂q is not known, see below) an approaching halted step returns q̇ = 0.
 
 ∇w is exact: with J = Σ σ_i u_i v_iᵀ, ∂w/∂q_k = Σ_i (Π_{l≠i} σ_l) u_iᵀ (∂J/∂q_k) v_i (as
-:class:`~redundik.tasks.potentials.Manipulability`), ∂J/∂q_k from
-:meth:`~redundik.kinematics.model.RobotModel.frame_jacobian_derivatives` for frame tasks and 0 for identity rows (a
+:class:`~redundik.tasks.Manipulability`), ∂J/∂q_k from
+:meth:`~redundik.kinematics.RobotModel.frame_jacobian_derivatives` for frame tasks and 0 for identity rows (a
 posture). Other main tasks have no known ∂J/∂q: the guard then scales without the direction test and halts fully.
 
 The guard reports on every step (it is the only cost it adds: one SVD of J, plus ∂J/∂q near a singularity):
@@ -180,6 +180,18 @@ def check_max_joint_speed(value: object, who: str) -> float | str | None:
     if not (math.isfinite(value) and value > 0):
         raise ResolverError(f"{who}: max_joint_speed must be a finite number > 0 [rad/s], got {value!r}")
     return float(value)
+
+
+def cap_rows(dq: np.ndarray, caps: np.ndarray) -> np.ndarray:
+    """Scale in place each row of q̇ (N, nv) that has some |q̇_i| > caps_i, as one step's cap does (the batch
+    form); returns which rows were scaled, shape (N,)."""
+    if dq.size == 0:
+        return np.zeros(dq.shape[0], dtype=bool)
+    over = np.max(np.abs(dq) / caps, axis=1)
+    mask = over > 1.0
+    if mask.any():
+        dq[mask] *= (1.0 / over[mask])[:, None]
+    return np.asarray(mask)
 
 
 def singular_values(J: np.ndarray) -> tuple[float, float, float]:
@@ -365,9 +377,9 @@ def _reclip(resolver: Resolver, robot: RobotModel, dq: np.ndarray, dt: float, pr
 
 
 class LimiterOption:
-    """A resolver option of its :class:`SpeedLimiter` (``singularity`` or ``max_joint_speed``), validated on
+    """A resolver option of its ``SpeedLimiter`` (``singularity`` or ``max_joint_speed``), validated on
     assignment; an assignment rebuilds the limiter (the guard's state starts at ``"ok"``). Unset, both are ``None``:
-    a :class:`~redundik.resolvers.base.Resolver` subclass that never assigns them has neither cap nor guard."""
+    a :class:`~redundik.resolvers.Resolver` subclass that never assigns them has neither cap nor guard."""
 
     def __init__(self) -> None:
         self._name = ""
