@@ -371,3 +371,17 @@ def test_batch_caps_as_the_loop(panda: rk.RobotModel, name: str) -> None:
     guarded = BatchResolver(rk.make_resolver(name, singularity=True), panda, TOOL)
     with pytest.raises(ResolverError, match="singularity guard"):
         guarded.solve(Q, T, 0.01)
+
+
+def test_run_summary_counts_capped_and_halted_steps(planar_task_data: dict[str, Any], write_yaml: Any) -> None:
+    from redundik.config import load_task
+    from redundik.config.runner import run_task, summarise
+
+    data = planar_task_data
+    data["runs"] = {"capped": {"resolver": "pinv", "gains": {"tip": 20}, "options": {"max_joint_speed": 0.05}}}
+    plan = load_task(write_yaml(data))
+    result = run_task(plan)["capped"]
+    summary = summarise(plan, result)
+    speeds = np.abs(result.log.dq[:-1]).max(axis=1)
+    assert summary["capped_steps"] == int(np.sum(speeds >= 0.05 * (1 - 1e-12))) > 0
+    assert np.all(speeds <= 0.05 * (1 + 1e-12))
