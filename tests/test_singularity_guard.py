@@ -385,3 +385,40 @@ def test_run_summary_counts_capped_and_halted_steps(planar_task_data: dict[str, 
     speeds = np.abs(result.log.dq[:-1]).max(axis=1)
     assert summary["capped_steps"] == int(np.sum(speeds >= 0.05 * (1 - 1e-12))) > 0
     assert np.all(speeds <= 0.05 * (1 + 1e-12))
+
+
+class _OpaqueFrameTask(rk.FrameTask):
+    """A frame task of the user's own (its ``evaluate`` overridden): the guard knows no ∂J/∂q for it."""
+
+    def evaluate(self, robot: rk.RobotModel, t: float) -> rk.TaskTerm:
+        return super().evaluate(robot, t)
+
+
+def test_a_main_task_without_derivatives_slows_and_stops(panda: rk.RobotModel) -> None:
+    """Without ∇w the guard cannot tell approach from retreat: it leaves an ok step alone, slows every
+    decelerating one by the smoothstep, and a halted step stands still."""
+    robot, _, _, q0, targets = _cases(panda)["planar3r"]
+    guard = SingularityGuard()
+    task = _OpaqueFrameTask("3", axes="planar", gain=10.0)
+    stack = rk.TaskStack([task])
+    resolver = rk.make_resolver("pinv", singularity=guard, max_joint_speed=None)
+    robot.update(q0)
+    stack.reset(robot)
+    q, seen = q0.copy(), set()
+    for k, p in enumerate(targets[:200]):
+        task.set_target(p)
+        twin = copy.deepcopy(resolver)
+        twin.singularity = None
+        raw = np.array(twin.step(robot, stack, q, k * 0.01, 0.01).dq)
+        res = resolver.step(robot, stack, q, k * 0.01, 0.01)
+        state, kappa = res.info["singularity"], res.info["condition"]
+        seen.add(state)
+        assert jacobian_derivatives(res, robot, stack) is None
+        if state == OK:
+            np.testing.assert_array_equal(res.dq, raw)
+        elif state == DECELERATE:
+            np.testing.assert_allclose(res.dq, raw * guard.slowdown(kappa), rtol=1e-12, atol=1e-15)
+        else:
+            assert not np.any(res.dq) and "singularity" in res.relaxed
+        q = robot.integrate(q, res.dq, 0.01)
+    assert HALT in seen

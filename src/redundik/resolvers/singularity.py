@@ -362,7 +362,8 @@ class SpeedLimiter:
                     scale = math.sqrt(float(out.dot(out)) / n0) if n0 > 0.0 else 0.0
                 else:
                     scale = guard.slowdown(kappa) if state == DECELERATE else 1.0
-                    scale = min(scale, guard.max_loss * w / (-slope * dt))  # (0 without ∇w: inf slope)
+                    if g is not None:  # the velocity damper needs ∇w
+                        scale = min(scale, guard.max_loss * w / (-slope * dt))
                     if scale < 1.0:
                         out = dq * scale
         info["singularity_scale"] = scale
