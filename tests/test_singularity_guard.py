@@ -303,7 +303,7 @@ def test_bad_guard_options_are_named(value: object, words: str) -> None:
         rk.make_resolver("pinv", singularity=value)
 
 
-@pytest.mark.parametrize("value", [0.0, -1.0, math.inf, math.nan, True, "fast"])
+@pytest.mark.parametrize("value", [0.0, -1.0, math.inf, math.nan, True, "fast", np.ones(9), [1.0]])
 def test_bad_max_joint_speed_is_named(value: object) -> None:
     with pytest.raises(ResolverError, match="max_joint_speed"):
         rk.make_resolver("feedback", max_joint_speed=value)

@@ -170,7 +170,7 @@ def check_max_joint_speed(value: object, who: str) -> float | str | None:
     Raises:
         ResolverError: anything else.
     """
-    if value is None or value == "auto":
+    if value is None or (isinstance(value, str) and value == "auto"):
         return value
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ResolverError(
