@@ -66,7 +66,8 @@ def test_a_joint_centering_centre_is_read_only_and_an_assigned_one_is_used(metho
     fresh = make_resolver(method).step(robot, rk.TaskStack([_hand(rk.Hold(), method != "pinv")], [sub]), Q0, 0.0, 0.01)
     np.testing.assert_allclose(got.dq, ref.dq, rtol=0, atol=1e-12)
     np.testing.assert_allclose(got.dq, fresh.dq, rtol=0, atol=1e-12)
-    assert float(np.abs(got.dq).max()) > 0.3  # the new centre moves the arm (0.6 rad away)
+    # the new centre moves the arm (0.6 rad away; under pinv q̇ is scaled to the fingers' 0.2 m/s velocity limit)
+    assert float(np.abs(got.dq).max()) > (0.15 if method == "pinv" else 0.3)
     with pytest.raises(TaskError, match="weights must be ≥ 0"):
         jc.weights = -np.ones(9)
 

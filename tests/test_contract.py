@@ -24,6 +24,7 @@ from hypothesis import strategies as st
 
 import redundik as rk
 from redundik.resolvers.linalg import damped_svd, pseudo_inverse
+from redundik.resolvers.singularity import DEFAULT_MAX_JOINT_SPEED
 from tests.test_qp_helpers import case2_robot, random_robot, tip
 
 RHO = 1e-4
@@ -427,9 +428,14 @@ def test_a_non_finite_intermediate_is_a_diagnosed_fallback(name: str) -> None:
     with np.errstate(over="ignore", invalid="ignore"):
         res = _step(name, robot, huge, q)
     assert np.isfinite(res.dq).all()
-    if res.fallback is None:  # resolved as asked (pinv, hqp, feedback): integrating it overflows, and says so
+    if res.fallback is None:  # resolved as asked (pinv, hqp, feedback), then scaled to the joint-speed cap, flagged
+        assert "max_joint_speed" in res.relaxed and res.info["capped"] is True
+        assert np.abs(res.dq).max() <= DEFAULT_MAX_JOINT_SPEED
+        uncapped = rk.make_resolver(name, max_joint_speed=None, **({"limits": False} if name == "hqp" else {}))
+        with np.errstate(over="ignore", invalid="ignore"):
+            res = uncapped.step(robot, huge, q, 0.1, 0.01)
         with np.errstate(over="ignore", invalid="ignore"), pytest.raises(rk.ModelError, match="not finite"):
-            robot.integrate(q, res.dq, 10.0)
+            robot.integrate(q, res.dq, 10.0)  # without the cap: integrating it overflows, and says so
     else:  # wqp's normal equations overflow (‖v‖² ~ 1e616): a diagnosed fallback
         assert "non-finite" in res.fallback or "failed" in res.fallback
 

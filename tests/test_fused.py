@@ -219,7 +219,9 @@ def test_large_rotation_error_takes_the_per_task_path() -> None:
         return TaskStack([_hand(Hold(target), gain=5.0), PostureTask(gain=1.0)])
 
     for method in ("wqp", "pinv", "hqp"):
-        took = _compare(stack, method, steps=60, fused_expected=False)
+        # (pinv without its joint-speed cap: capped at the Panda's velocity limits it turns 2.5 rad in more steps)
+        uncapped = {"max_joint_speed": None} if method == "pinv" else {}
+        took = _compare(stack, method, steps=60, fused_expected=False, **uncapped)
         assert not any(took[:20]), "a 2.5 rad rotation error went through the compiled log3"
         assert all(took[-10:]), "the fused step resumed once the rotation error is small"
 

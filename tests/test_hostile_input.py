@@ -212,7 +212,13 @@ def test_overflow_stops_the_run_with_one_line(
     cli: Callable[..., tuple[int, str, str]], tmp_path: Path, change: tuple[str, str]
 ) -> None:
     task = tmp_path / "t.yaml"
-    task.write_text(TASK.replace(*change).replace("steps: 500", "steps: 20"), encoding="utf-8")
+    text = TASK.replace(*change).replace("steps: 500", "steps: 20")
+    # (without the joint-speed cap, which would scale the 1e308 gradient step down and keep the run finite)
+    text = text.replace(
+        'k = 1"\n    resolver: pinv\n', 'k = 1"\n    resolver: pinv\n    options: {max_joint_speed: null}\n'
+    )
+    assert "max_joint_speed" in text
+    task.write_text(text, encoding="utf-8")
     assert cli("validate", task)[0] == 0
     code, _, err = cli("run", task, "--out", tmp_path / "out", "--no-figures", "--quiet", "--runs", "rank_null")
     assert code == 4 and err.count("\n") == 1 and "diverged" in err  # run failure

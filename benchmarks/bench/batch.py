@@ -61,7 +61,10 @@ class BatchRunner:
         self.resolver_name, self.mode = method.split("_")
         self.robot = load_example_robot("panda")
         self.q, self.targets = make_problems(self.robot, problems)
-        resolver = make_resolver(self.resolver_name)
+        # a dead-beat step (K = 1/dt) of an ideal problem: pinv without its joint-speed cap, which would scale the
+        # problems that ask more than the Panda's velocity limits (wqp keeps those limits as constraints)
+        options = {"max_joint_speed": None} if self.resolver_name == "pinv" else {}
+        resolver = make_resolver(self.resolver_name, **options)
         used = getattr(resolver, "backend", None)
         self.backend = str(getattr(used, "name", used) or "-")
         self.batch = BatchResolver(

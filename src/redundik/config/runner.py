@@ -205,6 +205,11 @@ def summarise(plan: TaskPlan, result: RunResult) -> dict[str, Any]:
         summary["relaxed_members"] = sorted({name for _, names in log.relaxed for name in names})
     if "sigma_min" in log.extras:
         summary["min_sigma_min"] = float(np.nanmin(log.extras["sigma_min"]))
+    if "speed_scale" in log.extras:  # steps the joint-speed cap scaled (resolvers/singularity.py): NaN elsewhere
+        summary["capped_steps"] = int(np.isfinite(log.extras["speed_scale"]).sum())
+    if "singularity_state" in log.extras:  # the singularity guard's state per step (2: halted)
+        summary["halted_steps"] = int((log.extras["singularity_state"] == 2).sum())
+        summary["max_condition"] = float(np.nanmax(log.extras["condition"]))
     monitors: dict[str, Any] = {m.name: _stats(log.potentials[m.name]) for m in run.monitors}
     for m in run.torque_monitors:
         monitors[m.name] = {stat: _stats(result.series[f"m.{m.name}.{stat}"]) for stat in ("max", "min", "mean")}

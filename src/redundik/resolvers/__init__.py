@@ -7,6 +7,7 @@ from redundik.resolvers.linalg import PseudoInverse, pseudo_inverse
 from redundik.resolvers.pinv import PinvResolver
 from redundik.resolvers.qp import HierarchicalQPResolver, JointLimits, WeightedQPResolver, available_backends
 from redundik.resolvers.registry import RESOLVERS, make_resolver
+from redundik.resolvers.singularity import SingularityGuard
 
 __all__ = [
     "RESOLVERS",
@@ -18,6 +19,7 @@ __all__ = [
     "PinvResolver",
     "PseudoInverse",
     "Resolver",
+    "SingularityGuard",
     "StepResult",
     "WeightedQPResolver",
     "available_backends",

@@ -27,6 +27,7 @@ import numpy as np
 from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.divergence import DivergenceWatch
+from redundik.resolvers.singularity import LimiterOption, SpeedLimiter
 from redundik.tasks.base import Edits, Task, TaskTerm
 from redundik.tasks.stack import TaskStack
 
@@ -435,6 +436,11 @@ class Resolver(ABC):
     #: limits BLAS to one thread for robots with nv ≥ :data:`BLAS_LIMIT_NV` = 64 (threaded products on small matrices
     #: stall on busy cores) unless the user set ``OMP_NUM_THREADS``/``OPENBLAS_NUM_THREADS``/``MKL_NUM_THREADS``.
     blas_threads: int | str | None = "auto"
+    #: The joint-speed cap [rad/s] and the singularity guard (:mod:`redundik.resolvers.singularity`): options of
+    #: the built-in resolvers' constructors; ``None`` (no cap, no guard) unless assigned.
+    max_joint_speed = LimiterOption()
+    singularity = LimiterOption()
+    _limiter: SpeedLimiter | None = None
 
     def check(self, robot: RobotModel, stack: TaskStack) -> None:
         """Refuse a stack this resolver cannot handle.
@@ -465,6 +471,8 @@ class Resolver(ABC):
         self._members = None
         self._gains_seen = None
         self._watch = None
+        if self._limiter is not None:
+            self._limiter.reset()
 
     @abstractmethod
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
@@ -590,6 +598,11 @@ class Resolver(ABC):
         if norm is None:
             dq = res.dq
             norm = math.sqrt(dq.dot(dq))
+        speed = self._limiter  # the joint-speed cap and the singularity guard (issue 33; resolvers/singularity.py)
+        if speed is not None:
+            if speed.guard is not None or norm > speed.floor:
+                res, norm = speed.apply(self, robot, stack, res, dt, norm)
+            speed.seen = self.__dict__.get("_dq_prev")  # (a QP resolver's rate window of the next step)
         factor = watch.update(norm, res.task_error)
         if factor is not None:
             watch.flag(self.name, norm, factor, res.info)

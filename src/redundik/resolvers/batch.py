@@ -43,6 +43,7 @@ from redundik.resolvers.qp.backends import DaqpBackend
 from redundik.resolvers.qp.daqp_native import HK, NativeDaqp
 from redundik.resolvers.qp.problem import QPProblem
 from redundik.resolvers.qp.wqp import WeightedQPResolver
+from redundik.resolvers.singularity import cap_rows
 from redundik.tasks.base import Task
 from redundik.tasks.frame import FrameTask, PostureTask, resolve_axes
 from redundik.tasks.stack import TaskStack
@@ -61,6 +62,7 @@ class BatchResult:
         fallback: Per problem, why its step fell back (``None`` for none), only filled for problems run one by one.
         relaxed: Per problem, the documented relaxations of its step (``StepResult.relaxed``: a QP a backend retry
             solved, ``"wqp (backend retried)"``); an empty tuple for none.
+        capped: True where the resolver's joint-speed cap scaled q̇ (``max_joint_speed``), shape (N,).
     """
 
     dq: np.ndarray
@@ -68,6 +70,7 @@ class BatchResult:
     qp: np.ndarray
     fallback: list[str | None] = field(default_factory=list)
     relaxed: list[tuple[str, ...]] = field(default_factory=list)
+    capped: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
 
     @property
     def qp_fraction(self) -> float:
@@ -162,6 +165,7 @@ class BatchResolver:
         dq = np.empty((N, self.robot.nv))
         err = np.empty(N)
         used = np.zeros(N, dtype=bool)
+        capped = np.zeros(N, dtype=bool)
         notes: list[str | None] = []
         relaxed: list[tuple[str, ...]] = []
         stack = self.loop_stack(q[0], targets[0]) if N else TaskStack()
@@ -180,7 +184,8 @@ class BatchResolver:
             used[i] = bool(res.info.get("qp", 0))
             notes.append(res.fallback)
             relaxed.append(res.relaxed)
-        return BatchResult(dq, err, used, notes, relaxed)
+            capped[i] = "max_joint_speed" in res.relaxed
+        return BatchResult(dq, err, used, notes, relaxed, capped)
 
     # ------------------------------------------------------------------ the batch
     def _kinematics(self, q: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -258,12 +263,22 @@ class BatchResolver:
         z = self.posture_gain * ep
         err = np.linalg.norm(e, axis=1)
         r = self.resolver
+        if r.singularity is not None:
+            raise ResolverError(
+                f"batch: {r.name} has a singularity guard, whose state follows one robot from step to step; a batch "
+                "resolves independent problems: set singularity=None for the batch, or step the problems one by one"
+            )
         if isinstance(r, PinvResolver):
             dq_r, dq_n, _, _, _ = K.closed_form_batch(
                 np.ascontiguousarray(J), V, z, self.posture_gain > 0, r.epsilon, r.max_damping, RCOND
             )
-            return BatchResult(dq_r + dq_n, err, np.zeros(N, dtype=bool), [None] * N, [()] * N)
-        return self._solve_wqp(cast(WeightedQPResolver, r), q, targets, J, V, z, e, err, dt)
+            out = BatchResult(dq_r + dq_n, err, np.zeros(N, dtype=bool), [None] * N, [()] * N)
+        else:
+            out = self._solve_wqp(cast(WeightedQPResolver, r), q, targets, J, V, z, e, err, dt)
+        limiter = r._limiter  # the joint-speed cap, as each problem's step applies it (resolvers/singularity.py)
+        caps = None if limiter is None else limiter.caps(self.robot)
+        out.capped = np.zeros(N, dtype=bool) if caps is None else cap_rows(out.dq, caps)
+        return out
 
     def _solve_wqp(
         self,

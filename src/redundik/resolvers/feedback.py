@@ -29,6 +29,7 @@ from redundik.resolvers.base import Resolver, StepResult, nonfinite_sources
 from redundik.resolvers.linalg import damped_svd, pseudo_inverse, pseudo_inverse_unchecked
 from redundik.resolvers.pinv import main_system
 from redundik.resolvers.settings import Setting, nonnegative
+from redundik.resolvers.singularity import SingularityGuard
 from redundik.tasks.stack import StackLayout, TaskStack
 
 
@@ -43,6 +44,11 @@ class FeedbackResolver(Resolver):
         max_damping: λ_max of J⁺.
         d_epsilon: Relative threshold: a direction of D is damped when its singular value is below
             d_epsilon·‖N‖_F² (scale-free: independent of the potentials' units), with λ_max = the same value.
+        max_joint_speed: Cap on every |q̇_i| [rad/s; m/s for a prismatic joint]: ``"auto"`` = the robot's velocity
+            limits (10 rad/s where it has none), a number, or ``None`` (no cap); when it acts q̇ is scaled as a whole
+            and the step says so (:mod:`redundik.resolvers.singularity`).
+        singularity: A :class:`~redundik.resolvers.singularity.SingularityGuard` (or a mapping of its fields,
+            ``True`` for its defaults) to decelerate and halt near a singularity of the main tasks; ``None``: none.
     """
 
     name = "feedback"
@@ -52,9 +58,17 @@ class FeedbackResolver(Resolver):
     max_damping = Setting(nonnegative)
     d_epsilon = Setting(nonnegative)
 
-    def __init__(self, epsilon: float = 1e-2, max_damping: float = 5e-2, d_epsilon: float = 1e-3) -> None:
+    def __init__(
+        self,
+        epsilon: float = 1e-2,
+        max_damping: float = 5e-2,
+        d_epsilon: float = 1e-3,
+        max_joint_speed: float | str | None = "auto",
+        singularity: SingularityGuard | dict[str, float] | bool | None = None,
+    ) -> None:
         self.epsilon, self.max_damping, self.d_epsilon = epsilon, max_damping, d_epsilon  # (validated: Setting)
         self._layout: tuple[tuple[int, ...], StackLayout] | None = None
+        self.max_joint_speed, self.singularity = max_joint_speed, singularity  # (validated on assignment)
 
     def check(self, robot: RobotModel, stack: TaskStack) -> None:
         super().check(robot, stack)

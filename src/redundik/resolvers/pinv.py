@@ -20,6 +20,7 @@ from redundik.resolvers.base import LazyStepResult, Resolver, StepResult, nonfin
 from redundik.resolvers.fused import FusedPlan, FusedStepResult
 from redundik.resolvers.linalg import FK, RCOND, K, contiguous
 from redundik.resolvers.settings import Setting, flag
+from redundik.resolvers.singularity import SingularityGuard
 from redundik.tasks.base import TaskTerm, stack_terms
 from redundik.tasks.stack import StackLayout, TaskStack
 
@@ -58,6 +59,11 @@ class PinvResolver(Resolver):
     Args:
         epsilon: Singular value under which a direction is damped [unit of J].
         max_damping: Damping λ_max as σ → 0.
+        max_joint_speed: Cap on every |q̇_i| [rad/s; m/s for a prismatic joint]: ``"auto"`` = the robot's velocity
+            limits (10 rad/s where it has none), a number, or ``None`` (no cap); when it acts q̇ is scaled as a whole
+            and the step says so (:mod:`redundik.resolvers.singularity`).
+        singularity: A :class:`~redundik.resolvers.singularity.SingularityGuard` (or a mapping of its fields,
+            ``True`` for its defaults) to decelerate and halt near a singularity of the main tasks; ``None``: none.
     """
 
     name = "pinv"
@@ -66,10 +72,17 @@ class PinvResolver(Resolver):
     fuse = Setting(flag)
     accepts: ClassVar[tuple[str, ...]] = ("gradient",)
 
-    def __init__(self, epsilon: float = 1e-2, max_damping: float = 5e-2) -> None:
+    def __init__(
+        self,
+        epsilon: float = 1e-2,
+        max_damping: float = 5e-2,
+        max_joint_speed: float | str | None = "auto",
+        singularity: SingularityGuard | dict[str, float] | bool | None = None,
+    ) -> None:
         self.fuse = True
         self._epsilon, self._max_damping = check_damping_options("pinv", epsilon, max_damping)
         self._tail = (self._epsilon, self._max_damping, RCOND)  # the fused step's coefficients of the resolver
+        self.max_joint_speed, self.singularity = max_joint_speed, singularity  # (validated on assignment)
         self._layout: tuple[tuple[int, ...], StackLayout] | None = None
         self._fused: tuple[StackLayout, FusedPlan | str | bool] | None = None
 

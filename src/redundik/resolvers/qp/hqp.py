@@ -133,6 +133,7 @@ from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
 from redundik.resolvers.qp.terms import Level, StepRows, gather_rows
 from redundik.resolvers.settings import Setting, count, flag, nonnegative, positive, unit_interval
+from redundik.resolvers.singularity import SingularityGuard
 from redundik.tasks.base import Edits, TaskTerm
 from redundik.tasks.potentials import Clearance
 from redundik.tasks.stack import StackLayout, TaskStack
@@ -717,6 +718,12 @@ class HierarchicalQPResolver(QPResolverBase):
         epsilon: Singular value under which a direction of a level's projected Jacobian is damped.
         max_damping: λ_max of that damping.
         rcond: Relative threshold of the numerical rank of a projected Jacobian.
+        max_joint_speed: Cap on every |q̇_i| [rad/s; m/s for a prismatic joint]: ``"auto"`` = the robot's velocity
+            limits (10 rad/s where it has none), a number, or ``None`` (no cap); the QP's velocity limits hold it
+            already unless they are off; when it acts q̇ is scaled as a whole and the step says so
+            (:mod:`redundik.resolvers.singularity`).
+        singularity: A :class:`~redundik.resolvers.singularity.SingularityGuard` (or a mapping of its fields,
+            ``True`` for its defaults) to decelerate and halt near a singularity of the main tasks; ``None``: none.
 
     Raises:
         ResolverError: bad numbers; SolverError: unknown or missing backend.
@@ -744,10 +751,13 @@ class HierarchicalQPResolver(QPResolverBase):
         epsilon: float = 1e-2,
         max_damping: float = 5e-2,
         rcond: float = 1e-10,
+        max_joint_speed: float | str | None = "auto",
+        singularity: SingularityGuard | dict[str, float] | bool | None = None,
     ) -> None:
         super().__init__(backend, limits, levels, epsilon, max_damping)
         self.regularization, self.rcond = regularization, rcond  # (validated: Setting)
         self.slack_tolerance = 1e-7  # feasibility margin of the rows that carry higher levels and limits
+        self.max_joint_speed, self.singularity = max_joint_speed, singularity  # (validated on assignment)
         self._plan: _Plan | None = None
         self._cfg: np.ndarray | None = (
             None  # the cascade's settings (``_cascade_cfg``; a Setting's assignment drops it)

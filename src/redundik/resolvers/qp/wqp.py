@@ -50,6 +50,7 @@ from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, infeasible
 from redundik.resolvers.settings import Setting, flag, nonnegative, unit_interval
+from redundik.resolvers.singularity import SingularityGuard
 from redundik.tasks.base import TaskTerm
 from redundik.tasks.stack import StackLayout, TaskStack
 from redundik.tasks.subtasks import BoundSubtask, TargetSubtask
@@ -113,6 +114,12 @@ class WeightedQPResolver(QPResolverBase):
         levels: Level overrides by task / subtask name (as ``hqp``).
         epsilon: Damping threshold of the closed-form fallback.
         max_damping: λ_max of the closed-form fallback.
+        max_joint_speed: Cap on every |q̇_i| [rad/s; m/s for a prismatic joint]: ``"auto"`` = the robot's velocity
+            limits (10 rad/s where it has none), a number, or ``None`` (no cap); the QP's velocity limits hold it
+            already unless they are off; when it acts q̇ is scaled as a whole and the step says so
+            (:mod:`redundik.resolvers.singularity`).
+        singularity: A :class:`~redundik.resolvers.singularity.SingularityGuard` (or a mapping of its fields,
+            ``True`` for its defaults) to decelerate and halt near a singularity of the main tasks; ``None``: none.
 
     Raises:
         ResolverError: negative or non-finite numbers; SolverError: unknown or missing backend.
@@ -136,6 +143,8 @@ class WeightedQPResolver(QPResolverBase):
         levels: LevelsOption = None,
         epsilon: float = 1e-2,
         max_damping: float = 5e-2,
+        max_joint_speed: float | str | None = "auto",
+        singularity: SingularityGuard | dict[str, float] | bool | None = None,
     ) -> None:
         super().__init__(backend, limits, levels, epsilon, max_damping)
         self.damping, self.lm_damping, self.level_ratio = damping, lm_damping, level_ratio  # (validated: Setting)
@@ -147,6 +156,7 @@ class WeightedQPResolver(QPResolverBase):
         self._diag = np.zeros(0)
         #: (the limits' kernel arguments, λ, the fused step's coefficients of the resolver) as last read
         self._tail: tuple[object, float, tuple[float, ...]] = (None, math.nan, ())
+        self.max_joint_speed, self.singularity = max_joint_speed, singularity  # (validated on assignment)
 
     def build(
         self, robot: RobotModel, stack: TaskStack, t: float, dt: float, terms: list[TaskTerm] | None = None
