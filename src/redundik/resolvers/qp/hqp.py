@@ -126,6 +126,7 @@ from redundik.resolvers.linalg import FK, K, _Kernels
 from redundik.resolvers.qp.backends import CHECKED_ANSWERS, DEFAULT_BACKEND, Backend, DaqpBackend, finite, polish
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
 from redundik.resolvers.qp.daqp_native import NativeDaqp
+from redundik.resolvers.qp.direction import DirectionScaling, solve_direction
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
 from redundik.resolvers.qp.terms import Level, StepRows, gather_rows
@@ -702,7 +703,7 @@ class _Plan:
         return self.C, self.d
 
 
-class HierarchicalQPResolver(QPResolverBase):
+class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
     """Strict task hierarchy by a cascade of QPs with slack (see the module docstring for the method and references).
 
     Args:
@@ -714,6 +715,10 @@ class HierarchicalQPResolver(QPResolverBase):
         epsilon: Singular value under which a direction of a level's projected Jacobian is damped.
         max_damping: λ_max of that damping.
         rcond: Relative threshold of the numerical rank of a projected Jacobian.
+        scaling: ``"off"`` (default) or ``"direction"``: scale the top level's velocity V to the largest α ∈ [0, 1]
+            the hard limits allow along V's direction, then the levels below in what is left
+            (:mod:`redundik.resolvers.qp.direction`; the interpreted step, not the fused one).
+        stuck_below: α under which ``result.stuck`` is set, in [0, 1].
 
     Raises:
         ResolverError: bad numbers; SolverError: unknown or missing backend.
@@ -741,9 +746,12 @@ class HierarchicalQPResolver(QPResolverBase):
         epsilon: float = 1e-2,
         max_damping: float = 5e-2,
         rcond: float = 1e-10,
+        scaling: str = "off",
+        stuck_below: float = 1e-3,
     ) -> None:
         super().__init__(backend, limits, levels, epsilon, max_damping)
         self.regularization, self.rcond = regularization, rcond  # (validated: Setting)
+        self.scaling, self.stuck_below = scaling, stuck_below
         self.slack_tolerance = 1e-7  # feasibility margin of the rows that carry higher levels and limits
         self._plan: _Plan | None = None
         self._cfg: np.ndarray | None = (
@@ -999,7 +1007,10 @@ class HierarchicalQPResolver(QPResolverBase):
         """One step. Without safety rows the closed-form path — limit box, unconstrained cascade, its feasibility
         test and the clipping — is one compiled call (``hqp_kernels.closed_step``), and the step's result is the
         template's (``QPResolverBase.solve``) without its glue; when the cascade is not feasible the built step goes
-        on through the template's second half to the constrained cascade."""
+        on through the template's second half to the constrained cascade. ``scaling="direction"`` takes the
+        interpreted step of :mod:`redundik.resolvers.qp.direction`."""
+        if self.scaling != "off":
+            return solve_direction(self, robot, stack, t, dt, self.stuck_below)
         layout = self.layout(stack)
         n = robot.nv
         plan = self._plan_for(layout, n)
