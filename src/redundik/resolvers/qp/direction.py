@@ -10,7 +10,7 @@ hand of a teleoperated arm swerves; 16° median on random Panda states, ``benchm
    inequality rows (``wqp``: every bound subtask, as its QP enforces them; ``hqp``: the safety rows, collision
    dampers, which its template guards last). This is a linear program; with J = U Σ Wᵀ (rank r), x₀ = J⁺V and N an
    orthonormal basis of null(J), every solution is q̇ = α x₀ + N u, and the LP is posed over (α, u) ∈ R^(1 + n − r)
-   (scipy's HiGHS, tolerances 1e-10) on the box and rows tightened by a margin of 1e-9 [rad/s, row units], so its
+   (scipy's HiGHS, tolerances 1e-10) on the box and rows tightened by a margin of 1e-10 [rad/s, row units], so its
    answer holds the untightened limits with room to spare;
 2. the lower levels in what is left, q̇ ∈ {α* x₀ + N u} within the limits: for ``wqp`` its own weighted objective
    ½q̇ᵀPq̇ + qᵀq̇ restricted to u (every level below the main tasks, the null-space objective and the damping); for
@@ -66,7 +66,7 @@ if TYPE_CHECKING:
 #: The values of the ``scaling`` setting.
 SCALING_MODES = ("off", "direction")
 #: Margin [rad/s, row units] by which the LP tightens every hard limit (its answer is inside by this much).
-MARGIN = 1e-9
+MARGIN = 1e-10
 #: Relative singular value under which a direction of the main-task Jacobian counts as lost (rank).
 RANK_RCOND = 1e-10
 #: Relative part of V outside range(J) above which no α > 0 exists.
@@ -169,7 +169,8 @@ def within(dq: np.ndarray, lb: np.ndarray, ub: np.ndarray, G: np.ndarray, h: np.
 def toward_inside(
     dq: np.ndarray, anchor: np.ndarray, lb: np.ndarray, ub: np.ndarray, G: np.ndarray, h: np.ndarray
 ) -> np.ndarray:
-    """The point anchor + θ(q̇ − anchor) with the largest θ ∈ [0, 1] within the limits (``anchor`` is inside)."""
+    """The point anchor + θ(q̇ − anchor) with the largest θ ∈ [0, 1] within the limits (``anchor``, the LP's point, is
+    inside by the margin, to the LP's tolerance)."""
     M, c = _rows(lb, ub, G, h, 0.0)
     d = dq - anchor
     slope = M @ d
@@ -177,7 +178,9 @@ def toward_inside(
     grow = slope > 0.0
     theta = float(np.min(np.clip(room[grow] / slope[grow], 0.0, 1.0), initial=1.0))
     out = anchor + theta * d
-    return out if within(out, lb, ub, G, h) else anchor
+    if within(out, lb, ub, G, h):
+        return out
+    return np.minimum(np.maximum(anchor, lb), ub)  # (the LP's point outside by its tolerance, ≤ 1e-10: clipped)
 
 
 def restricted(
