@@ -17,6 +17,7 @@ from scipy.optimize import linprog
 
 import redundik as rk
 from redundik.errors import ResolverError
+from redundik.resolvers import BatchResolver
 from redundik.tasks.base import Barrier, BarrierTerm
 
 TOOL = "panda_hand_tcp"
@@ -330,3 +331,10 @@ def test_scaled_run_keeps_every_limit(panda: rk.RobotModel) -> None:
         q = panda.integrate(q, res.dq, DT)
     assert min(alphas) < 0.5 and alphas[-1] == 1.0
     assert panda.limit_violation(q).max() == 0.0
+
+
+def test_batch_refuses_the_mode(panda: rk.RobotModel) -> None:
+    """The batch API has no direction mode: it says so instead of solving the unscaled problems silently."""
+    resolver = rk.make_resolver("wqp", scaling="direction")
+    with pytest.raises(ResolverError, match="scaling='direction' is not supported in a batch"):
+        BatchResolver(resolver, panda, TOOL)
