@@ -338,3 +338,25 @@ def test_batch_refuses_the_mode(panda: rk.RobotModel) -> None:
     resolver = rk.make_resolver("wqp", scaling="direction")
     with pytest.raises(ResolverError, match="scaling='direction' is not supported in a batch"):
         BatchResolver(resolver, panda, TOOL)
+
+
+@pytest.mark.parametrize("name", ["wqp", "hqp"])
+def test_unreachable_keeps_the_unscaled_step_and_says_so(panda: rk.RobotModel, name: str) -> None:
+    """A rate window around 1 rad/s on every joint (the previous q̇) that no q̇ with J q̇ = αV meets for any α (the
+    reference LP is infeasible): the step is the unscaled one, α = 0, stuck, and ``fallback`` says why."""
+    tool = rk.FrameTask(TOOL, gain=GAIN)
+    stack = rk.TaskStack([tool, rk.PostureTask(gain=1.0)])
+    q = _free_state(panda, tool)
+    prev = np.ones(panda.nv)
+    prev[7:] = 0.0
+    results = []
+    for scaling in ("off", "direction"):
+        resolver = rk.make_resolver(name, scaling=scaling, limits={"acceleration": 10.0})
+        resolver._dq_prev = prev.copy()  # type: ignore[attr-defined]
+        results.append(resolver.step(panda, stack, q, 0.0, DT))
+    plain, res = results
+    box = resolver.limits.box(panda, q, DT, prev)  # type: ignore[attr-defined]
+    assert math.isnan(reference_alpha(res.terms[0].J, res.terms[0].v, box.lb, box.ub))
+    assert res.scale == 0.0 and res.stuck and res.info["direction"] == "unreachable"
+    assert res.fallback is not None and "no q̇ within the hard limits" in res.fallback
+    assert np.array_equal(res.dq, plain.dq)
