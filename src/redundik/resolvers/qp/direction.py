@@ -37,8 +37,10 @@ infeasible first drops those that are not safety rows, as its QP does (``fallbac
 ``result.scale`` is α (1.0 when not scaling), ``result.stuck`` is α < ``stuck_below`` (default 1e-3);
 ``info["scale"]`` logs α per step and ``info["direction"]`` how the step went (``"free"``, ``"scaled"``,
 ``"unreachable"``). The mode takes the interpreted step (each member's ``evaluate``, then build): the fused
-compiled steps do not express the LP. An LP and a second QP per binding step cost ~1–3 ms with HiGHS: a mode for
-teleoperation and servoing at ≤ 500 Hz, not for the 10 kHz loops of the compiled path.
+compiled steps do not express the LP. A binding step (the LP through scipy's HiGHS, most of it scipy's wrapper, and
+a second QP; ``hqp`` also its cascade at αV) takes ~5 ms on the Panda against ~1 ms unscaled
+(``benchmarks/direction_scaling.py``): a mode for teleoperation and servoing at a few hundred hertz, not for the
+kilohertz loops of the compiled path. The batch API refuses it.
 
 Drake's ``DoDifferentialInverseKinematics`` poses one QP with the same constraint J q̇ = αV and a cost −100 α plus the
 nominal-posture terms, so α trades against the lower objectives with a weight of 100; here α comes first, strictly.
