@@ -12,7 +12,8 @@ beyond what the velocity limits allow in one step, so the limits bind. For each 
   states where a limit binds, i.e. the unscaled step solved a QP) [deg];
 * the step time (median, p99) [ms] of both modes.
 
-Run: ``python benchmarks/direction_scaling.py [--n 1000] [--seed 0] [--json FILE]``; one line per resolver.
+Run: ``python benchmarks/direction_scaling.py [--n 1000] [--seed 0] [--reach 0.1,0.6] [--json FILE]``; one line per
+resolver. ``--reach 0.005,0.03`` gives nearer targets, where the limits bind on fewer states and bend V less.
 """
 
 from __future__ import annotations
@@ -55,8 +56,10 @@ def angle(a: np.ndarray, b: np.ndarray) -> float:
     return math.acos(min(1.0, max(-1.0, float(a @ b) / (na * nb))))
 
 
-def states(robot: rk.RobotModel, n: int, seed: int) -> list[tuple[np.ndarray, pin.SE3]]:
-    """n (q, tool target) pairs (module docstring)."""
+def states(
+    robot: rk.RobotModel, n: int, seed: int, reach: tuple[float, float] = (0.1, 0.6)
+) -> list[tuple[np.ndarray, pin.SE3]]:
+    """n (q, tool target) pairs (module docstring); ``reach``: the range of the target's distance scale [m]."""
     rng = np.random.default_rng(seed)
     lo, hi = robot.lower_limits, robot.upper_limits
     out = []
@@ -68,7 +71,7 @@ def states(robot: rk.RobotModel, n: int, seed: int) -> list[tuple[np.ndarray, pi
         robot.update(q)
         pose = robot.frame_pose(TOOL).copy()
         rot = pin.exp3(rng.normal(size=3) * 0.3)
-        offset = rng.normal(size=3) * rng.uniform(0.1, 0.6)
+        offset = rng.normal(size=3) * rng.uniform(*reach)
         out.append((q, pin.SE3(rot @ pose.rotation, pose.translation + offset)))
     return out
 
@@ -123,10 +126,12 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=1000, help="random states (default 1000)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--reach", default="0.1,0.6", help="range of the target offsets' scale [m] (default 0.1,0.6)")
     parser.add_argument("--json", default=None, help="write the records to this file")
     args = parser.parse_args(argv)
     robot = rk.load_example_robot("panda")
-    cases = states(robot, args.n, args.seed)
+    lo, hi = (float(x) for x in args.reach.split(","))
+    cases = states(robot, args.n, args.seed, (lo, hi))
     records = []
     for name in ("wqp", "hqp"):
         rec = run(name, robot, cases)
