@@ -128,6 +128,8 @@ class BatchResolver:
             )
         if isinstance(resolver, WeightedQPResolver) and resolver.levels:
             raise ResolverError("batch: wqp level overrides are not supported in a batch")
+        if isinstance(resolver, WeightedQPResolver) and resolver.scaling != "off":
+            raise ResolverError("batch: wqp scaling='direction' is not supported in a batch (step one by one)")
         self.resolver, self.robot, self.frame = resolver, robot, frame
         self.axes = resolve_axes(axes)
         self.rows = np.array([("x", "y", "z", "rx", "ry", "rz").index(a) for a in self.axes])

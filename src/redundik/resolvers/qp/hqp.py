@@ -129,6 +129,7 @@ from redundik.resolvers.linalg import FK, K, _Kernels
 from redundik.resolvers.qp.backends import CHECKED_ANSWERS, DEFAULT_BACKEND, Backend, DaqpBackend, finite, polish
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase, with_relaxed
 from redundik.resolvers.qp.daqp_native import NativeDaqp
+from redundik.resolvers.qp.direction import DirectionScaling, solve_direction
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, QPSolution
 from redundik.resolvers.qp.terms import Level, StepRows, gather_rows
@@ -706,7 +707,7 @@ class _Plan:
         return self.C, self.d
 
 
-class HierarchicalQPResolver(QPResolverBase):
+class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
     """Strict task hierarchy by a cascade of QPs with slack (see the module docstring for the method and references).
 
     Args:
@@ -724,6 +725,10 @@ class HierarchicalQPResolver(QPResolverBase):
             (:mod:`redundik.resolvers.singularity`).
         singularity: A :class:`~redundik.resolvers.singularity.SingularityGuard` (or a mapping of its fields,
             ``True`` for its defaults) to decelerate and halt near a singularity of the main tasks; ``None``: none.
+        scaling: ``"off"`` (default) or ``"direction"``: scale the top level's velocity V to the largest α ∈ [0, 1]
+            the hard limits allow along V's direction, then the levels below in what is left
+            (:mod:`redundik.resolvers.qp.direction`; the interpreted step, not the fused one).
+        stuck_below: α under which ``result.stuck`` is set, in [0, 1].
 
     Raises:
         ResolverError: bad numbers; SolverError: unknown or missing backend.
@@ -753,9 +758,12 @@ class HierarchicalQPResolver(QPResolverBase):
         rcond: float = 1e-10,
         max_joint_speed: float | str | None = "auto",
         singularity: SingularityGuard | dict[str, float] | bool | None = None,
+        scaling: str = "off",
+        stuck_below: float = 1e-3,
     ) -> None:
         super().__init__(backend, limits, levels, epsilon, max_damping)
         self.regularization, self.rcond = regularization, rcond  # (validated: Setting)
+        self.scaling, self.stuck_below = scaling, stuck_below
         self.slack_tolerance = 1e-7  # feasibility margin of the rows that carry higher levels and limits
         self.max_joint_speed, self.singularity = max_joint_speed, singularity  # (validated on assignment)
         self._plan: _Plan | None = None
@@ -1016,7 +1024,10 @@ class HierarchicalQPResolver(QPResolverBase):
         """One step. Without safety rows the closed-form path — limit box, unconstrained cascade, its feasibility
         test and the clipping — is one compiled call (``hqp_kernels.closed_step``), and the step's result is the
         template's (``QPResolverBase.solve``) without its glue; when the cascade is not feasible the built step goes
-        on through the template's second half to the constrained cascade."""
+        on through the template's second half to the constrained cascade. ``scaling="direction"`` takes the
+        interpreted step of :mod:`redundik.resolvers.qp.direction`."""
+        if self.scaling != "off":
+            return solve_direction(self, robot, stack, t, dt, self.stuck_below)
         layout = self.layout(stack)
         n = robot.nv
         plan = self._plan_for(layout, n)

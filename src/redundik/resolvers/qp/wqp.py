@@ -47,6 +47,7 @@ from redundik.resolvers.fused import FusedPlan, FusedStepResult
 from redundik.resolvers.linalg import FK, K
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
+from redundik.resolvers.qp.direction import DirectionScaling, solve_direction
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, infeasible
 from redundik.resolvers.settings import Setting, flag, nonnegative, unit_interval
@@ -101,7 +102,7 @@ class _Plan:
         self.key: tuple[int, ...] | None = None
 
 
-class WeightedQPResolver(QPResolverBase):
+class WeightedQPResolver(DirectionScaling, QPResolverBase):
     """Weighted-sum QP resolution (see the module docstring).
 
     Args:
@@ -120,6 +121,10 @@ class WeightedQPResolver(QPResolverBase):
             (:mod:`redundik.resolvers.singularity`).
         singularity: A :class:`~redundik.resolvers.singularity.SingularityGuard` (or a mapping of its fields,
             ``True`` for its defaults) to decelerate and halt near a singularity of the main tasks; ``None``: none.
+        scaling: ``"off"`` (default) or ``"direction"``: scale the main tasks' velocity V to the largest α ∈ [0, 1]
+            the hard limits allow along V's direction, then the lower levels in what is left
+            (:mod:`redundik.resolvers.qp.direction`; the interpreted step, not the fused one).
+        stuck_below: α under which ``result.stuck`` is set, in [0, 1].
 
     Raises:
         ResolverError: negative or non-finite numbers; SolverError: unknown or missing backend.
@@ -145,9 +150,12 @@ class WeightedQPResolver(QPResolverBase):
         max_damping: float = 5e-2,
         max_joint_speed: float | str | None = "auto",
         singularity: SingularityGuard | dict[str, float] | bool | None = None,
+        scaling: str = "off",
+        stuck_below: float = 1e-3,
     ) -> None:
         super().__init__(backend, limits, levels, epsilon, max_damping)
         self.damping, self.lm_damping, self.level_ratio = damping, lm_damping, level_ratio  # (validated: Setting)
+        self.scaling, self.stuck_below = scaling, stuck_below
         self.fuse = True
         self._P: np.ndarray | None = None
         self._q: np.ndarray | None = None
@@ -276,7 +284,10 @@ class WeightedQPResolver(QPResolverBase):
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
         """One step; a stack of tasks only (no target or bound subtask) takes the lean path below: rows
         accumulated, then box, null-space objective, unconstrained optimum and its box test in one compiled
-        call; the backend is called (through the shared template) only when that optimum leaves the box."""
+        call; the backend is called (through the shared template) only when that optimum leaves the box.
+        ``scaling="direction"`` takes the interpreted step of :mod:`redundik.resolvers.qp.direction`."""
+        if self.scaling != "off":
+            return solve_direction(self, robot, stack, t, dt, self.stuck_below)
         plan = self._plan
         if plan is None or stack is not self._stepping or plan.key is not self._checked:  # else: the step's plan
             plan = self._plan_for(stack, self.layout(stack))
