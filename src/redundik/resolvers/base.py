@@ -20,7 +20,7 @@ import os
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -29,6 +29,9 @@ from redundik.kinematics.model import RobotModel
 from redundik.resolvers.divergence import DivergenceWatch
 from redundik.tasks.base import Edits, Task, TaskTerm
 from redundik.tasks.stack import TaskStack
+
+if TYPE_CHECKING:
+    from redundik.control.watchdog import Watchdog
 
 #: Largest stable K·dt of the first-order update (e ← (1 − K dt) e).
 STABLE_GAIN_DT = 2.0
@@ -432,6 +435,26 @@ class Resolver(ABC):
     #: limits BLAS to one thread for robots with nv ≥ :data:`BLAS_LIMIT_NV` = 64 (threaded products on small matrices
     #: stall on busy cores) unless the user set ``OMP_NUM_THREADS``/``OPENBLAS_NUM_THREADS``/``MKL_NUM_THREADS``.
     blas_threads: int | str | None = "auto"
+    #: The command watchdog (:mod:`redundik.control.watchdog`), or ``None``; :attr:`command_timeout` makes one.
+    watchdog: Watchdog | None = None
+
+    @property
+    def command_timeout(self) -> float | None:
+        """Stop the robot when no target has been set for this long [s] (:mod:`redundik.control.watchdog`);
+        ``None``: no watchdog. Assigning a number makes a :class:`~redundik.control.watchdog.Watchdog` (or sets its
+        timeout); ``None`` removes it."""
+        return None if self.watchdog is None else self.watchdog.timeout
+
+    @command_timeout.setter
+    def command_timeout(self, value: float | None) -> None:
+        from redundik.control.watchdog import Watchdog
+
+        if value is None:
+            self.watchdog = None
+        elif self.watchdog is None:
+            self.watchdog = Watchdog(value)
+        else:
+            self.watchdog.timeout = value
 
     def check(self, robot: RobotModel, stack: TaskStack) -> None:
         """Refuse a stack this resolver cannot handle.
@@ -462,6 +485,8 @@ class Resolver(ABC):
         self._members = None
         self._gains_seen = None
         self._watch = None
+        if self.watchdog is not None:
+            self.watchdog.reset()
 
     @abstractmethod
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
@@ -565,6 +590,9 @@ class Resolver(ABC):
             else:
                 dict.__setitem__(info, "path", INTERPRETED)
                 dict.__setitem__(info, "interpreted", self._interpreted_members(robot, stack))
+        dog = self.watchdog
+        if dog is not None:  # the command watchdog (redundik.control.watchdog): stale targets → a stop within limits
+            dog.apply(self, robot, stack, t, dt, res)
         watch = self._watch
         if watch is None:
             watch = self._watch = DivergenceWatch()

@@ -1,0 +1,356 @@
+"""Command watchdog: when no target has been set for ``command_timeout`` seconds, bring the robot to rest.
+
+A resolver with a watchdog (``resolver.command_timeout = 0.25``, or ``make_resolver("wqp", command_timeout=0.25)``)
+compares, at every step, the targets its stack holds with those of the step before. A *command* is any of:
+
+* ``FrameTask.set_target`` (even the same pose again: it moves the hold's ``Trajectory.revision``), a new
+  ``FrameTask.trajectory``, a reset of the stack;
+* ``PostureTask.set_target`` and ``CoMTask.set_target`` (each writes a new target array);
+* a new value of a ``TargetSubtask``'s or ``PotentialTask``'s target or target rate (the same value again is not
+  seen: call :meth:`Watchdog.feed` to keep such a stream alive);
+* :meth:`Watchdog.feed`, an explicit keep-alive (for targets that arrive through other means).
+
+Time is the ``t`` given to ``resolver.step``: when ``t`` − (time of the last command) exceeds the timeout, the
+watchdog goes from ``"armed"`` to ``"stopping"``. The targets are left as they were (frozen: nothing is written into
+the stack) and the resolver still solves every step, but the q̇ the step returns is the watchdog's: it decelerates
+from the last q̇ sent to rest, within the deceleration limit a_max [rad/s²] (the watchdog's ``acceleration``, else the
+resolver's ``limits.acceleration``) and, when ``jerk`` is given, the jerk limit j_max [rad/s³]:
+
+* without a jerk limit, q̇ is scaled down uniformly, q̇_k = (1 − r) q̇_{k−1} with r = min(1, min_i a_max,i dt / |q̇_i|):
+  the joint that needs longest brakes at exactly a_max,i and the others in proportion, so the joint path keeps its
+  direction (a category-2-like stop); rest is reached after ⌈max_i |q̇_i| / (a_max,i dt)⌉ steps;
+* with a jerk limit, each joint brakes on its own with the largest deceleration from which the acceleration can
+  return to zero at j_max exactly as the velocity reaches zero (a discrete S-curve, :func:`jerk_step`), so
+  |q̈| ≤ a_max and |q⃛| ≤ j_max at every step from a state within them; the path's direction is not kept.
+
+For ``wqp`` and ``hqp`` the decelerating q̇ is then clipped to the resolver's joint-limit box (position, velocity,
+braking; :meth:`~redundik.resolvers.qp.limits.JointLimits.box`): position and velocity limits win over the stop
+profile (the braking bound keeps a joint slow enough to stop in time, so the clip rarely acts). Once every q̇_i is 0
+the state is ``"stopped"`` and q̇ = 0.
+
+A new command while ``"stopping"`` or ``"stopped"`` resumes control smoothly: the state is ``"resuming"`` and the
+watchdog moves the q̇ it sends towards the resolver's own q̇ within the same limits (uniformly, or per joint with
+the jerk limit), and hands control back (``"armed"``) at the first step the resolver's q̇ is within reach. The QP
+resolvers' rate windows are kept on the q̇ actually sent, so their next steps continue from it.
+
+Each step reports, in ``result.info``: ``watchdog`` (the state), ``command_age`` [s] (t − the last command) and
+``command_stale`` (True while ``"stopping"`` or ``"stopped"``: the flag to alarm on). ``t`` running backwards (a
+loop restarted at 0) counts as a command.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from redundik.errors import ResolverError, short_repr
+
+if TYPE_CHECKING:
+    from redundik.kinematics.model import RobotModel
+    from redundik.resolvers.base import Resolver, StepResult
+    from redundik.tasks.stack import TaskStack
+
+ARMED, STOPPING, STOPPED, RESUMING = "armed", "stopping", "stopped", "resuming"
+#: States in which the commands are stale (``result.info["command_stale"]``).
+STALE = frozenset((STOPPING, STOPPED))
+#: |q̇_i| [rad/s] below which a joint braked with a jerk limit counts as at rest.
+REST = 1e-12
+
+
+def _limit(value: object, key: str, *, allow_inf: bool) -> float | np.ndarray | None:
+    """A positive bound (one number or one per velocity coordinate), or ``None``; a ResolverError otherwise."""
+    if value is None:
+        return None
+    if isinstance(value, (bool, np.bool_)):
+        raise ResolverError(f"watchdog: {key} must be a number > 0 or an array of them, got {short_repr(value)}")
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        arr = np.zeros(0)  # (refused below)
+    ok = arr.ndim <= 1 and arr.size > 0 and bool(np.all(arr > 0)) and (allow_inf or bool(np.all(np.isfinite(arr))))
+    if not ok:
+        what = "> 0 (inf: no limit)" if allow_inf else "finite and > 0"
+        raise ResolverError(f"watchdog: {key} must be {what} [per second], got {short_repr(value)}")
+    return float(arr) if arr.ndim == 0 else arr.copy()
+
+
+def command_stamp(stack: TaskStack) -> list[object]:
+    """What the stack's members hold as targets, compared step to step by :func:`same_stamp` (see the module
+    docstring for what counts): trajectories and target arrays by identity, revisions and target numbers by value."""
+    out: list[object] = []
+    for member in stack.tasks:
+        _stamp_member(member, out)
+    for sub in stack.subtasks:
+        _stamp_member(sub, out)
+    return out
+
+
+def _stamp_member(member: object, out: list[object]) -> None:
+    d = getattr(member, "__dict__", None)
+    if d is None:
+        return
+    traj = d.get("_trajectory")
+    if traj is not None:  # a frame task: its reference, and the revision its in-place target writes move
+        out.append(traj)
+        out.append(getattr(traj, "_revision", 0))
+    for key in ("_given", "_pending_position", "_target", "_target_rate"):
+        if key in d:  # posture and CoM targets (a new array per set_target), a target subtask's numbers
+            out.append(d[key])
+    row = d.get("_row")
+    if row is not None:  # a PotentialTask's target subtask
+        _stamp_member(row, out)
+
+
+def same_stamp(a: list[object], b: list[object]) -> bool:
+    """Two stamps hold the same targets: same objects, equal numbers."""
+    if len(a) != len(b):
+        return False
+    for x, y in zip(a, b, strict=True):
+        if x is y:
+            continue
+        if type(x) in (int, float) and type(y) in (int, float) and x == y:
+            continue
+        return False
+    return True
+
+
+def uniform_brake(v: np.ndarray, amax: np.ndarray, dt: float) -> np.ndarray:
+    """One step of the direction-keeping stop: (1 − r) v with r = min(1, min_i amax_i dt / |v_i|) [rad/s]."""
+    mag = np.abs(v)
+    moving = mag > 0.0
+    if not moving.any():
+        return np.zeros_like(v)
+    r = min(1.0, float(np.min(amax[moving] * dt / mag[moving])))
+    return np.zeros_like(v) if r >= 1.0 else v * (1.0 - r)
+
+
+def uniform_approach(v: np.ndarray, target: np.ndarray, amax: np.ndarray, dt: float) -> tuple[np.ndarray, bool]:
+    """One step from v towards ``target`` along the straight line, |Δv_i| ≤ amax_i dt; (v', reached)."""
+    delta = target - v
+    mag = np.abs(delta)
+    moving = mag > 0.0
+    if not moving.any():
+        return target.copy(), True
+    beta = float(np.min(amax[moving] * dt / mag[moving]))
+    if beta >= 1.0:
+        return target.copy(), True
+    return v + beta * delta, False
+
+
+def jerk_step(
+    v: np.ndarray, a: np.ndarray, target: np.ndarray, amax: np.ndarray, jmax: np.ndarray, dt: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """One step of each joint towards the velocity ``target`` with |q̈| ≤ amax and |q⃛| ≤ jmax; (v', a').
+
+    The acceleration a' is the one from which ramping it back to zero at jmax (h = jmax·dt per step) brings the
+    velocity error e = v − target exactly to zero: with n further steps of nonzero acceleration, the error changes by
+    dt·(a' + Σ_{k=1..n} (a' − sign(a') k h)) — piecewise linear and increasing in a' — so
+    n = ⌈√(2|e|/(dt h) + ¼) − 3/2⌉⁺ and |a'| = (|e|/dt + h n(n+1)/2)/(n + 1). a' is then clipped to the step's window
+    [a − h, a + h] ∩ [−amax, amax]: clipped, the joint brakes as hard as it may and the next step tries again (a
+    time-optimal discrete S-curve, as in Kröger's online trajectory generation, Kröger & Wahl, IEEE T-RO 26(1), 2010).
+    """
+    e = v - target
+    h = jmax * dt
+    n = np.maximum(0.0, np.ceil(np.sqrt(2.0 * np.abs(e) / (dt * h) + 0.25) - 1.5))
+    mag = (np.abs(e) / dt + h * n * (n + 1.0) / 2.0) / (n + 1.0)
+    want = -np.sign(e) * mag
+    lo = np.maximum(a - h, -amax)
+    hi = np.minimum(a + h, amax)
+    crossed = lo > hi  # (a start beyond amax + h: back towards the limits as fast as the jerk allows)
+    lo = np.where(crossed, np.clip(a - h, -amax, amax), lo)
+    hi = np.where(crossed, lo, hi)
+    a_new = np.clip(want, lo, hi)
+    return v + a_new * dt, a_new
+
+
+class Watchdog:
+    """Stops the robot when the commands go stale (see the module docstring).
+
+    Args:
+        timeout: command_timeout [s] > 0: the longest time without a command before the stop.
+        acceleration: Deceleration limit a_max [rad/s² or m/s²]: one number or one per velocity coordinate (``inf``
+            stops that coordinate at once); ``None``: the resolver's ``limits.acceleration`` (``wqp``, ``hqp``).
+        jerk: Jerk limit j_max [rad/s³]: one number or one per coordinate; ``None``: none (uniform stop).
+
+    Raises:
+        ResolverError: a timeout that is not a finite number > 0, or limits that are not > 0.
+    """
+
+    def __init__(
+        self,
+        timeout: float,
+        *,
+        acceleration: float | np.ndarray | None = None,
+        jerk: float | np.ndarray | None = None,
+    ) -> None:
+        self.timeout = timeout
+        self.acceleration = acceleration
+        self.jerk = jerk
+        self.reset()
+
+    @property
+    def timeout(self) -> float:
+        """command_timeout [s]."""
+        return self._timeout
+
+    @timeout.setter
+    def timeout(self, value: float) -> None:
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+            raise ResolverError(f"watchdog: command_timeout must be a number [s], got {short_repr(value)}")
+        if not (math.isfinite(value) and value > 0):
+            raise ResolverError(f"watchdog: command_timeout must be finite and > 0 [s], got {value!r}")
+        self._timeout = float(value)
+
+    @property
+    def acceleration(self) -> float | np.ndarray | None:
+        """Deceleration limit a_max [rad/s²] (``None``: the resolver's limits')."""
+        return self._acceleration
+
+    @acceleration.setter
+    def acceleration(self, value: float | np.ndarray | None) -> None:
+        self._acceleration = _limit(value, "acceleration", allow_inf=True)
+
+    @property
+    def jerk(self) -> float | np.ndarray | None:
+        """Jerk limit j_max [rad/s³] (``None``: none)."""
+        return self._jerk
+
+    @jerk.setter
+    def jerk(self, value: float | np.ndarray | None) -> None:
+        self._jerk = _limit(value, "jerk", allow_inf=False)
+
+    def reset(self) -> None:
+        """Forget the last command, the q̇ sent and the state (``"armed"``); the next step counts as a command."""
+        self.state = ARMED
+        self.last_command: float | None = None
+        self._stamp: list[object] | None = None
+        self._fed: float | None = None
+        self._dq: np.ndarray | None = None
+        self._ddq: np.ndarray | None = None
+
+    def feed(self, t: float | None = None) -> None:
+        """Count a command at time ``t`` [s] (``None``: at the next step's t), as a target set would."""
+        self._fed = -math.inf if t is None else float(t)
+
+    def apply(
+        self, resolver: Resolver, robot: RobotModel, stack: TaskStack, t: float, dt: float, res: StepResult
+    ) -> None:
+        """Watch one step: update the state from the stack's targets at time ``t`` [s], replace ``res.dq`` while
+        stopping, stopped or resuming, and write the state into ``res.info``."""
+        stamp = command_stamp(stack)
+        last = self.last_command
+        fresh = self._stamp is None or not same_stamp(stamp, self._stamp) or last is None or t < last
+        self._stamp = stamp
+        if fresh:
+            last = t
+        if self._fed is not None:
+            last = t if self._fed == -math.inf else max(self._fed, last if last is not None else self._fed)
+            self._fed, fresh = None, True
+        assert last is not None
+        self.last_command = last
+        age = t - last
+        if self._dq is None:  # the first step: the robot is taken to be at rest before it
+            self._dq = np.zeros(robot._nv)
+            self._ddq = np.zeros(robot._nv)
+        state = self.state
+        if state in (ARMED, RESUMING) and age > self._timeout:
+            state = STOPPING
+        elif state in STALE and fresh:
+            state = RESUMING
+        if state == ARMED:
+            dq = res.dq
+        else:
+            dq, state = self._override(resolver, robot, res.dq, state, dt)
+            _replace_dq(resolver, res, dq)
+        assert self._dq is not None
+        self._ddq = (dq - self._dq) / dt
+        self._dq = np.array(dq, dtype=float)
+        self.state = state
+        info = _info_dict(res)
+        if info is not None:
+            dict.__setitem__(info, "watchdog", state)
+            dict.__setitem__(info, "command_age", age)
+            dict.__setitem__(info, "command_stale", state in STALE)
+
+    def _override(
+        self, resolver: Resolver, robot: RobotModel, wanted: np.ndarray, state: str, dt: float
+    ) -> tuple[np.ndarray, str]:
+        """The q̇ to send while not armed, and the state after this step."""
+        prev, acc = self._dq, self._ddq
+        assert prev is not None and acc is not None
+        if state == STOPPED:
+            return np.zeros_like(prev), STOPPED
+        amax = self._amax(resolver, robot)
+        jmax = None if self._jerk is None else self._per_joint(self._jerk, "jerk", robot._nv)
+        target = np.zeros_like(prev) if state == STOPPING else np.asarray(wanted, dtype=float)
+        if jmax is None:
+            if state == STOPPING:
+                dq = uniform_brake(prev, amax, dt)
+                reached = not dq.any()
+            else:
+                dq, reached = uniform_approach(prev, target, amax, dt)
+        else:
+            dq, a_new = jerk_step(prev, acc, target, amax, jmax, dt)
+            near = np.abs(dq - target) <= REST
+            reached = bool(near.all() and np.all(np.abs(a_new) <= jmax * dt * (1 + 1e-12)))
+            if reached:
+                dq = target.copy()
+        dq = _clip_to_limits(resolver, robot, dq, prev, dt)
+        if state == STOPPING:
+            return (np.zeros_like(prev), STOPPED) if reached and not dq.any() else (dq, STOPPING)
+        return dq, (ARMED if reached else RESUMING)
+
+    @staticmethod
+    def _per_joint(value: float | np.ndarray, key: str, nv: int) -> np.ndarray:
+        """``value`` as one number per velocity coordinate (a ResolverError when its size is not nv)."""
+        if np.ndim(value) and np.size(value) != nv:
+            raise ResolverError(f"watchdog: {key} has {np.size(value)} entries, the robot has nv = {nv}")
+        return np.broadcast_to(np.asarray(value, dtype=float), (nv,))
+
+    def _amax(self, resolver: Resolver, robot: RobotModel) -> np.ndarray:
+        """The deceleration limits per velocity coordinate [rad/s²]: the watchdog's, else the resolver's."""
+        nv = robot._nv
+        given = self._acceleration
+        if given is not None:
+            return self._per_joint(given, "acceleration", nv)
+        limits = getattr(resolver, "limits", None)
+        amax = None
+        if limits is not None and hasattr(limits, "kernel_args"):
+            amax = np.asarray(limits.kernel_args(robot)[4], dtype=float)
+        if amax is None or not np.all(np.isfinite(amax)):
+            raise ResolverError(
+                f"{resolver.name}: command_timeout: the commands went stale but there is no deceleration limit for "
+                "every joint to stop with; give the watchdog one (resolver.watchdog.acceleration = a_max [rad/s²], "
+                "make_resolver(..., stop_acceleration=...)) or the resolver's limits an acceleration"
+            )
+        return amax
+
+
+def _replace_dq(resolver: Resolver, res: StepResult, dq: np.ndarray) -> None:
+    """Put the watchdog's q̇ in the result, drop what described the resolver's own, and keep a QP resolver's rate
+    window on the q̇ sent."""
+    d = res.__dict__
+    d["dq"] = dq
+    d.pop("_dq_norm", None)
+    res.dq_rank = None
+    res.dq_null = None
+    if "_dq_prev" in resolver.__dict__:
+        resolver.__dict__["_dq_prev"] = dq.copy()
+
+
+def _clip_to_limits(resolver: Resolver, robot: RobotModel, dq: np.ndarray, prev: np.ndarray, dt: float) -> np.ndarray:
+    """``dq`` clipped to a QP resolver's joint-limit box for this step (rate window around ``prev``)."""
+    limits = getattr(resolver, "limits", None)
+    if limits is None or not hasattr(limits, "box"):
+        return dq
+    box = limits.box(robot, robot.q, dt, prev)
+    out: np.ndarray = box.clip(dq)
+    return out
+
+
+def _info_dict(res: StepResult) -> dict[str, Any] | None:
+    d = res.__dict__
+    info = d["_info"] if "_info" in d else d.get("info")
+    return info if isinstance(info, dict) else None
