@@ -147,16 +147,50 @@ def test_feed_keeps_the_watchdog_armed() -> None:
     assert res.info["watchdog"] == STOPPING and res.info["command_stale"] is True
 
 
-def test_a_stop_without_a_deceleration_limit_is_refused_with_a_message() -> None:
+def test_a_watchdog_without_a_deceleration_limit_is_refused_at_the_first_step() -> None:
     robot = _arm()
     stack = rk.TaskStack([rk.FrameTask("7", axes="position", gain=5.0)])
-    resolver = rk.make_resolver("pinv", command_timeout=0.05)
     q = np.full(robot.nq, 0.3)
     robot.update(q)
     stack.reset(robot)
+    for name in ("pinv", "wqp"):  # (wqp's limits without an acceleration give none)
+        resolver = rk.make_resolver(name, command_timeout=0.05)
+        with pytest.raises(ResolverError, match="no deceleration limit"):
+            resolver.step(robot, stack, q, 0.0, DT)  # at the start, not when the stop is due
+
+
+def test_a_resolver_with_a_watchdog_copies_and_pickles() -> None:
+    import copy
+    import pickle
+
+    robot = _arm()
+    task = rk.FrameTask("7", axes="position", gain=5.0)
+    stack = rk.TaskStack([task])
+    q = np.full(robot.nq, 0.3)
+    robot.update(q)
+    stack.reset(robot)
+    resolver = _resolver("wqp")
     resolver.step(robot, stack, q, 0.0, DT)
-    with pytest.raises(ResolverError, match="no deceleration limit"):
-        resolver.step(robot, stack, q, 0.2, DT)
+    for twin in (copy.deepcopy(resolver), pickle.loads(pickle.dumps(resolver))):
+        assert twin.command_timeout == TIMEOUT
+        assert twin.step(robot, stack, q, DT, DT).info["watchdog"] == ARMED
+        assert twin.step(robot, stack, q, 0.5, DT).info["command_stale"] is True
+
+
+def test_a_streamed_posture_target_counts_as_a_command_and_no_watchdog_adds_nothing() -> None:
+    robot = _arm()
+    posture = rk.PostureTask(gain=2.0)
+    stack = rk.TaskStack([rk.FrameTask("7", axes="position", gain=5.0), posture])
+    q = np.full(robot.nq, 0.3)
+    robot.update(q)
+    stack.reset(robot)
+    watched, plain = _resolver("hqp"), rk.make_resolver("hqp", limits={"acceleration": ACC})
+    for k in range(30):  # 0.3 s of posture targets, 3 timeouts long
+        posture.set_target(np.full(robot.nq, 0.3 + 0.01 * k))
+        res = watched.step(robot, stack, q, k * DT, DT)
+        assert res.info["watchdog"] == ARMED and res.info["command_age"] == 0.0
+        assert "watchdog" not in plain.step(robot, stack, q, k * DT, DT).info
+        q = robot.integrate(q, res.dq, DT)
 
 
 def test_options_are_checked() -> None:

@@ -76,44 +76,54 @@ def _limit(value: object, key: str, *, allow_inf: bool) -> float | np.ndarray | 
     return float(arr) if arr.ndim == 0 else arr.copy()
 
 
-def command_stamp(stack: TaskStack) -> list[object]:
-    """What the stack's members hold as targets, compared step to step by :func:`same_stamp` (see the module
-    docstring for what counts): trajectories and target arrays by identity, revisions and target numbers by value."""
-    out: list[object] = []
-    for member in stack.tasks:
-        _stamp_member(member, out)
-    for sub in stack.subtasks:
-        _stamp_member(sub, out)
-    return out
+class CommandReader:
+    """Where a stack's members hold their targets (see the module docstring for what counts), read at every step.
 
+    Built once per stack membership: the (member ``__dict__``, key) pairs of the target objects and numbers, and the
+    dicts of the frame tasks whose trajectory's ``revision`` moves on an in-place target write. :meth:`changed`
+    compares them with the last step's values: objects by identity, numbers by value.
+    """
 
-def _stamp_member(member: object, out: list[object]) -> None:
-    d = getattr(member, "__dict__", None)
-    if d is None:
-        return
-    traj = d.get("_trajectory")
-    if traj is not None:  # a frame task: its reference, and the revision its in-place target writes move
-        out.append(traj)
-        out.append(getattr(traj, "_revision", 0))
-    for key in ("_given", "_pending_position", "_target", "_target_rate"):
-        if key in d:  # posture and CoM targets (a new array per set_target), a target subtask's numbers
-            out.append(d[key])
-    row = d.get("_row")
-    if row is not None:  # a PotentialTask's target subtask
-        _stamp_member(row, out)
+    _KEYS = ("_trajectory", "_given", "_pending_position", "_target", "_target_rate")
 
+    def __init__(self, stack: TaskStack) -> None:
+        self.entries: list[tuple[dict[str, object], str]] = []
+        self.owners: list[dict[str, object]] = []  # members with a trajectory
+        for member in (*stack.tasks, *stack.subtasks):
+            self._add(member)
+        self.values: list[object] = [d.get(key) for d, key in self.entries]
+        self.revisions: list[int] = [getattr(d.get("_trajectory"), "_revision", 0) for d in self.owners]
 
-def same_stamp(a: list[object], b: list[object]) -> bool:
-    """Two stamps hold the same targets: same objects, equal numbers."""
-    if len(a) != len(b):
-        return False
-    for x, y in zip(a, b, strict=True):
-        if x is y:
-            continue
-        if type(x) in (int, float) and type(y) in (int, float) and x == y:
-            continue
-        return False
-    return True
+    def _add(self, member: object) -> None:
+        d = getattr(member, "__dict__", None)
+        if d is None:
+            return
+        for key in self._KEYS:
+            if key in d:
+                self.entries.append((d, key))
+        if "_trajectory" in d:
+            self.owners.append(d)
+        row = d.get("_row")
+        if row is not None:  # a PotentialTask's target subtask
+            self._add(row)
+
+    def changed(self) -> bool:
+        """True when a target was set since the last call (the values are updated)."""
+        fresh = False
+        values = self.values
+        for i, (d, key) in enumerate(self.entries):
+            v = d.get(key)
+            old = values[i]
+            if v is not old and not (type(v) is float and v == old):
+                values[i] = v
+                fresh = True
+        revisions = self.revisions
+        for i, d in enumerate(self.owners):
+            rev = getattr(d.get("_trajectory"), "_revision", 0)
+            if rev != revisions[i]:
+                revisions[i] = rev
+                fresh = True
+        return fresh
 
 
 def uniform_brake(v: np.ndarray, amax: np.ndarray, dt: float) -> np.ndarray:
@@ -225,10 +235,18 @@ class Watchdog:
         """Forget the last command, the q̇ sent and the state (``"armed"``); the next step counts as a command."""
         self.state = ARMED
         self.last_command: float | None = None
-        self._stamp: list[object] | None = None
+        self._reader: tuple[object, CommandReader] | None = None  # (the membership it was built for, the reader)
         self._fed: float | None = None
-        self._dq: np.ndarray | None = None
-        self._ddq: np.ndarray | None = None
+        self._dq: np.ndarray | None = None  # the q̇ sent at the last step, and at the step before [rad/s]
+        self._before: np.ndarray | None = None
+        self._dt = 1.0  # the last step's dt [s]
+
+    def __getstate__(self) -> dict[str, object]:
+        """The settings and state, without the reader (it holds the stack's members: built again at the next step,
+        which counts as a command)."""
+        state = self.__dict__.copy()
+        state["_reader"] = None
+        return state
 
     def feed(self, t: float | None = None) -> None:
         """Count a command at time ``t`` [s] (``None``: at the next step's t), as a target set would."""
@@ -239,21 +257,25 @@ class Watchdog:
     ) -> None:
         """Watch one step: update the state from the stack's targets at time ``t`` [s], replace ``res.dq`` while
         stopping, stopped or resuming, and write the state into ``res.info``."""
-        stamp = command_stamp(stack)
+        key = resolver._members  # (the membership the step checked: a new tuple whenever it changed)
+        pair = self._reader
+        if pair is None or pair[0] is not key:
+            self._reader = (key, CommandReader(stack))
+            fresh = True
+        else:
+            fresh = pair[1].changed()
         last = self.last_command
-        fresh = self._stamp is None or not same_stamp(stamp, self._stamp) or last is None or t < last
-        self._stamp = stamp
-        if fresh:
+        if fresh or last is None or t < last:
             last = t
+            fresh = True
         if self._fed is not None:
-            last = t if self._fed == -math.inf else max(self._fed, last if last is not None else self._fed)
+            last = t if self._fed == -math.inf else max(self._fed, last)
             self._fed, fresh = None, True
-        assert last is not None
         self.last_command = last
         age = t - last
         if self._dq is None:  # the first step: the robot is taken to be at rest before it
-            self._dq = np.zeros(robot._nv)
-            self._ddq = np.zeros(robot._nv)
+            self._amax(resolver, robot)  # (a stop without a deceleration limit is refused now, not when it is due)
+            self._dq, self._before = np.zeros(robot._nv), np.zeros(robot._nv)
         state = self.state
         if state in (ARMED, RESUMING) and age > self._timeout:
             state = STOPPING
@@ -264,9 +286,11 @@ class Watchdog:
         else:
             dq, state = self._override(resolver, robot, res.dq, state, dt)
             _replace_dq(resolver, res, dq)
-        assert self._dq is not None
-        self._ddq = (dq - self._dq) / dt
-        self._dq = np.array(dq, dtype=float)
+        before = self._before
+        assert before is not None
+        self._before = self._dq
+        np.copyto(before, dq)  # (the resolver's q̇ may be a view of its buffers: copied)
+        self._dq, self._dt = before, dt
         self.state = state
         info = _info_dict(res)
         if info is not None:
@@ -278,8 +302,9 @@ class Watchdog:
         self, resolver: Resolver, robot: RobotModel, wanted: np.ndarray, state: str, dt: float
     ) -> tuple[np.ndarray, str]:
         """The q̇ to send while not armed, and the state after this step."""
-        prev, acc = self._dq, self._ddq
-        assert prev is not None and acc is not None
+        prev, before = self._dq, self._before
+        assert prev is not None and before is not None
+        acc = (prev - before) / self._dt  # the q̈ of the last step [rad/s²]
         if state == STOPPED:
             return np.zeros_like(prev), STOPPED
         amax = self._amax(resolver, robot)
