@@ -185,8 +185,8 @@ def test_a_streamed_posture_target_counts_as_a_command_and_no_watchdog_adds_noth
     robot.update(q)
     stack.reset(robot)
     watched, plain = _resolver("hqp"), rk.make_resolver("hqp", limits={"acceleration": ACC})
-    for k in range(30):  # 0.3 s of posture targets, 3 timeouts long
-        posture.set_target(np.full(robot.nq, 0.3 + 0.01 * k))
+    for k in range(30):  # 0.3 s of posture targets, 3 timeouts long (the same one again: a command too)
+        posture.set_target(np.full(robot.nq, 0.35))
         res = watched.step(robot, stack, q, k * DT, DT)
         assert res.info["watchdog"] == ARMED and res.info["command_age"] == 0.0
         q = robot.integrate(q, res.dq, DT)
