@@ -1,11 +1,11 @@
 """``rk.ControlLoop`` driving the MuJoCo Panda at 200 Hz in real time, with a streamed target and the watchdog.
 
 The Panda's URDF runs in MuJoCo under joint position servos (1 kHz physics, gravity, compensation); redundik's
-``wqp`` resolves a position task on the tool plus a posture at 200 Hz, with a rate limit of 10 rad/s² on every joint.
+``wqp`` resolves a position task on the tool plus a posture at 200 Hz, with a rate limit of 5 rad/s² on every joint.
 The script plays a teleoperation session:
 
 * 0 – 2.5 s: a target streamed every tick, moving on a 6 cm circle;
-* 2.5 – 3.5 s: the stream stops; after ``command_timeout`` = 0.1 s the watchdog brings the arm to rest within the rate
+* 2.5 – 3.5 s: the stream stops; after ``command_timeout`` = 0.05 s the watchdog brings the arm to rest within the rate
   limit (``result.info["watchdog"]``: "stopping", then "stopped");
 * 3.5 – 4.5 s: a new target is streamed: the watchdog resumes control within the same limit.
 
@@ -30,8 +30,8 @@ from redundik.simulation.mujoco_plant import MujocoPlant
 from redundik.simulation.plant import PlantOptions
 
 PERIOD = 0.005  # control period [s]
-ACCEL = 10.0  # rate limit a_max [rad/s²]: the resolver's, and the watchdog's deceleration
-TIMEOUT = 0.1  # command_timeout [s]
+ACCEL = 5.0  # rate limit a_max [rad/s²]: the resolver's, and the watchdog's deceleration
+TIMEOUT = 0.05  # command_timeout [s]
 STREAM_END, RESUME, END = 2.5, 3.5, 4.5  # [s]
 TOOL = "panda_hand_tcp"
 Q0 = np.array([0.0, -0.785398, 0.0, -2.356194, 0.0, 1.570796, 0.785398, 0.02, 0.02])
