@@ -33,7 +33,7 @@ from redundik.errors import (
 )
 
 if TYPE_CHECKING:
-    from redundik.control import ControlLoop, DeadlineStats, Watchdog
+    from redundik.control import ControlLoop, DeadlineStats, Tick, Watchdog
     from redundik.ik import IKBatchResult, IKResult, solve_ik, solve_ik_batch
     from redundik.kinematics import DHRow, RobotModel, dh_matrix, from_dh, from_urdf, load_example_robot
     from redundik.resolvers import (
@@ -82,6 +82,7 @@ if TYPE_CHECKING:
 _LAZY: dict[str, str] = {
     "ControlLoop": "redundik.control",
     "DeadlineStats": "redundik.control",
+    "Tick": "redundik.control",
     "Watchdog": "redundik.control",
     "IKBatchResult": "redundik.ik",
     "IKResult": "redundik.ik",
@@ -193,6 +194,7 @@ __all__ = [
     "TaskError",
     "TaskStack",
     "TaskTerm",
+    "Tick",
     "VirtualPoint",
     "Watchdog",
     "WeightedQPResolver",
