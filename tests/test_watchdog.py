@@ -130,6 +130,30 @@ def test_jerk_step_lands_on_rest_from_random_states() -> None:
             raise AssertionError("never came to rest")
 
 
+def test_jerk_step_without_a_jerk_limit_on_some_joints() -> None:
+    amax, jmax, dt = np.full(3, 2.0), np.array([50.0, np.inf, 50.0]), 0.01
+    v, a, zero = np.array([0.5, -0.5, 0.2]), np.zeros(3), np.zeros(3)
+    for _ in range(1000):
+        v2, a2 = jerk_step(v, a, zero, amax, jmax, dt)
+        assert np.all(np.isfinite(v2)) and np.all(np.abs(a2) <= amax * (1 + 1e-12))
+        assert np.all(np.abs(a2 - a)[[0, 2]] <= jmax[[0, 2]] * dt * (1 + 1e-9))
+        v, a = v2, a2
+    assert np.all(np.abs(v) <= 1e-12)
+
+
+def test_the_resolvers_jerk_limit_is_the_stops() -> None:
+    """A jerk limit on the resolver's limits (``limits.jerk``) shapes the stop when the watchdog has none."""
+    jerk = 40.0
+    resolver = _resolver("wqp")
+    resolver.limits.jerk = jerk  # type: ignore[attr-defined]
+    _ts, infos, dqs = _run(resolver, steps=160)
+    states = [i["watchdog"] for i in infos]
+    first, stopped = states.index(STOPPING), states.index(STOPPED)
+    assert stopped - first > 2
+    dddq = np.diff(dqs, n=2, axis=0) / DT**2
+    assert np.abs(dddq[first - 2 : stopped]).max() <= jerk + 1e-9  # (dddq[k] reads q̇[k..k+2]: from the hand-over)
+
+
 def test_feed_keeps_the_watchdog_armed() -> None:
     robot = _arm()
     stack = rk.TaskStack([rk.FrameTask("7", rk.Circle(0.05, np.pi), gain=1.0)])  # moves with t: no target set

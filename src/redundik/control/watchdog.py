@@ -14,7 +14,8 @@ Time is the ``t`` given to ``resolver.step``: when ``t`` − (time of the last c
 watchdog goes from ``"armed"`` to ``"stopping"``. The targets are left as they were (frozen: nothing is written into
 the stack) and the resolver still solves every step, but the q̇ the step returns is the watchdog's: it decelerates
 from the last q̇ sent to rest, within the deceleration limit a_max [rad/s²] (the watchdog's ``acceleration``, else the
-resolver's ``limits.acceleration``) and, when ``jerk`` is given, the jerk limit j_max [rad/s³]:
+resolver's ``limits.acceleration``) and, when one is configured, the jerk limit j_max [rad/s³] (the watchdog's
+``jerk``, else the resolver's ``limits.jerk`` where its limits have one):
 
 * without a jerk limit, q̇ is scaled down uniformly, q̇_k = (1 − r) q̇_{k−1} with r = min(1, min_i a_max,i dt / |q̇_i|):
   the joint that needs longest brakes at exactly a_max,i and the others in proportion, so the joint path keeps its
@@ -40,7 +41,9 @@ loop restarted at 0) counts as a command.
 
 from __future__ import annotations
 
+import inspect
 import math
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -162,9 +165,9 @@ def jerk_step(
     time-optimal discrete S-curve, as in Kröger's online trajectory generation, Kröger & Wahl, IEEE T-RO 26(1), 2010).
     """
     e = v - target
-    h = jmax * dt
+    h = jmax * dt  # (inf on a joint without a jerk limit: n = 0 there, and the ramp term is dropped)
     n = np.maximum(0.0, np.ceil(np.sqrt(2.0 * np.abs(e) / (dt * h) + 0.25) - 1.5))
-    mag = (np.abs(e) / dt + h * n * (n + 1.0) / 2.0) / (n + 1.0)
+    mag = (np.abs(e) / dt + np.where(np.isfinite(h), h, 0.0) * n * (n + 1.0) / 2.0) / (n + 1.0)
     want = -np.sign(e) * mag
     lo = np.maximum(a - h, -amax)
     hi = np.minimum(a + h, amax)
@@ -285,7 +288,7 @@ class Watchdog:
             dq = res.dq
         else:
             dq, state = self._override(resolver, robot, res.dq, state, dt)
-            _replace_dq(resolver, res, dq)
+            _replace_dq(resolver, res, dq, self._dq)
         before = self._before
         assert before is not None
         self._before = self._dq
@@ -308,7 +311,7 @@ class Watchdog:
         if state == STOPPED:
             return np.zeros_like(prev), STOPPED
         amax = self._amax(resolver, robot)
-        jmax = None if self._jerk is None else self._per_joint(self._jerk, "jerk", robot._nv)
+        jmax = self._jmax(resolver, robot)
         target = np.zeros_like(prev) if state == STOPPING else np.asarray(wanted, dtype=float)
         if jmax is None:
             if state == STOPPING:
@@ -322,7 +325,7 @@ class Watchdog:
             reached = bool(near.all() and np.all(np.abs(a_new) <= jmax * dt * (1 + 1e-12)))
             if reached:
                 dq = target.copy()
-        dq = _clip_to_limits(resolver, robot, dq, prev, dt)
+        dq = _clip_to_limits(resolver, robot, dq, prev, before, dt)
         if state == STOPPING:
             return (np.zeros_like(prev), STOPPED) if reached and not dq.any() else (dq, STOPPING)
         return dq, (ARMED if reached else RESUMING)
@@ -333,6 +336,24 @@ class Watchdog:
         if np.ndim(value) and np.size(value) != nv:
             raise ResolverError(f"watchdog: {key} has {np.size(value)} entries, the robot has nv = {nv}")
         return np.broadcast_to(np.asarray(value, dtype=float), (nv,))
+
+    def _jmax(self, resolver: Resolver, robot: RobotModel) -> np.ndarray | None:
+        """The jerk limits per velocity coordinate [rad/s³] (inf: none on that joint): the watchdog's, else the
+        resolver's ``limits.jerk`` when its limits have one (a number or by joint name); ``None``: no jerk limit."""
+        nv = robot._nv
+        if self._jerk is not None:
+            return self._per_joint(self._jerk, "jerk", nv)
+        limits = getattr(resolver, "limits", None)
+        jerk = getattr(limits, "jerk", None)
+        if jerk is None:
+            return None
+        if isinstance(jerk, Mapping):
+            names = list(getattr(limits, "joint_names", robot.joint_names))
+            out = np.full(nv, np.inf)
+            for name, value in jerk.items():
+                out[names.index(name)] = float(value)
+            return out if np.isfinite(out).any() else None
+        return np.full(nv, float(jerk))
 
     def _amax(self, resolver: Resolver, robot: RobotModel) -> np.ndarray:
         """The deceleration limits per velocity coordinate [rad/s²]: the watchdog's, else the resolver's."""
@@ -353,24 +374,33 @@ class Watchdog:
         return amax
 
 
-def _replace_dq(resolver: Resolver, res: StepResult, dq: np.ndarray) -> None:
+def _replace_dq(resolver: Resolver, res: StepResult, dq: np.ndarray, prev: np.ndarray | None) -> None:
     """Put the watchdog's q̇ in the result, drop what described the resolver's own, and keep a QP resolver's rate
-    window on the q̇ sent."""
+    (and jerk) window on the q̇ sent: its last q̇ and, where it keeps one, the one before (``prev``)."""
     d = res.__dict__
     d["dq"] = dq
     d.pop("_dq_norm", None)
     res.dq_rank = None
     res.dq_null = None
-    if "_dq_prev" in resolver.__dict__:
-        resolver.__dict__["_dq_prev"] = dq.copy()
+    state = resolver.__dict__
+    if "_dq_prev" in state:
+        kept = state["_dq_prev"] = dq.copy()
+        if "_dq_hist" in state and prev is not None:  # (a resolver that keeps the last two q̇ for a jerk window)
+            state["_dq_hist"] = (kept, prev.copy())
 
 
-def _clip_to_limits(resolver: Resolver, robot: RobotModel, dq: np.ndarray, prev: np.ndarray, dt: float) -> np.ndarray:
-    """``dq`` clipped to a QP resolver's joint-limit box for this step (rate window around ``prev``)."""
+def _clip_to_limits(
+    resolver: Resolver, robot: RobotModel, dq: np.ndarray, prev: np.ndarray, before: np.ndarray, dt: float
+) -> np.ndarray:
+    """``dq`` clipped to a QP resolver's joint-limit box for this step (its windows on the last q̇ ``prev`` and, for
+    limits that take it, the one ``before``)."""
     limits = getattr(resolver, "limits", None)
     if limits is None or not hasattr(limits, "box"):
         return dq
-    box = limits.box(robot, robot.q, dt, prev)
+    if "dq_prev2" in inspect.signature(limits.box).parameters:
+        box = limits.box(robot, robot.q, dt, prev, before)
+    else:
+        box = limits.box(robot, robot.q, dt, prev)
     out: np.ndarray = box.clip(dq)
     return out
 
