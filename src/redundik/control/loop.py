@@ -163,7 +163,7 @@ class ControlLoop:
         reset: Reset the stack at the first tick's q (``stack.reset``: trajectories anchored there).
         command_timeout: The watchdog's timeout [s] (``resolver.command_timeout``); ``None`` leaves the resolver's.
         gc_slack: Collect the young generations between ticks only when this much time [s] is left before the next
-            slot (default: half the period); ``None`` never collects during the run.
+            slot (``"auto"``: half the period); ``None`` never collects during the run.
         spin: Busy-wait this long [s] before each slot instead of sleeping (0: sleep only).
         clock: Monotonic time [s] (default :func:`time.perf_counter`).
         sleep: Sleeps a duration [s] (default :func:`time.sleep`).
@@ -196,13 +196,11 @@ class ControlLoop:
         self.robot, self.stack, self.resolver = robot, stack, resolver
         self.read, self.write, self.clock, self.sleep = read, write, clock, sleep
         self.warm, self.reset = warm, reset
-        self.gc_slack = (
-            0.5 * self.period
-            if gc_slack == "auto"
-            else None
-            if gc_slack is None
-            else _positive(gc_slack, "gc_slack", zero=True)
-        )
+        self.gc_slack: float | None = None
+        if gc_slack == "auto":
+            self.gc_slack = 0.5 * self.period
+        elif gc_slack is not None:
+            self.gc_slack = _positive(gc_slack, "gc_slack", zero=True)
         self.spin = _positive(spin, "spin", zero=True)
         if command_timeout is not None:
             resolver.command_timeout = command_timeout
