@@ -232,3 +232,16 @@ def test_options_are_checked() -> None:
     assert resolver.command_timeout == 0.2 and isinstance(resolver.watchdog, Watchdog)
     resolver.command_timeout = None
     assert resolver.watchdog is None
+
+
+@pytest.mark.parametrize("integrator", ["rk4", "rk45"])
+def test_a_simulated_run_with_stage_evaluations_stops_at_the_sample_rate(integrator: str) -> None:
+    """rk4/rk45 call the resolver at intermediate stages; the watchdog's state is saved and put back around them like
+    the resolver's own, so the stop advances once per sample (q̈ between samples within the limit)."""
+    robot = rk.from_dh([rk.DHRow("1", a=1.0), rk.DHRow("2", a=1.0), rk.DHRow("3", a=1.0)])
+    stack = rk.TaskStack([rk.FrameTask("3", rk.Line([0.0, -0.5]), axes="planar", gain=1.0)])  # no target is ever set
+    resolver = rk.make_resolver("pinv", command_timeout=0.1, stop_acceleration=ACC)
+    log = rk.simulate(robot, stack, resolver, np.radians([110.0, -40.0, -30.0]), dt=DT, steps=80, integrator=integrator)
+    dq = log.dq[:-1]
+    assert np.abs(dq[5]).max() > 0.1 and not np.any(dq[-10:])  # moving at first, at rest at the end
+    assert np.abs(np.diff(dq[5:], axis=0)).max() / DT <= ACC + 1e-9

@@ -289,11 +289,9 @@ class Watchdog:
         else:
             dq, state = self._override(resolver, robot, res.dq, state, dt)
             _replace_dq(resolver, res, dq, self._dq)
-        before = self._before
-        assert before is not None
-        self._before = self._dq
-        np.copyto(before, dq)  # (the resolver's q̇ may be a view of its buffers: copied)
-        self._dq, self._dt = before, dt
+        # new arrays, never written in place: a shallow snapshot of this object (the simulation's StateGuard around
+        # integrator stages) puts the state back; the resolver's q̇ may be a view of its buffers: copied
+        self._before, self._dq, self._dt = self._dq, np.array(dq, dtype=float), dt
         self.state = state
         info = _info_dict(res)
         if info is not None:
