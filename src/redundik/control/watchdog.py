@@ -4,7 +4,8 @@ A resolver with a watchdog (``resolver.command_timeout = 0.25``, or ``make_resol
 compares, at every step, the targets its stack holds with those of the step before. A *command* is any of:
 
 * ``FrameTask.set_target`` (even the same pose again: it moves the hold's ``Trajectory.revision``), a new
-  ``FrameTask.trajectory``, a reset of the stack;
+  ``FrameTask.trajectory``, a reset of a frame task that anchors its trajectory anew (a held target set with
+  ``set_target`` survives a reset unchanged: not a command);
 * ``PostureTask.set_target`` and ``CoMTask.set_target`` (each writes a new target array);
 * a new value of a ``TargetSubtask``'s or ``PotentialTask``'s target or target rate (the same value again is not
   seen: call :meth:`Watchdog.feed` to keep such a stream alive);
