@@ -73,6 +73,7 @@ API_PAGES = {
     "redundik.simulation": "simulation.md",
     "redundik.parallel": "parallel.md",
     "redundik.ik": "ik.md",
+    "redundik.control": "control.md",
 }
 
 

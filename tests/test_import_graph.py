@@ -13,7 +13,7 @@ import ast
 from pathlib import Path
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "redundik"
-LIBRARY = ("kinematics", "tasks", "resolvers", "simulation", "collision", "parallel", "ik")
+LIBRARY = ("kinematics", "tasks", "resolvers", "simulation", "collision", "parallel", "ik", "control")
 APPLICATION = ("config", "cli", "reporting", "viewer", "peers", "sweep")
 ENTRY_POINTS = ("__main__.py",)
 

@@ -33,6 +33,7 @@ from redundik.errors import (
 )
 
 if TYPE_CHECKING:
+    from redundik.control import ControlLoop, DeadlineStats, Tick, Watchdog
     from redundik.ik import IKBatchResult, IKResult, solve_ik, solve_ik_batch
     from redundik.kinematics import DHRow, RobotModel, dh_matrix, from_dh, from_urdf, load_example_robot
     from redundik.resolvers import (
@@ -79,6 +80,10 @@ if TYPE_CHECKING:
 
 #: Public name → the module that defines it (imported on first access).
 _LAZY: dict[str, str] = {
+    "ControlLoop": "redundik.control",
+    "DeadlineStats": "redundik.control",
+    "Tick": "redundik.control",
+    "Watchdog": "redundik.control",
     "IKBatchResult": "redundik.ik",
     "IKResult": "redundik.ik",
     "solve_ik": "redundik.ik",
@@ -152,7 +157,9 @@ __all__ = [
     "Circle",
     "Clearance",
     "ConfigError",
+    "ControlLoop",
     "DHRow",
+    "DeadlineStats",
     "FeedbackResolver",
     "FrameTask",
     "GradientSubtask",
@@ -187,7 +194,9 @@ __all__ = [
     "TaskError",
     "TaskStack",
     "TaskTerm",
+    "Tick",
     "VirtualPoint",
+    "Watchdog",
     "WeightedQPResolver",
     "__version__",
     "dh_matrix",

@@ -20,7 +20,7 @@ import os
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -30,6 +30,9 @@ from redundik.resolvers.divergence import DivergenceWatch
 from redundik.resolvers.singularity import LimiterOption, SpeedLimiter
 from redundik.tasks.base import Edits, Task, TaskTerm
 from redundik.tasks.stack import TaskStack
+
+if TYPE_CHECKING:
+    from redundik.control.watchdog import Watchdog
 
 #: Largest stable K·dt of the first-order update (e ← (1 − K dt) e).
 STABLE_GAIN_DT = 2.0
@@ -432,6 +435,8 @@ class Resolver(ABC):
     _plain_gains = False
     _gains_seen: tuple[int, float] | None = None  # (Edits.count, 2/dt) at the last gain check that passed
     _stepping: TaskStack | None = None
+    #: The command watchdog (:mod:`redundik.control.watchdog`), or ``None``; :attr:`command_timeout` makes one.
+    watchdog: Watchdog | None = None
     #: BLAS threads inside a step: an int, or ``None`` to leave the process's setting alone. The default ``"auto"``
     #: limits BLAS to one thread for robots with nv ≥ :data:`BLAS_LIMIT_NV` = 64 (threaded products on small matrices
     #: stall on busy cores) unless the user set ``OMP_NUM_THREADS``/``OPENBLAS_NUM_THREADS``/``MKL_NUM_THREADS``.
@@ -465,8 +470,28 @@ class Resolver(ABC):
             "bound": " (use 'wqp' or 'hqp' for bounds and barriers)",
         }.get(kind, "")
 
+    @property
+    def command_timeout(self) -> float | None:
+        """Stop the robot when no target has been set for this long [s] (:mod:`redundik.control.watchdog`);
+        ``None``: no watchdog. Assigning a number makes a :class:`~redundik.control.watchdog.Watchdog` (or sets its
+        timeout); ``None`` removes it."""
+        return None if self.watchdog is None else self.watchdog.timeout
+
+    @command_timeout.setter
+    def command_timeout(self, value: float | None) -> None:
+        from redundik.control.watchdog import Watchdog
+
+        if value is None:
+            self.watchdog = None
+        elif self.watchdog is None:
+            self.watchdog = Watchdog(value)
+        else:
+            self.watchdog.timeout = value
+
     def reset(self) -> None:
         """Forget any state kept between steps (warm starts, previous q̇, the checked stack, the divergence watch)."""
+        if self.watchdog is not None:  # (its last command and q̇ sent: the next step counts as a command)
+            self.watchdog.reset()
         self._checked = None
         self._members = None
         self._gains_seen = None
@@ -591,6 +616,9 @@ class Resolver(ABC):
             else:
                 dict.__setitem__(info, "path", INTERPRETED)
                 dict.__setitem__(info, "interpreted", self._interpreted_members(robot, stack))
+        dog = self.watchdog
+        if dog is not None:  # the command watchdog (redundik.control.watchdog): stale targets → a stop within limits
+            dog.apply(self, robot, stack, t, dt, res)
         watch = self._watch
         if watch is None:
             watch = self._watch = DivergenceWatch()

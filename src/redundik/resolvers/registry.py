@@ -22,8 +22,13 @@ RESOLVERS: dict[str, Callable[..., Resolver]] = {
 }
 
 
+#: Options of every resolver that configure its command watchdog (:mod:`redundik.control.watchdog`): the timeout
+#: [s], the deceleration limit [rad/s²] and the jerk limit [rad/s³] of the stop.
+WATCHDOG_OPTIONS = ("command_timeout", "stop_acceleration", "stop_jerk")
+
+
 def make_resolver(name: str, **options: Any) -> Resolver:
-    """Build a resolver by name with keyword options.
+    """Build a resolver by name with keyword options (and the watchdog's, :data:`WATCHDOG_OPTIONS`).
 
     Raises:
         ResolverError: unknown name (lists the known ones) or bad options (names them).
@@ -31,7 +36,17 @@ def make_resolver(name: str, **options: Any) -> Resolver:
     if not isinstance(name, str) or name not in RESOLVERS:
         hint = did_you_mean(name, RESOLVERS)
         raise ResolverError(f"unknown resolver {short_repr(name)}; {hint}available: {sorted(RESOLVERS)}")
+    dog = {k: options.pop(k) for k in WATCHDOG_OPTIONS if k in options}
     try:
-        return RESOLVERS[name](**options)
+        resolver = RESOLVERS[name](**options)
     except TypeError as exc:
         raise ResolverError(f"resolver '{name}': bad options {sorted(options)}: {exc}") from exc
+    if dog:
+        from redundik.control.watchdog import Watchdog
+
+        if "command_timeout" not in dog:
+            raise ResolverError(f"resolver '{name}': {sorted(dog)} configure the watchdog: give command_timeout too")
+        resolver.watchdog = Watchdog(
+            dog["command_timeout"], acceleration=dog.get("stop_acceleration"), jerk=dog.get("stop_jerk")
+        )
+    return resolver
