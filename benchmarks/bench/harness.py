@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks.bench import batch as batch_case
+from benchmarks.bench.cold_start import run_cold_start
 from benchmarks.bench.placo_peer import PlacoRunner, find_placo_python
 from benchmarks.bench.runners import (
     MinkRunner,
@@ -26,23 +27,34 @@ from benchmarks.bench.runners import (
     RedundikRunner,
     Runner,
 )
-from benchmarks.bench.scenarios import SCENARIOS, SNAKE_SIZES
+from benchmarks.bench.scenarios import SCENARIOS as BUILTIN_SCENARIOS
+from benchmarks.bench.scenarios import SNAKE_SIZES
+from benchmarks.bench.user_scenarios import BASELINES, PEERS_OF, USER_SCENARIOS
 from redundik.errors import ConfigError, RedundikError
 from redundik.peers._deps import available
 from redundik.resolvers.registry import RESOLVERS
 
 #: Methods in report order; ``method`` values of the JSON.
 METHODS: tuple[str, ...] = (
-    "pinv", "feedback", "wqp", "hqp", "mink", "pink", "placo", "wqp_batch", "wqp_loop", "pinv_batch", "pinv_loop"
+    "pinv", "feedback", "wqp", "hqp", "mink", "pink", "placo",
+    "wqp_batch", "wqp_steps", "wqp_loop", "pinv_batch", "pinv_steps", "pinv_loop",
 )  # fmt: skip
-#: Methods of the batch case (only there).
-BATCH_METHODS: tuple[str, ...] = ("wqp_batch", "wqp_loop", "pinv_batch", "pinv_loop")
+#: Methods of the batch case (only there): the batch, a loop of ordinary steps, the contract's reset loop.
+BATCH_METHODS: tuple[str, ...] = batch_case.METHODS
+#: Every scenario: the built-in ones and the user cases (:mod:`benchmarks.bench.user_scenarios`).
+SCENARIOS = {**BUILTIN_SCENARIOS, **USER_SCENARIOS}
+#: The cold-start case (subprocesses on an empty kernel cache; :mod:`benchmarks.bench.cold_start`).
+COLD_START = "cold_start"
 #: Robots (``robot`` values of the JSON) in report order: every case of a full run.
 ROBOTS: tuple[str, ...] = (
-    "panda_circle", "panda_tight", "talos", *(f"snake{n}" for n in SNAKE_SIZES), batch_case.ROBOT_KEY, "panda_shelf"
+    "panda_circle", "panda_teleop", "panda_user_task", "panda_custom_task", "panda_tight", "talos", "talos_teleop",
+    "talos_actuated", *(f"snake{n}" for n in SNAKE_SIZES), batch_case.ROBOT_KEY, "panda_shelf", COLD_START,
 )  # fmt: skip
 #: The robots of ``--quick``.
-QUICK_ROBOTS: tuple[str, ...] = ("panda_circle", "talos", "snake10", "snake80", batch_case.ROBOT_KEY)
+QUICK_ROBOTS: tuple[str, ...] = (
+    "panda_circle", "panda_teleop", "panda_user_task", "panda_custom_task", "talos", "talos_teleop", "snake10",
+    "snake80", batch_case.ROBOT_KEY, COLD_START,
+)  # fmt: skip
 #: Every robot the harness knows (``planar3r``, the chapter's 3R arm, only on request).
 KNOWN_ROBOTS: tuple[str, ...] = (*ROBOTS, "planar3r")
 #: Steps (calls of 1000 problems) of the batch case, warm-up excluded, and its warm-up.
@@ -90,6 +102,10 @@ class BenchConfig:
     placo_python: str | None = None
     batch_steps: int = BATCH_STEPS
     batch_problems: int = batch_case.N_PROBLEMS
+    #: ``cold_start``: the methods whose first step is timed in fresh subprocesses.
+    cold_start_methods: Sequence[str] = ("pinv", "wqp", "hqp")
+    #: ``cold_start``: ``"cold"`` (an empty cache, then warm), ``"warm"`` (the user's cache only) or ``"off"``.
+    cold_start: str = "cold"
 
     @classmethod
     def quick(cls, steps: int = 300) -> BenchConfig:
@@ -97,7 +113,7 @@ class BenchConfig:
         daqp only."""
         return cls(
             robots=QUICK_ROBOTS, steps=steps, warmup=30, chunk=50, qp_backends=("daqp",), peer_backends=("daqp",),
-            profile_steps=100, batch_steps=4,
+            profile_steps=100, batch_steps=4, cold_start_methods=("wqp",),
         )  # fmt: skip
 
     def check(self) -> None:
@@ -113,6 +129,8 @@ class BenchConfig:
                 raise ConfigError(f"must be ≥ 1, got {getattr(self, key)}", key)
         if self.warmup < 0 or self.profile_steps < 0:
             raise ConfigError("must be ≥ 0", "warmup/profile_steps")
+        if self.cold_start not in ("cold", "warm", "off"):
+            raise ConfigError(f"must be 'cold', 'warm' or 'off', got {self.cold_start!r}", "cold_start")
 
 
 @dataclass
@@ -189,6 +207,8 @@ class BenchResult:
     cases: list[CaseResult]
     skipped: list[str]
     meta: dict[str, Any]
+    #: The ``cold_start`` records (:func:`benchmarks.bench.cold_start.run_cold_start`).
+    cold_start: list[dict[str, Any]] = field(default_factory=list)
 
     def find(self, robot: str, method: str, backend: str | None = None) -> list[CaseResult]:
         """Cases of a robot and method (and backend)."""
@@ -213,20 +233,26 @@ class BenchResult:
         return found[0] if len(found) == 1 else None
 
     def faster_peer(self, robot: str) -> CaseResult | None:
-        """The faster of mink and pink (each with its fastest backend) on ``robot``."""
+        """The faster of mink and pink (each with its fastest backend) on ``robot`` (on the robot whose identical
+        task set they ran, :data:`PEERS_OF`; ``None`` where no peer runs the task set)."""
+        robot = PEERS_OF.get(robot, robot)  # type: ignore[assignment]
+        if robot is None:
+            return None
         peers = [c for c in (self.fastest(robot, "mink"), self.fastest(robot, "pink")) if c is not None]
         return min(peers, key=lambda c: c.median_us) if peers else None
 
     def ratios(self) -> list[dict[str, Any]]:
         """Median of every redundik case that did not fail over the faster (non-failed) of mink and pink, per robot,
-        and over PlaCo's where it ran (``ratio_placo``)."""
+        and over PlaCo's where it ran (``ratio_placo``); a user case also over its built-in case (``ratio_builtin``,
+        :data:`BASELINES`); ``path`` is the case's ``result.info["path"]``."""
         out = []
         for c in self.cases:
             if c.method in PEERS or not c.ok or c.method in BATCH_METHODS:
                 continue
             peer = self.faster_peer(c.robot)
-            placo = self.fastest(c.robot, "placo")
-            if (peer is None or peer.median_us <= 0) and placo is None:
+            placo = self.placo(c.robot)
+            base = self.builtin(c)
+            if (peer is None or peer.median_us <= 0) and placo is None and base is None:
                 continue
             out.append(
                 {
@@ -236,9 +262,25 @@ class BenchResult:
                     "peer": None if peer is None else f"{peer.method}/{peer.backend}",
                     "ratio": None if peer is None else c.median_us / peer.median_us,
                     "ratio_placo": None if placo is None else c.median_us / placo.median_us,
+                    "builtin": None if base is None else base.robot,
+                    "ratio_builtin": None if base is None else c.median_us / base.median_us,
+                    "path": c.extra.get("path"),
                 }
             )
         return out
+
+    def placo(self, robot: str) -> CaseResult | None:
+        """PlaCo's case for ``robot``'s task set (:data:`PEERS_OF`), if it ran and did not fail."""
+        peer_robot = PEERS_OF.get(robot, robot)
+        return None if peer_robot is None else self.fastest(peer_robot, "placo")
+
+    def builtin(self, c: CaseResult) -> CaseResult | None:
+        """A user case's built-in case (:data:`BASELINES`): same method and backend, same run, not failed."""
+        robot = BASELINES.get(c.robot)
+        if robot is None:
+            return None
+        found = [b for b in self.find(robot, c.method, c.backend) if b.ok and b.median_us > 0]
+        return found[0] if found else None
 
     def snake_fit(self, method: str) -> dict[str, Any]:
         """Growth exponent b of median ∝ n^b (least squares in log–log over the snake cases that did not fail) and
@@ -309,16 +351,39 @@ class BenchResult:
             add(f"snake: {method} p90/median ≤ 2.5 at every n", worst, 2.5, "ratio", each or "not measured")
         for res in ("wqp", "pinv"):
             b = _ok(self.fastest(batch_case.ROBOT_KEY, f"{res}_batch"))
-            lo = _ok(self.fastest(batch_case.ROBOT_KEY, f"{res}_loop"))
+            lo = _ok(self.fastest(batch_case.ROBOT_KEY, f"{res}_steps"))
             speed = None if b is None or lo is None or not lo.problems_per_s else b.problems_per_s / lo.problems_per_s  # type: ignore[operator]
             detail = (
                 "not measured (or FAILED)" if speed is None
                 else f"{b.problems_per_s:.0f} vs {lo.problems_per_s:.0f} problems/s"  # type: ignore[union-attr]
             )  # fmt: skip
             add(
-                f"{batch_case.ROBOT_KEY}: {res} batch ≥ 10 × the loop's problems/s", speed, 10.0, "ratio", detail, "min"
-            )
+                f"{batch_case.ROBOT_KEY}: {res} batch ≥ 10 × a loop of ordinary steps' problems/s",
+                speed, 10.0, "ratio", detail, "min",
+            )  # fmt: skip
+        self._user_targets(add, ratio)
         return out
+
+    def _user_targets(self, add: Callable[..., None], ratio: Callable[..., float | None]) -> None:
+        """Issue 31's targets: teleop and a user's subclass against the built-in case, PlaCo, the cold start."""
+        for robot, limit in (("panda_teleop", 1.15), ("panda_user_task", 1.05)):
+            for method in ("pinv", "wqp", "hqp"):
+                c = _ok(self.default(robot, method))
+                b = None if c is None else self.builtin(c)
+                what = "the trajectory tick" if robot.endswith("teleop") else "the built-in FrameTask"
+                add(f"{robot}: {method} ≤ {limit} × {what} (issue 31)", ratio(c, b), limit, "ratio", _detail(c, b))
+        for robot in ("panda_circle", "panda_teleop"):
+            for method, limit in (("pinv", 1.2), ("wqp", 1.5), ("hqp", 2.0)):
+                c, p = _ok(self.default(robot, method)), self.placo(robot)
+                add(f"{robot}: {method} ≤ {limit} × PlaCo (issue 31)", ratio(c, p), limit, "ratio", _detail(c, p))
+        for rec in self.cold_start:
+            if rec.get("method") != "wqp" or rec.get("status") != "ok":
+                continue
+            for key, limit in (("cold_first_dq_s", 3.0), ("warm_first_dq_s", 0.3)):
+                value = rec.get(key)
+                what = "empty cache" if key.startswith("cold") else "warm cache"
+                add(f"cold_start: wqp first q̇ ({what}) ≤ {limit} s (issue 31)", value, limit, "s",
+                    "fresh subprocess: import + set-up + first step")  # fmt: skip
 
 
 def _ok(c: CaseResult | None) -> CaseResult | None:
@@ -350,6 +415,8 @@ def build_cases(
             log(f"  PlaCo interpreter: {placo_python} ({placo_why})")
     for key in config.robots:
         n_before = len(runners)
+        if key == COLD_START:
+            continue  # run after the interleaved cases, in subprocesses (run_benchmark)
         if key == batch_case.ROBOT_KEY:
             for method in BATCH_METHODS:
                 if method in config.methods:
@@ -475,6 +542,11 @@ def run_benchmark(config: BenchConfig, log: Callable[[str], None] = print) -> Be
     finally:
         for r in runners:
             r.close()
+    cold: list[dict[str, Any]] = []
+    if COLD_START in config.robots and config.cold_start != "off":
+        log(f"cold start of {list(config.cold_start_methods)} ({config.cold_start}), one fresh process at a time")
+        peers = tuple(p for p in ("mink", "pink") if p in config.methods)
+        cold = run_cold_start(config.cold_start_methods, config.cold_start, peers)
     meta = {
         "python": sys.version.split()[0],
         "platform": platform.platform(),
@@ -489,7 +561,7 @@ def run_benchmark(config: BenchConfig, log: Callable[[str], None] = print) -> Be
         "wall_time_s": time.perf_counter() - t_start,
         "versions": _versions(runners),
     }
-    return BenchResult(cases, skipped, meta)
+    return BenchResult(cases, skipped, meta, cold)
 
 
 def _profile(
@@ -497,7 +569,9 @@ def _profile(
 ) -> None:
     """The per-stage profile of redundik's methods (separate probed steps, round-robin) into ``stages_us``."""
     log(f"profiling redundik's methods ({config.profile_steps} steps each, round-robin)")
-    prof = [(r, c) for r, c in zip(runners, cases, strict=True) if isinstance(r, RedundikRunner)]
+    prof = [  # a teleop case is left out: its probed steps would not move its targets
+        (r, c) for r, c in zip(runners, cases, strict=True) if isinstance(r, RedundikRunner) and not r.scenario.teleop
+    ]
     stages: dict[int, dict[str, list[float]]] = {id(r): {} for r, _ in prof}
     for _ in range(5):
         for r, _ in prof:
@@ -546,6 +620,10 @@ def _summarise(r: AnyRunner, warmup: int, defaults: dict[str, str]) -> CaseResul
         frozen_steps=rec.frozen,
         error_tolerance=sc.error_tolerance,
     )
+    if rec.paths:  # which path redundik's steps took (result.info["path"]) and the members it ran interpreted
+        case.extra["path"] = _path_label(rec.paths)
+        case.extra["paths"] = dict(rec.paths)
+        case.extra["interpreted"] = sorted(rec.interpreted)
     if rec.step_ns:  # the first step of the process: the kernels' JIT compile or their load from numba's disk cache
         case.extra["first_step_s"] = rec.step_ns[0] / 1e9
     flags = np.asarray(rec.qp_flags[warmup:], dtype=bool)
@@ -568,6 +646,13 @@ def _summarise(r: AnyRunner, warmup: int, defaults: dict[str, str]) -> CaseResul
         case.extra["out_of_process"] = True
     case.status = case_status(case)
     return case
+
+
+def _path_label(paths: dict[str, int]) -> str:
+    """``"compiled"`` when every step took one path, else each path with its count of steps."""
+    if len(paths) == 1:
+        return next(iter(paths))
+    return ", ".join(f"{p} {n}" for p, n in sorted(paths.items(), key=lambda kv: -kv[1]))
 
 
 def _summarise_batch(r: batch_case.BatchRunner, warmup: int, defaults: dict[str, str]) -> CaseResult:
@@ -598,6 +683,8 @@ def _summarise_batch(r: batch_case.BatchRunner, warmup: int, defaults: dict[str,
         error_tolerance=1e-3,
         problems_per_s=r.q.shape[0] / (median * 1e-6) if median > 0 else None,
     )
+    if r.paths:
+        case.extra["path"] = _path_label(r.paths)
     case.extra["problems"] = int(r.q.shape[0])
     case.extra["calls"] = len(r.step_ns)
     if "loop_agreement" in m:
