@@ -569,9 +569,7 @@ def _profile(
 ) -> None:
     """The per-stage profile of redundik's methods (separate probed steps, round-robin) into ``stages_us``."""
     log(f"profiling redundik's methods ({config.profile_steps} steps each, round-robin)")
-    prof = [  # a teleop case is left out: its probed steps would not move its targets
-        (r, c) for r, c in zip(runners, cases, strict=True) if isinstance(r, RedundikRunner) and not r.scenario.teleop
-    ]
+    prof = [(r, c) for r, c in zip(runners, cases, strict=True) if isinstance(r, RedundikRunner)]
     stages: dict[int, dict[str, list[float]]] = {id(r): {} for r, _ in prof}
     for _ in range(5):
         for r, _ in prof:

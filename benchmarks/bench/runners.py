@@ -196,8 +196,17 @@ class RedundikRunner(Runner):
                 self.record.first_fallback = f"t = {t:.3f} s: {res.fallback}"
         return t1 - t0, self.robot.integrate(self.q, res.dq, dt)
 
+    def _retarget(self, t: float) -> None:
+        """Teleop cases, in the profile's probed steps: the targets of t + dt set before the probes start."""
+        if self.scenario.teleop:
+            for task, pose in zip(
+                self.stack.tasks, teleop_poses(self.metrics.tasks, t + self.scenario.dt), strict=False
+            ):
+                task.set_target(pose)  # type: ignore[attr-defined]
+
     def profile(self, steps: int) -> dict[str, float]:
-        """Median time per stage [µs] over ``steps`` extra steps with timing probes (not the timed run).
+        """Median time per stage [µs] over ``steps`` extra steps with timing probes (not the timed run; a teleop
+        case's ``set_target`` is left out of them).
 
         Stages: ``kinematics`` (RobotModel.update), ``tasks`` (task terms, potential values and gradients),
         ``build`` (the resolver's build time minus the task evaluation inside it), ``solve`` (its solve time),
@@ -221,6 +230,7 @@ class RedundikRunner(Runner):
                 self.restart()
                 timed = timed_stack()
             t = self.k * dt
+            self._retarget(t)
             probe.ns = 0
             t0 = _ns()
             self.robot.update(self.q)
@@ -249,6 +259,7 @@ class RedundikRunner(Runner):
             if self.scenario.episode is not None and self.k >= self.scenario.episode:
                 self.restart()
             t = self.k * dt
+            self._retarget(t)
             t0 = _ns()
             self.robot.update(self.q)
             t1 = _ns()
