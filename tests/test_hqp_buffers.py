@@ -55,7 +55,7 @@ def _watch_fill(monkeypatch: pytest.MonkeyPatch) -> dict[str, int]:
     return seen
 
 
-@pytest.mark.parametrize("scenario", ["panda_tight", "snake10", "talos_actuated"])
+@pytest.mark.parametrize("scenario", ["panda_tight", "snake10", "talos"])
 def test_fused_qp_steps_find_their_rows_in_the_buffers(monkeypatch: pytest.MonkeyPatch, scenario: str) -> None:
     from benchmarks.bench.runners import RedundikRunner
     from benchmarks.bench.scenarios import SCENARIOS
@@ -337,6 +337,8 @@ def test_packed_clearance_rows_equal_the_python_rows(monkeypatch: pytest.MonkeyP
     assert packed_steps >= 12 * 59 and qp_steps > 20, (packed_steps, qp_steps)  # (a first step is not fused)
 
 
+# talos_actuated: the benchmark-only actuated-joint posture (the library's PostureTask on Talos's free flyer does
+# not take the fused step yet, issue 31 item 3)
 @pytest.mark.parametrize("scenario", ["panda_tight", "snake10", "talos_actuated"])
 def test_native_cascade_result_equals_the_template(scenario: str) -> None:
     """A fused QP step whose cascade daqp settles from the compiled call (``_native_cascade``, ``_native_result``)
