@@ -55,7 +55,7 @@ def update_docs(result: object, command: str, summary: dict[str, object] | None 
         "by the load, the ratios come from the same run); `wqp`/`hqp` on their default backend, each peer on its "
         "fastest; × faster peer = median over the faster non-failed of mink and pink.\n\n"
         + readme_table(result)  # type: ignore[arg-type]
-        + "\nTargets (issue 11), measured in this run:\n\n"
+        + "\nTargets (issues 11 and 31), measured in this run:\n\n"
         + "\n".join(targets_table(result))  # type: ignore[arg-type]
         + "\n"
     )

@@ -82,7 +82,7 @@ def markdown(result: BenchResult, command: str = "") -> str:
     lines += placo_table(result)
     lines += snake_table(result)
     lines += qp_split_table(result)
-    lines += ["", "Targets (issue 11, measured in this run):", ""]
+    lines += ["", "Targets (issues 11 and 31, measured in this run):", ""]
     lines += targets_table(result)
     prof = [c for c in cases if c.stages_us]
     if prof:
