@@ -4,7 +4,7 @@
 Usage (from a checkout, with ``pip install -e ".[test,peers]"``)::
 
     python benchmarks/compare_resolvers.py                  # full run: ≥ 2000 timed steps per case
-    python benchmarks/compare_resolvers.py --quick          # under a minute
+    python benchmarks/compare_resolvers.py --quick          # a few minutes (--cold-start warm: shorter)
     python benchmarks/compare_resolvers.py --json out.json --out benchmarks/results/
     python benchmarks/compare_resolvers.py --placo-python .venv-placo/bin/python
     python benchmarks/compare_resolvers.py --repeat 3         # three full runs: median ratio and spread per case
@@ -85,7 +85,7 @@ def _write_summary(summary: dict[str, object], out: Path, command: str, json_pat
 def main(argv: list[str] | None = None) -> int:
     """Parse arguments, run, write the reports; returns the exit code."""
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
-    parser.add_argument("--quick", action="store_true", help="short run (under a minute)")
+    parser.add_argument("--quick", action="store_true", help="short run (a few minutes, the cold start included)")
     parser.add_argument("--steps", type=int, default=None, help="timed steps per case (default 2000, quick 300)")
     parser.add_argument("--json", type=Path, default=None, help="also write the JSON summary here")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help="output folder (default benchmarks/results)")

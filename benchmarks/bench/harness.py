@@ -105,8 +105,8 @@ class BenchConfig:
 
     @classmethod
     def quick(cls, steps: int = 300) -> BenchConfig:
-        """A run that finishes within a minute: the quick robots, fewer steps, the default QP backend, the peers on
-        daqp only."""
+        """A short run (a few minutes, much of it the cold start's compile on an empty cache): the quick robots,
+        fewer steps, the default QP backend, the peers on daqp only, the cold start of ``wqp`` only."""
         return cls(
             robots=QUICK_ROBOTS, steps=steps, warmup=30, chunk=50, qp_backends=("daqp",), peer_backends=("daqp",),
             profile_steps=100, batch_steps=4, cold_start_methods=("wqp",),
