@@ -265,6 +265,9 @@ def test_user_cases_record_their_path_and_compare_with_the_built_in(tiny) -> Non
             r = builtin[(robot, method)]
             assert r["builtin"] == base and r["ratio_builtin"] > 0
     assert all(r["ratio"] is None for r in result.ratios() if r["robot"] == "panda_custom_task")  # no peer runs it
+    assert result.meta["custom_task_evaluate_us"] > 0  # the user task's own evaluate, for its target
+    custom = [t for t in result.targets() if t["target"].startswith("panda_custom_task:")]
+    assert len(custom) == 3 and all(t["value"] is not None for t in custom)
     md = markdown(result)
     assert "What users run" in md and "| path |" in md and "elbow_height" in md
 

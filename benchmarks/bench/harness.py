@@ -29,7 +29,7 @@ from benchmarks.bench.runners import (
 )
 from benchmarks.bench.scenarios import SCENARIOS as BUILTIN_SCENARIOS
 from benchmarks.bench.scenarios import SNAKE_SIZES
-from benchmarks.bench.user_scenarios import BASELINES, PEERS_OF, USER_SCENARIOS
+from benchmarks.bench.user_scenarios import BASELINES, PEERS_OF, USER_SCENARIOS, custom_task_evaluate_us
 from redundik.errors import ConfigError, RedundikError
 from redundik.peers._deps import available
 from redundik.resolvers.registry import RESOLVERS
@@ -301,6 +301,15 @@ class BenchResult:
                 b = None if c is None else self.builtin(c)
                 what = "the trajectory tick" if robot.endswith("teleop") else "the built-in FrameTask"
                 add(f"{robot}: {method} ≤ {limit} × {what} (issue 31)", ratio(c, b), limit, "ratio", _detail(c, b))
+        own = self.meta.get("custom_task_evaluate_us")
+        for method in ("pinv", "wqp", "hqp") if own is not None else ():
+            c = _ok(self.default("panda_custom_task", method))
+            b = None if c is None else self.builtin(c)
+            value = None if c is None or b is None else (c.median_us - b.median_us) / (own + 0.1 * b.median_us)
+            detail = "not measured (or FAILED)" if c is None or b is None else (
+                f"{c.median_us:.1f} − {b.median_us:.1f} µs added, its evaluate {own:.1f} µs + 10 % of the built-in"
+            )  # fmt: skip
+            add(f"panda_custom_task: {method} adds ≤ its evaluate + 10 % (issue 31)", value, 1.0, "ratio", detail)
         for robot in ("panda_circle", "panda_teleop"):
             for method, limit in (("pinv", 1.2), ("wqp", 1.5), ("hqp", 2.0)):
                 c, p = _ok(self.default(robot, method)), self.placo(robot)
@@ -471,6 +480,9 @@ def run_benchmark(config: BenchConfig, log: Callable[[str], None] = print) -> Be
     finally:
         for r in runners:
             r.close()
+    extra: dict[str, Any] = {}
+    if "panda_custom_task" in config.robots:  # the user task's own evaluate, for its target (a tight loop)
+        extra["custom_task_evaluate_us"] = custom_task_evaluate_us()
     cold: list[dict[str, Any]] = []
     if COLD_START in config.robots and config.cold_start != "off":
         log(f"cold start of {list(config.cold_start_methods)} ({config.cold_start}), one fresh process at a time")
@@ -489,6 +501,7 @@ def run_benchmark(config: BenchConfig, log: Callable[[str], None] = print) -> Be
         "default_backends": defaults,
         "wall_time_s": time.perf_counter() - t_start,
         "versions": versions(runners),
+        **extra,
     }
     return BenchResult(cases, skipped, meta, cold)
 

@@ -17,6 +17,10 @@ method and backend in the same run.
 
 from __future__ import annotations
 
+import time
+
+import numpy as np
+
 from benchmarks.bench.scenarios import PANDA_Q0, Scenario, panda_scenario, talos_scenario
 from benchmarks.user_cases import ElbowHeight, MyFrameTask
 from redundik.kinematics.urdf import load_example_robot
@@ -79,6 +83,22 @@ def panda_custom_task_scenario() -> Scenario:
     sc.title = "Panda circle + a user's 10-line Task subclass (elbow height, benchmarks/user_cases.py)"
     sc.methods, sc.placo, sc.all_backends = REDUNDIK_METHODS, False, False
     return sc
+
+
+def custom_task_evaluate_us(calls: int = 200, blocks: int = 7) -> float:
+    """The user's task's own cost: the median over ``blocks`` of the mean time of ``ElbowHeight.evaluate`` [µs]
+    (on the Panda at q0, kinematics updated once), for issue 31's "a custom task adds its evaluate + 10 %"."""
+    robot = load_example_robot("panda")
+    robot.update(PANDA_Q0)
+    task = ElbowHeight(0.5, gain=5.0)
+    task.evaluate(robot, 0.0)
+    per = []
+    for _ in range(blocks):
+        t0 = time.perf_counter_ns()
+        for _ in range(calls):
+            task.evaluate(robot, 0.0)
+        per.append((time.perf_counter_ns() - t0) / calls / 1e3)
+    return float(np.median(per))
 
 
 USER_SCENARIOS = {
