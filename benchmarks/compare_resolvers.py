@@ -4,9 +4,10 @@
 Usage (from a checkout, with ``pip install -e ".[test,peers]"``)::
 
     python benchmarks/compare_resolvers.py                  # full run: ≥ 2000 timed steps per case
-    python benchmarks/compare_resolvers.py --quick          # under a minute
+    python benchmarks/compare_resolvers.py --quick          # a few minutes (--cold-start warm: shorter)
     python benchmarks/compare_resolvers.py --json out.json --out benchmarks/results/
     python benchmarks/compare_resolvers.py --placo-python .venv-placo/bin/python
+    python benchmarks/compare_resolvers.py --repeat 3         # three full runs: median ratio and spread per case
 
 Writes ``compare_resolvers.md`` (tables and targets), ``.json`` and ``.png`` to ``--out`` and prints the ratios.
 Method, robots, PlaCo's own interpreter and timing rules: ``docs/benchmark.md``.
@@ -15,6 +16,7 @@ Method, robots, PlaCo's own interpreter and timing rules: ``docs/benchmark.md``.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 
@@ -23,6 +25,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))  # the harness is the checkout's package benchmarks.bench, not in the wheel
 
 from benchmarks.bench import KNOWN_ROBOTS, METHODS, BenchConfig, ratio_lines, run_benchmark, write_all  # noqa: E402
+from benchmarks.bench.repeat import repeat_markdown, summarise_runs  # noqa: E402
 from benchmarks.bench.report import markdown, readme_table, targets_table  # noqa: E402
 from redundik.errors import RedundikError  # noqa: E402
 
@@ -37,14 +40,22 @@ def _replace_between(path: Path, tag: str, body: str) -> Path:
     return path
 
 
-def update_docs(result: object, command: str) -> list[Path]:
-    """This run's full report into docs/benchmark.md and the compact table + targets into README.md."""
+def update_docs(result: object, command: str, summary: dict[str, object] | None = None) -> list[Path]:
+    """This run's full report into docs/benchmark.md and the compact table + targets into README.md; with a
+    ``--repeat`` summary, the summary (median and spread over the runs) first in both, then the first run's report."""
+    if summary is not None:
+        text = repeat_markdown(summary, command)
+        return [
+            _replace_between(ROOT / "docs" / "benchmark.md", "results",
+                             text + "\nThe first of these runs in full:\n\n" + markdown(result)),  # type: ignore[arg-type]
+            _replace_between(ROOT / "README.md", "readme-results", text),
+        ]  # fmt: skip
     readme = (
         f"Last full run (`{command}`, one interleaved run on this 2-core shared machine: absolute µs are inflated "
         "by the load, the ratios come from the same run); `wqp`/`hqp` on their default backend, each peer on its "
         "fastest; × faster peer = median over the faster non-failed of mink and pink.\n\n"
         + readme_table(result)  # type: ignore[arg-type]
-        + "\nTargets (issue 11), measured in this run:\n\n"
+        + "\nTargets (issues 11 and 31), measured in this run:\n\n"
         + "\n".join(targets_table(result))  # type: ignore[arg-type]
         + "\n"
     )
@@ -54,10 +65,27 @@ def update_docs(result: object, command: str) -> list[Path]:
     ]
 
 
+def _write_summary(summary: dict[str, object], out: Path, command: str, json_path: Path | None) -> dict[str, Path]:
+    """The ``--repeat`` summary as ``compare_resolvers_repeat.md`` and ``.json`` in ``out`` (and at ``json_path``)."""
+    from redundik.reporting.paths import safe_path
+
+    md = safe_path(out, "compare_resolvers_repeat.md")
+    md.write_text(repeat_markdown(summary, command), encoding="utf-8")
+    doc = json.dumps(summary, indent=2, allow_nan=False)
+    js = safe_path(out, "compare_resolvers_repeat.json")
+    js.write_text(doc, encoding="utf-8")
+    paths = {"repeat markdown": md, "repeat json": js}
+    if json_path is not None:
+        json_path.parent.mkdir(parents=True, exist_ok=True)
+        json_path.write_text(doc, encoding="utf-8")
+        paths["json_requested"] = json_path
+    return paths
+
+
 def main(argv: list[str] | None = None) -> int:
     """Parse arguments, run, write the reports; returns the exit code."""
     parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
-    parser.add_argument("--quick", action="store_true", help="short run (under a minute)")
+    parser.add_argument("--quick", action="store_true", help="short run (a few minutes, the cold start included)")
     parser.add_argument("--steps", type=int, default=None, help="timed steps per case (default 2000, quick 300)")
     parser.add_argument("--json", type=Path, default=None, help="also write the JSON summary here")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT, help="output folder (default benchmarks/results)")
@@ -70,7 +98,17 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--update-docs", action="store_true", help="write this run's tables into docs/benchmark.md and README.md"
     )
+    parser.add_argument(
+        "--repeat", type=int, default=1, help="full runs (each interleaved); >1 reports median ratio and spread"
+    )
+    parser.add_argument(
+        "--cold-start", choices=("cold", "warm", "off"), default="cold",
+        help="cold_start case: empty cache then warm (default), the user's cache only, or not run",
+    )  # fmt: skip
     args = parser.parse_args(argv)
+    if args.repeat < 1:
+        print(f"error: --repeat must be ≥ 1, got {args.repeat}", file=sys.stderr)
+        return 2
     config = BenchConfig.quick() if args.quick else BenchConfig()
     if args.steps is not None:
         config.steps = args.steps
@@ -81,16 +119,35 @@ def main(argv: list[str] | None = None) -> int:
     if args.batch_steps is not None:
         config.batch_steps = args.batch_steps
     config.placo_python = args.placo_python
+    config.cold_start = args.cold_start
     command = "python benchmarks/compare_resolvers.py " + " ".join(argv if argv is not None else sys.argv[1:])
-    try:
-        result = run_benchmark(config)
-    except RedundikError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
-    paths = write_all(result, args.out, command.strip(), args.json)
+    results = []
+    for i in range(args.repeat):
+        if args.repeat > 1:
+            print(f"== run {i + 1} of {args.repeat}")
+        try:
+            results.append(run_benchmark(config))
+        except RedundikError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+    result = results[0]
+    if args.repeat == 1:
+        paths = write_all(result, args.out, command.strip(), args.json)
+        summary = None
+    else:
+        paths = {}
+        for i, res in enumerate(results):
+            paths[f"run {i + 1}"] = write_all(res, Path(args.out) / f"run{i + 1}", command.strip())["markdown"]
+        summary = summarise_runs(results)
+        paths.update(_write_summary(summary, args.out, command.strip(), args.json))
     if args.update_docs:
-        for p in update_docs(result, command.strip()):
+        for p in update_docs(result, command.strip(), summary):
             print(f"updated: {p}")
+    if summary is not None:
+        print(repeat_markdown(summary))
+        for key, p in paths.items():
+            print(f"{key}: {p}")
+        return 0
     print("\nmedian step time / the faster of mink and pink (fastest backend), and / PlaCo:")
     for line in ratio_lines(result):
         print("  " + line)

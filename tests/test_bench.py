@@ -30,6 +30,7 @@ from benchmarks.bench import (
     summarise,
     write_all,
 )
+from benchmarks.bench.harness import SCENARIOS as ALL_SCENARIOS
 from benchmarks.bench.placo_peer import PlacoRunner, find_placo_python
 from benchmarks.bench.runners import RedundikRunner, Runner
 from benchmarks.bench.scenarios import SCENARIOS, ActuatedPostureTask
@@ -53,7 +54,10 @@ PEERS_INSTALLED = available("mink") and available("mujoco") and available("pink"
 ROOT = Path(__file__).resolve().parents[1]
 
 
-TINY_ROBOTS = ("panda_circle", "talos", "snake10", "panda_batch1000", "panda_shelf")
+TINY_ROBOTS = (
+    "panda_circle", "panda_teleop", "panda_user_task", "panda_custom_task", "talos", "talos_teleop", "snake10",
+    "panda_batch1000", "panda_shelf",
+)  # fmt: skip
 #: The default suite never depends on PlaCo (its own interpreter): the tiny run leaves it out.
 TINY_METHODS = tuple(m for m in METHODS if m != "placo")
 
@@ -72,7 +76,11 @@ def test_every_method_runs_on_every_robot(tiny) -> None:
     peers = {"mink", "pink"} if PEERS_INSTALLED else set()
     expected = {
         "panda_circle": {"pinv", "feedback", "wqp", "hqp"} | peers,
+        "panda_teleop": {"pinv", "feedback", "wqp", "hqp"} | peers,  # the peers re-targeted every tick too
+        "panda_user_task": {"pinv", "feedback", "wqp", "hqp"},  # its peers are panda_circle's (same task set)
+        "panda_custom_task": {"pinv", "feedback", "wqp", "hqp"},  # no peer runs the user's own task
         "talos": {"pinv", "feedback", "wqp", "hqp"} | peers,
+        "talos_teleop": {"pinv", "feedback", "wqp", "hqp"} | peers,
         "snake10": {"pinv", "wqp", "hqp"},
         "panda_batch1000": set(BATCH_METHODS),
         "panda_shelf": {"wqp"} | peers,
@@ -109,7 +117,7 @@ def test_records_are_complete_and_finite(tiny) -> None:
 
 def test_batch_cases_agree_with_the_loop_and_shelf_reports_distances(tiny) -> None:
     _, result = tiny
-    for method in ("wqp_batch", "pinv_batch"):
+    for method in ("wqp_batch", "pinv_batch", "wqp_steps", "pinv_steps"):
         (c,) = result.find("panda_batch1000", method)
         assert c.extra["loop_agreement"] <= 1e-9 and c.status == "ok", c.status
     (shelf,) = result.find("panda_shelf", "wqp")
@@ -173,10 +181,11 @@ def test_script_quick_smoke(tmp_path: Path) -> None:
     module = _script()
     methods = [m for m in METHODS if m != "placo"]
     args = ["--quick", "--steps", "5", "--batch-steps", "1", "--methods", *methods, "--out", str(tmp_path),
-            "--json", str(tmp_path / "quick.json")]  # fmt: skip
+            "--json", str(tmp_path / "quick.json"), "--cold-start", "off"]  # fmt: skip
     assert module.main(args) == 0
     doc = json.loads((tmp_path / "quick.json").read_text())
-    assert {c["robot"] for c in doc["cases"]} == set(QUICK_ROBOTS)
+    assert {c["robot"] for c in doc["cases"]} == set(QUICK_ROBOTS) - {"cold_start"}  # cold_start: not cases
+    assert doc["cold_start"] == []  # --cold-start off
     for case in doc["cases"]:
         assert set(REQUIRED) <= set(case)
         assert case["status"] == "ok" or case["status"].startswith("failed: ")
@@ -226,6 +235,121 @@ def test_actuated_posture_leaves_the_floating_base_free() -> None:
     np.testing.assert_allclose(term.J @ robot.difference(q, sc.q0), term.error)  # J picks the actuated rows
     np.testing.assert_allclose(np.abs(term.error).max(), 0.1)
     np.testing.assert_allclose(term.v, 2.0 * term.error)
+
+
+# ---------------------------------------------------------------------------------------------- what users run
+REDUNDIK = ("pinv", "feedback", "wqp", "hqp")
+
+
+def test_user_cases_record_their_path_and_compare_with_the_built_in(tiny) -> None:
+    """Every redundik case records ``result.info["path"]`` and the members it ran interpreted (JSON and table); the
+    user's own task is named; the teleop cases track (a target left unmoved would trail the circle by > 1 mm); each
+    user case has its built-in ratio."""
+    _, result = tiny
+    for c in result.cases:
+        doc = c.as_json()
+        if c.method in REDUNDIK:
+            assert isinstance(doc["path"], str) and doc["path"], c
+            assert isinstance(doc["interpreted"], list)
+        elif c.method in ("mink", "pink"):
+            assert "path" not in doc
+    for c in result.cases:
+        if c.robot == "panda_custom_task":
+            assert "elbow_height" in c.extra["interpreted"], c.extra
+        if c.robot.endswith("_teleop"):
+            assert c.status == "ok", (c.robot, c.method, c.status)
+    builtin = {(r["robot"], r["method"]): r for r in result.ratios() if r["builtin"] is not None}
+    for robot, base in (("panda_teleop", "panda_circle"), ("panda_user_task", "panda_circle"),
+                        ("talos_teleop", "talos"), ("panda_custom_task", "panda_circle")):  # fmt: skip
+        for method in ("pinv", "wqp", "hqp"):
+            r = builtin[(robot, method)]
+            assert r["builtin"] == base and r["ratio_builtin"] > 0
+    assert all(r["ratio"] is None for r in result.ratios() if r["robot"] == "panda_custom_task")  # no peer runs it
+    assert result.meta["custom_task_evaluate_us"] > 0  # the user task's own evaluate, for its target
+    custom = [t for t in result.targets() if t["target"].startswith("panda_custom_task:")]
+    assert len(custom) == 3 and all(t["value"] is not None for t in custom)
+    md = markdown(result)
+    assert "What users run" in md and "| path |" in md and "elbow_height" in md
+
+
+def test_user_stacks_are_made_of_public_classes() -> None:
+    """The stacks of the built-in and user cases hold the library's classes (and the user's own in the user
+    cases); the benchmark-only posture is left to the labelled ``talos_actuated`` line."""
+    from benchmarks.user_cases import ElbowHeight, MyFrameTask
+
+    import redundik as rk
+
+    for key in ("panda_circle", "talos", "panda_teleop", "talos_teleop", "panda_user_task", "panda_custom_task"):
+        sc = ALL_SCENARIOS[key]()
+        for method in sc.stacks:
+            robot = sc.robot()
+            robot.update(sc.q0)
+            stack = sc.stack(method, robot)
+            for task in stack.tasks:
+                assert type(task).__module__.startswith("redundik.") or type(task) in (MyFrameTask, ElbowHeight)
+            if method in ("wqp", "hqp"):
+                assert any(type(t) is rk.PostureTask for t in stack.tasks), (key, method)
+            frames = [t for t in stack.tasks if isinstance(t, rk.FrameTask)]
+            assert all(isinstance(t.trajectory, rk.Circle) != sc.teleop for t in frames), (key, method)
+            assert all(type(t) is (MyFrameTask if key == "panda_user_task" else rk.FrameTask) for t in frames)
+            assert any(type(t) is ElbowHeight for t in stack.tasks) == (key == "panda_custom_task")
+    sc = ALL_SCENARIOS["talos_actuated"]()
+    assert any(isinstance(t, ActuatedPostureTask) for t in sc.stack("wqp", sc.robot()).tasks)
+
+
+def test_teleop_moves_the_target_every_tick() -> None:
+    from benchmarks.bench.runners import teleop_poses
+
+    runner = RedundikRunner(ALL_SCENARIOS["panda_teleop"](), "wqp", None, {})
+    for k in range(4):
+        runner.run(1)
+        dt = runner.scenario.dt
+        want = teleop_poses(runner.metrics.tasks, (k + 1) * dt)[0]  # the pose of t + dt, t = k·dt
+        held = runner.stack.tasks[0].target
+        np.testing.assert_allclose(held.homogeneous, want.homogeneous, atol=1e-12)
+    assert sum(runner.record.paths.values()) == 4
+
+
+def test_cold_start_records_a_fresh_process_and_reports_a_broken_one(monkeypatch: pytest.MonkeyPatch) -> None:
+    from benchmarks.bench import cold_start
+
+    (rec,) = cold_start.run_cold_start(["pinv"], mode="warm", peers=())
+    assert rec["status"] == "ok", rec
+    assert rec["robot"] == "cold_start" and rec["method"] == "pinv"
+    assert rec["warm_first_dq_s"] >= rec["warm_first_step_s"] > 0 and rec["warm_process_s"] > 0
+    assert isinstance(rec["warm_path"], str)
+    monkeypatch.setattr(cold_start, "SCRIPT", "raise SystemExit('no redundik here')")
+    (bad,) = cold_start.run_cold_start(["wqp"], mode="warm", peers=())
+    assert bad["status"].startswith("failed: warm: exit 1") and "no redundik here" in bad["status"]
+
+
+def test_repeat_summarises_per_run_ratios(tmp_path: Path) -> None:
+    """``--repeat``: per case the median and range of the ratios taken inside each run."""
+    from dataclasses import replace
+
+    from benchmarks.bench.repeat import repeat_markdown, summarise_runs
+
+    sc = SCENARIOS["planar3r"]()
+    ours = _run(RedundikRunner(sc, "pinv", None, {}))
+    peer = _run(RedundikRunner(sc, "pinv", None, {}))
+    peer.method, peer.backend = "pink", "daqp"
+    meta = {"robots": ["planar3r"], "steps": 40, "warmup": 0, "chunk": 40, "python": "", "platform": "",
+            "processor": "", "wall_time_s": 0.0}  # fmt: skip
+    runs = [
+        BenchResult([replace(ours, median_us=m), replace(peer, median_us=100.0)], [], meta) for m in (10.0, 30.0, 20.0)
+    ]
+    summary = summarise_runs(runs)
+    (row,) = [c for c in summary["cases"] if c["method"] == "pinv"]
+    assert row["ratio"] == {"median": 0.2, "min": 0.1, "max": 0.3, "n": 3}
+    assert row["ok_runs"] == row["runs"] == 3
+    assert "0.20 (0.10–0.30)" in repeat_markdown(summary)
+    module = _script()
+    args = ["--robots", "planar3r", "--methods", "pinv", "--steps", "3", "--repeat", "2", "--cold-start", "off",
+            "--out", str(tmp_path), "--json", str(tmp_path / "rep.json")]  # fmt: skip
+    assert module.main(args) == 0
+    doc = json.loads((tmp_path / "rep.json").read_text())
+    assert doc["runs"] == 2 and (tmp_path / "run2" / "compare_resolvers.md").is_file()
+    assert module.main(["--repeat", "0", "--out", str(tmp_path)]) == 2
 
 
 # ---------------------------------------------------------------------------------------------- honest statuses

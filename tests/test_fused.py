@@ -385,11 +385,18 @@ def test_hqp_target_subtasks_are_not_fused() -> None:
 
 @pytest.mark.parametrize(
     ("scenario", "method"),
-    [("talos", "wqp"), ("talos", "pinv"), ("talos", "hqp"), ("panda_circle", "hqp"), ("snake10", "hqp")],
+    [
+        ("talos_actuated", "wqp"),
+        ("talos", "pinv"),
+        ("talos_actuated", "hqp"),
+        ("panda_circle", "hqp"),
+        ("snake10", "hqp"),
+    ],
 )
 def test_benchmark_stacks_fused_agree(scenario: str, method: str) -> None:
-    """Talos (free-flyer base, two hands, a posture of the actuated joints, limits binding on a third of the
-    steps), the Panda's 3-level hqp (a post clearance between hand and posture) and the snake's (three
+    """Talos (free-flyer base, two hands, a posture of the actuated joints — ``talos_actuated``'s benchmark-only
+    class; ``talos`` now has the library's ``PostureTask``, whose fused form is issue 31 item 3 — limits binding on
+    a third of the steps), the Panda's 3-level hqp (a post clearance between hand and posture) and the snake's (three
     clearances, a centering gradient): the benchmark's stacks take the fused step and give the per-task path's q̇
     and terms."""
     from benchmarks.bench.runners import RedundikRunner

@@ -2,7 +2,7 @@
 scaling, the batch API against the loop, and the collision case — side by side, in one interleaved run.
 
 It lives in the checkout, not in the wheel (issue 10: the harness out of the core package). Entry point:
-``python benchmarks/compare_resolvers.py`` (``--quick`` under a minute). See ``docs/benchmark.md``.
+``python benchmarks/compare_resolvers.py`` (``--quick`` a few minutes). See ``docs/benchmark.md``.
 """
 
 from benchmarks.bench.harness import (

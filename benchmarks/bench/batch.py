@@ -1,6 +1,12 @@
 """The batch case ``panda_batch1000``: 1000 Panda pose problems through :class:`redundik.resolvers.BatchResolver`
-(``wqp_batch``, ``pinv_batch``) against the same problems one by one through ``resolver.step`` (``wqp_loop``,
-``pinv_loop``, :meth:`BatchResolver.solve_loop`).
+(``wqp_batch``, ``pinv_batch``) against the same problems one by one through ``resolver.step``:
+
+* ``wqp_steps``, ``pinv_steps`` — the loop a user writes: one stack (a ``FrameTask`` holding its target, the
+  ``PostureTask``) made once, then per problem ``task.set_target(T_i)`` and ``resolver.step(robot, stack, q_i, 0,
+  dt)``: ordinary steps, the headline's reference;
+* ``wqp_loop``, ``pinv_loop`` — :meth:`BatchResolver.solve_loop`, the batch API's contract reference: it also sets
+  the posture's target and calls ``resolver.reset()`` per problem (no rate window, no warm start carried over), so
+  it pays more than ordinary steps; kept for the agreement check, not for the speed-up.
 
 Problem i: one control step (dt = 10 ms, frame gain K = 1/dt, posture K_p = 1/s towards q0) from q_i towards the
 hand pose at q_i + δ_i, where q_i is uniform in the joint ranges (2 cm/rad inside them) and δ_i uniform in ±0.01
@@ -25,7 +31,7 @@ import pinocchio as pin
 
 from benchmarks.bench.scenarios import PANDA_Q0, POSTURE_GAIN
 from redundik.kinematics.urdf import load_example_robot
-from redundik.resolvers.batch import BatchResolver
+from redundik.resolvers.batch import BatchResolver, BatchResult
 from redundik.resolvers.registry import make_resolver
 
 ROBOT_KEY = "panda_batch1000"
@@ -33,6 +39,8 @@ N_PROBLEMS = 1000
 DT = 0.01
 #: Largest |q̇_batch − q̇_loop| a batch case may show (the batch API's contract) [rad/s].
 AGREEMENT = 1e-9
+#: The methods of the case, in report order.
+METHODS: tuple[str, ...] = ("wqp_batch", "wqp_steps", "wqp_loop", "pinv_batch", "pinv_steps", "pinv_loop")
 
 
 def make_problems(robot: Any, n: int = N_PROBLEMS, seed: int = 11) -> tuple[np.ndarray, np.ndarray]:
@@ -54,7 +62,7 @@ def make_problems(robot: Any, n: int = N_PROBLEMS, seed: int = 11) -> tuple[np.n
 
 
 class BatchRunner:
-    """One of ``wqp_batch``, ``wqp_loop``, ``pinv_batch``, ``pinv_loop``; :meth:`run` makes calls of all problems."""
+    """One of :data:`METHODS`; :meth:`run` makes calls of all problems."""
 
     def __init__(self, method: str, problems: int = N_PROBLEMS) -> None:
         self.method = method
@@ -74,13 +82,39 @@ class BatchRunner:
         self.result: Any = None
         self.failures = 0
         self.first_failure: str | None = None
+        self.resolver = resolver
+        self.paths: dict[str, int] = {}
+        if self.mode == "steps":  # the user's loop: one stack, made once
+            self.stack = self.batch.loop_stack(self.q[0], self.targets[0])
+            self.robot.update(self.q[0])
+            self.stack.reset(self.robot)
 
     @property
     def label(self) -> str:
         return f"{ROBOT_KEY}/{self.method}/{self.backend}"
 
+    def steps(self, q: np.ndarray, targets: np.ndarray, dt: float) -> BatchResult:
+        """The problems as a user's loop of ordinary steps (module docstring): ``set_target`` + ``step`` each."""
+        n = q.shape[0]
+        dq = np.empty((n, self.robot.nv))
+        err = np.empty(n)
+        used = np.zeros(n, dtype=bool)
+        notes: list[str | None] = []
+        robot, stack, step = self.robot, self.stack, self.resolver.step
+        task = stack.tasks[0]
+        for i in range(n):
+            task.set_target(targets[i])  # type: ignore[attr-defined]
+            res = step(robot, stack, q[i], 0.0, dt)
+            dq[i] = res.dq
+            err[i] = res.terms[0].error_norm
+            used[i] = bool(res.info.get("qp", 0))
+            notes.append(res.fallback)
+        path = str(res.info.get("path", "?")) if n else "?"
+        self.paths[path] = self.paths.get(path, 0) + 1  # the last step's path, once per call
+        return BatchResult(dq, err, used, notes)
+
     def run(self, steps: int) -> None:
-        solve = self.batch.solve if self.mode == "batch" else self.batch.solve_loop
+        solve = {"batch": self.batch.solve, "loop": self.batch.solve_loop, "steps": self.steps}[self.mode]
         for _ in range(steps):
             t0 = time.perf_counter_ns()
             try:
@@ -122,7 +156,7 @@ class BatchRunner:
             "first_fallback": next((f for f in res.fallback if f is not None), None),
             "qp_fraction": float(res.qp_fraction) if self.resolver_name == "wqp" else None,
         }
-        if self.mode == "batch":
+        if self.mode != "loop":
             ref = self.batch.solve_loop(self.q, self.targets, DT)
             out["loop_agreement"] = float(np.max(np.abs(res.dq - ref.dq)))
         return out

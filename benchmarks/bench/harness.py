@@ -17,6 +17,8 @@ from typing import Any
 import numpy as np
 
 from benchmarks.bench import batch as batch_case
+from benchmarks.bench.cases import CaseResult, case_status, summarise, summarise_case, versions
+from benchmarks.bench.cold_start import run_cold_start
 from benchmarks.bench.placo_peer import PlacoRunner, find_placo_python
 from benchmarks.bench.runners import (
     MinkRunner,
@@ -24,25 +26,35 @@ from benchmarks.bench.runners import (
     PinkRunner,
     PinkShelfRunner,
     RedundikRunner,
-    Runner,
 )
-from benchmarks.bench.scenarios import SCENARIOS, SNAKE_SIZES
+from benchmarks.bench.scenarios import SCENARIOS as BUILTIN_SCENARIOS
+from benchmarks.bench.scenarios import SNAKE_SIZES
+from benchmarks.bench.user_scenarios import BASELINES, PEERS_OF, USER_SCENARIOS, custom_task_evaluate_us
 from redundik.errors import ConfigError, RedundikError
 from redundik.peers._deps import available
 from redundik.resolvers.registry import RESOLVERS
 
 #: Methods in report order; ``method`` values of the JSON.
 METHODS: tuple[str, ...] = (
-    "pinv", "feedback", "wqp", "hqp", "mink", "pink", "placo", "wqp_batch", "wqp_loop", "pinv_batch", "pinv_loop"
+    "pinv", "feedback", "wqp", "hqp", "mink", "pink", "placo",
+    "wqp_batch", "wqp_steps", "wqp_loop", "pinv_batch", "pinv_steps", "pinv_loop",
 )  # fmt: skip
-#: Methods of the batch case (only there).
-BATCH_METHODS: tuple[str, ...] = ("wqp_batch", "wqp_loop", "pinv_batch", "pinv_loop")
+#: Methods of the batch case (only there): the batch, a loop of ordinary steps, the contract's reset loop.
+BATCH_METHODS: tuple[str, ...] = batch_case.METHODS
+#: Every scenario: the built-in ones and the user cases (:mod:`benchmarks.bench.user_scenarios`).
+SCENARIOS = {**BUILTIN_SCENARIOS, **USER_SCENARIOS}
+#: The cold-start case (subprocesses on an empty kernel cache; :mod:`benchmarks.bench.cold_start`).
+COLD_START = "cold_start"
 #: Robots (``robot`` values of the JSON) in report order: every case of a full run.
 ROBOTS: tuple[str, ...] = (
-    "panda_circle", "panda_tight", "talos", *(f"snake{n}" for n in SNAKE_SIZES), batch_case.ROBOT_KEY, "panda_shelf"
+    "panda_circle", "panda_teleop", "panda_user_task", "panda_custom_task", "panda_tight", "talos", "talos_teleop",
+    "talos_actuated", *(f"snake{n}" for n in SNAKE_SIZES), batch_case.ROBOT_KEY, "panda_shelf", COLD_START,
 )  # fmt: skip
 #: The robots of ``--quick``.
-QUICK_ROBOTS: tuple[str, ...] = ("panda_circle", "talos", "snake10", "snake80", batch_case.ROBOT_KEY)
+QUICK_ROBOTS: tuple[str, ...] = (
+    "panda_circle", "panda_teleop", "panda_user_task", "panda_custom_task", "talos", "talos_teleop", "snake10",
+    "snake80", batch_case.ROBOT_KEY, COLD_START,
+)  # fmt: skip
 #: Every robot the harness knows (``planar3r``, the chapter's 3R arm, only on request).
 KNOWN_ROBOTS: tuple[str, ...] = (*ROBOTS, "planar3r")
 #: Steps (calls of 1000 problems) of the batch case, warm-up excluded, and its warm-up.
@@ -53,10 +65,6 @@ PEERS: tuple[str, ...] = ("mink", "pink", "placo")
 QP_BACKENDS: tuple[str, ...] = ("osqp", "proxsuite", "daqp", "quadprog")
 #: Backends tried for the peers (their fastest is used in the ratios).
 PEER_BACKENDS: tuple[str, ...] = ("daqp", "quadprog")
-#: Largest fraction of steps that may fall back (or raise) or leave the robot frozen before a case is FAILED.
-MAX_BAD_FRACTION = 0.01
-#: Largest joint-limit violation a case may reach [rad or m] (numerical round-off of the peers' integrators).
-LIMIT_TOLERANCE = 1e-5
 
 
 @dataclass
@@ -90,14 +98,18 @@ class BenchConfig:
     placo_python: str | None = None
     batch_steps: int = BATCH_STEPS
     batch_problems: int = batch_case.N_PROBLEMS
+    #: ``cold_start``: the methods whose first step is timed in fresh subprocesses.
+    cold_start_methods: Sequence[str] = ("pinv", "wqp", "hqp")
+    #: ``cold_start``: ``"cold"`` (an empty cache, then warm), ``"warm"`` (the user's cache only) or ``"off"``.
+    cold_start: str = "cold"
 
     @classmethod
     def quick(cls, steps: int = 300) -> BenchConfig:
-        """A run that finishes within a minute: the quick robots, fewer steps, the default QP backend, the peers on
-        daqp only."""
+        """A short run (a few minutes, much of it the cold start's compile on an empty cache): the quick robots,
+        fewer steps, the default QP backend, the peers on daqp only, the cold start of ``wqp`` only."""
         return cls(
             robots=QUICK_ROBOTS, steps=steps, warmup=30, chunk=50, qp_backends=("daqp",), peer_backends=("daqp",),
-            profile_steps=100, batch_steps=4,
+            profile_steps=100, batch_steps=4, cold_start_methods=("wqp",),
         )  # fmt: skip
 
     def check(self) -> None:
@@ -113,73 +125,8 @@ class BenchConfig:
                 raise ConfigError(f"must be ≥ 1, got {getattr(self, key)}", key)
         if self.warmup < 0 or self.profile_steps < 0:
             raise ConfigError("must be ≥ 0", "warmup/profile_steps")
-
-
-@dataclass
-class CaseResult:
-    """The summary of one case (robot, method, backend)."""
-
-    robot: str
-    method: str
-    backend: str
-    median_us: float
-    p90_us: float
-    max_task_error: float
-    mean_task_error: float
-    limit_violations: int
-    max_violation: float
-    subtask_final: float
-    subtask_mean: float
-    subtask_label: str
-    failures: int
-    steps: int
-    default_backend: bool = False
-    qp_fraction: float | None = None
-    first_failure: str | None = None
-    stages_us: dict[str, float] | None = None
-    fallback_steps: int = 0
-    first_fallback: str | None = None
-    frozen_steps: int = 0
-    error_tolerance: float = 1e-3
-    status: str = "ok"
-    problems_per_s: float | None = None
-    extra: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def ok(self) -> bool:
-        """True when the case tracks, moves, keeps the limits and rarely falls back (:func:`case_status`)."""
-        return self.status == "ok"
-
-    def as_json(self) -> dict[str, Any]:
-        """The JSON record (keys ``robot``, ``method``, ``backend``, ``median_us``, ``p90_us``,
-        ``max_task_error``, ``limit_violations``, ``status`` first — other tools read them — then the extras)."""
-        return {
-            "robot": self.robot,
-            "method": self.method,
-            "backend": self.backend,
-            "median_us": self.median_us,
-            "p90_us": self.p90_us,
-            "max_task_error": self.max_task_error,
-            "limit_violations": self.limit_violations,
-            "status": self.status,
-            **({} if self.problems_per_s is None else {"problems_per_s": self.problems_per_s}),
-            "error_tolerance": self.error_tolerance,
-            "fallback_steps": self.fallback_steps,
-            "first_fallback": self.first_fallback,
-            "frozen_steps": self.frozen_steps,
-            "mean_task_error": self.mean_task_error,
-            "max_violation": self.max_violation,
-            "subtask": self.subtask_label,
-            "subtask_final": self.subtask_final,
-            "subtask_mean": self.subtask_mean,
-            "failures": self.failures,
-            "first_failure": self.first_failure,
-            "steps": self.steps,
-            "default_backend": self.default_backend,
-            "qp_fraction": self.qp_fraction,
-            "stages_us": self.stages_us,
-            **self.extra,
-        }
+        if self.cold_start not in ("cold", "warm", "off"):
+            raise ConfigError(f"must be 'cold', 'warm' or 'off', got {self.cold_start!r}", "cold_start")
 
 
 @dataclass
@@ -189,6 +136,8 @@ class BenchResult:
     cases: list[CaseResult]
     skipped: list[str]
     meta: dict[str, Any]
+    #: The ``cold_start`` records (:func:`benchmarks.bench.cold_start.run_cold_start`).
+    cold_start: list[dict[str, Any]] = field(default_factory=list)
 
     def find(self, robot: str, method: str, backend: str | None = None) -> list[CaseResult]:
         """Cases of a robot and method (and backend)."""
@@ -213,20 +162,26 @@ class BenchResult:
         return found[0] if len(found) == 1 else None
 
     def faster_peer(self, robot: str) -> CaseResult | None:
-        """The faster of mink and pink (each with its fastest backend) on ``robot``."""
+        """The faster of mink and pink (each with its fastest backend) on ``robot`` (on the robot whose identical
+        task set they ran, :data:`PEERS_OF`; ``None`` where no peer runs the task set)."""
+        robot = PEERS_OF.get(robot, robot)  # type: ignore[assignment]
+        if robot is None:
+            return None
         peers = [c for c in (self.fastest(robot, "mink"), self.fastest(robot, "pink")) if c is not None]
         return min(peers, key=lambda c: c.median_us) if peers else None
 
     def ratios(self) -> list[dict[str, Any]]:
         """Median of every redundik case that did not fail over the faster (non-failed) of mink and pink, per robot,
-        and over PlaCo's where it ran (``ratio_placo``)."""
+        and over PlaCo's where it ran (``ratio_placo``); a user case also over its built-in case (``ratio_builtin``,
+        :data:`BASELINES`); ``path`` is the case's ``result.info["path"]``."""
         out = []
         for c in self.cases:
             if c.method in PEERS or not c.ok or c.method in BATCH_METHODS:
                 continue
             peer = self.faster_peer(c.robot)
-            placo = self.fastest(c.robot, "placo")
-            if (peer is None or peer.median_us <= 0) and placo is None:
+            placo = self.placo(c.robot)
+            base = self.builtin(c)
+            if (peer is None or peer.median_us <= 0) and placo is None and base is None:
                 continue
             out.append(
                 {
@@ -236,9 +191,25 @@ class BenchResult:
                     "peer": None if peer is None else f"{peer.method}/{peer.backend}",
                     "ratio": None if peer is None else c.median_us / peer.median_us,
                     "ratio_placo": None if placo is None else c.median_us / placo.median_us,
+                    "builtin": None if base is None else base.robot,
+                    "ratio_builtin": None if base is None else c.median_us / base.median_us,
+                    "path": c.extra.get("path"),
                 }
             )
         return out
+
+    def placo(self, robot: str) -> CaseResult | None:
+        """PlaCo's case for ``robot``'s task set (:data:`PEERS_OF`), if it ran and did not fail."""
+        peer_robot = PEERS_OF.get(robot, robot)
+        return None if peer_robot is None else self.fastest(peer_robot, "placo")
+
+    def builtin(self, c: CaseResult) -> CaseResult | None:
+        """A user case's built-in case (:data:`BASELINES`): same method and backend, same run, not failed."""
+        robot = BASELINES.get(c.robot)
+        if robot is None:
+            return None
+        found = [b for b in self.find(robot, c.method, c.backend) if b.ok and b.median_us > 0]
+        return found[0] if found else None
 
     def snake_fit(self, method: str) -> dict[str, Any]:
         """Growth exponent b of median ∝ n^b (least squares in log–log over the snake cases that did not fail) and
@@ -309,16 +280,48 @@ class BenchResult:
             add(f"snake: {method} p90/median ≤ 2.5 at every n", worst, 2.5, "ratio", each or "not measured")
         for res in ("wqp", "pinv"):
             b = _ok(self.fastest(batch_case.ROBOT_KEY, f"{res}_batch"))
-            lo = _ok(self.fastest(batch_case.ROBOT_KEY, f"{res}_loop"))
+            lo = _ok(self.fastest(batch_case.ROBOT_KEY, f"{res}_steps"))
             speed = None if b is None or lo is None or not lo.problems_per_s else b.problems_per_s / lo.problems_per_s  # type: ignore[operator]
             detail = (
                 "not measured (or FAILED)" if speed is None
                 else f"{b.problems_per_s:.0f} vs {lo.problems_per_s:.0f} problems/s"  # type: ignore[union-attr]
             )  # fmt: skip
             add(
-                f"{batch_case.ROBOT_KEY}: {res} batch ≥ 10 × the loop's problems/s", speed, 10.0, "ratio", detail, "min"
-            )
+                f"{batch_case.ROBOT_KEY}: {res} batch ≥ 10 × a loop of ordinary steps' problems/s",
+                speed, 10.0, "ratio", detail, "min",
+            )  # fmt: skip
+        self._user_targets(add, ratio)
         return out
+
+    def _user_targets(self, add: Callable[..., None], ratio: Callable[..., float | None]) -> None:
+        """Issue 31's targets: teleop and a user's subclass against the built-in case, PlaCo, the cold start."""
+        for robot, limit in (("panda_teleop", 1.15), ("panda_user_task", 1.05)):
+            for method in ("pinv", "wqp", "hqp"):
+                c = _ok(self.default(robot, method))
+                b = None if c is None else self.builtin(c)
+                what = "the trajectory tick" if robot.endswith("teleop") else "the built-in FrameTask"
+                add(f"{robot}: {method} ≤ {limit} × {what} (issue 31)", ratio(c, b), limit, "ratio", _detail(c, b))
+        own = self.meta.get("custom_task_evaluate_us")
+        for method in ("pinv", "wqp", "hqp") if own is not None else ():
+            c = _ok(self.default("panda_custom_task", method))
+            b = None if c is None else self.builtin(c)
+            value = None if c is None or b is None else (c.median_us - b.median_us) / (own + 0.1 * b.median_us)
+            detail = "not measured (or FAILED)" if c is None or b is None else (
+                f"{c.median_us:.1f} − {b.median_us:.1f} µs added, its evaluate {own:.1f} µs + 10 % of the built-in"
+            )  # fmt: skip
+            add(f"panda_custom_task: {method} adds ≤ its evaluate + 10 % (issue 31)", value, 1.0, "ratio", detail)
+        for robot in ("panda_circle", "panda_teleop"):
+            for method, limit in (("pinv", 1.2), ("wqp", 1.5), ("hqp", 2.0)):
+                c, p = _ok(self.default(robot, method)), self.placo(robot)
+                add(f"{robot}: {method} ≤ {limit} × PlaCo (issue 31)", ratio(c, p), limit, "ratio", _detail(c, p))
+        for rec in self.cold_start:
+            if rec.get("method") != "wqp" or rec.get("status") != "ok":
+                continue
+            for key, limit in (("cold_first_dq_s", 3.0), ("warm_first_dq_s", 0.3)):
+                value = rec.get(key)
+                what = "empty cache" if key.startswith("cold") else "warm cache"
+                add(f"cold_start: wqp first q̇ ({what}) ≤ {limit} s (issue 31)", value, limit, "s",
+                    "fresh subprocess: import + set-up + first step")  # fmt: skip
 
 
 def _ok(c: CaseResult | None) -> CaseResult | None:
@@ -350,6 +353,8 @@ def build_cases(
             log(f"  PlaCo interpreter: {placo_python} ({placo_why})")
     for key in config.robots:
         n_before = len(runners)
+        if key == COLD_START:
+            continue  # run after the interleaved cases, in subprocesses (run_benchmark)
         if key == batch_case.ROBOT_KEY:
             for method in BATCH_METHODS:
                 if method in config.methods:
@@ -469,12 +474,20 @@ def run_benchmark(config: BenchConfig, log: Callable[[str], None] = print) -> Be
                     runners[i].run(n)
                     done[i] += n
             rnd += 1
-        cases = [_summarise(r, w, defaults) for r, (w, _) in zip(runners, plans, strict=True)]
+        cases = [summarise_case(r, w, defaults) for r, (w, _) in zip(runners, plans, strict=True)]
         if config.profile_steps > 0:
             _profile(runners, cases, config, log)
     finally:
         for r in runners:
             r.close()
+    extra: dict[str, Any] = {}
+    if "panda_custom_task" in config.robots:  # the user task's own evaluate, for its target (a tight loop)
+        extra["custom_task_evaluate_us"] = custom_task_evaluate_us()
+    cold: list[dict[str, Any]] = []
+    if COLD_START in config.robots and config.cold_start != "off":
+        log(f"cold start of {list(config.cold_start_methods)} ({config.cold_start}), one fresh process at a time")
+        peers = tuple(p for p in ("mink", "pink") if p in config.methods)
+        cold = run_cold_start(config.cold_start_methods, config.cold_start, peers)
     meta = {
         "python": sys.version.split()[0],
         "platform": platform.platform(),
@@ -487,9 +500,10 @@ def run_benchmark(config: BenchConfig, log: Callable[[str], None] = print) -> Be
         "methods": list(config.methods),
         "default_backends": defaults,
         "wall_time_s": time.perf_counter() - t_start,
-        "versions": _versions(runners),
+        "versions": versions(runners),
+        **extra,
     }
-    return BenchResult(cases, skipped, meta)
+    return BenchResult(cases, skipped, meta, cold)
 
 
 def _profile(
@@ -512,155 +526,7 @@ def _profile(
             c.stages_us = {k: float(np.median(v)) for k, v in stages[id(r)].items()}
 
 
-def _summarise(r: AnyRunner, warmup: int, defaults: dict[str, str]) -> CaseResult:
-    if isinstance(r, batch_case.BatchRunner):
-        return _summarise_batch(r, warmup, defaults)
-    rec = r.record
-    times = np.asarray(rec.step_ns[warmup:], dtype=float) / 1e3
-    ok = times[times > 0] if np.any(times > 0) else times
-    viol = np.asarray(rec.violation)
-    err = np.asarray(rec.task_error)
-    mon = np.asarray(rec.monitor)
-    backend = r.backend
-    sc = r.scenario
-    case = CaseResult(
-        robot=sc.key,
-        method=r.method,
-        backend=backend,
-        median_us=float(np.median(ok)) if ok.size else float("nan"),
-        p90_us=float(np.percentile(ok, 90)) if ok.size else float("nan"),
-        max_task_error=float(np.max(err)) if err.size else 0.0,
-        mean_task_error=float(np.mean(err)) if err.size else 0.0,
-        limit_violations=int(np.sum(viol > 0.0)),
-        max_violation=float(np.max(viol, initial=0.0)),
-        subtask_final=float(mon[-1]) if mon.size else 0.0,
-        subtask_mean=float(np.mean(mon)) if mon.size else 0.0,
-        subtask_label=sc.monitor_label,
-        failures=rec.failures,
-        steps=len(rec.step_ns),
-        default_backend=defaults.get(f"{sc.key}/{r.method}") == backend,
-        first_failure=rec.first_failure,
-        qp_fraction=rec.qp_steps / max(len(rec.step_ns), 1) if r.method in ("wqp", "hqp") else None,
-        fallback_steps=rec.fallbacks,
-        first_fallback=rec.first_fallback,
-        frozen_steps=rec.frozen,
-        error_tolerance=sc.error_tolerance,
-    )
-    if rec.step_ns:  # the first step of the process: the kernels' JIT compile or their load from numba's disk cache
-        case.extra["first_step_s"] = rec.step_ns[0] / 1e9
-    flags = np.asarray(rec.qp_flags[warmup:], dtype=bool)
-    if r.method in ("wqp", "hqp") and flags.shape == times.shape and flags.any():
-        qp_t, free_t = times[flags], times[~flags]  # the two kinds of step: a bimodal time per step
-        case.extra["qp_step_median_us"] = float(np.median(qp_t))
-        case.extra["free_step_median_us"] = float(np.median(free_t)) if free_t.size else None
-        case.qp_fraction = float(flags.mean())
-    if sc.final_tolerance is not None and sc.episode is not None and err.size:
-        ends = np.arange(sc.episode - 1, err.size, sc.episode)
-        case.extra["final_task_error"] = float(np.max(err[ends])) if ends.size else None
-        case.extra["final_tolerance"] = sc.final_tolerance
-    if sc.key == "panda_shelf" and mon.size:
-        case.extra["min_collision_distance"] = float(np.min(mon))
-        case.extra["collision_pairs"] = int(getattr(sc, "pairs", 0)) or None
-    if isinstance(r, MinkShelfRunner):
-        case.extra["collision_pairs"] = r.pairs_used  # mink drops pairs of welded / parent-child bodies
-    if r.method == "placo":
-        case.extra["placo_version"] = getattr(r, "version", None)
-        case.extra["out_of_process"] = True
-    case.status = case_status(case)
-    return case
-
-
-def _summarise_batch(r: batch_case.BatchRunner, warmup: int, defaults: dict[str, str]) -> CaseResult:
-    times = np.asarray(r.step_ns[warmup:], dtype=float) / 1e3
-    ok = times[times > 0] if np.any(times > 0) else times
-    m = r.measure()
-    median = float(np.median(ok)) if ok.size else float("nan")
-    case = CaseResult(
-        robot=batch_case.ROBOT_KEY,
-        method=r.method,
-        backend=r.backend,
-        median_us=median,
-        p90_us=float(np.percentile(ok, 90)) if ok.size else float("nan"),
-        max_task_error=m["max_task_error"],
-        mean_task_error=m.get("mean_task_error", float("nan")),
-        limit_violations=m["limit_violations"],
-        max_violation=m["max_violation"],
-        subtask_final=0.0,
-        subtask_mean=0.0,
-        subtask_label="–",
-        failures=r.failures,
-        steps=len(r.step_ns) * r.q.shape[0],
-        default_backend=True,
-        first_failure=r.first_failure,
-        qp_fraction=m.get("qp_fraction"),
-        fallback_steps=m["fallbacks"],
-        first_fallback=m.get("first_fallback"),
-        error_tolerance=1e-3,
-        problems_per_s=r.q.shape[0] / (median * 1e-6) if median > 0 else None,
-    )
-    case.extra["problems"] = int(r.q.shape[0])
-    case.extra["calls"] = len(r.step_ns)
-    if "loop_agreement" in m:
-        case.extra["loop_agreement"] = m["loop_agreement"]
-    case.status = case_status(case)
-    return case
-
-
-def summarise(r: Runner, warmup: int = 0, defaults: dict[str, str] | None = None) -> CaseResult:
-    """The :class:`CaseResult` of a runner that has run (timings after ``warmup`` steps), with its status."""
-    return _summarise(r, warmup, defaults or {})
-
-
-def case_status(c: CaseResult) -> str:
-    """``"ok"``, or ``"failed: "`` and every reason, for a case whose numbers cannot be compared honestly:
-
-    * its stacked frame-task error exceeds the scenario's tolerance (``error_tolerance``, 1 mm / 1 mrad);
-    * its robot does not move on more than 1 % of the steps (q unchanged to 1e-12; every reference moves);
-    * it falls back (``StepResult.fallback``) or raises on more than 1 % of the steps;
-    * it breaks the joint limits by more than 1e-5 rad (the limits are part of every scenario's task);
-    * ``panda_shelf``: its final error exceeds the scenario's ``final_tolerance`` or a pair penetrates;
-    * a batch case: its q̇ differs from the one-by-one loop's by more than 1e-9.
-
-    A failed case keeps its row in the reports but is left out of the ratios and the targets.
-    """
-    reasons = []
-    n = max(c.steps, 1)
-    if not c.max_task_error <= c.error_tolerance:  # NaN fails too
-        reasons.append(f"tracking error {c.max_task_error:.2e} > tolerance {c.error_tolerance:g}")
-    if c.frozen_steps > MAX_BAD_FRACTION * n:
-        reasons.append(f"robot does not move on {c.frozen_steps} of {c.steps} steps")
-    bad = c.fallback_steps + c.failures
-    if bad > MAX_BAD_FRACTION * n:
-        first = c.first_failure or c.first_fallback or ""
-        reasons.append(f"falls back or raises on {bad} of {c.steps} steps" + (f" ({first[:120]})" if first else ""))
-    if c.max_violation > LIMIT_TOLERANCE:
-        reasons.append(f"breaks the joint limits on {c.limit_violations} steps (by up to {c.max_violation:.1e})")
-    final, final_tol = c.extra.get("final_task_error"), c.extra.get("final_tolerance")
-    if final is not None and final_tol is not None and not final <= final_tol:
-        reasons.append(f"final task error {final:.2e} > tolerance {final_tol:g}")
-    dmin = c.extra.get("min_collision_distance")
-    if dmin is not None and not dmin >= 0.0:
-        reasons.append(f"penetrates (min collision distance {dmin:.2e} m)")
-    agree = c.extra.get("loop_agreement")
-    if agree is not None and not agree <= batch_case.AGREEMENT:
-        reasons.append(f"differs from the one-by-one loop by {agree:.1e} > {batch_case.AGREEMENT:g}")
-    return "ok" if not reasons else "failed: " + "; ".join(reasons)
-
-
-def _versions(runners: Sequence[Any] = ()) -> dict[str, str]:
-    from importlib import metadata
-
-    out = {}
-    for dist in ("redundik", "pin", "numpy", "qpsolvers", "osqp", "proxsuite", "daqp", "quadprog", "mink", "mujoco"):
-        try:
-            out[dist] = metadata.version(dist)
-        except metadata.PackageNotFoundError:
-            continue
-    try:
-        out["pin-pink"] = metadata.version("pin-pink")
-    except metadata.PackageNotFoundError:
-        pass
-    for r in runners:
-        if getattr(r, "method", "") == "placo":
-            out["placo"] = f"{getattr(r, 'version', '?')} (own interpreter {getattr(r, 'python', '?')})"
-    return out
+__all__ = [  # (CaseResult, case_status and summarise live in benchmarks.bench.cases; re-exported here)
+    "BATCH_METHODS", "KNOWN_ROBOTS", "METHODS", "QUICK_ROBOTS", "ROBOTS", "BenchConfig", "BenchResult", "CaseResult",
+    "case_status", "run_benchmark", "summarise",
+]  # fmt: skip

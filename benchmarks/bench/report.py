@@ -27,6 +27,7 @@ def to_json(result: BenchResult) -> dict[str, Any]:
         "ratios": result.ratios(),
         "targets": result.targets(),
         "skipped": result.skipped,
+        "cold_start": result.cold_start,
         "meta": result.meta,
     }
 
@@ -60,8 +61,8 @@ def markdown(result: BenchResult, command: str = "") -> str:
         f"Python {m['python']} on {m['platform']} ({m['processor']}); wall time {m['wall_time_s']:.0f} s.",
         "",
         "| robot | method | backend | median µs | p90 µs | × faster peer | max task error | subtask (final) "
-        "| limit viol. | fallbacks | status |",
-        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|",
+        "| limit viol. | fallbacks | path | status |",
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---|---|",
     ]
     for c in cases:
         if c.method in BATCH_METHODS:
@@ -73,13 +74,15 @@ def markdown(result: BenchResult, command: str = "") -> str:
             f"| {c.robot} | {c.method} | {c.backend}{star} | {_num(c.median_us)} | {_num(c.p90_us)} | {ratio} "
             f"| {_sci(c.max_task_error)} | {c.subtask_label} = {c.subtask_final:.4g} | {c.limit_violations}"
             f"{'' if not c.limit_violations else f' (max {c.max_violation:.1e})'} | {c.fallback_steps + c.failures} "
-            f"| {_status(c.status)} |"
+            f"| {_path(c)} | {_status(c.status)} |"
         )
+    lines += user_table(result)
+    lines += cold_start_table(result)
     lines += batch_table(result)
     lines += placo_table(result)
     lines += snake_table(result)
     lines += qp_split_table(result)
-    lines += ["", "Targets (issue 11, measured in this run):", ""]
+    lines += ["", "Targets (issues 11 and 31, measured in this run):", ""]
     lines += targets_table(result)
     prof = [c for c in cases if c.stages_us]
     if prof:
@@ -108,6 +111,69 @@ def markdown(result: BenchResult, command: str = "") -> str:
     return "\n".join(lines) + "\n"
 
 
+def _path(c: Any) -> str:
+    """``result.info["path"]`` of a redundik case, with the members it ran interpreted (``–`` for the peers)."""
+    path = c.extra.get("path")
+    if path is None:
+        return "–"
+    names = c.extra.get("interpreted") or []
+    return str(path) + (f" ({', '.join(names)})" if names else "")
+
+
+def user_table(result: BenchResult) -> list[str]:
+    """Issue 31's user cases: median, p90, × their built-in case, × the faster peer, × PlaCo, and the path."""
+    rows = [r for r in result.ratios() if r.get("builtin") is not None]
+    if not rows:
+        return []
+    by_key = {(c.robot, c.method, c.backend): c for c in result.cases}
+    lines = [
+        "",
+        "What users run (issue 31; public classes only, same run): each case over its built-in case of the same "
+        "method and backend (teleop: the trajectory tick), over the faster peer and PlaCo on the same task set:",
+        "",
+        "| case | method | backend | median µs | p90 µs | × built-in | built-in | × faster peer | × PlaCo | path |",
+        "|---|---|---|---:|---:|---:|---|---:|---:|---|",
+    ]
+    for r in rows:
+        c = by_key[(r["robot"], r["method"], r["backend"])]
+        peer = "–" if r["ratio"] is None else f"{r['ratio']:.2f}"
+        placo = "–" if r["ratio_placo"] is None else f"{r['ratio_placo']:.2f}"
+        lines.append(
+            f"| {c.robot} | {c.method} | {c.backend} | {_num(c.median_us)} | {_num(c.p90_us)} | "
+            f"{r['ratio_builtin']:.2f} | {r['builtin']} | {peer} | {placo} | {_path(c)} |"
+        )
+    return lines
+
+
+def cold_start_table(result: BenchResult) -> list[str]:
+    """``cold_start``: the first q̇ of a fresh process on an empty cache and on a warm one, per method."""
+    if not result.cold_start:
+        return []
+    lines = [
+        "",
+        "Cold start (fresh processes: `import`, set-up and the first step [s]; cold = empty `NUMBA_CACHE_DIR`, warm "
+        "= the cache the cold run wrote; the peers compile nothing: one run):",
+        "",
+        "| method | cold: first q̇ | of it, first step | warm: first q̇ | of it, first step | second step | "
+        "first step's path | status |",
+        "|---|---:|---:|---:|---:|---:|---|---|",
+    ]
+    for rec in result.cold_start:
+        second = rec.get("warm_second_step_s", rec.get("cold_second_step_s"))
+        path = rec.get("cold_path", rec.get("warm_path", "–"))
+        names = rec.get("cold_interpreted", rec.get("warm_interpreted")) or []
+        lines.append(
+            f"| {rec['method']} | {_sec(rec.get('cold_first_dq_s'))} | {_sec(rec.get('cold_first_step_s'))} | "
+            f"{_sec(rec.get('warm_first_dq_s'))} | {_sec(rec.get('warm_first_step_s'))} | {_sec(second)} | "
+            f"{path}{f' ({chr(44).join(names)})' if names else ''} | {_status(rec['status'])} |"
+        )
+    return lines
+
+
+def _sec(x: float | None) -> str:
+    return "–" if x is None else (f"{x:.3f}" if x < 10 else f"{x:.1f}")
+
+
 def targets_table(result: BenchResult) -> list[str]:
     """The targets as Markdown rows: measured value, limit, met (yes / **no** / – not measured), detail."""
     lines = ["| target | measured | limit | met | detail |", "|---|---:|---:|---|---|"]
@@ -128,17 +194,22 @@ def batch_table(result: BenchResult) -> list[str]:
         "",
         f"Batch ({cases[0].extra.get('problems', '?')} Panda pose problems per call):",
         "",
-        "| method | backend | median µs per call | p90 µs | problems/s | QP called | max task error | vs loop "
-        "| status |",
-        "|---|---|---:|---:|---:|---:|---:|---:|---|",
+        "| method | backend | median µs per call | p90 µs | problems/s | × ordinary steps | QP called "
+        "| max task error | vs reset loop | path | status |",
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---|---|",
     ]
     for c in sorted(cases, key=lambda c: BATCH_METHODS.index(c.method)):
         agree = c.extra.get("loop_agreement")
+        steps = result.fastest(c.robot, c.method.split("_")[0] + "_steps")
+        speed = "–" if steps is None or not steps.problems_per_s or not c.ok else (
+            f"{(c.problems_per_s or 0.0) / steps.problems_per_s:.2f}"
+        )  # fmt: skip
         lines.append(
             f"| {c.method} | {c.backend} | {_num(c.median_us, 0)} | {_num(c.p90_us, 0)} | "
-            f"{_num(c.problems_per_s or float('nan'), 0)} | "
+            f"{_num(c.problems_per_s or float('nan'), 0)} | {speed} | "
             + ("–" if c.qp_fraction is None else f"{100 * c.qp_fraction:.1f} %")
-            + f" | {_sci(c.max_task_error)} | {'–' if agree is None else f'{agree:.1e}'} | {_status(c.status)} |"
+            + f" | {_sci(c.max_task_error)} | {'–' if agree is None else f'{agree:.1e}'} | {_path(c)} "
+            f"| {_status(c.status)} |"
         )
     return lines
 
@@ -223,8 +294,8 @@ def readme_table(result: BenchResult) -> str:
     order = {m: i for i, m in enumerate(METHODS)}
     robots = list(result.meta["robots"])
     lines = [
-        "| robot | method | backend | median µs | × faster peer | max task error | status |",
-        "|---|---|---|---:|---:|---:|---|",
+        "| robot | method | backend | median µs | × faster peer | max task error | path | status |",
+        "|---|---|---|---:|---:|---:|---|---|",
     ]
     shown: list[int] = []
     for robot in robots:
@@ -241,7 +312,7 @@ def readme_table(result: BenchResult) -> str:
             pps = "" if c.problems_per_s is None else f" ({c.problems_per_s:.0f} problems/s)"
             lines.append(
                 f"| {robot} | {method} | {c.backend} | {_num(c.median_us, 0)}{pps} | {ratio} | "
-                f"{_sci(c.max_task_error)} | {_status(c.status)} |"
+                f"{_sci(c.max_task_error)} | {_path(c)} | {_status(c.status)} |"
             )
     failed = [c for c in result.cases if not c.ok and id(c) not in shown]
     if failed:
@@ -257,7 +328,10 @@ def ratio_lines(result: BenchResult) -> list[str]:
         parts = [] if r["ratio"] is None else [f"{r['ratio']:.2f} × {r['peer']}"]
         if r.get("ratio_placo") is not None:
             parts.append(f"{r['ratio_placo']:.2f} × placo")
-        lines.append(f"{r['robot']:>12} {r['method']:>8}/{r['backend']:<10} = " + ", ".join(parts))
+        if r.get("ratio_builtin") is not None:
+            parts.append(f"{r['ratio_builtin']:.2f} × {r['builtin']}")
+        path = f"  [{r['path']}]" if r.get("path") else ""
+        lines.append(f"{r['robot']:>12} {r['method']:>8}/{r['backend']:<10} = " + ", ".join(parts) + path)
     lines += [f"{c.robot:>9} {c.method:>8}/{c.backend:<10} FAILED: {c.status.removeprefix('failed: ')}"
               for c in result.cases if not c.ok]  # fmt: skip
     return lines

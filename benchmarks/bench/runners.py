@@ -50,6 +50,9 @@ class Record:
     first_fallback: str | None = None
     frozen: int = 0
     stages: dict[str, list[int]] = field(default_factory=dict)
+    #: redundik's steps per ``result.info["path"]`` and the union of their ``info["interpreted"]`` names.
+    paths: dict[str, int] = field(default_factory=dict)
+    interpreted: set[str] = field(default_factory=set)
 
 
 class Metrics:
@@ -173,10 +176,18 @@ class RedundikRunner(Runner):
 
     def _step(self, t: float) -> tuple[int, np.ndarray]:
         dt = self.scenario.dt
+        poses = teleop_poses(self.metrics.tasks, t + dt) if self.scenario.teleop else None  # the operator's
         t0 = _ns()
+        if poses is not None:  # teleop: set_target every tick, inside the timed tick
+            for task, pose in zip(self.stack.tasks, poses, strict=False):
+                task.set_target(pose)  # type: ignore[attr-defined]  # the scenario's frame tasks come first
         res = self.resolver.step(self.robot, self.stack, self.q, t, dt)
         t1 = _ns()
-        if res.info.get("qp", 0):  # wqp/hqp: a backend was called (0 = closed-form shortcut, no active constraint)
+        info = res.info
+        path = str(info.get("path", "?"))
+        self.record.paths[path] = self.record.paths.get(path, 0) + 1
+        self.record.interpreted.update(info.get("interpreted", ()))
+        if info.get("qp", 0):  # wqp/hqp: a backend was called (0 = closed-form shortcut, no active constraint)
             self.record.qp_steps += 1
             self._qp_now = True
         if res.fallback is not None:
@@ -185,8 +196,17 @@ class RedundikRunner(Runner):
                 self.record.first_fallback = f"t = {t:.3f} s: {res.fallback}"
         return t1 - t0, self.robot.integrate(self.q, res.dq, dt)
 
+    def _retarget(self, t: float) -> None:
+        """Teleop cases, in the profile's probed steps: the targets of t + dt set before the probes start."""
+        if self.scenario.teleop:
+            for task, pose in zip(
+                self.stack.tasks, teleop_poses(self.metrics.tasks, t + self.scenario.dt), strict=False
+            ):
+                task.set_target(pose)  # type: ignore[attr-defined]
+
     def profile(self, steps: int) -> dict[str, float]:
-        """Median time per stage [µs] over ``steps`` extra steps with timing probes (not the timed run).
+        """Median time per stage [µs] over ``steps`` extra steps with timing probes (not the timed run; a teleop
+        case's ``set_target`` is left out of them).
 
         Stages: ``kinematics`` (RobotModel.update), ``tasks`` (task terms, potential values and gradients),
         ``build`` (the resolver's build time minus the task evaluation inside it), ``solve`` (its solve time),
@@ -210,6 +230,7 @@ class RedundikRunner(Runner):
                 self.restart()
                 timed = timed_stack()
             t = self.k * dt
+            self._retarget(t)
             probe.ns = 0
             t0 = _ns()
             self.robot.update(self.q)
@@ -238,6 +259,7 @@ class RedundikRunner(Runner):
             if self.scenario.episode is not None and self.k >= self.scenario.episode:
                 self.restart()
             t = self.k * dt
+            self._retarget(t)
             t0 = _ns()
             self.robot.update(self.q)
             t1 = _ns()
@@ -254,6 +276,11 @@ class RedundikRunner(Runner):
             self.q = self.robot.integrate(self.q, res.dq, dt)
             self.k += 1
         return {k: float(np.median(v)) / 1e3 for k, v in out.items() if v}
+
+
+def teleop_poses(refs: list[Any], t: float) -> list[Any]:
+    """The reference poses at t of the frame tasks ``refs`` (an operator's targets; made outside the timed tick)."""
+    return [ref.trajectory.sample(t)[0] for ref in refs]
 
 
 class _Probe:
@@ -388,10 +415,11 @@ class MinkRunner(_PeerRunner):
     def _step(self, t: float) -> tuple[int, np.ndarray]:
         dt = self.scenario.dt
         q_peer = self.jmap.to_peer_q(self.q)
+        poses = teleop_poses(self.refs, t + dt) if self.scenario.teleop else None  # untimed, as for redundik
         t0 = _ns()
         self.conf.update(q_peer)
-        for task, ref in zip(self.frame_tasks, self.refs, strict=True):
-            pose, _ = ref.trajectory.sample(t + dt)
+        for i, (task, ref) in enumerate(zip(self.frame_tasks, self.refs, strict=True)):
+            pose = poses[i] if poses is not None else ref.trajectory.sample(t + dt)[0]
             task.set_target(
                 self.SE3.from_rotation_and_translation(self.SO3.from_matrix(pose.rotation), pose.translation)
             )
@@ -440,10 +468,11 @@ class PinkRunner(_PeerRunner):
     def _step(self, t: float) -> tuple[int, np.ndarray]:
         dt = self.scenario.dt
         q_peer = self.jmap.to_peer_q(self.q)
+        poses = teleop_poses(self.refs, t + dt) if self.scenario.teleop else None  # untimed, as for redundik
         t0 = _ns()
         self.conf.update(q_peer)
-        for task, ref in zip(self.frame_tasks, self.refs, strict=True):
-            task.set_target(ref.trajectory.sample(t + dt)[0])
+        for i, (task, ref) in enumerate(zip(self.frame_tasks, self.refs, strict=True)):
+            task.set_target(poses[i] if poses is not None else ref.trajectory.sample(t + dt)[0])
         # safety_break=False: pink would raise on 1e-5 rad excursions (environment notes); violations are counted
         # by the common ruler instead, for every method alike.
         v = self.pink.solve_ik(

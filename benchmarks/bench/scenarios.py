@@ -13,18 +13,21 @@ Three scenarios (see ``docs/benchmark.md``):
 
 What each method's stack means (the same task as the peers': frame tasks + posture + limits):
 
-* ``wqp``: frame tasks and :class:`ActuatedPostureTask` (weight 0.01, a main task of the same level) in one QP with
-  the limits — literally the peers' weighted QP (their cost c weighs rows by c²). The posture is *not* the library's
-  :class:`~redundik.tasks.frame.PostureTask`: that one is a regularisation task lying below every level, which is
-  redundik's meaning of a posture but not the peers' weighted-sum one.
+* ``wqp``: frame tasks and the library's :class:`~redundik.tasks.frame.PostureTask` given an explicit level
+  (``priority=0``, weight 0.01: a main task of the frames' level) in one QP with the limits — literally the peers'
+  weighted QP (their cost c weighs rows by c²). Without an explicit level the library's posture is a regularisation
+  below every level (redundik's own meaning of a posture, not the peers' weighted sum). It covers every velocity
+  coordinate, so on Talos it also pulls the floating base towards q0's (the peers leave the base free: six rows more
+  for redundik). ``talos_actuated`` is the earlier benchmark-only :class:`ActuatedPostureTask` (actuated joints only),
+  kept as a clearly labelled extra line: no user has that class.
 * ``hqp``: frames (level 0) > post clearance, an inequality inactive on the circle (level 1) > the same posture
   rows (level 2), limits above all: the hierarchy whose null-space optimum is the closed forms' posture.
 * ``pinv``: the posture as the null-space gradient z = −K_p(q − q0) on the actuated joints (eq. 5.8; the floating
-  base of Talos is left free, as in :class:`ActuatedPostureTask` and the peers); no limits (pinv has none, so its
+  base of Talos is left free, as the peers do); no limits (pinv has none, so its
   rows on ``panda_tight`` and ``talos`` break them and are reported FAILED).
 * ``feedback``: the posture as the same gradient subtask as ``pinv`` (the state-feedback law passes gradient
   subtasks through the null space, eq. 5.8); no limits either. The earlier target form p = ½‖q − q0‖² → 0 is
-  unreachable while the frames move, and its decoupling gain ‖η‖/‖Pη‖ made Euler drift (:func:`_posture_target`).
+  unreachable while the frames move, and its decoupling gain ‖η‖/‖Pη‖ made Euler drift (docs/benchmark.md).
 * ``planar3r``: no posture; sin²θ3 → 1 at 1/s as a target subtask (``feedback``, ``wqp``, ``hqp`` and the peers'
   1-row task), as the gradient k = 1 under ``pinv`` (which refuses target subtasks).
 
@@ -52,7 +55,7 @@ from redundik.kinematics.dh import DHRow, from_dh
 from redundik.kinematics.model import RobotModel
 from redundik.kinematics.urdf import EXAMPLE_ROBOTS, example_robot_data_dir, load_example_robot
 from redundik.tasks.base import Barrier, Potential, Task, TaskTerm
-from redundik.tasks.frame import FrameTask
+from redundik.tasks.frame import FrameTask, PostureTask
 from redundik.tasks.potentials import Clearance, JointCentering, JointSine2
 from redundik.tasks.stack import TaskStack
 from redundik.tasks.subtasks import BoundSubtask, GradientSubtask, Subtask, TargetSubtask
@@ -66,7 +69,9 @@ POSTURE_WEIGHT = 0.01  # against 1 for frame tasks (peer cost 0.1)
 
 
 class ActuatedPostureTask(Task):
-    """Posture on the actuated joints only: q̇_a = K (q_ref ⊖ q)_a (the floating base left free, as in mink/pink).
+    """Benchmark-only (not a library class; only the labelled extra case ``talos_actuated`` uses it).
+
+    Posture on the actuated joints only: q̇_a = K (q_ref ⊖ q)_a (the floating base left free, as in mink/pink).
 
     Args:
         target: Reference configuration (size nq).
@@ -165,14 +170,38 @@ class Scenario:
     #: The model the method's stack is bound to (``None``: a fresh :attr:`robot`): a collision world is built for
     #: one model object, so the runner takes that one and the common ruler another (with its own world).
     runner_robot: Callable[[], RobotModel] | None = None
+    #: Teleoperation: redundik's frame tasks hold a target of their own that the runner moves with ``set_target``
+    #: every tick (inside the timed tick) to the reference pose of t + dt; the peers are re-targeted every tick too.
+    teleop: bool = False
+    #: The class of redundik's frame tasks (a user's subclass in ``panda_user_task``).
+    frame_class: type[FrameTask] = FrameTask
+    #: Extra main tasks of redundik's stacks after the frame tasks (a user's own task in ``panda_custom_task``).
+    extra_tasks: Callable[[], list[Task]] | None = None
 
     def frame_tasks(self, gain: float | None = None) -> list[Task]:
         """Fresh frame tasks with gain K = 1/dt (or ``gain``)."""
         k = (1.0 / self.dt if self.frame_gain is None else self.frame_gain) if gain is None else gain
         return [FrameTask(f.frame, f.trajectory(), axes=f.axes, gain=k, name=f.frame) for f in self.frames]
 
-    def posture_task(self, priority: int = 0) -> ActuatedPostureTask:
-        """The posture task towards q0."""
+    def stack_tasks(self) -> list[Task]:
+        """The main tasks of redundik's stacks: the frame tasks (of :attr:`frame_class`; without a trajectory when
+        :attr:`teleop`: the runner sets their targets), then :attr:`extra_tasks`."""
+        if not self.teleop and self.frame_class is FrameTask:
+            tasks = self.frame_tasks()
+        else:
+            k = 1.0 / self.dt if self.frame_gain is None else self.frame_gain
+            tasks = [
+                self.frame_class(f.frame, None if self.teleop else f.trajectory(), axes=f.axes, gain=k, name=f.frame)
+                for f in self.frames
+            ]
+        return tasks + (self.extra_tasks() if self.extra_tasks is not None else [])
+
+    def posture_task(self, priority: int = 0) -> PostureTask:
+        """The library's posture task towards q0, at an explicit level (weight 0.01: the peers' weighted sum)."""
+        return PostureTask(self.q0, gain=POSTURE_GAIN, weight=POSTURE_WEIGHT, priority=priority)
+
+    def actuated_posture_task(self, priority: int = 0) -> ActuatedPostureTask:
+        """The benchmark-only posture of the actuated joints (``talos_actuated``, a labelled extra line)."""
         return ActuatedPostureTask(self.q0, gain=POSTURE_GAIN, weight=POSTURE_WEIGHT, priority=priority)
 
     def stack(self, method: str, robot: RobotModel) -> TaskStack:
@@ -232,19 +261,19 @@ def panda_scenario() -> Scenario:
         placo=True,
     )
     sc.stacks = {
-        "pinv": lambda r: TaskStack(sc.frame_tasks(), [_posture_gradient(r, PANDA_Q0)]),
-        "feedback": lambda r: TaskStack(sc.frame_tasks(), [_posture_gradient(r, PANDA_Q0)]),
-        "wqp": lambda r: TaskStack([*sc.frame_tasks(), sc.posture_task()]),
+        "pinv": lambda r: TaskStack(sc.stack_tasks(), [_posture_gradient(r, PANDA_Q0)]),
+        "feedback": lambda r: TaskStack(sc.stack_tasks(), [_posture_gradient(r, PANDA_Q0)]),
+        "wqp": lambda r: TaskStack([*sc.stack_tasks(), sc.posture_task()]),
         "hqp": lambda r: TaskStack(
-            [*sc.frame_tasks(), sc.posture_task(priority=2)], [_post_clearance(r, "panda_link4", PANDA_Q0)]
+            [*sc.stack_tasks(), sc.posture_task(priority=2)], [_post_clearance(r, "panda_link4", PANDA_Q0)]
         ),
     }
     return sc
 
 
 def actuated_weights(robot: RobotModel) -> np.ndarray:
-    """Per-q̇ weights (nv,): 1 on the actuated 1-dof joints, 0 on a floating base — the rows of
-    :class:`ActuatedPostureTask`, so that the closed forms' posture potential is the same posture."""
+    """Per-q̇ weights (nv,): 1 on the actuated 1-dof joints, 0 on a floating base — the rows of the
+    peers' posture tasks (actuated joints only), so that the closed forms' posture potential is the same posture."""
     w = np.zeros(robot.nv)
     for j in robot.joints:
         if j.idx_q >= 0 and j.kind != "other":
@@ -253,20 +282,9 @@ def actuated_weights(robot: RobotModel) -> np.ndarray:
 
 
 def _posture_gradient(robot: RobotModel, q0: np.ndarray) -> Subtask:
-    """The closed forms' posture: z = −K_p ∇½‖q − q0‖²_W on the actuated joints (eq. 5.8), the null-space twin of
-    :class:`ActuatedPostureTask` (whose null-space optimum is the same −K_p(q − q0)_a)."""
+    """The closed forms' posture: z = −K_p ∇½‖q − q0‖²_W on the actuated joints (eq. 5.8), the null-space twin of the
+    peers' posture of the actuated joints (whose null-space optimum is the same −K_p(q − q0)_a)."""
     return GradientSubtask(JointCentering(center=q0, weights=actuated_weights(robot)), gain=-POSTURE_GAIN)
-
-
-def _posture_target(robot: RobotModel, q0: np.ndarray) -> Subtask:
-    """The posture as a *target* subtask p = ½‖q − q0‖²_W → 0 at K = 1/s (no longer used for ``feedback``).
-
-    Kept to show why not: while the hands move, p = 0 is unreachable, and the decoupling law scales the null-space
-    speed by ‖η‖/‖Pη‖ (η = ∇p, P the frame tasks' null-space projector), which grows large where η is nearly in
-    the range of Jᵀ; the explicit Euler step then drifts off the frames (Talos: 2.3–3.9 mm > 1 mm). The posture
-    is a regularisation, not a goal, so ``feedback`` takes it as the gradient subtask of :func:`_posture_gradient`.
-    """
-    return TargetSubtask(JointCentering(center=q0, weights=actuated_weights(robot)), target=0.0, rate=POSTURE_GAIN)
 
 
 def _post_clearance(robot: RobotModel, frame: str, q0: np.ndarray, side: float = 0.25) -> Subtask:
@@ -364,11 +382,28 @@ def talos_scenario() -> Scenario:
         placo=True,
     )
     sc.stacks = {
-        "pinv": lambda r: TaskStack(sc.frame_tasks(), [_posture_gradient(r, q0)]),
-        "feedback": lambda r: TaskStack(sc.frame_tasks(), [_posture_gradient(r, q0)]),
-        "wqp": lambda r: TaskStack([*sc.frame_tasks(), sc.posture_task()]),
+        "pinv": lambda r: TaskStack(sc.stack_tasks(), [_posture_gradient(r, q0)]),
+        "feedback": lambda r: TaskStack(sc.stack_tasks(), [_posture_gradient(r, q0)]),
+        "wqp": lambda r: TaskStack([*sc.stack_tasks(), sc.posture_task()]),
         "hqp": lambda r: TaskStack(
-            [*sc.frame_tasks(), sc.posture_task(priority=2)], [_post_clearance(r, "arm_left_4_link", q0)]
+            [*sc.stack_tasks(), sc.posture_task(priority=2)], [_post_clearance(r, "arm_left_4_link", q0)]
+        ),
+    }
+    return sc
+
+
+def talos_actuated_scenario() -> Scenario:
+    """``talos`` with the benchmark-only :class:`ActuatedPostureTask` in ``wqp``/``hqp`` (the earlier benchmark's
+    stacks; a labelled extra line, not what a user can write). Its peers are ``talos``'s (the same task set)."""
+    sc = talos_scenario()
+    sc.key = "talos_actuated"
+    sc.title = "Talos as `talos`, posture = benchmark-only ActuatedPostureTask (actuated joints only)"
+    sc.methods, sc.placo, sc.all_backends = ("wqp", "hqp"), False, False
+    post = _post_clearance
+    sc.stacks = {
+        "wqp": lambda r: TaskStack([*sc.stack_tasks(), sc.actuated_posture_task()]),
+        "hqp": lambda r: TaskStack(
+            [*sc.stack_tasks(), sc.actuated_posture_task(priority=2)], [post(r, "arm_left_4_link", sc.q0)]
         ),
     }
     return sc
@@ -512,6 +547,7 @@ SCENARIOS: dict[str, Callable[[], Scenario]] = {
     "panda_circle": panda_scenario,
     "panda_tight": panda_tight_scenario,
     "talos": talos_scenario,
+    "talos_actuated": talos_actuated_scenario,
     **{f"snake{n}": (lambda n=n: snake_scenario(n)) for n in SNAKE_SIZES},  # type: ignore[misc]
     "panda_shelf": panda_shelf_scenario,
 }
