@@ -39,16 +39,16 @@ def resolve_axes(axes: str | Sequence[str]) -> tuple[str, ...]:
     return out
 
 
-_K: Any = None  # the compiled kernels (redundik.resolvers.linalg.K), bound at the first evaluation
+_K: Any = None  # the compiled Lie kernels (redundik.kinematics.lie_kernels), bound at the first evaluation
 
 
 def _kernels() -> Any:
-    """The compiled kernels, imported on first use (the resolvers package imports this module)."""
+    """The compiled Lie kernels, imported on first use (numba loads then, not when redundik is imported)."""
     global _K
-    from redundik.resolvers.linalg import K
+    from redundik.kinematics import lie_kernels
 
-    _K = K
-    return K
+    _K = lie_kernels
+    return lie_kernels
 
 
 _TK: Any = None  # the compiled target writers (redundik.tasks.target_kernels): numba is imported at first use

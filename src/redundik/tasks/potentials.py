@@ -34,10 +34,10 @@ def _finite_vec(value: Sequence[float] | np.ndarray, what: str, size: int | None
 
 
 def _kernels() -> Any:
-    """The compiled kernels, imported on first use (the resolvers package imports this module)."""
-    from redundik.resolvers import hqp_kernels
+    """The compiled potential kernels, imported on first use (numba loads then, not when redundik is imported)."""
+    from redundik.tasks import potential_kernels
 
-    return hqp_kernels
+    return potential_kernels
 
 
 class _JointPotential(Potential):
@@ -336,9 +336,10 @@ class Clearance(_FramePotential):
     Use it as a QP inequality (p ≥ margin) or maximise it (k > 0), like the chapter's collision potential
     ‖p_el − p_ob‖² (same gradient direction).
 
-    p and η come from one compiled call (``hqp_kernels.clearance_into``, the one implementation), reading the frame's
-    origin and the joint Jacobians on Pinocchio's memory (``data.oMf``, ``data.J``: views verified when first used
-    with a robot's data; if they cannot be verified, the origin and the Jacobian are copied through the bindings).
+    p and η come from one compiled call (``potential_kernels.clearance_into``, the one implementation), reading the
+    frame's origin and the joint Jacobians on Pinocchio's memory (``data.oMf``, ``data.J``: views verified when first
+    used with a robot's data; if they cannot be verified, the origin and the Jacobian are copied through the
+    bindings).
     """
 
     def __init__(
