@@ -97,6 +97,26 @@ class FrameForm(NamedTuple):
     revision: int
 
 
+class ClearanceForm(NamedTuple):
+    """The clearance of a frame point to a round obstacle, p = ‖S(p_f − p_o)‖ − r, in the form a fused step computes
+    itself (``Potential.clearance_form``; the one kernel is
+    :func:`redundik.tasks.potential_kernels.clearance_into`).
+
+    Attributes:
+        fid: The frame's id in the robot's model.
+        rows: The axes S selects (indices into x, y, z; int array).
+        center: The obstacle's centre p_o (3,) [m].
+        radius: Its radius r [m].
+        columns: Per velocity column, nonzero where a joint that supports the frame acts (int array, (nv,)).
+    """
+
+    fid: int
+    rows: np.ndarray
+    center: np.ndarray
+    radius: float
+    columns: np.ndarray
+
+
 class Edits:
     """A counter that every change of a task's or a gradient subtask's gain or weight moves (their validated setters):
     a fused step (:mod:`redundik.resolvers.fused`) re-reads its coefficients when it has moved."""
@@ -230,6 +250,10 @@ class Task(ABC):
         (the default): only :meth:`evaluate` gives them."""
         return None
 
+    def reference_sampled(self, R_d: np.ndarray) -> None:  # noqa: B027 - optional hook
+        """Told by a fused step that sampled this task's reference itself (its ``frame_form`` rows): the desired
+        orientation R_d (3, 3) of that step (a frame task keeps it for a later position-only target)."""
+
     def joint_form(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray] | None:
         """(sel, q_ref) when this task's rows are J = I[sel], e = (q_ref ⊖ q)[sel], v = K e — a posture on the
         velocity coordinates ``sel`` (int array) towards q_ref (nq,) — so that a fused step
@@ -261,6 +285,11 @@ class Potential(ABC):
     def value_and_gradient(self, robot: RobotModel) -> tuple[float, np.ndarray]:
         """(p, η) at once, for the rows of a bound subtask (a potential may share the work of the two)."""
         return self.value(robot), self.gradient(robot)
+
+    def clearance_form(self, robot: RobotModel) -> ClearanceForm | None:
+        """The :class:`ClearanceForm` of p when p is a clearance that a fused step may compute itself on ``robot``;
+        ``None`` (the default): only :meth:`value_and_gradient` gives it."""
+        return None
 
     def linear_gradient(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray] | None:
         """(w (nv,), q_c (nq,)) when η = w ⊙ (q ⊖ q_c) (a weighted joint centering), for a fused step; else ``None``.

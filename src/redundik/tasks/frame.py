@@ -326,6 +326,11 @@ class FrameTask(Task):
             self._hold(pin.SE3(np.array(pose.rotation), self._pending_position))
             self._pending_position = None
 
+    def reference_sampled(self, R_d: np.ndarray) -> None:
+        """The desired orientation R_d (3, 3) a fused step sampled for this task: kept, as :meth:`evaluate` keeps
+        it, for a later position-only :meth:`set_target`."""
+        self._last_R = R_d
+
     def frame_form(self, robot: RobotModel) -> FrameForm | str | None:
         """This task's ``FrameForm`` (a fused step computes its rows itself), or
         ``NOT_READY`` until it has been evaluated (or reset) on ``robot``. A subclass that overrides

@@ -14,7 +14,7 @@ import numpy as np
 
 from redundik.errors import TaskError
 from redundik.kinematics.model import AXES, RobotModel
-from redundik.tasks.base import Edits, Potential, check_number
+from redundik.tasks.base import ClearanceForm, Edits, Potential, check_number
 from redundik.tasks.frame import resolve_axes
 
 
@@ -421,6 +421,20 @@ class Clearance(_FramePotential):
         value: float = kernel(jw if lwa else J6, p, columns, self.rows, self.center, self.radius, J6, lwa, out, scale)
         return value
 
+    def clearance_form(self, robot: RobotModel) -> ClearanceForm | None:
+        """This clearance's :class:`~redundik.tasks.base.ClearanceForm` on ``robot``; ``None`` when the views of
+        Pinocchio's memory could not be verified (the kernel then reads copies), or for a subclass that overrides how
+        p or η is computed (its values are its own)."""
+        kind = type(self)
+        if any(getattr(kind, m) is not getattr(Clearance, m) for m in _CLEARANCE_FORMULA):
+            return None
+        views = self._views
+        if views is None or views[0] is not robot.data or views[1] != self._fid:
+            views = self._prepare(robot)
+        if views[2] is None:
+            return None
+        return ClearanceForm(views[1], self.rows, self.center, self.radius, views[4])
+
     def value_and_gradient(self, robot: RobotModel) -> tuple[float, np.ndarray]:
         """(p [m], η), from one frame position and one Jacobian."""
         g = np.empty(robot.nv)
@@ -431,6 +445,10 @@ class Clearance(_FramePotential):
 
     def gradient(self, robot: RobotModel) -> np.ndarray:
         return self.value_and_gradient(robot)[1]
+
+
+#: The methods that compute a clearance: a subclass that overrides one has no ``clearance_form``.
+_CLEARANCE_FORMULA = ("value_and_gradient_into", "value_and_gradient", "value", "gradient", "_prepare")
 
 
 class Manipulability(_FramePotential):
