@@ -100,7 +100,7 @@ class FrameForm(NamedTuple):
 class ClearanceForm(NamedTuple):
     """The clearance of a frame point to a round obstacle, p = ‖S(p_f − p_o)‖ − r, in the form a fused step computes
     itself (``Potential.clearance_form``; the one kernel is
-    :func:`redundik.tasks.potential_kernels.clearance_into`).
+    ``potential_kernels.clearance_into``).
 
     Attributes:
         fid: The frame's id in the robot's model.
@@ -287,8 +287,8 @@ class Potential(ABC):
         return self.value(robot), self.gradient(robot)
 
     def clearance_form(self, robot: RobotModel) -> ClearanceForm | None:
-        """The :class:`ClearanceForm` of p when p is a clearance that a fused step may compute itself on ``robot``;
-        ``None`` (the default): only :meth:`value_and_gradient` gives it."""
+        """The ``ClearanceForm`` of p when p is a clearance that a fused step may compute itself on ``robot``;
+        ``None`` (the default): only ``value_and_gradient`` gives it."""
         return None
 
     def linear_gradient(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray] | None:

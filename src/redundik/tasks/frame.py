@@ -327,8 +327,8 @@ class FrameTask(Task):
             self._pending_position = None
 
     def reference_sampled(self, R_d: np.ndarray) -> None:
-        """The desired orientation R_d (3, 3) a fused step sampled for this task: kept, as :meth:`evaluate` keeps
-        it, for a later position-only :meth:`set_target`."""
+        """The desired orientation R_d (3, 3) a fused step sampled for this task: kept, as ``evaluate`` keeps
+        it, for a later position-only ``set_target``."""
         self._last_R = R_d
 
     def frame_form(self, robot: RobotModel) -> FrameForm | str | None:

@@ -1,4 +1,4 @@
-"""Compiled kernels (numba) of the potentials: the clearance of :class:`redundik.tasks.potentials.Clearance` and its
+"""Compiled kernels (numba) of the potentials: the clearance of ``Clearance`` and its
 gradient, the one implementation that the potential's own evaluation and the resolvers' compiled steps both call.
 """
 
@@ -31,7 +31,7 @@ def clearance_into(
     out: np.ndarray,
     scale: float,
 ) -> float:
-    """The clearance p = ‖S(p_f − p_o)‖ − r [m] of :class:`redundik.tasks.potentials.Clearance` (its one
+    """The clearance p = ‖S(p_f − p_o)‖ − r [m] of ``Clearance`` (its one
     implementation), and scale · η into ``out`` (nv,), η = J_vᵀ Sᵀ u with u = S(p_f − p_o)/‖S(p_f − p_o)‖ (zero on the
     obstacle's axis, ‖·‖ < 1e-12, where the distance is not differentiable).
 

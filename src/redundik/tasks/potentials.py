@@ -422,7 +422,7 @@ class Clearance(_FramePotential):
         return value
 
     def clearance_form(self, robot: RobotModel) -> ClearanceForm | None:
-        """This clearance's :class:`~redundik.tasks.base.ClearanceForm` on ``robot``; ``None`` when the views of
+        """This clearance's ``ClearanceForm`` on ``robot``; ``None`` when the views of
         Pinocchio's memory could not be verified (the kernel then reads copies), or for a subclass that overrides how
         p or η is computed (its values are its own)."""
         kind = type(self)

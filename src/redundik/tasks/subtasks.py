@@ -79,7 +79,7 @@ _OWN_ROWS: dict[type, bool] = {}
 
 
 def _own_rows(kind: type[BoundSubtask]) -> bool:
-    """Whether a subclass of :class:`BoundSubtask` overrides ``rows`` but not ``rows_into`` (its rows are its own),
+    """Whether a subclass of ``BoundSubtask`` overrides ``rows`` but not ``rows_into`` (its rows are its own),
     remembered per class."""
     known = _OWN_ROWS.get(kind)
     if known is None:
@@ -313,15 +313,15 @@ class BoundSubtask(Subtask):
     @property
     def fixed_rows(self) -> int | None:
         """The number of damper rows when known before evaluating — a potential's bounds: 1 (lower or upper) or 2 —,
-        ``None`` for a barrier or a source with ``bound_rows`` (their rows are their own: :meth:`rows`), and for a
-        subclass that overrides :meth:`rows` but not :meth:`rows_into` (its rows come from its :meth:`rows`)."""
+        ``None`` for a barrier or a source with ``bound_rows`` (their rows are their own: ``rows``), and for a
+        subclass that overrides ``rows`` but not ``rows_into`` (its rows come from its ``rows``)."""
         if _rows_of_its_own(self.source) or _own_rows(type(self)):
             return None
         return (self.lower is not None) + (self.upper is not None)
 
     def clearance_form(self, robot: RobotModel) -> ClearanceForm | None:
-        """The source's :class:`~redundik.tasks.base.ClearanceForm` when this subtask's rows are the damper rows of
-        :meth:`rows_into` on a clearance (a fused step then computes them itself from ``lower``, ``upper`` and
+        """The source's ``ClearanceForm`` when this subtask's rows are the damper rows of
+        ``rows_into`` on a clearance (a fused step then computes them itself from ``lower``, ``upper`` and
         ``rate``); ``None`` otherwise — another source, or a subclass with rows of its own."""
         if self.fixed_rows is None or type(self).rows_into is not BoundSubtask.rows_into:
             return None

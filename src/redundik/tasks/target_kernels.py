@@ -8,7 +8,7 @@ Status codes returned by the writers: ``OK``, ``NOT_FINITE``, ``TOO_FAR`` (a coo
 bound), ``NOT_RIGID`` (the rotation is not orthonormal with det +1, or a 4×4 matrix's last row is not
 (0, 0, 0, 1)), ``BAD_SHAPE``. Nothing is written unless the status is ``OK``.
 
-:func:`reference_into` samples a compiled trajectory (``Line``, ``Circle``, ``Hold``) from that row at a time t: the one
+``reference_into`` samples a compiled trajectory (``Line``, ``Circle``, ``Hold``) from that row at a time t: the one
 implementation that the trajectories' ``reference`` and a fused step both call.
 """
 

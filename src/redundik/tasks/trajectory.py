@@ -70,7 +70,7 @@ def _rigid(pose: object, what: str) -> pin.SE3:
     return pin.SE3(M)
 
 
-#: Kinds of compiled reference (:func:`redundik.tasks.target_kernels.reference_into`); ``GIVEN``: none, the
+#: Kinds of compiled reference (``target_kernels.reference_into``); ``GIVEN``: none, the
 #: trajectory's :meth:`Trajectory.reference` is sampled in Python.
 GIVEN, HOLD, LINE, CIRCLE = 0, 1, 2, 3
 #: Length of a compiled reference's parameter row: p0 (3), R0 (9, row-major), up to 11 kind-specific numbers.
@@ -92,7 +92,7 @@ class Trajectory(ABC):
     """A desired frame pose and twist over time.
 
     A trajectory whose reference is compiled declares ``_kind`` (a kind of
-    :func:`redundik.tasks.target_kernels.reference_into`, 0 = none) and, once started, ``_kparams`` (its parameter
+    ``target_kernels.reference_into``, 0 = none) and, once started, ``_kparams`` (its parameter
     row): a fused step then samples it inside its compiled call, with the same kernel as :meth:`reference`.
     """
 
