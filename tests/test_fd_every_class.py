@@ -14,9 +14,7 @@ their tangent coordinates as the Jacobians are:
 
 from __future__ import annotations
 
-import importlib
 import inspect
-import pkgutil
 from collections.abc import Callable
 from functools import cache
 
@@ -24,7 +22,6 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-import redundik
 from redundik.kinematics import RobotModel, example_robot_data_dir, load_example_robot
 from redundik.tasks import (
     BestPosture,
@@ -44,7 +41,7 @@ from redundik.tasks.base import Barrier, Potential, Task
 from redundik.tasks.potential_task import PotentialTask
 from redundik.tasks.relative import RelativePoseTask
 
-from .helpers import random_dh_robot
+from .helpers import import_every_module, random_dh_robot
 
 EPS = 1e-6
 Case = Callable[[int], tuple[RobotModel, object, np.ndarray]]
@@ -155,8 +152,7 @@ CASES: dict[type, list[tuple[str, Case]]] = {
 
 def _concrete_classes() -> set[type]:
     """Every concrete subclass of Task, Potential and Barrier defined in redundik (all its modules imported)."""
-    for info in pkgutil.walk_packages(redundik.__path__, "redundik."):
-        importlib.import_module(info.name)
+    import_every_module()
     found: set[type] = set()
     todo: list[type] = [Task, Potential, Barrier]
     while todo:

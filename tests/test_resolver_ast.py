@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import ast
 import importlib
-import pkgutil
 from pathlib import Path
 
 import redundik
+
+from .helpers import import_every_module
 
 RESOLVERS = Path(redundik.__file__).resolve().parent / "resolvers"
 
@@ -40,8 +41,7 @@ ALLOWED: dict[tuple[str, str], str] = {
 def _task_class_names() -> set[str]:
     """Names of redundik's task-side classes: the protocol bases and every subclass defined in redundik (every
     module imported first, so that a new class is found without being listed)."""
-    for info in pkgutil.walk_packages(redundik.__path__, "redundik."):
-        importlib.import_module(info.name)
+    import_every_module()
     from redundik.tasks.base import Barrier, Potential, Task
     from redundik.tasks.subtasks import Subtask
 
