@@ -73,6 +73,22 @@ def _is_type_call(node: ast.expr) -> bool:
     return isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "type"
 
 
+def _of_type(node: ast.expr) -> bool:
+    """``type(x)`` or an attribute of it (``type(x).gain``: a test of what the class overrides)."""
+    return _is_type_call(node) or (isinstance(node, ast.Attribute) and _is_type_call(node.value))
+
+
+def _names_in(node: ast.expr) -> set[str]:
+    """Every name and attribute name in an expression (``Task.gain``: Task and gain; a tuple: each item's)."""
+    out: set[str] = set()
+    for sub in ast.walk(node):
+        if isinstance(sub, ast.Name):
+            out.add(sub.id)
+        elif isinstance(sub, ast.Attribute):
+            out.add(sub.attr)
+    return out
+
+
 def _module_names(tree: ast.Module) -> set[str]:
     """Names bound to modules by ``import`` statements (``import numpy as np``, ``from redundik import errors``)."""
     out: set[str] = set()
@@ -106,9 +122,8 @@ def findings(source: str, where: str, task_classes: set[str]) -> list[str]:
                 out.append(f"{line}: class test {ast.unparse(node)}")
         elif isinstance(node, ast.Compare):
             operands = [node.left, *node.comparators]
-            if any(_is_type_call(o) for o in operands) and any(
-                set(_classes_in(o)) & task_classes for o in operands if not _is_type_call(o)
-            ):
+            typed = [o for o in operands if _of_type(o)]
+            if typed and any(_names_in(o) & task_classes for o in operands if o not in typed):
                 out.append(f"{line}: class test {ast.unparse(node)}")
         elif isinstance(node, ast.Attribute) and node.attr.startswith("_") and not node.attr.startswith("__"):
             receiver = node.value
@@ -146,8 +161,10 @@ def test_the_check_sees_each_kind_of_finding() -> None:
         "    if type(bsub.source) is not Clearance or isinstance(x, (int, FrameTask)):\n"
         "        return bsub.source._views\n"
         "    frames[0]._last_R = 1\n"
+        "    ok = all(type(m).gain is FrameTask.gain for m in x)\n"
         "    return self._cache, np._NoValue, robot._nv, super()._pending_fn, type(x) is dict\n"
     )
     found = findings(source, "m.py", {"Clearance", "FrameTask"})
-    assert sorted(f.split(": ", 1)[1].split(" ", 1)[0] for f in found) == ["class", "class", "private", "private"]
+    kinds = ["class", "class", "class", "private", "private"]
+    assert sorted(f.split(": ", 1)[1].split(" ", 1)[0] for f in found) == kinds, found
     assert any("bsub.source._views" in f for f in found) and any("frames[0]._last_R" in f for f in found)

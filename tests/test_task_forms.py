@@ -108,3 +108,24 @@ def test_a_fused_step_tells_a_frame_task_the_orientation_it_sampled() -> None:
     assert target is not None
     np.testing.assert_allclose(target.rotation, goal, atol=1e-12)
     np.testing.assert_allclose(target.translation, [0.4, 0.0, 0.5])
+
+
+def test_a_task_says_whether_its_gain_is_tracked() -> None:
+    """``Task.gain_tracked`` (a resolver re-reads the gains only when ``Edits`` moved): True for the validated
+    property, False for a subclass with a gain of its own (read every step)."""
+
+    class Scheduled(rk.FrameTask):
+        @property
+        def gain(self) -> float:
+            return 2.0
+
+        @gain.setter
+        def gain(self, value: float) -> None:
+            pass
+
+    class Plain(rk.FrameTask):
+        pass
+
+    assert rk.FrameTask("panda_hand").gain_tracked and Plain("panda_hand").gain_tracked
+    assert rk.PostureTask().gain_tracked
+    assert not Scheduled("panda_hand").gain_tracked

@@ -223,6 +223,13 @@ class Task(ABC):
         self._priority = check_priority(value, f"task '{self._label}'")
 
     @property
+    def gain_tracked(self) -> bool:
+        """True when ``gain`` is this base class's validated property, whose assignments move ``Edits`` (a resolver
+        re-reads the gains only when ``Edits`` moved); False for a subclass with a ``gain`` of its own (read every
+        step)."""
+        return type(self).gain is Task.gain
+
+    @property
     def _label(self) -> str:
         return getattr(self, "_name", type(self).__name__)
 
