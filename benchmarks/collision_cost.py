@@ -20,10 +20,10 @@ import time
 import numpy as np
 
 from redundik.collision import CollisionAvoidance, CollisionWorld
-from redundik.collision.stress import PANDA_Q0, panda_scene
 from redundik.kinematics import example_robot_data_dir
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers import make_resolver
+from redundik.simulation.collision_stress import PANDA_Q0, panda_scene
 from redundik.tasks import BoundSubtask, FrameTask, PostureTask, TaskStack
 from redundik.tasks.base import Barrier, BarrierTerm
 

@@ -2,8 +2,8 @@
 
     python benchmarks/collision_stress.py [--episodes 25] [--steps 100]
 
-1. Random targets through the obstacles and across the body (redundik.collision.stress), Panda and TALOS, wqp and
-   hqp, every installed backend: penetration counts (samples with d < 0) and the smallest distance.
+1. Random targets through the obstacles and across the body (redundik.simulation.collision_stress), Panda and TALOS,
+   wqp and hqp, every installed backend: penetration counts (samples with d < 0) and the smallest distance.
 2. A Panda ``wqp`` step (hand + posture + joint limits) without and with a collision damper over 20 candidate
    pairs, interleaved, medians and their ratio.
 """
@@ -16,9 +16,9 @@ import time
 import numpy as np
 
 from redundik.collision import CollisionAvoidance, CollisionWorld
-from redundik.collision.stress import PANDA_Q0, panda_scene, run_stress
 from redundik.kinematics import example_robot_data_dir
 from redundik.resolvers import make_resolver
+from redundik.simulation.collision_stress import PANDA_Q0, panda_scene, run_stress
 from redundik.tasks import BoundSubtask, FrameTask, PostureTask, TaskStack
 
 

@@ -323,7 +323,7 @@ def test_stress_random_targets_do_not_penetrate(backend: str) -> None:
     """300 steps of random targets through the obstacles and across the body (seed 3): the plain damper (one row
     per pair) penetrates, the capsule witness jumping between the ends of a capsule nearly parallel to the other
     body; with the end-sphere and look-ahead rows d stays ≥ 0 (and near d_s = 1 cm)."""
-    from redundik.collision.stress import run_stress
+    from redundik.simulation.collision_stress import run_stress
 
     out = run_stress("panda", "wqp", backend, episodes=3, steps=100, seed=3)
     assert out.steps == 300 and out.fallbacks == 0

@@ -24,12 +24,14 @@ PACKAGE_ROOT = Path(__file__).resolve().parent
 #: Every redundik source compiled code depends on: the modules with compiled functions and the modules whose
 #: constants or functions they import (checked against the imports by ``tests/test_kernel_cache.py``).
 KERNEL_SOURCES: tuple[str, ...] = (
+    "kinematics/lie_kernels.py",
     "resolvers/kernels.py",
     "resolvers/hqp_kernels.py",
     "resolvers/fused_kernels.py",
     "resolvers/fused.py",
     "tasks/trajectory.py",
     "tasks/target_kernels.py",
+    "tasks/potential_kernels.py",
     "collision/kernels.py",
     "ik/kernels.py",
 )

@@ -28,7 +28,7 @@ from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.divergence import DivergenceWatch
 from redundik.resolvers.singularity import LimiterOption, SpeedLimiter
-from redundik.tasks.base import Edits, Task, TaskTerm
+from redundik.tasks.base import Edits, TaskTerm
 from redundik.tasks.stack import TaskStack
 
 if TYPE_CHECKING:
@@ -562,7 +562,7 @@ class Resolver(ABC):
                 self._checked = sig
                 self._gain_members = (tuple(stack.tasks), tuple(stack.target_subtasks))
                 # gains set through Task's validated property move Edits; a task with its own ``gain`` is read each step
-                self._plain_gains = all(type(m).gain is Task.gain for m in stack.tasks)
+                self._plain_gains = all(m.gain_tracked for m in stack.tasks)
                 self._gains_seen = None
             self._members = (stack, robot, list(stack.tasks), list(stack.subtasks))
         tasks, targets = self._gain_members

@@ -487,7 +487,7 @@ class FusedPlan:
             refs[k, 0:3] = p_d
             refs[k, 3:12] = np.asarray(R_d).reshape(-1)
             refs[k, 12:18] = twist
-            self.frames[k]._last_R = np.array(R_d)
+            self.frames[k].reference_sampled(np.array(R_d))
         return refs
 
     # ------------------------------------------------------------------ results

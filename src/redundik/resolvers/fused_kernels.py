@@ -4,7 +4,8 @@ and joint-space null-space terms evaluated, accumulated and solved in one call.
 They compose the one implementation of each piece — the frame error (``kernels.frame_error``), the weighted rows
 (``kernels.gram_update``), ``wqp``'s limit box and unconstrained optimum (``kernels.wqp_free_step``), the closed form
 of eq. (5.8) (``kernels.closed_form_into``), ``hqp``'s unconstrained cascade (``hqp_kernels.closed_step``) — and
-the reference of the library's simple trajectories (``reference_into``, which ``Line`` and ``Circle`` call too).
+the reference of the library's simple trajectories (``target_kernels.reference_into``, which ``Line`` and ``Circle``
+call too) and the clearance (``potential_kernels.clearance_into``).
 Nothing here is a second implementation of what the per-task path computes.
 
 A call takes few arguments (each costs the dispatcher time): the plan's static data packed in one integer array
@@ -19,10 +20,9 @@ r·e1 (3), r·e2 (3), ω [rad/s], φ [rad].
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
+from redundik.kinematics.lie_kernels import frame_error_rp, frame_jacobian_lwa
 from redundik.resolvers.fused import (
     B_AXES,
     B_CENTER,
@@ -42,45 +42,18 @@ from redundik.resolvers.fused import (
     IDENTITY,
     REF,
 )
-from redundik.resolvers.hqp_kernels import clearance_into, closed_step
+from redundik.resolvers.hqp_kernels import closed_step
 from redundik.resolvers.kernels import (
     _jit,
     closed_form_into,
-    frame_error_rp,
-    frame_jacobian_lwa,
     gram_update,
     wqp_free_step,
 )
-from redundik.tasks.trajectory import CIRCLE, GIVEN, LINE, PARAMS
+from redundik.tasks.potential_kernels import clearance_into
+from redundik.tasks.target_kernels import reference_into
+from redundik.tasks.trajectory import GIVEN, PARAMS
 
 __all__ = ["HEADER", "REF", "frame_rows", "fused_hqp_step", "fused_pinv_step", "fused_wqp_step", "reference_into"]
-
-
-@_jit
-def reference_into(kind: int, params: np.ndarray, t: float, out: np.ndarray) -> None:
-    """The reference (p_d, R_d, twist) of a ``HOLD``, ``LINE`` or ``CIRCLE`` trajectory at t [s] into ``out`` (18,).
-
-    Line: p = p0 + v t, twist (v, 0). Circle: p = c + cos(ωt + φ) r e1 + sin(ωt + φ) r e2, twist
-    (ω (cos a · r e2 − sin a · r e1), 0). Orientation held (R0). ``GIVEN`` writes nothing.
-    """
-    if kind == GIVEN:
-        return
-    for i in range(12):
-        out[i] = params[i]
-    for i in range(12, 18):
-        out[i] = 0.0
-    if kind == LINE:
-        for i in range(3):
-            out[i] = params[i] + params[12 + i] * t
-            out[12 + i] = params[12 + i]
-    elif kind == CIRCLE:
-        w = params[21]
-        a = w * t + params[22]
-        c, s = math.cos(a), math.sin(a)
-        for i in range(3):
-            a1, b1 = params[15 + i], params[18 + i]
-            out[i] = params[12 + i] + c * a1 + s * b1
-            out[12 + i] = w * (c * b1 - s * a1)
 
 
 @_jit

@@ -36,11 +36,11 @@ from redundik.resolvers.kernels import (
     clip_twice,
     damped_svd_factors,
     damped_svd_thin,
-    frame_jacobian_lwa,
     householder_reflectors,
     in_box,
     limit_box,
 )
+from redundik.tasks.potential_kernels import clearance_into as clearance_into  # first_run_cost loads it too
 
 _kernel_cache.install()  # the on-disk cache stamped with every kernel source (redundik._kernel_cache)
 _jit = nb.njit(cache=True, nogil=True)
@@ -820,60 +820,6 @@ def level_qp_arrays(
     nvar, nr = level_qp_into(M, rhs, eps, C, d, x, Z, mode, sel, F, f, lb, ub, free, tol, buf)
     P, q, G, up, low = qp_views(buf, nvar, nr)
     return P.copy(), q.copy(), G.copy(), up[nvar:].copy(), low[:nvar].copy(), up[:nvar].copy()
-
-
-@_jit
-def clearance_into(
-    Jw: np.ndarray,
-    p: np.ndarray,
-    columns: np.ndarray,
-    rows: np.ndarray,
-    center: np.ndarray,
-    radius: float,
-    J6: np.ndarray,
-    lwa: bool,
-    out: np.ndarray,
-    scale: float,
-) -> float:
-    """The clearance p = ‖S(p_f − p_o)‖ − r [m] of :class:`redundik.tasks.potentials.Clearance` (its one
-    implementation), and scale · η into ``out`` (nv,), η = J_vᵀ Sᵀ u with u = S(p_f − p_o)/‖S(p_f − p_o)‖ (zero on the
-    obstacle's axis, ‖·‖ < 1e-12, where the distance is not differentiable).
-
-    Args:
-        Jw: The joint Jacobians in the world frame (6, nv; ``data.J``), read when ``lwa``.
-        p: The frame's origin p_f (3,) [m] (a view on ``data.oMf``'s memory, or a copy).
-        columns: Per velocity column, nonzero where a joint that supports the frame acts (``frame_jacobian_lwa``).
-        rows: The axes S selects (indices into x, y, z).
-        center: The obstacle's centre p_o (3,) [m].
-        radius: Its radius r [m].
-        J6: (6, nv): with ``lwa`` the frame's base-aligned Jacobian is written here from ``Jw`` and p
-            (``frame_jacobian_lwa``, bitwise getFrameJacobian's); without, it holds that Jacobian already.
-        lwa: Whether to compute ``J6`` from ``Jw``.
-        out: (nv,) written with scale · η.
-        scale: 1 for η, −1 for the row −η of a lower bound's damper.
-    """
-    k = rows.shape[0]
-    dist = np.empty(k)
-    s = 0.0
-    for i in range(k):
-        r = rows[i]
-        dist[i] = p[r] - center[r]
-        s += dist[i] * dist[i]
-    n = math.sqrt(s)
-    if n < 1e-12:
-        for c in range(out.shape[0]):
-            out[c] = 0.0
-        return n - radius
-    if lwa:
-        frame_jacobian_lwa(Jw, p, columns, J6)
-    for i in range(k):
-        dist[i] /= n
-    for c in range(out.shape[0]):
-        g = 0.0
-        for i in range(k):
-            g += J6[rows[i], c] * dist[i]
-        out[c] = scale * g
-    return n - radius
 
 
 def first_run_cost() -> dict[str, float]:

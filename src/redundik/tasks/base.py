@@ -97,6 +97,26 @@ class FrameForm(NamedTuple):
     revision: int
 
 
+class ClearanceForm(NamedTuple):
+    """The clearance of a frame point to a round obstacle, p = ‖S(p_f − p_o)‖ − r, in the form a fused step computes
+    itself (``Potential.clearance_form``; the one kernel is
+    ``potential_kernels.clearance_into``).
+
+    Attributes:
+        fid: The frame's id in the robot's model.
+        rows: The axes S selects (indices into x, y, z; int array).
+        center: The obstacle's centre p_o (3,) [m].
+        radius: Its radius r [m].
+        columns: Per velocity column, nonzero where a joint that supports the frame acts (int array, (nv,)).
+    """
+
+    fid: int
+    rows: np.ndarray
+    center: np.ndarray
+    radius: float
+    columns: np.ndarray
+
+
 class Edits:
     """A counter that every change of a task's or a gradient subtask's gain or weight moves (their validated setters):
     a fused step (:mod:`redundik.resolvers.fused`) re-reads its coefficients when it has moved."""
@@ -203,6 +223,13 @@ class Task(ABC):
         self._priority = check_priority(value, f"task '{self._label}'")
 
     @property
+    def gain_tracked(self) -> bool:
+        """True when ``gain`` is this base class's validated property, whose assignments move ``Edits`` (a resolver
+        re-reads the gains only when ``Edits`` moved); False for a subclass with a ``gain`` of its own (read every
+        step)."""
+        return type(self).gain is Task.gain
+
+    @property
     def _label(self) -> str:
         return getattr(self, "_name", type(self).__name__)
 
@@ -229,6 +256,10 @@ class Task(ABC):
         compute itself; ``NOT_READY`` when they will be (after the first evaluation on ``robot``); ``None``
         (the default): only :meth:`evaluate` gives them."""
         return None
+
+    def reference_sampled(self, R_d: np.ndarray) -> None:  # noqa: B027 - optional hook
+        """Told by a fused step that sampled this task's reference itself (its ``frame_form`` rows): the desired
+        orientation R_d (3, 3) of that step (a frame task keeps it for a later position-only target)."""
 
     def joint_form(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray] | None:
         """(sel, q_ref) when this task's rows are J = I[sel], e = (q_ref ⊖ q)[sel], v = K e — a posture on the
@@ -261,6 +292,11 @@ class Potential(ABC):
     def value_and_gradient(self, robot: RobotModel) -> tuple[float, np.ndarray]:
         """(p, η) at once, for the rows of a bound subtask (a potential may share the work of the two)."""
         return self.value(robot), self.gradient(robot)
+
+    def clearance_form(self, robot: RobotModel) -> ClearanceForm | None:
+        """The ``ClearanceForm`` of p when p is a clearance that a fused step may compute itself on ``robot``;
+        ``None`` (the default): only ``value_and_gradient`` gives it."""
+        return None
 
     def linear_gradient(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray] | None:
         """(w (nv,), q_c (nq,)) when η = w ⊙ (q ⊖ q_c) (a weighted joint centering), for a fused step; else ``None``.

@@ -39,16 +39,16 @@ def resolve_axes(axes: str | Sequence[str]) -> tuple[str, ...]:
     return out
 
 
-_K: Any = None  # the compiled kernels (redundik.resolvers.linalg.K), bound at the first evaluation
+_K: Any = None  # the compiled Lie kernels (redundik.kinematics.lie_kernels), bound at the first evaluation
 
 
 def _kernels() -> Any:
-    """The compiled kernels, imported on first use (the resolvers package imports this module)."""
+    """The compiled Lie kernels, imported on first use (numba loads then, not when redundik is imported)."""
     global _K
-    from redundik.resolvers.linalg import K
+    from redundik.kinematics import lie_kernels
 
-    _K = K
-    return K
+    _K = lie_kernels
+    return lie_kernels
 
 
 _TK: Any = None  # the compiled target writers (redundik.tasks.target_kernels): numba is imported at first use
@@ -325,6 +325,11 @@ class FrameTask(Task):
         if self._pending_position is not None:
             self._hold(pin.SE3(np.array(pose.rotation), self._pending_position))
             self._pending_position = None
+
+    def reference_sampled(self, R_d: np.ndarray) -> None:
+        """The desired orientation R_d (3, 3) a fused step sampled for this task: kept, as ``evaluate`` keeps
+        it, for a later position-only ``set_target``."""
+        self._last_R = R_d
 
     def frame_form(self, robot: RobotModel) -> FrameForm | str | None:
         """This task's ``FrameForm`` (a fused step computes its rows itself), or

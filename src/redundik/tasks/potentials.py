@@ -14,7 +14,7 @@ import numpy as np
 
 from redundik.errors import TaskError
 from redundik.kinematics.model import AXES, RobotModel
-from redundik.tasks.base import Edits, Potential, check_number
+from redundik.tasks.base import ClearanceForm, Edits, Potential, check_number
 from redundik.tasks.frame import resolve_axes
 
 
@@ -34,10 +34,10 @@ def _finite_vec(value: Sequence[float] | np.ndarray, what: str, size: int | None
 
 
 def _kernels() -> Any:
-    """The compiled kernels, imported on first use (the resolvers package imports this module)."""
-    from redundik.resolvers import hqp_kernels
+    """The compiled potential kernels, imported on first use (numba loads then, not when redundik is imported)."""
+    from redundik.tasks import potential_kernels
 
-    return hqp_kernels
+    return potential_kernels
 
 
 class _JointPotential(Potential):
@@ -336,9 +336,10 @@ class Clearance(_FramePotential):
     Use it as a QP inequality (p ≥ margin) or maximise it (k > 0), like the chapter's collision potential
     ‖p_el − p_ob‖² (same gradient direction).
 
-    p and η come from one compiled call (``hqp_kernels.clearance_into``, the one implementation), reading the frame's
-    origin and the joint Jacobians on Pinocchio's memory (``data.oMf``, ``data.J``: views verified when first used
-    with a robot's data; if they cannot be verified, the origin and the Jacobian are copied through the bindings).
+    p and η come from one compiled call (``potential_kernels.clearance_into``, the one implementation), reading the
+    frame's origin and the joint Jacobians on Pinocchio's memory (``data.oMf``, ``data.J``: views verified when first
+    used with a robot's data; if they cannot be verified, the origin and the Jacobian are copied through the
+    bindings).
     """
 
     def __init__(
@@ -420,6 +421,20 @@ class Clearance(_FramePotential):
         value: float = kernel(jw if lwa else J6, p, columns, self.rows, self.center, self.radius, J6, lwa, out, scale)
         return value
 
+    def clearance_form(self, robot: RobotModel) -> ClearanceForm | None:
+        """This clearance's ``ClearanceForm`` on ``robot``; ``None`` when the views of
+        Pinocchio's memory could not be verified (the kernel then reads copies), or for a subclass that overrides how
+        p or η is computed (its values are its own)."""
+        kind = type(self)
+        if any(getattr(kind, m) is not getattr(Clearance, m) for m in _CLEARANCE_FORMULA):
+            return None
+        views = self._views
+        if views is None or views[0] is not robot.data or views[1] != self._fid:
+            views = self._prepare(robot)
+        if views[2] is None:
+            return None
+        return ClearanceForm(views[1], self.rows, self.center, self.radius, views[4])
+
     def value_and_gradient(self, robot: RobotModel) -> tuple[float, np.ndarray]:
         """(p [m], η), from one frame position and one Jacobian."""
         g = np.empty(robot.nv)
@@ -430,6 +445,10 @@ class Clearance(_FramePotential):
 
     def gradient(self, robot: RobotModel) -> np.ndarray:
         return self.value_and_gradient(robot)[1]
+
+
+#: The methods that compute a clearance: a subclass that overrides one has no ``clearance_form``.
+_CLEARANCE_FORMULA = ("value_and_gradient_into", "value_and_gradient", "value", "gradient", "_prepare")
 
 
 class Manipulability(_FramePotential):

@@ -20,7 +20,7 @@ import numpy as np
 
 from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
-from redundik.tasks.base import Barrier, Edits, Potential, check_name, check_number, check_priority
+from redundik.tasks.base import Barrier, ClearanceForm, Edits, Potential, check_name, check_number, check_priority
 
 _ROW_SOURCES: dict[type, bool] = {}
 
@@ -73,6 +73,19 @@ class _Number:
         what = f"subtask '{getattr(obj, 'name', '?')}': {self.label}"
         setattr(obj, self.slot, check_number(value, what, low=self.low, strict=self.strict))
         Edits.count += 1  # (a fused step's packed copy compares it)
+
+
+_OWN_ROWS: dict[type, bool] = {}
+
+
+def _own_rows(kind: type[BoundSubtask]) -> bool:
+    """Whether a subclass of ``BoundSubtask`` overrides ``rows`` but not ``rows_into`` (its rows are its own),
+    remembered per class."""
+    known = _OWN_ROWS.get(kind)
+    if known is None:
+        rows, rows_into = BoundSubtask.rows, BoundSubtask.rows_into
+        known = _OWN_ROWS[kind] = kind.rows is not rows and kind.rows_into is rows_into
+    return known
 
 
 class Subtask(ABC):
@@ -300,10 +313,20 @@ class BoundSubtask(Subtask):
     @property
     def fixed_rows(self) -> int | None:
         """The number of damper rows when known before evaluating — a potential's bounds: 1 (lower or upper) or 2 —,
-        ``None`` for a barrier or a source with ``bound_rows`` (their rows are their own: :meth:`rows`)."""
-        if _rows_of_its_own(self.source):
+        ``None`` for a barrier or a source with ``bound_rows`` (their rows are their own: ``rows``), and for a
+        subclass that overrides ``rows`` but not ``rows_into`` (its rows come from its ``rows``)."""
+        if _rows_of_its_own(self.source) or _own_rows(type(self)):
             return None
         return (self.lower is not None) + (self.upper is not None)
+
+    def clearance_form(self, robot: RobotModel) -> ClearanceForm | None:
+        """The source's ``ClearanceForm`` when this subtask's rows are the damper rows of
+        ``rows_into`` on a clearance (a fused step then computes them itself from ``lower``, ``upper`` and
+        ``rate``); ``None`` otherwise — another source, or a subclass with rows of its own."""
+        if self.fixed_rows is None or type(self).rows_into is not BoundSubtask.rows_into:
+            return None
+        source = self.source
+        return source.clearance_form(robot) if isinstance(source, Potential) else None
 
     @property
     def row_names(self) -> list[str]:

@@ -7,6 +7,9 @@ task's :class:`~redundik.tasks.trajectory.Hold` and a fused step read, so nothin
 Status codes returned by the writers: ``OK``, ``NOT_FINITE``, ``TOO_FAR`` (a coordinate beyond the
 bound), ``NOT_RIGID`` (the rotation is not orthonormal with det +1, or a 4×4 matrix's last row is not
 (0, 0, 0, 1)), ``BAD_SHAPE``. Nothing is written unless the status is ``OK``.
+
+``reference_into`` samples a compiled trajectory (``Line``, ``Circle``, ``Hold``) from that row at a time t: the one
+implementation that the trajectories' ``reference`` and a fused step both call.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ import numba as nb
 import numpy as np
 
 from redundik import _kernel_cache
+from redundik.tasks.trajectory import CIRCLE, GIVEN, LINE
 
 _kernel_cache.install()
 _jit = nb.njit(cache=True, nogil=True)
@@ -86,3 +90,30 @@ def position_into(p: np.ndarray, row: np.ndarray, max_coordinate: float) -> int:
     for i in range(3):
         row[i] = p[i]
     return OK
+
+
+@_jit
+def reference_into(kind: int, params: np.ndarray, t: float, out: np.ndarray) -> None:
+    """The reference (p_d, R_d, twist) of a ``HOLD``, ``LINE`` or ``CIRCLE`` trajectory at t [s] into ``out`` (18,).
+
+    Line: p = p0 + v t, twist (v, 0). Circle: p = c + cos(ωt + φ) r e1 + sin(ωt + φ) r e2, twist
+    (ω (cos a · r e2 − sin a · r e1), 0). Orientation held (R0). ``GIVEN`` writes nothing.
+    """
+    if kind == GIVEN:
+        return
+    for i in range(12):
+        out[i] = params[i]
+    for i in range(12, 18):
+        out[i] = 0.0
+    if kind == LINE:
+        for i in range(3):
+            out[i] = params[i] + params[12 + i] * t
+            out[12 + i] = params[12 + i]
+    elif kind == CIRCLE:
+        w = params[21]
+        a = w * t + params[22]
+        c, s = math.cos(a), math.sin(a)
+        for i in range(3):
+            a1, b1 = params[15 + i], params[18 + i]
+            out[i] = params[12 + i] + c * a1 + s * b1
+            out[12 + i] = w * (c * b1 - s * a1)

@@ -70,30 +70,30 @@ def _rigid(pose: object, what: str) -> pin.SE3:
     return pin.SE3(M)
 
 
-#: Kinds of compiled reference (:func:`redundik.resolvers.fused_kernels.reference_into`); ``GIVEN``: none, the
+#: Kinds of compiled reference (``target_kernels.reference_into``); ``GIVEN``: none, the
 #: trajectory's :meth:`Trajectory.reference` is sampled in Python.
 GIVEN, HOLD, LINE, CIRCLE = 0, 1, 2, 3
 #: Length of a compiled reference's parameter row: p0 (3), R0 (9, row-major), up to 11 kind-specific numbers.
 PARAMS = 23
 
-_FK: Any = None  # the fused step's compiled kernels (redundik.resolvers.fused_kernels), bound at first use
+_FK: Any = None  # the compiled trajectory references (redundik.tasks.target_kernels), bound at first use
 
 
-def _fused_kernels() -> Any:
-    """The compiled trajectory references, imported on first use (the resolvers package imports this module)."""
+def _reference_kernels() -> Any:
+    """The compiled trajectory references, imported on first use (numba loads then, not when redundik is imported)."""
     global _FK
-    from redundik.resolvers import fused_kernels
+    from redundik.tasks import target_kernels
 
-    _FK = fused_kernels
-    return fused_kernels
+    _FK = target_kernels
+    return target_kernels
 
 
 class Trajectory(ABC):
     """A desired frame pose and twist over time.
 
     A trajectory whose reference is compiled declares ``_kind`` (a kind of
-    :mod:`redundik.resolvers.fused_kernels`, 0 = none) and, once started, ``_kparams`` (its parameter row): a fused
-    step then samples it inside its compiled call, with the same kernel as :meth:`reference`.
+    ``target_kernels.reference_into``, 0 = none) and, once started, ``_kparams`` (its parameter
+    row): a fused step then samples it inside its compiled call, with the same kernel as :meth:`reference`.
     """
 
     _start: pin.SE3 | None = None
@@ -282,7 +282,7 @@ class Line(Trajectory):
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         self.start_pose  # noqa: B018 - raises if start() was never called
         out = np.empty(18)
-        (_FK or _fused_kernels()).reference_into(LINE, self._kparams, float(t), out)  # p0 + v t, (v, 0)
+        (_FK or _reference_kernels()).reference_into(LINE, self._kparams, float(t), out)  # p0 + v t, (v, 0)
         return out[:3], self._R0, out[12:]
 
     def __repr__(self) -> str:
@@ -426,7 +426,7 @@ class Circle(Trajectory):
         if self._start is None:
             self.start_pose  # noqa: B018 - raises: start() was never called
         out = np.empty(18)
-        (_FK or _fused_kernels()).reference_into(CIRCLE, self._kparams, float(t), out)  # compiled: one implementation
+        (_FK or _reference_kernels()).reference_into(CIRCLE, self._kparams, float(t), out)  # one implementation
         return out[:3], self._R0, out[12:]
 
     def __repr__(self) -> str:

@@ -136,7 +136,6 @@ from redundik.resolvers.qp.terms import Level, StepRows, gather_rows
 from redundik.resolvers.settings import Setting, count, flag, nonnegative, positive, unit_interval
 from redundik.resolvers.singularity import SingularityGuard
 from redundik.tasks.base import Edits, TaskTerm
-from redundik.tasks.potentials import Clearance
 from redundik.tasks.stack import StackLayout, TaskStack
 from redundik.tasks.subtasks import BoundSubtask
 
@@ -407,7 +406,7 @@ class _Plan:
         returns the next row and the record of the rows written by ``rows_into``."""
         C, d = self.C, self.d
         for bsub in bsubs:
-            k = bsub.fixed_rows if type(bsub) is BoundSubtask else None
+            k = bsub.fixed_rows
             if k is not None:  # a potential's damper rows, written into the buffers by the subtask itself
                 e = cs + k
                 if e > C.shape[0]:
@@ -454,9 +453,10 @@ class _Plan:
 
     def packed_bounds(self, robot: RobotModel) -> _Packed | None:
         """The bound subtasks packed for the fused step's compiled damper rows (``fused_kernels.clearance_rows``),
-        when every one is a ``BoundSubtask`` on a ``Clearance`` whose views of Pinocchio's memory are verified (the
-        views the fused step reads); ``None``: :meth:`fused_bounds` evaluates them in Python. Packed again when
-        ``Edits`` moved (an assigned centre, radius, frame, axes, bound, rate or name) or for another robot's data."""
+        when every one gives its ``clearance_form`` (a bound on a clearance, read through verified views of
+        Pinocchio's memory, as the fused step reads it); ``None``: :meth:`fused_bounds` evaluates them in Python.
+        Packed again when ``Edits`` moved (an assigned centre, radius, frame, axes, bound, rate or name) or for
+        another robot's data."""
         key = self._packed_key
         if key is not None and key[0] == Edits.count and key[1] is robot.data:
             return self._packed
@@ -467,9 +467,9 @@ class _Plan:
     def _pack_bounds(self, robot: RobotModel) -> _Packed | None:
         """:meth:`packed_bounds`' packing: the rows C, d of :meth:`fused_bounds`, laid out at the same offsets."""
         bsubs = [bsub for _, _, bs, _, _ in self.members for bsub in bs]
-        for bsub in bsubs:
-            if type(bsub) is not BoundSubtask or type(bsub.source) is not Clearance:
-                return None
+        forms = [bsub.clearance_form(robot) for bsub in bsubs]
+        if any(form is None for form in forms):  # another source, rows of its own, unverified views: Python rows
+            return None
         n = self.n
         bint = np.zeros((len(bsubs), B_AXES + 3), dtype=np.int64)
         bcols = np.zeros((len(bsubs), n), dtype=np.int64)
@@ -480,26 +480,22 @@ class _Plan:
         for (_, _, bs, _, _), ls_row in zip(self.members, self.ls_offsets, strict=False):
             offsets.append((ls_row, cs))
             for bsub in bs:
-                src: Clearance = bsub.source  # type: ignore[assignment]  # (checked above)
-                views = src._views
-                if views is None or views[0] is not robot.data or views[1] != src._fid:
-                    views = src._prepare(robot)
-                if views[2] is None:  # Pinocchio's memory not as verified: the Python rows
-                    return None
-                rows = src.rows
+                form = forms[k]
+                assert form is not None  # (checked above)
+                rows = form.rows
                 lower, upper = bsub.lower, bsub.upper
                 bint[k, [B_FID, B_ROW, B_LOWER, B_UPPER, B_NAXES]] = (
-                    views[1],
+                    form.fid,
                     cs,
                     lower is not None,
                     upper is not None,
                     rows.shape[0],
                 )
                 bint[k, B_AXES : B_AXES + rows.shape[0]] = rows
-                bcols[k] = views[4]
-                bfl[k, B_CENTER : B_CENTER + 3] = src.center
+                bcols[k] = form.columns
+                bfl[k, B_CENTER : B_CENTER + 3] = form.center
                 bfl[k, [B_RADIUS, B_LO, B_UP, B_RATE]] = (
-                    src.radius,
+                    form.radius,
                     0.0 if lower is None else lower,
                     0.0 if upper is None else upper,
                     bsub.rate,
