@@ -8,7 +8,7 @@ checked, module level, lazy (function-level) and ``TYPE_CHECKING`` alike, from t
 subpackage must be in one of the two lists, so a new one is checked too.
 
 Inside the library (:data:`CORE_RANK`): the base modules (errors, names, the kernel cache) < ``kinematics`` and
-``parallel`` < ``tasks`` < ``collision`` < ``resolvers`` < ``simulation`` and ``ik`` < the package's facade
+``parallel`` < ``tasks`` < ``collision`` < ``resolvers`` < ``simulation``, ``ik`` and ``control`` < the package's facade
 (``redundik/__init__.py``, ``warmup``). A module may import its own package and anything ranked lower; so the tasks
 and the collision layer never import a resolver (the compiled kernels they share live in ``kinematics`` and
 ``tasks``), and no two core packages import each other.
@@ -44,8 +44,9 @@ CORE_RANK: dict[str, int] = {
     "__init__": 7,
 }
 #: Modules that are one unit with another: ``warmup`` is the facade's ``warm_up`` (it drives the public API through
-#: ``import redundik``, and ``redundik/__init__.py`` exports it).
-SAME_UNIT = {"warmup": "__init__"}
+#: ``import redundik``, and ``redundik/__init__.py`` exports it); ``control`` is the facade's fixed-rate loop (it warms
+#: the resolvers up with ``warm_up`` before the first tick).
+SAME_UNIT = {"warmup": "__init__", "control": "__init__"}
 
 
 def _resolve(module: str | None, level: int, path: Path) -> str | None:

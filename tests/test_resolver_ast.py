@@ -35,6 +35,15 @@ ALLOWED: dict[tuple[str, str], str] = {
     ("backend", "_split_min_n"): "DaqpBackend (resolvers/qp/backends.py)",
     ("r", "_solve_qp"): "a WeightedQPResolver (resolvers/qp/wqp.py), in the batch API",
     ("resolver", "_diagnose_terms"): "a WeightedQPResolver (resolvers/qp/wqp.py), in its diagnostics",
+    ("r", "_limiter"): "a Resolver's joint-speed cap (resolvers/singularity.py), in the batch API",
+    # qp/direction.py and singularity.py act as a QP resolver's own step (they are its scaling and guard modes)
+    ("resolver", "_members"): "a Resolver's checked membership (resolvers/base.py), read by its command watchdog",
+    ("resolver", "_dq_prev"): "a QP resolver's kept q̇ (its rate window), read and set by its own step modes",
+    ("resolver", "_safety_rows"): "a QP resolver's template (resolvers/qp/base.py), in its direction mode",
+    ("resolver", "_finish"): "a QP resolver's template (resolvers/qp/base.py), in its direction mode",
+    ("resolver", "_resolve"): "a QP resolver's template (resolvers/qp/base.py), in its direction mode",
+    ("resolver", "_diagnose"): "an hqp resolver's diagnostics (resolvers/qp/hqp.py), in its direction mode",
+    ("resolver", "_solve_qp"): "a QP resolver's backend call (resolvers/qp/base.py), in its direction mode",
 }
 
 

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import redundik as rk
-from redundik.control.watchdog import ARMED, RESUMING, STOPPED, STOPPING, Watchdog, jerk_step
 from redundik.errors import ResolverError
+from redundik.resolvers.watchdog import ARMED, RESUMING, STOPPED, STOPPING, Watchdog, jerk_step
 
 DT = 0.01  # [s]
 TIMEOUT = 0.1  # [s]

@@ -23,7 +23,7 @@ they give the same q for the same targets.
   objects are returned to the collector and automatic collection is enabled again if it was before.
 * **Pacing**: the loop sleeps until ``spin`` seconds before a slot and busy-waits the rest (``time.sleep`` wakes up
   late by 50-100 µs on a general-purpose kernel); ``clock`` and ``sleep`` can be replaced (a simulated clock).
-* **Watchdog**: ``command_timeout`` sets the resolver's (:mod:`redundik.control.watchdog`): when the caller stops
+* **Watchdog**: ``command_timeout`` sets the resolver's (:mod:`redundik.resolvers.watchdog`): when the caller stops
   setting targets, the robot is brought to rest; each tick's ``result.info`` says so.
 
 ``tick.result`` and its arrays are valid until the next tick (a resolver reuses its buffers): copy what you keep.

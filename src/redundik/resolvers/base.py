@@ -32,7 +32,7 @@ from redundik.tasks.base import Edits, TaskTerm
 from redundik.tasks.stack import TaskStack
 
 if TYPE_CHECKING:
-    from redundik.control.watchdog import Watchdog
+    from redundik.resolvers.watchdog import Watchdog
 
 #: Largest stable K·dt of the first-order update (e ← (1 − K dt) e).
 STABLE_GAIN_DT = 2.0
@@ -435,7 +435,7 @@ class Resolver(ABC):
     _plain_gains = False
     _gains_seen: tuple[int, float] | None = None  # (Edits.count, 2/dt) at the last gain check that passed
     _stepping: TaskStack | None = None
-    #: The command watchdog (:mod:`redundik.control.watchdog`), or ``None``; :attr:`command_timeout` makes one.
+    #: The command watchdog (:mod:`redundik.resolvers.watchdog`), or ``None``; :attr:`command_timeout` makes one.
     watchdog: Watchdog | None = None
     #: BLAS threads inside a step: an int, or ``None`` to leave the process's setting alone. The default ``"auto"``
     #: limits BLAS to one thread for robots with nv ≥ :data:`BLAS_LIMIT_NV` = 64 (threaded products on small matrices
@@ -472,14 +472,14 @@ class Resolver(ABC):
 
     @property
     def command_timeout(self) -> float | None:
-        """Stop the robot when no target has been set for this long [s] (:mod:`redundik.control.watchdog`);
-        ``None``: no watchdog. Assigning a number makes a :class:`~redundik.control.watchdog.Watchdog` (or sets its
+        """Stop the robot when no target has been set for this long [s] (:mod:`redundik.resolvers.watchdog`);
+        ``None``: no watchdog. Assigning a number makes a :class:`~redundik.resolvers.watchdog.Watchdog` (or sets its
         timeout); ``None`` removes it."""
         return None if self.watchdog is None else self.watchdog.timeout
 
     @command_timeout.setter
     def command_timeout(self, value: float | None) -> None:
-        from redundik.control.watchdog import Watchdog
+        from redundik.resolvers.watchdog import Watchdog
 
         if value is None:
             self.watchdog = None
@@ -617,7 +617,7 @@ class Resolver(ABC):
                 dict.__setitem__(info, "path", INTERPRETED)
                 dict.__setitem__(info, "interpreted", self._interpreted_members(robot, stack))
         dog = self.watchdog
-        if dog is not None:  # the command watchdog (redundik.control.watchdog): stale targets → a stop within limits
+        if dog is not None:  # the command watchdog (redundik.resolvers.watchdog): stale targets → a stop within limits
             dog.apply(self, robot, stack, t, dt, res)
         watch = self._watch
         if watch is None:

@@ -184,11 +184,11 @@ class FusedPlan:
                 elif not mixed:
                     return None
                 else:
-                    plan._external(task, LIE_NULL if form is not None and lie else NULL, 1.0)
+                    plan.add_external(task, LIE_NULL if form is not None and lie else NULL, 1.0)
             elif scales is None:  # pinv: a main task without a frame form; a task below it is only evaluated
                 if not mixed:
                     return None
-                plan._external(task, ROW if i in main_set else TERM, 1.0)
+                plan.add_external(task, ROW if i in main_set else TERM, 1.0)
             elif form is not None and (not lie or mixed):
                 if lie:
                     plan.lie_joints.append(len(plan.level_joints))
@@ -200,13 +200,13 @@ class FusedPlan:
             elif not mixed or scales.get(i, (1.0, False))[1]:  # (an identity task is a diagonal shift: per-task)
                 return None
             else:
-                plan._external(task, ROW, scales.get(i, (1.0, False))[0])
+                plan.add_external(task, ROW, scales.get(i, (1.0, False))[0])
         for sub in layout.gradients:
             lin = sub.potential.linear_gradient(robot)
             if lin is None or (iq[np.flatnonzero(lin[0])] < 0).any():
                 if not mixed:
                     return None
-                plan._external(sub, GRADIENT, 1.0)
+                plan.add_external(sub, GRADIENT, 1.0)
                 continue
             plan.gradients.append(sub)
             plan.gradient_forms.append(lin)
@@ -241,7 +241,7 @@ class FusedPlan:
         ]
         self.revisions = [f.trajectory.revision for f in self.forms]
 
-    def _external(self, member: Any, role: int, scale: float) -> None:
+    def add_external(self, member: Any, role: int, scale: float) -> None:
         """Register a member written from Python (role ``ROW``, ``NULL``, ``LIE_NULL``, ``GRADIENT`` or ``TERM``)."""
         if role != GRADIENT:
             self.order.append(("x", len(self.external)))

@@ -22,7 +22,7 @@ RESOLVERS: dict[str, Callable[..., Resolver]] = {
 }
 
 
-#: Options of every resolver that configure its command watchdog (:mod:`redundik.control.watchdog`): the timeout
+#: Options of every resolver that configure its command watchdog (:mod:`redundik.resolvers.watchdog`): the timeout
 #: [s], the deceleration limit [rad/s²] and the jerk limit [rad/s³] of the stop.
 WATCHDOG_OPTIONS = ("command_timeout", "stop_acceleration", "stop_jerk")
 
@@ -42,7 +42,7 @@ def make_resolver(name: str, **options: Any) -> Resolver:
     except TypeError as exc:
         raise ResolverError(f"resolver '{name}': bad options {sorted(options)}: {exc}") from exc
     if dog:
-        from redundik.control.watchdog import Watchdog
+        from redundik.resolvers.watchdog import Watchdog
 
         if "command_timeout" not in dog:
             raise ResolverError(f"resolver '{name}': {sorted(dog)} configure the watchdog: give command_timeout too")

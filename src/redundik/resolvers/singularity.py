@@ -240,16 +240,17 @@ def _main_tasks(res: StepResult, stack: TaskStack) -> list[Any]:
 def jacobian_derivatives(res: StepResult, robot: RobotModel, stack: TaskStack) -> np.ndarray | None:
     """∂J/∂q of the stacked main-task Jacobian, shape (m, nv, nv) with ``H[:, :, k] = ∂J/∂q_k``; ``None`` when a
     main task is neither a frame task (rows of its frame's base-aligned Jacobian) nor an identity block."""
-    from redundik.tasks.frame import FrameTask
+    from redundik.tasks.base import FrameForm
 
     nv = robot.nv
     blocks = []
     for task, term in zip(_main_tasks(res, stack), res.main_terms, strict=True):
         if task is None:
             return None
-        if type(task).evaluate is FrameTask.evaluate:
-            H = robot.frame_jacobian_derivatives(robot.frame_id(task.frame))
-            blocks.append(H[np.asarray(task.rows)])
+        form = task.frame_form(robot)  # the task's rows are its frame's (its public form): ∂J/∂q is the frame's
+        if isinstance(form, FrameForm):
+            H = robot.frame_jacobian_derivatives(int(form.fid))
+            blocks.append(H[np.asarray(form.rows)])
         elif getattr(task, "identity_jacobian", False):
             blocks.append(np.zeros((term.J.shape[0], nv, nv)))
         else:

@@ -189,7 +189,7 @@ def simulate(
     fallbacks: list[tuple[int, str]] = []
     relaxed: list[tuple[int, tuple[str, ...]]] = []
     times = np.arange(n) * dt
-    dog = getattr(resolver, "watchdog", None)  # (the command watchdog's state too: redundik.control.watchdog)
+    dog = getattr(resolver, "watchdog", None)  # (the command watchdog's state too: redundik.resolvers.watchdog)
     guard = StateGuard([resolver, *stack.tasks, *stack.subtasks, *watched, *([dog] if dog is not None else [])])
 
     def law(t: float, q_stage: np.ndarray) -> np.ndarray:
