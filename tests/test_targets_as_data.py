@@ -151,10 +151,6 @@ def test_a_subclass_keeps_the_fused_step_and_one_with_its_own_rows_runs_mixed(me
     assert base_plan is not None and sub_plan is not None
     assert sub_res.info["path"] == "compiled"
     # a subclass with its own evaluate: its rows are written from Python, the rest of the step stays compiled
-    # (hqp's compiled cascade takes Python-written terms of z only: its rows go the per-task way)
-    if method == "hqp":
-        assert own_plan is None and own_res.info["path"] == "interpreted"
-    else:
-        assert own_plan is not None and own_res.info["path"] == "mixed"
+    assert own_plan is not None and own_res.info["path"] == "mixed"
     assert own_res.info["interpreted"] == ("panda_hand_tcp",)
     assert np.abs(own - base).max() > 1e-6  # its own rows are used

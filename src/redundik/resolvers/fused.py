@@ -126,6 +126,9 @@ class FusedPlan:
         self.external_rows: list[int] = []  # rows each ``ROW`` member wrote at the last packing
         self.external_starts: list[int] = []  # where they start among the step's rows
         self.lie_joints: list[int] = []  # the level joint tasks on Lie-group coordinates (their error given)
+        self.repacked = False  # the last ``evaluate_external`` packed the plan again (a row count moved)
+        #: terms evaluated when the plan was made (``hqp`` sizes its buffers from them), for that step to use
+        self.pending_external: list[TaskTerm | None] | None = None
         self.joint_spans: list[tuple[int, int]] = []  # each level joint task's rows among the step's rows
         self.external_names: tuple[str, ...] = ()
         self.mx = 0  # rows written from Python (after the compiled rows)
@@ -373,7 +376,8 @@ class FusedPlan:
                 out.append(term)
             else:
                 out.append(None)
-        if rows != self.external_rows:
+        self.repacked = rows != self.external_rows
+        if self.repacked:
             self.external_rows = rows
             iq = np.array([j.idx_q for j in robot.joints], dtype=np.int64)
             self._pack(robot, iq, self.level_forms, self.identity, self.main_set, self.index)
@@ -392,7 +396,7 @@ class FusedPlan:
         self,
         robot: RobotModel,
         terms: list[TaskTerm | None],
-        Jrows: np.ndarray,
+        Jrows: np.ndarray | None,
         offset: int,
         ev: np.ndarray,
         weights: np.ndarray | None,
@@ -400,7 +404,8 @@ class FusedPlan:
     ) -> None:
         """Write the Python members' blocks into a step's buffers: a ``ROW`` member's J into ``Jrows`` (its rows
         from ``offset``), its e and v into ``ev`` and its weight × ρ^k into ``weights`` (``wqp``); the null-space
-        objective's Python terms into ``zx`` (z += v, z[sel] += K (q_ref ⊖ q)[sel], z += k η)."""
+        objective's Python terms into ``zx`` (z += v, z[sel] += K (q_ref ⊖ q)[sel], z += k η). ``Jrows`` ``None``:
+        the caller writes the rows' J where its layout puts them."""
         zx[:] = 0.0
         k = 0
         for (role, member, scale), term in zip(self.external, terms, strict=True):
@@ -409,7 +414,8 @@ class FusedPlan:
                 a = self.external_starts[k]
                 b = a + self.external_rows[k]
                 k += 1
-                Jrows[a - offset : b - offset] = term.J
+                if Jrows is not None:  # (``hqp`` places the rows itself, by its layout)
+                    Jrows[a - offset : b - offset] = term.J
                 ev[0, a:b] = term.error
                 ev[1, a:b] = term.v
                 if weights is not None:

@@ -122,6 +122,7 @@ from redundik.resolvers.fused import (
     B_ROW,
     B_UP,
     B_UPPER,
+    ROW,
     FusedPlan,
     FusedStepResult,
 )
@@ -524,7 +525,7 @@ class _Plan:
         self._written = (weakref.ref(written), packed.rows)
         return [(written, sl, names) for sl, names in packed.slices]
 
-    def fuse(self, robot: RobotModel, stack: TaskStack) -> FusedPlan | str | bool:
+    def fuse(self, robot: RobotModel, stack: TaskStack, t: float = 0.0) -> FusedPlan | str | bool:
         """The fused form of this plan's stack (:mod:`redundik.resolvers.fused`): every task a frame task or a
         joint-space task, no target subtask (bound subtasks are evaluated as :meth:`gather` does); the rows of
         its least-squares buffers each fused row goes to (``dest``, :func:`fused_kernels.fused_hqp_step`). Returns
@@ -534,9 +535,14 @@ class _Plan:
             return False
         null = set(layout.null_tasks)
         scales = {i: (1.0, bool(task.identity_jacobian)) for i, task in enumerate(stack.tasks) if i not in null}
-        built = FusedPlan.build(robot, stack, layout, scales, 1.0, mixed="null")
+        built = FusedPlan.build(robot, stack, layout, scales, 1.0, mixed=True)
         if not isinstance(built, FusedPlan):
             return False if built is None else built
+        if any(role == ROW for role, _, _ in built.external):  # their row counts size the buffers: evaluated now,
+            terms = built.evaluate_external(robot, t)  # and these terms used by this step (no second evaluate)
+            if terms is None:
+                return False
+            built.pending_external = terms
         ints = built.ints
         K, J = int(ints[0]), int(ints[1])
         starts = ints[ints[8] : ints[8] + K + 1].tolist()
@@ -548,6 +554,11 @@ class _Plan:
                 spans[i] = (starts[k], starts[k + 1])
             elif kind == "j":
                 spans[i] = (mf + jstarts[k], mf + jstarts[k + 1])
+        rows_of = iter(zip(built.external_starts, built.external_rows, strict=True))
+        for role, member, _ in built.external:
+            if role == ROW:
+                a, r = next(rows_of)
+                spans[built.index[id(member)]] = (a, a + r)
         dest = [0] * built.m
         mixed_starts: list[int] = []
         ls_offsets = []
@@ -1031,7 +1042,7 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
             return super().solve(robot, stack, t, dt)
         fused = plan.fused
         if fused is None or fused == FusedPlan.NOT_YET:
-            fused = plan.fused = plan.fuse(robot, stack) if self.fuse else False
+            fused = plan.fused = plan.fuse(robot, stack, t) if self.fuse else False
         if isinstance(fused, FusedPlan):
             if fused.current(robot):
                 res = self._fused_solve(robot, stack, plan, fused, t, dt)
@@ -1094,6 +1105,21 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
             diagnostics,
         )
 
+    @staticmethod
+    def _write_external_rows(plan: _Plan, fused: FusedPlan, external: list[TaskTerm | None]) -> None:
+        """The rows of the members written from Python into the cascade's least-squares buffers, at the rows
+        ``dest`` gives them (their J, v and weight), as the compiled call writes the others."""
+        dest, A, b, w = plan.dest, plan.A, plan.b, plan.w
+        k = 0
+        for (role, _, _), term in zip(fused.external, external, strict=True):
+            if role == ROW and term is not None:
+                start = fused.external_starts[k]
+                k += 1
+                rows = dest[start : start + term.J.shape[0]]
+                A[rows] = term.J
+                b[rows] = term.v
+                w[rows] = term.weight
+
     def _fused_solve(
         self, robot: RobotModel, stack: TaskStack, plan: _Plan, fused: FusedPlan, t: float, dt: float
     ) -> StepResult | None:
@@ -1121,12 +1147,17 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
         if fused.lie_joints:
             fused.write_joint_errors(robot, ev[0])
         external: list[TaskTerm | None] | tuple[()] = ()
-        if fused.external:  # null-space terms without a compiled form: written into z before the compiled call
-            evaluated = fused.evaluate_external(robot, t)
+        if fused.external:  # members without a compiled form: their rows and z terms from Python, then the call
+            evaluated = fused.pending_external
+            fused.pending_external = None
             if evaluated is None:
-                return None
+                evaluated = fused.evaluate_external(robot, t)
+                if evaluated is None or fused.repacked:  # a row count moved: this membership steps per task
+                    plan.fused = False  # (its buffers were laid out for the first counts)
+                    return None
             external = evaluated
-            fused.write_external(robot, external, Jf, 0, ev, None, z)
+            fused.write_external(robot, external, None, 0, ev, None, z)
+            self._write_external_rows(plan, fused, external)
         out = np.empty((7, 1, n))
         stats = np.empty((plan.meta.shape[1] - 1, 4))
         q = robot.q
