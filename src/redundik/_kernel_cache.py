@@ -32,6 +32,7 @@ KERNEL_SOURCES: tuple[str, ...] = (
     "tasks/target_kernels.py",
     "collision/kernels.py",
     "ik/kernels.py",
+    "resolvers/jerk_kernels.py",
 )
 
 _memo: dict[tuple[object, ...], bytes] = {}
