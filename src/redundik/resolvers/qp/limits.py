@@ -557,7 +557,10 @@ def jerk_limited_box(
     jerk = np.isfinite(limits._jmax)
     ok = jerk & (status == 0)
     empty = jerk & (status != 0)
-    lb[ok], ub[ok], pl[ok], pu[ok] = out[0, ok], out[1, ok], out[2, ok], out[3, ok]
+    lb[ok], ub[ok] = out[0, ok], out[1, ok]
+    # the braking bound is the position's where it cuts the window (else the window's end is the jerk's or the rate's)
+    pl[ok] = np.where(out[2] > out[4], out[2], -np.inf)[ok]
+    pu[ok] = np.where(out[3] < out[5], out[3], np.inf)[ok]
     d1 = v1 - v2
     beta = limits._jmax * dt * dt
     jlo, jhi = v1 + d1 - beta, v1 + d1 + beta
