@@ -40,8 +40,9 @@ def run_table(plan: TaskPlan, result: RunResult) -> tuple[list[str], np.ndarray]
     Columns: ``t`` [s]; ``q.<joint>`` [rad or length]; ``dq.<joint>`` (q̇ applied after the sample); ``e.<task>``
     (task error norm); ``p.<potential>`` (every potential of the file, controlled or watched); ``m.<monitor>``;
     ``limit_violation``; per-step diagnostics (``step_time_us``, ``damped``, the smoothness columns
-    ``max_abs_ddq``, ``max_abs_jerk``, ``ddq_sign_changes`` of :mod:`redundik.reporting.smoothness`, ``sigma_min``,
-    ... — empty on the last sample, which has no step); ``x.<frame>``, ``y.<frame>``, ``z.<frame>`` of the logged frame origins.
+    ``max_abs_ddq``, ``max_abs_jerk``, ``ddq_sign_changes`` of :mod:`redundik.reporting.smoothness`,
+    ``sigma_min``, ... — empty on the last sample, which has no step); ``x.<frame>``, ``y.<frame>``, ``z.<frame>``
+    of the logged frame origins.
     """
     robot = plan.robot.model
     log = result.log

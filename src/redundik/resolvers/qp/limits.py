@@ -45,6 +45,7 @@ position and velocity limits are never relaxed (from outside, the way back of th
 
 from __future__ import annotations
 
+import math
 import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -175,9 +176,10 @@ def _per_joint_limit(key: str, value: object, unit: str) -> float | dict[str, fl
             if not _is_number(val) or not val > 0:
                 raise ResolverError(f"limits: {key}['{jn}'] must be a number > 0 [{unit}], got {short_repr(val)}")
         return {str(jn): float(val) for jn, val in value.items()}
-    if not _is_number(value) or not value > 0:
+    number = float(value) if _is_number(value) else math.nan  # type: ignore[arg-type]
+    if not number > 0:
         raise ResolverError(f"limits: {key} must be a number > 0 [{unit}] or None, got {short_repr(value)}")
-    return float(value)  # type: ignore[arg-type]
+    return number
 
 
 class JointLimits:
