@@ -35,10 +35,11 @@ def run(limits: rk.JointLimits) -> dict[str, object]:
     robot.update(q)
     stack.reset(robot)
     start = robot.frame_position(HAND).copy()
-    dqs, relaxed, errors = [], 0, []
+    dqs, relaxed, errors, target = [], 0, [], start
     for k in range(TICKS):
         if k % 200 == 0:
             if k:
+                robot.update(q)
                 errors.append(float(np.linalg.norm(robot.frame_position(HAND) - target)))
             target = start + JUMPS[: k // 200 + 1].sum(axis=0)
             hand.set_target(target)
