@@ -217,3 +217,25 @@ def test_random_target_jumps_keep_every_limit(robot: str, steps: int, resolver: 
     assert c.steps == steps
     assert (c.jerk, c.acc, c.pos, c.vel, c.relaxed, c.fallback) == (0, 0, 0, 0, 0, 0), c.line(robot)
     assert c.worst["jerk"] > 0.999  # the jerk limit is reached
+
+
+@pytest.mark.parametrize("resolver", ["wqp", "hqp"])
+def test_the_second_step_after_a_reset_knows_the_first_came_from_rest(resolver: str) -> None:
+    """The TALOS stress found it: after ``reset`` the second step took the first step's acceleration as zero (as
+    for an unknown history) instead of q̇₀/dt from rest, so a command reversing at once got a jerk of 2·j_max."""
+    robot = case2_robot(lower=-3.0, upper=3.0, velocity=2.0)
+    res = rk.make_resolver(resolver, limits={"acceleration": 10.0, "jerk": 100.0})
+    posture = rk.PostureTask(np.zeros(3), gain=1.0)
+    stack = rk.TaskStack([posture])
+    q = np.zeros(3)
+    prepared(res, robot, stack, q)
+    for _ in range(2):  # the second time after a reset
+        res.reset()
+        posture.target = np.full(3, 1.0)  # far ahead: the first step goes as fast as the jerk allows
+        dq0 = np.asarray(res.step(robot, stack, q, 0.0, 0.01).dq).copy()
+        posture.target = np.full(3, -1.0)  # reversed: the second step brakes as hard as the jerk allows
+        dq1 = np.asarray(res.step(robot, stack, q, 0.01, 0.01).dq).copy()
+        jerk = (dq1 - 2 * dq0) / 1e-4  # the robot at rest before dq0
+        assert dq0[0] == pytest.approx(100.0 * 1e-4)  # j_max·dt² from rest
+        assert dq1[0] == pytest.approx(dq0[0])  # the hardest braking the jerk allows: q̈ back to 0 (it was 0 before)
+        assert np.max(np.abs(jerk)) <= 100.0 * (1 + 1e-9)

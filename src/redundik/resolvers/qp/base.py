@@ -285,7 +285,8 @@ class QPResolverBase(Resolver):
                 fallback = note if fallback is None else f"{fallback}; {note}"
                 dq = box.clip(dq)
                 dq_kept = dq.copy()
-        self._dq_hist = (dq_kept, self._dq_prev)
+        before = self._dq_prev
+        self._dq_hist = (dq_kept, np.zeros_like(dq_kept) if before is None else before)  # None: at rest before
         self._dq_prev = dq_kept
         t2 = time.perf_counter()
 
