@@ -34,6 +34,7 @@ KERNEL_SOURCES: tuple[str, ...] = (
     "tasks/potential_kernels.py",
     "collision/kernels.py",
     "ik/kernels.py",
+    "resolvers/jerk_kernels.py",
 )
 
 _memo: dict[tuple[object, ...], bytes] = {}

@@ -22,6 +22,8 @@ from redundik.errors import ConfigError, short_repr
 
 #: ``limits:`` keys whose value maps joint names to numbers.
 _PER_JOINT = ("lower", "upper", "velocity_limits")
+#: ``limits:`` keys that take one number for every joint or a mapping of joint names to numbers (> 0).
+_RATE_LIMITS = ("acceleration", "jerk")
 
 
 def _kinds(factory: Callable[..., Any] | None) -> dict[str, str]:
@@ -72,7 +74,7 @@ def _check_limits(limits: Any, path: str) -> None:
     for key, value in limits.items():
         where = join_path(path, str(key))
         _kind(value, kinds.get(str(key)), where)
-        if key in _PER_JOINT or (key == "acceleration" and isinstance(value, dict)):
+        if key in _PER_JOINT or (key in _RATE_LIMITS and isinstance(value, dict)):
             if value is None:
                 continue
             if not isinstance(value, dict):
@@ -80,6 +82,14 @@ def _check_limits(limits: Any, path: str) -> None:
             for joint, number in value.items():
                 if isinstance(number, bool) or not isinstance(number, (int, float)):
                     raise ConfigError(f"expected a number, got {short_repr(number)}", join_path(where, str(joint)))
+                if key in _RATE_LIMITS and not number > 0:
+                    raise ConfigError(f"expected a number > 0, got {number}", join_path(where, str(joint)))
+        elif key in _RATE_LIMITS and value is not None:
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0:
+                raise ConfigError(
+                    f"expected a number > 0 (every joint) or a mapping of joint name → number, got {short_repr(value)}",
+                    where,
+                )
 
 
 def check_resolver_options(resolver: str, options: dict[str, Any], path: str) -> None:

@@ -11,6 +11,7 @@ import numpy as np
 from redundik.config.loader import RunPlan, TaskPlan
 from redundik.config.world_types import world_clock, world_summary
 from redundik.errors import ConfigError, SimulationError
+from redundik.reporting import smoothness
 from redundik.simulation import SimulationLog, simulate
 from redundik.simulation.plant import Plant
 from redundik.tasks.subtasks import TargetSubtask
@@ -190,6 +191,7 @@ def summarise(plan: TaskPlan, result: RunResult) -> dict[str, Any]:
         "damped_steps": int(np.count_nonzero(log.damped)),
         "fallbacks": len(log.fallbacks),
         "relaxed_steps": len(log.relaxed),
+        "smoothness": smoothness.summary(log.dq[:-1], plan.dt, plan.robot.model.joint_names),
     }
     for s in run.stack.subtasks:  # a waypoint round trip that stalled short of a waypoint says so
         pot = getattr(s, "potential", None)

@@ -17,6 +17,7 @@ import numpy as np
 from redundik.config.loader import TaskPlan
 from redundik.config.runner import RunResult, task_summary
 from redundik.kinematics import RobotModel
+from redundik.reporting import smoothness
 from redundik.reporting.paths import safe_path
 
 __all__ = ["q_labels", "run_table", "safe_path", "write_csv", "write_outputs"]
@@ -39,8 +40,9 @@ def run_table(plan: TaskPlan, result: RunResult) -> tuple[list[str], np.ndarray]
     Columns: ``t`` [s]; ``q.<joint>`` [rad or length]; ``dq.<joint>`` (q̇ applied after the sample); ``e.<task>``
     (task error norm); ``p.<potential>`` (every potential of the file, controlled or watched); ``m.<monitor>``;
     ``limit_violation``; per-step diagnostics (``step_time_us``, ``damped``, ``fallback`` (1 when the step fell
-    back), ``relaxed`` (the number of members it relaxed as documented), ``sigma_min``, ... — empty on the
-    last sample, which has no step); ``x.<frame>``, ``y.<frame>``, ``z.<frame>`` of the logged frame origins.
+    back), ``relaxed`` (the number of members it relaxed as documented), the smoothness columns ``max_abs_ddq``,
+    ``max_abs_jerk``, ``ddq_sign_changes`` of :mod:`redundik.reporting.smoothness`, ``sigma_min``, ... — empty on
+    the last sample, which has no step); ``x.<frame>``, ``y.<frame>``, ``z.<frame>`` of the logged frame origins.
     """
     robot = plan.robot.model
     log = result.log
@@ -68,6 +70,7 @@ def run_table(plan: TaskPlan, result: RunResult) -> tuple[list[str], np.ndarray]
     for k, names in log.relaxed:
         flags[1, k] = len(names)
     cols += [("fallback", per_step(flags[0])), ("relaxed", per_step(flags[1]))]
+    cols += smoothness.columns(log.dq[:-1], plan.dt, n)
     cols += [(k, per_step(v)) for k, v in log.extras.items()]
     for f, xyz in log.frame_positions.items():
         cols += [(f"{a}.{f}", xyz[:, i]) for i, a in enumerate("xyz")]

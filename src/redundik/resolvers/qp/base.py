@@ -48,7 +48,7 @@ def make_limits(limits: LimitsOption) -> JointLimits:
     if limits is False:
         return JointLimits(position=False, velocity=False)
     if isinstance(limits, Mapping):
-        valid = ["position", "velocity", "lower", "upper", "velocity_limits", "acceleration", "position_gain"]
+        valid = ["position", "velocity", "lower", "upper", "velocity_limits", "acceleration", "position_gain", "jerk"]
         bad = [k for k in limits if k not in valid]
         if bad:
             raise ResolverError(f"limits: unknown option(s) {bad}; valid: {valid}")
@@ -213,6 +213,8 @@ class QPResolverBase(Resolver):
         self.limits = make_limits(limits)
         self.levels = make_levels(levels)
         self._dq_prev: np.ndarray | None = None
+        #: (q̇ kept by the last template step, the q̇ kept before it): the jerk limit's second q̇ (see ``_box``).
+        self._dq_hist: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
         self._layout: tuple[tuple[int, ...], StackLayout] | None = None
 
     def check(self, robot: RobotModel, stack: TaskStack) -> None:
@@ -223,6 +225,7 @@ class QPResolverBase(Resolver):
     def reset(self) -> None:
         super().reset()
         self._dq_prev = None
+        self._dq_hist = (None, None)
         self._layout = None
         self.backend.reset()
 
@@ -261,6 +264,8 @@ class QPResolverBase(Resolver):
         template's second half; ``t0``/``t1`` [s]: when the step started and its build ended)."""
         dq, diagnostics, fallback, relaxed, info, t2 = self._settle(robot, stack, lambda: terms, built)
         res = LazyStepResult.make(dq, terms, fallback, info, t1 - t0, t2 - t1, self.layout(stack).main, diagnostics)
+        if built.box.relaxed:  # the limits' documented relaxations (jerk, then acceleration)
+            relaxed = (*relaxed, *built.box.relaxed)
         return with_relaxed(res, relaxed)
 
     def _settle(
@@ -309,6 +314,8 @@ class QPResolverBase(Resolver):
                 fallback = note if fallback is None else f"{fallback}; {note}"
                 dq = box.clip(dq)
                 dq_kept = dq.copy()
+        before = self._dq_prev
+        self._dq_hist = (dq_kept, np.zeros_like(dq_kept) if before is None else before)  # None: at rest before
         self._dq_prev = dq_kept
         t2 = time.perf_counter()
 
@@ -367,7 +374,12 @@ class QPResolverBase(Resolver):
         return sol
 
     def _box(self, robot: RobotModel, dt: float) -> LimitBox:
-        return self.limits.box(robot, robot.q, dt, self._dq_prev)
+        """The step's box; with a jerk limit also the q̇ before the last one (``None`` when the last q̇ came from a
+        path that keeps no history: ``JointLimits.box`` then takes the last acceleration as zero)."""
+        if not self.limits.has_jerk:
+            return self.limits.box(robot, robot.q, dt, self._dq_prev)
+        last, before = self._dq_hist
+        return self.limits.box(robot, robot.q, dt, self._dq_prev, before if last is self._dq_prev else None)
 
     def _closed_form(self, robot: RobotModel, stack: TaskStack, terms: list[TaskTerm]) -> np.ndarray:
         """The damped closed form J⁺V + (I − J⁺J)z on the main tasks and the null-space objective (the fallback)."""

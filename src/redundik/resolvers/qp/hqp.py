@@ -1038,7 +1038,7 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
         layout = self.layout(stack)
         n = robot.nv
         plan = self._plan_for(layout, n)
-        if plan.critical:
+        if plan.critical or self.limits.has_jerk:  # (a jerk limit: the box needs the last two q̇)
             return super().solve(robot, stack, t, dt)
         fused = plan.fused
         if fused is None or fused == FusedPlan.NOT_YET:

@@ -18,10 +18,34 @@ from any finite start, with or without rate limits) and the QP over it is always
 (``JointInfo.idx_q ≥ 0``) carry position limits; free-flyer and unbounded (cos, sin) joints have none.
 Defaults come from the model (D-H rows' ``lower``/``upper``/``velocity``, URDF ``<limit>``);
 a limit with magnitude ≥ 1e10 or infinite means "no limit"; a URDF velocity of 0 (missing) means none too.
+
+Jerk limits (``jerk`` j_max [rad/s³], one number or by joint name) bound the change of the step's acceleration:
+with the last two q̇ (q̇₁ the previous, q̇₂ the one before; d₁ = q̇₁ − q̇₂, α = a_max·dt, β = j_max·dt²)
+
+    jerk:      q̇₁ + max(d₁ − β, −α) ≤ q̇_i ≤ q̇₁ + min(d₁ + β, α)       (|q̈| ≤ a_max and |Δq̈| ≤ j_max·dt)
+    viability: the hardest braking d ← max(d − β, −α) from the state q̇_i leads to keeps q̇·dt ≤ g·(q_hi − q) and
+               q̇ ≤ v_max at every later step (and the mirror image for the lower limits)
+
+The viability bound replaces the acceleration-only braking bound B above: a joint near a limit moves only as fast
+as it can still stop in time with bounded acceleration *and* jerk; the braking roll-out is exact in discrete time,
+monotone in q̇_i, and its first step from a viable state is again in the box, so the box stays non-empty
+(recursive feasibility; :mod:`redundik.resolvers.jerk_kernels` gives the argument and its references — Del Prete
+2018 for the discrete-time viability of position/velocity bounds, Berscheid & Kröger 2021, Ruckig, for
+jerk-limited stops). A jerk limit assumes the robot at rest before the resolver's first step and after
+:meth:`~redundik.resolvers.base.Resolver.reset` (q̇₁ = q̇₂ = 0: the acceleration window then applies from the first
+step on), and an unknown q̇₂ (the resolver stepped without the jerk limit) as q̇₂ = q̇₁ (zero acceleration).
+
+When no candidate meets jerk, acceleration and viability together (a start outside a limit, a measured q that is
+not where the last q̇ led, limits tightened mid-run, the state left by a step without the jerk limit) the limits
+are relaxed in a fixed order and the step says so in ``result.relaxed``: first the jerk limit (``"jerk_limit"``:
+the box is the acceleration-limited box above, and within it the q̇ closest to the jerk window), then the
+acceleration limit (``"acceleration_limit"``: the rate window moved onto the position/velocity box, as above);
+position and velocity limits are never relaxed (from outside, the way back of the rule above).
 """
 
 from __future__ import annotations
 
+import math
 import weakref
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -32,11 +56,16 @@ import numpy as np
 
 from redundik.errors import ResolverError, short_repr
 from redundik.kinematics.model import RobotModel
-from redundik.resolvers.linalg import K
+from redundik.resolvers.linalg import K, _Kernels
+
+#: The jerk kernels (:mod:`redundik.resolvers.jerk_kernels`), loaded on first use.
+JK = _Kernels("jerk_kernels")
 
 #: Codes of what sets a bound, in :attr:`LimitBox.lower_src` / :attr:`LimitBox.upper_src`.
-NONE, POSITION, VELOCITY, RATE = 0, 1, 2, 3
-SOURCE_NAMES = {POSITION: "position", VELOCITY: "velocity", RATE: "rate"}
+NONE, POSITION, VELOCITY, RATE, JERK = 0, 1, 2, 3, 4
+SOURCE_NAMES = {POSITION: "position", VELOCITY: "velocity", RATE: "rate", JERK: "jerk"}
+#: Names of the relaxations a box may report (``LimitBox.relaxed``, then ``StepResult.relaxed``).
+JERK_RELAXED, ACCELERATION_RELAXED = "jerk_limit", "acceleration_limit"
 
 _BIG = 1e10
 
@@ -53,6 +82,9 @@ class LimitBox:
         vmax: Velocity limits (inf where none).
         rate_lo: Lower end of the rate window, or ``None`` without a rate limit.
         rate_hi: Upper end of the rate window, or ``None``.
+        jerk_lo: With jerk limits: the lower end of the jerk window q̇₁ + d₁ − β (``None`` without).
+        jerk_hi: Its upper end.
+        relaxed: The limits this box had to relax (:data:`JERK_RELAXED`, :data:`ACCELERATION_RELAXED`), in order.
     """
 
     lb: np.ndarray
@@ -62,6 +94,9 @@ class LimitBox:
     vmax: np.ndarray
     rate_lo: np.ndarray | None = None
     rate_hi: np.ndarray | None = None
+    jerk_lo: np.ndarray | None = None
+    jerk_hi: np.ndarray | None = None
+    relaxed: tuple[str, ...] = ()
 
     def pinned(self) -> np.ndarray:
         """Mask of the joints whose box is a single value, ub − lb ≤ 1e-12·max(1, |ub|) (q̇_j is fixed)."""
@@ -74,23 +109,27 @@ class LimitBox:
         """True when at least one bound is finite."""
         return bool(np.isfinite(self.lb).any() or np.isfinite(self.ub).any())
 
-    def _source(self, bound: np.ndarray, pos: np.ndarray, vel: np.ndarray, rate: np.ndarray | None) -> np.ndarray:
+    def _source(
+        self, bound: np.ndarray, pos: np.ndarray, vel: np.ndarray, rate: np.ndarray | None, jerk: np.ndarray | None
+    ) -> np.ndarray:
         src = np.full(bound.shape[0], NONE, dtype=np.int8)
         src[np.isfinite(bound) & (bound == vel)] = VELOCITY
         src[np.isfinite(bound) & (bound == pos)] = POSITION
         if rate is not None:
             src[(bound == rate) & (bound != pos) & (bound != vel)] = RATE
+        if jerk is not None:
+            src[(bound == jerk) & (bound != pos) & (bound != vel)] = JERK
         return src
 
     @property
     def lower_src(self) -> np.ndarray:
-        """Code of the limit setting each lower bound (``POSITION``, ``VELOCITY``, ``RATE`` or ``NONE``)."""
-        return self._source(self.lb, self.pos_lo, -self.vmax, self.rate_lo)
+        """Code of the limit setting each lower bound (``POSITION``, ``VELOCITY``, ``RATE``, ``JERK`` or ``NONE``)."""
+        return self._source(self.lb, self.pos_lo, -self.vmax, self.rate_lo, self.jerk_lo)
 
     @property
     def upper_src(self) -> np.ndarray:
         """Same for the upper bounds."""
-        return self._source(self.ub, self.pos_hi, self.vmax, self.rate_hi)
+        return self._source(self.ub, self.pos_hi, self.vmax, self.rate_hi, self.jerk_hi)
 
     def clip(self, dq: np.ndarray) -> np.ndarray:
         """q̇ projected onto the box."""
@@ -123,6 +162,26 @@ def _is_number(val: object) -> bool:
     return isinstance(val, (int, float, np.integer, np.floating)) and not isinstance(val, (bool, np.bool_))
 
 
+def _per_joint_limit(key: str, value: object, unit: str) -> float | dict[str, float] | None:
+    """A validated rate-type limit (``acceleration``, ``jerk``): a number > 0, a mapping joint name → number > 0
+    (``inf``: none for that joint), or ``None``.
+
+    Raises:
+        ResolverError: names the key, the joint and what was expected.
+    """
+    if value is None:
+        return None
+    if isinstance(value, Mapping):
+        for jn, val in value.items():
+            if not _is_number(val) or not val > 0:
+                raise ResolverError(f"limits: {key}['{jn}'] must be a number > 0 [{unit}], got {short_repr(val)}")
+        return {str(jn): float(val) for jn, val in value.items()}
+    number = float(value) if _is_number(value) else math.nan  # type: ignore[arg-type]
+    if not number > 0:
+        raise ResolverError(f"limits: {key} must be a number > 0 [{unit}] or None, got {short_repr(value)}")
+    return number
+
+
 class JointLimits:
     """Per-joint limit settings; :meth:`box` turns them into bounds on q̇ for one step.
 
@@ -133,6 +192,8 @@ class JointLimits:
         upper: Overrides of upper position limits by joint name.
         velocity_limits: Overrides of velocity limits by joint name [rad/s or m/s]; ``inf`` removes one.
         acceleration: Rate limit a_max [rad/s²]: one number for every joint, or by joint name; ``None`` = off.
+        jerk: Jerk limit j_max [rad/s³]: one number for every joint, or by joint name; ``None`` = off (module
+            docstring: the window, the braking bound, the relaxation order).
         position_gain: g ∈ (0, 1]: fraction of the remaining range a single step may use (1 = may reach the limit).
 
     Raises:
@@ -149,6 +210,7 @@ class JointLimits:
         velocity_limits: Mapping[str, float] | None = None,
         acceleration: float | Mapping[str, float] | None = None,
         position_gain: float = 1.0,
+        jerk: float | Mapping[str, float] | None = None,
     ) -> None:
         #: The robot bound (weakly: a robot freed and another made at its address is not taken for it).
         self._robot: weakref.ref[RobotModel] | None = None
@@ -160,6 +222,7 @@ class JointLimits:
         self.upper = upper or {}
         self.velocity_limits = velocity_limits or {}
         self.acceleration = acceleration
+        self.jerk = jerk
 
     # Every option is a validated property. Those that ``bind`` turns into arrays (velocity, the overrides, the
     # acceleration) bind the robot again at once when one is bound: set between steps, they used to be ignored
@@ -267,15 +330,24 @@ class JointLimits:
 
     @acceleration.setter
     def acceleration(self, acceleration: float | Mapping[str, float] | None) -> None:
-        if isinstance(acceleration, Mapping):
-            for jn, val in acceleration.items():
-                if not _is_number(val) or not val > 0:
-                    raise ResolverError(f"limits: acceleration['{jn}'] must be > 0, got {short_repr(val)}")
-            acceleration = dict(acceleration)
-        elif acceleration is not None and (not _is_number(acceleration) or not acceleration > 0):
-            raise ResolverError(f"limits: acceleration must be > 0 or None, got {short_repr(acceleration)}")
-        self._acceleration = acceleration
+        self._acceleration = _per_joint_limit("acceleration", acceleration, "rad/s²")
         self._rebind()
+
+    @property
+    def jerk(self) -> float | Mapping[str, float] | None:
+        """The jerk limit j_max [rad/s³]: one number, a read-only mapping by joint name, or ``None`` (off)."""
+        jerk = self.__dict__.get("_jerk")
+        return MappingProxyType(jerk) if isinstance(jerk, dict) else jerk
+
+    @jerk.setter
+    def jerk(self, jerk: float | Mapping[str, float] | None) -> None:
+        self._jerk = _per_joint_limit("jerk", jerk, "rad/s³")
+        self._rebind()
+
+    @property
+    def has_jerk(self) -> bool:
+        """True when a jerk limit is set (the QP resolvers then compute every step's box with :meth:`box`)."""
+        return self.__dict__.get("_jerk") is not None
 
     def __getstate__(self) -> dict[str, Any]:
         """The options, without the binding (a weak reference, and the robot's arrays): a copy or a pickle binds
@@ -295,11 +367,13 @@ class JointLimits:
         names = robot.joint_names
         index = {n: k for k, n in enumerate(names)}
         acc = self.acceleration if isinstance(self.acceleration, Mapping) else {}
+        jerk = self.jerk if isinstance(self.jerk, Mapping) else {}
         for key, table in (
             ("lower", self.lower),
             ("upper", self.upper),
             ("velocity_limits", self.velocity_limits),
             ("acceleration", acc),
+            ("jerk", jerk),
         ):
             bad = [jn for jn in table if jn not in index]
             if bad:
@@ -341,6 +415,13 @@ class JointLimits:
         self._lo, self._hi = lo, hi
         self._vmax = vmax if self.velocity else np.full(nv, np.inf)
         self._amax = amax
+        jmax = np.full(nv, np.inf)
+        if isinstance(self.jerk, Mapping):
+            for jn, val in self.jerk.items():
+                jmax[index[jn]] = val
+        elif self.jerk is not None:
+            jmax[:] = float(self.jerk)
+        self._jmax = jmax
         self._has_rate = bool(np.isfinite(amax).any())
         self._no_prev = np.zeros((0, nv))
         self._names = names
@@ -401,14 +482,28 @@ class JointLimits:
             return LimitBox(rows[0], rows[1], rows[2], rows[3], self._vmax, rows[0], rows[1])
         return LimitBox(rows[0], rows[1], rows[2], rows[3], self._vmax)
 
-    def box(self, robot: RobotModel, q: np.ndarray, dt: float, dq_prev: np.ndarray | None = None) -> LimitBox:
-        """Bounds on q̇ for a step dt [s] from q (see the module docstring).
+    def box(
+        self,
+        robot: RobotModel,
+        q: np.ndarray,
+        dt: float,
+        dq_prev: np.ndarray | None = None,
+        dq_prev2: np.ndarray | None = None,
+    ) -> LimitBox:
+        """Bounds on q̇ for a step dt [s] from q (see the module docstring); ``dq_prev``/``dq_prev2``: the last two
+        q̇ [rad/s] (the second is read with a jerk limit only).
 
-        ``q`` may also be a stack of N configurations (N, nq): the bounds are then (N, nv) (batches).
+        ``q`` may also be a stack of N configurations (N, nq): the bounds are then (N, nv) (batches; not with a
+        jerk limit).
+
+        Raises:
+            ResolverError: a stack of configurations with a jerk limit.
         """
         bound = self._robot
         if bound is None or bound() is not robot:
             self.bind(robot)
+        if self.has_jerk:
+            return jerk_limited_box(self, q, float(dt), dq_prev, dq_prev2)
         if type(q) is np.ndarray and q.dtype == np.float64 and q.ndim == 1 and (dq_prev is None or not self._has_rate):
             # the control loop's case, in a few operations: one configuration, no rate window
             out1 = np.empty((4, 1, self._lo.shape[0]))
@@ -430,5 +525,58 @@ class JointLimits:
     def __repr__(self) -> str:
         return (
             f"JointLimits(position={self.position}, velocity={self.velocity}, acceleration={self.acceleration}, "
-            f"position_gain={self.position_gain})"
+            f"jerk={self.jerk}, position_gain={self.position_gain})"
         )
+
+
+def jerk_limited_box(
+    limits: JointLimits, q: np.ndarray, dt: float, dq_prev: np.ndarray | None, dq_prev2: np.ndarray | None
+) -> LimitBox:
+    """The box of a bound ``limits`` with a jerk limit (module docstring): the acceleration-limited box of every
+    joint, then the jerk window and the viability bound where a jerk limit is set, relaxed in the documented order
+    where they leave nothing.
+
+    Raises:
+        ResolverError: ``q`` is a stack of configurations.
+    """
+    q = np.asarray(q, dtype=float)
+    if q.ndim != 1:
+        raise ResolverError("limits: a jerk limit needs one configuration per box (no batches of configurations)")
+    nv = limits._lo.shape[0]
+    v1 = np.zeros(nv) if dq_prev is None else np.asarray(dq_prev, dtype=float).reshape(nv)
+    v2 = (np.zeros(nv) if dq_prev is None else v1) if dq_prev2 is None else np.asarray(dq_prev2, dtype=float)
+    args = limits._limit_args()
+    base = np.empty((4, 1, nv))
+    K.limit_box(q.reshape(1, -1), *args, dt, v1.reshape(1, -1) if limits._has_rate else limits._no_prev, base)
+    lb, ub, pl, pu = (row.copy() for row in base[:, 0])
+    rate_lo, rate_hi = lb.copy(), ub.copy()
+    qv = q[limits._iq] if limits.position else np.zeros(nv)
+    lo = limits._lo if limits.position else np.full(nv, -np.inf)
+    hi = limits._hi if limits.position else np.full(nv, np.inf)
+    out = np.empty((6, nv))
+    status = np.zeros(nv, dtype=np.int64)
+    JK.jerk_box(qv, lo, hi, limits._vmax, limits._amax, limits._jmax, limits.position_gain, dt, v1, v2, out, status)
+    jerk = np.isfinite(limits._jmax)
+    ok = jerk & (status == 0)
+    empty = jerk & (status != 0)
+    lb[ok], ub[ok] = out[0, ok], out[1, ok]
+    # the braking bound is the position's where it cuts the window (else the window's end is the jerk's or the rate's)
+    pl[ok] = np.where(out[2] > out[4], out[2], -np.inf)[ok]
+    pu[ok] = np.where(out[3] < out[5], out[3], np.inf)[ok]
+    d1 = v1 - v2
+    beta = limits._jmax * dt * dt
+    jlo, jhi = v1 + d1 - beta, v1 + d1 + beta
+    rate_lo[ok], rate_hi[ok] = out[4, ok], out[5, ok]
+    relaxed: tuple[str, ...] = ()
+    if empty.any():  # jerk first: the acceleration-limited box, and in it the q̇ closest to the jerk window
+        relaxed = (JERK_RELAXED,)
+        lb[empty] = np.clip(jlo[empty], rate_lo[empty], rate_hi[empty])
+        ub[empty] = np.clip(jhi[empty], rate_lo[empty], rate_hi[empty])
+        if limits._has_rate:  # then the acceleration: its window did not meet the position/velocity box
+            free = np.empty((4, 1, nv))
+            K.limit_box(q.reshape(1, -1), *args, dt, limits._no_prev, free)
+            step = limits._amax * dt
+            moved = empty & ((v1 - step > free[1, 0]) | (v1 + step < free[0, 0]))
+            if moved.any():
+                relaxed += (ACCELERATION_RELAXED,)
+    return LimitBox(lb, ub, pl, pu, limits._vmax, rate_lo, rate_hi, jlo, jhi, relaxed)

@@ -292,7 +292,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         if plan is None or stack is not self._stepping or plan.key is not self._checked:  # else: the step's plan
             plan = self._plan_for(stack, self.layout(stack))
             plan.key = self._checked if stack is self._stepping else None
-        if plan.targets:
+        if plan.targets or self.limits.has_jerk:  # (a jerk limit: the box needs the last two q̇)
             return super().solve(robot, stack, t, dt)
         fused = plan.fused
         if fused is None or fused == FusedPlan.NOT_YET:
