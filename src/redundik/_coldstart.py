@@ -122,7 +122,7 @@ def _run() -> None:
         try:
             seconds = warm_up([name])[name]
             _LOG.info("redundik: the kernels of %s are ready (%.1f s in the background)", name, seconds)
-        except Exception as exc:  # noqa: BLE001 - the caller's thread compiles what is missing, as without this
+        except Exception as exc:
             _LOG.warning("redundik: compiling the kernels of %s in the background failed: %s", name, exc)
         with _lock:
             _pending.remove(name)

@@ -104,11 +104,12 @@ def jit(fn: Callable[..., Any]) -> Any:
 
     folder = cache_dir()
     cached = _writable(folder)
-    saved = numba.config.CACHE_DIR
-    numba.config.CACHE_DIR = str(folder) if cached else saved
+    config: Any = numba.config  # (its settings are set from the environment at import: untyped)
+    saved = config.CACHE_DIR
+    config.CACHE_DIR = str(folder) if cached else saved
     try:
         dispatcher = numba.njit(cache=cached, nogil=True)(fn)
     finally:
-        numba.config.CACHE_DIR = saved
+        config.CACHE_DIR = saved
     KERNELS.setdefault(fn.__module__, {})[fn.__name__] = dispatcher
     return dispatcher
