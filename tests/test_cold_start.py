@@ -38,7 +38,8 @@ def stack():
 
 
 def _run(code: str, env: dict[str, str], timeout: float = 900) -> dict[str, object]:
-    """Run ``code`` (after the test problem's definitions) in a fresh interpreter; its last stdout line as JSON."""
+    """Run ``code`` (after the test problem's definitions) in a fresh interpreter; its last stdout line as JSON
+    (with its stderr under ``"stderr"``)."""
     full = {**os.environ, "PYTHONPATH": str(SRC), **env}
     if "REDUNDIK_COLD_START" not in env:
         full.pop("REDUNDIK_COLD_START", None)  # (the suite's conftest waits; the default compiles in the background)
@@ -51,7 +52,7 @@ def _run(code: str, env: dict[str, str], timeout: float = 900) -> dict[str, obje
         check=False,
     )
     assert out.returncode == 0, out.stderr[-3000:]
-    return json.loads(out.stdout.strip().splitlines()[-1])
+    return {**json.loads(out.stdout.strip().splitlines()[-1]), "stderr": out.stderr}
 
 
 def test_first_step_interpreted_while_compiling_then_compiled_same_answer(tmp_path: Path) -> None:
@@ -77,6 +78,7 @@ def test_first_step_interpreted_while_compiling_then_compiled_same_answer(tmp_pa
     assert np.isfinite(dq1).all() and np.abs(dq1).max() > 0
     np.testing.assert_allclose(dq1, dq2, rtol=0, atol=1e-12)
     assert Path(str(got["cache"])).parent == tmp_path and any(Path(str(got["cache"])).rglob("*.nbi"))
+    assert f"compiling the kernels of pinv in the background (cache: {got['cache']})" in str(got["stderr"])
 
 
 def test_read_only_package_folder_caches_to_the_user_folder(tmp_path: Path) -> None:

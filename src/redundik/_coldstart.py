@@ -70,6 +70,12 @@ def ready(resolver: str) -> bool:
     return False
 
 
+def cold() -> bool:
+    """True while no resolver's kernels are loaded in a background-compiling process (outside a compiling thread):
+    a kernel called now would compile in the caller's thread, its twin (:func:`twin`) does not."""
+    return not HOT and background() and threading.get_ident() not in _compilers
+
+
 def wait(timeout: float | None = None) -> bool:
     """Block until the background thread is done (at most ``timeout`` seconds); True when it is."""
     worker = _worker

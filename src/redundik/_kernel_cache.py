@@ -89,7 +89,17 @@ def cache_dir() -> Path:
     return cache_root() / f"kernels-{sources_stamp()}"
 
 
+_writable_memo: dict[Path, bool] = {}
+
+
 def _writable(folder: Path) -> bool:
+    known = _writable_memo.get(folder)
+    if known is None:
+        known = _writable_memo[folder] = _make_writable(folder)
+    return known
+
+
+def _make_writable(folder: Path) -> bool:
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError:

@@ -82,10 +82,10 @@ _FK: Any = None  # the fused step's compiled kernels (redundik.resolvers.fused_k
 def _fused_kernels() -> Any:
     """The compiled trajectory references, imported on first use (the resolvers package imports this module)."""
     global _FK
-    from redundik.resolvers import fused_kernels
+    from redundik.resolvers.linalg import FK  # (the namespace a cold start fills with the kernels' twins)
 
-    _FK = fused_kernels
-    return fused_kernels
+    _FK = FK
+    return FK
 
 
 class Trajectory(ABC):
