@@ -1,10 +1,11 @@
 """The first q̇ of a fresh install and of a warm one, per resolver (issue 31: ≤ 3 s cold, ≤ 0.3 s warm).
 
 Each measurement is a fresh interpreter: ``import redundik``, a 7-joint arm, a frame task on a circle with a posture
-and a joint centering, and one step; the time is from the interpreter's first line to the step's q̇, with the path it
-took. ``cold``: an empty kernel cache (``REDUNDIK_CACHE_DIR`` a new temporary folder; the default background
-compilation). ``warm``: the same folder once a run has compiled it (``redundik compile``'s job). ``wait``: the cold
-case with ``REDUNDIK_COLD_START=wait`` (the first step compiles in the caller's thread: what a cold start cost before).
+and a joint centering, and one step; "first q̇" is from the interpreter's first line to the step's q̇, "its step"
+the ``step`` call alone, with the path it took. ``cold``: an empty kernel cache (``REDUNDIK_CACHE_DIR`` a new
+temporary folder; the default background compilation). ``warm``: the same folder once a run has compiled it
+(``redundik compile``'s job). ``wait``: the cold case with ``REDUNDIK_COLD_START=wait`` (the first step compiles in
+the caller's thread: what a cold start cost before).
 
     python benchmarks/cold_start.py [--resolvers pinv wqp hqp] [--no-wait]
 """
@@ -29,10 +30,12 @@ stack = rk.TaskStack([task, rk.PostureTask(gain=1.0)], [rk.GradientSubtask(rk.Jo
 robot.update(q)
 stack.reset(robot)
 res = rk.make_resolver(NAME)
+t1 = time.perf_counter()
 r = res.step(robot, stack, q, 0.0, 0.01)
 first = time.perf_counter() - t0
+step = time.perf_counter() - t1
 ok = bool(np.isfinite(r.dq).all())
-print(json.dumps({"first": first, "path": r.info["path"], "finite": ok}))
+print(json.dumps({"first": first, "step": step, "path": r.info["path"], "finite": ok}))
 if COMPILE:
     rk.warm_up([NAME])
 """
@@ -51,7 +54,7 @@ def main() -> None:
     ap.add_argument("--resolvers", nargs="+", default=["pinv", "wqp", "hqp"])
     ap.add_argument("--no-wait", action="store_true", help="skip the blocking (pre-issue) cold measurement")
     args = ap.parse_args()
-    print(f"{'resolver':8s} {'case':6s} {'first q̇ [s]':>12s}  path")
+    print(f"{'resolver':8s} {'case':6s} {'first q̇ [s]':>12s} {'its step [s]':>12s}  path")
     for name in args.resolvers:
         with tempfile.TemporaryDirectory() as cache:
             cold = first_step(name, cache, "background", True)  # then compiles, in the same process: warm next
@@ -62,7 +65,7 @@ def main() -> None:
                 rows.append(("wait", first_step(name, cache, "wait", False)))
         for case, got in rows:
             flag = "" if got["finite"] else "  NON-FINITE"
-            print(f"{name:8s} {case:6s} {got['first']:12.3f}  {got['path']}{flag}", flush=True)
+            print(f"{name:8s} {case:6s} {got['first']:12.3f} {got['step']:12.3f}  {got['path']}{flag}", flush=True)
 
 
 if __name__ == "__main__":
