@@ -20,6 +20,7 @@ on the hot path.
 
 from __future__ import annotations
 
+import atexit
 import logging
 import os
 import sys
@@ -112,8 +113,21 @@ def _start() -> None:
         ", ".join(_pending),
         _kernel_cache.cache_dir(),
     )
+    if _worker is None:
+        atexit.register(_at_exit)
     _worker = threading.Thread(target=_run, name="redundik-compile", daemon=True)
     _worker.start()
+
+
+def _at_exit() -> None:
+    """Say so when the process ends before the background compilation (what it finished stays cached)."""
+    if _worker is not None and _worker.is_alive():
+        _LOG.warning(
+            "redundik: the process ended while the kernels of %s were compiling (what was finished is cached in %s); "
+            "`redundik compile` or rk.warm_up() completes the cache",
+            ", ".join(_pending),
+            _kernel_cache.cache_dir(),
+        )
 
 
 def _run() -> None:
