@@ -63,16 +63,17 @@ def test_first_step_interpreted_while_compiling_then_compiled_same_answer(tmp_pa
         logging.basicConfig(level=logging.WARNING)
         s, res = stack(), rk.make_resolver("pinv")
         first = res.step(robot, s, q, 0.0, 0.01)
+        second = res.step(robot, s, q, 0.01, 0.01)  # (the thread starts at the second step)
         busy = _coldstart._worker is not None and _coldstart._worker.is_alive()
         assert _coldstart.wait(900)
         again = res.step(robot, s, q, 0.0, 0.01)
-        print(json.dumps({"first": first.info["path"], "busy": busy, "dq1": first.dq.tolist(),
-                          "later": again.info["path"], "dq2": again.dq.tolist(),
+        print(json.dumps({"first": first.info["path"], "second": second.info["path"], "busy": busy,
+                          "dq1": first.dq.tolist(), "later": again.info["path"], "dq2": again.dq.tolist(),
                           "cache": str(_kernel_cache.cache_dir())}))
         """,
         {"REDUNDIK_CACHE_DIR": str(tmp_path)},
     )
-    assert got["first"] == "interpreted" and got["busy"]
+    assert got["first"] == got["second"] == "interpreted" and got["busy"]
     assert got["later"] == "compiled"
     dq1, dq2 = np.array(got["dq1"]), np.array(got["dq2"])
     assert np.isfinite(dq1).all() and np.abs(dq1).max() > 0

@@ -52,8 +52,9 @@ def background() -> bool:
 
 def ready(resolver: str) -> bool:
     """True when ``resolver``'s compiled kernels are loaded (or this thread compiles them): its step may take the
-    compiled path. Otherwise starts (once) their compilation in a background thread, with the kernels' twins in
-    place, and returns False: the step runs interpreted."""
+    compiled path. Otherwise puts the kernels' twins in place and returns False (the step runs interpreted); the
+    background thread that compiles them starts at the next call, so that the first step does not share the
+    interpreter with it."""
     if resolver in HOT:
         return True
     if threading.get_ident() in _compilers:
@@ -64,9 +65,10 @@ def ready(resolver: str) -> bool:
     with _lock:
         if resolver in HOT:  # (made hot while this thread waited for the lock)
             return True
-        if resolver not in _pending:
+        if resolver not in _pending:  # the thread starts at the next call: this first step runs uncontended
             _pending.append(resolver)
             _install()
+        else:
             _start()
     return False
 
@@ -79,6 +81,9 @@ def cold() -> bool:
 
 def wait(timeout: float | None = None) -> bool:
     """Block until the background thread is done (at most ``timeout`` seconds); True when it is."""
+    with _lock:
+        if _pending:
+            _start()
     worker = _worker
     if worker is not None:
         worker.join(timeout)
