@@ -177,6 +177,8 @@ class _Switch:
 def twin(kernel: Any) -> Any:
     """The twin of a kernel made by :func:`redundik._kernel_cache.jit`: its Python function with every kernel it
     calls bound to that kernel's twin (built for all kernels at the first request)."""
+    if isinstance(kernel, _Switch):  # (a namespace holds the kernel's switch during a cold start)
+        return kernel.twin
     if id(kernel) not in _twins:
         _build_twins()
     return _twins[id(kernel)]
