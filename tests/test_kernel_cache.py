@@ -58,6 +58,16 @@ def test_the_kernels_are_cached_in_the_stamped_folder() -> None:
         assert kc.KERNELS[fn.py_func.__module__][fn.py_func.__name__] is fn
 
 
+def test_every_kernel_is_made_by_the_cache_aware_decorator() -> None:
+    """A kernel decorated by ``numba.njit`` directly would be cached beside its source (a read-only site-packages:
+    numba's own folder) and stamped with its own file only."""
+    offenders = []
+    for path in SRC.rglob("*.py"):
+        if path.name != "_kernel_cache.py" and ("njit(" in path.read_text() or "@nb.jit" in path.read_text()):
+            offenders.append(path.relative_to(SRC).as_posix())
+    assert not offenders, f"use redundik._kernel_cache.jit in {offenders}"
+
+
 def _first_jit(module: object) -> str:
     return next(k for k, v in vars(module).items() if hasattr(v, "_cache") and hasattr(v, "py_func"))
 
