@@ -151,7 +151,7 @@ def test_twins_give_the_compiled_answer(name: str) -> None:
         res = rk.make_resolver(name)
         res.fuse = twins is None
         if twins:
-            _coldstart._install()
+            _coldstart._install(compiled_too=True)
             assert _coldstart._saved  # the kernels' namespaces hold their switches to the twins
         try:
             out = res.step(robot, stack, q, 0.1, 0.01)

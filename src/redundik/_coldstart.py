@@ -203,9 +203,11 @@ def _build_twins() -> None:
                 space[key] = _twins[id(value)]
 
 
-def _install() -> None:
+def _install(compiled_too: bool = False) -> None:
     """Put switches in place of the kernels in redundik's namespaces (the kernel modules excepted): the lazy kernel
-    namespaces of :mod:`redundik.resolvers.linalg` (loaded first) and any kernel bound in a module global."""
+    namespaces of :mod:`redundik.resolvers.linalg` (loaded first) and any kernel bound in a module global. A kernel
+    this process has compiled already keeps its place (a resolver made hot before stays compiled) unless
+    ``compiled_too`` (tests)."""
     if _saved:
         return
     from redundik.resolvers.linalg import _Kernels
@@ -222,7 +224,7 @@ def _install() -> None:
     kernels = {id(d): d for funcs in _kernel_cache.KERNELS.values() for d in funcs.values()}
     for space in spaces.values():
         for key, value in list(space.items()):
-            if id(value) in kernels and kernels[id(value)] is value:
+            if id(value) in kernels and kernels[id(value)] is value and (compiled_too or not value.signatures):
                 _saved.append((space, key, value))
                 space[key] = _Switch(value, _twins[id(value)])
 
