@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -15,6 +16,10 @@ from hypothesis import settings
 # wall-clock randomness), so CI cannot meet a failure the developers never saw, nor hide one they did.
 settings.register_profile("redundik", derandomize=True, database=None)
 settings.load_profile("redundik")
+
+# The suite checks the compiled path from a resolver's first step: its kernels compile in the test's thread
+# (redundik._coldstart's background compilation is tested in tests/test_cold_start.py, in subprocesses).
+os.environ.setdefault("REDUNDIK_COLD_START", "wait")
 
 ROOT = Path(__file__).resolve().parents[1]
 TASKS = ROOT / "tasks"

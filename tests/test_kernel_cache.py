@@ -1,5 +1,6 @@
-"""Numba's on-disk cache of the kernels is stamped with every source they are compiled from (redundik._kernel_cache):
-a change to a module whose kernels or constants another kernel module compiles in recompiles that one too."""
+"""Numba's on-disk cache of the kernels lives in a folder named by a stamp of every source they are compiled from
+(redundik._kernel_cache): a change to a module whose kernels or constants another kernel module compiles in starts
+a new folder, so that nothing is loaded stale."""
 
 from __future__ import annotations
 
@@ -46,16 +47,25 @@ def test_the_stamp_covers_every_kernel_module_and_what_it_imports() -> None:
     assert not missing, f"add to KERNEL_SOURCES: {sorted(missing)}"
 
 
-def test_the_kernels_are_cached_by_the_stamped_locator() -> None:
+def test_the_kernels_are_cached_in_the_stamped_folder() -> None:
     from redundik.collision import kernels as ck
     from redundik.resolvers import fused_kernels, hqp_kernels, kernels
 
-    assert kc.install()
+    folder = str(kc.cache_dir())
+    assert kc.cache_dir().name == f"kernels-{kc.sources_stamp()}"
     for fn in (kernels.in_box, hqp_kernels.closed_step, fused_kernels.fused_hqp_step, ck.__dict__[_first_jit(ck)]):
-        locator = fn._cache._impl.locator
-        assert type(locator).__name__.startswith("Redundik"), type(locator)
-        stamp = locator.get_source_stamp()
-        assert stamp[1] == kc.sources_stamp()
+        assert fn._cache._impl.locator.get_cache_path().startswith(folder)
+        assert kc.KERNELS[fn.py_func.__module__][fn.py_func.__name__] is fn
+
+
+def test_every_kernel_is_made_by_the_cache_aware_decorator() -> None:
+    """A kernel decorated by ``numba.njit`` directly would be cached beside its source (a read-only site-packages:
+    numba's own folder) and stamped with its own file only."""
+    offenders = []
+    for path in SRC.rglob("*.py"):
+        if path.name != "_kernel_cache.py" and ("njit(" in path.read_text() or "@nb.jit" in path.read_text()):
+            offenders.append(path.relative_to(SRC).as_posix())
+    assert not offenders, f"use redundik._kernel_cache.jit in {offenders}"
 
 
 def _first_jit(module: object) -> str:
@@ -67,7 +77,9 @@ def test_a_change_to_a_dependency_changes_the_stamp(tmp_path: Path) -> None:
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy(SRC / rel, tmp_path / rel)
     before = kc.sources_stamp(tmp_path)
+    kc._stamps.clear()
     assert kc.sources_stamp(tmp_path) == before  # deterministic
+    kc._stamps.clear()
     dep = tmp_path / "resolvers/hqp_kernels.py"  # a module fused_kernels compiles in, not fused_kernels itself
     dep.write_text(dep.read_text() + "\n# edited\n")
     after = kc.sources_stamp(tmp_path)

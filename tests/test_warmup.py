@@ -22,8 +22,12 @@ def test_warm_up_steps_each_resolver_and_logs(caplog: pytest.LogCaptureFixture) 
 
 
 def test_compile_command(capsys: pytest.CaptureFixture[str]) -> None:
+    from redundik._kernel_cache import cache_dir
+
     assert main(["compile"]) == 0
-    printed = capsys.readouterr().out
+    captured = capsys.readouterr()
+    printed = captured.out
+    assert str(cache_dir()) in captured.err  # says where the kernels go
     for name in ("pinv", "feedback", "wqp", "hqp"):
         assert f"{name}:" in printed
 

@@ -1,30 +1,38 @@
-"""Numba's on-disk cache of redundik's compiled kernels, stamped with every source they are compiled from.
+"""Where numba caches redundik's compiled kernels: a folder of the user's cache named by a stamp of every source.
 
 Numba stamps a cached function with the hash of its own file only. A kernel that calls a kernel of another module
 (``fused_kernels.fused_hqp_step`` → ``hqp_kernels.closed_step`` → ``kernels.damped_svd_factors``) has that code
 compiled into it, and module constants (``fused.HEADER``, ``trajectory.CIRCLE``) frozen in: after that other module
-changes — an edit, or an upgrade, since pip leaves the old cache files in ``__pycache__`` — numba would load the
-stale machine code and the step would silently compute the old answer (seen here: ``hqp``'s fused step kept a
-damping rule its own module no longer had). The locators below give every function of redundik's files the stamp
-(numba's own, the hash of :data:`KERNEL_SOURCES`), so that a change to any of them recompiles all of them.
+changes, numba alone would load stale machine code. Here that cannot happen: every kernel is cached in
+``<cache root>/kernels-<stamp>``, the stamp hashing every file of :data:`KERNEL_SOURCES` and the numba, NumPy and
+Python versions, so that any change to any of them starts a new, empty folder. Only numba's public configuration is
+used (``numba.config.CACHE_DIR``, set while :func:`jit` decorates a kernel and restored at once, so that the
+user's own numba functions keep their cache folder).
 
-If numba's locator list is not where this module expects it (a numba release that moved it), nothing is installed
-and numba's own stamps apply; the tests check that the locator is in use.
+The cache root is ``$REDUNDIK_CACHE_DIR`` when set, else the user's cache folder (``$XDG_CACHE_HOME/redundik`` or
+``~/.cache/redundik``; ``~/Library/Caches/redundik`` on macOS, ``%LOCALAPPDATA%/redundik/Cache`` on Windows): a
+read-only site-packages is never written to. When that folder cannot be created the kernels are compiled without an
+on-disk cache (compiled again in each process, never stale).
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 #: The package's root folder.
 PACKAGE_ROOT = Path(__file__).resolve().parent
+#: Environment variable naming the cache root (overrides the user cache folder).
+CACHE_ENV = "REDUNDIK_CACHE_DIR"
 #: Every redundik source compiled code depends on: the modules with compiled functions and the modules whose
 #: constants or functions they import (checked against the imports by ``tests/test_kernel_cache.py``).
 KERNEL_SOURCES: tuple[str, ...] = (
     "kinematics/lie_kernels.py",
+    "_kernel_cache.py",
     "resolvers/kernels.py",
     "resolvers/hqp_kernels.py",
     "resolvers/fused_kernels.py",
@@ -37,82 +45,84 @@ KERNEL_SOURCES: tuple[str, ...] = (
     "resolvers/jerk_kernels.py",
 )
 
-_memo: dict[tuple[object, ...], bytes] = {}
+#: Every kernel :func:`jit` made: ``{module name: {function name: numba dispatcher}}`` (read by
+#: :mod:`redundik._coldstart` to run the same code interpreted while it compiles).
+KERNELS: dict[str, dict[str, Any]] = {}
+
+_stamps: dict[Path, str] = {}
 
 
-def sources_stamp(root: Path = PACKAGE_ROOT) -> bytes:
-    """SHA-256 of :data:`KERNEL_SOURCES` under ``root`` (names and contents; a missing file counts as empty),
-    memoised on the files' modification times and sizes."""
-    paths = [root / rel for rel in KERNEL_SOURCES]
-    key: list[object] = [str(root)]
-    for p in paths:
-        try:
-            st = os.stat(p)
-            key.append((st.st_mtime_ns, st.st_size))
-        except OSError:
-            key.append(None)
-    memo_key = tuple(key)
-    stamp = _memo.get(memo_key)
+def sources_stamp(root: Path = PACKAGE_ROOT) -> str:
+    """Hex SHA-256 (16 digits) of :data:`KERNEL_SOURCES` under ``root`` (names and contents; a missing file counts
+    as ``<missing>``) and of the numba, NumPy and Python versions; computed once per root and process."""
+    stamp = _stamps.get(root)
     if stamp is None:
+        import numba
+        import numpy
+
         h = hashlib.sha256()
-        for rel, p in zip(KERNEL_SOURCES, paths, strict=True):
-            h.update(rel.encode())
+        for part in (numba.__version__, numpy.__version__, sys.version, sys.platform):
+            h.update(part.encode() + b"\0")
+        for rel in KERNEL_SOURCES:
+            h.update(rel.encode() + b"\0")
             try:
-                h.update(p.read_bytes())
+                h.update((root / rel).read_bytes())
             except OSError:
                 h.update(b"<missing>")
-        stamp = _memo[memo_key] = h.digest()
+        stamp = _stamps[root] = h.hexdigest()[:16]
     return stamp
 
 
-def _ours(py_file: str) -> bool:
+def cache_root() -> Path:
+    """The folder under which the kernels' stamped folders live: ``$REDUNDIK_CACHE_DIR``, else the user cache."""
+    env = os.environ.get(CACHE_ENV)
+    if env:
+        return Path(env).expanduser()
+    if sys.platform == "win32":  # pragma: no cover - not the CI's platform
+        base = Path(os.environ.get("LOCALAPPDATA") or Path.home() / "AppData" / "Local")
+        return base / "redundik" / "Cache"
+    if sys.platform == "darwin":  # pragma: no cover - not the CI's platform
+        return Path.home() / "Library" / "Caches" / "redundik"
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg) if xdg and Path(xdg).is_absolute() else Path.home() / ".cache") / "redundik"
+
+
+def cache_dir() -> Path:
+    """The folder of this install's compiled kernels: ``<cache root>/kernels-<stamp>``."""
+    return cache_root() / f"kernels-{sources_stamp()}"
+
+
+_writable_memo: dict[Path, bool] = {}
+
+
+def _writable(folder: Path) -> bool:
+    known = _writable_memo.get(folder)
+    if known is None:
+        known = _writable_memo[folder] = _make_writable(folder)
+    return known
+
+
+def _make_writable(folder: Path) -> bool:
     try:
-        return Path(py_file).resolve().is_relative_to(PACKAGE_ROOT)
-    except (OSError, ValueError):
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError:
         return False
+    return os.access(folder, os.W_OK | os.X_OK)
 
 
-_installed = False
+def jit(fn: Callable[..., Any]) -> Any:
+    """``numba.njit(cache=True, nogil=True)`` with the cache in :func:`cache_dir` (``cache=False`` when that folder
+    cannot be written); numba's configured cache folder is restored after the decoration."""
+    import numba
 
-
-def install() -> bool:
-    """Put the redundik-stamped locators first in numba's list (idempotent); True when they are in place. Called by
-    each kernel module before its first compiled function is defined."""
-    global _installed
-    if _installed:
-        return True
+    folder = cache_dir()
+    cached = _writable(folder)
+    config: Any = numba.config  # (its settings are set from the environment at import: untyped)
+    saved = config.CACHE_DIR
+    config.CACHE_DIR = str(folder) if cached else saved
     try:
-        from numba.core import caching
-    except ImportError:  # pragma: no cover - numba is a dependency of the core
-        return False
-
-    def named(name: str) -> Any:  # numba 0.6x names them with a leading underscore, later releases without
-        return getattr(caching, name, None) or getattr(caching, f"_{name}", None)
-
-    impl = named("CacheImpl")
-    bases = [named(n) for n in ("UserProvidedCacheLocator", "InTreeCacheLocator", "UserWideCacheLocator")]
-    if impl is None or not isinstance(getattr(impl, "_locator_classes", None), list) or None in bases:
-        return False
-    ours = []
-    for base in bases:
-        ours.append(_stamped(base))
-    impl._locator_classes[:0] = ours
-    _installed = True
-    return True
-
-
-def _stamped(base: Any) -> Any:
-    """A subclass of numba's locator ``base`` for redundik's files only, stamped with :func:`sources_stamp`."""
-
-    class Stamped(base):  # type: ignore[misc]
-        @classmethod
-        def from_function(cls, py_func: Any, py_file: str) -> Any:
-            if not _ours(py_file):
-                return None
-            return super().from_function(py_func, py_file)
-
-        def get_source_stamp(self) -> Any:
-            return (super().get_source_stamp(), sources_stamp())
-
-    Stamped.__name__ = Stamped.__qualname__ = f"Redundik{base.__name__}"
-    return Stamped
+        dispatcher = numba.njit(cache=cached, nogil=True)(fn)
+    finally:
+        config.CACHE_DIR = saved
+    KERNELS.setdefault(fn.__module__, {})[fn.__name__] = dispatcher
+    return dispatcher

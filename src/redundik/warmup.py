@@ -1,15 +1,18 @@
 """Compile (or load from numba's on-disk cache) the kernels a control loop uses, before the loop starts.
 
 The resolvers' closed forms and their fused steps are numba kernels, compiled at their first call and cached on disk
-(next to the package, or in numba's user-wide cache folder when the package folder is read-only). On an empty cache
-the first step of each resolver compiles for tens of seconds; :func:`warm_up` pays that ahead — at start-up, in a
-container build (``redundik compile``), or before a real-time loop — and says so in a ``logging`` line.
+in the user's cache folder (:func:`redundik._kernel_cache.cache_dir`). On an empty cache a resolver's first steps
+run interpreted while a background thread compiles them (:mod:`redundik._coldstart`, which calls this function);
+:func:`warm_up` pays the compilation ahead instead, in the caller's thread — at start-up, in a container build
+(``redundik compile``), or before a real-time loop that must be compiled from its first tick — and says so in a
+``logging`` line.
 """
 
 from __future__ import annotations
 
 import logging
 import time
+from typing import Any
 
 import numpy as np
 
@@ -28,14 +31,32 @@ def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS) -> dict[str, flo
         ResolverError: an unknown resolver name (the message lists the known ones).
     """
     import redundik as rk
+    from redundik import _coldstart
+    from redundik._kernel_cache import cache_dir
 
-    _LOG.info("redundik: loading the compiled kernels (a first run on an empty cache compiles them: up to a minute)")
+    _LOG.info(
+        "redundik: loading the compiled kernels from %s (a first run on an empty cache compiles them: up to a minute)",
+        cache_dir(),
+    )
     robot = rk.from_dh([rk.DHRow(str(k), a=0.3, alpha=np.pi / 2 if k % 2 else -np.pi / 2) for k in range(1, 8)])
     q0 = np.full(robot.nq, 0.3)
     out: dict[str, float] = {}
     for name in resolvers:
         t0 = time.perf_counter()
         resolver = rk.make_resolver(name)
+        with _coldstart.compiling():  # this thread's kernel calls compile: none runs interpreted
+            _step_both_paths(rk, robot, resolver, q0)
+        _coldstart.HOT.add(name)
+        out[name] = time.perf_counter() - t0
+    _LOG.info("redundik: kernels ready in %.1f s", sum(out.values()))
+    return out
+
+
+def _step_both_paths(rk: Any, robot: Any, resolver: Any, q0: np.ndarray) -> None:
+    """Three steps of each of the warm-up's stacks, on the resolver's compiled step and on its per-task path."""
+    for fuse in (True, False) if hasattr(resolver, "fuse") else (None,):
+        if fuse is not None:
+            resolver.fuse = fuse
         for teleop in (False, True):
             task = rk.FrameTask("7", None if teleop else rk.Circle(0.02, np.pi, plane=("y", "z")), gain=5.0)
             stack = rk.TaskStack([task, rk.PostureTask(gain=1.0)], [rk.GradientSubtask(rk.JointCentering(), gain=-1.0)])
@@ -47,6 +68,3 @@ def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS) -> dict[str, flo
                 if teleop:
                     task.set_target(home.translation + 0.001 * k)
                 q = robot.integrate(q, resolver.step(robot, stack, q, k * 0.01, 0.01).dq, 0.01)
-        out[name] = time.perf_counter() - t0
-    _LOG.info("redundik: kernels ready in %.1f s", sum(out.values()))
-    return out

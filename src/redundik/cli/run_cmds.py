@@ -86,12 +86,13 @@ def run(
     unit = max(plan.steps // 4, 1)  # progress units of one output step (figures, html, gif)
     total = plan.steps * len(names) + unit * len(pictures)
     if not quiet:  # the first run after an install compiles the kernels: say so, rather than a bar sitting at 0
+        from redundik._kernel_cache import cache_dir
         from redundik.warmup import RESOLVERS, warm_up
 
         used = sorted({plan.runs[n].resolver_name for n in names} & set(RESOLVERS))
         with bar_console.status(
-            "loading compiled kernels (the first run after an install compiles them, up to a minute; "
-            "`redundik compile` does it ahead)"
+            f"loading compiled kernels from {cache_dir()} (the first run after an install compiles them, up to a "
+            "minute; `redundik compile` does it ahead)"
         ):
             warm_up(used)
     if quiet or total < 2000:
@@ -166,9 +167,10 @@ def compile_kernels() -> None:
     minute there; a container image can bake this in), then print how long each resolver took."""
     import typer
 
+    from redundik._kernel_cache import cache_dir
     from redundik.warmup import warm_up
 
-    typer.echo("compiling redundik's kernels (or loading them from the cache) ...", err=True)
+    typer.echo(f"compiling redundik's kernels (or loading them from the cache {cache_dir()}) ...", err=True)
     for name, seconds in warm_up().items():
         typer.echo(f"{name}: {seconds:.1f} s")
 

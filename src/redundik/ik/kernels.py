@@ -22,13 +22,11 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
 from redundik import _kernel_cache
 
-_kernel_cache.install()  # the on-disk cache stamped with every kernel source (redundik._kernel_cache)
-_jit = nb.njit(cache=True, nogil=True)
+_jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
 
 #: Codes returned by :func:`lm_update`.
 CONTINUE, CONVERGED, STALLED = 0, 1, 2

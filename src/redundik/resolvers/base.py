@@ -53,8 +53,11 @@ def _squares_below(q: np.ndarray, bound2: float) -> bool:
     :func:`redundik.resolvers.kernels.squares_below`, which replaces this function at its first call (numba is not
     imported with redundik). ``Resolver.step`` checks ‖q‖ < MAX_Q with it on every tick."""
     global _squares_below
+    from redundik._coldstart import cold, twin
     from redundik.resolvers.linalg import K
 
+    if cold():  # no kernel compiled yet: its own code, interpreted (bound at a later call; redundik._coldstart)
+        return bool(twin(K.squares_below)(q, bound2))
     _squares_below = K.squares_below
     return bool(_squares_below(q, bound2))
 

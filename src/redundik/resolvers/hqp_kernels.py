@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 from llvmlite import ir
 from numba import types
@@ -42,8 +41,7 @@ from redundik.resolvers.kernels import (
 )
 from redundik.tasks.potential_kernels import clearance_into as clearance_into  # first_run_cost loads it too
 
-_kernel_cache.install()  # the on-disk cache stamped with every kernel source (redundik._kernel_cache)
-_jit = nb.njit(cache=True, nogil=True)
+_jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
 
 
 @_jit

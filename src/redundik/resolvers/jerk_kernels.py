@@ -35,13 +35,11 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
 from redundik import _kernel_cache
 
-_kernel_cache.install()
-_jit = nb.njit(cache=True, nogil=True)
+_jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
 
 #: Longest braking roll-out simulated [steps]; a longer one counts as a breach (conservative).
 MAX_ROLLOUT = 2_000_000

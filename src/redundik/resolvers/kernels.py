@@ -30,7 +30,6 @@ from __future__ import annotations
 import math
 import time
 
-import numba as nb
 import numpy as np
 
 from redundik import _kernel_cache
@@ -53,8 +52,7 @@ from redundik.kinematics.lie_kernels import (
 #: Smallest λ_min/λ_max of JJᵀ for the eigendecomposition fast path (κ(J) ≤ 1e3).
 FAST_PATH_RCOND = 1e-6
 
-_kernel_cache.install()  # the on-disk cache stamped with every kernel source (redundik._kernel_cache)
-_jit = nb.njit(cache=True, nogil=True)
+_jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
 
 
 #: Largest symmetric matrix (m, m) whose eigendecomposition uses the Jacobi routine below, and the largest number of

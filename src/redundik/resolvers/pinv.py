@@ -14,6 +14,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from redundik._coldstart import ready
 from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, Resolver, StepResult, nonfinite_sources
@@ -124,7 +125,10 @@ class PinvResolver(Resolver):
         if self.fuse:
             fused = self._fused
             if fused is None or fused[0] is not layout or fused[1] == FusedPlan.NOT_YET:
-                built = FusedPlan.build(robot, stack, layout, None, 1.0, mixed=True)
+                # (while its kernels compile in the background: the per-task path, planned again at the next step)
+                built = (
+                    FusedPlan.build(robot, stack, layout, None, 1.0, mixed=True) if ready("pinv") else FusedPlan.NOT_YET
+                )
                 fused = self._fused = (layout, built if built is not None else False)
             plan = fused[1]
             if isinstance(plan, FusedPlan):

@@ -6,14 +6,12 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
 from redundik import _kernel_cache
 from redundik.kinematics.lie_kernels import frame_jacobian_lwa
 
-_kernel_cache.install()  # the on-disk cache stamped with every kernel source (redundik._kernel_cache)
-_jit = nb.njit(cache=True, nogil=True)
+_jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
 
 __all__ = ["clearance_into"]
 

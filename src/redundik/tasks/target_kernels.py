@@ -16,14 +16,12 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
 from redundik import _kernel_cache
 from redundik.tasks.trajectory import CIRCLE, GIVEN, LINE
 
-_kernel_cache.install()
-_jit = nb.njit(cache=True, nogil=True)
+_jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
 
 #: The writers' status codes.
 OK, NOT_FINITE, TOO_FAR, NOT_RIGID, BAD_SHAPE = 0, 1, 2, 3, 4

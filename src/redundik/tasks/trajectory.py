@@ -76,16 +76,20 @@ GIVEN, HOLD, LINE, CIRCLE = 0, 1, 2, 3
 #: Length of a compiled reference's parameter row: p0 (3), R0 (9, row-major), up to 11 kind-specific numbers.
 PARAMS = 23
 
-_FK: Any = None  # the compiled trajectory references (redundik.tasks.target_kernels), bound at first use
+_REF: Any = None  # the compiled trajectory reference (redundik.tasks.target_kernels.reference_into), bound at first use
 
 
-def _reference_kernels() -> Any:
-    """The compiled trajectory references, imported on first use (numba loads then, not when redundik is imported)."""
-    global _FK
-    from redundik.tasks import target_kernels
+def _reference_kernel() -> Any:
+    """The compiled trajectory reference, imported on first use (numba loads then, not when redundik is imported);
+    while a cold start compiles the kernels in the background, its twin (not bound: asked again until they are in)."""
+    global _REF
+    from redundik import _coldstart
+    from redundik.tasks.target_kernels import reference_into
 
-    _FK = target_kernels
-    return target_kernels
+    if _coldstart.cold():
+        return _coldstart.twin(reference_into)
+    _REF = reference_into
+    return reference_into
 
 
 class Trajectory(ABC):
@@ -282,7 +286,7 @@ class Line(Trajectory):
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         self.start_pose  # noqa: B018 - raises if start() was never called
         out = np.empty(18)
-        (_FK or _reference_kernels()).reference_into(LINE, self._kparams, float(t), out)  # p0 + v t, (v, 0)
+        (_REF or _reference_kernel())(LINE, self._kparams, float(t), out)  # p0 + v t, (v, 0)
         return out[:3], self._R0, out[12:]
 
     def __repr__(self) -> str:
@@ -426,7 +430,7 @@ class Circle(Trajectory):
         if self._start is None:
             self.start_pose  # noqa: B018 - raises: start() was never called
         out = np.empty(18)
-        (_FK or _reference_kernels()).reference_into(CIRCLE, self._kparams, float(t), out)  # one implementation
+        (_REF or _reference_kernel())(CIRCLE, self._kparams, float(t), out)  # one implementation
         return out[:3], self._R0, out[12:]
 
     def __repr__(self) -> str:

@@ -107,6 +107,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from redundik._coldstart import ready
 from redundik.errors import SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, StepResult
@@ -1042,7 +1043,9 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
             return super().solve(robot, stack, t, dt)
         fused = plan.fused
         if fused is None or fused == FusedPlan.NOT_YET:
-            fused = plan.fused = plan.fuse(robot, stack, t) if self.fuse else False
+            fused = plan.fused = (
+                (plan.fuse(robot, stack, t) if ready("hqp") else FusedPlan.NOT_YET) if self.fuse else False
+            )  # (NOT_YET while its kernels compile in the background: the per-task path, planned again next step)
         if isinstance(fused, FusedPlan):
             if fused.current(robot):
                 res = self._fused_solve(robot, stack, plan, fused, t, dt)

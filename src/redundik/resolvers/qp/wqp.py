@@ -40,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from redundik._coldstart import ready
 from redundik.errors import SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, StepResult
@@ -296,7 +297,9 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             return super().solve(robot, stack, t, dt)
         fused = plan.fused
         if fused is None or fused == FusedPlan.NOT_YET:
-            fused = plan.fused = self._fused_plan(robot, stack, plan) if self.fuse else False
+            fused = plan.fused = (
+                (self._fused_plan(robot, stack, plan) if ready("wqp") else FusedPlan.NOT_YET) if self.fuse else False
+            )  # (NOT_YET while its kernels compile in the background: the per-task path, planned again next step)
         if isinstance(fused, FusedPlan):
             if fused.current(robot):
                 res = self._fused_solve(robot, stack, fused, plan, t, dt)
