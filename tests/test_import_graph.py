@@ -31,6 +31,7 @@ CORE_RANK: dict[str, int] = {
     "_names": 0,
     "_version": 0,
     "_kernel_cache": 0,
+    "_coldstart": 1,
     "_extras": 1,
     "_optional": 1,
     "shipped": 1,

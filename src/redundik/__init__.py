@@ -21,6 +21,7 @@ Typical control-loop use::
 # ``redundik validate`` start without the numerical stack, and the CLI never pays for what it does not use.
 from typing import TYPE_CHECKING, Any
 
+from redundik import _coldstart
 from redundik._version import __version__
 from redundik.errors import (
     ConfigError,
@@ -31,6 +32,16 @@ from redundik.errors import (
     SolverError,
     TaskError,
 )
+
+
+def _background_warm_up(resolvers: list[str]) -> dict[str, float]:
+    """:func:`redundik.warmup.warm_up`, for the cold start's background thread (:mod:`redundik._coldstart`)."""
+    from redundik.warmup import warm_up
+
+    return warm_up(resolvers)
+
+
+_coldstart.WARM_UP = _background_warm_up
 
 if TYPE_CHECKING:
     from redundik.control import ControlLoop, DeadlineStats, Tick, Watchdog

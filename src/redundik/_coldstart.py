@@ -46,6 +46,8 @@ _lock = threading.Lock()
 _worker: threading.Thread | None = None
 _saved: list[tuple[dict[str, Any], str, Any]] = []  # (namespace, key, original) of every switch put in place
 _twins: dict[int, Any] = {}  # id(dispatcher) → its twin
+#: ``redundik.warmup.warm_up``, set by the package's facade (this base module imports nothing above it).
+WARM_UP: Any = None
 
 
 def background() -> bool:
@@ -140,7 +142,13 @@ def _at_exit() -> None:
 
 def _run() -> None:
     """The background thread: warm up each pending resolver, then hand them to :func:`ready`."""
-    from redundik.warmup import warm_up
+    warm_up = WARM_UP
+    if warm_up is None:  # (the package's facade sets it: ``redundik/__init__.py``)
+        _LOG.warning("redundik: no warm-up registered; the kernels compile at their first call instead")
+        with _lock:
+            HOT.update(_pending)
+            _pending.clear()
+        return
 
     while True:
         with _lock:
@@ -210,14 +218,13 @@ def _install(compiled_too: bool = False) -> None:
     ``compiled_too`` (tests)."""
     if _saved:
         return
-    from redundik.resolvers.linalg import _Kernels
 
     spaces: dict[int, dict[str, Any]] = {}
     for mod_name in [m for m in sys.modules if m.startswith("redundik.") and m not in _kernel_cache.KERNELS]:
         space = vars(sys.modules[mod_name])
         spaces[id(space)] = space
         for value in list(space.values()):
-            if isinstance(value, _Kernels):
+            if isinstance(value, _kernel_cache.KernelNamespace):
                 value.__getattr__("__name__")  # imports its module and fills its namespace
                 spaces[id(value.__dict__)] = value.__dict__
     _build_twins()  # (after the namespaces loaded their modules)

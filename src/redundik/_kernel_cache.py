@@ -126,3 +126,19 @@ def jit(fn: Callable[..., Any]) -> Any:
         config.CACHE_DIR = saved
     KERNELS.setdefault(fn.__module__, {})[fn.__name__] = dispatcher
     return dispatcher
+
+
+class KernelNamespace:
+    """The compiled kernels of a module (a dotted name), imported on first use (numba loads then, not when redundik
+    is imported); after the first access every kernel is a plain attribute. A cold start
+    (:mod:`redundik._coldstart`) puts the kernels' interpreted twins in these namespaces while they compile."""
+
+    def __init__(self, module: str) -> None:
+        self.__dict__["_module"] = module
+
+    def __getattr__(self, name: str) -> Any:
+        import importlib
+
+        kernels = importlib.import_module(self.__dict__["_module"])
+        self.__dict__.update({k: v for k, v in vars(kernels).items() if not k.startswith("__")})
+        return getattr(kernels, name)

@@ -29,26 +29,19 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any
 
 import numpy as np
 
+from redundik._kernel_cache import KernelNamespace
 from redundik.errors import ResolverError
 
 
-class _Kernels:
+class _Kernels(KernelNamespace):
     """The compiled kernels of a module of :mod:`redundik.resolvers`, imported on first use (numba loads then, not
     when redundik is imported); after the first access every kernel is a plain attribute."""
 
     def __init__(self, module: str = "kernels") -> None:
-        self.__dict__["_module"] = module
-
-    def __getattr__(self, name: str) -> Any:
-        import importlib
-
-        kernels = importlib.import_module(f"redundik.resolvers.{self.__dict__['_module']}")
-        self.__dict__.update({k: v for k, v in vars(kernels).items() if not k.startswith("__")})
-        return getattr(kernels, name)
+        super().__init__(f"redundik.resolvers.{module}")
 
 
 #: The compiled kernels (``K.closed_form``, ``K.spd_solve_box``, …).

@@ -11,11 +11,11 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
+from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
 from redundik.kinematics.model import AXES
 
@@ -76,20 +76,9 @@ GIVEN, HOLD, LINE, CIRCLE = 0, 1, 2, 3
 #: Length of a compiled reference's parameter row: p0 (3), R0 (9, row-major), up to 11 kind-specific numbers.
 PARAMS = 23
 
-_REF: Any = None  # the compiled trajectory reference (redundik.tasks.target_kernels.reference_into), bound at first use
-
-
-def _reference_kernel() -> Any:
-    """The compiled trajectory reference, imported on first use (numba loads then, not when redundik is imported);
-    while a cold start compiles the kernels in the background, its twin (not bound: asked again until they are in)."""
-    global _REF
-    from redundik import _coldstart
-    from redundik.tasks.target_kernels import reference_into
-
-    if _coldstart.cold():
-        return _coldstart.twin(reference_into)
-    _REF = reference_into
-    return reference_into
+#: The compiled trajectory references (:mod:`redundik.tasks.target_kernels`), imported at first use; a cold start
+#: puts their interpreted twins here while they compile.
+_TK = KernelNamespace("redundik.tasks.target_kernels")
 
 
 class Trajectory(ABC):
@@ -286,7 +275,7 @@ class Line(Trajectory):
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         self.start_pose  # noqa: B018 - raises if start() was never called
         out = np.empty(18)
-        (_REF or _reference_kernel())(LINE, self._kparams, float(t), out)  # p0 + v t, (v, 0)
+        _TK.reference_into(LINE, self._kparams, float(t), out)  # p0 + v t, (v, 0)
         return out[:3], self._R0, out[12:]
 
     def __repr__(self) -> str:
@@ -430,7 +419,7 @@ class Circle(Trajectory):
         if self._start is None:
             self.start_pose  # noqa: B018 - raises: start() was never called
         out = np.empty(18)
-        (_REF or _reference_kernel())(CIRCLE, self._kparams, float(t), out)  # one implementation
+        _TK.reference_into(CIRCLE, self._kparams, float(t), out)  # one implementation
         return out[:3], self._R0, out[12:]
 
     def __repr__(self) -> str:
