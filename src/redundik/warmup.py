@@ -1,8 +1,8 @@
 """Compile (or load from numba's on-disk cache) the kernels a control loop uses, before the loop starts.
 
 The resolvers' closed forms and their fused steps are numba kernels, compiled at their first call and cached on disk
-in the user's cache folder (:func:`redundik._kernel_cache.cache_dir`). On an empty cache a resolver's first steps
-run interpreted while a background thread compiles them (:mod:`redundik._coldstart`, which calls this function);
+in the user's cache folder (``redundik._kernel_cache.cache_dir``). On an empty cache a resolver's first steps
+run interpreted while a background thread compiles them (``redundik._coldstart``, which calls this function);
 :func:`warm_up` pays the compilation ahead instead, in the caller's thread — at start-up, in a container build
 (``redundik compile``), or before a real-time loop that must be compiled from its first tick — and says so in a
 ``logging`` line.

@@ -15,9 +15,9 @@ they give the same q for the same targets.
   for the next free slot, and counts the slots it skipped (``t`` jumps by as many periods: the resolver's ``dt``
   stays the period).
 * **Garbage collector**: at the start the loop collects everything, moves what survives to the permanent generation
-  (:func:`gc.freeze`: the collector never scans it again) and disables automatic collections, so none can start
+  (``gc.freeze()``: the collector never scans it again) and disables automatic collections, so none can start
   inside a tick (a full collection of a big heap takes milliseconds). Between ticks, when at least ``gc_slack``
-  seconds remain before the next slot and a generation is over its threshold (:func:`gc.get_threshold`), it collects
+  seconds remain before the next slot and a generation is over its threshold (``gc.get_threshold()``), it collects
   the young generations (0, or 0 and 1): their cost is bounded by what was allocated since, tens of µs. The oldest
   generation is never collected during the run. At the end — also when an exception leaves the loop — the frozen
   objects are returned to the collector and automatic collection is enabled again if it was before.
@@ -165,8 +165,8 @@ class ControlLoop:
         gc_slack: Collect the young generations between ticks only when this much time [s] is left before the next
             slot (``"auto"``: half the period); ``None`` never collects during the run.
         spin: Busy-wait this long [s] before each slot instead of sleeping (0: sleep only).
-        clock: Monotonic time [s] (default :func:`time.perf_counter`).
-        sleep: Sleeps a duration [s] (default :func:`time.sleep`).
+        clock: Monotonic time [s] (default ``time.perf_counter``).
+        sleep: Sleeps a duration [s] (default ``time.sleep``).
 
     Raises:
         ResolverError: a period, slack or spin that is not a finite number > 0 (≥ 0), read/write not callable.

@@ -28,7 +28,7 @@ WATCHDOG_OPTIONS = ("command_timeout", "stop_acceleration", "stop_jerk")
 
 
 def make_resolver(name: str, **options: Any) -> Resolver:
-    """Build a resolver by name with keyword options (and the watchdog's, :data:`WATCHDOG_OPTIONS`).
+    """Build a resolver by name with keyword options (and the watchdog's, ``WATCHDOG_OPTIONS``).
 
     Raises:
         ResolverError: unknown name (lists the known ones) or bad options (names them).

@@ -84,7 +84,7 @@ class LimitBox:
         rate_hi: Upper end of the rate window, or ``None``.
         jerk_lo: With jerk limits: the lower end of the jerk window q̇₁ + d₁ − β (``None`` without).
         jerk_hi: Its upper end.
-        relaxed: The limits this box had to relax (:data:`JERK_RELAXED`, :data:`ACCELERATION_RELAXED`), in order.
+        relaxed: The limits this box had to relax (``JERK_RELAXED``, ``ACCELERATION_RELAXED``), in order.
     """
 
     lb: np.ndarray

@@ -21,7 +21,7 @@ F q̇), with a diagonal Hessian (:mod:`redundik.resolvers.qp.backends`). A backe
 subtasks that the limits do not allow) is relaxed first (the bound subtasks dropped, except safety rows — collision
 distances — which stay hard), then replaced by the damped closed form clipped to the limits and scaled down until the
 safety rows hold (q̇ = 0 always does). ``StepResult.relaxed`` names the bound subtasks dropped; when the QP was
-infeasible (:func:`~redundik.resolvers.qp.problem.infeasible`, a linear program on its constraints) that is the
+infeasible (``redundik.resolvers.qp.problem.infeasible``, a linear program on its constraints) that is the
 documented relaxation and no alarm, otherwise the backend failed on a feasible QP and ``StepResult.fallback`` says
 so, as it does for the closed form. When the relaxed optimum keeps the rows dropped it is the QP's own optimum:
 nothing was relaxed, and the refusal counts as a backend failure that a retry rescued — as a backend's own retry
