@@ -177,7 +177,7 @@ class _Switch:
         self.kernel, self.twin = kernel, twin
 
     def __call__(self, *args: Any) -> Any:
-        if threading.get_ident() in _compilers:
+        if not _saved or threading.get_ident() in _compilers:  # (a switch kept by a caller past the restore)
             return self.kernel(*args)
         return self.twin(*args)
 

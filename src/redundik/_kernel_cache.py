@@ -39,6 +39,7 @@ KERNEL_SOURCES: tuple[str, ...] = (
     "resolvers/fused.py",
     "tasks/trajectory.py",
     "tasks/target_kernels.py",
+    "tasks/row_kernels.py",
     "tasks/potential_kernels.py",
     "collision/kernels.py",
     "ik/kernels.py",

@@ -650,7 +650,9 @@ class Resolver(ABC):
         compiled_capable = bool(getattr(self, "fuse", False))
         names: list[str] = []
         for task in stack.tasks:
-            if not compiled_capable or (task.frame_form(robot) is None and task.joint_form(robot) is None):
+            if not compiled_capable or (
+                task.frame_form(robot) is None and task.joint_form(robot) is None and task.compiled_rows(robot) is None
+            ):
                 names.append(task.name)
         for sub in stack.subtasks:
             potential = getattr(sub, "potential", None)

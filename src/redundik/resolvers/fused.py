@@ -33,8 +33,9 @@ from redundik.kinematics.memory import jacobian_view, se3_vector_view
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult
 from redundik.resolvers.linalg import FK
-from redundik.tasks.base import NOT_READY, Edits, FrameForm, Task, TaskTerm, check_term
+from redundik.tasks.base import NOT_READY, CompiledRows, Edits, FrameForm, Task, TaskTerm, check_term
 from redundik.tasks.frame import FrameTask
+from redundik.tasks.rows import check_form
 from redundik.tasks.stack import StackLayout, TaskStack
 from redundik.tasks.subtasks import GradientSubtask
 from redundik.tasks.trajectory import GIVEN, PARAMS
@@ -131,6 +132,9 @@ class FusedPlan:
         self.pending_external: list[TaskTerm | None] | None = None
         self.joint_spans: list[tuple[int, int]] = []  # each level joint task's rows among the step's rows
         self.external_names: tuple[str, ...] = ()
+        #: per external member, its compiled writer (``Task.compiled_rows``) or ``None`` (its ``evaluate`` runs)
+        self.writers: list[CompiledRows | None] = []
+        self.writer_checks: list[tuple[Task, int]] = []  # the writers' tasks and their form revisions when planned
         self.mx = 0  # rows written from Python (after the compiled rows)
         self.index: dict[int, int] = {}
         self.level_forms: list[Form] = []
@@ -215,6 +219,17 @@ class FusedPlan:
             plan.gradient_forms.append(lin)
         if mixed == "null" and any(role in (ROW, TERM) for role, _, _ in plan.external):
             return None
+        plan.writers = [  # the compiled writers of Python-placed rows (``Task.compiled_rows``): called, not evaluated
+            check_form(member, form)
+            if role in (ROW, NULL, TERM) and (form := member.compiled_rows(robot)) is not None
+            else None
+            for role, member, _ in plan.external
+        ]
+        plan.writer_checks = [
+            (member, member.form_revision)
+            for (_, member, _), w in zip(plan.external, plan.writers, strict=True)
+            if w is not None
+        ]
         jw, poses = jacobian_view(robot.data), se3_vector_view(robot.data.oMf)
         if jw is None or poses is None:  # Pinocchio's memory not laid out as checked: the per-task path
             return None
@@ -267,8 +282,11 @@ class FusedPlan:
         if len(rows_of) != sum(1 for role, _, _ in self.external if role == ROW):
             rows_of = self.external_rows = [0] * sum(1 for role, _, _ in self.external if role == ROW)
         self.mx = sum(rows_of)
+        writers = self.writers if len(self.writers) == len(self.external) else [None] * len(self.external)
         self.external_names = tuple(
-            str(getattr(member, "name", type(member).__name__)) for role, member, _ in self.external if role != LIE_NULL
+            str(getattr(member, "name", type(member).__name__))
+            for (role, member, _), writer in zip(self.external, writers, strict=True)
+            if role != LIE_NULL and writer is None
         )
         nulls = self.gradient_forms + [(np.ones(nv), target) for target in self.null_targets]
         N = len(nulls)
@@ -355,8 +373,18 @@ class FusedPlan:
         nv = robot._nv
         out: list[TaskTerm | None] = []
         rows: list[int] = []
-        for role, member, _ in self.external:
-            if role == ROW or role == NULL or role == TERM:
+        for (role, member, _), writer in zip(self.external, self.writers, strict=True):
+            if writer is not None:  # a compiled writer: its rows by construction of the right shapes
+                r = writer.rows
+                J = np.zeros((r, nv))
+                e, v = np.zeros(r), np.zeros(r)
+                writer.kernel(robot.q, t, self.poses, self.jw, writer.ints, writer.floats, member.gain, J, e, v)
+                if role == NULL and r != nv:
+                    return None
+                if role == ROW:
+                    rows.append(r)
+                out.append(TaskTerm(member.name, J, v, e, member.weight))
+            elif role == ROW or role == NULL or role == TERM:
                 term = member.evaluate(robot, t)
                 J, v, e = term.J, term.v, term.error
                 if not (
@@ -438,6 +466,9 @@ class FusedPlan:
         is copied into ``floats`` again here: a target is data, not a reason to plan again."""
         if robot.data is not self.data:
             return False
+        for task, revision in self.writer_checks:
+            if task.form_revision != revision:
+                return False
         revisions = self.revisions
         for k, (task, revision, traj, packed) in enumerate(self.frame_checks):
             if task.form_revision != revision:  # (another trajectory moves it too: ``traj`` is still the task's)

@@ -5,7 +5,7 @@ section 5.3) and a joint visiting waypoints (:mod:`.waypoints`, the (6+1) robot'
 """
 
 from redundik.tasks.balance import CoMTask, ContactTask, SupportPolygon
-from redundik.tasks.base import Barrier, BarrierTerm, Potential, Task, TaskTerm, stack_terms
+from redundik.tasks.base import Barrier, BarrierTerm, CompiledRows, Potential, Task, TaskTerm, stack_terms
 from redundik.tasks.coupling import JointCoupling
 from redundik.tasks.frame import AXIS_SETS, DEFAULT_HOLD_GAIN, FrameTask, PostureTask
 from redundik.tasks.potential_task import PotentialTask
@@ -19,6 +19,7 @@ from redundik.tasks.potentials import (
     VirtualPoint,
 )
 from redundik.tasks.relative import RelativePoseTask
+from redundik.tasks.rows import CompiledTask
 from redundik.tasks.stack import LevelPlan, StackLayout, TaskStack
 from redundik.tasks.subtasks import BoundSubtask, GradientSubtask, Subtask, TargetSubtask
 from redundik.tasks.trajectory import Circle, Hold, Line, PoseInterpolation, Trajectory
@@ -34,6 +35,8 @@ __all__ = [
     "Circle",
     "Clearance",
     "CoMTask",
+    "CompiledRows",
+    "CompiledTask",
     "ContactTask",
     "FrameTask",
     "GradientSubtask",

@@ -20,12 +20,51 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
+from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
-from redundik.tasks.base import Barrier, BarrierTerm, Potential, Task, TaskTerm, check_name, check_number
+from redundik.tasks.base import (
+    Barrier,
+    BarrierTerm,
+    CompiledRows,
+    Potential,
+    Task,
+    TaskTerm,
+    check_name,
+    check_number,
+)
 from redundik.tasks.frame import DEFAULT_HOLD_GAIN, FrameTask
 
 _COM_AXES = {"x": 0, "y": 1, "z": 2}
+#: the compiled writers of the built-in tasks (loaded at first use)
+_RK = KernelNamespace("redundik.tasks.row_kernels")
+
+
+def com_layout(robot: RobotModel, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(ints, floats) of ``row_kernels.com_rows`` for ``robot`` (the target slots zero), or ``None`` when a body's
+    joint has no frame of its own at the joint (its pose is not among the frames' placements)."""
+    model, nv = robot.model, robot.nv
+    total = sum(model.inertias[j].mass for j in range(1, model.njoints))
+    if not total > 0.0:
+        return None
+    joint_frame = {}
+    for f, frame in enumerate(model.frames):
+        if frame.type == pin.FrameType.JOINT and frame.placement.isIdentity() and frame.parentJoint not in joint_frame:
+            joint_frame[frame.parentJoint] = f
+    fids, columns, floats = [], [], [0.0, 0.0, 0.0]
+    for j in range(1, model.njoints):
+        if j not in joint_frame:
+            return None
+        fids.append(joint_frame[j])
+        col = np.zeros(nv, dtype=np.int64)
+        for s in model.supports[j]:
+            if s > 0:
+                col[model.joints[s].idx_v : model.joints[s].idx_v + model.joints[s].nv] = 1
+        columns.append(col)
+        inertia = model.inertias[j]
+        floats += [inertia.mass / total, *np.asarray(inertia.lever, dtype=float)]
+    ints = np.concatenate([[len(fids), len(rows)], rows, fids, *columns]).astype(np.int64)
+    return ints, np.array(floats, dtype=float)
 
 
 def center_of_mass(robot: RobotModel) -> tuple[np.ndarray, np.ndarray]:
@@ -72,13 +111,25 @@ class CoMTask(Task):
         self.axes = tuple(axes)
         self.rows = np.array([_COM_AXES[a] for a in axes])
         self._given = None if target is None else self._vec(target)
-        self.target: np.ndarray | None = self._given
+        self._target: np.ndarray | None = self._given
+        self._layout: tuple[object, np.ndarray, np.ndarray] | None = None  # (robot data, ints, floats) of the writer
 
     def _vec(self, target: Sequence[float] | np.ndarray) -> np.ndarray:
         arr = np.asarray(target, dtype=float).reshape(-1)
         if arr.shape != (3,) or not np.all(np.isfinite(arr)):
             raise TaskError(f"task '{self.name}': target must be 3 finite numbers [m], got {arr.tolist()}")
         return arr
+
+    @property
+    def target(self) -> np.ndarray | None:
+        """c_d (3,) [m], or ``None`` before the first reset when none was given."""
+        return self._target
+
+    @target.setter
+    def target(self, value: Sequence[float] | np.ndarray | None) -> None:
+        self._target = None if value is None else self._vec(value)
+        if self._layout is not None and self._target is not None:
+            self._layout[2][0:3] = self._target  # (the compiled writer's data: written in place)
 
     def set_target(self, target: Sequence[float] | np.ndarray) -> None:
         """A new CoM target c_d (3,) [m]; kept across resets."""
@@ -87,6 +138,22 @@ class CoMTask(Task):
 
     def reset(self, robot: RobotModel) -> None:
         self.target = self._given if self._given is not None else center_of_mass(robot)[0].copy()
+
+    def compiled_rows(self, robot: RobotModel) -> CompiledRows | None:
+        """The rows of ``row_kernels.com_rows`` (the bodies' masses and levers packed once per robot); ``None`` when
+        a joint has no frame at the joint (then :meth:`evaluate`, Pinocchio's ``jacobianCenterOfMass``)."""
+        if self._target is None:
+            self.reset(robot)
+        layout = self._layout
+        if layout is None or layout[0] is not robot.data:
+            packed = com_layout(robot, self.rows)
+            if packed is None:
+                return None
+            layout = self._layout = (robot.data, packed[0], packed[1])
+            self._form_revision += 1
+            assert self._target is not None
+            layout[2][0:3] = self._target
+        return CompiledRows(_RK.com_rows, len(self.rows), layout[1], layout[2])
 
     def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
         if self.target is None:

@@ -117,6 +117,38 @@ class ClearanceForm(NamedTuple):
     columns: np.ndarray
 
 
+class CompiledRows(NamedTuple):
+    """A task's rows as a compiled writer: the optional compiled form of the row protocol (``Task.compiled_rows``).
+
+    A step calls ``kernel(q, t, poses, jw, ints, floats, gain, J, e, v)`` — a ``numba.njit`` function — with
+
+    * ``q`` (nq,) the configuration, ``t`` [s] the time;
+    * ``poses`` (nframes, 12): per frame of the model, its placement in the world at q: the rotation column-major
+      (R[i, j] = ``poses[f, 3 j + i]``) then the origin (``poses[f, 9:12]``) [m] (Pinocchio's ``data.oMf``);
+    * ``jw`` (6, nv): the joint Jacobians in the world frame (Pinocchio's ``data.J`` after
+      ``computeJointJacobians``; :func:`redundik.kinematics.lie_kernels.frame_jacobian_lwa` turns a frame's columns
+      into its base-aligned Jacobian);
+    * ``ints``, ``floats``: the task's own data (its frame ids, its target …), arrays it may rewrite in place between
+      steps — a new target is data, not a new plan;
+    * ``gain`` K [1/s], the task's current gain;
+
+    and the kernel writes the task's ``rows`` rows: its Jacobian into ``J`` (rows, nv; zeros on entry), its error
+    into ``e`` and its desired velocity (feed-forward + K e) into ``v``. The same kernel gives the per-task path's
+    :meth:`Task.evaluate` (:class:`redundik.tasks.rows.CompiledTask`): one formula, two paths.
+
+    Attributes:
+        kernel: The compiled writer.
+        rows: Its number of rows (fixed while the task's ``form_revision`` is unchanged).
+        ints: int64 data (1-D).
+        floats: float64 data (1-D).
+    """
+
+    kernel: Any
+    rows: int
+    ints: np.ndarray
+    floats: np.ndarray
+
+
 class Edits:
     """A counter that every change of a task's or a gradient subtask's gain or weight moves (their validated setters):
     a fused step (:mod:`redundik.resolvers.fused`) re-reads its coefficients when it has moved."""
@@ -255,6 +287,13 @@ class Task(ABC):
         """The ``FrameForm`` of this task's rows, when they are those of a frame task that a fused step may
         compute itself; ``NOT_READY`` when they will be (after the first evaluation on ``robot``); ``None``
         (the default): only :meth:`evaluate` gives them."""
+        return None
+
+    def compiled_rows(self, robot: RobotModel) -> CompiledRows | None:
+        """The task's rows as a compiled writer (:class:`CompiledRows`) on ``robot``, which a compiled step calls in
+        place of :meth:`evaluate`; ``None`` (the default): only :meth:`evaluate` gives them. The returned arrays stay
+        the task's (rewritten in place); a change of the rows' form (their number, their frames) must move
+        :attr:`form_revision`."""
         return None
 
     def reference_sampled(self, R_d: np.ndarray) -> None:  # noqa: B027 - optional hook

@@ -4,12 +4,17 @@ from __future__ import annotations
 
 import numpy as np
 
+from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
-from redundik.tasks.base import Task, TaskTerm
+from redundik.tasks.base import CompiledRows
+from redundik.tasks.rows import CompiledTask
+
+#: the compiled writers of the built-in tasks (loaded at first use)
+_RK = KernelNamespace("redundik.tasks.row_kernels")
 
 
-class JointCoupling(Task):
+class JointCoupling(CompiledTask):
     """Keep two 1-dof joints coupled: q_i − q_j = c, as the 1-row task (e_i − e_j)ᵀq̇ = K(c − (q_i − q_j)).
 
     With ``offset=None`` the offset c is captured at :meth:`reset` (the coupling holds what the start pose has).
@@ -53,6 +58,8 @@ class JointCoupling(Task):
         self.gain, self.weight, self.priority = float(gain), float(weight), priority
         self._idx: tuple[int, int, int, int] | None = None
         self._c: float | None = self.offset
+        self._ints = np.zeros(4, dtype=np.int64)  # the compiled writer's data, rewritten in place
+        self._floats = np.zeros(1)
 
     def reset(self, robot: RobotModel) -> None:
         idx = []
@@ -67,17 +74,14 @@ class JointCoupling(Task):
         self._idx = (idx[0], idx[1], idx[2], idx[3])
         q = robot.q
         self._c = self.offset if self.offset is not None else float(q[idx[0]] - q[idx[2]])
+        self._ints[:] = self._idx  # (the same rows on other joints: data, not a new form)
+        self._floats[0] = self._c
 
-    def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
+    def compiled_rows(self, robot: RobotModel) -> CompiledRows:
+        """One row: J = (e_i − e_j)ᵀ, e = c − (q_i − q_j), v = K e (``row_kernels.coupling_rows``)."""
         if self._idx is None or self._c is None:
             self.reset(robot)
-        assert self._idx is not None and self._c is not None  # set by reset()
-        iq, iv, jq, jv = self._idx
-        q = robot.q
-        e = np.array([self._c - (q[iq] - q[jq])])
-        J = np.zeros((1, robot.nv))
-        J[0, iv], J[0, jv] = 1.0, -1.0
-        return TaskTerm(self.name, J, self.gain * e, e, self.weight)
+        return CompiledRows(_RK.coupling_rows, 1, self._ints, self._floats)
 
     def __repr__(self) -> str:
         return f"JointCoupling({self.joint_i!r}, {self.joint_j!r}, offset={self.offset}, gain={self.gain})"

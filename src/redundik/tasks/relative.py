@@ -23,17 +23,22 @@ from collections.abc import Sequence
 import numpy as np
 import pinocchio as pin
 
+from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
 from redundik.kinematics.model import AXES, RobotModel
-from redundik.tasks.base import Task, TaskTerm
+from redundik.tasks.base import CompiledRows
 from redundik.tasks.frame import resolve_axes
+from redundik.tasks.rows import CompiledTask
+
+#: the compiled writers of the built-in tasks (loaded at first use)
+_RK = KernelNamespace("redundik.tasks.row_kernels")
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
-class RelativePoseTask(Task):
+class RelativePoseTask(CompiledTask):
     """Hold (or drive to) the pose of frame A expressed in frame B: J_rel q̇ = K e, e in frame B.
 
     The error is e = (p_d − p_rel, log3(R_d R_relᵀ)) with (p_d, R_d) the relative pose captured at :meth:`reset`
@@ -89,6 +94,9 @@ class RelativePoseTask(Task):
                 raise TaskError(f"task '{self.name}': target must be a finite 4×4 homogeneous transform")
             self._given = pin.SE3(rot, m[:3, 3])
         self._ids: tuple[int, int] | None = None
+        self._data: object = None  # the robot data the writer's frame ids and columns are for
+        self._ints = np.zeros(0, dtype=np.int64)
+        self._floats = np.zeros(12)  # (p_d, R_d row-major): the target, rewritten in place
 
     @property
     def dim(self) -> int:
@@ -101,6 +109,20 @@ class RelativePoseTask(Task):
         except Exception as exc:
             raise TaskError(f"task '{self.name}': {exc}") from exc
         self._target = self._given.copy() if self._given is not None else self.relative_pose(robot)
+        self._floats[0:3] = self._target.translation
+        self._floats[3:12] = self._target.rotation.reshape(-1)
+        model, nv = robot.model, robot.nv
+        columns = []
+        for fid in self._ids:  # the velocity columns of the joints that move each frame
+            col = np.zeros(nv, dtype=np.int64)
+            for j in model.supports[model.frames[fid].parentJoint]:
+                if j > 0:
+                    col[model.joints[j].idx_v : model.joints[j].idx_v + model.joints[j].nv] = 1
+            columns.append(col)
+        ints = np.concatenate([[self._ids[0], self._ids[1], len(self.rows)], self.rows, *columns]).astype(np.int64)
+        if self._data is not robot.data or not np.array_equal(ints, self._ints):
+            self._form_revision += 1
+        self._ints, self._data = ints, robot.data
 
     def relative_pose(self, robot: RobotModel) -> pin.SE3:
         """T_B^A = (T_0^B)⁻¹ T_0^A at the robot's current state."""
@@ -123,17 +145,11 @@ class RelativePoseTask(Task):
         jw = ja[3:] - jb[3:]
         return np.vstack([rbt @ jv, rbt @ jw])
 
-    def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
-        if self._ids is None or self._target is None:
+    def compiled_rows(self, robot: RobotModel) -> CompiledRows:
+        """The rows of the module docstring (``row_kernels.relative_rows``)."""
+        if self._ids is None or self._target is None or self._data is not robot.data:
             self.reset(robot)
-        assert self._target is not None
-        rel = self.relative_pose(robot)
-        err6 = np.empty(6)
-        err6[:3] = self._target.translation - rel.translation
-        err6[3:] = pin.log3(self._target.rotation @ rel.rotation.T)
-        e = err6[self.rows]
-        J = self.jacobian(robot)[self.rows]
-        return TaskTerm(self.name, J, self.gain * e, e, self.weight)
+        return CompiledRows(_RK.relative_rows, len(self.rows), self._ints, self._floats)
 
     def __repr__(self) -> str:
         return f"RelativePoseTask({self.frame_a!r} in {self.frame_b!r}, axes={list(self.axes)}, gain={self.gain})"

@@ -1,0 +1,180 @@
+"""Compiled writers (numba) of the built-in tasks that give their rows through ``Task.compiled_rows``
+(:class:`redundik.tasks.base.CompiledRows`): joint coupling, the pose of one frame relative to another, the centre of
+mass. Each is the one implementation of its task's rows: its ``evaluate`` (:class:`redundik.tasks.rows.CompiledTask`)
+and the resolvers' compiled steps call the same kernel.
+
+Every writer has the protocol's signature ``(q, t, poses, jw, ints, floats, gain, J, e, v)``; ``poses`` holds the
+frames' placements (rotation column-major, then the origin) and ``jw`` the joint Jacobians in the world frame.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from redundik import _kernel_cache
+from redundik.kinematics.lie_kernels import frame_jacobian_lwa
+
+_jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
+
+__all__ = ["com_rows", "coupling_rows", "log3", "relative_rows"]
+
+
+@_jit
+def coupling_rows(
+    q: np.ndarray,
+    t: float,
+    poses: np.ndarray,
+    jw: np.ndarray,
+    ints: np.ndarray,
+    floats: np.ndarray,
+    gain: float,
+    J: np.ndarray,
+    e: np.ndarray,
+    v: np.ndarray,
+) -> None:
+    """Joint coupling q_i − q_j = c (section 5.3): J = (e_i − e_j)ᵀ, e = c − (q_i − q_j), v = K e.
+
+    ``ints`` = (idx_q i, idx_v i, idx_q j, idx_v j); ``floats`` = (c,) [rad or m]."""
+    J[0, ints[1]] = 1.0
+    J[0, ints[3]] = -1.0
+    e[0] = floats[0] - (q[ints[0]] - q[ints[2]])
+    v[0] = gain * e[0]
+
+
+@_jit
+def log3(M: np.ndarray, out: np.ndarray) -> None:
+    """log3 of a rotation matrix M (3, 3) into ``out`` (3,): the axis-angle vector θ u, θ ∈ [0, π] (Pinocchio's
+    ``log3``; near θ = π the axis comes from the diagonal of M)."""
+    tr = M[0, 0] + M[1, 1] + M[2, 2]
+    c = min(1.0, max(-1.0, 0.5 * (tr - 1.0)))
+    wx, wy, wz = M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1]
+    s = 0.5 * math.sqrt(wx * wx + wy * wy + wz * wz)
+    theta = math.atan2(s, c)
+    if c > -0.99:  # away from π: θ / (2 sin θ) times the skew part (its series below 1e-8)
+        f = 0.5 + theta * theta / 12.0 if theta < 1e-4 else 0.5 * theta / math.sin(theta)
+        out[0], out[1], out[2] = f * wx, f * wy, f * wz
+        return
+    # near π: R ≈ 2 u uᵀ − I + sin θ [u]×, so u_k² = (M_kk − c) / (1 − c); the largest |u_k| takes the sign of the
+    # skew part (sin θ u_k = w_k / 2), the others u_i u_k = (M_ik + M_ki) / (2 (1 − c))
+    d = 1.0 - c
+    u = np.empty(3)
+    for i in range(3):
+        u[i] = math.sqrt(max(0.0, (M[i, i] - c) / d))
+    k = 0
+    if u[1] > u[k]:
+        k = 1
+    if u[2] > u[k]:
+        k = 2
+    w = (wx, wy, wz)
+    sk = 1.0 if w[k] >= 0.0 else -1.0
+    for i in range(3):
+        if i != k:
+            u[i] = sk * math.copysign(u[i], M[i, k] + M[k, i])
+    u[k] = sk * u[k]
+    n = math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+    for i in range(3):
+        out[i] = theta * u[i] / n
+
+
+@_jit
+def relative_rows(
+    q: np.ndarray,
+    t: float,
+    poses: np.ndarray,
+    jw: np.ndarray,
+    ints: np.ndarray,
+    floats: np.ndarray,
+    gain: float,
+    J: np.ndarray,
+    e: np.ndarray,
+    v: np.ndarray,
+) -> None:
+    """The pose of frame A in frame B (:mod:`redundik.tasks.relative`): p_rel = R_Bᵀ (p_A − p_B), R_rel = R_Bᵀ R_A,
+    e = (p_d − p_rel, log3(R_d R_relᵀ))[rows], J = diag(R_Bᵀ, R_Bᵀ) [[J_A^v − J_B^v + [p_A − p_B]× J_B^ω],
+    [J_A^ω − J_B^ω]][rows], v = K e.
+
+    ``ints`` = (frame A, frame B, r, rows (r), A's supporting columns (nv), B's (nv)); ``floats`` = (p_d (3) [m],
+    R_d row-major (9))."""
+    nv = jw.shape[1]
+    fa, fb, r = ints[0], ints[1], ints[2]
+    Ra = poses[fa, 0:9].reshape(3, 3).T  # (stored column-major)
+    Rb = poses[fb, 0:9].reshape(3, 3).T
+    d = poses[fa, 9:12] - poses[fb, 9:12]
+    ja, jb = np.empty((6, nv)), np.empty((6, nv))
+    frame_jacobian_lwa(jw, poses[fa, 9:12], ints[3 + r : 3 + r + nv], ja)
+    frame_jacobian_lwa(jw, poses[fb, 9:12], ints[3 + r + nv : 3 + r + 2 * nv], jb)
+    err = np.empty(6)
+    M = np.empty((3, 3))
+    for i in range(3):  # p_d − R_bᵀ d; and M = R_d R_relᵀ = R_d R_aᵀ R_b
+        err[i] = floats[i] - (Rb[0, i] * d[0] + Rb[1, i] * d[1] + Rb[2, i] * d[2])
+    Rrel = Rb.T @ Ra
+    Rd = floats[3:12].reshape(3, 3)
+    for i in range(3):
+        for j in range(3):
+            M[i, j] = Rd[i, 0] * Rrel[j, 0] + Rd[i, 1] * Rrel[j, 1] + Rd[i, 2] * Rrel[j, 2]
+    log3(M, err[3:6])
+    full = np.empty((6, nv))
+    for c in range(nv):
+        wbx, wby, wbz = jb[3, c], jb[4, c], jb[5, c]
+        lv0 = ja[0, c] - jb[0, c] + (d[1] * wbz - d[2] * wby)  # d × ω_B
+        lv1 = ja[1, c] - jb[1, c] + (d[2] * wbx - d[0] * wbz)
+        lv2 = ja[2, c] - jb[2, c] + (d[0] * wby - d[1] * wbx)
+        aw0, aw1, aw2 = ja[3, c] - wbx, ja[4, c] - wby, ja[5, c] - wbz
+        for i in range(3):  # R_bᵀ applied to both blocks
+            full[i, c] = Rb[0, i] * lv0 + Rb[1, i] * lv1 + Rb[2, i] * lv2
+            full[3 + i, c] = Rb[0, i] * aw0 + Rb[1, i] * aw1 + Rb[2, i] * aw2
+    for k in range(r):
+        row = ints[3 + k]
+        e[k] = err[row]
+        v[k] = gain * err[row]
+        for c in range(nv):
+            J[k, c] = full[row, c]
+
+
+@_jit
+def com_rows(
+    q: np.ndarray,
+    t: float,
+    poses: np.ndarray,
+    jw: np.ndarray,
+    ints: np.ndarray,
+    floats: np.ndarray,
+    gain: float,
+    J: np.ndarray,
+    e: np.ndarray,
+    v: np.ndarray,
+) -> None:
+    """The centre of mass (:mod:`redundik.tasks.balance`): c = Σ m_i c_i / M with c_i = p_i + R_i l_i the bodies'
+    centres, J_c = Σ (m_i / M) (J_i^v + ω_i × c_i) on the columns that support body i; e = (c_d − c)[rows],
+    v = K e.
+
+    ``ints`` = (bodies b, r, rows (r), per body its joint's frame id (b), per body its supporting columns (b × nv));
+    ``floats`` = (c_d (3) [m], per body m_i / M, l_i (3) [m] (b × 4))."""
+    nv = jw.shape[1]
+    b, r = ints[0], ints[1]
+    fids = 2 + r
+    cols = fids + b
+    c = np.zeros(3)
+    Jc = np.zeros((3, nv))
+    for i in range(b):
+        f = ints[fids + i]
+        w = floats[3 + 4 * i]
+        lx, ly, lz = floats[4 + 4 * i], floats[5 + 4 * i], floats[6 + 4 * i]
+        ci = np.empty(3)
+        for k in range(3):  # p + R l, R stored column-major
+            ci[k] = poses[f, 9 + k] + poses[f, k] * lx + poses[f, 3 + k] * ly + poses[f, 6 + k] * lz
+            c[k] += w * ci[k]
+        for col in range(nv):
+            if ints[cols + i * nv + col]:
+                wx, wy, wz = jw[3, col], jw[4, col], jw[5, col]
+                Jc[0, col] += w * (jw[0, col] + wy * ci[2] - wz * ci[1])
+                Jc[1, col] += w * (jw[1, col] + wz * ci[0] - wx * ci[2])
+                Jc[2, col] += w * (jw[2, col] + wx * ci[1] - wy * ci[0])
+    for k in range(r):
+        row = ints[2 + k]
+        e[k] = floats[row] - c[row]
+        v[k] = gain * e[k]
+        for col in range(nv):
+            J[k, col] = Jc[row, col]
