@@ -24,8 +24,8 @@ The kernels take their data as records, plain tuples (numba dispatches a tuple o
   capsule is body 1 of the pair) and ``sign[r]`` = ±1, the end along the capsule's local z;
 * :data:`PairData` ``(d, p1, p2, n, rate, near)``: per pair the distance [m] (P,), witness points on body 1 and 2
   and unit normal (P, 3), ∂d/∂t [m/s] (P,), and the indices of the pairs that get rows;
-* :data:`JacobianData` ``(Js, mask, pj)``: the spatial Jacobian (6, nv), the joints' support masks (njoints, nv),
-  the pairs' joints (P, 2);
+* :data:`Joints` ``(mask, pj)``: the joints' support masks (njoints, nv), the pairs' joints (P, 2) (with the spatial
+  Jacobian ``Js`` (6, nv) of the tick, a separate argument);
 * :data:`Gains` ``(reach, influence, safety, gamma, no_cap, ends, qp_cap)``: the damper's numbers
   (:func:`barrier_rows`): reach, d_i, d_s [m], γ, the gain outside d_i [1/s], whether end spheres get rows, the
   QP rate cap [1/s] (0: the rows as h, ∂h/∂q).
@@ -46,7 +46,7 @@ BR_PAIR, BR_CAPSULE, BR_OTHER, BR_FIRST = 0, 1, 2, 3
 Shapes = tuple[np.ndarray, np.ndarray, np.ndarray]
 BranchTable = tuple[np.ndarray, np.ndarray]
 PairData = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
-JacobianData = tuple[np.ndarray, np.ndarray, np.ndarray]
+Joints = tuple[np.ndarray, np.ndarray]
 Gains = tuple[float, float, float, float, float, bool, float]
 
 _jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
@@ -362,7 +362,7 @@ def capsule_distances(
 
 @_jit
 def barrier_rows(
-    shapes: Shapes, branches: BranchTable, pairs: PairData, jac: JacobianData, gains: Gains
+    shapes: Shapes, branches: BranchTable, pairs: PairData, joints: Joints, Js: np.ndarray, gains: Gains
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The collision damper's rows in one call: the pairs ``near`` and (``ends``) their capsules' end spheres.
 
@@ -389,23 +389,23 @@ def barrier_rows(
     for r in range(m):
         if sel[br[r, BR_PAIR]]:
             rows += 1
-    H = np.zeros((rows, jac[0].shape[1]))
+    H = np.zeros((rows, Js.shape[1]))
     h = np.empty(rows)
     gam = np.empty(rows)
     ids = np.empty(rows, dtype=np.int64)
-    c_ = _barrier_rows_into(shapes, branches, pairs, jac, gains, sel, (h, H, gam, ids))
+    c_ = _barrier_rows_into(shapes, branches, pairs, joints, Js, gains, sel, (h, H, gam, ids))
     return h[:c_], H[:c_], gam[:c_], ids[:c_]
 
 
 @_jit
 def _barrier_rows_into(
-    shapes: Shapes, branches: BranchTable, pairs: PairData, jac: JacobianData, gains: Gains, sel: np.ndarray,
-    out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    shapes: Shapes, branches: BranchTable, pairs: PairData, joints: Joints, Js: np.ndarray, gains: Gains,
+    sel: np.ndarray, out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
 ) -> int:  # fmt: skip
     """:func:`barrier_rows` into ``out`` = (h, H, γ, row ids) (room for every row; ``sel``: the pairs of ``near``);
     the row count."""
     d, p1, p2, n, rate, near = pairs
-    Js, mask, pj = jac
+    mask, pj = joints
     reach, influence, safety, gamma, no_cap, ends, qp_cap = gains
     h, H, gam, ids = out
     br = branches[0]
@@ -450,7 +450,7 @@ def _barrier_rows_into(
 @_jit
 def capsule_damper(
     poses: tuple[np.ndarray, np.ndarray], shapes: Shapes, caps: tuple[np.ndarray, np.ndarray],
-    branches: BranchTable, jac: JacobianData, gains: Gains, F: np.ndarray, I: np.ndarray,
+    branches: BranchTable, joints: Joints, Js: np.ndarray, gains: Gains, F: np.ndarray, I: np.ndarray,
 ) -> tuple[int, int, int]:  # fmt: skip
     """A static world of capsule/sphere pairs in one call: :func:`load_poses` (``poses`` = (src, live)),
     :func:`capsule_pairs` (every pair, ``caps`` = (ia, ib)), the pairs within ``reach`` [m], then
@@ -468,7 +468,7 @@ def capsule_damper(
     T, _kind, prm = shapes
     ia, ib = caps
     reach = gains[0]
-    P, R, nv = ia.shape[0], branches[0].shape[0] + ia.shape[0], jac[0].shape[1]
+    P, R, nv = ia.shape[0], branches[0].shape[0] + ia.shape[0], Js.shape[1]
     load_poses(poses[0], poses[1], T)
     d = F[:P]
     pts = F[P : 10 * P].reshape((3, P, 3))
@@ -488,5 +488,5 @@ def capsule_damper(
     o = 10 * P
     pairs = (d, pts[0], pts[1], pts[2], np.zeros(P), I[:k0])
     out = (F[o : o + R], F[o + 2 * R :].reshape((R, nv)), F[o + R : o + 2 * R], I[P:])
-    k = _barrier_rows_into(shapes, branches, pairs, jac, gains, sel, out)
+    k = _barrier_rows_into(shapes, branches, pairs, joints, Js, gains, sel, out)
     return k0, k, 0

@@ -259,12 +259,14 @@ class CollisionWorld:
         #: Row labels by row id (``collision.kernels.barrier_rows``): the pairs, then the branches.
         self.row_labels = self.pair_names + self._br_labels
         self._pj2 = np.array(self.pair_joints, dtype=np.int64).reshape(-1, 2)
+        #: The joints (kernels.Joints): support masks, the pairs' joints.
+        self._joints = (self._joint_masks(), self._pj2)
         #: ``collision.kernels.capsule_damper``'s fixed arguments, for a static world of capsules only
         #: whose placements are read from oMg's memory (else ``None``).
         self._static: tuple[Any, ...] | None = None
         if self._cap.size == len(self.pairs) and not self._moving and self._poses is not None:
             poses, caps = (self._poses, self._live_arr), (self._cap_a, self._cap_b)
-            self._static = (poses, self._shapes, caps, self._branches)
+            self._static = (poses, self._shapes, caps, self._branches, self._joints)
         #: (pairs P, rows at most R = P + branches, nv): the sizes of capsule_damper's arrays.
         self._sizes = (len(self.pairs), len(self.pairs) + len(self._br_pair), int(self.model.nv))
         self._pa, self._pb = pa, pb
@@ -490,10 +492,9 @@ class CollisionWorld:
             pin.updateGeometryPlacements(self.model, robot.data, self.geometry, self.data)
             P, R, nv = self._sizes
             F, I = np.empty(10 * P + (2 + nv) * R), np.empty(P + R, dtype=np.int64)
-            jac = (np.asarray(robot.data.J), self._joint_masks(), self._pj2)
             gains = (float(reach), float(influence), float(safety), float(gamma), float(no_cap), bool(ends),
                      float(qp_cap))  # fmt: skip
-            k0, k, bad = KC.capsule_damper(*static, jac, gains, F, I)
+            k0, k, bad = KC.capsule_damper(*static, np.asarray(robot.data.J), gains, F, I)
             if not bad:
                 self._dist, self._pending = None, (F, I, k0)  # the Distances built when read (compute)
                 self._cache = (robot, self.time, reach, key)
@@ -527,9 +528,8 @@ class CollisionWorld:
         if self._moving or (ends and self._br_any_other):
             return None
         pairs = (dist.d, dist.p1, dist.p2, dist.n, dist.rate, dist.near)
-        jac = (np.asarray(robot.data.J), self._joint_masks(robot), self._pj2)
         gains = (float(reach), float(influence), float(safety), float(gamma), float(no_cap), bool(ends), float(qp_cap))
-        return KC.barrier_rows(self._shapes, self._branches, pairs, jac, gains)
+        return KC.barrier_rows(self._shapes, self._branches, pairs, self._joints, np.asarray(robot.data.J), gains)
 
     _info: list[tuple[Any, ...]] | None = None
 
