@@ -1,8 +1,11 @@
 """Hostile input at the kinematics layer: reserved names, paths that are not files, robots too large for Pinocchio's
-data — each a ModelError that says what and where, never a raw ValueError, a MemoryError or a hang."""
+data, D-H tables and bases that are nonsense, URDF robots no resolver could use, NaN or wrong sizes given to
+``update`` and ``integrate`` — each a ModelError that says what and where, never a raw ValueError, a MemoryError or
+a hang."""
 
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -12,6 +15,7 @@ import pinocchio as pin
 import pytest
 
 import redundik as rk
+from redundik.errors import ModelError
 from redundik.kinematics.model import MAX_NV
 from redundik.kinematics.snake import snake, snake_rows
 
@@ -73,3 +77,76 @@ def test_the_snake_config_script_reports_a_bad_size_in_one_line() -> None:
     assert out.returncode == 2
     assert out.stderr.strip() == "snake_config: snake: needs 2 to 256 joints, got 1"
     assert out.stdout == ""
+
+
+@pytest.mark.parametrize(
+    ("rows", "expected"),
+    [
+        ([rk.DHRow("1", a=1, velocity=-1.0)], "row 1 ('1'): velocity limit must be ≥ 0"),
+        ([rk.DHRow("1", a=1, velocity=math.nan)], "velocity limit must be ≥ 0"),
+        ([rk.DHRow("1", a=1, lower=math.inf)], "leave no position"),
+        ([rk.DHRow("1", a=1, upper=-math.inf)], "leave no position"),
+        ([rk.DHRow("", a=1)], "row 1: name must be a non-empty string"),
+        ([rk.DHRow(1, a=1)], "row 1: name must be a non-empty string"),  # type: ignore[arg-type]
+        ([rk.DHRow("1", a="1")], "row 1 ('1'): a must be a number, got str"),  # type: ignore[arg-type]
+        ([rk.DHRow("1", a=True)], "a must be a number, got bool"),
+        ([rk.DHRow("1", a=1e308)], "a = 1e+308 is larger than 1e+06"),
+        ([rk.DHRow("1", a=1, kind="fixed")], "has no moving joint"),
+        ([{"name": "1"}], "row 1: expected a DHRow, got dict"),
+        (None, "rows must be a list of DHRow"),
+    ],
+)
+def test_dh_tables_refuse_nonsense_naming_the_row(rows: object, expected: str) -> None:
+    with pytest.raises(ModelError) as info:
+        rk.from_dh(rows)  # type: ignore[arg-type]
+    assert expected in str(info.value)
+
+
+def test_dh_base_must_be_homogeneous() -> None:
+    base = np.eye(4)
+    base[3] = (1.0, 1.0, 1.0, 5.0)
+    with pytest.raises(ModelError, match="last row must be"):
+        rk.from_dh([rk.DHRow("1", a=1)], base=base)
+
+
+_JOINT = (
+    "<robot name='x'><link name='a'/><link name='b'/><joint name='j1' type='revolute'><parent link='a'/>"
+    "<child link='b'/><axis xyz='{axis}'/><limit lower='{lower}' upper='{upper}' effort='1' velocity='1'/></joint>"
+    "</robot>"
+)
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        (_JOINT.format(axis="0 0 1", lower=2, upper=1), "joint 'j1': limits must satisfy lower ≤ upper"),
+        (_JOINT.format(axis="0 0 0", lower=-1, upper=1), "joint 'j1' has a zero axis"),
+        ("<robot name='x'><link name='a'/></robot>", "has no moving joint"),
+    ],
+)
+def test_urdf_robots_no_resolver_could_use_are_refused(tmp_path: Path, text: str, expected: str) -> None:
+    path = tmp_path / "r.urdf"
+    path.write_text(text)
+    with pytest.raises(ModelError) as info:
+        rk.from_urdf(path)
+    assert expected in str(info.value)
+    with pytest.raises(ModelError, match="URDF path must be a file path"):
+        rk.from_urdf(None)  # type: ignore[arg-type]
+
+
+def test_update_and_integrate_refuse_nan_and_wrong_sizes() -> None:
+    robot = rk.from_dh([rk.DHRow("1", a=1), rk.DHRow("2", a=1)])
+    q = np.zeros(2)
+    with pytest.raises(ModelError, match=r"update\(q\): q contains NaN"):
+        robot.update(np.array([math.nan, 0.0]))
+    with pytest.raises(ModelError, match="expected 2 values"):
+        robot.update(np.zeros(3))
+    with pytest.raises(ModelError, match="dq contains NaN"):
+        robot.integrate(q, np.array([math.nan, 0.0]), 0.01)
+    with pytest.raises(ModelError, match="dt must be a finite number"):
+        robot.integrate(q, np.zeros(2), math.nan)
+    with pytest.raises(ModelError, match="dq has 3 entries"):
+        robot.integrate(q, np.zeros(3), 0.01)
+    with pytest.raises(ModelError, match="q must be 2 real numbers"):
+        robot.integrate(np.zeros(3), np.zeros(2), 0.01)
+    np.testing.assert_allclose(robot.integrate(q, np.ones(2), 0.5), [0.5, 0.5])

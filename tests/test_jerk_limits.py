@@ -190,7 +190,7 @@ def test_bad_jerk_values_are_refused_with_their_joint() -> None:
 
 def test_the_yaml_key_is_checked_with_its_path(tmp_path: Path) -> None:
     from redundik.config import load_task
-    from tests.test_hostile_sweep3 import TASK
+    from tests.hostile import TASK
 
     def load(options: str) -> object:
         path = tmp_path / "t.yaml"

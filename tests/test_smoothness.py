@@ -65,7 +65,7 @@ def test_a_run_reports_smoothness_in_its_summary_and_csv(tmp_path: Path) -> None
     from redundik.config import load_task
     from redundik.config.runner import run_task
     from redundik.reporting.outputs import write_outputs
-    from tests.test_hostile_sweep3 import TASK
+    from tests.hostile import TASK
 
     text = TASK.replace("steps: 500", "steps: 60").replace(
         "    resolver: wqp\n", "    resolver: wqp\n    options: {limits: {acceleration: 5.0, jerk: 100.0}}\n", 1

@@ -15,6 +15,20 @@ Shapes are described per geometry g by a kind code and four numbers:
 * ``OTHER`` (meshes / convex hulls): left to coal.
 
 Poses are world homogeneous transforms ``T`` (G, 4, 4) (rotation ``T[g, :3, :3]``, translation ``T[g, :3, 3]``).
+
+The kernels take their data as records, plain tuples (numba dispatches a tuple of arrays as fast as the arrays):
+
+* :data:`Shapes` ``(T, kind, prm)``: the geometries' poses, kind codes (G,) and numbers (G, 4);
+* :data:`BranchTable` ``(br, sign)``: per end-sphere branch r, ``br[r]`` (int, columns :data:`BR_PAIR`,
+  :data:`BR_CAPSULE`, :data:`BR_OTHER`, :data:`BR_FIRST`: the pair, the capsule, the pair's other body, 1 when the
+  capsule is body 1 of the pair) and ``sign[r]`` = ±1, the end along the capsule's local z;
+* :data:`PairData` ``(d, p1, p2, n, rate, near)``: per pair the distance [m] (P,), witness points on body 1 and 2
+  and unit normal (P, 3), ∂d/∂t [m/s] (P,), and the indices of the pairs that get rows;
+* :data:`Joints` ``(mask, pj)``: the joints' support masks (njoints, nv), the pairs' joints (P, 2) (with the spatial
+  Jacobian ``Js`` (6, nv) of the tick, a separate argument);
+* :data:`Gains` ``(reach, influence, safety, gamma, no_cap, ends, qp_cap)``: the damper's numbers
+  (:func:`barrier_rows`): reach, d_i, d_s [m], γ, the gain outside d_i [1/s], whether end spheres get rows, the
+  QP rate cap [1/s] (0: the rows as h, ∂h/∂q).
 """
 
 from __future__ import annotations
@@ -26,6 +40,14 @@ import numpy as np
 from redundik import _kernel_cache
 
 CAPSULE, BOX, HALFSPACE, OTHER = 0, 1, 2, 3
+#: Columns of a :data:`BranchTable`'s ``br``.
+BR_PAIR, BR_CAPSULE, BR_OTHER, BR_FIRST = 0, 1, 2, 3
+
+Shapes = tuple[np.ndarray, np.ndarray, np.ndarray]
+BranchTable = tuple[np.ndarray, np.ndarray]
+PairData = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+Joints = tuple[np.ndarray, np.ndarray]
+Gains = tuple[float, float, float, float, float, bool, float]
 
 _jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
 
@@ -209,33 +231,51 @@ def _ball_to(
 
 
 @_jit
+def _end_sphere(
+    shapes: Shapes, branches: BranchTable, r: int, pair_d: np.ndarray, pair_p1: np.ndarray, reach: float
+) -> tuple[bool, float, tuple[float, float, float], tuple[float, float, float], tuple[float, float, float]]:
+    """Branch r of ``branches`` (the ball of radius R at one end of a capsule against its pair's other body):
+    (kept, d [m], p1, p2, n), p₂ − p₁ = d n from body 1 to body 2 of the pair.
+
+    Kept: within ``reach`` [m], defined (the end off the other shape's axis/centre; not an ``OTHER`` shape) and not
+    the pair's own witness (|d_e − d| < 1e-9 with ``pair_d``, the same point within 1e-7 m as ``pair_p1``).
+    """
+    T, kind, prm = shapes
+    br, sign = branches
+    z3 = (0.0, 0.0, 0.0)
+    k, b, o = br[r, BR_PAIR], br[r, BR_CAPSULE], br[r, BR_OTHER]
+    if kind[o] == OTHER:
+        return False, 0.0, z3, z3, z3
+    e = sign[r] * prm[b, 1]
+    c = (T[b, 0, 3] + e * T[b, 0, 2], T[b, 1, 3] + e * T[b, 1, 2], T[b, 2, 3] + e * T[b, 2, 2])
+    de, ps, po, u, ok = _ball_to(c, prm[b, 0], kind[o], prm[o], T, o)
+    if not ok or de >= reach:
+        return False, 0.0, z3, z3, z3
+    if br[r, BR_FIRST]:
+        q1, q2, nr = ps, po, u
+    else:
+        q1, q2, nr = po, ps, (-u[0], -u[1], -u[2])
+    same = max(abs(q1[0] - pair_p1[k, 0]), abs(q1[1] - pair_p1[k, 1]), abs(q1[2] - pair_p1[k, 2])) < 1e-7
+    if abs(de - pair_d[k]) < 1e-9 and same:
+        return False, 0.0, z3, z3, z3  # the pair's own witness
+    return True, de, q1, q2, nr
+
+
+@_jit
 def end_spheres(
-    T: np.ndarray,
-    kind: np.ndarray,
-    prm: np.ndarray,
-    br_pair: np.ndarray,
-    br_b: np.ndarray,
-    br_o: np.ndarray,
-    br_first: np.ndarray,
-    br_sign: np.ndarray,
-    sel: np.ndarray,
-    pair_d: np.ndarray,
-    pair_p1: np.ndarray,
-    influence: float,
+    shapes: Shapes, branches: BranchTable, sel: np.ndarray, pair_d: np.ndarray, pair_p1: np.ndarray, influence: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The end spheres of capsules against their pair's other body, over the branches of the selected pairs.
 
-    Branch r: the ball of radius R at the end ``br_sign[r]`` (±1 along local z) of capsule ``br_b[r]`` against
-    ``br_o[r]``, of pair ``br_pair[r]``; ``br_first[r]``: the capsule is body 1 of the pair (else the points and
-    normal are swapped so that p₂ − p₁ = d n from body 1 to body 2). Only branches with ``sel[br_pair[r]]`` are
-    computed; ``pair_d``/``pair_p1`` (per pair) are the pair's own distance and witness on body 1.
+    Only branches of pairs with ``sel[pair]`` are computed; ``pair_d``/``pair_p1`` (per pair) are the pair's own
+    distance and witness on body 1 (:func:`_end_sphere`).
 
     Returns:
-        (branch indices (m,), d (m,), p1 (m, 3), p2 (m, 3), n (m, 3)) of the kept branches: those within
-        ``influence``, defined (the end off the other shape's axis/centre; not an ``OTHER`` shape) and not the
-        pair's own witness (|d_e − d| < 1e-9 and the same point within 1e-7 m).
+        (branch indices (m,), d (m,), p1 (m, 3), p2 (m, 3), n (m, 3)) of the branches :func:`_end_sphere` keeps with
+        reach ``influence`` [m].
     """
-    m = br_pair.shape[0]
+    br = branches[0]
+    m = br.shape[0]
     idx = np.empty(m, dtype=np.int64)
     d = np.empty(m)
     p1 = np.empty((m, 3))
@@ -243,22 +283,11 @@ def end_spheres(
     n = np.empty((m, 3))
     c_ = 0
     for r in range(m):
-        k = br_pair[r]
-        b, o = br_b[r], br_o[r]
-        if not sel[k] or kind[o] == OTHER:
+        if not sel[br[r, BR_PAIR]]:
             continue
-        e = br_sign[r] * prm[b, 1]
-        c = (T[b, 0, 3] + e * T[b, 0, 2], T[b, 1, 3] + e * T[b, 1, 2], T[b, 2, 3] + e * T[b, 2, 2])
-        de, ps, po, u, ok = _ball_to(c, prm[b, 0], kind[o], prm[o], T, o)
-        if not ok or de >= influence:
+        kept, de, q1, q2, nr = _end_sphere(shapes, branches, r, pair_d, pair_p1, influence)
+        if not kept:
             continue
-        if br_first[r]:
-            q1, q2, nr = ps, po, u
-        else:
-            q1, q2, nr = po, ps, (-u[0], -u[1], -u[2])
-        same = max(abs(q1[0] - pair_p1[k, 0]), abs(q1[1] - pair_p1[k, 1]), abs(q1[2] - pair_p1[k, 2])) < 1e-7
-        if abs(de - pair_d[k]) < 1e-9 and same:
-            continue  # the pair's own witness
         idx[c_], d[c_] = r, de
         for i in range(3):
             p1[c_, i], p2[c_, i], n[c_, i] = q1[i], q2[i], nr[i]
@@ -333,75 +362,53 @@ def capsule_distances(
 
 @_jit
 def barrier_rows(
-    T: np.ndarray,
-    kind: np.ndarray,
-    prm: np.ndarray,
-    br: np.ndarray,
-    br_sign: np.ndarray,
-    d: np.ndarray,
-    p1: np.ndarray,
-    p2: np.ndarray,
-    n: np.ndarray,
-    rate: np.ndarray,
-    near: np.ndarray,
-    Js: np.ndarray,
-    mask: np.ndarray,
-    pj: np.ndarray,
-    reach: float,
-    influence: float,
-    safety: float,
-    gamma: float,
-    no_cap: float,
-    ends: bool,
-    qp_cap: float,
+    shapes: Shapes, branches: BranchTable, pairs: PairData, joints: Joints, Js: np.ndarray, gains: Gains
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The collision damper's rows in one call: the pairs ``near`` and (``ends``) their capsules' end spheres.
 
-    Rows are the pairs first (in the order of ``near``), then the end-sphere branches r (table ``br``: pair,
-    capsule, other body, capsule is body 1; ``br_sign``: the end ±1) of those pairs, kept as in
-    :func:`end_spheres` (within ``reach`` [m], defined, not the pair's own witness). Per row at distance d:
-    h = d − d_s + rate/γ, gain γ where d < ``influence`` [m], else h = d − d_s and gain ``no_cap``; the Jacobian
-    row is :func:`distance_rows`'s. Branch rows have no obstacle rate (the caller uses this only without moving
-    obstacles and without ``OTHER`` shapes in a branch).
-
-    Args:
-        d, p1, p2, n, rate: The pairs' distances [m], witness points [m], normals, ∂d/∂t [m/s].
-        Js, mask, pj: The spatial Jacobian (6, nv), the joints' support masks (njoints, nv), the pairs' joints (P, 2).
+    Rows are the pairs first (in the order of ``near``), then the end-sphere branches of those pairs, kept as in
+    :func:`_end_sphere` (within ``reach`` [m]). Per row at distance d: h = d − d_s + rate/γ, gain γ where
+    d < ``influence`` [m], else h = d − d_s and gain ``no_cap``; the Jacobian row is :func:`distance_rows`'s. Branch
+    rows have no obstacle rate (the caller uses this only without moving obstacles and without ``OTHER`` shapes in a
+    branch). The records are those of the module docstring.
 
     Returns:
         (h (k,) [m], ∂h/∂q (k, nv), γ (k,) [1/s], row ids (k,): the pair index, or P + the branch index); with
         ``qp_cap`` > 0 [1/s] the first two are instead the QP rows C q̇ ≤ d of the damper,
         d = min(γ, ``qp_cap``) h [m/s] and C = −∂h/∂q (:meth:`redundik.tasks.subtasks.BoundSubtask.rows`).
     """
+    d, near = pairs[0], pairs[5]
+    br = branches[0]
     P = d.shape[0]
     k0 = near.shape[0]
-    m = br.shape[0] if ends and k0 else 0
+    m = br.shape[0] if gains[5] and k0 else 0
     sel = np.zeros(P, dtype=np.bool_)
     for i in range(k0):
         sel[near[i]] = True
     rows = k0
     for r in range(m):
-        if sel[br[r, 0]]:
+        if sel[br[r, BR_PAIR]]:
             rows += 1
     H = np.zeros((rows, Js.shape[1]))
     h = np.empty(rows)
     gam = np.empty(rows)
     ids = np.empty(rows, dtype=np.int64)
-    c_ = _barrier_rows_into(
-        T, kind, prm, br, br_sign, d, p1, p2, n, rate, near, Js, mask, pj, reach, influence, safety, gamma, no_cap,
-        ends, qp_cap, sel, h, H, gam, ids,
-    )  # fmt: skip
+    c_ = _barrier_rows_into(shapes, branches, pairs, joints, Js, gains, sel, (h, H, gam, ids))
     return h[:c_], H[:c_], gam[:c_], ids[:c_]
 
 
 @_jit
 def _barrier_rows_into(
-    T: np.ndarray, kind: np.ndarray, prm: np.ndarray, br: np.ndarray, br_sign: np.ndarray, d: np.ndarray,
-    p1: np.ndarray, p2: np.ndarray, n: np.ndarray, rate: np.ndarray, near: np.ndarray, Js: np.ndarray,
-    mask: np.ndarray, pj: np.ndarray, reach: float, influence: float, safety: float, gamma: float, no_cap: float,
-    ends: bool, qp_cap: float, sel: np.ndarray, h: np.ndarray, H: np.ndarray, gam: np.ndarray, ids: np.ndarray,
+    shapes: Shapes, branches: BranchTable, pairs: PairData, joints: Joints, Js: np.ndarray, gains: Gains,
+    sel: np.ndarray, out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
 ) -> int:  # fmt: skip
-    """:func:`barrier_rows` into given arrays (room for every row; ``sel``: the pairs of ``near``); the row count."""
+    """:func:`barrier_rows` into ``out`` = (h, H, γ, row ids) (room for every row; ``sel``: the pairs of ``near``);
+    the row count."""
+    d, p1, p2, n, rate, near = pairs
+    mask, pj = joints
+    reach, influence, safety, gamma, no_cap, ends, qp_cap = gains
+    h, H, gam, ids = out
+    br = branches[0]
     P = d.shape[0]
     k0 = near.shape[0]
     m = br.shape[0] if ends and k0 else 0
@@ -419,22 +426,12 @@ def _barrier_rows_into(
         ids[i] = k
     c_ = k0
     for r in range(m):
-        k = br[r, 0]
-        b_, o = br[r, 1], br[r, 2]
-        if not sel[k] or kind[o] == OTHER:
+        k = br[r, BR_PAIR]
+        if not sel[k]:
             continue
-        e = br_sign[r] * prm[b_, 1]
-        c = (T[b_, 0, 3] + e * T[b_, 0, 2], T[b_, 1, 3] + e * T[b_, 1, 2], T[b_, 2, 3] + e * T[b_, 2, 2])
-        de, ps, po, u, ok = _ball_to(c, prm[b_, 0], kind[o], prm[o], T, o)
-        if not ok or de >= reach:
+        kept, de, q1, q2, nr = _end_sphere(shapes, branches, r, d, p1, reach)
+        if not kept:
             continue
-        if br[r, 3]:
-            q1, q2, nr = ps, po, u
-        else:
-            q1, q2, nr = po, ps, (-u[0], -u[1], -u[2])
-        same = max(abs(q1[0] - p1[k, 0]), abs(q1[1] - p1[k, 1]), abs(q1[2] - p1[k, 2])) < 1e-7
-        if abs(de - d[k]) < 1e-9 and same:
-            continue  # the pair's own witness
         _row_into(H, c_, Js, mask[pj[k, 0]], mask[pj[k, 1]], nr, q1, q2)
         if de < influence:
             h[c_], gam[c_] = de - safety + 0.0 / gamma, gamma
@@ -452,31 +449,13 @@ def _barrier_rows_into(
 
 @_jit
 def capsule_damper(
-    src: np.ndarray,
-    live: np.ndarray,
-    T: np.ndarray,
-    prm: np.ndarray,
-    ia: np.ndarray,
-    ib: np.ndarray,
-    kind: np.ndarray,
-    br: np.ndarray,
-    br_sign: np.ndarray,
-    mask: np.ndarray,
-    pj: np.ndarray,
-    Js: np.ndarray,
-    reach: float,
-    influence: float,
-    safety: float,
-    gamma: float,
-    no_cap: float,
-    ends: bool,
-    qp_cap: float,
-    F: np.ndarray,
-    I: np.ndarray,
-) -> tuple[int, int, int]:
-    """A static world of capsule/sphere pairs in one call: :func:`load_poses`, :func:`capsule_pairs` (every pair,
-    ``ia``/``ib``), the pairs within ``reach`` [m], then :func:`barrier_rows` on them (no obstacle rates), written
-    into the caller's fresh arrays (returning arrays costs more than the computation):
+    poses: tuple[np.ndarray, np.ndarray], shapes: Shapes, caps: tuple[np.ndarray, np.ndarray],
+    branches: BranchTable, joints: Joints, Js: np.ndarray, gains: Gains, F: np.ndarray, I: np.ndarray,
+) -> tuple[int, int, int]:  # fmt: skip
+    """A static world of capsule/sphere pairs in one call: :func:`load_poses` (``poses`` = (src, live)),
+    :func:`capsule_pairs` (every pair, ``caps`` = (ia, ib)), the pairs within ``reach`` [m], then
+    :func:`barrier_rows` on them (no obstacle rates), written into the caller's fresh arrays (returning arrays costs
+    more than the computation):
 
     * ``F`` (10 P + 2 R + R nv,): d (P,), p1, p2, n stacked (3, P, 3), then h (R,), γ (R,), ∂h/∂q (R, nv) (the first
       k entries, rows), with R = P + the number of branches (room for every row);
@@ -484,10 +463,13 @@ def capsule_damper(
 
     Returns:
         (k₀, k, the number of pairs whose axes meet); with axes meeting the rows are left out (k = 0): the caller
-        asks coal for those pairs and takes the general route. ``qp_cap`` as in :func:`barrier_rows`.
+        asks coal for those pairs and takes the general route. ``gains`` as in :func:`barrier_rows`.
     """
-    P, R, nv = ia.shape[0], br.shape[0] + ia.shape[0], Js.shape[1]
-    load_poses(src, live, T)
+    T, _kind, prm = shapes
+    ia, ib = caps
+    reach = gains[0]
+    P, R, nv = ia.shape[0], branches[0].shape[0] + ia.shape[0], Js.shape[1]
+    load_poses(poses[0], poses[1], T)
     d = F[:P]
     pts = F[P : 10 * P].reshape((3, P, 3))
     ok = np.empty(P, dtype=np.bool_)
@@ -504,9 +486,7 @@ def capsule_damper(
     if bad:
         return k0, 0, bad
     o = 10 * P
-    k = _barrier_rows_into(
-        T, kind, prm, br, br_sign, d, pts[0], pts[1], pts[2], np.zeros(P), I[:k0], Js, mask, pj, reach, influence,
-        safety, gamma, no_cap, ends, qp_cap, sel, F[o : o + R], F[o + 2 * R :].reshape((R, nv)), F[o + R : o + 2 * R],
-        I[P:],
-    )  # fmt: skip
+    pairs = (d, pts[0], pts[1], pts[2], np.zeros(P), I[:k0])
+    out = (F[o : o + R], F[o + 2 * R :].reshape((R, nv)), F[o + R : o + 2 * R], I[P:])
+    k = _barrier_rows_into(shapes, branches, pairs, joints, Js, gains, sel, out)
     return k0, k, 0

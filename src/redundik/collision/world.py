@@ -22,271 +22,37 @@ configuration (they would be structural contacts of the approximation, not of th
 from __future__ import annotations
 
 import math
-import xml.etree.ElementTree as ET
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import coal
 import numpy as np
 import pinocchio as pin
 
 from redundik.collision import kernels as KC
+from redundik.collision.distances import Branches, Distances, shape_info, slow_end_spheres, sphere_to
 from redundik.collision.geometry import approximate, load_collision_model
+from redundik.collision.obstacles import OBSTACLE_KINDS, Motion, Obstacle, make_shape
+from redundik.collision.pairs import candidate_pairs, default_srdf, read_srdf_pairs
 from redundik.errors import ModelError
 from redundik.kinematics.memory import se3_vector_view
 from redundik.kinematics.model import RobotModel
 
+__all__ = [
+    "OBSTACLE_KINDS",
+    "Branches",
+    "CollisionWorld",
+    "Distances",
+    "Motion",
+    "Obstacle",
+    "default_srdf",
+    "make_shape",
+    "read_srdf_pairs",
+]
 
-# ---------------------------------------------------------------------------------------------------- obstacles
-@dataclass(frozen=True)
-class Motion:
-    """A translational obstacle motion: offset(t) = v t + A ⊙ sin(2π f t + φ) [m] added to the obstacle's pose.
-
-    Attributes:
-        velocity: v [m/s], shape (3,).
-        amplitude: A [m], shape (3,).
-        frequency: f [Hz] ≥ 0.
-        phase: φ [rad].
-    """
-
-    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    amplitude: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    frequency: float = 0.0
-    phase: float = 0.0
-
-    def __post_init__(self) -> None:
-        vals = [*self.velocity, *self.amplitude, self.frequency, self.phase]
-        if len(self.velocity) != 3 or len(self.amplitude) != 3 or not all(math.isfinite(float(v)) for v in vals):
-            raise ModelError("obstacle motion: velocity and amplitude need 3 finite numbers, frequency/phase finite")
-        if self.frequency < 0:
-            raise ModelError(f"obstacle motion: frequency must be ≥ 0 [Hz], got {self.frequency}")
-
-    def offset(self, t: float) -> np.ndarray:
-        """Displacement at time t [s], shape (3,) [m]."""
-        w = 2 * math.pi * self.frequency
-        return np.asarray(self.velocity) * t + np.asarray(self.amplitude) * math.sin(w * t + self.phase)
-
-    def rate(self, t: float) -> np.ndarray:
-        """Velocity at time t [s], shape (3,) [m/s]."""
-        w = 2 * math.pi * self.frequency
-        return np.asarray(self.velocity) + np.asarray(self.amplitude) * w * math.cos(w * t + self.phase)
-
-
-#: Obstacle kinds and their size parameters.
-OBSTACLE_KINDS: dict[str, tuple[str, ...]] = {
-    "sphere": ("radius",),
-    "box": ("size",),
-    "capsule": ("radius", "length"),
-    "cylinder": ("radius", "length"),
-    "plane": (),
-    "mesh": ("path",),
-}
-
-
-def _positive(value: float, what: str, allow_zero: bool = False) -> float:
-    v = float(value)
-    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
-        raise ModelError(f"{what} must be a finite number {'≥' if allow_zero else '>'} 0 [m], got {value}")
-    return v
-
-
-def make_shape(
-    kind: str,
-    *,
-    radius: float | None = None,
-    length: float | None = None,
-    size: Sequence[float] | None = None,
-    path: str | Path | None = None,
-    scale: Sequence[float] = (1.0, 1.0, 1.0),
-) -> object:
-    """A coal shape for an obstacle of ``kind`` (see :data:`OBSTACLE_KINDS`); sizes in [m].
-
-    ``box`` takes full side lengths ``size`` (3,); ``capsule``/``cylinder`` a ``radius`` and the ``length`` of the
-    axis (along local z); ``plane`` is the half-space z ≤ 0 of its frame (solid below); ``mesh`` is a mesh file
-    (STL, OBJ, DAE) used through its convex hull.
-
-    Raises:
-        ModelError: unknown kind (lists them), a missing or non-positive size, a missing or unreadable mesh file.
-    """
-    if kind == "sphere":
-        return coal.Sphere(_positive(radius if radius is not None else -1, "sphere radius"))
-    if kind == "box":
-        if size is None or len(size) != 3:
-            raise ModelError("box: 'size' needs 3 side lengths [m]")
-        return coal.Box(*[_positive(s, "box size") for s in size])
-    if kind in ("capsule", "cylinder"):
-        r = _positive(radius if radius is not None else -1, f"{kind} radius")
-        ln = _positive(length if length is not None else -1, f"{kind} length", allow_zero=True)
-        return coal.Capsule(r, ln) if kind == "capsule" else coal.Cylinder(r, ln)
-    if kind == "plane":
-        return coal.Halfspace(np.array([0.0, 0.0, 1.0]), 0.0)
-    if kind == "mesh":
-        if path is None:
-            raise ModelError("mesh: 'path' (a mesh file) is required")
-        p = Path(path)
-        if not p.is_file():
-            raise ModelError(f"mesh file '{p}' does not exist")
-        sc = np.array([_positive(s, "mesh scale") for s in scale], dtype=float)
-        try:
-            bvh = coal.MeshLoader().load(str(p), sc)
-            if bvh.num_vertices < 4:
-                raise ValueError("fewer than 4 vertices")
-            bvh.buildConvexHull(True, "Qt")
-            return bvh.convex
-        except Exception as exc:
-            raise ModelError(f"mesh file '{p}' could not be read: {_loader_message(exc)}") from exc
-    raise ModelError(f"unknown obstacle type '{kind}'; available: {', '.join(OBSTACLE_KINDS)}")
-
-
-def _loader_message(exc: Exception) -> str:
-    """The reason in a coal loader error, without its C++ source location (one line, ≤ 160 characters)."""
-    text = str(exc).strip()
-    if "message:" in text:
-        text = text.split("message:", 1)[1]
-    lines = [ln.strip() for ln in text.splitlines() if ln.strip() and not ln.strip().startswith("Hint:")]
-    return " ".join(lines)[:160] or type(exc).__name__
-
-
-@dataclass
-class Obstacle:
-    """An environment obstacle fixed to the world, optionally moving (translation only).
-
-    Attributes:
-        name: Unique name (also the pair names of diagnostics).
-        shape: A coal shape (:func:`make_shape`).
-        placement: Pose in the world at t = 0.
-        motion: A :class:`Motion`, or ``None`` (static).
-    """
-
-    name: str
-    shape: object
-    placement: pin.SE3 = field(default_factory=pin.SE3.Identity)
-    motion: Motion | None = None
-
-    def __post_init__(self) -> None:
-        M = self.placement.homogeneous
-        if not np.all(np.isfinite(M)):
-            raise ModelError(f"obstacle '{self.name}': the pose contains NaN or infinite values")
-
-    def placement_at(self, t: float) -> pin.SE3:
-        """Pose at time t [s]."""
-        if self.motion is None:
-            return self.placement
-        return pin.SE3(self.placement.rotation, self.placement.translation + self.motion.offset(t))
-
-
-# ---------------------------------------------------------------------------------------------------- distances
-@dataclass
-class Distances:
-    """Every candidate pair at one instant (pair order of ``CollisionWorld.pair_names``).
-
-    Attributes:
-        d: Signed distances [m], shape (P,) (negative: penetration depth).
-        p1: Nearest points on body 1, world frame [m], shape (P, 3) (filled for :attr:`near` pairs only).
-        p2: Nearest points on body 2 [m], shape (P, 3) (idem).
-        n: Unit normals from body 1 to body 2, shape (P, 3) (idem).
-        rate: ∂d/∂t from moving obstacles [m/s], shape (P,) (idem).
-        near: Indices of the pairs whose witness points were read (d < the influence distance asked for).
-    """
-
-    d: np.ndarray
-    p1: np.ndarray
-    p2: np.ndarray
-    n: np.ndarray
-    rate: np.ndarray
-    near: np.ndarray
-
-
-@dataclass
-class Branches:
-    """Sub-shape distances of some pairs (:meth:`CollisionWorld.end_spheres`), one entry per branch.
-
-    Attributes:
-        pair: The pair index of each branch, shape (m,).
-        d: Signed distances [m], shape (m,).
-        p1: Nearest points on (the sub-shape of) body 1 [m], shape (m, 3).
-        p2: Nearest points on (the sub-shape of) body 2 [m], shape (m, 3).
-        n: Unit normals from body 1 to body 2 (p₂ − p₁ = d n), shape (m, 3).
-        rate: ∂d/∂t from a moving obstacle (body 2) [m/s], shape (m,).
-        names: ``body1|body2@body+`` / ``@body-``: the pair and the end (local +z or −z) of which capsule.
-    """
-
-    pair: np.ndarray
-    d: np.ndarray
-    p1: np.ndarray
-    p2: np.ndarray
-    n: np.ndarray
-    rate: np.ndarray
-    names: list[str] = field(default_factory=list)
-
-    @staticmethod
-    def empty() -> Branches:
-        """No branch."""
-        z = np.zeros((0, 3))
-        return Branches(np.zeros(0, dtype=int), np.zeros(0), z, z.copy(), z.copy(), np.zeros(0))
-
-
-def _unit(v: np.ndarray) -> tuple[np.ndarray, float] | None:
-    n = math.sqrt(float(v @ v))
-    return (v / n, n) if n > 1e-12 else None
-
-
-_SPHERE_REQ = coal.DistanceRequest()
-_SPHERE_REQ.enable_signed_distance = True
-
-
-def _sphere_to(
-    c: np.ndarray, r: float, info: tuple[Any, ...], M: pin.SE3
-) -> tuple[float, np.ndarray, np.ndarray, np.ndarray] | None:
-    """Signed distance [m] of the ball (centre c, radius r) to a shape at pose M: (d, point on the ball, point on the
-    shape, unit normal u from the ball to the shape, with p_shape − p_ball = d u), or ``None`` when undefined (the
-    centre on a sphere's centre or a capsule's axis)."""
-    kind = info[0]
-    if kind in ("sphere", "capsule"):
-        x = M.translation
-        if kind == "capsule":
-            ax = M.rotation[:, 2] * info[2]
-            a, ab = x - ax, 2 * ax
-            s = min(1.0, max(0.0, float((c - a) @ ab) / float(ab @ ab))) if info[2] > 0 else 0.0
-            x = a + s * ab
-        un = _unit(x - c)
-        if un is None:
-            return None
-        u, L = un
-        return L - r - info[1], c + r * u, x - info[1] * u, u
-    if kind == "box":
-        R, t, hs = M.rotation, M.translation, info[1]
-        cl = R.T @ (c - t)
-        cb = np.clip(cl, -hs, hs)
-        un = _unit(cb - cl)
-        if un is not None:  # outside the box
-            ul, L = un
-            u = R @ ul
-            return L - r, c + r * u, t + R @ cb, u
-        depth = hs - np.abs(cl)
-        a = int(np.argmin(depth))
-        out_l = np.zeros(3)
-        out_l[a] = 1.0 if cl[a] >= 0 else -1.0
-        u = -(R @ out_l)  # the distance grows when the centre moves outwards (along −u)
-        face = cl.copy()
-        face[a] = out_l[a] * hs[a]
-        return -float(depth[a]) - r, c + r * u, t + R @ face, u
-    if kind == "halfspace":  # the solid {x : nᵀx ≤ d} of the shape's frame
-        nw = M.rotation @ info[1]
-        h = float(nw @ (c - M.translation)) - info[2]
-        u = -nw
-        return h - r, c + r * u, c - h * nw, u
-    res = coal.DistanceResult()
-    coal.distance(coal.Sphere(r), coal.Transform3s(np.eye(3), c), info[1], coal.Transform3s(M.rotation, M.translation),
-                  _SPHERE_REQ, res)  # fmt: skip
-    p1, p2 = np.asarray(res.getNearestPoint1()), np.asarray(res.getNearestPoint2())
-    d = float(res.min_distance)
-    diff = p2 - p1
-    nd = math.sqrt(float(diff @ diff))
-    u = diff / (nd if d >= 0 else -nd) if nd > 1e-9 else np.asarray(res.normal)
-    return d, p1, p2, u
+#: The interpreted ball-to-shape distance (:func:`redundik.collision.distances.sphere_to`), the reference the tests
+#: hold the compiled end spheres to.
+_sphere_to = sphere_to
 
 
 def _placements_view(data: pin.GeometryData) -> np.ndarray | None:
@@ -294,35 +60,6 @@ def _placements_view(data: pin.GeometryData) -> np.ndarray | None:
     the placements ``updateGeometryPlacements`` writes there, read by a compiled kernel without a Python call per
     geometry."""
     return se3_vector_view(data.oMg)
-
-
-def read_srdf_pairs(path: str | Path) -> list[tuple[str, str]]:
-    """The ``<disable_collisions link1= link2=>`` pairs of an SRDF file.
-
-    Raises:
-        ModelError: a missing or malformed file.
-    """
-    p = Path(path)
-    if not p.is_file():
-        raise ModelError(f"SRDF file '{p}' does not exist")
-    try:
-        root = ET.parse(p).getroot()
-    except ET.ParseError as exc:
-        raise ModelError(f"SRDF file '{p}' is not valid XML: {exc}") from exc
-    return [(e.get("link1", ""), e.get("link2", "")) for e in root.iter("disable_collisions")]
-
-
-def default_srdf(urdf: str | Path) -> Path | None:
-    """The SRDF example-robot-data ships beside a URDF (``../srdf/*.srdf``), or ``None``."""
-    folder = Path(urdf).resolve().parent.parent / "srdf"
-    if not folder.is_dir():
-        return None
-    files = sorted(folder.glob("*.srdf"))
-    stem = Path(urdf).stem.split("_")[0]
-    for f in files:
-        if f.stem == stem:
-            return f
-    return files[0] if files else None
 
 
 class CollisionWorld:
@@ -382,25 +119,11 @@ class CollisionWorld:
             raise ModelError(f"disabled pair: unknown link(s) {shown}; links: {', '.join(every)}")
         if obstacle_links is not None:
             self._check_links(obstacle_links, "obstacle_links")
-        off = {frozenset(p) for p in disabled}
-        parents = self.model.parents
-        pairs: list[tuple[int, int]] = []
-        objs = gm.geometryObjects
-        if self_collision:
-            for i in range(self.n_links):
-                for j in range(i + 1, self.n_links):
-                    ji, jj = objs[i].parentJoint, objs[j].parentJoint
-                    if ji == jj or parents[ji] == jj or parents[jj] == ji or (ji == 0 and jj == 0):
-                        continue
-                    if frozenset((self.link_names[i], self.link_names[j])) in off:
-                        continue
-                    pairs.append((i, j))
         allowed = set(obstacle_links) if obstacle_links is not None else None
-        for i in range(self.n_links):
-            if objs[i].parentJoint == 0 or (allowed is not None and self.link_names[i] not in allowed):
-                continue
-            for k in range(len(self.obstacles)):
-                pairs.append((i, self.n_links + k))
+        pairs = candidate_pairs(
+            self.model, gm, self.n_links, self_collision=self_collision, disabled={frozenset(p) for p in disabled},
+            obstacle_links=allowed,
+        )  # fmt: skip
         self._set_pairs(pairs)
         self.time = 0.0
         self.excluded: list[str] = []
@@ -521,28 +244,31 @@ class CollisionWorld:
             for b, o, first in ((i, j, True), (j, i, False)):
                 if kind[b] == KC.CAPSULE and prm[b, 1] > 0:
                     rows += [(k, b, o, first, 1.0), (k, b, o, first, -1.0)]
-        tab = np.array([r[:3] for r in rows], dtype=np.int64).reshape(-1, 3)
-        self._br_pair, self._br_b, self._br_o = tab[:, 0].copy(), tab[:, 1].copy(), tab[:, 2].copy()
-        self._br_first = np.array([r[3] for r in rows], dtype=np.bool_)
-        self._br_sign = np.array([r[4] for r in rows], dtype=float)
-        self._br_other = kind[self._br_o] == KC.OTHER
+        #: The branch table (kernels.BranchTable): (pair, capsule, other body, capsule is body 1), the end ±1.
+        self._branches = (
+            np.array([r[:4] for r in rows], dtype=np.int64).reshape(-1, 4),
+            np.array([r[4] for r in rows], dtype=float),
+        )
+        self._br_pair = self._branches[0][:, KC.BR_PAIR].copy()
+        self._br_other = kind[self._branches[0][:, KC.BR_OTHER]] == KC.OTHER
         self._br_any_other = bool(self._br_other.any())
-        self._br_tab = np.column_stack([tab, self._br_first.astype(np.int64)]).astype(np.int64)
+        #: The geometries (kernels.Shapes): world poses, kind codes, numbers.
+        self._shapes = (self._T, kind, prm)
         names = self._geom_names
         self._br_labels = [f"{self.pair_names[k]}@{names[b]}{'+' if sg > 0 else '-'}" for k, b, _o, _f, sg in rows]
         #: Row labels by row id (``collision.kernels.barrier_rows``): the pairs, then the branches.
         self.row_labels = self.pair_names + self._br_labels
         self._pj2 = np.array(self.pair_joints, dtype=np.int64).reshape(-1, 2)
+        #: The joints (kernels.Joints): support masks, the pairs' joints.
+        self._joints = (self._joint_masks(), self._pj2)
         #: ``collision.kernels.capsule_damper``'s fixed arguments, for a static world of capsules only
         #: whose placements are read from oMg's memory (else ``None``).
         self._static: tuple[Any, ...] | None = None
         if self._cap.size == len(self.pairs) and not self._moving and self._poses is not None:
-            self._static = (
-                self._poses, self._live_arr, self._T, prm, self._cap_a, self._cap_b, kind, self._br_tab,
-                self._br_sign, self._joint_masks(), self._pj2,
-            )  # fmt: skip
+            poses, caps = (self._poses, self._live_arr), (self._cap_a, self._cap_b)
+            self._static = (poses, self._shapes, caps, self._branches, self._joints)
         #: (pairs P, rows at most R = P + branches, nv): the sizes of capsule_damper's arrays.
-        self._sizes = (len(self.pairs), len(self.pairs) + len(self._br_sign), int(self.model.nv))
+        self._sizes = (len(self.pairs), len(self.pairs) + len(self._br_pair), int(self.model.nv))
         self._pa, self._pb = pa, pb
 
     def exclude_colliding_at(self, robot: RobotModel, q: np.ndarray, threshold: float = 0.0) -> list[str]:
@@ -720,16 +446,12 @@ class CollisionWorld:
             return Branches.empty()
         sel = np.zeros(len(self.pairs), dtype=np.bool_)
         sel[rows] = True
-        parts = [
-            KC.end_spheres(
-                self._T, self._kind, self._prm, self._br_pair, self._br_b, self._br_o, self._br_first,
-                self._br_sign, sel, dist.d, dist.p1, float(influence),
-            )
-        ]  # fmt: skip
-        if self._br_other.any():
+        parts = [KC.end_spheres(self._shapes, self._branches, sel, dist.d, dist.p1, float(influence))]
+        if self._br_any_other:
             slow = np.flatnonzero(sel[self._br_pair] & self._br_other)
             if slow.size:  # a capsule end against a mesh/convex hull: coal, per branch
-                parts.append(self._slow_end_spheres(dist, slow, influence))
+                info = self._shape_info()
+                parts.append(slow_end_spheres(info, self._shapes, self._branches, dist, slow, influence))
         if len(parts) == 1:
             idx, d, p1, p2, nn = parts[0]
         else:
@@ -770,9 +492,9 @@ class CollisionWorld:
             pin.updateGeometryPlacements(self.model, robot.data, self.geometry, self.data)
             P, R, nv = self._sizes
             F, I = np.empty(10 * P + (2 + nv) * R), np.empty(P + R, dtype=np.int64)
-            args = (*static, np.asarray(robot.data.J), float(reach), float(influence), float(safety), float(gamma),
-                    float(no_cap), bool(ends), float(qp_cap), F, I)  # fmt: skip
-            k0, k, bad = KC.capsule_damper(*args)
+            gains = (float(reach), float(influence), float(safety), float(gamma), float(no_cap), bool(ends),
+                     float(qp_cap))  # fmt: skip
+            k0, k, bad = KC.capsule_damper(*static, np.asarray(robot.data.J), gains, F, I)
             if not bad:
                 self._dist, self._pending = None, (F, I, k0)  # the Distances built when read (compute)
                 self._cache = (robot, self.time, reach, key)
@@ -805,59 +527,17 @@ class CollisionWorld:
         """
         if self._moving or (ends and self._br_any_other):
             return None
-        return KC.barrier_rows(
-            self._T, self._kind, self._prm, self._br_tab, self._br_sign, dist.d, dist.p1, dist.p2, dist.n, dist.rate,
-            dist.near, np.asarray(robot.data.J), self._joint_masks(robot), self._pj2, float(reach), float(influence),
-            float(safety), float(gamma), float(no_cap), bool(ends), float(qp_cap),
-        )  # fmt: skip
-
-    def _slow_end_spheres(
-        self, dist: Distances, branches: np.ndarray, influence: float
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`end_spheres` for the branches whose other body only coal handles: (branch indices, d, p1, p2, n)."""
-        info = self._shape_info()
-        keep, dd, pp1, pp2, nn = [], [], [], [], []
-        for r in branches.tolist():
-            k, b, o = int(self._br_pair[r]), int(self._br_b[r]), int(self._br_o[r])
-            Mo = pin.SE3(self._T[o])
-            c = self._T[b, :3, 3] + self._br_sign[r] * self._prm[b, 1] * self._T[b, :3, 2]
-            hit = _sphere_to(c, float(self._prm[b, 0]), info[o], Mo)
-            if hit is None or hit[0] >= influence:
-                continue
-            d_e, ps, po, u = hit
-            q1, q2, nrm = (ps, po, u) if self._br_first[r] else (po, ps, -u)
-            if abs(d_e - dist.d[k]) < 1e-9 and np.abs(q1 - dist.p1[k]).max() < 1e-7:
-                continue  # the pair's own witness
-            keep.append(r)
-            dd.append(d_e)
-            pp1.append(q1)
-            pp2.append(q2)
-            nn.append(nrm)
-        z = np.zeros((0, 3))
-        if not keep:
-            return np.zeros(0, dtype=np.int64), np.zeros(0), z, z, z
-        return np.array(keep, dtype=np.int64), np.array(dd), np.array(pp1), np.array(pp2), np.array(nn)
+        pairs = (dist.d, dist.p1, dist.p2, dist.n, dist.rate, dist.near)
+        gains = (float(reach), float(influence), float(safety), float(gamma), float(no_cap), bool(ends), float(qp_cap))
+        return KC.barrier_rows(self._shapes, self._branches, pairs, self._joints, np.asarray(robot.data.J), gains)
 
     _info: list[tuple[Any, ...]] | None = None
 
     def _shape_info(self) -> list[tuple[Any, ...]]:
-        """Per geometry: ("capsule", R, half length) | ("sphere", R) | ("box", half sides) | ("halfspace", n, d) |
-        ("other", shape) (read once: pinocchio copies ``geometryObjects`` on every access)."""
+        """:func:`~redundik.collision.distances.shape_info` of the geometries, and their names (read once: pinocchio
+        copies ``geometryObjects`` on every access)."""
         if self._info is None or len(self._info) != self.geometry.ngeoms:
-            info: list[tuple[Any, ...]] = []
-            for go in self.geometry.geometryObjects:
-                g = go.geometry
-                if isinstance(g, coal.Capsule):
-                    info.append(("capsule", float(g.radius), float(g.halfLength)))
-                elif isinstance(g, coal.Sphere):
-                    info.append(("sphere", float(g.radius)))
-                elif isinstance(g, coal.Box):
-                    info.append(("box", np.asarray(g.halfSide, dtype=float).copy()))
-                elif isinstance(g, coal.Halfspace):
-                    info.append(("halfspace", np.asarray(g.n, dtype=float).copy(), float(g.d)))
-                else:
-                    info.append(("other", g))
-            self._info = info
+            self._info = shape_info(self.geometry)
             self._geom_names = [go.name for go in self.geometry.geometryObjects]
         return self._info
 

@@ -145,6 +145,74 @@ def _check_row(row: object, i: int, robot: str) -> None:
         )
 
 
+def _check_table(rows: Sequence[DHRow], name: str, base_frame: str) -> None:
+    """Raise :class:`ModelError` unless ``rows`` is a non-empty list of at most :data:`MAX_DH_JOINTS` joint rows and
+    ``base_frame`` a usable frame name."""
+    if isinstance(rows, (str, bytes)) or not isinstance(rows, Sequence):
+        raise ModelError(f"robot '{name}': rows must be a list of DHRow, got {type(rows).__name__}")
+    if len(rows) == 0:
+        raise ModelError(f"robot '{name}': the D-H table has no rows")
+    if len(rows) > MAX_DH_JOINTS and sum(getattr(r, "kind", "revolute") != "fixed" for r in rows) > MAX_DH_JOINTS:
+        raise ModelError(
+            f"robot '{name}': the D-H table has more than {MAX_DH_JOINTS} joint rows ({len(rows)} rows): Pinocchio's "
+            "data grows as nv³ (0.5 GB at 200 joints)"
+        )
+    if not isinstance(base_frame, str) or not base_frame.strip() or base_frame in RESERVED_NAMES:
+        raise ModelError(
+            f"robot '{name}': base_frame must be a non-empty name other than 'universe' (Pinocchio's world frame), "
+            f"got {base_frame!r}"
+        )
+
+
+def _checked_base(base: np.ndarray | None, name: str) -> np.ndarray:
+    """The base transform as a float 4×4 matrix (identity for ``None``); :class:`ModelError` unless it is a finite
+    homogeneous transform with a proper rotation."""
+    raw = np.eye(4) if base is None else base if isinstance(base, np.ndarray) else np.asarray(base, dtype=object)
+    if raw.shape != (4, 4) or raw.dtype.kind not in "fiuO":
+        raise ModelError(f"robot '{name}': base must be a finite 4×4 homogeneous matrix, got {short_repr(base)}")
+    try:
+        base_m = np.asarray(raw, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(f"robot '{name}': base must be a 4×4 matrix of real numbers, got {short_repr(base)}") from None
+    if not np.all(np.isfinite(base_m)):
+        raise ModelError(f"robot '{name}': base must be a finite 4×4 homogeneous matrix")
+    rot = base_m[:3, :3]
+    if not np.allclose(rot @ rot.T, np.eye(3), atol=1e-9) or np.linalg.det(rot) < 0:
+        raise ModelError(f"robot '{name}': base rotation is not a proper rotation matrix")
+    if not np.allclose(base_m[3], (0.0, 0.0, 0.0, 1.0), rtol=0.0, atol=1e-12):
+        raise ModelError(f"robot '{name}': base must be homogeneous: its last row must be (0, 0, 0, 1)")
+    return base_m
+
+
+def _check_row_values(row: DHRow, where: str, name: str) -> None:
+    """Raise :class:`ModelError` on a row's unknown kind, non-finite θ, d, a, α or inverted limits."""
+    if row.kind not in ("revolute", "prismatic", "fixed"):
+        raise ModelError(f"robot '{name}': {where}: kind must be revolute, prismatic or fixed, got {row.kind!r}")
+    nums = (row.theta, row.d, row.a, row.alpha)
+    if not all(np.isfinite(v) for v in nums):
+        raise ModelError(f"robot '{name}': {where}: θ, d, a, α must be finite numbers, got {nums}")
+    if np.isnan(row.lower) or np.isnan(row.upper) or row.lower > row.upper:
+        raise ModelError(f"robot '{name}': {where}: joint limits must satisfy lower ≤ upper")
+
+
+def _add_joint(model: pin.Model, parent_joint: int, parent_placement: np.ndarray, row: DHRow) -> int:
+    """Add the joint of a revolute (about z) or prismatic (along z) row at ``parent_placement`` in ``parent_joint``,
+    with the row's limits and a massless body; its joint id."""
+    jmodel = pin.JointModelRZ() if row.kind == "revolute" else pin.JointModelPZ()
+    jid = model.addJoint(
+        parent_joint,
+        jmodel,
+        _se3(parent_placement),
+        row.name,
+        np.array([np.inf]),
+        np.array([np.inf if np.isinf(row.velocity) else row.velocity]),
+        np.array([row.lower]),
+        np.array([row.upper]),
+    )
+    model.appendBodyToJoint(jid, pin.Inertia.Zero(), pin.SE3.Identity())
+    return int(jid)
+
+
 def from_dh(
     rows: Sequence[DHRow],
     *,
@@ -169,34 +237,8 @@ def from_dh(
         ModelError: on duplicate names, unknown parents or coupled joints, bad kinds, non-finite numbers or
             inverted limits; the message names the row.
     """
-    if isinstance(rows, (str, bytes)) or not isinstance(rows, Sequence):
-        raise ModelError(f"robot '{name}': rows must be a list of DHRow, got {type(rows).__name__}")
-    if len(rows) == 0:
-        raise ModelError(f"robot '{name}': the D-H table has no rows")
-    if len(rows) > MAX_DH_JOINTS and sum(getattr(r, "kind", "revolute") != "fixed" for r in rows) > MAX_DH_JOINTS:
-        raise ModelError(
-            f"robot '{name}': the D-H table has more than {MAX_DH_JOINTS} joint rows ({len(rows)} rows): Pinocchio's "
-            "data grows as nv³ (0.5 GB at 200 joints)"
-        )
-    if not isinstance(base_frame, str) or not base_frame.strip() or base_frame in RESERVED_NAMES:
-        raise ModelError(
-            f"robot '{name}': base_frame must be a non-empty name other than 'universe' (Pinocchio's world frame), "
-            f"got {base_frame!r}"
-        )
-    raw = np.eye(4) if base is None else base if isinstance(base, np.ndarray) else np.asarray(base, dtype=object)
-    if raw.shape != (4, 4) or raw.dtype.kind not in "fiuO":
-        raise ModelError(f"robot '{name}': base must be a finite 4×4 homogeneous matrix, got {short_repr(base)}")
-    try:
-        base_m = np.asarray(raw, dtype=float)
-    except (TypeError, ValueError):
-        raise ModelError(f"robot '{name}': base must be a 4×4 matrix of real numbers, got {short_repr(base)}") from None
-    if not np.all(np.isfinite(base_m)):
-        raise ModelError(f"robot '{name}': base must be a finite 4×4 homogeneous matrix")
-    rot = base_m[:3, :3]
-    if not np.allclose(rot @ rot.T, np.eye(3), atol=1e-9) or np.linalg.det(rot) < 0:
-        raise ModelError(f"robot '{name}': base rotation is not a proper rotation matrix")
-    if not np.allclose(base_m[3], (0.0, 0.0, 0.0, 1.0), rtol=0.0, atol=1e-12):
-        raise ModelError(f"robot '{name}': base must be homogeneous: its last row must be (0, 0, 0, 1)")
+    _check_table(rows, name, base_frame)
+    base_m = _checked_base(base, name)
 
     model = pin.Model()
     model.name = name
@@ -213,13 +255,7 @@ def from_dh(
         where = f"row {i + 1} ('{row.name}')"
         if row.name in frames:
             raise ModelError(f"robot '{name}': {where}: duplicate frame name")
-        if row.kind not in ("revolute", "prismatic", "fixed"):
-            raise ModelError(f"robot '{name}': {where}: kind must be revolute, prismatic or fixed, got {row.kind!r}")
-        nums = (row.theta, row.d, row.a, row.alpha)
-        if not all(np.isfinite(v) for v in nums):
-            raise ModelError(f"robot '{name}': {where}: θ, d, a, α must be finite numbers, got {nums}")
-        if np.isnan(row.lower) or np.isnan(row.upper) or row.lower > row.upper:
-            raise ModelError(f"robot '{name}': {where}: joint limits must satisfy lower ≤ upper")
+        _check_row_values(row, where, name)
         parent = row.parent if row.parent is not None else previous
         if parent not in frames:
             raise ModelError(
@@ -248,18 +284,7 @@ def from_dh(
                     f"('{shared_parent}') and be of the same kind ({shared.kind}) as row '{row.joint}'"
                 )
         else:
-            jmodel = pin.JointModelRZ() if row.kind == "revolute" else pin.JointModelPZ()
-            jid = model.addJoint(
-                parent_joint,
-                jmodel,
-                _se3(parent_placement),
-                row.name,
-                np.array([np.inf]),
-                np.array([np.inf if np.isinf(row.velocity) else row.velocity]),
-                np.array([row.lower]),
-                np.array([row.upper]),
-            )
-            model.appendBodyToJoint(jid, pin.Inertia.Zero(), pin.SE3.Identity())
+            jid = _add_joint(model, parent_joint, parent_placement, row)
             joint_rows[row.name] = (jid, row, parent)
         frames[row.name] = (jid, const)
         model.addFrame(pin.Frame(row.name, jid, 0, _se3(const), pin.FrameType.OP_FRAME))

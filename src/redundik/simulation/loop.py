@@ -112,6 +112,91 @@ def _check_time_grid(robot: RobotModel, stack: TaskStack, dt: object, steps: obj
         )
 
 
+def _check_integrator(
+    robot: RobotModel, resolver: object, plant: Plant | None, integrator: str, tolerances: tuple[float, float]
+) -> None:
+    """Refuse an unknown integrator, bad ``rk45`` tolerances (rtol, atol), Runge-Kutta with nq ≠ nv or with a plant,
+    and a resolver that is not a :class:`Resolver`.
+
+    Raises:
+        ValueError: the integrator's problems.
+        SimulationError: not a resolver.
+    """
+    if integrator not in INTEGRATORS:
+        raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got {integrator!r}")
+    check_tolerances(*tolerances)
+    if integrator != "euler" and robot.nq != robot.nv:
+        raise ValueError(
+            f"integrator {integrator} needs nq = nv (no free-flyer base), got nq={robot.nq}, nv={robot.nv}"
+        )
+    if plant is not None and integrator != "euler":
+        raise ValueError(f"integrator {integrator}: a plant integrates its own dynamics; use integrator euler with it")
+    if not isinstance(resolver, Resolver):
+        raise SimulationError(f"simulate: resolver must be a Resolver (make_resolver(NAME)), got {resolver!r:.60}")
+
+
+class _Recorder:
+    """The logs of a run being simulated: one row per sample (``steps`` + 1), per-step records, then the
+    :class:`SimulationLog`."""
+
+    def __init__(
+        self, robot: RobotModel, stack: TaskStack, watched: list[Any], log_frames: tuple[str, ...], steps: int
+    ) -> None:
+        n = steps + 1
+        self.robot, self.watched, self.log_frames, self.steps = robot, watched, log_frames, steps
+        self.Q = np.empty((n, robot.nq))
+        self.DQ = np.zeros((n, robot.nv))
+        self.E = {t.name: np.empty(n) for t in stack.tasks}
+        self.P = {p.name: np.empty(n) for p in watched}
+        self.F = {f: np.empty((n, 3)) for f in log_frames}
+        self.step_time = np.empty(steps)
+        self.damped = np.zeros(steps, dtype=bool)
+        self.extras: dict[str, np.ndarray] = {}
+        self.fallbacks: list[tuple[int, str]] = []
+        self.relaxed: list[tuple[int, tuple[str, ...]]] = []
+
+    def sample(self, k: int, t: float, q: np.ndarray, res: StepResult) -> None:
+        """Record sample k at time t [s] (q, task errors, potentials, frame origins); stop at a non-finite one."""
+        self.Q[k] = q
+        for term in res.terms:
+            self.E[term.name][k] = term.error_norm
+        for p in self.watched:
+            self.P[p.name][k] = p.value(self.robot)
+        for f in self.log_frames:
+            self.F[f][k] = self.robot.frame_position(f)
+        _check_sample(k, t, res, self.E, self.P)
+
+    def step(self, k: int, elapsed: float, res: StepResult) -> None:
+        """Record step k: its wall time [s], damping, numeric diagnostics, fallback, relaxations and q̇."""
+        self.step_time[k] = elapsed
+        self.damped[k] = res.damped
+        for key, val in res.info.items():
+            if isinstance(val, (int, float, np.floating, np.integer)) and not isinstance(val, bool):
+                self.extras.setdefault(key, np.full(self.steps, np.nan))[k] = float(val)
+        if res.fallback:
+            self.fallbacks.append((k, res.fallback))
+        if res.relaxed:
+            self.relaxed.append((k, tuple(res.relaxed)))
+        self.DQ[k] = res.dq
+
+    def log(self, times: np.ndarray, stack: TaskStack) -> SimulationLog:
+        """The :class:`SimulationLog` of the samples at ``times`` [s]."""
+        return SimulationLog(
+            t=times,
+            q=self.Q,
+            dq=self.DQ,
+            task_errors=self.E,
+            potentials=self.P,
+            step_time=self.step_time,
+            damped=self.damped,
+            fallbacks=self.fallbacks,
+            relaxed=self.relaxed,
+            extras=self.extras,
+            frame_positions=self.F,
+            main_tasks=[t.name for t in stack.tasks if not t.regularization],
+        )
+
+
 def simulate(
     robot: RobotModel,
     stack: TaskStack,
@@ -153,17 +238,7 @@ def simulate(
         ValueError: unknown integrator, bad tolerances, or Runge-Kutta on a robot with nq ≠ nv.
         SimulationError: q̇, q, a task error or a potential became non-finite (or diverged) during the run.
     """
-    if integrator not in INTEGRATORS:
-        raise ValueError(f"integrator must be one of {', '.join(INTEGRATORS)}, got {integrator!r}")
-    check_tolerances(rtol, atol)
-    if integrator != "euler" and robot.nq != robot.nv:
-        raise ValueError(
-            f"integrator {integrator} needs nq = nv (no free-flyer base), got nq={robot.nq}, nv={robot.nv}"
-        )
-    if plant is not None and integrator != "euler":
-        raise ValueError(f"integrator {integrator}: a plant integrates its own dynamics; use integrator euler with it")
-    if not isinstance(resolver, Resolver):
-        raise SimulationError(f"simulate: resolver must be a Resolver (make_resolver(NAME)), got {resolver!r:.60}")
+    _check_integrator(robot, resolver, plant, integrator, (rtol, atol))
     _check_time_grid(robot, stack, dt, steps, len(log_frames) + len(extra_potentials))
     q = robot.check_configuration(q0, "q0").copy()
     if plant is not None:
@@ -177,17 +252,7 @@ def simulate(
         p.check(robot)
     watched = [p for p in (getattr(s, "potential", None) for s in stack.subtasks) if p is not None]
     watched += list(extra_potentials)
-    names_task = [t.name for t in stack.tasks]
-    Q = np.empty((n, robot.nq))
-    DQ = np.zeros((n, robot.nv))
-    E = {name: np.empty(n) for name in names_task}
-    P = {p.name: np.empty(n) for p in watched}
-    F = {f: np.empty((n, 3)) for f in log_frames}
-    step_time = np.empty(steps)
-    damped = np.zeros(steps, dtype=bool)
-    extras: dict[str, np.ndarray] = {}
-    fallbacks: list[tuple[int, str]] = []
-    relaxed: list[tuple[int, tuple[str, ...]]] = []
+    rec = _Recorder(robot, stack, watched, log_frames, steps)
     times = np.arange(n) * dt
     dog = getattr(resolver, "watchdog", None)  # (the command watchdog's state too: redundik.resolvers.watchdog)
     guard = StateGuard([resolver, *stack.tasks, *stack.subtasks, *watched, *([dog] if dog is not None else [])])
@@ -203,46 +268,17 @@ def simulate(
             t0 = time.perf_counter()
             res: StepResult = resolver.step(robot, stack, q, t, dt)
             elapsed = time.perf_counter() - t0
-            Q[k] = q
-            for term in res.terms:
-                E[term.name][k] = term.error_norm
-            for p in watched:
-                P[p.name][k] = p.value(robot)
-            for f in log_frames:
-                F[f][k] = robot.frame_position(f)
-            _check_sample(k, t, res, E, P)
+            rec.sample(k, t, q, res)
             if k == steps:
                 break
             if plant is None:
                 q = _advance(robot, law, guard, integrator, t, q, res, dt, rtol, atol)
             else:  # the plant integrates its own dynamics at its own rate; q is what it measures
                 q = plant.step(res.dq, dt)
-            step_time[k] = elapsed
-            damped[k] = res.damped
-            for key, val in res.info.items():
-                if isinstance(val, (int, float, np.floating, np.integer)) and not isinstance(val, bool):
-                    extras.setdefault(key, np.full(steps, np.nan))[k] = float(val)
-            if res.fallback:
-                fallbacks.append((k, res.fallback))
-            if res.relaxed:
-                relaxed.append((k, tuple(res.relaxed)))
-            DQ[k] = res.dq
+            rec.step(k, elapsed, res)
             if progress is not None:
                 progress(k + 1)
-    return SimulationLog(
-        t=times,
-        q=Q,
-        dq=DQ,
-        task_errors=E,
-        potentials=P,
-        step_time=step_time,
-        damped=damped,
-        fallbacks=fallbacks,
-        relaxed=relaxed,
-        extras=extras,
-        frame_positions=F,
-        main_tasks=[t.name for t in stack.tasks if not t.regularization],
-    )
+    return rec.log(times, stack)
 
 
 def _check_sample(k: int, t: float, res: StepResult, E: dict[str, np.ndarray], P: dict[str, np.ndarray]) -> None:

@@ -1,98 +1,20 @@
-"""Hostile input, third pass: what a sweep over every option, key and name still found.
-
-Each test feeds one bad input and asserts the error is one line naming what was wrong, where (the option, the key
-path, the joint) and what was expected; nothing is written outside the output folder; nothing hangs.
-"""
+"""Hostile task files and robot configs at validation: the first error is the one the user made, named by its key
+path (plant gains, resolver options at every depth, monitor and potential names, paths that are not files, union
+values, targets a position task would ignore, stall windows, plant rates), with what was expected."""
 
 from __future__ import annotations
 
-import math
-import os
-import time
 from collections.abc import Callable
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 import redundik as rk
-from redundik.errors import TaskError
-from redundik.reporting.paths import OutputPathError, check_output_folder, safe_path
+from redundik.errors import ConfigError, ModelError, TaskError
 from tests.conftest import CONFIGS, TASKS
-
-ROOT = Path(__file__).resolve().parents[1]
-TASK = (TASKS / "planar3r_line.yaml").read_text(encoding="utf-8").replace("../configs/", f"{CONFIGS}/")
-ROBOT = (CONFIGS / "planar3r.yaml").read_text(encoding="utf-8")
-SWEEP = (
-    (ROOT / "sweeps" / "panda_reach.yaml")
-    .read_text(encoding="utf-8")
-    .replace("../configs/", f"{CONFIGS}/")
-    .replace("num: 160", "num: 2")
-    .replace("num: 128", "num: 2")
-)
-#: Seconds after which a refusal counts as a hang (generous: the machine may be loaded).
-HANG_GUARD_S = 10.0
-
-Cli = Callable[..., tuple[int, str, str]]
+from tests.hostile import ROBOT, ROOT, SWEEP, TASK, Cli, _one_line_error, _write
 
 
-def _one_line_error(code: int, err: str, expected_code: int = 3) -> None:
-    assert code == expected_code, err
-    assert err.startswith("error: ") and err.count("\n") == 1, err
-    assert "Traceback" not in err and "internal error" not in err
-
-
-def _write(tmp_path: Path, text: str, name: str = "f.yaml") -> Path:
-    path = tmp_path / name
-    path.write_text(text, encoding="utf-8")
-    return path
-
-
-# ------------------------------------------------------------------------------------------------ output folders
-@pytest.mark.parametrize(
-    ("args", "option"),
-    [
-        (["run", TASKS / "planar3r_line.yaml", "--out", "", "--no-figures", "-q"], "'--out'"),
-        (["sweep", ROOT / "sweeps" / "panda_reach.yaml", "--out", "", "-q"], "'--out'"),
-        (["hybrid33", "path", CONFIGS / "hybrid33_rect.yaml", "--out", ""], "'--out'"),
-        (["examples", "copy", ""], "'target'"),
-        (["schema", "--out", " "], "'--out'"),
-    ],
-)
-def test_an_empty_output_path_is_a_usage_error_not_the_current_folder(
-    cli: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, args: list[object], option: str
-) -> None:
-    """``--out ""`` was ``Path("")`` = ``.``: the run's files landed in the current folder."""
-    monkeypatch.chdir(tmp_path)
-    code, out, err = cli(*args)
-    assert code == 2, err  # a usage error: the value of an option
-    assert option in err and "an empty path names no file or folder" in err
-    assert out == "" and list(tmp_path.iterdir()) == []  # nothing written here
-
-
-@pytest.mark.parametrize("folder", ["/", "/tmp/..", "//"])
-def test_the_file_system_root_is_never_an_output_folder(folder: str) -> None:
-    """``--out /`` wrote summary.json and RUN.csv into ``/`` (as root: it could)."""
-    with pytest.raises(OutputPathError, match="refusing to use the file-system root"):
-        check_output_folder(folder)
-    with pytest.raises(OutputPathError, match="file-system root"):
-        safe_path(folder, "summary.json")
-
-
-def test_run_into_the_root_is_refused_before_running(cli: Cli, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    import redundik.config.runner as runner
-
-    def never(*args: object, **kwargs: object) -> object:
-        raise AssertionError("the run started although its output folder is refused")
-
-    monkeypatch.setattr(runner, "run_task", never)
-    code, _, err = cli("run", _write(tmp_path, TASK), "--out", "/", "--no-figures", "-q")
-    _one_line_error(code, err)
-    assert "file-system root '/'" in err
-    assert not Path("/summary.json").exists()
-
-
-# ------------------------------------------------------------------------------------------------ which error
 @pytest.mark.parametrize(
     ("text", "expected"),
     [
@@ -136,7 +58,6 @@ def test_a_plant_gain_mapping_names_the_joint(cli: Cli, tmp_path: Path) -> None:
     assert err.startswith("error: plant.kp.panda_joint1: must be ≥ 0"), err
 
 
-# ------------------------------------------------------------------------------------------------ files that are not
 @pytest.mark.parametrize(
     ("urdf", "expected"),
     [
@@ -176,7 +97,6 @@ def test_a_folder_given_as_the_task_file_is_named_a_folder(cli: Cli, tmp_path: P
     assert "it is a folder, not a file" in err
 
 
-# ------------------------------------------------------------------------------------------------ names
 @pytest.mark.parametrize(
     ("old", "new", "expected"),
     [
@@ -225,38 +145,6 @@ def test_monitor_and_potential_names_follow_the_name_rule(cli: Cli, tmp_path: Pa
     assert not (tmp_path / "out").exists()
 
 
-# ------------------------------------------------------------------------------------------------ bounded work
-def test_a_huge_dh_table_is_refused_before_the_model_is_built(cli: Cli, tmp_path: Path) -> None:
-    """A 400-row D-H table took 13 s and 6 GB to build (Pinocchio's data grows as n³), 1000 rows were killed."""
-    rows = "".join(f'- {{name: "{i}", a: 0.1, alpha: 90}}\n' for i in range(1, 202))
-    start = time.perf_counter()
-    code, _, err = cli("validate", _write(tmp_path, f"name: big\nangle_unit: deg\ndh:\n{rows}", "r.yaml"))
-    assert time.perf_counter() - start < HANG_GUARD_S
-    _one_line_error(code, err)
-    assert err.startswith("error: r.yaml: dh: at most 200 D-H rows, got 201"), err
-
-
-def test_a_dense_yaml_file_is_refused_while_it_is_parsed(tmp_path: Path) -> None:
-    """480 000 numbers in 0.9 MiB took 15 s of pure-Python parsing before any check; now refused at 100 000."""
-    from redundik.config.yamlio import MAX_NODES, read_yaml
-    from redundik.errors import ConfigError
-
-    path = _write(tmp_path, "name: x\nq0: [" + ",".join(["0"] * (MAX_NODES + 10)) + "]\n")
-    start = time.perf_counter()
-    with pytest.raises(ConfigError, match=f"more than {MAX_NODES} values in one file"):
-        read_yaml(path)
-    assert time.perf_counter() - start < HANG_GUARD_S
-    assert read_yaml(_write(tmp_path, "q0: [" + ",".join(["0"] * 1000) + "]\n"))["q0"] == [0] * 1000
-
-
-def test_yaml_merge_keys_are_refused_in_plain_words(cli: Cli, tmp_path: Path) -> None:
-    text = TASK.replace("  rank_only:\n", "  base: &b {resolver: pinv}\n  rank_only:\n    <<: *b\n  xx:\n")
-    code, _, err = cli("validate", _write(tmp_path, text))
-    _one_line_error(code, err)
-    assert "merge keys ('<<: *anchor') are not supported" in err and "tag:yaml.org" not in err
-
-
-# ------------------------------------------------------------------------------------------------ potentials, tasks
 def test_joint_centering_refuses_negative_weights(cli: Cli, tmp_path: Path) -> None:
     """A negative weight turned centering into pushing that joint away from the centre, silently."""
     with pytest.raises(TaskError, match=r"weights must be ≥ 0 .* got weights\[1\] = -1"):
@@ -279,24 +167,6 @@ def test_no_list_parameter_of_a_yaml_type_gets_a_scalar_bound() -> None:
                     assert not any(hasattr(m, "ge") or hasattr(m, "gt") for m in f.metadata), (entry.name, key)
 
 
-@pytest.mark.parametrize("bad", [[math.nan, 0.0, 0.0], [0.0, math.inf, 0.0]])
-def test_posture_target_with_nan_is_refused_where_it_is_set(bad: list[float]) -> None:
-    """``PostureTask(target=[nan, ...])`` was accepted (``set_target`` refused the same vector)."""
-    with pytest.raises(TaskError, match=r"posture task 'posture': target: contains NaN or infinite values"):
-        rk.PostureTask(target=bad)
-    posture = rk.PostureTask(target=[0.0, 1.0, 0.0])
-    np.testing.assert_array_equal(posture.target, [0.0, 1.0, 0.0])
-
-
-def test_the_cli_parser_keeps_paths_and_defaults() -> None:
-    from redundik.cli._params import path_value
-
-    assert path_value("out/x") == Path("out/x")
-    assert path_value(".") == Path(".")
-    assert path_value(Path("a")) == Path("a")
-    assert os.fspath(path_value("/tmp")) == "/tmp"
-
-
 def test_a_value_refused_by_every_member_of_a_union_counts_as_one_error(cli: Cli, tmp_path: Path) -> None:
     """A union reports one error per member at the same key: they are one mistake, not "(and 1 more error)"."""
     code, _, err = cli("validate", _write(tmp_path, SWEEP.replace("x: {start: -1.0, stop: 1.0, num: 2}", "x: abc")))
@@ -305,3 +175,158 @@ def test_a_value_refused_by_every_member_of_a_union_counts_as_one_error(cli: Cli
     two = SWEEP.replace("x: {start: -1.0, stop: 1.0, num: 2}", "x: abc").replace("y: 0.0", "y: def")
     code, _, err = cli("validate", _write(tmp_path, two))
     assert err == "error: targets.grid.x: expected a number, got 'abc' (and 1 more error)\n", err  # two keys: two
+
+
+def _with_options(resolver: str, options: str) -> str:
+    line = f"    resolver: {resolver}\n"
+    assert line in TASK
+    return TASK.replace(line, f"{line}    options: {options}\n", 1)
+
+
+@pytest.mark.parametrize(
+    ("resolver", "options", "expected"),
+    [
+        ("wqp", "{limits: {position: 'no'}}", "runs.wqp.options.limits.position: expected true or false, got 'no'"),
+        ("wqp", "{limits: {velocity: .nan}}", "runs.wqp.options.limits.velocity: expected a finite number, got nan"),
+        ("wqp", "{limits: {position: 0}}", "runs.wqp.options.limits.position: expected true or false, got 0"),
+        (
+            "wqp",
+            "{limits: {position_gain: true}}",
+            "runs.wqp.options.limits.position_gain: expected a number, got True",
+        ),
+        ("wqp", "{damping: true}", "runs.wqp.options.damping: expected a number, got True"),
+        ("wqp", "{damping: [.nan]}", "runs.wqp.options.damping[0]: expected a finite number, got nan"),
+        ("wqp", "{limits: {lower: [1]}}", "runs.wqp.options.limits.lower: expected a mapping of joint name → number"),
+        ("wqp", "{limits: {acceleration: {'1': true}}}", "runs.wqp.options.limits.acceleration.1: expected a number"),
+        ("wqp", "{levels: 5}", "runs.wqp.options.levels: expected a mapping {task or subtask name: level} or a list"),
+        ("hqp", "{regularization: true}", "runs.hqp.options.regularization: expected a number, got True"),
+        ("feedback", "{d_epsilon: true}", "runs.feedback.options.d_epsilon: expected a number, got True"),
+    ],
+)
+def test_resolver_options_are_checked_for_kind_at_every_depth(
+    cli: Cli, tmp_path: Path, resolver: str, options: str, expected: str
+) -> None:
+    """``limits: {position: "no"}`` was ``bool("no")`` = limits on; ``damping: true`` a damping of 1; a NaN under
+    ``limits`` a truthy flag; ``lower: [1]`` "cannot convert dictionary update sequence element #0"."""
+    code, _, err = cli("validate", _write(tmp_path, _with_options(resolver, options)))
+    _one_line_error(code, err)
+    assert err.startswith(f"error: {expected}"), err
+
+
+def test_well_formed_resolver_options_are_still_accepted(cli: Cli, tmp_path: Path) -> None:
+    for resolver, options in (
+        ("wqp", "{limits: {position: false, velocity: true, acceleration: 5, lower: {'1': -3}}, damping: 1.0e-6}"),
+        ("hqp", "{rcond: 1.0e-9, levels: [[tip]]}"),
+    ):
+        code, _, err = cli("validate", _write(tmp_path, _with_options(resolver, options)))
+        assert code == 0, (options, err)
+
+
+def test_a_stall_window_that_could_never_fire_is_refused(cli: Cli, tmp_path: Path) -> None:
+    """A stall window of max_iterations steps or more compares the error over more steps than a problem runs."""
+    text = SWEEP.replace("stall: {window: 10,", "stall: {window: 80,")
+    assert text != SWEEP
+    code, _, err = cli("validate", _write(tmp_path, text))
+    _one_line_error(code, err)
+    assert "convergence" in err and "stall.window (80) must be < max_iterations (80)" in err, err
+    code, _, err = cli("validate", _write(tmp_path, SWEEP.replace("stall: {window: 10,", "stall: {window: 79,")))
+    assert code == 0, err
+
+
+def test_the_config_layer_still_reports_robot_errors_with_the_key_path(tmp_path: Path) -> None:
+    from redundik.config import load_task
+
+    path = tmp_path / "t.yaml"
+    text = TASK.replace(f"robot: {CONFIGS}/planar3r.yaml", "robot: {dh: [{name: '1', a: 1, type: fixed}]}")
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises((ConfigError, ModelError), match="no moving joint"):
+        load_task(path)
+
+
+def _mutated(tmp_path: Path, change: Callable[[dict[str, object]], None]) -> Path:
+    import yaml
+
+    data = yaml.safe_load(TASK.replace("steps: 500", "steps: 5"))
+    change(data)
+    path = tmp_path / "m.yaml"
+    path.write_text(yaml.safe_dump(data, allow_unicode=True), encoding="utf-8")
+    return path
+
+
+def _potential_named_tip(d: dict[str, object]) -> None:
+    d["potentials"] = {"tip": {"type": "sin2", "joint": "2"}}
+    d["runs"] = {"a": {"resolver": "pinv", "subtasks": {"tip": {"gain": 1.0}}}}
+
+
+@pytest.mark.parametrize(
+    ("change", "expected"),
+    [
+        (_potential_named_tip, "error: runs.a.subtasks.tip: potential 'tip' has the name of a main task"),
+        (lambda d: d.update(integrator="rk45", rtol=1e-300), "error: rtol: must be ≥ 1e-13"),
+        (
+            lambda d: d["main"][0].update(  # type: ignore[index]
+                trajectory={"type": "pose", "position": [1, 1, 0], "duration": 1e-300}
+            ),
+            "error: main[0].trajectory.duration: must be ≥ 1e-06",
+        ),
+    ],
+)
+def test_task_file_mistakes_are_invalid_input_with_their_key_path(
+    cli: Cli, tmp_path: Path, change: Callable[[dict[str, object]], None], expected: str
+) -> None:
+    path = _mutated(tmp_path, change)
+    for command in ("validate", "run"):
+        code, _, err = cli(command, path, *(["--out", tmp_path / "out", "--no-figures", "-q"] * (command == "run")))
+        _one_line_error(code, err)  # exit 3 (invalid input), not 4 (a run failure) nor a SciPy warning
+        assert err.startswith(expected), err
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_schema_and_the_integrator_agree_on_the_smallest_rtol() -> None:
+    from redundik.config.schema import RTOL_MIN
+    from redundik.simulation.integrators import RTOL_MIN as INTEGRATOR_RTOL_MIN
+    from redundik.simulation.integrators import check_tolerances
+
+    assert RTOL_MIN == INTEGRATOR_RTOL_MIN
+    with pytest.raises(ValueError, match="rtol must be in"):
+        check_tolerances(RTOL_MIN / 10, 1e-12)
+    check_tolerances(RTOL_MIN, 1e-300)
+
+
+@pytest.mark.parametrize(
+    ("command", "file", "expected"),
+    [
+        ("sweep", TASKS / "planar3r_line.yaml", "is a task file, not a sweep file: run it with `redundik run"),
+        ("run", ROOT / "sweeps" / "panda_reach.yaml", "is a sweep file, not a task file: run it with `redundik sweep"),
+        ("run", CONFIGS / "planar3r.yaml", "is a robot file, not a task file"),
+        ("run", CONFIGS / "stewart33.yaml", "is a mechanism file, not a task file"),
+    ],
+)
+def test_a_file_of_another_kind_is_named_as_such(
+    cli: Cli, tmp_path: Path, command: str, file: Path, expected: str
+) -> None:
+    code, _, err = cli(command, file, "--out", tmp_path / "out")
+    _one_line_error(code, err)
+    assert expected in err  # not "task: required key is missing (and 8 more errors)"
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "expected"),
+    [
+        ("sim_dt: 0.001 ", "sim_dt: 0.003 ", "error: plant.sim_dt: sim_dt = 0.003 s must divide the control dt"),
+        ("sim_dt: 0.001 ", "sim_dt: 0.01 ", "error: plant.sim_dt: sim_dt = 0.01 s must divide"),
+        ("sim_dt: 0.001 ", "sim_dt: 1e-9 ", "error: plant.sim_dt: sim_dt = 1e-09 s gives 5000000 physics steps"),
+        ("kp: 2000.0 ", "kp: -5 ", "error: plant.kp: must be ≥ 0"),
+    ],
+)
+def test_plant_rates_and_gains_are_checked_at_validation(
+    cli: Cli, tmp_path: Path, old: str, new: str, expected: str
+) -> None:
+    text = (TASKS / "panda_mujoco.yaml").read_text(encoding="utf-8").replace("../configs/", f"{CONFIGS}/")
+    assert old in text
+    path = tmp_path / "p.yaml"
+    path.write_text(text.replace(old, new), encoding="utf-8")
+    code, _, err = cli("validate", path)  # run would fail building the plant (sim_dt) or run for hours (1e-9)
+    _one_line_error(code, err)
+    assert err.startswith(expected), err

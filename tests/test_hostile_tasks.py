@@ -1,0 +1,142 @@
+"""Hostile arguments to tasks, targets, trajectories, potentials and stacks from Python: NaN, overflowing or absurd
+values, booleans or strings where numbers belong, poses that are not poses; each refused where it is set, naming
+what was wrong."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+import redundik as rk
+from redundik.errors import ResolverError, TaskError
+from tests.hostile import _planar
+
+
+@pytest.mark.parametrize("bad", [[math.nan, 0.0, 0.0], [0.0, math.inf, 0.0]])
+def test_posture_target_with_nan_is_refused_where_it_is_set(bad: list[float]) -> None:
+    """``PostureTask(target=[nan, ...])`` was accepted (``set_target`` refused the same vector)."""
+    with pytest.raises(TaskError, match=r"posture task 'posture': target: contains NaN or infinite values"):
+        rk.PostureTask(target=bad)
+    posture = rk.PostureTask(target=[0.0, 1.0, 0.0])
+    np.testing.assert_array_equal(posture.target, [0.0, 1.0, 0.0])
+
+
+@pytest.mark.parametrize(
+    ("make", "expected"),
+    [
+        (lambda: rk.Circle(0.1, 1.0, phase=math.nan), "circle phase"),
+        (lambda: rk.Circle(0.1, 1e308), "circle omega"),
+        (lambda: rk.Circle(1e300, 1.0), "circle radius"),
+        (lambda: rk.Circle(1e7, 1e7), "radius × omega"),
+        (lambda: rk.Circle(True, 1.0), "circle radius must be a number, got bool"),  # type: ignore[arg-type]
+        (lambda: rk.Line([1e300, 0.0]), "line velocity"),
+        (lambda: rk.Line(["a", "b"]), "line velocity: expected 2 numbers, got list"),
+        (lambda: rk.PoseInterpolation([0, 0, 0], True), "duration must be a number"),  # type: ignore[arg-type]
+    ],
+)
+def test_trajectories_refuse_nan_and_overflowing_parameters(make: Callable[[], object], expected: str) -> None:
+    with pytest.raises(TaskError) as info:
+        make()
+    assert expected in str(info.value)
+
+
+def test_pose_interpolation_too_fast_to_represent_is_refused_at_reset() -> None:
+    robot, _, _ = _planar()
+    task = rk.FrameTask("3", rk.PoseInterpolation([1.0, 0.0, 0.0], 1e-300), axes="planar")
+    with pytest.raises(TaskError, match="longer duration"):
+        task.reset(robot)
+
+
+@pytest.mark.parametrize(
+    ("make", "expected"),
+    [
+        (lambda: rk.TaskStack(None), "stack.tasks: expected a list, got NoneType"),  # type: ignore[arg-type]
+        (lambda: rk.TaskStack({"a": rk.PostureTask()}), "stack.tasks: expected a list, got dict"),  # type: ignore[arg-type]
+        (lambda: rk.TaskStack(["x"]), "stack.tasks[0]: expected a Task, got str"),  # type: ignore[list-item]
+        (
+            lambda: rk.TaskStack([rk.GradientSubtask(rk.JointSine2("3"))]),  # type: ignore[list-item]
+            "stack.tasks[0]: expected a Task, got GradientSubtask (a subtask belongs in the second list",
+        ),
+        (
+            lambda: rk.TaskStack([], [rk.PostureTask()]),  # type: ignore[list-item]
+            "stack.subtasks[0]: expected a Subtask, got PostureTask (a task belongs in the first list",
+        ),
+        (lambda: rk.TaskStack([rk.PostureTask(), rk.PostureTask()]), "repeated: ['posture']"),
+    ],
+)
+def test_a_stack_refuses_what_it_cannot_hold_when_it_is_made(make: Callable[[], object], expected: str) -> None:
+    with pytest.raises(ResolverError) as info:
+        make()
+    assert expected in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("make", "expected"),
+    [
+        (lambda: rk.JointValue("3", True), "value must be a number, got bool"),
+        (lambda: rk.JointValue("3", "x"), "value must be a number, got str"),  # type: ignore[arg-type]
+        (lambda: rk.JointSine2(3), "JointSine2: joint must be a joint name (a string), got 3"),  # type: ignore[arg-type]
+        (lambda: rk.JointSine2(None), "got None"),  # type: ignore[arg-type]
+        (lambda: rk.VirtualPoint("3", ["a", "b", "c"]), "point: expected real numbers"),
+        (lambda: rk.Clearance(None, [0, 0, 0]), "frame must be a frame name"),  # type: ignore[arg-type]
+    ],
+)
+def test_potentials_refuse_values_that_are_not_numbers_or_names(make: Callable[[], object], expected: str) -> None:
+    with pytest.raises(TaskError) as info:
+        make()
+    assert expected in str(info.value)
+
+
+def test_hold_and_pose_interpolation_refuse_what_is_not_a_pose() -> None:
+    import pinocchio as pin
+
+    bad = pin.SE3.Identity()
+    bad.translation = np.array([math.nan, 0.0, 0.0])
+    with pytest.raises(TaskError, match="hold pose: contains NaN"):
+        rk.Hold(bad)
+    with pytest.raises(TaskError, match="hold pose: expected an SE3 or a 4×4"):
+        rk.Hold("x")  # type: ignore[arg-type]
+    with pytest.raises(TaskError, match="not a rigid transform"):
+        rk.Hold(2.0 * np.eye(4))
+    assert rk.Hold(np.eye(4)).pose == pin.SE3.Identity()  # a 4×4 matrix is a pose
+    with pytest.raises(TaskError, match="goal rotation must be a 3×3 matrix of numbers"):
+        rk.PoseInterpolation([0, 0, 0], 1.0, rotation="x")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("target", "expected"),
+    [
+        ([1e308, 0.0, 0.0], "coordinate beyond"),
+        ([True, False, True], "got bool values"),
+        ([1 + 2j, 0, 0], "got complex128 values"),
+        ("abc", "of real numbers"),
+    ],
+)
+def test_frame_target_that_is_absurd_or_not_numbers_is_refused(target: object, expected: str) -> None:
+    task = rk.FrameTask("panda_hand")
+    with pytest.raises(rk.TaskError, match=expected):
+        task.set_target(target)
+    far = np.eye(4)
+    far[:3, 3] = (0.0, -2e6, 0.0)
+    with pytest.raises(rk.TaskError, match="beyond"):
+        task.set_target(far)
+
+
+def test_posture_target_of_booleans_or_strings_is_refused() -> None:
+    with pytest.raises(rk.TaskError, match=r"posture task 'posture': target: .*bool"):
+        rk.PostureTask(target=[True] * 9)
+    with pytest.raises(rk.TaskError, match=r"set_target: .*real numbers"):
+        rk.PostureTask().set_target(["a"] * 9)
+
+
+def test_posture_target_beyond_a_million_is_refused_where_it_is_set() -> None:
+    """A posture 1e308 rad away asked wqp (no limits) for ~1e307 rad/s: now refused, naming the coordinate."""
+    with pytest.raises(rk.TaskError, match=r"posture task 'posture': target: coordinate 1 = 1e\+308 is beyond"):
+        rk.PostureTask(target=[0.0, 1e308, 0.0])
+    posture = rk.PostureTask(target=[0.0, 1.0, 0.0])
+    with pytest.raises(rk.TaskError, match=r"set_target: coordinate 0 = -2e\+06 is beyond"):
+        posture.set_target([-2e6, 0.0, 0.0])
+    np.testing.assert_array_equal(posture.target, [0.0, 1.0, 0.0])  # the refused target left the old one in place
