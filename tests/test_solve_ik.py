@@ -96,6 +96,20 @@ def test_robots_with_the_same_frames_keep_their_own_limits() -> None:
                                                  timeout=None, max_restarts=0).q)  # fmt: skip
 
 
+def test_a_position_target_after_a_pose_target_is_solved_as_on_its_own() -> None:
+    """Each frame keeps six rows in the stacked residual; a position target's rotation rows must be zero, not what
+    the previous pose target of the same (cached) problem left there."""
+    r = rk.load_example_robot("panda")  # a robot of its own: nothing solved on it yet
+    p = np.array([0.0, 0.1, 0.0])
+    alone = rk.solve_ik(r, "panda_hand_tcp", p, timeout=None, max_restarts=5)
+    rk.solve_ik(r, "panda_hand_tcp", reachable(r, "panda_hand_tcp", 1, seed=2)[0], timeout=None, max_restarts=5)
+    after = rk.solve_ik(r, "panda_hand_tcp", p, timeout=None, max_restarts=5)
+    assert np.array_equal(after.q, alone.q) and after.iterations == alone.iterations
+    mixed = rk.solve_ik_batch(r, "panda_hand_tcp", [reachable(r, "panda_hand_tcp", 1, seed=2)[0], p], seed=3,
+                              timeout=None, max_restarts=5)  # fmt: skip
+    assert np.array_equal(mixed.q[1], rk.solve_ik(r, "panda_hand_tcp", p, seed=(3, 1), timeout=None, max_restarts=5).q)
+
+
 def test_threads_get_the_answers_of_serial_calls() -> None:
     from concurrent.futures import ThreadPoolExecutor
 

@@ -123,8 +123,8 @@ def residual(
     r: np.ndarray,
     err: np.ndarray,
 ) -> float:
-    """Stack the frames' residual rows r and Jacobian rows Jr (see the module docstring), the position rows weighted
-    by ``w_pos`` [rad/m]; ``frames`` = (J6 (6k, nv), M (4k, 4), T (4k, 4), mode (k,)). ``err[k]`` ← (position error
+    """Stack the frames' residual rows r and Jacobian rows Jr (see the module docstring; six rows per frame, the
+    rotation rows of a position target zero), the position rows weighted by ``w_pos`` [rad/m]; ``frames`` = (J6 (6k, nv), M (4k, 4), T (4k, 4), mode (k,)). ``err[k]`` ← (position error
     [m], orientation error [rad], 0 for a position frame), unweighted. Returns the cost ½‖r‖²."""
     J6, M, T, mode = frames
     row = 0
@@ -154,9 +154,13 @@ def residual(
                 for j in range(nv):
                     Jr[row + i, j] = Ji[i, 0] * J6[b + 3, j] + Ji[i, 1] * J6[b + 4, j] + Ji[i, 2] * J6[b + 5, j]
             err[k, 1] = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
-            row += 3
-        else:
+        else:  # a position target: its rotation rows are zero (the buffers are reused over targets)
+            for i in range(3):
+                r[row + i] = 0.0
+                for j in range(nv):
+                    Jr[row + i, j] = 0.0
             err[k, 1] = 0.0
+        row += 3
     cost = 0.0
     for i in range(row):
         cost += r[i] * r[i]
