@@ -84,8 +84,8 @@ def test_robots_with_the_same_frames_keep_their_own_limits() -> None:
     within its own limits, and the first one still within its own."""
     wide = robot("panda")
     model = wide.model.copy()
-    model.upperPositionLimit[:7] = np.minimum(model.upperPositionLimit[:7], 0.5 * (model.lowerPositionLimit[:7] +
-                                                                                   model.upperPositionLimit[:7]))  # fmt: skip
+    mid = 0.5 * (model.lowerPositionLimit[:7] + model.upperPositionLimit[:7])
+    model.upperPositionLimit[:7] = np.minimum(model.upperPositionLimit[:7], mid)
     narrow = rk.RobotModel(model, name="narrow panda")
     q_in = 0.5 * (model.lowerPositionLimit + model.upperPositionLimit)
     T = fk(narrow, q_in, "panda_hand_tcp").copy()

@@ -124,8 +124,9 @@ def residual(
     err: np.ndarray,
 ) -> float:
     """Stack the frames' residual rows r and Jacobian rows Jr (see the module docstring; six rows per frame, the
-    rotation rows of a position target zero), the position rows weighted by ``w_pos`` [rad/m]; ``frames`` = (J6 (6k, nv), M (4k, 4), T (4k, 4), mode (k,)). ``err[k]`` ← (position error
-    [m], orientation error [rad], 0 for a position frame), unweighted. Returns the cost ½‖r‖²."""
+    rotation rows of a position target zero), the position rows weighted by ``w_pos`` [rad/m]; ``frames`` = (J6
+    (6k, nv), M (4k, 4), T (4k, 4), mode (k,)). ``err[k]`` ← (position error [m], orientation error [rad], 0 for a
+    position frame), unweighted. Returns the cost ½‖r‖²."""
     J6, M, T, mode = frames
     row = 0
     Rd = np.empty((3, 3))
