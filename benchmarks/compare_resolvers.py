@@ -8,6 +8,11 @@ Usage (from a checkout, with ``pip install -e ".[test,peers]"``)::
     python benchmarks/compare_resolvers.py --json out.json --out benchmarks/results/
     python benchmarks/compare_resolvers.py --placo-python .venv-placo/bin/python
     python benchmarks/compare_resolvers.py --repeat 3         # three full runs: median ratio and spread per case
+    python benchmarks/compare_resolvers.py --robots panda --ik-poses 1000   # and the ik_convergence case
+
+The ``ik_convergence`` case (rk.solve_ik against TRAC-IK on reachable Panda, UR5 and xArm7 poses,
+``benchmarks/ik_convergence.py``) runs in full and ``--quick`` runs (200 poses per robot), with ``--robots`` only on
+``--ik-poses N``; its rows are in the JSON's ``meta.ik_convergence``.
 
 Writes ``compare_resolvers.md`` (tables and targets), ``.json`` and ``.png`` to ``--out`` and prints the ratios.
 Method, robots, PlaCo's own interpreter and timing rules: ``docs/benchmark.md``.
@@ -25,6 +30,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))  # the harness is the checkout's package benchmarks.bench, not in the wheel
 
 from benchmarks.bench import KNOWN_ROBOTS, METHODS, BenchConfig, ratio_lines, run_benchmark, write_all  # noqa: E402
+from benchmarks.bench.cases import IK_CONVERGENCE, IK_POSES, IK_POSES_QUICK, ik_convergence_case  # noqa: E402
 from benchmarks.bench.repeat import repeat_markdown, summarise_runs  # noqa: E402
 from benchmarks.bench.report import markdown, readme_table, targets_table  # noqa: E402
 from redundik.errors import RedundikError  # noqa: E402
@@ -105,6 +111,10 @@ def main(argv: list[str] | None = None) -> int:
         "--cold-start", choices=("cold", "warm", "off"), default="cold",
         help="cold_start case: empty cache then warm (default), the user's cache only, or not run",
     )  # fmt: skip
+    parser.add_argument(
+        "--ik-poses", type=int, default=None,
+        help=f"{IK_CONVERGENCE} case: poses per robot (default {IK_POSES}, quick {IK_POSES_QUICK}, 0 with --robots)",
+    )  # fmt: skip
     args = parser.parse_args(argv)
     if args.repeat < 1:
         print(f"error: --repeat must be ≥ 1, got {args.repeat}", file=sys.stderr)
@@ -130,6 +140,12 @@ def main(argv: list[str] | None = None) -> int:
         except RedundikError as exc:
             print(f"error: {exc}", file=sys.stderr)
             return 2
+        poses = IK_POSES_QUICK if args.quick else IK_POSES
+        if args.ik_poses is not None or args.robots:  # a chosen set of robots runs the IK case only when asked
+            poses = args.ik_poses or 0
+        if poses > 0:  # rk.solve_ik vs TRAC-IK: in the JSON's meta under its case name
+            print(f"{IK_CONVERGENCE}: {poses} poses per robot")
+            results[-1].meta[IK_CONVERGENCE] = ik_convergence_case(poses)
     result = results[0]
     if args.repeat == 1:
         paths = write_all(result, args.out, command.strip(), args.json)

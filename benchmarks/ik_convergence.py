@@ -150,6 +150,33 @@ def run_pink(robot: rk.RobotModel, frame: str, Ts: list[pin.SE3], q0: np.ndarray
     return np.array(qs), np.array(times)
 
 
+def run_robot(name: str, n: int, seed: int, peers_python: str, pink: bool = False) -> list[dict[str, object]]:
+    """The rows of one robot (:data:`ROBOTS`): rk.solve_ik, TRAC-IK when ``peers_python`` exists, pink on ``pink``."""
+    base, frame = ROBOTS[name]
+    robot = rk.load_example_robot(name)
+    Ts = targets(robot, frame, n, seed)
+    q_mid = robot.model.lowerPositionLimit * 0.5 + robot.model.upperPositionLimit * 0.5
+    qs, times = run_ours(robot, frame, Ts)
+    rows = [row(name, "redundik solve_ik", *check(robot, frame, qs, Ts), times)]
+    if Path(peers_python).exists():
+        urdf = example_robot_data_dir() / EXAMPLE_ROBOTS[name][0]
+        got = run_tracik(peers_python, robot, urdf, base, frame, Ts, q_mid[: 7 if name == "panda" else robot.nq])
+        if got is not None:
+            qt, tt = got
+            if qt.shape[1] != robot.nq:  # the chain ends before the fingers: pad them at mid-range
+                qt = np.hstack([qt, np.broadcast_to(q_mid[qt.shape[1] :], (n, robot.nq - qt.shape[1]))])
+            rows.append(row(name, "TRAC-IK (pytracik, 5 ms)", *check(robot, frame, qt, Ts), tt))
+    else:
+        print(f"  note: TRAC-IK skipped ({peers_python} not found; set --peers-python)")
+    if pink:
+        try:
+            qp, tp = run_pink(robot, frame, Ts, q_mid)
+            rows.append(row(name, "pink loop (dt 1, ≤ 500 it)", *check(robot, frame, qp, Ts), tp))
+        except ImportError:
+            print("  note: pink skipped (not installed)")
+    return rows
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=10_000, help="poses per robot (default 10 000)")
@@ -167,33 +194,10 @@ def main(argv: list[str] | None = None) -> int:
     for name in args.robots.split(","):
         if name not in ROBOTS:
             ap.error(f"unknown robot {name!r}; known: {sorted(ROBOTS)}")
-        base, frame = ROBOTS[name]
-        robot = rk.load_example_robot(name)
-        Ts = targets(robot, frame, n, args.seed)
-        q_mid = robot.model.lowerPositionLimit * 0.5 + robot.model.upperPositionLimit * 0.5
-        qs, times = run_ours(robot, frame, Ts)
-        rows.append(row(name, "redundik solve_ik", *check(robot, frame, qs, Ts), times))
-        if Path(args.peers_python).exists():
-            urdf = example_robot_data_dir() / EXAMPLE_ROBOTS[name][0]
-            got = run_tracik(
-                args.peers_python, robot, urdf, base, frame, Ts, q_mid[: 7 if name == "panda" else robot.nq]
-            )
-            if got is not None:
-                qt, tt = got
-                if qt.shape[1] != robot.nq:  # the chain ends before the fingers: pad them at mid-range
-                    qt = np.hstack([qt, np.broadcast_to(q_mid[qt.shape[1] :], (n, robot.nq - qt.shape[1]))])
-                rows.append(row(name, "TRAC-IK (pytracik, 5 ms)", *check(robot, frame, qt, Ts), tt))
-        else:
-            print(f"  note: TRAC-IK skipped ({args.peers_python} not found; set --peers-python)")
-        if args.pink:
-            try:
-                qp, tp = run_pink(robot, frame, Ts, q_mid)
-                rows.append(row(name, "pink loop (dt 1, ≤ 500 it)", *check(robot, frame, qp, Ts), tp))
-            except ImportError:
-                print("  note: pink skipped (not installed)")
-        for r in rows:
-            if r["robot"] == name:
-                print(json.dumps(r))
+        got = run_robot(name, n, args.seed, args.peers_python, pink=args.pink)
+        rows += got
+        for r in got:
+            print(json.dumps(r))
     if args.json:
         args.json.write_text(json.dumps(rows, indent=1))
     return 0

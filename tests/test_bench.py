@@ -191,6 +191,10 @@ def test_script_quick_smoke(tmp_path: Path) -> None:
         assert case["status"] == "ok" or case["status"].startswith("failed: ")
     batch = {c["method"]: c for c in doc["cases"] if c["robot"] == "panda_batch1000"}
     assert set(batch) == set(BATCH_METHODS) and all(c["problems_per_s"] > 0 for c in batch.values())
+    ik = doc["meta"]["ik_convergence"]  # rk.solve_ik on reachable poses, 200 per robot under --quick
+    ours = [r for r in ik["rows"] if r["solver"] == "redundik solve_ik"]
+    assert {r["robot"] for r in ours} == {"panda", "ur5", "xarm7"} and all(r["n"] == 200 for r in ours)
+    assert all(r["limit_violations"] == 0 for r in ik["rows"])
     assert module.main(["--robots", "icub", "--out", str(tmp_path)]) == 2
 
 

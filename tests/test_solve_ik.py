@@ -59,6 +59,79 @@ def test_reachable_poses_are_solved_within_limits(name: str) -> None:
             assert batch.position_error[i] <= 1e-5 and batch.orientation_error[i] <= 1e-4
 
 
+@pytest.mark.parametrize("name", ["panda", "ur5"])
+def test_few_restarts_and_iterations_per_pose(name: str) -> None:
+    """The error-proportional damping and the position weight (kernels docstring): on 200 reachable poses from
+    mid-range, at most one restart and 30 iterations per pose on average (before them the UR5 needed 1.5 restarts and
+    48 iterations)."""
+    r, frame = robot(name), TOOL[name]
+    batch = rk.solve_ik_batch(r, frame, reachable(r, frame, 200, seed=0), seed=1, timeout=None, max_restarts=100)
+    assert batch.success_rate == 1.0
+    assert batch.restarts.mean() <= 1.0, batch.restarts.mean()
+    assert batch.iterations.mean() <= 30.0, batch.iterations.mean()
+
+
+def test_no_kernel_takes_more_than_ten_parameters() -> None:
+    import inspect
+
+    for name, fn in vars(K).items():
+        if hasattr(fn, "py_func"):
+            assert len(inspect.signature(fn.py_func).parameters) <= 10, name
+
+
+def test_robots_with_the_same_frames_keep_their_own_limits() -> None:
+    """Problems are cached per thread and robot: a second robot with the same frames but narrower limits is solved
+    within its own limits, and the first one still within its own."""
+    wide = robot("panda")
+    model = wide.model.copy()
+    mid = 0.5 * (model.lowerPositionLimit[:7] + model.upperPositionLimit[:7])
+    model.upperPositionLimit[:7] = np.minimum(model.upperPositionLimit[:7], mid)
+    narrow = rk.RobotModel(model, name="narrow panda")
+    q_in = 0.5 * (model.lowerPositionLimit + model.upperPositionLimit)
+    T = fk(narrow, q_in, "panda_hand_tcp").copy()
+    for r in (wide, narrow, wide, narrow):
+        res = rk.solve_ik(r, "panda_hand_tcp", T, timeout=None, max_restarts=200)
+        assert res.success and within_limits(r, res.q)
+    assert not within_limits(narrow, rk.solve_ik(wide, "panda_hand_tcp", T, q0=wide.model.upperPositionLimit,
+                                                 timeout=None, max_restarts=0).q)  # fmt: skip
+
+
+def test_a_position_target_after_a_pose_target_is_solved_as_on_its_own() -> None:
+    """Each frame keeps six rows in the stacked residual; a position target's rotation rows must be zero, not what
+    the previous pose target of the same (cached) problem left there."""
+    r = rk.load_example_robot("panda")  # a robot of its own: nothing solved on it yet
+    p = np.array([0.0, 0.1, 0.0])
+    alone = rk.solve_ik(r, "panda_hand_tcp", p, timeout=None, max_restarts=5)
+    rk.solve_ik(r, "panda_hand_tcp", reachable(r, "panda_hand_tcp", 1, seed=2)[0], timeout=None, max_restarts=5)
+    after = rk.solve_ik(r, "panda_hand_tcp", p, timeout=None, max_restarts=5)
+    assert np.array_equal(after.q, alone.q) and after.iterations == alone.iterations
+    mixed = rk.solve_ik_batch(r, "panda_hand_tcp", [reachable(r, "panda_hand_tcp", 1, seed=2)[0], p], seed=3,
+                              timeout=None, max_restarts=5)  # fmt: skip
+    assert np.array_equal(mixed.q[1], rk.solve_ik(r, "panda_hand_tcp", p, seed=(3, 1), timeout=None, max_restarts=5).q)
+
+
+def test_threads_get_the_answers_of_serial_calls() -> None:
+    from concurrent.futures import ThreadPoolExecutor
+
+    r = robot("ur5")
+    targets = reachable(r, "tool0", 16, seed=5)
+
+    def one(i: int) -> np.ndarray:
+        return rk.solve_ik(r, "tool0", targets[i], seed=(2, i), timeout=None, max_restarts=50).q
+
+    serial = [one(i) for i in range(16)]
+    with ThreadPoolExecutor(4) as pool:
+        threaded = list(pool.map(one, range(16)))
+    for a, b in zip(serial, threaded, strict=True):
+        assert np.array_equal(a, b)
+
+
+def test_a_target_se3_that_is_not_rigid_is_refused() -> None:
+    bad = pin.SE3(np.diag([1.0, 1.0, 1.01]), np.array([0.4, 0.0, 0.4]))
+    with pytest.raises(TaskError, match="rigid transform"):
+        rk.solve_ik(robot("panda"), "panda_hand_tcp", bad)
+
+
 def test_failure_still_returns_a_configuration_within_limits() -> None:
     r = robot("panda")
     res = rk.solve_ik(r, "panda_hand_tcp", np.array([3.0, 0.0, 0.5]), timeout=None, max_restarts=3)

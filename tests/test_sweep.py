@@ -115,6 +115,83 @@ def test_batch_iteration_matches_the_one_by_one_loop(resolver: str) -> None:
     assert diff < 1e-5
 
 
+def _ik(**ik: Any) -> dict[str, Any]:
+    """SMALL solved by method: solve_ik (the same targets and starts)."""
+    data = _small(method="solve_ik")
+    if ik:
+        data["ik"] = ik
+    return data
+
+
+def test_solve_ik_method_converges_within_limits_with_the_same_columns(in_process: dict[str, np.ndarray]) -> None:
+    c = run_sweep(load_sweep(_ik(max_restarts=5))).columns
+    assert set(in_process) <= set(c) and set(c) - set(in_process) == {"restarts"}  # every column kept, one added
+    assert c["problem"].tolist() == list(range(60))
+    conv = c["converged"]
+    # solve_ik reaches every target the differential iteration reaches, and more (restarts, no posture pull)
+    assert (conv | ~in_process["converged"]).all() and conv.sum() > in_process["converged"].sum()
+    assert (c["final_error"][conv] <= TOL).all()
+    assert set(c["status"][conv]) == {"converged"} and set(c["status"][~conv]) <= {"max_restarts"}
+    assert (c["limit_margin"] >= 0.0).all()  # every answer within the limits, converged or not
+    assert (c["qp_steps"] == 0).all() and (c["restarts"][~conv] == 5).all()
+    for k, v in c.items():
+        if v.dtype.kind == "f":
+            assert np.isfinite(v).all(), k
+
+
+def test_solve_ik_method_is_the_same_table_whatever_the_chunks() -> None:
+    a = run_sweep(load_sweep(_ik(max_restarts=3))).columns
+    b = run_sweep(load_sweep({**_ik(max_restarts=3), "chunk_size": 7})).columns
+    _assert_same(a, b)  # problem p is seeded with (seed, p): bit for bit, not only to rounding
+
+
+def test_solve_ik_method_pose_targets_and_its_summary(tmp_path: Path) -> None:
+    from redundik.sweep.output import summary
+
+    data = _ik(orientation_tolerance=1e-3, max_restarts=10)
+    data["task"] = {"frame": "panda_hand_tcp", "axes": "pose"}
+    data["targets"] = {"points": [[0.45, 0.1, 0.45], [0.3, -0.2, 0.6]], "orientation": [3.14159, 0.0, 0.0]}
+    plan = load_sweep(data)
+    result = run_sweep(plan)
+    c = result.columns
+    assert c["converged"].all()
+    assert summary(plan, result)["method"] == "solve_ik"
+    assert summary(plan, result)["status"]["converged"] == c["problem"].size
+
+
+@pytest.mark.parametrize(
+    ("change", "where"),
+    [
+        ({"method": "ik"}, "method: expected one of 'differential' or 'solve_ik', got 'ik'"),
+        ({"ik": {"max_restarts": 3}}, "ik: 'ik' holds the options of method: solve_ik, but method is differential"),
+        ({"method": "solve_ik", "ik": {"max_restarts": -1}}, "ik.max_restarts:"),
+        ({"method": "solve_ik", "ik": {"timeout": 0}}, "ik.timeout:"),
+        ({"method": "solve_ik", "ik": {"max_restarts": None}}, "ik.max_restarts: give max_restarts or timeout"),
+        ({"method": "solve_ik", "ik": {"seeds": 1}}, "ik.seeds: unknown key 'seeds'"),
+        ({"method": "solve_ik", "ik": {"orientation_tolerance": "small"}}, "ik.orientation_tolerance:"),
+        ({"method": "solve_ik", "task": {"frame": "panda_hand_tcp", "axes": "planar"}}, "task.axes: method: solve_ik"),
+        ({"convergence": {"tol": 1e-4}}, "convergence.dt: required key is missing: method: differential"),
+        (
+            {"method": "solve_ik", "ik": {"max_restarts": 10_000}, "convergence": {"tol": TOL, "max_iterations": 200}},
+            "ik.max_restarts: 60 problems × 200 iterations × 10001 attempts = 1.2e+08 steps at most",
+        ),
+    ],
+)
+def test_bad_method_keys_are_one_line_errors_with_key_paths(
+    change: dict[str, Any], where: str, write_yaml: Callable[..., Path]
+) -> None:
+    data = _small()
+    data.update(change)
+    if data.get("method") == "solve_ik" and "ik" in change and "convergence" not in change:
+        data["convergence"] = {"tol": TOL, "max_iterations": 40}
+    f = write_yaml(data, "bad.yaml")
+    with pytest.raises(ConfigError) as info:
+        load_sweep(f)
+    msg = str(info.value)
+    assert "\n" not in msg
+    assert msg.startswith(where), msg
+
+
 def test_cli_writes_parquet_csv_and_figure(tmp_path: Path, write_yaml: Callable[..., Path]) -> None:
     from redundik.cli.main import main
 

@@ -250,3 +250,21 @@ def versions(runners: Sequence[Any] = ()) -> dict[str, str]:
         if getattr(r, "method", "") == "placo":
             out["placo"] = f"{getattr(r, 'version', '?')} (own interpreter {getattr(r, 'python', '?')})"
     return out
+
+
+#: The ``ik_convergence`` case: rk.solve_ik against TRAC-IK on random reachable poses (benchmarks/ik_convergence.py).
+IK_CONVERGENCE = "ik_convergence"
+#: Its poses per robot: full run, and ``--quick``.
+IK_POSES, IK_POSES_QUICK = 10_000, 200
+
+
+def ik_convergence_case(n: int, robots: Sequence[str] = ("panda", "ur5", "xarm7")) -> dict[str, Any]:
+    """The ``ik_convergence`` record: per robot and solver, success, median / p99 / max time [ms] and limit
+    violations on n reachable poses (5 ms budget; TRAC-IK only where its interpreter is installed)."""
+    import os
+
+    from benchmarks import ik_convergence as ikc
+
+    peers = os.environ.get("IKPEERS_PYTHON", "/work/wt/ikpeers/bin/python")
+    rows = [r for name in robots for r in ikc.run_robot(name, n, 0, peers)]
+    return {"case": IK_CONVERGENCE, "poses": n, "timeout_s": ikc.TIMEOUT, "rows": rows}

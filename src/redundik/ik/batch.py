@@ -18,7 +18,7 @@ import numpy as np
 
 from redundik.errors import ResolverError
 from redundik.ik.problem import build_problem, frames_and_targets, start_configuration, target_arrays
-from redundik.ik.solve import IKResult, Solver, generator, settings, warm_up
+from redundik.ik.solve import IKResult, Solver, settings, warm_up
 from redundik.kinematics.model import RobotModel
 
 
@@ -112,9 +112,9 @@ def solve_ik_batch(
         _, tg = frames_and_targets(frame, tgt)
         T, mode = target_arrays(names, tg)
         prepared.append((T, mode, start_configuration(problem, starts[i])))
-    warm_up()
     solver = Solver(problem)
-    out: list[IKResult] = [solver.run(q, T, mode, s, generator((int(seed), i))) for i, (T, mode, q) in
+    warm_up(solver)
+    out: list[IKResult] = [solver.run(q, T, mode, s, (int(seed), i)) for i, (T, mode, q) in
                            enumerate(prepared)]  # fmt: skip
     return IKBatchResult(
         q=np.array([r.q for r in out]).reshape(n, robot.nq),

@@ -7,15 +7,27 @@ one compiled call does it in about a microsecond, so an IK iteration costs a few
 
 Residual of frame k (rows selected by ``mode[k]``: 0 pose, 1 position):
 
-    r_k = (p_d − p, log3(R_d Rᵀ))   [m, rad],    ∂r_k/∂q ≈ −J_k   (J_k: the frame's LOCAL_WORLD_ALIGNED Jacobian)
+    r_k = (w_p (p_d − p), log3(R_d Rᵀ))   [rad],    ∂r_k/∂q ≈ −(w_p J_k,v ; Jr⁻¹ J_k,ω)
 
-With E = R_d Rᵀ and a world angular velocity ω, Ė = −E[ω]ₓ (a right perturbation of E), so θ = log3(E) moves by
+(J_k: the frame's LOCAL_WORLD_ALIGNED Jacobian; w_p [rad/m] weighs a metre against a radian, 2 by default.) With
+E = R_d Rᵀ and a world angular velocity ω, Ė = −E[ω]ₓ (a right perturbation of E), so θ = log3(E) moves by
 −Jr⁻¹(θ) ω: the rotation rows are Jr⁻¹(θ) J_ω (``jr_inv``), the exact Jacobian of the residual.
 
-Step: (JᵀJ + λ I) Δ = Jᵀ r on the free joints, Δ clipped into the box [lo − q, hi − q]; a joint whose step leaves
-the box while it already sits on that bound is fixed and the system solved again without it (projected LM with an
-active set on the bounds, at most nv passes). Accepted when the cost ½‖r‖² decreases (λ ← λ/3), else rejected
-(λ ← 4λ).
+Step: (JᵀJ + (λ + c·E) I) Δ = Jᵀ r on the free joints, E = ½‖r‖² the cost: the damping grows with the error
+(Sugihara, "Solvability-unconcerned inverse kinematics by the Levenberg–Marquardt method", IEEE T-RO 27(5), 2011:
+far from the target the step is short and gradient-like, near it Gauss–Newton), c = 0.1 by default, λ adaptive.
+Δ is clipped into the box [lo − q, hi − q]; a joint whose step leaves the box while it already sits on that bound
+is fixed and the system solved again without it (projected LM with an active set on the bounds, at most nv
+passes). Accepted when the cost decreases (λ ← λ/3), else rejected (λ ← 4λ).
+
+Measured on 300 reachable poses (attempts from mid-range then uniform restarts, 1e-5 m / 1e-4 rad): the error-
+proportional damping and w_p = 2 raise the share of attempts that converge from 0.40 to 0.70 on the UR5 and from
+0.64 to 0.78 on the Panda, and lower the iterations per solved pose from 43 to 18 and from 26 to 16.
+
+Every kernel takes at most 7 parameters. :func:`lm_update`'s are plain arrays: Pinocchio's output, the targets,
+the problem's constants packed in one float and one int array, and one workspace (:func:`workspace`: the trial's
+and the current iterate's residual, errors and q, the step, the state), because numba types a tuple's elements in
+Python at every call (3–5.5 µs per call with tuples, ≈ 1 µs packed).
 """
 
 from __future__ import annotations
@@ -30,12 +42,20 @@ _jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redun
 
 #: Codes returned by :func:`lm_update`.
 CONTINUE, CONVERGED, STALLED = 0, 1, 2
-#: Indices of the float state ``st``.
-S_COST, S_LAM, S_WINDOW_COST = 0, 1, 2
-#: Indices of the int state ``ist``.
-I_ITER, I_WINDOW_START = 0, 1
+#: Indices of the state ``st``: cost ½‖r‖², λ, the cost at the stall window's start, the iteration, the window's
+#: first iteration (counts held as floats: one state array).
+S_COST, S_LAM, S_WINDOW_COST, S_ITER, S_WINDOW_START = 0, 1, 2, 3, 4
+#: Length of the state.
+N_STATE = 5
+#: Indices of the parameters ``params`` (:data:`PARAMS`): position tolerance [m], orientation tolerance [rad], stall
+#: window [iterations], stall ratio [1], position weight [rad/m], cost damping [1].
+P_TOL_POS, P_TOL_ROT, P_WINDOW, P_RATIO, P_WPOS, P_COST_DAMPING = 0, 1, 2, 3, 4, 5
+#: The parameters' names, in order.
+PARAMS = ("position_tolerance", "orientation_tolerance", "stall_window", "stall_ratio", "position_weight",
+          "cost_damping")  # fmt: skip
+N_PARAMS = 6
 
-LAM_MIN, LAM_MAX = 1e-12, 1e8
+LAM_START, LAM_MIN, LAM_MAX = 1e-3, 1e-12, 1e8
 
 
 @_jit
@@ -97,39 +117,51 @@ def jr_inv(w: np.ndarray, out: np.ndarray) -> None:
 
 @_jit
 def residual(
-    J6: np.ndarray, M: np.ndarray, T: np.ndarray, mode: np.ndarray, Jr: np.ndarray, r: np.ndarray, err: np.ndarray
+    frames: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    w_pos: float,
+    Jr: np.ndarray,
+    r: np.ndarray,
+    err: np.ndarray,
 ) -> float:
-    """Stack the frames' residual rows r and Jacobian rows Jr (see the module docstring); ``err[k]`` ← (position
-    error [m], orientation error [rad], 0 for a position frame). Returns the cost ½‖r‖²."""
+    """Stack the frames' residual rows r and Jacobian rows Jr (see the module docstring; six rows per frame, the
+    rotation rows of a position target zero), the position rows weighted by ``w_pos`` [rad/m]; ``frames`` = (J6
+    (6k, nv), M (4k, 4), T (4k, 4), mode (k,)). ``err[k]`` ← (position error [m], orientation error [rad], 0 for a
+    position frame), unweighted. Returns the cost ½‖r‖²."""
+    J6, M, T, mode = frames
     row = 0
     Rd = np.empty((3, 3))
     Ji = np.empty((3, 3))
     w = np.empty(3)
-    nv = J6.shape[2]
-    for k in range(M.shape[0]):
+    nv = J6.shape[1]
+    for k in range(mode.shape[0]):
+        a, b = 4 * k, 6 * k
         ep = 0.0
         for i in range(3):
-            d = T[k, i, 3] - M[k, i, 3]
-            r[row + i] = d
+            d = T[a + i, 3] - M[a + i, 3]
+            r[row + i] = w_pos * d
             ep += d * d
             for j in range(nv):
-                Jr[row + i, j] = J6[k, i, j]
+                Jr[row + i, j] = w_pos * J6[b + i, j]
         err[k, 0] = math.sqrt(ep)
         row += 3
         if mode[k] == 0:
             for i in range(3):
                 for j in range(3):
-                    Rd[i, j] = T[k, i, 0] * M[k, j, 0] + T[k, i, 1] * M[k, j, 1] + T[k, i, 2] * M[k, j, 2]
+                    Rd[i, j] = T[a + i, 0] * M[a + j, 0] + T[a + i, 1] * M[a + j, 1] + T[a + i, 2] * M[a + j, 2]
             log3(Rd, w)
             jr_inv(w, Ji)
             for i in range(3):
                 r[row + i] = w[i]
                 for j in range(nv):
-                    Jr[row + i, j] = Ji[i, 0] * J6[k, 3, j] + Ji[i, 1] * J6[k, 4, j] + Ji[i, 2] * J6[k, 5, j]
+                    Jr[row + i, j] = Ji[i, 0] * J6[b + 3, j] + Ji[i, 1] * J6[b + 4, j] + Ji[i, 2] * J6[b + 5, j]
             err[k, 1] = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
-            row += 3
-        else:
+        else:  # a position target: its rotation rows are zero (the buffers are reused over targets)
+            for i in range(3):
+                r[row + i] = 0.0
+                for j in range(nv):
+                    Jr[row + i, j] = 0.0
             err[k, 1] = 0.0
+        row += 3
     cost = 0.0
     for i in range(row):
         cost += r[i] * r[i]
@@ -188,13 +220,15 @@ def _solve_free(Jr: np.ndarray, r: np.ndarray, lam: float, free: np.ndarray, dq:
 
 @_jit
 def box_step(
-    Jr: np.ndarray, r: np.ndarray, lam: float, qv: np.ndarray, lo: np.ndarray, hi: np.ndarray, dq: np.ndarray
+    Jr: np.ndarray, r: np.ndarray, lam: float, qv: np.ndarray, bounds: tuple[np.ndarray, np.ndarray], dq: np.ndarray
 ) -> bool:
-    """The damped step dq within [lo − qv, hi − qv] (projected LM, active set on the bounds; module docstring).
+    """The damped step dq within [lo − qv, hi − qv], ``bounds`` = (lo, hi) (projected LM, active set on the bounds;
+    module docstring).
 
     ``qv`` holds each velocity coordinate's position (NaN where it has none: no bound applies). Returns False
     when the normal equations are not positive definite (λ too small for them).
     """
+    lo, hi = bounds
     nv = Jr.shape[1]
     free = np.ones(nv, dtype=np.bool_)
     for _ in range(nv + 1):
@@ -219,89 +253,134 @@ def box_step(
 
 
 @_jit
+def offsets(k: int, nv: int, nq: int) -> tuple[int, int, int, int, int, int, int]:
+    """Where the workspace's parts start (:func:`workspace`), and its length: (Jr, r, err, q, dq, state, total)
+    for k frames, nv velocity and nq position coordinates."""
+    m = 6 * k
+    o_r = 2 * m * nv
+    o_err = o_r + 2 * m
+    o_q = o_err + 4 * k
+    o_dq = o_q + 2 * nq
+    o_st = o_dq + nv
+    return 0, o_r, o_err, o_q, o_dq, o_st, o_st + N_STATE
+
+
+@_jit
+def workspace(ws: np.ndarray, k: int, nv: int, nq: int) -> tuple[np.ndarray, ...]:
+    """Views of the workspace ``ws`` (one float array, :func:`offsets`): (Jr (2, m, nv), r (2, m), err (2, k, 2),
+    q (2, nq), dq (nv,), st (:data:`N_STATE`,)); index 0 the trial, 1 the current iterate (m = 6k rows)."""
+    o_J, o_r, o_err, o_q, o_dq, o_st, end = offsets(k, nv, nq)
+    m = 6 * k
+    return (
+        ws[o_J:o_r].reshape((2, m, nv)),
+        ws[o_r:o_err].reshape((2, m)),
+        ws[o_err:o_q].reshape((2, k, 2)),
+        ws[o_q:o_dq].reshape((2, nq)),
+        ws[o_dq:o_st],
+        ws[o_st:end],
+    )
+
+
+@_jit
 def lm_update(
-    first: bool,
-    J6: np.ndarray,
-    M: np.ndarray,
-    T: np.ndarray,
-    mode: np.ndarray,
-    qt: np.ndarray,
-    tol: np.ndarray,
-    qmap: np.ndarray,
-    lo: np.ndarray,
-    hi: np.ndarray,
-    st: np.ndarray,
-    ist: np.ndarray,
-    work: tuple[np.ndarray, np.ndarray, np.ndarray],
-    cur: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-    out: tuple[np.ndarray, np.ndarray],
+    first: bool, J6: np.ndarray, M: np.ndarray, T: np.ndarray, consts: np.ndarray, ints: np.ndarray, ws: np.ndarray
 ) -> int:
-    """One LM iteration: judge the trial configuration ``qt`` (its frames' Jacobians ``J6`` (k, 6, nv) and poses
-    ``M`` (k, 4, 4)), then propose the next trial.
+    """One LM iteration: judge the trial configuration (the workspace's q[0]), then write the next trial there.
 
     Args:
-        first: ``qt`` is an attempt's start (always accepted; the state is reset).
-        T: Targets (k, 4, 4); ``mode`` (k,) 0 pose, 1 position.
-        tol: (position tolerance [m], orientation tolerance [rad], stall window [iterations], stall ratio [1]).
-        qmap: Per velocity coordinate, its index in q (−1: no bound applies); ``lo``/``hi`` its bounds (nv,).
-        st: Float state (cost, λ, cost at the window's start); ``ist`` int state (iteration, window start).
-        work: Scratch (Jr (m, nv), r (m,), err (k, 2)) for the trial.
-        cur: The current iterate (Jr, r, err, q), updated when the trial is accepted.
-        out: (dq (nv,), q_next (nq,)): the next step and, for models whose q adds up (nq = nv), the next trial.
+        first: The trial is an attempt's start (always accepted; the state is reset).
+        J6: (6k, nv) the frames' LOCAL_WORLD_ALIGNED Jacobians at the trial, frame after frame (Pinocchio's).
+        M: (4k, 4) the frames' poses at the trial.
+        T: (4k, 4) their targets.
+        consts: :data:`PARAMS` then lo (nv,) and hi (nv,), each velocity coordinate's bounds.
+        ints: nq, then mode (k,) (0 pose, 1 position), then qmap (nv,) (each velocity coordinate's index in q; −1:
+            no bound applies).
+        ws: The workspace (:func:`workspace`): the trial's and the current iterate's residual rows, errors and q,
+            the step dq (nv,) from the current iterate to the next trial (that trial's q is written for models whose
+            q adds up; others compose q ⊕ dq themselves) and the state (:data:`S_COST` …).
+
+    Why packed: numba types every argument at each call, a tuple element by element in Python; 7 parameters of
+    plain arrays cost ≈ 1 µs per call where the same data as 15 parameters and tuples cost 3–5.5 µs (measured).
 
     Returns:
         :data:`CONVERGED` (the current iterate meets both tolerances), :data:`STALLED` (λ beyond its cap, the cost
         fell by less than the stall ratio over the window, or no step is left) or :data:`CONTINUE`.
     """
-    Jr, r, err = work
-    Jc, rc, errc, qc = cur
-    dq, qn = out
-    cost = residual(J6, M, T, mode, Jr, r, err)
+    k, nv, nq = T.shape[0] // 4, J6.shape[1], ints[0]
+    mode, qmap = ints[1 : 1 + k], ints[1 + k : 1 + k + nv]
+    params, lo, hi = consts[:N_PARAMS], consts[N_PARAMS : N_PARAMS + nv], consts[N_PARAMS + nv : N_PARAMS + 2 * nv]
+    Jr, r, err, q, dq, st = workspace(ws, k, nv, nq)
+    cost = residual((J6, M, T, mode), params[P_WPOS], Jr[0], r[0], err[0])
     conv = True
-    for k in range(err.shape[0]):
-        if err[k, 0] > tol[0] or err[k, 1] > tol[1]:
+    for f in range(k):
+        if err[0, f, 0] > params[P_TOL_POS] or err[0, f, 1] > params[P_TOL_ROT]:
             conv = False
     if first:
-        st[1] = 1e-3
-        ist[0] = 0
-        ist[1] = 0
-        st[2] = cost
+        st[S_LAM] = LAM_START
+        st[S_ITER] = 0.0
+        st[S_WINDOW_START] = 0.0
+        st[S_WINDOW_COST] = cost
     else:
-        ist[0] += 1
-    if first or conv or cost < st[0]:
-        Jc[:, :] = Jr
-        rc[:] = r
-        errc[:, :] = err
-        qc[:] = qt
-        st[0] = cost
+        st[S_ITER] += 1.0
+    if first or conv or cost < st[S_COST]:
+        Jr[1, :, :] = Jr[0, :, :]
+        r[1, :] = r[0, :]
+        err[1, :, :] = err[0, :, :]
+        q[1, :] = q[0, :]
+        st[S_COST] = cost
         if not first:
-            st[1] = max(st[1] / 3.0, LAM_MIN)
+            st[S_LAM] = max(st[S_LAM] / 3.0, LAM_MIN)
         if conv:
             return CONVERGED
     else:
-        st[1] *= 4.0
-        if st[1] > LAM_MAX:
+        st[S_LAM] *= 4.0
+        if st[S_LAM] > LAM_MAX:
             return STALLED
-    if ist[0] - ist[1] >= tol[2]:
-        if st[0] > tol[3] * st[2]:
+    if st[S_ITER] - st[S_WINDOW_START] >= params[P_WINDOW]:
+        if st[S_COST] > params[P_RATIO] * st[S_WINDOW_COST]:
             return STALLED
-        ist[1] = ist[0]
-        st[2] = st[0]
-    nv = dq.shape[0]
+        st[S_WINDOW_START] = st[S_ITER]
+        st[S_WINDOW_COST] = st[S_COST]
     qv = np.empty(nv)
     for j in range(nv):
-        qv[j] = qc[qmap[j]] if qmap[j] >= 0 else np.nan
-    while not box_step(Jc, rc, st[1], qv, lo, hi, dq):
-        st[1] = max(10.0 * st[1], 1e-9)
-        if st[1] > LAM_MAX:
+        qv[j] = q[1, qmap[j]] if qmap[j] >= 0 else np.nan
+    damping = st[S_LAM] + params[P_COST_DAMPING] * st[S_COST]
+    while not box_step(Jr[1], r[1], damping, qv, (lo, hi), dq):
+        st[S_LAM] = max(10.0 * st[S_LAM], 1e-9)
+        if st[S_LAM] > LAM_MAX:
             return STALLED
+        damping = st[S_LAM] + params[P_COST_DAMPING] * st[S_COST]
     big = 0.0
     for j in range(nv):
         big = max(big, abs(dq[j]))
     if big < 1e-14:
         return STALLED
-    qn[:] = qc
+    q[0, :] = q[1, :]
     for j in range(nv):
         if qmap[j] >= 0:
-            qn[qmap[j]] += dq[j]
+            q[0, qmap[j]] += dq[j]
     return CONTINUE
+
+
+@_jit
+def rigid_transform(H: np.ndarray, max_coordinate: float) -> bool:
+    """Whether the 4×4 matrix H is, well within the frame task's own rules (``tasks.frame._as_pose``), a rigid
+    transform: finite, R Rᵀ = I to 1e-6, det R > 0, last row (0, 0, 0, 1), |position| ≤ ``max_coordinate`` [m].
+    False sends the target through those rules (which name what is wrong)."""
+    for i in range(4):
+        for j in range(4):
+            if not math.isfinite(H[i, j]):
+                return False
+    for i in range(3):
+        if abs(H[i, 3]) > max_coordinate or H[3, i] != 0.0:
+            return False
+        for j in range(3):
+            s = H[i, 0] * H[j, 0] + H[i, 1] * H[j, 1] + H[i, 2] * H[j, 2]
+            if abs(s - (1.0 if i == j else 0.0)) > 1e-6:
+                return False
+    det = (
+        H[0, 0] * (H[1, 1] * H[2, 2] - H[1, 2] * H[2, 1])
+        - H[0, 1] * (H[1, 0] * H[2, 2] - H[1, 2] * H[2, 0])
+        + H[0, 2] * (H[1, 0] * H[2, 1] - H[1, 1] * H[2, 0])
+    )
+    return det > 0.0 and H[3, 3] == 1.0

@@ -16,8 +16,9 @@ import numpy as np
 import pinocchio as pin
 
 from redundik.errors import ModelError, ResolverError, TaskError
+from redundik.ik import kernels as K
 from redundik.kinematics.model import RobotModel
-from redundik.tasks.frame import _as_pose
+from redundik.tasks.frame import MAX_COORDINATE, _as_pose
 
 #: What a target may be, per frame.
 Target = Any  # pin.SE3 | np.ndarray (4, 4) | np.ndarray (3,) | nested sequences of numbers
@@ -72,17 +73,24 @@ def frames_and_targets(frame: object, target: object) -> tuple[list[str], list[T
 
 
 def target_arrays(names: list[str], targets: list[Target]) -> tuple[np.ndarray, np.ndarray]:
-    """(T (k, 4, 4), mode (k,)): each target as a homogeneous matrix (position targets: identity rotation) and its
-    mode (0 pose, 1 position); validated by the frame task's rules."""
-    T = np.zeros((len(names), 4, 4))
+    """(T (4k, 4), mode (k,)): each target as a homogeneous matrix (rows 4k … 4k + 3; position targets: identity
+    rotation) and its mode (0 pose, 1 position); validated by the frame task's rules (an SE3 or a float 4×4 array
+    that passes the compiled check :func:`~redundik.ik.kernels.rigid_transform` skips their slower route)."""
+    T = np.zeros((4 * len(names), 4))
     mode = np.zeros(len(names), dtype=np.int64)
     for k, (name, tgt) in enumerate(zip(names, targets, strict=True)):
+        H = tgt.homogeneous if isinstance(tgt, pin.SE3) else tgt
+        if isinstance(H, np.ndarray) and H.shape == (4, 4) and H.dtype == np.float64 and K.rigid_transform(
+            H, MAX_COORDINATE
+        ):  # fmt: skip
+            T[4 * k : 4 * k + 4] = H
+            continue
         pose = _as_pose(tgt, f"solve_ik: target of frame '{name}'")
         if isinstance(pose, pin.SE3):
-            T[k] = pose.homogeneous
+            T[4 * k : 4 * k + 4] = pose.homogeneous
         else:
-            T[k] = np.eye(4)
-            T[k, :3, 3] = pose
+            T[4 * k : 4 * k + 4] = np.eye(4)
+            T[4 * k : 4 * k + 3, 3] = pose
             mode[k] = 1
     return T, mode
 
@@ -100,6 +108,8 @@ class Problem:
         rand_q: q indices drawn at a restart (bounded or revolute coordinates of joints that move a frame);
             ``rand_lo``/``rand_hi`` their ranges; ``rand_angle``: first indices of unbounded revolute (cos, sin)
             pairs that move a frame.
+        q_lo, q_hi: Bounds per q coordinate (±inf where none: quaternions, (cos, sin) pairs) [rad or m].
+        q_mid: The default start: the neutral configuration with every bounded coordinate mid-range.
     """
 
     robot: RobotModel
@@ -115,6 +125,7 @@ class Problem:
     rand_angle: np.ndarray
     q_lo: np.ndarray
     q_hi: np.ndarray
+    q_mid: np.ndarray
 
 
 def build_problem(robot: RobotModel, names: list[str]) -> Problem:
@@ -165,9 +176,13 @@ def build_problem(robot: RobotModel, names: list[str]) -> Problem:
     unbounded = np.ones(robot.nq, dtype=bool)
     unbounded[qmap[qmap >= 0]] = False
     q_lo[unbounded], q_hi[unbounded] = -np.inf, np.inf  # quaternions, (cos, sin) pairs: not clipped
+    q_mid = robot.neutral()
+    mid = np.isfinite(q_lo) & np.isfinite(q_hi) & (q_hi - q_lo < 1e10)
+    q_mid[mid] = 0.5 * (q_lo[mid] + q_hi[mid])
+    q_mid = np.minimum(np.maximum(q_mid, q_lo), q_hi)
     return Problem(
         robot, names, fids, qmap, lo, hi, additive, np.array(rand_q, dtype=np.int64), np.array(rand_lo),
-        np.array(rand_hi), np.array(rand_angle, dtype=np.int64), q_lo, q_hi,
+        np.array(rand_hi), np.array(rand_angle, dtype=np.int64), q_lo, q_hi, q_mid,
     )  # fmt: skip
 
 
@@ -178,13 +193,9 @@ def start_configuration(problem: Problem, q0: object) -> np.ndarray:
     Raises:
         ModelError: ``q0`` of the wrong size or with NaN / infinite values.
     """
-    robot = problem.robot
     if q0 is None:
-        q = robot.neutral()
-        mid = np.isfinite(problem.q_lo) & np.isfinite(problem.q_hi) & (problem.q_hi - problem.q_lo < 1e10)
-        q[mid] = 0.5 * (problem.q_lo[mid] + problem.q_hi[mid])
-    else:
-        q = robot.check_configuration(q0, "solve_ik: q0")  # type: ignore[arg-type]
+        return problem.q_mid.copy()
+    q = problem.robot.check_configuration(q0, "solve_ik: q0")  # type: ignore[arg-type]
     return np.minimum(np.maximum(q, problem.q_lo), problem.q_hi)
 
 

@@ -6,8 +6,17 @@ configurations (home, listed, seeded random), a resolver (``pinv`` or ``wqp``) a
 iterates the differential IK from its start at a fixed dt until ‖e‖ < tol, a stall or ``max_iterations``; chunks
 of problems go through :class:`redundik.resolvers.batch.BatchResolver` (one step of all active problems at once).
 
+``method: solve_ik`` in the file solves each problem with :func:`redundik.solve_ik` instead (Levenberg–Marquardt
+within the joint limits, random restarts): ``convergence.tol`` is its position tolerance [m], ``max_iterations``
+the iterations of one attempt, and the ``ik`` block holds ``orientation_tolerance`` [rad] (pose axes; default
+``tol``), ``max_restarts`` (default 20), ``timeout`` [s] per problem (default none: the table then depends only on
+the file) and ``seed`` (problem p's restarts seeded with (seed, p)); ``dt``, the gains, the posture, ``stall`` and
+the resolver are not used, the axes must be ``position`` or ``pose``. The default, ``method: differential``, is the
+iteration above. Same columns either way (``qp_steps`` 0 under ``solve_ik``), plus ``restarts`` under ``solve_ik``.
+
 Result columns (one row per problem, problem order): ``problem``, ``target_index``, ``start_index``,
-``target_x/y/z`` [m], ``status`` (``converged``, ``stalled``, ``max_iterations``, ``failed``), ``converged``,
+``target_x/y/z`` [m], ``status`` (``converged``, ``stalled``, ``max_iterations``, ``failed``; under ``solve_ik``
+``converged``, ``max_restarts``, ``timeout``), ``converged``,
 ``iterations`` (steps taken), ``qp_steps`` (steps that needed the QP backend), ``final_error`` [m, rad],
 ``manipulability`` √det(J Jᵀ) of the task rows at the end, ``limit_margin`` [fraction of the joint range, 0.5 =
 mid-range], ``reached_x/y/z`` [m], ``start_q*`` and ``final_q*`` [rad, length unit].

@@ -68,7 +68,7 @@ def read_table(path: Path) -> dict[str, np.ndarray]:
             out[name] = np.array(vals, dtype=object)
         elif name == "converged":
             out[name] = np.array([v == "True" for v in vals])
-        elif name in ("problem", "target_index", "start_index", "iterations", "qp_steps"):
+        elif name in ("problem", "target_index", "start_index", "iterations", "qp_steps", "restarts"):
             out[name] = np.array(vals, dtype=np.int64)
         else:
             out[name] = np.array(vals, dtype=float)
@@ -141,6 +141,7 @@ def summary(plan: SweepPlan, result: SweepResult) -> dict[str, Any]:
         "targets": plan.n_targets,
         "starts": plan.n_starts,
         "resolver": plan.spec.resolver.name,
+        "method": plan.spec.method,
         "status": counts,
         "converged_fraction": float(np.mean(conv)) if conv.size else 0.0,
         "median_iterations_converged": float(np.median(c["iterations"][conv])) if conv.any() else None,

@@ -3,7 +3,7 @@
 The problems are targets × starts, numbered p = i_target · n_starts + i_start; they are generated once from the
 file (grids in order, random samples from their seeds with NumPy's PCG64), so problem p is the same problem whatever
 the chunking or the engine. The whole file is checked before anything runs (shape by pydantic, then the frame,
-configurations, resolver options and gains against the robot, then the number of problems ≤
+configurations, resolver options, gains and the method's keys against the robot, then the number of problems ≤
 :data:`~redundik.sweep.schema.MAX_PROBLEMS`); every problem is a one-line :class:`~redundik.errors.ConfigError`
 with the YAML key path.
 """
@@ -27,7 +27,7 @@ from redundik.config.yamlio import join_path, read_yaml, validate
 from redundik.errors import ConfigError, RedundikError
 from redundik.resolvers import make_resolver
 from redundik.resolvers.batch import BatchResolver
-from redundik.sweep.schema import MAX_PROBLEMS, MAX_WORK, GridSpec, RangeSpec, SweepFileSpec
+from redundik.sweep.schema import MAX_PROBLEMS, MAX_WORK, GridSpec, IKSpec, RangeSpec, SweepFileSpec
 
 
 @dataclass
@@ -55,6 +55,11 @@ class SweepPlan:
     target_rotation: np.ndarray
     starts: np.ndarray
     payload: dict[str, Any]
+
+    @property
+    def ik_options(self) -> IKSpec:
+        """The options of ``method: solve_ik`` (the file's ``ik``, or the defaults)."""
+        return self.spec.ik if self.spec.ik is not None else IKSpec()
 
     @property
     def name(self) -> str:
@@ -192,32 +197,26 @@ def _starts(spec: SweepFileSpec, robot: LoadedRobot, home: np.ndarray) -> np.nda
     return np.concatenate(out, axis=0)
 
 
-def load_sweep(source: str | Path | dict[str, Any], base_dir: Path | None = None) -> SweepPlan:
-    """Read, validate and assemble a sweep file without running it.
-
-    Args:
-        source: Path of a YAML sweep file (read by :func:`redundik.config.yamlio.read_yaml`), or its content.
-        base_dir: Folder relative paths (the robot config) are resolved from (the file's folder; cwd for a mapping).
-
-    Raises:
-        ConfigError: the first problem found, with its YAML key path.
-    """
+def _read(source: str | Path | dict[str, Any], base_dir: Path | None) -> tuple[dict[str, Any], Path]:
+    """The file's data and the folder its relative paths are resolved from; a task or robot file is refused."""
     if isinstance(source, dict):
-        data = source
-        base = (base_dir or Path.cwd()).resolve()
-    else:
-        path = Path(source)
-        data = read_yaml(path, "sweep file")
-        base = (base_dir or path.resolve().parent).resolve()
-        if "runs" in data:
-            raise ConfigError(f"{path.name} is a task file, not a sweep file: run it with `redundik run {path}`")
-        kind = detect_kind(data)
-        if kind in ("robot", "mechanism"):
-            what = {"robot": "a sweep file names it under 'robot:'", "mechanism": "sweeps are of serial robots"}[kind]
-            raise ConfigError(
-                f"{path.name} is a {kind} config, not a sweep file: {what} (`redundik validate` checks any file)"
-            )
-    spec: SweepFileSpec = validate(SweepFileSpec, data)
+        return source, (base_dir or Path.cwd()).resolve()
+    path = Path(source)
+    data = read_yaml(path, "sweep file")
+    base = (base_dir or path.resolve().parent).resolve()
+    if "runs" in data:
+        raise ConfigError(f"{path.name} is a task file, not a sweep file: run it with `redundik run {path}`")
+    kind = detect_kind(data)
+    if kind in ("robot", "mechanism"):
+        what = {"robot": "a sweep file names it under 'robot:'", "mechanism": "sweeps are of serial robots"}[kind]
+        raise ConfigError(
+            f"{path.name} is a {kind} config, not a sweep file: {what} (`redundik validate` checks any file)"
+        )
+    return data, base
+
+
+def _check_size(spec: SweepFileSpec) -> None:
+    """At least one start, at most :data:`MAX_PROBLEMS` problems and :data:`MAX_WORK` problem-steps."""
     n_t, n_s = _count(spec)
     if n_s == 0:
         raise ConfigError("no start configuration: set 'home: true', list 'configurations' or draw 'random'", "starts")
@@ -227,16 +226,50 @@ def load_sweep(source: str | Path | dict[str, Any], base_dir: Path | None = None
             "(split the sweep into several files)",
             "targets",
         )
-    work = n_t * n_s * spec.convergence.max_iterations
+    conv, ik = spec.convergence, spec.ik
+    attempts = 1 if spec.method == "differential" or ik is None or ik.max_restarts is None else 1 + ik.max_restarts
+    work = n_t * n_s * conv.max_iterations * attempts
     if work > MAX_WORK:
+        per = f"{conv.max_iterations} iterations" + (f" × {attempts} attempts" if attempts > 1 else "")
         raise ConfigError(
-            f"{n_t * n_s} problems × {spec.convergence.max_iterations} iterations = {work:.3g} steps at most; a sweep "
-            f"may take at most {MAX_WORK:.0e} problem-steps (hours of work otherwise): lower max_iterations or split "
-            "the sweep into several files",
-            "convergence.max_iterations",
+            f"{n_t * n_s} problems × {per} = {work:.3g} steps at most; a sweep may take at most {MAX_WORK:.0e} "
+            "problem-steps (hours of work otherwise): lower max_iterations or split the sweep into several files",
+            "convergence.max_iterations" if attempts == 1 else "ik.max_restarts",
         )
-    robot = load_robot(spec.robot, base, "robot")
-    model = robot.model
+
+
+def _check_method(spec: SweepFileSpec, axes: tuple[str, ...]) -> None:
+    """The method's own keys: ``dt`` for ``differential``; position or pose axes, and a bound on each problem's
+    work, for ``solve_ik``; no ``ik`` block for ``differential``."""
+    if spec.method == "differential":
+        if spec.ik is not None:
+            raise ConfigError(
+                "'ik' holds the options of method: solve_ik, but method is differential (the default); set "
+                "method: solve_ik, or leave 'ik' out",
+                "ik",
+            )
+        if spec.convergence.dt is None:
+            raise ConfigError(
+                "required key is missing: method: differential iterates q ← q ⊕ q̇·dt (dt [s], e.g. 1.0)",
+                "convergence.dt",
+            )
+        return
+    if set(axes) not in ({"x", "y", "z"}, {"x", "y", "z", "rx", "ry", "rz"}) or len(axes) not in (3, 6):
+        raise ConfigError(
+            f"method: solve_ik solves position or pose targets; task.axes {list(axes)} is neither: use axes: "
+            "position or axes: pose (or method: differential)",
+            "task.axes",
+        )
+    ik = spec.ik
+    if ik is not None and ik.max_restarts is None and ik.timeout is None:
+        raise ConfigError(
+            "give max_restarts or timeout [s] (or both): with neither a problem could run forever", "ik.max_restarts"
+        )
+
+
+def _check_frame(spec: SweepFileSpec, model: Any) -> tuple[tuple[str, ...], int]:
+    """(task axes, frame id), checked: a frame on a moving link, an orientation only with rotation axes, and
+    gain × dt ≤ 2."""
     task = spec.task
     axes = check_axes(task.axes, "task.axes")
     if spec.targets.orientation is not None and not any(a in ("rx", "ry", "rz") for a in axes):
@@ -255,13 +288,50 @@ def load_sweep(source: str | Path | dict[str, Any], base_dir: Path | None = None
             "choose a frame on a moving link",
             "task.frame",
         )
+    _check_method(spec, axes)
     dt = spec.convergence.dt
     for key, gain in (("task.gain", task.gain), ("task.posture.gain", task.posture.gain)):
-        if gain * dt > 2.0:
+        if dt is not None and gain * dt > 2.0:
             raise ConfigError(
                 f"gain × dt = {gain:g} × {dt:g} = {gain * dt:g} > 2: the iteration would diverge; lower the gain or dt",
                 key,
             )
+    return axes, fid
+
+
+def _check_resolver(plan: SweepPlan) -> None:
+    """The resolver's options, and its limit overrides bound to the robot now, not in a worker."""
+    spec = plan.spec
+    check_resolver_options(spec.resolver.name, spec.resolver.options, "resolver.options")
+    try:
+        limits = getattr(plan.batch_resolver().resolver, "limits", None)
+        if limits is not None:
+            limits.bind(plan.robot.model)
+    except RedundikError as exc:
+        msg, name = str(exc), spec.resolver.name
+        if not msg.startswith((f"resolver '{name}'", f"{name}:")):
+            msg = f"resolver '{name}': {msg}"
+        raise ConfigError(msg, "resolver.options") from None
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"resolver '{spec.resolver.name}': bad options: {exc}", "resolver.options") from None
+
+
+def load_sweep(source: str | Path | dict[str, Any], base_dir: Path | None = None) -> SweepPlan:
+    """Read, validate and assemble a sweep file without running it.
+
+    Args:
+        source: Path of a YAML sweep file (read by :func:`redundik.config.yamlio.read_yaml`), or its content.
+        base_dir: Folder relative paths (the robot config) are resolved from (the file's folder; cwd for a mapping).
+
+    Raises:
+        ConfigError: the first problem found, with its YAML key path.
+    """
+    data, base = _read(source, base_dir)
+    spec: SweepFileSpec = validate(SweepFileSpec, data)
+    _check_size(spec)
+    robot = load_robot(spec.robot, base, "robot")
+    model = robot.model
+    axes, fid = _check_frame(spec, model)
     if spec.q0 is not None:
         home = configuration_from_file(spec.q0, model, spec.angle_unit, "q0")
     else:
@@ -269,19 +339,16 @@ def load_sweep(source: str | Path | dict[str, Any], base_dir: Path | None = None
     if spec.starts.home or spec.task.posture.target == "home":
         where = "q0" if spec.q0 is not None else "starts.home" if spec.starts.home else "task.posture.target"
         _check_within_limits(model, home, where, "the home configuration", _HOME_HINT)
-    if task.posture.target == "home":
+    if spec.task.posture.target == "home":
         posture = home.copy()
     else:
-        posture = configuration_from_file(task.posture.target, model, spec.angle_unit, "task.posture.target")
+        posture = configuration_from_file(spec.task.posture.target, model, spec.angle_unit, "task.posture.target")
     if spec.targets.orientation is not None:
-        rpy = np.array(spec.targets.orientation) * angle_scale(spec.angle_unit)
-        R = rpy_matrix(rpy)
+        R = rpy_matrix(np.array(spec.targets.orientation) * angle_scale(spec.angle_unit))
     else:
         data_ = model.model.createData()
         pin.framesForwardKinematics(model.model, data_, home)
         R = np.array(data_.oMf[fid].rotation)
-    starts = _starts(spec, robot, home)
-    payload = {"data": data, "base_dir": str(base)}
     plan = SweepPlan(
         spec=spec,
         robot=robot,
@@ -290,19 +357,8 @@ def load_sweep(source: str | Path | dict[str, Any], base_dir: Path | None = None
         posture_target=posture,
         target_positions=_targets(spec),
         target_rotation=R,
-        starts=starts,
-        payload=payload,
+        starts=_starts(spec, robot, home),
+        payload={"data": data, "base_dir": str(base)},
     )
-    check_resolver_options(spec.resolver.name, spec.resolver.options, "resolver.options")
-    try:
-        limits = getattr(plan.batch_resolver().resolver, "limits", None)
-        if limits is not None:
-            limits.bind(model)  # unknown joint names in limit overrides fail now, not in a worker
-    except RedundikError as exc:
-        msg, name = str(exc), spec.resolver.name
-        if not msg.startswith((f"resolver '{name}'", f"{name}:")):
-            msg = f"resolver '{name}': {msg}"
-        raise ConfigError(msg, "resolver.options") from None
-    except (TypeError, ValueError) as exc:
-        raise ConfigError(f"resolver '{spec.resolver.name}': bad options: {exc}", "resolver.options") from None
+    _check_resolver(plan)
     return plan

@@ -2,7 +2,9 @@
 
 A sweep file names a robot (as task files do), a task template (one frame task to a target, a posture in the null
 space), the problems (targets × start configurations, from grids, lists or seeded random samples), a resolver
-(``pinv`` or ``wqp``, through the batch API) and a convergence rule. Everything that needs the robot (frame names,
+(``pinv`` or ``wqp``, through the batch API) and a convergence rule; ``method`` chooses how each problem is solved
+(``differential``, the default: iterated resolver steps; ``solve_ik``: :func:`redundik.solve_ik` from the start,
+options under ``ik``). Everything that needs the robot (frame names,
 configuration lengths, resolver options) is checked by :mod:`redundik.sweep.plan`; every error is a one-line
 :class:`~redundik.errors.ConfigError` with its YAML key path.
 """
@@ -141,9 +143,13 @@ class StallSpec(StrictModel):
 
 
 class ConvergenceSpec(StrictModel):
-    """Iterate q ← q ⊕ q̇·dt from the start until ‖e‖ < ``tol`` or ``max_iterations`` steps (or a stall)."""
+    """Iterate q ← q ⊕ q̇·dt from the start until ‖e‖ < ``tol`` or ``max_iterations`` steps (or a stall).
 
-    dt: float = Field(ge=DT_MIN, le=DT_MAX)
+    With ``method: solve_ik``: ``tol`` is the position tolerance [m], ``max_iterations`` the iterations of one
+    attempt, and ``dt`` and ``stall`` are not used (``dt`` is required only by ``method: differential``).
+    """
+
+    dt: float | None = Field(default=None, ge=DT_MIN, le=DT_MAX)
     tol: float = Field(gt=0.0, le=1e3)
     max_iterations: int = Field(default=200, ge=1, le=MAX_ITERATIONS)
     stall: StallSpec | None = None
@@ -156,6 +162,24 @@ class ConvergenceSpec(StrictModel):
                 "rule compares the error over that many steps, so it could never stop a problem"
             )
         return self
+
+
+#: How each problem is solved: ``differential`` (iterated resolver steps at dt) or ``solve_ik``.
+METHODS = ("differential", "solve_ik")
+
+
+class IKSpec(StrictModel):
+    """Options of ``method: solve_ik`` (:func:`redundik.solve_ik` per problem, from its start configuration).
+
+    ``orientation_tolerance`` [rad] for pose axes (default: ``convergence.tol``); ``max_restarts`` random restarts
+    after the first attempt; ``timeout`` [s] per problem (``null``: none; with a timeout the results depend on the
+    machine's speed, without one only on the file); problem p's restarts are seeded with (``seed``, p).
+    """
+
+    orientation_tolerance: float | None = Field(default=None, gt=0.0, le=10.0)
+    max_restarts: int | None = Field(default=20, ge=0, le=MAX_ITERATIONS)
+    timeout: float | None = Field(default=None, gt=0.0, le=60.0)
+    seed: int = Field(default=0, ge=0, le=2**63 - 1)
 
 
 class FigureSpec(StrictModel):
@@ -185,6 +209,8 @@ class SweepFileSpec(StrictModel):
     targets: TargetsSpec
     starts: StartsSpec = Field(default_factory=StartsSpec)
     resolver: ResolverSpec = Field(default_factory=ResolverSpec)
+    method: Literal["differential", "solve_ik"] = "differential"
+    ik: IKSpec | None = None
     convergence: ConvergenceSpec
     chunk_size: int = Field(default=256, ge=1, le=MAX_CHUNK)
     figure: FigureSpec = Field(default_factory=FigureSpec)

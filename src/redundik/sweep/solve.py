@@ -6,6 +6,10 @@ active set when its task error ‖e‖ < tol (``converged``), when its error fel
 ``min_decrease`` over ``window`` steps (``stalled``), after ``max_iterations`` steps (``max_iterations``), or if its
 configuration stopped being finite (``failed``; its last finite configuration is kept, so nothing reported is NaN).
 
+With ``method: solve_ik`` in the sweep file, each problem is instead :func:`redundik.solve_ik` from its start
+(:func:`_run_chunk_ik`): Levenberg–Marquardt within the joint limits, random restarts; ``status`` is then
+``converged``, ``max_restarts`` or ``timeout``.
+
 Problems are independent; a chunk's results are bit-identical wherever it runs (in-process, any Dask worker), and
 BLAS is held to one thread inside a chunk (threadpoolctl) so that no threaded product reorders sums. A different
 chunk size (a different batch composition) changes results only by rounding (≤ 1e-12 measured, statuses and
@@ -21,8 +25,8 @@ from threadpoolctl import threadpool_limits
 from redundik.resolvers.batch import BatchResolver
 from redundik.sweep.plan import SweepPlan
 
-#: Status codes of the ``status`` column.
-STATUSES = ("converged", "stalled", "max_iterations", "failed")
+#: Status codes of the ``status`` column (the last two: ``method: solve_ik``'s reasons when it did not converge).
+STATUSES = ("converged", "stalled", "max_iterations", "failed", "max_restarts", "timeout")
 
 
 def final_metrics(br: BatchResolver, plan: SweepPlan, q: np.ndarray, targets: np.ndarray) -> dict[str, np.ndarray]:
@@ -76,17 +80,67 @@ def run_chunk(plan: SweepPlan, start: int, stop: int, method: str = "batch") -> 
         stop: One past the last problem index.
         method: ``"batch"`` (one :meth:`BatchResolver.solve` per iteration) or ``"loop"`` (the same problems one by
             one through ``resolver.step``, :meth:`BatchResolver.solve_loop`: the reference, and the benchmark's
-            baseline).
+            baseline). With ``method: solve_ik`` in the file, both solve each problem with
+            :func:`redundik.solve_ik` (:func:`_run_chunk_ik`).
     """
     if method not in ("batch", "loop"):
         raise ValueError(f"method must be 'batch' or 'loop', got {method!r}")
     with threadpool_limits(limits=1):
+        if plan.spec.method == "solve_ik":  # one problem after the other either way
+            return _run_chunk_ik(plan, start, stop)
         return _run_chunk(plan, start, stop, method)
+
+
+def _columns(
+    br: BatchResolver, plan: SweepPlan, first: dict[str, np.ndarray], q0: np.ndarray, q: np.ndarray, T: np.ndarray
+) -> dict[str, np.ndarray]:
+    """The result columns: ``first`` (problem … qp_steps), the final metrics at q towards T, ``start_q*`` and
+    ``final_q*``."""
+    out = {**first, **final_metrics(br, plan, q, T)}
+    for j in range(q.shape[1]):
+        out[f"start_q{j}"] = q0[:, j]
+    for j in range(q.shape[1]):
+        out[f"final_q{j}"] = q[:, j]
+    return out
+
+
+def _run_chunk_ik(plan: SweepPlan, start: int, stop: int) -> dict[str, np.ndarray]:
+    """``method: solve_ik``: problem p is ``solve_ik(robot, frame, target, q0=its start, seed=(ik.seed, p))`` with
+    the file's tolerances (``convergence.tol`` [m], ``ik.orientation_tolerance`` [rad]), ``max_iterations`` per
+    attempt, ``ik.max_restarts`` and ``ik.timeout``; the same columns, ``qp_steps`` 0, and a ``restarts`` column."""
+    from redundik.ik.solve import solve_ik
+
+    spec = plan.spec
+    ik, conv = plan.ik_options, spec.convergence
+    pose = len(plan.axes) == 6
+    ti, si, q0, T = plan.problems(start, stop)
+    n = q0.shape[0]
+    q = q0.copy()
+    status = np.zeros(n, dtype=np.int8)
+    iterations, restarts = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)
+    for i in range(n):
+        res = solve_ik(
+            plan.robot.model, spec.task.frame, T[i] if pose else T[i, :3, 3], q0[i],
+            position_tolerance=conv.tol, orientation_tolerance=ik.orientation_tolerance or conv.tol,
+            timeout=ik.timeout, max_restarts=ik.max_restarts, max_iterations=conv.max_iterations,
+            seed=(ik.seed, start + i),
+        )  # fmt: skip
+        q[i] = res.q
+        status[i] = STATUSES.index(res.reason)
+        iterations[i], restarts[i] = res.iterations, res.restarts
+    first = {
+        "problem": np.arange(start, stop, dtype=np.int64), "target_index": ti, "start_index": si,
+        "target_x": T[:, 0, 3].copy(), "target_y": T[:, 1, 3].copy(), "target_z": T[:, 2, 3].copy(),
+        "status": status, "converged": status == 0, "iterations": iterations,
+        "qp_steps": np.zeros(n, dtype=np.int64), "restarts": restarts,
+    }  # fmt: skip
+    return _columns(plan.batch_resolver(), plan, first, q0, q, T)
 
 
 def _run_chunk(plan: SweepPlan, start: int, stop: int, method: str) -> dict[str, np.ndarray]:
     conv = plan.spec.convergence
     dt, tol, max_it = conv.dt, conv.tol, conv.max_iterations
+    assert dt is not None  # method: differential (load_sweep requires it)
     stall = conv.stall
     br = plan.batch_resolver()
     solve = br.solve if method == "batch" else br.solve_loop
@@ -127,7 +181,7 @@ def _run_chunk(plan: SweepPlan, start: int, stop: int, method: str) -> dict[str,
         q[moving[~bad]] = qn[~bad]
         qp_steps[moving[~bad]] += res.qp[go][~bad]
         iterations[moving[~bad]] = k + 1
-    out: dict[str, np.ndarray] = {
+    first: dict[str, np.ndarray] = {
         "problem": np.arange(start, stop, dtype=np.int64),
         "target_index": ti,
         "start_index": si,
@@ -139,9 +193,4 @@ def _run_chunk(plan: SweepPlan, start: int, stop: int, method: str) -> dict[str,
         "iterations": iterations,
         "qp_steps": qp_steps,
     }
-    out.update(final_metrics(br, plan, q, T))
-    for j in range(q.shape[1]):
-        out[f"start_q{j}"] = q0[:, j]
-    for j in range(q.shape[1]):
-        out[f"final_q{j}"] = q[:, j]
-    return out
+    return _columns(br, plan, first, q0, q, T)
