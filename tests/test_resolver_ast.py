@@ -28,8 +28,8 @@ ALLOWED: dict[tuple[str, str], str] = {
     ("robot", "_update_checked"): "RobotModel's unchecked update",
     ("d['_step'][3]", "_nv"): "pinv's lazy info: the step record's 4th field is the RobotModel",
     # the resolvers' own objects (defined in redundik/resolvers)
-    ("info", "_pending"): "LazyInfo (resolvers/base.py)",
-    ("value", "_pending"): "LazyInfo (resolvers/base.py)",
+    ("info", "_pending"): "LazyInfo (resolvers/result.py)",
+    ("value", "_pending"): "LazyInfo (resolvers/result.py)",
     ("plan", "_pack"): "FusedPlan (resolvers/fused.py)",
     ("plan", "_dims"): "hqp's level plan (resolvers/qp/hqp.py)",
     ("backend", "_split_min_n"): "DaqpBackend (resolvers/qp/backends.py)",
