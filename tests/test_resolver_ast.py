@@ -32,7 +32,7 @@ ALLOWED: dict[tuple[str, str], str] = {
     ("value", "_pending"): "LazyInfo (resolvers/result.py)",
     ("plan", "_pack"): "FusedPlan (resolvers/fused.py)",
     ("plan", "_dims"): "hqp's level plan (resolvers/qp/hqp.py)",
-    ("backend", "_split_min_n"): "DaqpBackend (resolvers/qp/backends.py)",
+    ("backend", "_split_min_n"): "DaqpBackend (resolvers/qp/daqp_backend.py)",
     ("r", "_solve_qp"): "a WeightedQPResolver (resolvers/qp/wqp.py), in the batch API",
     ("resolver", "_diagnose_terms"): "a WeightedQPResolver (resolvers/qp/wqp.py), in its diagnostics",
     ("limits", "_limit_args"): "JointLimits (resolvers/qp/limits.py), read by its module's jerk box",
