@@ -34,7 +34,7 @@ ALLOWED: dict[tuple[str, str], str] = {
     ("plan", "_dims"): "hqp's level plan (resolvers/qp/hqp.py)",
     ("backend", "_split_min_n"): "DaqpBackend (resolvers/qp/daqp_backend.py)",
     ("r", "_solve_qp"): "a WeightedQPResolver (resolvers/qp/wqp.py), in the batch API",
-    ("resolver", "_diagnose_terms"): "a WeightedQPResolver (resolvers/qp/wqp.py), in its diagnostics",
+    ("resolver", "_diagnose_terms"): "a WeightedQPResolver (resolvers/qp/wqp.py), in its fused result's diagnostics",
     ("limits", "_limit_args"): "JointLimits (resolvers/qp/limits.py), read by its module's jerk box",
     ("limits", "_lo"): "JointLimits (resolvers/qp/limits.py), read by its module's jerk box",
     ("limits", "_hi"): "JointLimits (resolvers/qp/limits.py), read by its module's jerk box",
