@@ -39,6 +39,7 @@ KERNEL_SOURCES: tuple[str, ...] = (
     "resolvers/damping_kernels.py",
     "resolvers/cholesky_kernels.py",
     "resolvers/box_kernels.py",
+    "resolvers/layouts.py",
     "resolvers/hqp_kernels.py",
     "resolvers/fused_kernels.py",
     "resolvers/fused.py",

@@ -11,6 +11,28 @@ import numpy as np
 
 from redundik import _kernel_cache
 from redundik.resolvers.cholesky_kernels import coupled_coordinates, spd_solve_into
+from redundik.resolvers.layouts import (
+    BOX_OPTS,
+    LIM_AMAX,
+    LIM_HI,
+    LIM_LO,
+    LIM_ROWS,
+    LIM_VMAX,
+    OPT_DT,
+    OPT_GAIN,
+    OPT_POSITION,
+    OPT_RATE,
+    OPT_SHIFT,
+    OPT_Z_SCALE,
+    OUT_BOX,
+    OUT_DQ,
+    OUT_FREE,
+    OUT_KEPT,
+    OUT_LB,
+    OUT_POS_HI,
+    OUT_POS_LO,
+    OUT_UB,
+)
 
 _jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
 
@@ -143,34 +165,29 @@ def split_separable(
 
 
 @_jit
-def limit_box(
-    q: np.ndarray,
-    iq: np.ndarray,
-    lo: np.ndarray,
-    hi: np.ndarray,
-    vmax: np.ndarray,
-    amax: np.ndarray,
-    position: bool,
-    has_rate: bool,
-    gain: float,
-    dt: float,
-    dq_prev: np.ndarray,
-    out: np.ndarray,
+def joint_box(
+    q: np.ndarray, iq: np.ndarray, lim: np.ndarray, opts: np.ndarray, dq_prev: np.ndarray, out: np.ndarray
 ) -> None:
     """The joint-limit box of :meth:`redundik.resolvers.qp.limits.JointLimits.box` for N configurations q (N, nq).
 
-    ``iq`` (nv,) maps each q̇ coordinate to its q index, ``lo``/``hi`` (nv,) are the position limits (±inf where
-    none), ``vmax``/``amax`` (nv,) the velocity and rate limits (inf where none), ``gain`` the position gain g;
+    ``iq`` (nv,) maps each q̇ coordinate to its q index; ``lim`` (4, nv) holds the rows ``LIM_LO``,
+    ``LIM_HI`` (position limits, ±inf where none), ``LIM_VMAX`` and ``LIM_AMAX`` (velocity and rate
+    limits, inf where none); ``opts`` the entries ``OPT_POSITION`` and ``OPT_RATE`` (1.0 or 0.0: the
+    position and rate limits apply), ``OPT_GAIN`` (the position gain g) and ``OPT_DT`` (dt [s]);
     ``dq_prev`` (N, nv) is the previous q̇ (zero rows: no rate window). The rules are those of the limits module's
     docstring (position through dt, velocity, braking with a rate limit, the way back from outside, the rate
     window moved onto the nearest feasible velocity).
 
-    Writes (lb, ub, pos_lo, pos_hi) into ``out`` (4, N, nv).
+    Writes the rows ``OUT_LB``, ``OUT_UB``, ``OUT_POS_LO``, ``OUT_POS_HI`` of ``out`` (4, N, nv).
     """
     N = q.shape[0]
-    nv = lo.shape[0]
-    lb, ub, pl, pu = out[0], out[1], out[2], out[3]
-    g = gain / dt
+    nv = lim.shape[1]
+    lo, hi, vmax, amax = lim[LIM_LO], lim[LIM_HI], lim[LIM_VMAX], lim[LIM_AMAX]
+    lb, ub, pl, pu = out[OUT_LB], out[OUT_UB], out[OUT_POS_LO], out[OUT_POS_HI]
+    position = opts[OPT_POSITION] != 0.0
+    has_rate = opts[OPT_RATE] != 0.0
+    dt = opts[OPT_DT]
+    g = opts[OPT_GAIN] / dt
     window = has_rate and dq_prev.shape[0] == N
     for k in range(N):
         for i in range(nv):
@@ -210,13 +227,8 @@ def limit_box(
 
 
 @_jit
-def wqp_free_step(
-    P: np.ndarray,
+def limit_box(
     q: np.ndarray,
-    shift: float,
-    z: np.ndarray,
-    z_scale: float,
-    qconf: np.ndarray,
     iq: np.ndarray,
     lo: np.ndarray,
     hi: np.ndarray,
@@ -228,41 +240,57 @@ def wqp_free_step(
     dt: float,
     dq_prev: np.ndarray,
     out: np.ndarray,
+) -> None:
+    """:func:`joint_box` from the separate arrays and options of ``JointLimits.kernel_args`` (between q and dt),
+    the form ``JointLimits.box`` and ``hqp``'s compiled step call; it packs them into :func:`joint_box`'s
+    records (4 nv + 4 numbers)."""
+    nv = lo.shape[0]
+    lim = np.empty((LIM_ROWS, nv))
+    lim[LIM_LO], lim[LIM_HI], lim[LIM_VMAX], lim[LIM_AMAX] = lo, hi, vmax, amax
+    opts = np.empty(BOX_OPTS)
+    opts[OPT_POSITION] = 1.0 if position else 0.0
+    opts[OPT_RATE] = 1.0 if has_rate else 0.0
+    opts[OPT_GAIN], opts[OPT_DT] = gain, dt
+    joint_box(q, iq, lim, opts, dq_prev, out)
+
+
+@_jit
+def wqp_free_step(
+    P: np.ndarray,
+    q: np.ndarray,
+    z: np.ndarray,
+    qconf: np.ndarray,
+    iq: np.ndarray,
+    lim: np.ndarray,
+    opts: np.ndarray,
+    dq_prev: np.ndarray,
+    out: np.ndarray,
 ) -> bool:
     """The rest of a ``wqp`` step once its task rows are in P and q, in one call: P += shift·I, q −= z_scale·z (the
-    null-space objective; ``z`` may be empty), the joint-limit box of :func:`limit_box` at ``qconf`` (nq,) into
-    out[0:4] (lb, ub, pos_lo, pos_hi), the unconstrained optimum x = −P⁻¹q by Cholesky into out[4], and — when x
-    lies in the box (to 1e-12) — x clipped to it into out[5] and out[6] (q̇ and the copy the resolver keeps).
+    null-space objective; ``z`` may be empty), the joint-limit box of :func:`joint_box` at ``qconf`` (nq,) into
+    ``out``'s rows ``OUT_LB`` … ``OUT_POS_HI``, the unconstrained optimum x = −P⁻¹q by Cholesky into
+    ``OUT_FREE``, and — when x lies in the box (to 1e-12) — x clipped to it into ``OUT_DQ`` and
+    ``OUT_KEPT`` (q̇ and the copy the resolver keeps). ``out`` is (``OUT_ROWS``, n); ``opts`` holds
+    :func:`joint_box`'s options, then shift (``OPT_SHIFT``) and z_scale (``OPT_Z_SCALE``).
 
     Returns:
         True when x is finite and inside the box: it is then the QP's optimum (no constraint active).
     """
     n = q.shape[0]
+    shift, z_scale = opts[OPT_SHIFT], opts[OPT_Z_SCALE]
     for i in range(n):
         P[i, i] += shift
     if z.shape[0] == n and z_scale != 0.0:
         for i in range(n):
             q[i] -= z_scale * z[i]
     nq = qconf.shape[0]
-    limit_box(
-        qconf.reshape((1, nq)),
-        iq,
-        lo,
-        hi,
-        vmax,
-        amax,
-        position,
-        has_rate,
-        gain,
-        dt,
-        dq_prev,
-        out[0:4].reshape((4, 1, n)),
-    )
-    x = out[4]
-    if not spd_solve_into(P, q, x) or not in_box(x, out[0], out[1], 1e-12):
+    joint_box(qconf.reshape((1, nq)), iq, lim, opts, dq_prev, out[0:OUT_BOX].reshape((OUT_BOX, 1, n)))
+    x = out[OUT_FREE]
+    lb, ub = out[OUT_LB], out[OUT_UB]
+    if not spd_solve_into(P, q, x) or not in_box(x, lb, ub, 1e-12):
         return False
     for i in range(n):
-        v = min(max(x[i], out[0, i]), out[1, i])
-        out[5, i] = v
-        out[6, i] = v
+        v = min(max(x[i], lb[i]), ub[i])
+        out[OUT_DQ, i] = v
+        out[OUT_KEPT, i] = v
     return True

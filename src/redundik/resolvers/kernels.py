@@ -41,6 +41,7 @@ from redundik.kinematics.lie_kernels import frame_error_rp as frame_error_rp
 from redundik.kinematics.lie_kernels import frame_jacobian_lwa as frame_jacobian_lwa
 from redundik.resolvers.box_kernels import clip_twice as clip_twice
 from redundik.resolvers.box_kernels import in_box as in_box
+from redundik.resolvers.box_kernels import joint_box as joint_box
 from redundik.resolvers.box_kernels import limit_box as limit_box
 from redundik.resolvers.box_kernels import spd_solve_batch as spd_solve_batch
 from redundik.resolvers.box_kernels import spd_solve_box as spd_solve_box

@@ -35,6 +35,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -43,6 +44,25 @@ from redundik.errors import SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, StepResult
 from redundik.resolvers.fused import FusedPlan
+from redundik.resolvers.layouts import (
+    LIM_AMAX,
+    LIM_HI,
+    LIM_LO,
+    LIM_ROWS,
+    LIM_VMAX,
+    OPT_DT,
+    OPT_GAIN,
+    OPT_POSITION,
+    OPT_RATE,
+    OPT_SHIFT,
+    OPT_Z_SCALE,
+    OUT_BOX,
+    OUT_DQ,
+    OUT_FREE,
+    OUT_KEPT,
+    OUT_ROWS,
+    WQP_OPTS,
+)
 from redundik.resolvers.linalg import FK, K
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
@@ -162,8 +182,10 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         self._plan: _Plan | None = None
         self._no_rows, self._no_rhs = np.zeros((0, 0)), np.zeros(0)
         self._diag = np.zeros(0)
-        #: (the limits' kernel arguments, λ, the fused step's coefficients of the resolver) as last read
-        self._tail: tuple[object, float, tuple[float, ...]] = (None, math.nan, ())
+        #: (the limits' kernel arguments, λ, dt, the fused step's coefficients of the resolver) as last read
+        self._tail: tuple[object, float, float, tuple[float, ...]] = (None, math.nan, math.nan, ())
+        #: (the limits' kernel arguments, their record ``lim``, the options ``opts``) of the lean step's box
+        self._record: tuple[object, np.ndarray, np.ndarray] = (None, np.zeros((LIM_ROWS, 0)), np.zeros(WQP_OPTS))
         self.max_joint_speed, self.singularity = max_joint_speed, singularity  # (validated on assignment)
 
     def build(
@@ -316,23 +338,16 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         t1 = time.perf_counter()
         limits = self.limits
         prev = limits.previous(self._dq_prev)
-        out = np.empty((7, robot._nv))
-        inside = K.wqp_free_step(
-            self._P,
-            self._q,
-            shift,
-            _NO_Z if z is None else z,
-            plan.null_scale,
-            robot.q,
-            *limits.kernel_args(robot),
-            float(dt),
-            prev,
-            out,
-        )
+        out = np.empty((OUT_ROWS, robot._nv))
+        args = limits.kernel_args(robot)
+        lim, opts = self._box_record(args)
+        opts[OPT_DT], opts[OPT_SHIFT], opts[OPT_Z_SCALE] = dt, shift, plan.null_scale
+        z = _NO_Z if z is None else z
+        inside = K.wqp_free_step(self._P, self._q, z, robot.q, args[0], lim, opts, prev, out)
         windowed = prev.shape[0] > 0
         if not inside:  # a constraint is active (or the optimum is not finite): the backend, through the template
             return self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1)
-        dq, kept = out[5], out[6]
+        dq, kept = out[OUT_DQ], out[OUT_KEPT]
         self._dq_prev = kept
         diagnostics = self._free_diagnostics(lambda: terms, plan.main, out, windowed, kept, lam)
         return LazyStepResult.make(
@@ -345,6 +360,19 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             plan.main,
             diagnostics,
         )
+
+    def _box_record(self, args: tuple[Any, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """The joint-limit record ``lim`` and the options ``opts`` of ``K.wqp_free_step`` (:mod:`.layouts`) for the
+        limits' kernel arguments ``args`` (re-read when they are a new tuple: the limits or their options changed);
+        the caller writes dt, the shift and the null-space scale into ``opts``."""
+        record = self._record
+        if record[0] is not args:
+            opts = np.zeros(WQP_OPTS)
+            opts[OPT_POSITION], opts[OPT_RATE], opts[OPT_GAIN] = float(args[5]), float(args[6]), float(args[7])
+            lim = np.empty((LIM_ROWS, args[1].shape[0]))
+            lim[LIM_LO], lim[LIM_HI], lim[LIM_VMAX], lim[LIM_AMAX] = args[1], args[2], args[3], args[4]
+            record = self._record = (args, lim, opts)
+        return record[1], record[2]
 
     def _box_qp(
         self,
@@ -391,7 +419,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         def diagnostics() -> tuple[float, bool, dict[str, object]]:
             terms = terms_of()
             diag = QPDiagnostics()
-            box_rows = out if out.ndim == 2 else out[: 4 * kept.shape[0]].reshape(4, -1)
+            box_rows = out if out.ndim == 2 else out[: OUT_BOX * kept.shape[0]].reshape(OUT_BOX, -1)
             diag.active_limits = limits.box_from(box_rows, windowed).active(kept, limits.joint_names)
             self._diagnose_terms([terms[i] for i in main], lam, kept, diag)
             return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
@@ -423,9 +451,9 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         args = limits.kernel_args(robot)
         lam = self.damping * plan.last_scale
         tail = self._tail
-        if tail[0] is not args or tail[1] != lam:  # the limits' options or the damping changed: re-read
-            tail = self._tail = (args, lam, (float(args[5]), float(args[6]), float(args[7]), lam))
-        coef = fused.coefficients(tail[2])
+        if tail[0] is not args or tail[1] != lam or tail[2] != dt:  # the limits' options, λ or dt changed: re-read
+            tail = self._tail = (args, lam, dt, (float(args[5]), float(args[6]), float(args[7]), lam, float(dt)))
+        coef = fused.coefficients(tail[3])  # (its tail: layouts.TAIL_POSITION … TAIL_DT)
         refs = fused.given_references(t) if fused.given else fused.refs
         prev = limits.previous(self._dq_prev)
         external: list[TaskTerm | None] | tuple[()] = ()
@@ -453,7 +481,6 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             fused.floats,
             coef,
             fused.limits(args),
-            float(dt),
             prev,
             P,
             g,
@@ -464,17 +491,17 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         bounds = self._bound_rows(robot, plan, dt) if plan.bounds else None  # (Python writers of inequality rows)
         if bounds is not None and status == 1.0:  # the optimum inside the box: is it inside the bound rows too?
             G, h = bounds[0], bounds[1]
-            if G.shape[0] and not (G @ work[4 * n : 5 * n] <= h + 1e-12).all():
+            if G.shape[0] and not (G @ work[OUT_FREE * n : (OUT_FREE + 1) * n] <= h + 1e-12).all():
                 status = 0.0
         t1 = time.perf_counter()
         windowed = prev.shape[0] > 0
         if status == 0.0:  # a limit or a bound row binds: the backend, through the template
             K, m = len(fused.frames), fused.m
             _, ev, Jf = FK.wqp_work_views(work, K, m, n)
-            out = work[: 7 * n].reshape(7, n)
+            out = work[: OUT_ROWS * n].reshape(OUT_ROWS, n)
             terms = fused.terms(Jf, ev, q, robot, external)
             return self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1, bounds)
-        self._dq_prev = work[6 * n : 7 * n]
+        self._dq_prev = work[OUT_KEPT * n : (OUT_KEPT + 1) * n]
         return FusedWqpResult.of(
             self, fused, work, q, robot, windowed, lam, err2, dq2, t1 - t0, t1, plan.main, external
         )

@@ -13,6 +13,7 @@ import numpy as np
 
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.fused import FusedPlan, FusedStepResult
+from redundik.resolvers.layouts import OUT_BOX, OUT_DQ, OUT_KEPT
 from redundik.resolvers.linalg import FK
 from redundik.resolvers.qp.base import QPDiagnostics
 from redundik.tasks.base import TaskTerm
@@ -34,8 +35,10 @@ def _fused_diagnostics(step: tuple[Any, ...], main: list[int]) -> tuple[float, b
     terms = _fused_terms(step)
     diag = QPDiagnostics()
     limits = resolver.limits
-    kept = work[6 * n : 7 * n]
-    diag.active_limits = limits.box_from(work[: 4 * n].reshape(4, n), windowed).active(kept, limits.joint_names)
+    kept = work[OUT_KEPT * n : (OUT_KEPT + 1) * n]
+    diag.active_limits = limits.box_from(work[: OUT_BOX * n].reshape(OUT_BOX, n), windowed).active(
+        kept, limits.joint_names
+    )
     resolver._diagnose_terms([terms[i] for i in main], lam, kept, diag)
     return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
 
@@ -65,7 +68,7 @@ class FusedWqpResult(FusedStepResult):
         n = robot._nv
         res = cls.__new__(cls)
         res.__dict__ = {
-            "dq": work[5 * n : 6 * n],
+            "dq": work[OUT_DQ * n : (OUT_DQ + 1) * n],
             "dq_rank": None,
             "dq_null": None,
             "gains": None,
