@@ -210,7 +210,8 @@ class PinvResolver(Resolver):
         if external:
             n = robot._nv
             _, Jm, ev, _ = FK.pinv_work_views(work, len(plan.frames), plan.m, n)
-            plan.write_external(robot, external, Jm, 0, ev, None, FK.pinv_null_views(work, n)[0])
+            end = work.shape[0]  # work's tail: the Python writers' null-space terms (n,), then z (n,)
+            plan.write_external(robot, external, Jm, 0, ev, None, work[end - 2 * n : end - n])
         q = robot.q
         status, rank, sigma_min, damping, err2, dq2 = FK.fused_pinv_step(
             plan.jw, plan.poses, float(t), refs, q, plan.ints, plan.floats, coef, work
