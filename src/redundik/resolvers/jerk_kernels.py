@@ -38,7 +38,6 @@ import math
 import numpy as np
 
 from redundik import _kernel_cache
-from redundik.resolvers.layouts import LIM_AMAX, LIM_HI, LIM_LO, LIM_VMAX
 
 _jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
 
@@ -109,27 +108,27 @@ def _edge(
 @_jit
 def jerk_box(
     qv: np.ndarray,
-    lim: np.ndarray,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    vmax: np.ndarray,
+    amax: np.ndarray,
     jmax: np.ndarray,
     gain: float,
     dt: float,
-    prev: np.ndarray,
+    v1: np.ndarray,
+    v2: np.ndarray,
     out: np.ndarray,
     status: np.ndarray,
 ) -> None:
     """The jerk-limited box of every joint with a finite ``jmax`` (the module docstring's rules).
 
-    ``qv`` (nv,) is each q̇ coordinate's position (0 where it has none; its limits are then ±inf); ``lim`` (4, nv)
-    the joint-limit record of :mod:`redundik.resolvers.layouts` (rows ``LIM_LO``/``LIM_HI``: the position limits,
-    ±inf where none; ``LIM_VMAX``/``LIM_AMAX``: the velocity [rad/s] and acceleration [rad/s²] limits, inf where
-    none); ``jmax`` (nv,) the jerk limits [rad/s³] (inf where none), ``gain`` g, ``dt`` [s], ``prev`` (2, nv) the
-    last two q̇ (the last first).
+    ``qv`` (nv,) is each q̇ coordinate's position (0 where it has none; its limits are then ±inf), ``lo``/``hi``
+    the position limits (±inf where none), ``vmax``/``amax``/``jmax`` (nv,) the velocity [rad/s], acceleration
+    [rad/s²] and jerk [rad/s³] limits (inf where none), ``gain`` g, ``dt`` [s], ``v1``/``v2`` the last two q̇.
     Writes, for those joints, rows (lb, ub, braking_lo, braking_hi, window_lo, window_hi) of ``out`` (6, nv) and
     ``status`` (nv,) ``OK`` or ``EMPTY`` (no candidate meets jerk, acceleration and viability together; the row is
     then left to the caller's relaxation). Joints with an infinite ``jmax`` are not touched.
     """
-    lo, hi, vmax, amax = lim[LIM_LO], lim[LIM_HI], lim[LIM_VMAX], lim[LIM_AMAX]
-    v1, v2 = prev[0], prev[1]
     for i in range(qv.shape[0]):
         j = jmax[i]
         if not j < math.inf:
