@@ -12,11 +12,9 @@ import numpy as np
 from redundik import _kernel_cache
 from redundik.resolvers.cholesky_kernels import coupled_coordinates, spd_solve_into
 from redundik.resolvers.layouts import (
-    BOX_OPTS,
     LIM_AMAX,
     LIM_HI,
     LIM_LO,
-    LIM_ROWS,
     LIM_VMAX,
     OPT_DT,
     OPT_GAIN,
@@ -181,7 +179,7 @@ def joint_box(
     Writes the rows ``OUT_LB``, ``OUT_UB``, ``OUT_POS_LO``, ``OUT_POS_HI`` of ``out`` (4, N, nv).
     """
     N = q.shape[0]
-    nv = lim.shape[1]
+    nv = iq.shape[0]
     lo, hi, vmax, amax = lim[LIM_LO], lim[LIM_HI], lim[LIM_VMAX], lim[LIM_AMAX]
     lb, ub, pl, pu = out[OUT_LB], out[OUT_UB], out[OUT_POS_LO], out[OUT_POS_HI]
     position = opts[OPT_POSITION] != 0.0
@@ -242,16 +240,10 @@ def limit_box(
     out: np.ndarray,
 ) -> None:
     """:func:`joint_box` from the separate arrays and options of ``JointLimits.kernel_args`` (between q and dt),
-    the form ``JointLimits.box`` and ``hqp``'s compiled step call; it packs them into :func:`joint_box`'s
-    records (4 nv + 4 numbers)."""
-    nv = lo.shape[0]
-    lim = np.empty((LIM_ROWS, nv))
-    lim[LIM_LO], lim[LIM_HI], lim[LIM_VMAX], lim[LIM_AMAX] = lo, hi, vmax, amax
-    opts = np.empty(BOX_OPTS)
-    opts[OPT_POSITION] = 1.0 if position else 0.0
-    opts[OPT_RATE] = 1.0 if has_rate else 0.0
-    opts[OPT_GAIN], opts[OPT_DT] = gain, dt
-    joint_box(q, iq, lim, opts, dq_prev, out)
+    the form ``JointLimits.box`` and ``hqp``'s compiled step call: the record and the options are tuples here (no
+    copy; :func:`joint_box` reads them as it reads the arrays)."""
+    opts = (1.0 if position else 0.0, 1.0 if has_rate else 0.0, gain, dt)
+    joint_box(q, iq, (lo, hi, vmax, amax), opts, dq_prev, out)
 
 
 @_jit
