@@ -107,7 +107,7 @@ def test_read_only_package_folder_caches_to_the_user_folder(tmp_path: Path) -> N
             path.chmod(path.stat().st_mode | stat.S_IWUSR)
     assert str(got["file"]).startswith(str(pkg))
     assert Path(str(got["cache"])).parent == cache / "redundik"
-    assert list(Path(str(got["cache"])).rglob("kernels.squares_below*.nbc"))
+    assert list(Path(str(got["cache"])).rglob("box_kernels.squares_below*.nbc"))
     assert not list(pkg.rglob("*.nbi")) and not list(pkg.rglob("*.nbc"))
 
 

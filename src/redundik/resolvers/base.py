@@ -1,4 +1,5 @@
-"""What every resolver shares: the step result record, input validation, and the abstract interface.
+"""What every resolver shares: input validation and the abstract interface (the step result record is
+:mod:`redundik.resolvers.result`, re-exported here).
 
 The contract of :meth:`Resolver.step` (the call a control loop makes once per tick):
 
@@ -18,8 +19,6 @@ import logging
 import math
 import os
 from abc import ABC, abstractmethod
-from collections.abc import Callable
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -27,8 +26,12 @@ import numpy as np
 from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.divergence import DivergenceWatch
+from redundik.resolvers.result import LazyInfo as LazyInfo
+from redundik.resolvers.result import LazyStepResult as LazyStepResult
+from redundik.resolvers.result import StepResult as StepResult
+from redundik.resolvers.result import nonfinite_sources as nonfinite_sources
 from redundik.resolvers.singularity import LimiterOption, SpeedLimiter
-from redundik.tasks.base import Edits, TaskTerm
+from redundik.tasks.base import Edits
 from redundik.tasks.stack import TaskStack
 
 if TYPE_CHECKING:
@@ -111,306 +114,6 @@ COMPILED, MIXED, INTERPRETED = "compiled", "mixed", "interpreted"
 _LOG = logging.getLogger("redundik")
 _WARNED_INTERPRETED: set[tuple[str, tuple[str, ...]]] = set()
 _WARNED_MIXED: set[tuple[str, tuple[str, ...]]] = set()
-
-
-@dataclass
-class StepResult:
-    """One resolved control step.
-
-    Attributes:
-        dq: Joint velocity q̇, shape (nv,), always finite.
-        terms: The task terms the step was computed from (main and regularisation tasks, in stack order).
-        dq_rank: The rank (main-task) part J⁺V when the resolver separates it, else ``None``.
-        dq_null: The null-space part when the resolver separates it, else ``None``.
-        gains: Subtask gains k actually used (state-feedback law), or ``None``.
-        damped: True when a singular direction was damped.
-        damping: Largest λ used.
-        sigma_min: Smallest nonzero singular value of the main-task Jacobian (or of the top level) [unit of J].
-        fallback: Why the resolver fell back to a simpler method, or ``None``.
-        info: Resolver-specific diagnostics by name (numbers go to the run's CSV).
-        build_time: Seconds spent building the problem.
-        solve_time: Seconds spent solving it.
-        main: Indices into ``terms`` of the main tasks (``None``: all of them).
-        scale: The fraction α ∈ [0, 1] of the main tasks' commanded velocity the step delivers when the resolver
-            scales it to keep its direction (``scaling="direction"``); 1.0 when it does not scale.
-        stuck: True when ``scale`` fell below the resolver's threshold (the limits leave almost no motion along V).
-        relaxed: The documented relaxations this step made (for instance an inequality level that could not be
-            fully met), by member name; empty when the stack was met as asked. Not an alarm: ``fallback`` is.
-    """
-
-    dq: np.ndarray
-    terms: list[TaskTerm]
-    dq_rank: np.ndarray | None = None
-    dq_null: np.ndarray | None = None
-    gains: np.ndarray | None = None
-    damped: bool = False
-    damping: float = 0.0
-    sigma_min: float = math.inf
-    fallback: str | None = None
-    info: dict[str, object] = field(default_factory=dict)
-    build_time: float = 0.0
-    solve_time: float = 0.0
-    main: list[int] | None = None
-    scale: float = 1.0
-    stuck: bool = False
-    relaxed: tuple[str, ...] = ()
-
-    @property
-    def main_terms(self) -> list[TaskTerm]:
-        """The main tasks' terms (regularisation tasks left out)."""
-        return self.terms if self.main is None else [self.terms[i] for i in self.main]
-
-    @property
-    def task_error(self) -> float:
-        """Norm of the stacked main-task error."""
-        terms = self.terms
-        main = self.main
-        total = 0.0
-        if main is None:
-            for term in terms:
-                e = term.error
-                total += e.dot(e)  # the method: half the dispatch of ``@`` on small vectors
-        else:
-            for i in main:
-                e = terms[i].error
-                total += e.dot(e)
-        return math.sqrt(total)
-
-
-class LazyInfo(dict):  # type: ignore[type-arg]
-    """``StepResult.info`` whose costly entries are computed on first read (the keys given eagerly stay cheap).
-
-    Reading a key that is present returns it at once; reading any other key, iterating, or asking the size runs the
-    pending diagnostics once (a QP step's residuals, σ_min, active-limit labels), then behaves as a plain dict.
-    """
-
-    __slots__ = ("_pending",)
-
-    def __init__(self, eager: dict[str, object], pending: Callable[[], dict[str, object]] | None) -> None:
-        super().__init__(eager)
-        self._pending = pending
-
-    def _fill(self) -> None:
-        pending, self._pending = self._pending, None
-        if pending is not None:
-            dict.update(self, pending())
-
-    def __getitem__(self, key: str) -> object:
-        if self._pending is not None and not dict.__contains__(self, key):
-            self._fill()
-        return dict.__getitem__(self, key)
-
-    def get(self, key: str, default: object = None) -> object:
-        if self._pending is not None and not dict.__contains__(self, key):
-            self._fill()
-        return dict.get(self, key, default)
-
-    def __contains__(self, key: object) -> bool:
-        if self._pending is not None and not dict.__contains__(self, key):
-            self._fill()
-        return dict.__contains__(self, key)
-
-    def __iter__(self):  # type: ignore[no-untyped-def]
-        self._fill()
-        return dict.__iter__(self)
-
-    def __len__(self) -> int:
-        self._fill()
-        return dict.__len__(self)
-
-    def keys(self):  # type: ignore[no-untyped-def]
-        self._fill()
-        return dict.keys(self)
-
-    def values(self):  # type: ignore[no-untyped-def]
-        self._fill()
-        return dict.values(self)
-
-    def items(self):  # type: ignore[no-untyped-def]
-        self._fill()
-        return dict.items(self)
-
-    def copy(self) -> dict[str, object]:
-        self._fill()
-        return dict(dict.items(self))
-
-    def __eq__(self, other: object) -> bool:
-        self._fill()
-        return dict.__eq__(self, other)
-
-    __hash__ = None
-
-    def __repr__(self) -> str:
-        self._fill()
-        return dict.__repr__(self)
-
-
-class _Deferred:
-    """A step's pending diagnostics (σ_min, damped, info entries), computed once and shared by its result and the
-    result's :class:`LazyInfo`. Neither of those holds the other through it, so a step's result is freed as soon as
-    the loop drops it: no reference cycle left for the cyclic garbage collector, whose collections took ~100 µs
-    every ~30 steps of a control loop that reads ``info`` (the snake's hqp run, before)."""
-
-    __slots__ = ("fn", "out")
-
-    def __init__(self, fn: Callable[[], tuple[float, bool, dict[str, object]]]) -> None:
-        self.fn: Callable[[], tuple[float, bool, dict[str, object]]] | None = fn
-        self.out: tuple[float, bool, dict[str, object]] | None = None
-
-    def __call__(self) -> tuple[float, bool, dict[str, object]]:
-        out = self.out
-        if out is None:  # (fn kept until it returns: a diagnostics error is raised again at the next read)
-            fn = self.fn
-            assert fn is not None
-            out = self.out = fn()
-            self.fn = None
-        return out
-
-    def extra(self) -> dict[str, object]:
-        """The info entries (what :class:`LazyInfo` adds on first read)."""
-        return self()[2]
-
-
-class LazyStepResult(StepResult):
-    """A :class:`StepResult` whose diagnostics (``sigma_min``, ``damped``, ``info``) are computed on first read.
-
-    The resolver sets :attr:`pending`, a callable returning (σ_min, damped, info entries) that holds no reference
-    to the result; nothing is computed on a step whose result is only used for q̇ — the hot path of a control
-    loop — while a logger that reads them gets exactly what an eager step would have reported.
-    """
-
-    @property
-    def pending(self) -> Callable[[], tuple[float, bool, dict[str, object]]] | bool | None:
-        """The diagnostics still to compute (``None`` once computed)."""
-        p = self.__dict__.get("pending")
-        if type(p) is _Deferred and p.out is not None:
-            return None
-        return p
-
-    @pending.setter
-    def pending(self, value: Callable[[], tuple[float, bool, dict[str, object]]] | None) -> None:
-        self.__dict__["pending"] = value
-
-    def _pending_fn(self) -> Callable[[], tuple[float, bool, dict[str, object]]]:
-        """The pending diagnostics as a callable that holds no reference to this result (a subclass that defers
-        with a sentinel builds it from its step's arrays)."""
-        return self.__dict__["pending"]
-
-    def _deferred(self) -> _Deferred | None:
-        """The pending diagnostics as the :class:`_Deferred` shared with the info (``None``: none pending)."""
-        d = self.__dict__
-        p = d.get("pending")
-        if p is None or type(p) is _Deferred:
-            return p
-        p = d["pending"] = _Deferred(self._pending_fn())
-        return p
-
-    @classmethod
-    def make(
-        cls,
-        dq: np.ndarray,
-        terms: list[TaskTerm],
-        fallback: str | None,
-        info: dict[str, object],
-        build_time: float,
-        solve_time: float,
-        main: list[int] | None,
-        pending: Callable[[], tuple[float, bool, dict[str, object]]],
-        dq_rank: np.ndarray | None = None,
-        dq_null: np.ndarray | None = None,
-    ) -> LazyStepResult:
-        """The result of a step whose diagnostics ``pending`` computes on first read (the hot path's constructor:
-        the same object as the dataclass constructor plus ``pending`` would give, with the attributes set at once)."""
-        res = cls.__new__(cls)
-        res.__dict__ = {
-            "dq": dq,
-            "terms": terms,
-            "dq_rank": dq_rank,
-            "dq_null": dq_null,
-            "gains": None,
-            "damping": 0.0,
-            "fallback": fallback,
-            "_info": info,  # a plain dict until first read (the ``info`` property wraps it then)
-            "build_time": build_time,
-            "solve_time": solve_time,
-            "main": main,
-            "pending": pending,
-        }
-        return res
-
-    def _resolve(self) -> None:
-        d = self.__dict__
-        pending = d.get("pending")
-        if pending is not None:
-            fn = pending if type(pending) is _Deferred else self._pending_fn()
-            d["pending"] = None
-            smin, damped, extra = fn()
-            d["_sigma_min"], d["_damped"] = smin, damped
-            info = d["_info"]
-            if isinstance(info, LazyInfo):
-                info._pending = None
-            dict.update(info, extra)
-
-    @property
-    def sigma_min(self) -> float:
-        self._resolve()
-        return self.__dict__.get("_sigma_min", math.inf)
-
-    @sigma_min.setter
-    def sigma_min(self, value: float) -> None:
-        self.__dict__["_sigma_min"] = value
-
-    @property
-    def damped(self) -> bool:
-        self._resolve()
-        return self.__dict__.get("_damped", False)
-
-    @damped.setter
-    def damped(self, value: bool) -> None:
-        self.__dict__["_damped"] = value
-
-    @property
-    def info(self) -> dict[str, object]:
-        d = self.__dict__
-        info = d["_info"]
-        if type(info) is dict:  # the eager entries of a step, wrapped on first read
-            deferred = self._deferred()
-            info = d["_info"] = LazyInfo(info, None if deferred is None else deferred.extra)
-        return info
-
-    @info.setter
-    def info(self, value: dict[str, object]) -> None:
-        if not isinstance(value, LazyInfo):
-            value = LazyInfo(value, None)
-        deferred = self._deferred()
-        value._pending = None if deferred is None else deferred.extra
-        self.__dict__["_info"] = value
-
-
-def nonfinite_sources(
-    terms: list[TaskTerm], robot: RobotModel | None = None, stack: TaskStack | None = None, **arrays: np.ndarray | None
-) -> list[str]:
-    """Names of the terms, of the stack's subtasks (with ``robot`` and ``stack``: a potential's value or gradient, a
-    barrier's rows) and of the named arrays holding NaN or infinite values, for a diagnosed fallback (a path taken
-    only after a non-finite q̇: the subtasks are evaluated once more here)."""
-    bad = [t.name for t in terms if not (np.isfinite(t.J).all() and np.isfinite(t.v).all())]
-    if robot is not None and stack is not None:
-        for sub in stack.subtasks:
-            source = getattr(sub, "potential", None) or getattr(sub, "source", None)
-            if source is None:
-                continue
-            try:  # (by what the source offers: a potential's value and gradient, or a barrier's rows)
-                if hasattr(source, "gradient"):
-                    ok = math.isfinite(source.value(robot)) and bool(np.isfinite(source.gradient(robot)).all())
-                else:
-                    bt = source.evaluate(robot)
-                    ok = bool(np.isfinite(bt.h).all() and np.isfinite(bt.H).all())
-            except Exception:  # a diagnostic: a subtask that cannot be evaluated is named as a source
-                ok = False
-            if not ok:
-                bad.append(f"subtask '{sub.name}'")
-    bad += [k for k, a in arrays.items() if a is not None and not np.isfinite(a).all()]
-    return bad
 
 
 class Resolver(ABC):
@@ -552,22 +255,7 @@ class Resolver(ABC):
             and stack.tasks == members[2]
             and stack.subtasks == members[3]
         ):
-            if members is not None and members[1] is not robot:  # another robot: nothing kept of the last one's
-                self.reset()  # (its previous q̇ for a rate window, warm starts, plans sized for it)
-            try:
-                sig = (id(robot), *stack.signature())
-            except AttributeError:  # not a TaskStack (a list of tasks, one task, None): say so, not AttributeError
-                raise ResolverError(
-                    f"{self.name}: stack must be a TaskStack (tasks, subtasks), got {type(stack).__name__}"
-                ) from None
-            if sig != self._checked:
-                self.check(robot, stack)
-                self._checked = sig
-                self._gain_members = (tuple(stack.tasks), tuple(stack.target_subtasks))
-                # gains set through Task's validated property move Edits; a task with its own ``gain`` is read each step
-                self._plain_gains = all(m.gain_tracked for m in stack.tasks)
-                self._gains_seen = None
-            self._members = (stack, robot, list(stack.tasks), list(stack.subtasks))
+            self._check_membership(robot, stack)
         tasks, targets = self._gain_members
         limit = STABLE_GAIN_DT / dt
         if self._gains_seen != (Edits.count, limit):  # the tasks' gains (or dt) changed since they were checked
@@ -583,16 +271,7 @@ class Resolver(ABC):
             if self.blas_threads == "auto" and (robot._nv < BLAS_LIMIT_NV or _USER_CHOSE_THREADS):
                 res = self.solve(robot, stack, t, dt)
             else:
-                threads = self.blas_threads
-                if threads is None:
-                    res = self.solve(robot, stack, t, dt)
-                else:
-                    limiter = _blas_limiter()
-                    changed = limiter.set(1 if threads == "auto" else int(threads))
-                    try:
-                        res = self.solve(robot, stack, t, dt)
-                    finally:
-                        limiter.restore(changed)
+                res = self._solve_blas_limited(robot, stack, t, dt)
         finally:
             self._stepping = None
         d = res.__dict__
@@ -602,23 +281,8 @@ class Resolver(ABC):
             if compiled is True:
                 dict.__setitem__(info, "path", COMPILED)
                 dict.__setitem__(info, "interpreted", ())
-            elif compiled:  # the names of the members a mixed plan wrote from Python
-                dict.__setitem__(info, "path", MIXED)
-                dict.__setitem__(info, "interpreted", compiled)
-                if (self.name, compiled) not in _WARNED_MIXED:
-                    _WARNED_MIXED.add((self.name, compiled))
-                    _LOG.warning(
-                        "%s: the stack runs mixed: %s %s no compiled form and %s written by %s Python evaluate "
-                        "before the compiled solve (result.info['path'] == 'mixed')",
-                        self.name,
-                        ", ".join(compiled),
-                        "has" if len(compiled) == 1 else "have",
-                        "is" if len(compiled) == 1 else "are",
-                        "its" if len(compiled) == 1 else "their",
-                    )
             else:
-                dict.__setitem__(info, "path", INTERPRETED)
-                dict.__setitem__(info, "interpreted", self._interpreted_members(robot, stack))
+                self._record_path(info, compiled, robot, stack)
         dog = self.watchdog
         if dog is not None:  # the command watchdog (redundik.resolvers.watchdog): stale targets → a stop within limits
             dog.apply(self, robot, stack, t, dt, res)
@@ -638,6 +302,62 @@ class Resolver(ABC):
         if factor is not None:
             watch.flag(self.name, norm, factor, res.info)
         return res
+
+    def _check_membership(self, robot: RobotModel, stack: TaskStack) -> None:
+        """The stack's membership changed since the last step (or the robot did): check it when its signature is
+        new, note its gain-carrying members, and remember it (the fast test of :meth:`step`)."""
+        members = self._members
+        if members is not None and members[1] is not robot:  # another robot: nothing kept of the last one's
+            self.reset()  # (its previous q̇ for a rate window, warm starts, plans sized for it)
+        try:
+            sig = (id(robot), *stack.signature())
+        except AttributeError:  # not a TaskStack (a list of tasks, one task, None): say so, not AttributeError
+            raise ResolverError(
+                f"{self.name}: stack must be a TaskStack (tasks, subtasks), got {type(stack).__name__}"
+            ) from None
+        if sig != self._checked:
+            self.check(robot, stack)
+            self._checked = sig
+            self._gain_members = (tuple(stack.tasks), tuple(stack.target_subtasks))
+            # gains set through Task's validated property move Edits; a task with its own ``gain`` is read each step
+            self._plain_gains = all(m.gain_tracked for m in stack.tasks)
+            self._gains_seen = None
+        self._members = (stack, robot, list(stack.tasks), list(stack.subtasks))
+
+    def _solve_blas_limited(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
+        """:meth:`solve` with BLAS limited to :attr:`blas_threads` threads (``"auto"``: one, on a large robot)."""
+        threads = self.blas_threads
+        if threads is None:
+            return self.solve(robot, stack, t, dt)
+        limiter = _blas_limiter()
+        changed = limiter.set(1 if threads == "auto" else int(threads))
+        try:
+            return self.solve(robot, stack, t, dt)
+        finally:
+            limiter.restore(changed)
+
+    def _record_path(
+        self, info: dict[str, object], compiled: tuple[str, ...] | None, robot: RobotModel, stack: TaskStack
+    ) -> None:
+        """``info["path"]`` and ``info["interpreted"]`` of a step that was not wholly compiled: ``compiled`` names
+        the members a mixed plan wrote from Python (a one-time warning names them), or is empty (interpreted)."""
+        if compiled:
+            dict.__setitem__(info, "path", MIXED)
+            dict.__setitem__(info, "interpreted", compiled)
+            if (self.name, compiled) not in _WARNED_MIXED:
+                _WARNED_MIXED.add((self.name, compiled))
+                _LOG.warning(
+                    "%s: the stack runs mixed: %s %s no compiled form and %s written by %s Python evaluate "
+                    "before the compiled solve (result.info['path'] == 'mixed')",
+                    self.name,
+                    ", ".join(compiled),
+                    "has" if len(compiled) == 1 else "have",
+                    "is" if len(compiled) == 1 else "are",
+                    "its" if len(compiled) == 1 else "their",
+                )
+        else:
+            dict.__setitem__(info, "path", INTERPRETED)
+            dict.__setitem__(info, "interpreted", self._interpreted_members(robot, stack))
 
     def _interpreted_members(self, robot: RobotModel, stack: TaskStack) -> tuple[str, ...]:
         """The names of the stack's members whose rows only their Python ``evaluate`` gives (no frame or joint form;

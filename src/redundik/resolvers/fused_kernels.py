@@ -49,6 +49,43 @@ from redundik.resolvers.kernels import (
     gram_update,
     wqp_free_step,
 )
+from redundik.resolvers.layouts import (
+    CF_DQ,
+    CF_ROWS,
+    FRAME_ROWS,
+    H_FRAME_ROWS,
+    H_FRAME_STARTS,
+    H_IQ,
+    H_J,
+    H_JOINT_FLAGS,
+    H_JOINT_ROWS,
+    H_JOINT_STARTS,
+    H_JOINT_TARGETS,
+    H_K,
+    H_M,
+    H_N,
+    H_NQ,
+    H_NV,
+    OPT_DT,
+    OPT_GAIN,
+    OPT_POSITION,
+    OPT_RATE,
+    OPT_SHIFT,
+    OPT_Z_SCALE,
+    OUT_DQ,
+    OUT_ROWS,
+    PINV_TAIL,
+    TAIL_DAMPING,
+    TAIL_DT,
+    TAIL_EPSILON,
+    TAIL_GAIN,
+    TAIL_MAX_DAMPING,
+    TAIL_POSITION,
+    TAIL_RATE,
+    TAIL_RCOND,
+    WQP_OPTS,
+    WQP_TAIL,
+)
 from redundik.tasks.potential_kernels import clearance_into
 from redundik.tasks.target_kernels import reference_into
 from redundik.tasks.trajectory import GIVEN, PARAMS
@@ -153,68 +190,49 @@ def _main_error2(ints: np.ndarray, e: np.ndarray) -> float:
 
 
 @_jit
-def fused_wqp_step(
-    Jw: np.ndarray,
-    poses: np.ndarray,
-    t: float,
-    refs: np.ndarray,
-    q: np.ndarray,
-    ints: np.ndarray,
-    floats: np.ndarray,
-    coef: np.ndarray,
-    lim: np.ndarray,
-    dt: float,
-    dq_prev: np.ndarray,
-    P: np.ndarray,
-    g: np.ndarray,
-    work: np.ndarray,
-) -> tuple[float, float, float]:
-    """One ``wqp`` step of a fused stack: frame rows (``frame_rows``) and joint rows (e = (q_ref − q)[sel],
-    v = K e) into e, v (``ev`` (2, m)); P = Σ w JᵀJ and g = −Σ w Jᵀv (``gram_update``; a joint task adds w on P's
-    diagonal, or to the diagonal shift when it is an identity task, as the per-task path does); the null-space
-    objective z (``_null_objective``); then ``wqp_free_step`` (the limit box from ``lim`` (4, nv): lower, upper
-    [rad], velocity [rad/s], acceleration [rad/s²] limits; the optimum; its test).
-
-    ``work`` (flat, one allocation a step; :func:`wqp_work_views` names its parts): ``out`` (7, nv) — the box and
-    the answers of ``wqp_free_step`` —, e and v (2, m), and the frames' Jacobians (K, 6, nv).
-
-    ``coef``: gain (K), weight·ρ^k (K) per frame task; gain (J), weight·ρ^k (J) per joint task; ρ of the null-space
-    objective; its N coefficients; then position (0/1), rate (0/1), the position gain and λ.
-
-    Returns:
-        (status, Σ e² of the main rows, ‖q̇‖² when inside): status −1 — a rotation error too large for the compiled
-        log3 (evaluate the tasks one by one); 1 — the optimum is inside the box (q̇ in out[5]); 0 — a limit binds (P,
-        g and the box in out[0:4] are ready for the QP).
-    """
-    K, J, N, m, nv = ints[0], ints[1], ints[2], ints[3], ints[4]
-    out, ev, Jf = wqp_work_views(work, K, m, nv)
-    e, v = ev[0], ev[1]
-    if not frame_rows(Jw, poses, t, refs, ints, floats, coef[0:K], Jf, e, v):
-        return -1.0, 0.0, 0.0
-    starts = _part(ints, 8, K + 1)
-    rows = _part(ints, 7, starts[K])
+def _frame_grams(Jf: np.ndarray, v: np.ndarray, ints: np.ndarray, w: np.ndarray, P: np.ndarray, g: np.ndarray) -> None:
+    """P = Σ w_k J_kᵀJ_k and g = −Σ w_k J_kᵀv_k over the frame tasks' rows (``gram_update``; P and g zeroed first,
+    also without a frame task); ``w`` (K,) the weights × ρ^k."""
+    K = ints[H_K]
+    starts = _part(ints, H_FRAME_STARTS, K + 1)
+    rows = _part(ints, H_FRAME_ROWS, starts[K])
     reset = True
     for k in range(K):
         a, b = starts[k], starts[k + 1]
-        if b - a == 6:
-            gram_update(P, g, Jf[k], v[a:b], coef[K + k], reset)
+        if b - a == FRAME_ROWS:
+            gram_update(P, g, Jf[k], v[a:b], w[k], reset)
         else:
-            gram_update(P, g, np.ascontiguousarray(Jf[k][rows[a:b]]), v[a:b], coef[K + k], reset)
+            gram_update(P, g, np.ascontiguousarray(Jf[k][rows[a:b]]), v[a:b], w[k], reset)
         reset = False
     if reset:
         P[:, :] = 0.0
         g[:] = 0.0
-    iq = _part(ints, 13, nv)
-    jstarts = _part(ints, 11, J + 1)
-    jsel = _part(ints, 10, jstarts[J])
-    jident = _part(ints, 12, J)
-    nq = ints[5]
-    to = ints[17]
-    mf = starts[K]
-    c0 = 2 * K
-    shift = coef[c0 + 2 * J + N + 4]  # λ
+
+
+@_jit
+def _joint_grams(
+    q: np.ndarray,
+    ints: np.ndarray,
+    floats: np.ndarray,
+    coef: np.ndarray,
+    ev: np.ndarray,
+    P: np.ndarray,
+    g: np.ndarray,
+    shift: float,
+) -> float:
+    """The joint tasks' rows of a level, e = (q_ref − q)[sel] (or the caller's e on Lie-group coordinates) and
+    v = K e, added to P (w on its diagonal) and g (−w v) as the per-task path does; ``coef``: gain (J), then
+    weight × ρ^k (J). Returns ``shift`` plus the weights of the identity tasks (a diagonal shift instead)."""
+    K, J, nv, nq = ints[H_K], ints[H_J], ints[H_NV], ints[H_NQ]
+    e, v = ev[0], ev[1]
+    iq = _part(ints, H_IQ, nv)
+    jstarts = _part(ints, H_JOINT_STARTS, J + 1)
+    jsel = _part(ints, H_JOINT_ROWS, jstarts[J])
+    jident = _part(ints, H_JOINT_FLAGS, J)
+    to = ints[H_JOINT_TARGETS]
+    mf = _part(ints, H_FRAME_STARTS, K + 1)[K]
     for k in range(J):
-        gain, w = coef[c0 + k], coef[c0 + J + k]
+        gain, w = coef[k], coef[J + k]
         for r in range(jstarts[k], jstarts[k + 1]):
             s = jsel[r]
             j = iq[s]
@@ -229,20 +247,74 @@ def fused_wqp_step(
                 P[s, s] += w
         if jident[k] & IDENTITY:
             shift += w
-    mx = ints[H_EXTERNAL_ROWS]
-    Jx, wx, zx = wqp_external_views(work, K, m, nv, mx)
-    base = m - mx
-    for r in range(mx):  # the rows Python writers gave (a mixed plan): P += w JᵀJ, g −= w Jᵀv, row by row
+    return shift
+
+
+@_jit
+def _external_grams(Jx: np.ndarray, wx: np.ndarray, v: np.ndarray, P: np.ndarray, g: np.ndarray) -> None:
+    """P += w JᵀJ, g −= w Jᵀv, row by row, over the rows Python writers gave (a mixed plan): ``Jx`` (mx, nv), their
+    weights × ρ^k ``wx`` (mx,) and velocities ``v`` (mx,)."""
+    nv = P.shape[0]
+    for r in range(Jx.shape[0]):
         w = wx[r]
         if w != 0.0:
             Jr = Jx[r]
-            vr = w * v[base + r]
+            vr = w * v[r]
             for i in range(nv):
                 a = w * Jr[i]
                 if a != 0.0:
                     g[i] -= vr * Jr[i]
                     for j in range(nv):
                         P[i, j] += a * Jr[j]
+
+
+@_jit
+def fused_wqp_step(
+    Jw: np.ndarray,
+    poses: np.ndarray,
+    t: float,
+    refs: np.ndarray,
+    q: np.ndarray,
+    ints: np.ndarray,
+    floats: np.ndarray,
+    coef: np.ndarray,
+    lim: np.ndarray,
+    dq_prev: np.ndarray,
+    P: np.ndarray,
+    g: np.ndarray,
+    work: np.ndarray,
+) -> tuple[float, float, float]:
+    """One ``wqp`` step of a fused stack: frame rows (``frame_rows``) and joint rows (e = (q_ref − q)[sel],
+    v = K e) into e, v (``ev`` (2, m)); P = Σ w JᵀJ and g = −Σ w Jᵀv (``gram_update``; a joint task adds w on P's
+    diagonal, or to the diagonal shift when it is an identity task, as the per-task path does); the null-space
+    objective z (``_null_objective``); then ``wqp_free_step`` (the limit box from the joint-limit record ``lim``
+    (``layouts.LIM_ROWS``, nv); the optimum; its test).
+
+    ``work`` (flat, one allocation a step; :func:`wqp_work_views` names its parts): ``out``
+    (``layouts.OUT_ROWS``, nv) — the box and the answers of ``wqp_free_step`` —, e and v (2, m), and the frames'
+    Jacobians (K, 6, nv).
+
+    ``coef``: gain (K), weight·ρ^k (K) per frame task; gain (J), weight·ρ^k (J) per joint task; ρ of the null-space
+    objective; its N coefficients; then the resolver's tail (``layouts.WQP_TAIL``: position, rate, the position
+    gain, λ, dt).
+
+    Returns:
+        (status, Σ e² of the main rows, ‖q̇‖² when inside): status −1 — a rotation error too large for the compiled
+        log3 (evaluate the tasks one by one); 1 — the optimum is inside the box (q̇ in ``out[OUT_DQ]``); 0 — a limit
+        binds (P, g and the box in ``out``'s first ``OUT_BOX`` rows are ready for the QP).
+    """
+    K, J, N, m, nv = ints[H_K], ints[H_J], ints[H_N], ints[H_M], ints[H_NV]
+    out, ev, Jf = wqp_work_views(work, K, m, nv)
+    e, v = ev[0], ev[1]
+    if not frame_rows(Jw, poses, t, refs, ints, floats, coef[0:K], Jf, e, v):
+        return -1.0, 0.0, 0.0
+    _frame_grams(Jf, v, ints, coef[K : 2 * K], P, g)
+    c0 = 2 * K
+    tail = coef[c0 + 2 * J + 1 + N : c0 + 2 * J + 1 + N + WQP_TAIL]
+    shift = _joint_grams(q, ints, floats, coef[c0 : c0 + 2 * J], ev, P, g, tail[TAIL_DAMPING])  # λ + identity weights
+    mx = ints[H_EXTERNAL_ROWS]
+    Jx, wx, zx = wqp_external_views(work, K, m, nv, mx)
+    _external_grams(Jx, wx, v[m - mx : m], P, g)
     z_scale = coef[c0 + 2 * J]
     z = np.zeros(nv)
     if z_scale != 0.0:
@@ -252,27 +324,11 @@ def fused_wqp_step(
             for i in range(nv):
                 z[i] += zx[i]
         shift += z_scale
-    o = c0 + 2 * J + 1 + N
-    inside = wqp_free_step(
-        P,
-        g,
-        shift,
-        z,
-        z_scale,
-        q,
-        iq,
-        lim[0],
-        lim[1],
-        lim[2],
-        lim[3],
-        coef[o] != 0.0,
-        coef[o + 1] != 0.0,
-        coef[o + 2],
-        dt,
-        dq_prev,
-        out,
-    )
-    return (1.0 if inside else 0.0), _main_error2(ints, e[0:m]), _sumsq(out[5]) if inside else 0.0
+    opts = np.empty(WQP_OPTS)
+    opts[OPT_POSITION], opts[OPT_RATE], opts[OPT_GAIN] = tail[TAIL_POSITION], tail[TAIL_RATE], tail[TAIL_GAIN]
+    opts[OPT_DT], opts[OPT_SHIFT], opts[OPT_Z_SCALE] = tail[TAIL_DT], shift, z_scale
+    inside = wqp_free_step(P, g, z, q, _part(ints, H_IQ, nv), lim, opts, dq_prev, out)
+    return (1.0 if inside else 0.0), _main_error2(ints, e[0:m]), _sumsq(out[OUT_DQ]) if inside else 0.0
 
 
 @_jit
@@ -292,83 +348,95 @@ def fused_pinv_step(
     ``closed_form_into``, σ_min lazily).
 
     ``work`` (flat, one allocation a step; :func:`pinv_work_views` names its parts): J⁺V, (I − J⁺J) z and q̇
-    (3, n), then J (m, n), e and v (2, m), the frames' Jacobians (K, 6, n) and z (n,). ``coef``: gain (K) per frame
-    task, the N null coefficients, then ε, λ_max and rcond.
+    (``layouts.CF_ROWS``, n), then J (m, n), e and v (2, m), the frames' Jacobians (K, 6, n), the null-space terms
+    Python writers give (n,) and z (n,). ``coef``: gain (K) per frame task, the N null coefficients, then the
+    resolver's tail (``layouts.PINV_TAIL``: ε, λ_max and rcond).
 
     Returns:
         (status — −1 a rotation error too large for the compiled log3, 1 done —, rank, σ_min (NaN: to compute on
         request), damping, Σ e², ‖q̇‖²).
     """
-    K, N, m, nv = ints[0], ints[2], ints[3], ints[4]
+    K, N, m, nv = ints[H_K], ints[H_N], ints[H_M], ints[H_NV]
     out, Jm, ev, Jf = pinv_work_views(work, K, m, nv)
     e, v = ev[0], ev[1]
     if not frame_rows(Jw, poses, t, refs, ints, floats, coef[0:K], Jf, e, v):
         return -1.0, 0, 0.0, 0.0, 0.0, 0.0
-    starts = _part(ints, 8, K + 1)
-    rows = _part(ints, 7, starts[K])
+    starts = _part(ints, H_FRAME_STARTS, K + 1)
+    rows = _part(ints, H_FRAME_ROWS, starts[K])
     for k in range(K):
         Jk = Jf[k]
         for r in range(starts[k], starts[k + 1]):
             Jm[r, :] = Jk[rows[r], :]
-    z = work[work.shape[0] - nv :]  # the null-space objective's target, work's tail (zero without one)
+    zx, z = pinv_null_views(work, nv)
     for i in range(nv):
         z[i] = 0.0
     if N > 0:
         _null_objective(q, ints, floats, coef[K : K + N], z)
     has_z = N > 0
     if ints[H_EXTERNAL_Z] != 0:  # the null-space terms Python writers gave (a mixed plan), before z
-        zx = work[work.shape[0] - 2 * nv : work.shape[0] - nv]
         for i in range(nv):
             z[i] += zx[i]
         has_z = True
-    o = K + N
-    rank, sigma_min, damping = closed_form_into(Jm, v, z, has_z, coef[o], coef[o + 1], coef[o + 2], out, True)
-    return 1.0, rank, sigma_min, damping, _main_error2(ints, e[0:m]), _sumsq(out[2])
+    tail = coef[K + N : K + N + PINV_TAIL]
+    eps, lmax, rcond = tail[TAIL_EPSILON], tail[TAIL_MAX_DAMPING], tail[TAIL_RCOND]
+    rank, sigma_min, damping = closed_form_into(Jm, v, z, has_z, eps, lmax, rcond, out, True)
+    return 1.0, rank, sigma_min, damping, _main_error2(ints, e[0:m]), _sumsq(out[CF_DQ])
 
 
 def wqp_work_size(K: int, m: int, nv: int, mx: int = 0) -> int:
     """Length of :func:`fused_wqp_step`'s ``work`` for K frame tasks, m rows (mx of them written from Python) and nv
     velocity coordinates."""
-    return 7 * nv + 2 * m + 6 * K * nv + mx * nv + mx + nv
+    return OUT_ROWS * nv + 2 * m + FRAME_ROWS * K * nv + mx * nv + mx + nv
 
 
 @_jit
 def wqp_external_views(work: np.ndarray, K: int, m: int, nv: int, mx: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The parts of a ``wqp`` step's ``work`` that Python writers fill (a mixed plan): their rows' Jacobian (mx, nv),
     weights × ρ^k (mx,) and null-space objective terms (nv,); views, after :func:`wqp_work_views`' parts."""
-    a = 7 * nv + 2 * m + 6 * K * nv
+    a = OUT_ROWS * nv + 2 * m + FRAME_ROWS * K * nv
     b = a + mx * nv
     return work[a:b].reshape((mx, nv)), work[b : b + mx], work[b + mx : b + mx + nv]
 
 
 @_jit
 def wqp_work_views(work: np.ndarray, K: int, m: int, nv: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The parts of a ``wqp`` step's ``work``: ``out`` (7, nv: lb, ub, pos_lo, pos_hi, the unconstrained optimum,
+    """The parts of a ``wqp`` step's ``work``: ``out`` (``layouts.OUT_ROWS``, nv: the box, the unconstrained optimum,
     q̇, the copy kept), (e, v) (2, m) and the frames' Jacobians (K, 6, nv); views, in this order."""
-    a = 7 * nv
+    a = OUT_ROWS * nv
     b = a + 2 * m
-    return work[0:a].reshape((7, nv)), work[a:b].reshape((2, m)), work[b : b + 6 * K * nv].reshape((K, 6, nv))
+    return (
+        work[0:a].reshape((OUT_ROWS, nv)),
+        work[a:b].reshape((2, m)),
+        work[b : b + FRAME_ROWS * K * nv].reshape((K, FRAME_ROWS, nv)),
+    )
 
 
 def pinv_work_size(K: int, m: int, nv: int) -> int:
     """Length of :func:`fused_pinv_step`'s ``work`` for K frame tasks, m main rows and nv velocity coordinates: the
     parts of :func:`pinv_work_views`, then the null-space terms Python writers give (nv,) and z (nv,)."""
-    return 3 * nv + m * nv + 2 * m + 6 * K * nv + 2 * nv
+    return CF_ROWS * nv + m * nv + 2 * m + FRAME_ROWS * K * nv + 2 * nv
 
 
 @_jit
 def pinv_work_views(work: np.ndarray, K: int, m: int, nv: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The parts of a ``pinv`` step's ``work``: (J⁺V, (I − J⁺J) z, q̇) (3, nv), J (m, nv), (e, v) (2, m) and the
-    frames' Jacobians (K, 6, nv); views, in this order."""
-    a = 3 * nv
+    """The parts of a ``pinv`` step's ``work``: (J⁺V, (I − J⁺J) z, q̇) (``layouts.CF_ROWS``, nv), J (m, nv), (e, v)
+    (2, m) and the frames' Jacobians (K, 6, nv); views, in this order."""
+    a = CF_ROWS * nv
     b = a + m * nv
     c = b + 2 * m
     return (
-        work[0:a].reshape((3, nv)),
+        work[0:a].reshape((CF_ROWS, nv)),
         work[a:b].reshape((m, nv)),
         work[b:c].reshape((2, m)),
-        work[c : c + 6 * K * nv].reshape((K, 6, nv)),
+        work[c : c + FRAME_ROWS * K * nv].reshape((K, FRAME_ROWS, nv)),
     )
+
+
+@_jit
+def pinv_null_views(work: np.ndarray, nv: int) -> tuple[np.ndarray, np.ndarray]:
+    """The tail of a ``pinv`` step's ``work``: the null-space terms Python writers give (nv,) and z (nv,)."""
+    end = work.shape[0]
+    return work[end - 2 * nv : end - nv], work[end - nv : end]
 
 
 @_jit

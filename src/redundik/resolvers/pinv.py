@@ -19,6 +19,7 @@ from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, Resolver, StepResult, nonfinite_sources
 from redundik.resolvers.fused import FusedPlan, FusedStepResult
+from redundik.resolvers.layouts import CF_DQ, CF_NULL, CF_RANK, CF_ROWS
 from redundik.resolvers.linalg import FK, RCOND, K, contiguous
 from redundik.resolvers.settings import Setting, flag
 from redundik.resolvers.singularity import SingularityGuard
@@ -149,7 +150,7 @@ class PinvResolver(Resolver):
             J, V, z = main_system(robot, stack, terms, layout)
         t1 = time.perf_counter()
         has_z = z is not None
-        out = np.empty((3, robot._nv))
+        out = np.empty((CF_ROWS, robot._nv))
         rank, sigma_min, damping = K.closed_form_into(  # one compiled call: J⁺V, (I − J⁺J) z (5.8) and their sum
             contiguous(J),
             contiguous(V),
@@ -161,7 +162,7 @@ class PinvResolver(Resolver):
             out,
             True,  # σ_min left to be computed on request when J is well conditioned (a Cholesky solve instead)
         )
-        dq_r, dq_n, dq = out[0], out[1], out[2]
+        dq_r, dq_n, dq = out[CF_RANK], out[CF_NULL], out[CF_DQ]
         fallback = None
         if not math.isfinite(dq.dot(dq)) and not np.isfinite(dq).all():  # the dot first: one call when all is well
             bad = nonfinite_sources(terms, robot, stack, z=z)
@@ -209,7 +210,8 @@ class PinvResolver(Resolver):
         if external:
             n = robot._nv
             _, Jm, ev, _ = FK.pinv_work_views(work, len(plan.frames), plan.m, n)
-            plan.write_external(robot, external, Jm, 0, ev, None, work[work.shape[0] - 2 * n : work.shape[0] - n])
+            end = work.shape[0]  # work's tail: the Python writers' null-space terms (n,), then z (n,)
+            plan.write_external(robot, external, Jm, 0, ev, None, work[end - 2 * n : end - n])
         q = robot.q
         status, rank, sigma_min, damping, err2, dq2 = FK.fused_pinv_step(
             plan.jw, plan.poses, float(t), refs, q, plan.ints, plan.floats, coef, work
@@ -258,7 +260,7 @@ class FusedPinvResult(FusedStepResult):
         res = cls.__new__(cls)
         lazy = sigma_min != sigma_min
         res.__dict__ = {
-            "dq": work[2 * n : 3 * n],
+            "dq": work[CF_DQ * n : (CF_DQ + 1) * n],
             "gains": None,
             "damping": damping,
             "fallback": None,
@@ -304,7 +306,7 @@ class FusedPinvResult(FusedStepResult):
         d = self.__dict__
         if "_dq_rank" not in d:
             n = d["_step"][3]._nv
-            d["_dq_rank"] = d["_step"][0][0:n]
+            d["_dq_rank"] = d["_step"][0][CF_RANK * n : (CF_RANK + 1) * n]
         return d["_dq_rank"]
 
     @dq_rank.setter
@@ -316,7 +318,7 @@ class FusedPinvResult(FusedStepResult):
         d = self.__dict__
         if "_dq_null" not in d:
             n = d["_step"][3]._nv
-            d["_dq_null"] = d["_step"][0][n : 2 * n]
+            d["_dq_null"] = d["_step"][0][CF_NULL * n : (CF_NULL + 1) * n]
         return d["_dq_null"]
 
     @dq_null.setter

@@ -31,7 +31,6 @@ that solved the QP (``QPSolution.retried``) does: in ``relaxed`` as ``"wqp (back
 
 from __future__ import annotations
 
-import functools
 import math
 import time
 from collections.abc import Callable
@@ -44,13 +43,33 @@ from redundik._coldstart import ready
 from redundik.errors import SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, StepResult
-from redundik.resolvers.fused import FusedPlan, FusedStepResult
+from redundik.resolvers.fused import FusedPlan
+from redundik.resolvers.layouts import (
+    LIM_AMAX,
+    LIM_HI,
+    LIM_LO,
+    LIM_ROWS,
+    LIM_VMAX,
+    OPT_DT,
+    OPT_GAIN,
+    OPT_POSITION,
+    OPT_RATE,
+    OPT_SHIFT,
+    OPT_Z_SCALE,
+    OUT_BOX,
+    OUT_DQ,
+    OUT_FREE,
+    OUT_KEPT,
+    OUT_ROWS,
+    WQP_OPTS,
+)
 from redundik.resolvers.linalg import FK, K
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase
 from redundik.resolvers.qp.direction import DirectionScaling, solve_direction
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, infeasible
+from redundik.resolvers.qp.wqp_fused import FusedWqpResult
 from redundik.resolvers.settings import Setting, flag, nonnegative, unit_interval
 from redundik.resolvers.singularity import SingularityGuard
 from redundik.tasks.base import TaskTerm
@@ -163,8 +182,10 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         self._plan: _Plan | None = None
         self._no_rows, self._no_rhs = np.zeros((0, 0)), np.zeros(0)
         self._diag = np.zeros(0)
-        #: (the limits' kernel arguments, λ, the fused step's coefficients of the resolver) as last read
-        self._tail: tuple[object, float, tuple[float, ...]] = (None, math.nan, ())
+        #: (the limits' kernel arguments, λ, dt, the fused step's coefficients of the resolver) as last read
+        self._tail: tuple[object, float, float, tuple[float, ...]] = (None, math.nan, math.nan, ())
+        #: (the limits' kernel arguments, their record ``lim``, the options ``opts``) of the lean step's box
+        self._record: tuple[object, np.ndarray, np.ndarray] = (None, np.zeros((LIM_ROWS, 0)), np.zeros(WQP_OPTS))
         self.max_joint_speed, self.singularity = max_joint_speed, singularity  # (validated on assignment)
 
     def build(
@@ -317,23 +338,16 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         t1 = time.perf_counter()
         limits = self.limits
         prev = limits.previous(self._dq_prev)
-        out = np.empty((7, robot._nv))
-        inside = K.wqp_free_step(
-            self._P,
-            self._q,
-            shift,
-            _NO_Z if z is None else z,
-            plan.null_scale,
-            robot.q,
-            *limits.kernel_args(robot),
-            float(dt),
-            prev,
-            out,
-        )
+        out = np.empty((OUT_ROWS, robot._nv))
+        args = limits.kernel_args(robot)
+        lim, opts = self._box_record(args)
+        opts[OPT_DT], opts[OPT_SHIFT], opts[OPT_Z_SCALE] = dt, shift, plan.null_scale
+        z = _NO_Z if z is None else z
+        inside = K.wqp_free_step(self._P, self._q, z, robot.q, args[0], lim, opts, prev, out)
         windowed = prev.shape[0] > 0
         if not inside:  # a constraint is active (or the optimum is not finite): the backend, through the template
             return self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1)
-        dq, kept = out[5], out[6]
+        dq, kept = out[OUT_DQ], out[OUT_KEPT]
         self._dq_prev = kept
         diagnostics = self._free_diagnostics(lambda: terms, plan.main, out, windowed, kept, lam)
         return LazyStepResult.make(
@@ -346,6 +360,19 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             plan.main,
             diagnostics,
         )
+
+    def _box_record(self, args: tuple[Any, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """The joint-limit record ``lim`` and the options ``opts`` of ``K.wqp_free_step`` (:mod:`.layouts`) for the
+        limits' kernel arguments ``args`` (re-read when they are a new tuple: the limits or their options changed);
+        the caller writes dt, the shift and the null-space scale into ``opts``."""
+        record = self._record
+        if record[0] is not args:
+            opts = np.zeros(WQP_OPTS)
+            opts[OPT_POSITION], opts[OPT_RATE], opts[OPT_GAIN] = float(args[5]), float(args[6]), float(args[7])
+            lim = np.empty((LIM_ROWS, args[1].shape[0]))
+            lim[LIM_LO], lim[LIM_HI], lim[LIM_VMAX], lim[LIM_AMAX] = args[1], args[2], args[3], args[4]
+            record = self._record = (args, lim, opts)
+        return record[1], record[2]
 
     def _box_qp(
         self,
@@ -392,7 +419,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         def diagnostics() -> tuple[float, bool, dict[str, object]]:
             terms = terms_of()
             diag = QPDiagnostics()
-            box_rows = out if out.ndim == 2 else out[: 4 * kept.shape[0]].reshape(4, -1)
+            box_rows = out if out.ndim == 2 else out[: OUT_BOX * kept.shape[0]].reshape(OUT_BOX, -1)
             diag.active_limits = limits.box_from(box_rows, windowed).active(kept, limits.joint_names)
             self._diagnose_terms([terms[i] for i in main], lam, kept, diag)
             return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
@@ -424,9 +451,9 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         args = limits.kernel_args(robot)
         lam = self.damping * plan.last_scale
         tail = self._tail
-        if tail[0] is not args or tail[1] != lam:  # the limits' options or the damping changed: re-read
-            tail = self._tail = (args, lam, (float(args[5]), float(args[6]), float(args[7]), lam))
-        coef = fused.coefficients(tail[2])
+        if tail[0] is not args or tail[1] != lam or tail[2] != dt:  # the limits' options, λ or dt changed: re-read
+            tail = self._tail = (args, lam, dt, (float(args[5]), float(args[6]), float(args[7]), lam, float(dt)))
+        coef = fused.coefficients(tail[3])  # (its tail: layouts.TAIL_POSITION … TAIL_DT)
         refs = fused.given_references(t) if fused.given else fused.refs
         prev = limits.previous(self._dq_prev)
         external: list[TaskTerm | None] | tuple[()] = ()
@@ -454,7 +481,6 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             fused.floats,
             coef,
             fused.limits(args),
-            float(dt),
             prev,
             P,
             g,
@@ -465,17 +491,17 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         bounds = self._bound_rows(robot, plan, dt) if plan.bounds else None  # (Python writers of inequality rows)
         if bounds is not None and status == 1.0:  # the optimum inside the box: is it inside the bound rows too?
             G, h = bounds[0], bounds[1]
-            if G.shape[0] and not (G @ work[4 * n : 5 * n] <= h + 1e-12).all():
+            if G.shape[0] and not (G @ work[OUT_FREE * n : (OUT_FREE + 1) * n] <= h + 1e-12).all():
                 status = 0.0
         t1 = time.perf_counter()
         windowed = prev.shape[0] > 0
         if status == 0.0:  # a limit or a bound row binds: the backend, through the template
             K, m = len(fused.frames), fused.m
             _, ev, Jf = FK.wqp_work_views(work, K, m, n)
-            out = work[: 7 * n].reshape(7, n)
+            out = work[: OUT_ROWS * n].reshape(OUT_ROWS, n)
             terms = fused.terms(Jf, ev, q, robot, external)
             return self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1, bounds)
-        self._dq_prev = work[6 * n : 7 * n]
+        self._dq_prev = work[OUT_KEPT * n : (OUT_KEPT + 1) * n]
         return FusedWqpResult.of(
             self, fused, work, q, robot, windowed, lam, err2, dq2, t1 - t0, t1, plan.main, external
         )
@@ -571,84 +597,3 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         return (
             f"WeightedQPResolver(backend={self.backend.name!r}, level_ratio={self.level_ratio}, limits={self.limits!r})"
         )
-
-
-def _fused_terms(step: tuple[Any, ...]) -> list[TaskTerm]:
-    """The task terms of a fused ``wqp`` step, from its work array."""
-    _, fused, work, q, robot, _, _, external = step
-    _, ev, Jf = FK.wqp_work_views(work, len(fused.frames), fused.m, robot._nv)
-    return fused.terms(Jf, ev, q, robot, external)
-
-
-def _fused_diagnostics(step: tuple[Any, ...], main: list[int]) -> tuple[float, bool, dict[str, object]]:
-    """The diagnostics of a fused ``wqp`` step (σ_min, damped, info entries), from its work array."""
-    resolver, _, work, _, robot, windowed, lam, _ = step
-    n = robot._nv
-    terms = _fused_terms(step)
-    diag = QPDiagnostics()
-    limits = resolver.limits
-    kept = work[6 * n : 7 * n]
-    diag.active_limits = limits.box_from(work[: 4 * n].reshape(4, n), windowed).active(kept, limits.joint_names)
-    resolver._diagnose_terms([terms[i] for i in main], lam, kept, diag)
-    return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
-
-
-class FusedWqpResult(FusedStepResult):
-    """The result of a fused ``wqp`` step that solved no QP: q̇ a view on the step's work array; the task terms and
-    the diagnostics (active limits, residuals, σ_min) computed from that array on first read."""
-
-    @classmethod
-    def of(
-        cls,
-        resolver: WeightedQPResolver,
-        fused: FusedPlan,
-        work: np.ndarray,
-        q: np.ndarray,
-        robot: RobotModel,
-        windowed: bool,
-        lam: float,
-        err2: float,
-        dq2: float,
-        build_time: float,
-        t1: float,
-        main: list[int],
-        external: list[TaskTerm | None] | tuple[()] = (),
-    ) -> FusedWqpResult:
-        """The result of ``fused_wqp_step``'s outputs (``t1``: when the compiled call returned)."""
-        n = robot._nv
-        res = cls.__new__(cls)
-        res.__dict__ = {
-            "dq": work[5 * n : 6 * n],
-            "dq_rank": None,
-            "dq_null": None,
-            "gains": None,
-            "damping": 0.0,
-            "fallback": None,
-            "_info": {"backend": "closed-form", "qp": 0, "iterations": 0},
-            "build_time": build_time,
-            "main": main,
-            "pending": True,  # ``_resolve`` computes the diagnostics from the step's work array
-            "_task_error": math.sqrt(err2),
-            "_dq_norm": math.sqrt(dq2),  # ‖q̇‖ from the compiled call (the divergence watch reads it)
-            "_step": (resolver, fused, work, q, robot, windowed, lam, external),
-        }
-        res.__dict__["solve_time"] = time.perf_counter() - t1
-        return res
-
-    def _pending_fn(self) -> Callable[[], tuple[float, bool, dict[str, object]]]:
-        d = self.__dict__
-        if d.get("pending") is True:  # the diagnostics from the step's work array (the step's arrays, not this result)
-            return functools.partial(_fused_diagnostics, d["_step"], d["main"])
-        return super()._pending_fn()
-
-    @property
-    def terms(self) -> list[TaskTerm]:
-        d = self.__dict__
-        terms = d.get("_terms")
-        if terms is None:
-            terms = d["_terms"] = _fused_terms(d["_step"])
-        return terms
-
-    @terms.setter
-    def terms(self, value: list[TaskTerm]) -> None:
-        self.__dict__["_terms"] = value

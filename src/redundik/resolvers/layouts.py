@@ -1,0 +1,58 @@
+"""Named layouts of the packed arrays the compiled steps share with the resolvers (no numba: the resolvers import
+these names without loading the kernels).
+
+* A joint-limit record ``lim`` (:data:`LIM_ROWS`, nv) and a box's options ``opts``
+  (:func:`redundik.resolvers.box_kernels.joint_box`, ``wqp_free_step``);
+* a ``wqp`` step's ``out`` (:data:`OUT_ROWS`, nv): the box, the unconstrained optimum, q̇ and the copy kept;
+* the closed form's ``out`` (:data:`CF_ROWS`, nv) (``kernels.closed_form_into``, ``pinv``'s step);
+* the resolver's tail of a fused step's coefficients ``coef`` (``wqp``: :data:`WQP_TAIL` entries; ``pinv``:
+  :data:`PINV_TAIL`), after the plan's own coefficients;
+* the header slots of a fused plan's ``ints`` that the ``wqp`` and ``pinv`` steps read (the plan,
+  :class:`redundik.resolvers.fused.FusedPlan`, writes them: its ``HEADER`` comment is the reference).
+"""
+
+from __future__ import annotations
+
+#: Rows of a joint-limit record ``lim`` (4, nv): lower and upper position limits [rad or m] (±inf where none), the
+#: velocity limits [rad/s or m/s] and the rate (acceleration) limits [rad/s² or m/s²] (inf where none).
+LIM_LO, LIM_HI, LIM_VMAX, LIM_AMAX = 0, 1, 2, 3
+LIM_ROWS = 4
+
+#: Entries of a box's options ``opts``: position limits apply (1.0/0.0), rate limits apply (1.0/0.0), the position
+#: gain g [-] and dt [s] (``joint_box``); then, for ``wqp_free_step``, the diagonal shift of P and the scale of the
+#: null-space objective z.
+OPT_POSITION, OPT_RATE, OPT_GAIN, OPT_DT = 0, 1, 2, 3
+BOX_OPTS = 4
+OPT_SHIFT, OPT_Z_SCALE = 4, 5
+WQP_OPTS = 6
+
+#: Rows of a ``wqp`` step's ``out`` (:data:`OUT_ROWS`, nv): the box (lb, ub, and the position parts of its bounds),
+#: the unconstrained optimum, q̇, and the copy of q̇ the resolver keeps (its warm start and rate-window reference).
+OUT_LB, OUT_UB, OUT_POS_LO, OUT_POS_HI, OUT_FREE, OUT_DQ, OUT_KEPT = 0, 1, 2, 3, 4, 5, 6
+#: Rows of the box part of ``out`` (lb, ub, pos_lo, pos_hi).
+OUT_BOX = 4
+OUT_ROWS = 7
+
+#: Rows of the closed form's ``out`` (:data:`CF_ROWS`, nv): J⁺V, (I − J⁺J) z and q̇ (eq. 5.8).
+CF_RANK, CF_NULL, CF_DQ = 0, 1, 2
+CF_ROWS = 3
+
+#: A frame task's Jacobian rows (linear, angular).
+FRAME_ROWS = 6
+
+#: The ``wqp`` resolver's tail of a fused step's ``coef``: position limits apply (1.0/0.0), rate limits apply, the
+#: position gain, λ (the Hessian's diagonal shift) and dt [s].
+TAIL_POSITION, TAIL_RATE, TAIL_GAIN, TAIL_DAMPING, TAIL_DT = 0, 1, 2, 3, 4
+WQP_TAIL = 5
+#: The ``pinv`` resolver's tail of a fused step's ``coef``: ε, λ_max and rcond of the damping rule.
+TAIL_EPSILON, TAIL_MAX_DAMPING, TAIL_RCOND = 0, 1, 2
+PINV_TAIL = 3
+
+#: Header slots of a fused plan's ``ints``: the counts K (frame tasks), J (joint-space tasks of a level), N
+#: (null-space terms), m (rows of e), nv, nq; then the offsets (in ``ints``) of the frame rows, the frame row starts
+#: (K + 1), the joint rows, the joint row starts (J + 1), the joint tasks' flags (J), the q index of each velocity
+#: coordinate (nv) and the main-row flags (m); and the offset (in ``floats``) of the joint targets (J × nq).
+H_K, H_J, H_N, H_M, H_NV, H_NQ = 0, 1, 2, 3, 4, 5
+H_FRAME_ROWS, H_FRAME_STARTS = 7, 8
+H_JOINT_ROWS, H_JOINT_STARTS, H_JOINT_FLAGS, H_IQ, H_MAIN = 10, 11, 12, 13, 14
+H_JOINT_TARGETS = 17

@@ -1,0 +1,104 @@
+"""The result of a fused ``wqp`` step that solved no QP (:class:`FusedWqpResult`): q̇ a view on the step's work
+array, the task terms and the diagnostics computed from that array on first read."""
+
+from __future__ import annotations
+
+import functools
+import math
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from redundik.kinematics.model import RobotModel
+from redundik.resolvers.fused import FusedPlan, FusedStepResult
+from redundik.resolvers.layouts import OUT_BOX, OUT_DQ, OUT_KEPT
+from redundik.resolvers.linalg import FK
+from redundik.resolvers.qp.base import QPDiagnostics
+from redundik.tasks.base import TaskTerm
+
+__all__ = ["FusedWqpResult"]
+
+
+def _fused_terms(step: tuple[Any, ...]) -> list[TaskTerm]:
+    """The task terms of a fused ``wqp`` step, from its work array."""
+    _, fused, work, q, robot, _, _, external = step
+    _, ev, Jf = FK.wqp_work_views(work, len(fused.frames), fused.m, robot._nv)
+    return fused.terms(Jf, ev, q, robot, external)
+
+
+def _fused_diagnostics(step: tuple[Any, ...], main: list[int]) -> tuple[float, bool, dict[str, object]]:
+    """The diagnostics of a fused ``wqp`` step (σ_min, damped, info entries), from its work array."""
+    resolver, _, work, _, robot, windowed, lam, _ = step
+    n = robot._nv
+    terms = _fused_terms(step)
+    diag = QPDiagnostics()
+    limits = resolver.limits
+    kept = work[OUT_KEPT * n : (OUT_KEPT + 1) * n]
+    diag.active_limits = limits.box_from(work[: OUT_BOX * n].reshape(OUT_BOX, n), windowed).active(
+        kept, limits.joint_names
+    )
+    resolver._diagnose_terms([terms[i] for i in main], lam, kept, diag)
+    return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
+
+
+class FusedWqpResult(FusedStepResult):
+    """The result of a fused ``wqp`` step that solved no QP: q̇ a view on the step's work array; the task terms and
+    the diagnostics (active limits, residuals, σ_min) computed from that array on first read."""
+
+    @classmethod
+    def of(
+        cls,
+        resolver: Any,  # the WeightedQPResolver that stepped (its module imports this one)
+        fused: FusedPlan,
+        work: np.ndarray,
+        q: np.ndarray,
+        robot: RobotModel,
+        windowed: bool,
+        lam: float,
+        err2: float,
+        dq2: float,
+        build_time: float,
+        t1: float,
+        main: list[int],
+        external: list[TaskTerm | None] | tuple[()] = (),
+    ) -> FusedWqpResult:
+        """The result of ``fused_wqp_step``'s outputs (``t1``: when the compiled call returned)."""
+        n = robot._nv
+        res = cls.__new__(cls)
+        res.__dict__ = {
+            "dq": work[OUT_DQ * n : (OUT_DQ + 1) * n],
+            "dq_rank": None,
+            "dq_null": None,
+            "gains": None,
+            "damping": 0.0,
+            "fallback": None,
+            "_info": {"backend": "closed-form", "qp": 0, "iterations": 0},
+            "build_time": build_time,
+            "main": main,
+            "pending": True,  # ``_resolve`` computes the diagnostics from the step's work array
+            "_task_error": math.sqrt(err2),
+            "_dq_norm": math.sqrt(dq2),  # ‖q̇‖ from the compiled call (the divergence watch reads it)
+            "_step": (resolver, fused, work, q, robot, windowed, lam, external),
+        }
+        res.__dict__["solve_time"] = time.perf_counter() - t1
+        return res
+
+    def _pending_fn(self) -> Callable[[], tuple[float, bool, dict[str, object]]]:
+        d = self.__dict__
+        if d.get("pending") is True:  # the diagnostics from the step's work array (the step's arrays, not this result)
+            return functools.partial(_fused_diagnostics, d["_step"], d["main"])
+        return super()._pending_fn()
+
+    @property
+    def terms(self) -> list[TaskTerm]:
+        d = self.__dict__
+        terms = d.get("_terms")
+        if terms is None:
+            terms = d["_terms"] = _fused_terms(d["_step"])
+        return terms
+
+    @terms.setter
+    def terms(self, value: list[TaskTerm]) -> None:
+        self.__dict__["_terms"] = value
