@@ -33,7 +33,7 @@ takes Zᵀ(b − x) without a factorisation, and the per-level rows
 when the step goes on to the QPs or its diagnostics are read (``LazyStepResult``).
 Fused step (exact, :mod:`redundik.resolvers.fused`): a stack of frame tasks, joint-space tasks and linear gradient
 subtasks, with bound subtasks but no target subtask, skips the tasks' ``evaluate``: one compiled call
-(``fused_kernels.fused_hqp_step``) writes their rows from Pinocchio's Jacobians into the same buffers at the rows
+(``hqp_fused.fused_hqp_step``) writes their rows from Pinocchio's Jacobians into the same buffers at the rows
 the per-task gather gives them, then runs the closed-form path above; the bound subtasks' rows are written beside
 it as the gather writes them. The same q̇, terms and diagnostics (``tests/test_fused.py``).
 Level shortcut (exact, at every level): when the cascade is not feasible, a level QP whose unconstrained
@@ -127,7 +127,7 @@ from redundik.resolvers.fused import (
     FusedPlan,
     FusedStepResult,
 )
-from redundik.resolvers.linalg import FK, K, _Kernels
+from redundik.resolvers.linalg import K, _Kernels
 from redundik.resolvers.qp.backends import CHECKED_ANSWERS, DEFAULT_BACKEND, Backend, DaqpBackend, finite, polish
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase, with_relaxed
 from redundik.resolvers.qp.daqp_native import NativeDaqp
@@ -150,6 +150,8 @@ COMPLEMENT_MIN_N, COMPLEMENT_FRACTION = 40, 3.0
 
 #: :mod:`redundik.resolvers.hqp_kernels`, imported on first use (numba loads then, not when redundik is imported).
 HK = _Kernels("hqp_kernels")
+#: :mod:`redundik.resolvers.hqp_fused` (the fused step), imported on first use.
+HFK = _Kernels("hqp_fused")
 _NO_BASIS = np.zeros((0, 0))
 _NO_SELECTION = np.zeros(0, dtype=np.int64)
 _NO_U = np.zeros(0)
@@ -240,7 +242,7 @@ class _Written:
 
 
 class _Packed(NamedTuple):
-    """Bound subtasks packed for ``fused_kernels.clearance_rows`` (:meth:`_Plan.packed_bounds`)."""
+    """Bound subtasks packed for ``hqp_fused.clearance_rows`` (:meth:`_Plan.packed_bounds`)."""
 
     bint: np.ndarray  # (B, B_AXES + 3) integers per bound (``fused_kernels.B_FID`` …)
     bcols: np.ndarray  # (B, nv) the columns of the joints supporting each frame
@@ -250,7 +252,7 @@ class _Packed(NamedTuple):
     rows: int  # the rows of C, d written
 
 
-#: No packed bounds (``fused_kernels.fused_hqp_step``'s arguments when :meth:`_Plan.fused_bounds` wrote the rows).
+#: No packed bounds (``hqp_fused.fused_hqp_step``'s arguments when :meth:`_Plan.fused_bounds` wrote the rows).
 _NO_BOUNDS = (np.zeros((0, B_AXES + 3), dtype=np.int64), np.zeros((0, 0), dtype=np.int64), np.zeros((0, B_RATE + 1)))
 
 
@@ -454,7 +456,7 @@ class _Plan:
         return bounds
 
     def packed_bounds(self, robot: RobotModel) -> _Packed | None:
-        """The bound subtasks packed for the fused step's compiled damper rows (``fused_kernels.clearance_rows``),
+        """The bound subtasks packed for the fused step's compiled damper rows (``hqp_fused.clearance_rows``),
         when every one gives its ``clearance_form`` (a bound on a clearance, read through verified views of
         Pinocchio's memory, as the fused step reads it); ``None``: :meth:`fused_bounds` evaluates them in Python.
         Packed again when ``Edits`` moved (an assigned centre, radius, frame, axes, bound, rate or name) or for
@@ -529,7 +531,7 @@ class _Plan:
     def fuse(self, robot: RobotModel, stack: TaskStack, t: float = 0.0) -> FusedPlan | str | bool:
         """The fused form of this plan's stack (:mod:`redundik.resolvers.fused`): every task a frame task or a
         joint-space task, no target subtask (bound subtasks are evaluated as :meth:`gather` does); the rows of
-        its least-squares buffers each fused row goes to (``dest``, :func:`fused_kernels.fused_hqp_step`). Returns
+        its least-squares buffers each fused row goes to (``dest``, :func:`hqp_fused.fused_hqp_step`). Returns
         the plan, ``FusedPlan.NOT_YET`` or False (the per-task path)."""
         layout = self.layout
         if any(level.targets for level in layout.levels):
@@ -1128,7 +1130,7 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
     ) -> StepResult | None:
         """:meth:`solve` of a fused stack (:mod:`redundik.resolvers.fused`): the bound subtasks' rows as
         :meth:`_Plan.gather` writes them, then one compiled call from Pinocchio's Jacobians through the rows to the
-        unconstrained cascade and its tests (``fused_kernels.fused_hqp_step``); ``None`` when this step needs the
+        unconstrained cascade and its tests (``hqp_fused.fused_hqp_step``); ``None`` when this step needs the
         per-task path (a rotation error beyond the compiled log3's range)."""
         t0 = time.perf_counter()
         n = robot._nv
@@ -1164,7 +1166,7 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
         out = np.empty((7, 1, n))
         stats = np.empty((plan.meta.shape[1] - 1, 4))
         q = robot.q
-        status, err2, dq2 = FK.fused_hqp_step(
+        status, err2, dq2 = HFK.fused_hqp_step(
             fused.jw, fused.poses, float(t), refs, q, fused.ints, fused.floats, coef, fused.limits(args), args[0],
             float(dt), prev, Jf, ev, plan.dest, plan.A, plan.b, plan.w, plan.C, plan.d, bint, bcols, bfl, plan.meta,
             plan.params, z, out, stats,
