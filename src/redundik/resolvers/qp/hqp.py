@@ -546,6 +546,13 @@ class _Plan:
             if terms is None:
                 return False
             built.pending_external = terms
+        self.lay_out(built)
+        return built
+
+    def lay_out(self, built: FusedPlan) -> None:
+        """The rows of the least-squares buffers each row of the fused plan ``built`` goes to (``dest``) and the
+        levels' first rows (``ls_offsets``), for its row counts now; again whenever a Python-written member's row
+        count moves (the bound subtasks are packed again for the new offsets)."""
         ints = built.ints
         K, J = int(ints[0]), int(ints[1])
         starts = ints[ints[8] : ints[8] + K + 1].tolist()
@@ -581,7 +588,7 @@ class _Plan:
         self._weights = []  # the fused call writes the weights and identity rows: gather rewrites them after
         self.dest = np.array(dest + mixed_starts, dtype=np.int64)
         self.ls_offsets = ls_offsets
-        return built
+        self._packed_key = None  # (the packed bounds hold the levels' offsets)
 
     def step_rows(
         self,
@@ -1134,6 +1141,18 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
         per-task path (a rotation error beyond the compiled log3's range)."""
         t0 = time.perf_counter()
         n = robot._nv
+        external: list[TaskTerm | None] | tuple[()] = ()
+        if fused.external:  # members without a compiled form: their rows and z terms from Python (before the
+            evaluated = fused.pending_external  # bounds: a moved row count moves the levels' offsets)
+            fused.pending_external = None
+            if evaluated is None:
+                evaluated = fused.evaluate_external(robot, t)
+                if evaluated is None:
+                    plan.fused = False
+                    return None
+                if fused.repacked:  # a row count moved: the buffers laid out again for the new counts
+                    plan.lay_out(fused)
+            external = evaluated
         packed = plan.packed_bounds(robot)
         if packed is None:
             bounds = plan.fused_bounds(robot, dt)
@@ -1151,16 +1170,7 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
         z = np.zeros(n)
         if fused.lie_joints:
             fused.write_joint_errors(robot, ev[0])
-        external: list[TaskTerm | None] | tuple[()] = ()
-        if fused.external:  # members without a compiled form: their rows and z terms from Python, then the call
-            evaluated = fused.pending_external
-            fused.pending_external = None
-            if evaluated is None:
-                evaluated = fused.evaluate_external(robot, t)
-                if evaluated is None or fused.repacked:  # a row count moved: this membership steps per task
-                    plan.fused = False  # (its buffers were laid out for the first counts)
-                    return None
-            external = evaluated
+        if external:
             fused.write_external(robot, external, None, 0, ev, None, z)
             self._write_external_rows(plan, fused, external)
         out = np.empty((7, 1, n))
