@@ -164,20 +164,12 @@ class _PythonCascade(HierarchicalQPResolver):
             # backend on the scale of a unit weight (a weight of 1e-6 left daqp's absolute tolerances 0.3 off)
             M, rhs, eps = M / scale, rhs / scale, eps / (scale * scale)
         P, q, G, h, lb, ub = HK.level_qp_arrays(
-            M if M is not None else np.zeros((0, r)),
-            rhs if rhs is not None else np.zeros(0),
-            eps,
-            lv.C if p else np.zeros((0, n)),
-            lv.d if p else np.zeros(0),
+            (M if M is not None else np.zeros((0, r)), rhs if rhs is not None else np.zeros(0), eps),
+            (lv.C if p else np.zeros((0, n)), lv.d if p else np.zeros(0)),
             x,
-            Z if Z is not None else _NO_BASIS,
-            mode,
-            selection if selection is not None else _NO_SELECTION,
-            F,
-            f,
-            box.lb,
-            box.ub,
-            ~pinned,
+            (Z if Z is not None else _NO_BASIS, mode, selection if selection is not None else _NO_SELECTION),
+            (F, f),
+            (box.lb, box.ub, ~pinned),
             self.slack_tolerance,
         )
         nvar = r + p
@@ -218,7 +210,9 @@ class _PythonCascade(HierarchicalQPResolver):
         C, d = (lv.C, lv.d) if lv.p else (F[:0], f[:0])
         native = Z is None or selection is not None
         return bool(
-            HK.level_rows_ok(step, x, box.lb, box.ub, ~pinned, native, C, d, F, f, self.slack_tolerance, _FEASIBLE)
+            HK.level_rows_ok(
+                step, x, (box.lb, box.ub, ~pinned), native, (C, d), (F, f), self.slack_tolerance, _FEASIBLE
+            )
         )
 
     @staticmethod

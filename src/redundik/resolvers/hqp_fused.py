@@ -29,6 +29,24 @@ from redundik.resolvers.fused import (
 )
 from redundik.resolvers.fused_kernels import _main_error2, _null_objective, _part, _sumsq, frame_rows
 from redundik.resolvers.hqp_kernels import closed_step
+from redundik.resolvers.hqp_layout import (
+    H_FRAME_ROWS,
+    H_FRAME_STARTS,
+    H_IQ,
+    H_J,
+    H_JOINT_FLAGS,
+    H_JOINT_ROWS,
+    H_JOINT_STARTS,
+    H_JOINT_TARGETS,
+    H_K,
+    H_M,
+    H_N,
+    H_NQ,
+    H_NV,
+    OUT_DQ,
+    CascadeRows,
+    LimitArgs,
+)
 from redundik.resolvers.kernels import _jit
 from redundik.tasks.potential_kernels import clearance_into
 
@@ -76,74 +94,43 @@ def clearance_rows(
             d[row] = gamma * (fb[B_UP] - p)
 
 
+#: The records of :func:`fused_hqp_step`: Pinocchio's memory and the references (Jw, poses, refs); the step (t [s],
+#: dt [s], q, the last q̇ kept); the plan's packing (ints, floats, dest, bint, bcols, bfl); the work arrays (Jf, ev);
+#: the outputs (out, stats).
+Kinematics = tuple[np.ndarray, np.ndarray, np.ndarray]
+Step = tuple[float, float, np.ndarray, np.ndarray]
+Packing = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+FusedWork = tuple[np.ndarray, np.ndarray]
+FusedOuts = tuple[np.ndarray, np.ndarray]
+
+
 @_jit
-def fused_hqp_step(
-    Jw: np.ndarray,
-    poses: np.ndarray,
-    t: float,
-    refs: np.ndarray,
-    q: np.ndarray,
-    ints: np.ndarray,
-    floats: np.ndarray,
-    coef: np.ndarray,
-    lim: np.ndarray,
-    iq: np.ndarray,
-    dt: float,
-    dq_prev: np.ndarray,
-    Jf: np.ndarray,
-    ev: np.ndarray,
-    dest: np.ndarray,
-    A: np.ndarray,
-    b: np.ndarray,
-    w: np.ndarray,
-    C: np.ndarray,
-    d: np.ndarray,
-    bint: np.ndarray,
-    bcols: np.ndarray,
-    bfl: np.ndarray,
-    meta: np.ndarray,
-    params: np.ndarray,
-    z: np.ndarray,
-    out: np.ndarray,
-    stats: np.ndarray,
-) -> tuple[float, float, float]:
-    """One ``hqp`` step of a fused stack: the frame rows (``frame_rows``) and joint rows (J = I[sel],
-    e = (q_ref − q)[sel], v = K e) written into the cascade's least-squares buffers A, b, w at the rows ``dest[r]``
-    of the stack's layout (the rows ``hqp``'s per-task gather would give them), z of the null-space objective
-    (``_null_objective``) and, for a level that carries it after rows of its own, its identity rows at the starts
-    ``dest[m:]``; the packed bound subtasks' damper rows into C, d (``clearance_rows``; the caller wrote the others);
-    then ``closed_step`` on those rows and the inequality rows C, d.
-
-    ``coef``: gain (K), weight (K) per frame task; gain (J), weight (J) per joint task; an unused slot; the N null
-    coefficients; then position (0/1), rate (0/1) and the position gain of the limits. ``lim`` (4, nv): lower, upper
-    [rad], velocity [rad/s], acceleration [rad/s²] limits; ``iq`` their q index per velocity coordinate.
-
-    Returns:
-        (status, Σ e² of the main rows, ‖q̇‖² when feasible): status −1 — a rotation error too large for the
-        compiled log3 (evaluate the tasks one by one); otherwise ``closed_step``'s: 1 feasible (q̇ in out[5, 0]),
-        0 a constraint is active, 2 q̇ not finite.
-    """
-    K, J, N, m, nv, nq = ints[0], ints[1], ints[2], ints[3], ints[4], ints[5]
+def _task_rows(
+    q: np.ndarray, plan: Packing, coef: np.ndarray, Jf: np.ndarray, ev: np.ndarray, rows: CascadeRows
+) -> None:
+    """The frame tasks' rows (their Jacobians ``Jf`` and v, written by ``frame_rows``) and the level joint tasks'
+    rows (J = I[sel], e = (q_ref − q)[sel], v = K e) into A, b, w at the rows ``dest[r]`` of the stack's layout."""
+    ints, floats, dest = plan[0], plan[1], plan[2]
+    A, b, w = rows[0], rows[1], rows[2]
+    K, J, nq = ints[H_K], ints[H_J], ints[H_NQ]
     e, v = ev[0], ev[1]
-    if not frame_rows(Jw, poses, t, refs, ints, floats, coef[0:K], Jf, e, v):
-        return -1.0, 0.0, 0.0
-    starts = _part(ints, 8, K + 1)
-    rows = _part(ints, 7, starts[K])
+    starts = _part(ints, H_FRAME_STARTS, K + 1)
+    frows = _part(ints, H_FRAME_ROWS, starts[K])
     for k in range(K):
         wk = coef[K + k]
         Jk = Jf[k]
         for r in range(starts[k], starts[k + 1]):
             a = dest[r]
-            A[a, :] = Jk[rows[r], :]
+            A[a, :] = Jk[frows[r], :]
             b[a] = v[r]
             w[a] = wk
-    jq = _part(ints, 13, nv)
-    jstarts = _part(ints, 11, J + 1)
-    jsel = _part(ints, 10, jstarts[J])
-    jflags = _part(ints, 12, J)
-    to = ints[17]
+    jq = _part(ints, H_IQ, ints[H_NV])
+    jstarts = _part(ints, H_JOINT_STARTS, J + 1)
+    jsel = _part(ints, H_JOINT_ROWS, jstarts[J])
+    jflags = _part(ints, H_JOINT_FLAGS, J)
+    to = ints[H_JOINT_TARGETS]
     mf = starts[K]
-    c0 = 2 * K
+    c0 = 2 * K  # (the joint tasks' gains, then their weights)
     for k in range(J):
         gain, wk = coef[c0 + k], coef[c0 + J + k]
         for r in range(jstarts[k], jstarts[k + 1]):
@@ -160,26 +147,80 @@ def fused_hqp_step(
             A[a, s] = 1.0
             b[a] = gain * err
             w[a] = wk
+
+
+@_jit
+def _null_rows(q: np.ndarray, plan: Packing, coef: np.ndarray, rows: CascadeRows) -> None:
+    """z of the null-space objective (``_null_objective``; added to the terms Python writers put in z in a mixed
+    plan) and, for a level that carries it after rows of its own, its ½‖q̇ − z‖² identity rows at the starts
+    ``dest[m:]``."""
+    ints, floats, dest = plan[0], plan[1], plan[2]
+    A, b, w, z = rows[0], rows[1], rows[2], rows[5]
+    K, J, N, m, nv = ints[H_K], ints[H_J], ints[H_N], ints[H_M], ints[H_NV]
+    cn = 2 * K + 2 * J + 1  # (the null coefficients, after the joint tasks' and an unused slot)
     if N > 0:
         if ints[H_EXTERNAL_Z] != 0:  # z holds the terms Python writers gave (a mixed plan): kept, added after
             zx = z.copy()
-            _null_objective(q, ints, floats, coef[c0 + 2 * J + 1 : c0 + 2 * J + 1 + N], z)
+            _null_objective(q, ints, floats, coef[cn : cn + N], z)
             for i in range(nv):
                 z[i] += zx[i]
         else:
-            _null_objective(q, ints, floats, coef[c0 + 2 * J + 1 : c0 + 2 * J + 1 + N], z)
-    for i in range(m, dest.shape[0]):  # a level with rows of its own and the null-space objective: ½‖q̇ − z‖² rows
+            _null_objective(q, ints, floats, coef[cn : cn + N], z)
+    for i in range(m, dest.shape[0]):
         a = dest[i]
         for r in range(nv):
             A[a + r, :] = 0.0
             A[a + r, r] = 1.0
             b[a + r] = z[r]
             w[a + r] = 1.0
+
+
+@_jit
+def fused_hqp_step(
+    kin: Kinematics,
+    step: Step,
+    plan: Packing,
+    coef: np.ndarray,
+    limits: LimitArgs,
+    work: FusedWork,
+    rows: CascadeRows,
+    params: np.ndarray,
+    outs: FusedOuts,
+) -> tuple[float, float, float]:
+    """One ``hqp`` step of a fused stack: the frame rows (``frame_rows``) and joint rows written into the cascade's
+    least-squares buffers A, b, w at the rows ``dest[r]`` of the stack's layout (the rows ``hqp``'s per-task gather
+    would give them, :func:`_task_rows`), z of the null-space objective and its identity rows (:func:`_null_rows`);
+    the packed bound subtasks' damper rows into C, d (``clearance_rows``; the caller wrote the others); then
+    ``closed_step`` on those rows and the inequality rows C, d.
+
+    Args:
+        kin: (Jw, poses, refs): the joint Jacobians and frame poses (views of Pinocchio's memory), the reference rows.
+        step: (t [s], dt [s], q, the last q̇ kept).
+        plan: (ints, floats, dest, bint, bcols, bfl): the plan's packing (``fused.HEADER``), the destination row of
+            each fused row, the packed bound subtasks.
+        coef: gain (K), weight (K) per frame task; gain (J), weight (J) per joint task; an unused slot; the N null
+            coefficients; then the limits' options (read from ``limits`` here).
+        limits: ``LimitBox.kernel_args``: (iq, lo, hi, vmax, amax, position, has_rate, gain).
+        work: (Jf, ev): the frame tasks' Jacobians (K, 6, nv) and (e, v) (2, m).
+        rows, params: ``closed_step``'s (the cascade's rows and settings).
+        outs: (out, stats): ``closed_step``'s.
+
+    Returns:
+        (status, Σ e² of the main rows, ‖q̇‖² when feasible): status −1 — a rotation error too large for the
+        compiled log3 (evaluate the tasks one by one); otherwise ``closed_step``'s: 1 feasible (q̇ in out[OUT_DQ,
+        0]), 0 a constraint is active, 2 q̇ not finite.
+    """
+    Jw, poses, refs = kin
+    t, dt, q, dq_prev = step
+    ints, floats, bint, bcols, bfl = plan[0], plan[1], plan[3], plan[4], plan[5]
+    Jf, ev = work
+    out, stats = outs
+    K, m = ints[H_K], ints[H_M]
+    if not frame_rows(Jw, poses, t, refs, ints, floats, coef[0:K], Jf, ev[0], ev[1]):
+        return -1.0, 0.0, 0.0
+    _task_rows(q, plan, coef, Jf, ev, rows)
+    _null_rows(q, plan, coef, rows)
     if bint.shape[0] > 0:
-        clearance_rows(Jw, poses, dt, bint, bcols, bfl, C, d)
-    o = c0 + 2 * J + 1 + N
-    status = closed_step(
-        A, b, w, C, d, z, meta, params, q, iq, lim[0], lim[1], lim[2], lim[3],
-        coef[o] != 0.0, coef[o + 1] != 0.0, coef[o + 2], dt, dq_prev, out, stats,
-    )  # fmt: skip
-    return float(status), _main_error2(ints, e[0:m]), _sumsq(out[5, 0]) if status == 1 else 0.0
+        clearance_rows(Jw, poses, dt, bint, bcols, bfl, rows[3], rows[4])
+    status = closed_step(rows, params, q, limits, dt, dq_prev, out, stats)
+    return float(status), _main_error2(ints, ev[0][0:m]), _sumsq(out[OUT_DQ, 0]) if status == 1 else 0.0

@@ -127,6 +127,20 @@ from redundik.resolvers.fused import (
     FusedPlan,
     FusedStepResult,
 )
+from redundik.resolvers.hqp_layout import (
+    H_FRAME_STARTS,
+    H_J,
+    H_JOINT_STARTS,
+    H_K,
+    META_INEQ,
+    META_KIND,
+    META_LS,
+    OUT_DQ,
+    OUT_KEPT,
+    OUT_LB,
+    OUT_POS_HI,
+    OUT_UB,
+)
 from redundik.resolvers.linalg import K, _Kernels
 from redundik.resolvers.qp.backends import CHECKED_ANSWERS, DEFAULT_BACKEND, Backend, DaqpBackend, finite, polish
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, QPResolverBase, with_relaxed
@@ -153,6 +167,7 @@ HK = _Kernels("hqp_kernels")
 #: :mod:`redundik.resolvers.hqp_fused` (the fused step), imported on first use.
 HFK = _Kernels("hqp_fused")
 _NO_BASIS = np.zeros((0, 0))
+_BOX = slice(OUT_LB, OUT_POS_HI + 1)  # the limit box's rows of ``closed_step``'s out
 _NO_SELECTION = np.zeros(0, dtype=np.int64)
 _NO_U = np.zeros(0)
 _NO_NATIVE = np.zeros(0, dtype=np.int64)
@@ -268,7 +283,7 @@ class _Plan:
         for k, plan in enumerate(layout.levels):
             has_rows = bool(plan.tasks or plan.targets)
             has_z = plan.null_objective and layout.has_null_objective
-            self.meta[2, k] = HK.LEAST_SQUARES if has_rows else (HK.NULL_OBJECTIVE if has_z else HK.SKIP)
+            self.meta[META_KIND, k] = HK.LEAST_SQUARES if has_rows else (HK.NULL_OBJECTIVE if has_z else HK.SKIP)
             self.mixed.append(has_rows and has_z)
         self.mixed_flags = np.array(self.mixed, dtype=np.bool_)
         self.A, self.b, self.w = np.zeros((16, n)), np.zeros(16), np.ones(16)
@@ -393,7 +408,7 @@ class _Plan:
             self._written = (weakref.ref(written), cs)
         if offsets != self._offsets:
             for k, (ls_row, ineq_row) in enumerate(offsets):
-                meta[0, k], meta[1, k] = ls_row, ineq_row
+                meta[META_LS, k], meta[META_INEQ, k] = ls_row, ineq_row
             self._offsets = offsets
         return z, targets, bounds
 
@@ -451,7 +466,7 @@ class _Plan:
             self._written = (weakref.ref(written), cs)
         if offsets != self._offsets:
             for k, (ls_row, ineq_row) in enumerate(offsets):
-                meta[0, k], meta[1, k] = ls_row, ineq_row
+                meta[META_LS, k], meta[META_INEQ, k] = ls_row, ineq_row
             self._offsets = offsets
         return bounds
 
@@ -520,7 +535,7 @@ class _Plan:
         if self._offsets is not packed.offsets:
             if self._offsets != packed.offsets:
                 for k, (ls_row, ineq_row) in enumerate(packed.offsets):
-                    self.meta[0, k], self.meta[1, k] = ls_row, ineq_row
+                    self.meta[META_LS, k], self.meta[META_INEQ, k] = ls_row, ineq_row
             self._offsets = packed.offsets
         if not packed.slices:
             return []
@@ -554,9 +569,9 @@ class _Plan:
         levels' first rows (``ls_offsets``), for its row counts now; again whenever a Python-written member's row
         count moves (the bound subtasks are packed again for the new offsets)."""
         ints = built.ints
-        K, J = int(ints[0]), int(ints[1])
-        starts = ints[ints[8] : ints[8] + K + 1].tolist()
-        jstarts = ints[ints[11] : ints[11] + J + 1].tolist()
+        K, J = int(ints[H_K]), int(ints[H_J])
+        starts = ints[ints[H_FRAME_STARTS] : ints[H_FRAME_STARTS] + K + 1].tolist()
+        jstarts = ints[ints[H_JOINT_STARTS] : ints[H_JOINT_STARTS] + J + 1].tolist()
         mf = starts[K]
         spans: dict[int, tuple[int, int]] = {}
         for i, (kind, k) in enumerate(built.order):
@@ -631,7 +646,7 @@ class _Plan:
         ms = cs = 0
         blk = 0
         for k, (blocks, ineq) in enumerate(zip(rows.ls, rows.ineq, strict=True)):
-            meta[0, k], meta[1, k] = ms, cs
+            meta[META_LS, k], meta[META_INEQ, k] = ms, cs
             for J, v, weight in blocks:
                 e = ms + J.shape[0]
                 if e > A.shape[0]:
@@ -662,7 +677,7 @@ class _Plan:
                 d[cs:e] = di
                 cs = e
         L = meta.shape[1] - 1
-        meta[0, L], meta[1, L] = ms, cs
+        meta[META_LS, L], meta[META_INEQ, L] = ms, cs
         self._offsets = []  # (meta written here: gather rewrites it)
 
     def _grow_ls(self, rows: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -672,6 +687,11 @@ class _Plan:
         self.b = np.concatenate([self.b, np.zeros(cap - self.b.shape[0])])
         self.w = np.concatenate([self.w, np.ones(cap - self.w.shape[0])])
         return self.A, self.b, self.w
+
+    def rows(self, z: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The cascade's rows record (A, b, w, C, d, z, meta) of the kernels (``hqp_layout.CascadeRows``), with the
+        null-space objective's target ``z``."""
+        return self.A, self.b, self.w, self.C, self.d, z, self.meta
 
     def cascade_buffers(self, rows: int) -> tuple[np.ndarray, ...]:
         """The constrained cascade's work arrays (Z, N, the fixed rows F, f, their slacks, its state, the free-joint
@@ -695,7 +715,7 @@ class _Plan:
         if dims is None or dims[0] is not self._offsets:  # meta rewritten since (its writers renew _offsets)
             nvar, nr, m_max = HK.cascade_qp_dims(self.n, self.meta)
             L = self.meta.shape[1] - 1
-            dims = self._dims = (self._offsets, nvar, nr, int(self.meta[1, L]))
+            dims = self._dims = (self._offsets, nvar, nr, int(self.meta[META_INEQ, L]))
             self.r_size = m_max * m_max
             size = nvar * nvar + nvar + nr * nvar + 2 * (nvar + nr)
             if self._qp_buf.shape[0] < size:
@@ -856,9 +876,7 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
         stats = np.empty((plan.meta.shape[1] - 1, 4))
         z = rows.z if rows.z is not None else plan.zero
         box = built.box
-        if not HK.closed_cascade(
-            plan.A, plan.b, plan.w, plan.C, plan.d, z, box.lb, box.ub, plan.meta, plan.params, x, stats
-        ):
+        if not HK.closed_cascade(plan.rows(z), (box.lb, box.ub), plan.params, x, stats):
             return None
         built.stats = stats
         return x
@@ -920,17 +938,18 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
             return None
         L = plan.meta.shape[1] - 1
         assert plan._dims is not None
-        Z, N, F, f, slack, state, free, sel = plan.cascade_buffers(plan._dims[3])
+        work = plan.cascade_buffers(plan._dims[3])
+        _, _, _, _, _, state, _, _ = work
         x = np.empty(plan.n)
         stats = np.zeros((L, 7))
         rfac = np.empty((L, plan.r_size))
         ctl = native.ctl
         ctl[HK.NAT_SOLVED] = ctl[HK.NAT_ITERS] = 0
         status = HK.qp_cascade_run(
-            plan.A, plan.b, plan.w, plan.C, plan.d, z, plan.meta, plan.mixed_flags, lb, ub, free, sel,
-            self._cascade_cfg(), state, x, Z, N, F, f, slack, stats, rfac, qbuf, 0, False, _NO_U, ctl, native.x,
+            plan.rows(z), plan.mixed_flags, (lb, ub), self._cascade_cfg(), work, (x, stats, rfac, qbuf),
+            (0, False, _NO_U), (ctl, native.x),
         )[0]  # fmt: skip
-        if status != 0 or state[HK.ST_CONTRADICTED]:
+        if status != HK.CASCADE_DONE or state[HK.ST_CONTRADICTED]:
             return None
         return x, stats, rfac, int(ctl[HK.NAT_SOLVED]), int(ctl[HK.NAT_ITERS])
 
@@ -957,7 +976,8 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
         # carries a window of zero width (as the pair of rows ±Z_j u ≤ tol, it left proxsuite a 1e-7-wide feasible
         # set that it declared infeasible)
         x = np.empty(n)
-        Z, N, F, f, slack, state, free, sel = plan.cascade_buffers(int(plan.meta[1, L]))
+        work = plan.cascade_buffers(int(plan.meta[META_INEQ, L]))
+        _, _, _, _, slack, state, _, _ = work
         stats = np.zeros((L, 7))
         z = built.z if built.z is not None else plan.zero
         notes: list[tuple[int, str]] = []
@@ -975,12 +995,12 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
         else:
             ctl, nx = _NO_NATIVE, _NO_U
         last_here = -1  # the last level whose QP was solved here (the record's backend is the last solver's)
+        rows, outs, limits = plan.rows(z), (x, stats, rfac, qbuf), (box.lb, box.ub)
         while True:
             status, k, nvar, nr, eps = HK.qp_cascade_run(
-                plan.A, plan.b, plan.w, plan.C, plan.d, z, plan.meta, plan.mixed_flags, box.lb, box.ub, free, sel,
-                cfg, state, x, Z, N, F, f, slack, stats, rfac, qbuf, k, absorb, u, ctl, nx,
-            )  # fmt: skip
-            if status == 0:
+                rows, plan.mixed_flags, limits, cfg, work, outs, (k, absorb, u), (ctl, nx)
+            )
+            if status == HK.CASCADE_DONE:
                 break
             last_here = k
             nu, neq = int(state[HK.ST_NU]), int(state[HK.ST_NEQ])  # the step's variables, the equality rows (last)
@@ -1028,7 +1048,7 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
             worst = float(stats[k, HK.QS_WORST])
             lv = built.levels[k]
             diag.contradicted[lv.priority] = worst
-            c0, c1 = int(plan.meta[1, k]), int(plan.meta[1, k + 1])
+            c0, c1 = int(plan.meta[META_INEQ, k]), int(plan.meta[META_INEQ, k + 1])
             owner = [bsub.name for C, _, _, bsub in built.rows.ineq[k] for _ in range(C.shape[0])]
             over = np.flatnonzero(slack[c0:c1] > CONTRADICTION_TOLERANCE).tolist()
             diag.relaxed += [owner[i] for i in over if i < len(owner)] or [f"level {lv.priority}"]
@@ -1072,34 +1092,20 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
         prev = limits.previous(self._dq_prev)
         out = np.empty((7, 1, n))
         stats = np.empty((plan.meta.shape[1] - 1, 4))
-        status = HK.closed_step(
-            plan.A,
-            plan.b,
-            plan.w,
-            plan.C,
-            plan.d,
-            plan.zero if z is None else z,
-            plan.meta,
-            plan.params,
-            robot.q,
-            *limits.kernel_args(robot),
-            float(dt),
-            prev,
-            out,
-            stats,
-        )
+        rows = plan.rows(plan.zero if z is None else z)
+        status = HK.closed_step(rows, plan.params, robot.q, limits.kernel_args(robot), float(dt), prev, out, stats)
         windowed = prev.shape[0] > 0
         if status != 1:  # a constraint is active (0), or q̇ is not finite (2): the template, on the same rows
             built = HQPBuild(
-                lambda: plan.step_rows(terms, z, targets, bounds), limits.box_from(out[:4, 0], windowed), n,
+                lambda: plan.step_rows(terms, z, targets, bounds), limits.box_from(out[_BOX, 0], windowed), n,
                 infeasible=status == 0, layout=layout, z=z, filled=status == 0, critical=False,
             )  # fmt: skip
             return self._finish(robot, stack, terms, built, t0, t1)
-        kept = out[6, 0]
+        kept = out[OUT_KEPT, 0]
         self._dq_prev = kept
 
         def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
-            box = limits.box_from(out[:4, 0], windowed)
+            box = limits.box_from(out[_BOX, 0], windowed)
             built = HQPBuild(plan.step_rows(terms, z, targets, bounds), box, n, stats)
             diag = QPDiagnostics()
             diag.active_limits = box.active(kept, limits.joint_names)
@@ -1107,7 +1113,7 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
             return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
 
         return LazyStepResult.make(
-            out[5, 0],
+            out[OUT_DQ, 0],
             terms,
             None,
             {"backend": "closed-form", "qp": 0, "iterations": 0},
@@ -1177,9 +1183,9 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
         stats = np.empty((plan.meta.shape[1] - 1, 4))
         q = robot.q
         status, err2, dq2 = HFK.fused_hqp_step(
-            fused.jw, fused.poses, float(t), refs, q, fused.ints, fused.floats, coef, fused.limits(args), args[0],
-            float(dt), prev, Jf, ev, plan.dest, plan.A, plan.b, plan.w, plan.C, plan.d, bint, bcols, bfl, plan.meta,
-            plan.params, z, out, stats,
+            (fused.jw, fused.poses, refs), (float(t), float(dt), q, prev),
+            (fused.ints, fused.floats, plan.dest, bint, bcols, bfl), coef, args, (Jf, ev), plan.rows(z), plan.params,
+            (out, stats),
         )  # fmt: skip
         if status < 0.0:
             return None
@@ -1191,15 +1197,15 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
             if status != 0.0:  # q̇ not finite: the template, its terms at hand to say where from
                 terms = make_terms()
                 built = HQPBuild(
-                    lambda: plan.step_rows(terms, zs, [], bounds), limits.box_from(out[:4, 0], windowed), n,
+                    lambda: plan.step_rows(terms, zs, [], bounds), limits.box_from(out[_BOX, 0], windowed), n,
                     layout=plan.layout, z=zs, critical=False,
                 )  # fmt: skip
                 return self._finish(robot, stack, terms, built, t0, t1)
-            lean = self._native_cascade(plan, out[0, 0], out[1, 0], plan.zero if zs is None else zs)
+            lean = self._native_cascade(plan, out[OUT_LB, 0], out[OUT_UB, 0], plan.zero if zs is None else zs)
             if lean is not None and finite(lean[0]):  # (a non-finite q̇ takes the template: it says where from)
                 return self._native_result(plan, lean, out, windowed, zs, bounds, make_terms, err2, t0, t1)
             built = HQPBuild(
-                lambda: plan.step_rows(make_terms(), zs, [], bounds), limits.box_from(out[:4, 0], windowed), n,
+                lambda: plan.step_rows(make_terms(), zs, [], bounds), limits.box_from(out[_BOX, 0], windowed), n,
                 infeasible=True, layout=plan.layout, z=zs, filled=True, critical=False,
             )  # fmt: skip
             # the constrained cascade; the terms are built only if read (or for a fallback), the task error is the
@@ -1209,11 +1215,11 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
                 dq, make_terms, math.sqrt(err2), info, t1 - t0, t2 - t1, plan.layout.main, pending, fallback=fallback
             )
             return with_relaxed(res, relaxed)
-        kept = out[6, 0]
+        kept = out[OUT_KEPT, 0]
         self._dq_prev = kept
 
         def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
-            box = limits.box_from(out[:4, 0], windowed)
+            box = limits.box_from(out[_BOX, 0], windowed)
             built = HQPBuild(plan.step_rows(make_terms(), zs, [], bounds), box, n, stats)
             diag = QPDiagnostics()
             diag.active_limits = box.active(kept, limits.joint_names)
@@ -1221,7 +1227,7 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
             return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
 
         return FusedStepResult.fused(
-            out[5, 0],
+            out[OUT_DQ, 0],
             make_terms,
             math.sqrt(err2),
             {"backend": "closed-form", "qp": 0, "iterations": 0},
@@ -1249,7 +1255,7 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
         :meth:`_settle` makes of it — q̇ clipped to the limit box (both rows: returned and kept), the same info,
         the same diagnostics on first read — without the template's records."""
         x, qstats, rfac, nqp, iters = lean
-        lb, ub = out[0, 0], out[1, 0]
+        lb, ub = out[OUT_LB, 0], out[OUT_UB, 0]
         clipped = np.empty((2, x.shape[0]))
         K.clip_twice(x, lb, ub, clipped)
         kept = clipped[1]
@@ -1258,7 +1264,7 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
         limits, name = self.limits, self.backend.name
 
         def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
-            box = limits.box_from(out[:4, 0], windowed)
+            box = limits.box_from(out[_BOX, 0], windowed)
             built = HQPBuild(plan.step_rows(make_terms(), zs, [], bounds), box, plan.n, infeasible=True)
             built.qp_stats, built.qp_r = qstats, rfac
             diag = QPDiagnostics(backend=name, qp=nqp, iterations=iters)
@@ -1305,8 +1311,7 @@ class HierarchicalQPResolver(DirectionScaling, QPResolverBase):
             stats = np.empty_like(stats)
             z = built.rows.z if built.rows.z is not None else plan.zero
             box = built.box
-            HK.closed_cascade(plan.A, plan.b, plan.w, plan.C, plan.d, z, box.lb, box.ub, plan.meta, plan.params,
-                              np.empty(built.n), stats)  # fmt: skip
+            HK.closed_cascade(plan.rows(z), (box.lb, box.ub), plan.params, np.empty(built.n), stats)
         if stats is not None:
             projected = False
             for k, lv in enumerate(levels):
