@@ -20,19 +20,15 @@ from redundik.kinematics import DHRow
 from redundik.resolvers.kernels import lsq_level
 from redundik.resolvers.linalg import DampedSVD, damped_svd
 from redundik.resolvers.qp.base import QPDiagnostics, QPResolverBase
-from redundik.resolvers.qp.hqp import (
-    _FEASIBLE,
-    _NO_BASIS,
-    _NO_SELECTION,
-    CONTRADICTION_TOLERANCE,
-    HK,
-    HierarchicalQPResolver,
-    HQPBuild,
-)
+from redundik.resolvers.qp.hqp import HK, HierarchicalQPResolver, HQPBuild
+from redundik.resolvers.qp.hqp_constrained import _FEASIBLE, CONTRADICTION_TOLERANCE
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem
 from redundik.resolvers.qp.terms import Level
 from tests.test_qp_helpers import prepared, random_robot, tip
+
+_NO_BASIS = np.zeros((0, 0))
+_NO_SELECTION = np.zeros(0, dtype=np.int64)
 
 
 def _reference_closed_cascade(
