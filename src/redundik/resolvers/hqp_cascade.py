@@ -270,7 +270,14 @@ def _identity_factors(
 
 @_jit
 def _level_factors(
-    lv: Level, rows: CascadeRows, mixed: bool, x: np.ndarray, work: Work, cfg: np.ndarray, rk: np.ndarray
+    lv: Level,
+    rows: CascadeRows,
+    mixed: bool,
+    x: np.ndarray,
+    work: Work,
+    cfg: np.ndarray,
+    rk: np.ndarray,
+    empty: tuple[np.ndarray, np.ndarray],
 ) -> Factors:
     """Level lv's least squares over u (:data:`Factors`): its weighted rows M = A_k Z and residual target rhs and
     their factors — (U, σ, Vt, rank, σ_min, λ) and the null basis into N, or the certified QR (R into ``rk``, the
@@ -283,8 +290,7 @@ def _level_factors(
     certified_qr = cfg[CFG_CERTIFIED_QR] != 0.0
     n = x.shape[0]
     comp = mode == COMPLEMENT_BASIS
-    empty2 = np.zeros((0, 0))
-    empty1 = np.zeros(0)
+    empty2, empty1 = empty  # (allocated once per call of the cascade)
     M, rhs, U, sv, Vt = empty2, empty1, empty2, empty1, empty2
     scale, rank, sigma_min, damping, ncols, qr_level = 1.0, 0, np.inf, 0.0, 0, False
     if pure and comp:  # rows I on null(W): every direction left, singular values 1
@@ -516,6 +522,7 @@ def qp_cascade_run(
     tol, feas, contra = cfg[CFG_SLACK_TOL], cfg[CFG_FEASIBLE], cfg[CFG_CONTRADICTION]
     cmin, cfrac = cfg[CFG_COMPLEMENT_MIN_N], cfg[CFG_COMPLEMENT_FRACTION]
     box = (lb, ub, free)
+    empty = (np.zeros((0, 0)), np.zeros(0))
     if k0 == 0 and not absorb:  # the start: x = 0 but on the pinned joints, Z = I (or I on the free joints)
         _start(lb, ub, work, x)
     k = k0
@@ -545,7 +552,7 @@ def qp_cascade_run(
         if pure and p == 0 and mode != IDENTITY_BASIS and _pure_closed_form(lv, x, z, limits, work, tol):
             k += 1
             continue
-        fac = _level_factors(lv, rows, mixed[k], x, work, cfg, rfac[k])
+        fac = _level_factors(lv, rows, mixed[k], x, work, cfg, rfac[k], empty)
         scale = fac[1]
         eps = cfg[CFG_REGULARIZATION] * scale * scale
         if fac[0]:
