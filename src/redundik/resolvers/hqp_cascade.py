@@ -98,10 +98,11 @@ Factors = tuple[bool, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.
 def _absorb(
     k: int,
     u: np.ndarray,
-    rows: CascadeRows,
-    tol: float,
-    contradiction: float,
-    work: Work,
+    ineq: tuple[np.ndarray, np.ndarray, np.ndarray],
+    tols: tuple[float, float],
+    basis: Rows,
+    fixed: tuple[np.ndarray, np.ndarray, np.ndarray],
+    state: np.ndarray,
     x: np.ndarray,
     stats: np.ndarray,
 ) -> None:
@@ -111,9 +112,12 @@ def _absorb(
 
     In the complement mode u is the joint-space step y itself (x ← x + y) and the level's new fixed directions —
     ``state[ST_NCOLS]`` rows of N — join the complement W; when it fills the space the mode becomes the empty basis
-    (mode 2, r = 0)."""
-    C, d, meta = rows[3], rows[4], rows[6]
-    Z, N, F, f, slack, state = work[0], work[1], work[2], work[3], work[4], work[5]
+    (mode 2, r = 0). ``ineq`` = (C, d, meta), ``tols`` = (the slack tolerance, the contradiction tolerance),
+    ``basis`` = (Z, N), ``fixed`` = (F, f, slack)."""
+    C, d, meta = ineq
+    tol, contradiction = tols
+    Z, N = basis
+    F, f, slack = fixed
     n = x.shape[0]
     mode, r = state[ST_MODE], state[ST_R]
     if mode == IDENTITY_BASIS or mode == COMPLEMENT_BASIS:
@@ -177,11 +181,12 @@ def _shrink_basis(state: np.ndarray, Z: np.ndarray, N: np.ndarray, n: int) -> No
 
 
 @_jit
-def _start(lb: np.ndarray, ub: np.ndarray, work: Work, x: np.ndarray) -> None:
+def _start(
+    lb: np.ndarray, ub: np.ndarray, state: np.ndarray, x: np.ndarray, Z: np.ndarray, free: np.ndarray, sel: np.ndarray
+) -> None:
     """The cascade's start (``LimitBox.pinned``'s rule): a joint whose box is one value, ub − lb ≤ 1e-12·max(1,
     |ub|) with both finite, is fixed at its middle and left out of the basis: Z = I on the free joints (mode 1) when
     any is pinned, else Z = I (mode 0)."""
-    Z, state, free, sel = work[0], work[5], work[6], work[7]
     n = x.shape[0]
     cnt = 0
     for j in range(n):
@@ -225,11 +230,13 @@ def _to_complement(state: np.ndarray, Z: np.ndarray, free: np.ndarray) -> None:
 
 
 @_jit
-def _pure_closed_form(lv: Level, x: np.ndarray, z: np.ndarray, limits: Rows, work: Work, tol: float) -> bool:
+def _pure_closed_form(
+    lv: Level, x: np.ndarray, z: np.ndarray, limits: Rows, Z: np.ndarray, fixed: Rows, state: np.ndarray, tol: float
+) -> bool:
     """A pure null-space level without rows of its own: q̇ = x + P_Z(z − x) when that keeps the limits and the rows
     fixed above (x, the basis and r then updated: nothing is left below); False (nothing written) otherwise."""
     mode, r, nw = lv[5], lv[6], lv[7]
-    Z, F, f, state = work[0], work[2], work[3], work[5]
+    F, f = fixed
     lb, ub = limits
     n = x.shape[0]
     nf = state[ST_NF]
@@ -271,10 +278,10 @@ def _identity_factors(
 @_jit
 def _level_factors(
     lv: Level,
-    rows: CascadeRows,
+    ls: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     mixed: bool,
     x: np.ndarray,
-    work: Work,
+    basis: Rows,
     cfg: np.ndarray,
     rk: np.ndarray,
     empty: tuple[np.ndarray, np.ndarray],
@@ -284,8 +291,8 @@ def _level_factors(
     null basis or, in the complement mode, the fixed directions into N). In the complement mode over y ∈ null(W):
     Vt's rows in joint space, and the rows it fixes into N's rows."""
     _, s, e, m, pure, mode, r, nw = lv
-    A, b, w, z = rows[0], rows[1], rows[2], rows[5]
-    Z, N = work[0], work[1]
+    A, b, w, z = ls
+    Z, N = basis
     epsilon, max_damping, rcond = cfg[CFG_EPSILON], cfg[CFG_MAX_DAMPING], cfg[CFG_RCOND]
     certified_qr = cfg[CFG_CERTIFIED_QR] != 0.0
     n = x.shape[0]
@@ -348,12 +355,17 @@ def _level_factors(
 
 
 @_jit
-def _ridge(lv: Level, fac: Factors, Z: np.ndarray, N: np.ndarray, rk: np.ndarray, eps: float, nu: int) -> np.ndarray:
+def _ridge(
+    lv: Level, svd: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], flags: tuple[bool, bool], Z: np.ndarray,
+    N: np.ndarray, rk: np.ndarray, eps: float, nu: int,
+) -> np.ndarray:  # fmt: skip
     """The level's ridge solution û = argmin ‖M u − rhs‖² + ε‖u‖² (nu entries; zero without least squares): from the
     SVD V diag(σ/(σ² + ε)) Uᵀ rhs, from the certified QR M = RᵀQ₁ᵀ (u = Q₁ t, t = argmin ‖Rᵀt − rhs‖² + ε‖t‖²), or
-    (I − WᵀW) rhs / (1 + ε) for the null-space objective's rows I in the complement mode."""
+    (I − WᵀW) rhs / (1 + ε) for the null-space objective's rows I in the complement mode. ``svd`` = (rhs, U, σ, Vt),
+    ``flags`` = (has least squares, factored by the certified QR)."""
     m, pure, mode, r, nw = lv[3], lv[4], lv[5], lv[6], lv[7]
-    has_lsq, rhs, U, sv, Vt, qr_level = fac[0], fac[3], fac[4], fac[5], fac[6], fac[11]
+    rhs, U, sv, Vt = svd
+    has_lsq, qr_level = flags
     comp = mode == COMPLEMENT_BASIS
     n = Z.shape[0]
     u = np.zeros(nu)
@@ -382,17 +394,18 @@ def _ridge(lv: Level, fac: Factors, Z: np.ndarray, N: np.ndarray, rk: np.ndarray
 
 
 @_jit
-def _write_level_qp(lv: Level, fac: Factors, eps: float, level: Rows, x: np.ndarray, box: Box, native: bool,
-                    work: Work, tol: float, qbuf: np.ndarray) -> tuple[int, int, float]:  # fmt: skip
+def _write_level_qp(lv: Level, ls: tuple[float, np.ndarray, np.ndarray, np.ndarray], eps: float, level: Rows,
+                    x: np.ndarray, box: Box, native: bool, qp_work: tuple[np.ndarray, np.ndarray, np.ndarray,
+                    np.ndarray, np.ndarray], tol: float, qbuf: np.ndarray) -> tuple[int, int, float]:  # fmt: skip
     """Level lv's QP for the backend into ``qbuf`` (:func:`level_qp_into`, or :func:`level_qp_joint_into` in the
     complement mode; ``native``: the limits as the variables' own bounds, at the level where Z = I or I on the free
     joints): (nvar, nr, ε of u); ``state[ST_NU]``, ``state[ST_NEQ]``: the step's variables and the
     equality rows. A level of least squares only is divided by its scale² (the same optimum)."""
     m, pure, mode, r, nw = lv[3], lv[4], lv[5], lv[6], lv[7]
-    scale, M, rhs, U = fac[1], fac[2], fac[3], fac[4]
-    Z, F, f, state = work[0], work[2], work[3], work[5]
+    scale, M, rhs, U = ls
+    Z, F, f, state, sel_buf = qp_work
     nf = state[ST_NF]
-    sel = work[7][: state[ST_NSEL]]
+    sel = sel_buf[: state[ST_NSEL]]
     n = x.shape[0]
     C, d = level
     Mq, rq, eq = M, rhs, eps
@@ -433,22 +446,11 @@ def _write_level_qp(lv: Level, fac: Factors, eps: float, level: Rows, x: np.ndar
 
 
 @_jit
-def _native_level(
-    k: int,
-    native: Native,
-    qbuf: np.ndarray,
-    dims: tuple[int, int, int],
-    rows: CascadeRows,
-    cfg: np.ndarray,
-    work: Work,
-    x: np.ndarray,
-    stats: np.ndarray,
-) -> bool:
+def _native_level(k: int, native: Native, qbuf: np.ndarray, dims: tuple[int, int, int]) -> bool:
     """Level k's QP in ``qbuf`` (``dims`` = (nvar, nr, neq)) solved here through daqp's C entry point when the
-    ``native`` record (ctl, nx) enables it (not a bounds-only QP the backend splits), and absorbed when daqp solves
-    it at once (exit flag 1 or 2, a finite x; ``nx``: where daqp writes its solution and multipliers): True; False
-    leaves it to the caller, which poses it with every retry. ``ctl[NAT_FN]`` is set for daqp as the backend
-    (``daqp_native.NativeDaqp``)."""
+    ``native`` record (ctl, nx) enables it (``ctl[NAT_FN]`` set for daqp as the backend, ``daqp_native.NativeDaqp``;
+    not a bounds-only QP the backend splits): True when daqp solved it at once (exit flag 1 or 2, a finite x, in
+    ``nx``; the caller absorbs it); False leaves it to the caller, which poses it with every retry."""
     ctl, nx = native
     nvar, nr, neq = dims
     if not (ctl.shape[0] > NAT_SENSE and ctl[NAT_FN] != 0 and not (nr == 0 and nvar >= ctl[NAT_SPLIT_MIN])):
@@ -463,17 +465,15 @@ def _native_level(
     ctl[NAT_SOLVED] += 1
     ctl[NAT_ITERS] += max(iters, 0)
     ctl[NAT_LAST] = k
-    state = work[5]
-    _absorb(k, nx[: state[ST_NU]], rows, cfg[CFG_SLACK_TOL], cfg[CFG_CONTRADICTION], work, x, stats)
     return True
 
 
 @_jit
-def _level_stats(stats: np.ndarray, k: int, fac: Factors, r: int, projected: bool) -> None:
-    """The level's record in ``stats`` (``QS_*``) when it solved a least squares."""
-    stats[k, QS_SIGMA] = fac[8]
-    stats[k, QS_DAMPING] = fac[9]
-    stats[k, QS_RANK] = fac[7]
+def _level_stats(stats: np.ndarray, k: int, fac: tuple[int, float, float], r: int, projected: bool) -> None:
+    """The level's record in ``stats`` (``QS_*``) when it solved a least squares; ``fac`` = (rank, σ_min, λ)."""
+    stats[k, QS_SIGMA] = fac[1]
+    stats[k, QS_DAMPING] = fac[2]
+    stats[k, QS_RANK] = fac[0]
     stats[k, QS_FREE] = r
     stats[k, QS_PROJECTED] = 1.0 if projected else 0.0
     stats[k, QS_SOLVED] = 1.0
@@ -510,10 +510,10 @@ def qp_cascade_run(
         (``CASCADE_DONE``, L, 0, 0, 0) when the cascade is done (q̇ in x); (``CASCADE_LEVEL_QP``, k, nvar, nr, ε)
         when level k needs its QP: nvar variables (u, w') and nr rows, in ``qbuf``; ε its regulariser on u.
     """
-    C, d, z, meta = rows[3], rows[4], rows[5], rows[6]
-    Z, N, F, f, state, free = work[0], work[1], work[2], work[3], work[5], work[6]
+    A, b, w, C, d, z, meta = rows
+    Z, N, F, f, slack, state, free, sel_buf = work
     x, stats, rfac, qbuf = outs
-    k0, absorb, u_in = resume
+    k, absorb, u_in = resume
     lb, ub = limits
     n = x.shape[0]
     L = meta.shape[1] - 1
@@ -522,22 +522,22 @@ def qp_cascade_run(
     tol, feas, contra = cfg[CFG_SLACK_TOL], cfg[CFG_FEASIBLE], cfg[CFG_CONTRADICTION]
     cmin, cfrac = cfg[CFG_COMPLEMENT_MIN_N], cfg[CFG_COMPLEMENT_FRACTION]
     box = (lb, ub, free)
+    ineq, tols, basis, fixed = (C, d, meta), (tol, contra), (Z, N), (F, f, slack)
     empty = (np.zeros((0, 0)), np.zeros(0))
-    if k0 == 0 and not absorb:  # the start: x = 0 but on the pinned joints, Z = I (or I on the free joints)
-        _start(lb, ub, work, x)
-    k = k0
+    if k == 0 and not absorb:  # the start: x = 0 but on the pinned joints, Z = I (or I on the free joints)
+        _start(lb, ub, state, x, Z, free, sel_buf)
     if absorb:
-        _absorb(k, u_in, rows, tol, contra, work, x, stats)
+        _absorb(k, u_in, ineq, tols, basis, fixed, state, x, stats)
         k += 1
     while k < L:
         kind = meta[META_KIND, k]
         c0, c1 = meta[META_INEQ, k], meta[META_INEQ, k + 1]
-        p = c1 - c0
         s, e = meta[META_LS, k], meta[META_LS, k + 1]
         m = e - s if kind == LEAST_SQUARES else 0
         pure = kind == NULL_OBJECTIVE
         mode, r, nf = state[ST_MODE], state[ST_R], state[ST_NF]
-        if (r == 0 and p == 0) or (m == 0 and not pure and p == 0):
+        p = c1 - c0
+        if p == 0 and (r == 0 or (m == 0 and not pure)):
             k += 1
             continue
         native_box = mode == IDENTITY_BASIS or mode == SELECTION_BASIS  # the limits as the variables' own bounds
@@ -549,31 +549,32 @@ def qp_cascade_run(
             projected = mode == GENERAL_BASIS or mode == COMPLEMENT_BASIS
         comp = mode == COMPLEMENT_BASIS
         lv = (k, s, e, m, pure, mode, r, n - r if comp else 0)
-        if pure and p == 0 and mode != IDENTITY_BASIS and _pure_closed_form(lv, x, z, limits, work, tol):
+        if pure and p == 0 and mode != IDENTITY_BASIS and _pure_closed_form(lv, x, z, limits, Z, (F, f), state, tol):
             k += 1
             continue
-        fac = _level_factors(lv, rows, mixed[k], x, work, cfg, rfac[k], empty)
-        scale = fac[1]
-        eps = cfg[CFG_REGULARIZATION] * scale * scale
+        fac = _level_factors(lv, (A, b, w, z), mixed[k], x, basis, cfg, rfac[k], empty)
+        eps = cfg[CFG_REGULARIZATION] * fac[1] * fac[1]
         if fac[0]:
             eps = max(eps, fac[9] * fac[9])
-            _level_stats(stats, k, fac, r, projected)
+            _level_stats(stats, k, (fac[7], fac[8], fac[9]), r, projected)
         state[ST_NCOLS] = fac[10]
         state[ST_LSQ] = 1 if fac[0] else 0
         level = (C[c0:c1], d[c0:c1])
         if cfg[CFG_SHORTCUT] != 0.0:
-            u = _ridge(lv, fac, Z, N, rfac[k], eps, n if comp else r)
+            u = _ridge(lv, (fac[3], fac[4], fac[5], fac[6]), (fac[0], fac[11]), Z, N, rfac[k], eps, n if comp else r)
             if mode == IDENTITY_BASIS or comp:
                 step = u
             else:
                 step = np.zeros(n)
                 _add_basis_step(step, Z, r, u)
             if level_rows_ok(step, x, box, native_box, level, (F[:nf], f[:nf]), tol, feas):
-                _absorb(k, u, rows, tol, contra, work, x, stats)
+                _absorb(k, u, ineq, tols, basis, fixed, state, x, stats)
                 k += 1
                 continue
-        nvar, nr, eq = _write_level_qp(lv, fac, eps, level, x, box, native_box, work, tol, qbuf)
-        if _native_level(k, native, qbuf, (nvar, nr, state[ST_NEQ]), rows, cfg, work, x, stats):
+        ls = (fac[1], fac[2], fac[3], fac[4])
+        nvar, nr, eq = _write_level_qp(lv, ls, eps, level, x, box, native_box, (Z, F, f, state, sel_buf), tol, qbuf)
+        if _native_level(k, native, qbuf, (nvar, nr, state[ST_NEQ])):
+            _absorb(k, native[1][: state[ST_NU]], ineq, tols, basis, fixed, state, x, stats)
             k += 1
             continue
         return CASCADE_LEVEL_QP, k, nvar, nr, eq

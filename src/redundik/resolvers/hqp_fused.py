@@ -45,7 +45,6 @@ from redundik.resolvers.hqp_layout import (
     H_NV,
     OUT_DQ,
     CascadeRows,
-    LimitArgs,
 )
 from redundik.resolvers.kernels import _jit
 from redundik.tasks.potential_kernels import clearance_into
@@ -106,12 +105,19 @@ FusedOuts = tuple[np.ndarray, np.ndarray]
 
 @_jit
 def _task_rows(
-    q: np.ndarray, plan: Packing, coef: np.ndarray, Jf: np.ndarray, ev: np.ndarray, rows: CascadeRows
+    q: np.ndarray,
+    ints: np.ndarray,
+    floats: np.ndarray,
+    dest: np.ndarray,
+    coef: np.ndarray,
+    Jf: np.ndarray,
+    ev: np.ndarray,
+    A: np.ndarray,
+    b: np.ndarray,
+    w: np.ndarray,
 ) -> None:
     """The frame tasks' rows (their Jacobians ``Jf`` and v, written by ``frame_rows``) and the level joint tasks'
     rows (J = I[sel], e = (q_ref − q)[sel], v = K e) into A, b, w at the rows ``dest[r]`` of the stack's layout."""
-    ints, floats, dest = plan[0], plan[1], plan[2]
-    A, b, w = rows[0], rows[1], rows[2]
     K, J, nq = ints[H_K], ints[H_J], ints[H_NQ]
     e, v = ev[0], ev[1]
     starts = _part(ints, H_FRAME_STARTS, K + 1)
@@ -150,12 +156,20 @@ def _task_rows(
 
 
 @_jit
-def _null_rows(q: np.ndarray, plan: Packing, coef: np.ndarray, rows: CascadeRows) -> None:
+def _null_rows(
+    q: np.ndarray,
+    ints: np.ndarray,
+    floats: np.ndarray,
+    dest: np.ndarray,
+    coef: np.ndarray,
+    A: np.ndarray,
+    b: np.ndarray,
+    w: np.ndarray,
+    z: np.ndarray,
+) -> None:
     """z of the null-space objective (``_null_objective``; added to the terms Python writers put in z in a mixed
     plan) and, for a level that carries it after rows of its own, its ½‖q̇ − z‖² identity rows at the starts
     ``dest[m:]``."""
-    ints, floats, dest = plan[0], plan[1], plan[2]
-    A, b, w, z = rows[0], rows[1], rows[2], rows[5]
     K, J, N, m, nv = ints[H_K], ints[H_J], ints[H_N], ints[H_M], ints[H_NV]
     cn = 2 * K + 2 * J + 1  # (the null coefficients, after the joint tasks' and an unused slot)
     if N > 0:
@@ -181,7 +195,7 @@ def fused_hqp_step(
     step: Step,
     plan: Packing,
     coef: np.ndarray,
-    limits: LimitArgs,
+    limits: tuple[np.ndarray, np.ndarray],
     work: FusedWork,
     rows: CascadeRows,
     params: np.ndarray,
@@ -199,8 +213,10 @@ def fused_hqp_step(
         plan: (ints, floats, dest, bint, bcols, bfl): the plan's packing (``fused.HEADER``), the destination row of
             each fused row, the packed bound subtasks.
         coef: gain (K), weight (K) per frame task; gain (J), weight (J) per joint task; an unused slot; the N null
-            coefficients; then the limits' options (read from ``limits`` here).
-        limits: ``LimitBox.kernel_args``: (iq, lo, hi, vmax, amax, position, has_rate, gain).
+            coefficients; then position (0/1), rate (0/1) and the position gain of the limits.
+        limits: (iq, lim): the q index of each velocity coordinate and the (4, nv) limit rows (lower, upper [rad],
+            velocity [rad/s], acceleration [rad/s²]) of ``LimitBox.kernel_args`` (``FusedPlan.limits``): fewer
+            arrays for the call to unbox than the whole record.
         work: (Jf, ev): the frame tasks' Jacobians (K, 6, nv) and (e, v) (2, m).
         rows, params: ``closed_step``'s (the cascade's rows and settings).
         outs: (out, stats): ``closed_step``'s.
@@ -212,15 +228,19 @@ def fused_hqp_step(
     """
     Jw, poses, refs = kin
     t, dt, q, dq_prev = step
-    ints, floats, bint, bcols, bfl = plan[0], plan[1], plan[3], plan[4], plan[5]
+    ints, floats, dest, bint, bcols, bfl = plan
+    A, b, w, C, d, z = rows[0], rows[1], rows[2], rows[3], rows[4], rows[5]
     Jf, ev = work
     out, stats = outs
     K, m = ints[H_K], ints[H_M]
     if not frame_rows(Jw, poses, t, refs, ints, floats, coef[0:K], Jf, ev[0], ev[1]):
         return -1.0, 0.0, 0.0
-    _task_rows(q, plan, coef, Jf, ev, rows)
-    _null_rows(q, plan, coef, rows)
+    _task_rows(q, ints, floats, dest, coef, Jf, ev, A, b, w)
+    _null_rows(q, ints, floats, dest, coef, A, b, w, z)
     if bint.shape[0] > 0:
-        clearance_rows(Jw, poses, dt, bint, bcols, bfl, rows[3], rows[4])
-    status = closed_step(rows, params, q, limits, dt, dq_prev, out, stats)
+        clearance_rows(Jw, poses, dt, bint, bcols, bfl, C, d)
+    iq, lim = limits
+    o = 2 * K + 2 * ints[H_J] + 1 + ints[H_N]  # (the limits' options, after the null coefficients)
+    box_args = (iq, lim[0], lim[1], lim[2], lim[3], coef[o] != 0.0, coef[o + 1] != 0.0, coef[o + 2])
+    status = closed_step(rows, params, q, box_args, dt, dq_prev, out, stats)
     return float(status), _main_error2(ints, ev[0][0:m]), _sumsq(out[OUT_DQ, 0]) if status == 1 else 0.0

@@ -389,8 +389,8 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         q = robot.q
         status, err2, dq2 = HFK.fused_hqp_step(
             (fused.jw, fused.poses, refs), (float(t), float(dt), q, prev),
-            (fused.ints, fused.floats, plan.dest, bint, bcols, bfl), coef, args, (Jf, ev), plan.rows(z), plan.params,
-            (out, stats),
+            (fused.ints, fused.floats, plan.dest, bint, bcols, bfl), coef, (args[0], fused.limits(args)), (Jf, ev),
+            plan.rows(z), plan.params, (out, stats),
         )  # fmt: skip
         if status < 0.0:
             return None
