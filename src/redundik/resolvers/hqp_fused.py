@@ -244,3 +244,20 @@ def fused_hqp_step(
     box_args = (iq, lim[0], lim[1], lim[2], lim[3], coef[o] != 0.0, coef[o + 1] != 0.0, coef[o + 2])
     status = closed_step(rows, params, q, box_args, dt, dq_prev, out, stats)
     return float(status), _main_error2(ints, ev[0][0:m]), _sumsq(out[OUT_DQ, 0]) if status == 1 else 0.0
+
+
+@_jit
+def fused_hqp_call(
+    Jw: np.ndarray, poses: np.ndarray, refs: np.ndarray, t: float, dt: float, q: np.ndarray, dq_prev: np.ndarray,
+    ints: np.ndarray, floats: np.ndarray, dest: np.ndarray, bint: np.ndarray, bcols: np.ndarray, bfl: np.ndarray,
+    coef: np.ndarray, iq: np.ndarray, lim: np.ndarray, Jf: np.ndarray, ev: np.ndarray, A: np.ndarray, b: np.ndarray,
+    w: np.ndarray, C: np.ndarray, d: np.ndarray, z: np.ndarray, meta: np.ndarray, params: np.ndarray, out: np.ndarray,
+    stats: np.ndarray,
+) -> tuple[float, float, float]:  # fmt: skip
+    """:func:`fused_hqp_step` for a caller in Python, its records' arrays given one by one: the records are made
+    here, in compiled code, at no cost, where numba unboxes an array given inside a tuple some 25 ns slower than one
+    given as an argument of its own (measured: ~0.7 µs a step)."""
+    return fused_hqp_step(
+        (Jw, poses, refs), (t, dt, q, dq_prev), (ints, floats, dest, bint, bcols, bfl), coef, (iq, lim), (Jf, ev),
+        (A, b, w, C, d, z, meta), params, (out, stats),
+    )  # fmt: skip

@@ -47,7 +47,7 @@ from redundik.resolvers.hqp_algebra import (
     qr_certificate,
     upper_inverse,
 )
-from redundik.resolvers.hqp_cascade import qp_cascade_run
+from redundik.resolvers.hqp_cascade import qp_cascade_call, qp_cascade_run
 from redundik.resolvers.hqp_layout import (
     CASCADE_DONE,
     CASCADE_LEVEL_QP,
@@ -216,6 +216,7 @@ __all__ = [
     "level_rows_ok",
     "native_quadprog",
     "qp_buffer_size",
+    "qp_cascade_call",
     "qp_cascade_run",
     "qp_views",
     "qr_certificate",

@@ -387,10 +387,10 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         out = np.empty((7, 1, n))
         stats = np.empty((plan.meta.shape[1] - 1, 4))
         q = robot.q
-        status, err2, dq2 = HFK.fused_hqp_step(
-            (fused.jw, fused.poses, refs), (float(t), float(dt), q, prev),
-            (fused.ints, fused.floats, plan.dest, bint, bcols, bfl), coef, (args[0], fused.limits(args)), (Jf, ev),
-            plan.rows(z), plan.params, (out, stats),
+        status, err2, dq2 = HFK.fused_hqp_call(
+            fused.jw, fused.poses, refs, float(t), float(dt), q, prev, fused.ints, fused.floats, plan.dest, bint, bcols,
+            bfl, coef, args[0], fused.limits(args), Jf, ev, plan.A, plan.b, plan.w, plan.C, plan.d, z, plan.meta,
+            plan.params, out, stats,
         )  # fmt: skip
         if status < 0.0:
             return None

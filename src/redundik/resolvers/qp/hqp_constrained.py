@@ -190,16 +190,15 @@ class ConstrainedCascade(QPResolverBase):
             return None
         L = plan.meta.shape[1] - 1
         assert plan._dims is not None
-        work = plan.cascade_buffers(plan._dims[3])
-        _, _, _, _, _, state, _, _ = work
+        Z, N, F, f, slack, state, free, sel = plan.cascade_buffers(plan._dims[3])
         x = np.empty(plan.n)
         stats = np.zeros((L, 7))
         rfac = np.empty((L, plan.r_size))
         ctl = native.ctl
         ctl[HK.NAT_SOLVED] = ctl[HK.NAT_ITERS] = 0
-        status = HK.qp_cascade_run(
-            plan.rows(z), plan.mixed_flags, (lb, ub), self._cascade_cfg(), work, (x, stats, rfac, qbuf),
-            (0, False, _NO_U), (ctl, native.x),
+        status = HK.qp_cascade_call(
+            plan.A, plan.b, plan.w, plan.C, plan.d, z, plan.meta, plan.mixed_flags, lb, ub, self._cascade_cfg(), Z, N,
+            F, f, slack, state, free, sel, x, stats, rfac, qbuf, 0, False, _NO_U, ctl, native.x,
         )[0]  # fmt: skip
         if status != HK.CASCADE_DONE or state[HK.ST_CONTRADICTED]:
             return None
@@ -228,8 +227,7 @@ class ConstrainedCascade(QPResolverBase):
         # carries a window of zero width (as the pair of rows ±Z_j u ≤ tol, it left proxsuite a 1e-7-wide feasible
         # set that it declared infeasible)
         x = np.empty(n)
-        work = plan.cascade_buffers(int(plan.meta[META_INEQ, L]))
-        _, _, _, _, slack, state, _, _ = work
+        Z, N, F, f, slack, state, free, sel = plan.cascade_buffers(int(plan.meta[META_INEQ, L]))
         stats = np.zeros((L, 7))
         z = built.z if built.z is not None else plan.zero
         notes: list[tuple[int, str]] = []
@@ -247,11 +245,11 @@ class ConstrainedCascade(QPResolverBase):
         else:
             ctl, nx = _NO_NATIVE, _NO_U
         last_here = -1  # the last level whose QP was solved here (the record's backend is the last solver's)
-        rows, outs, limits = plan.rows(z), (x, stats, rfac, qbuf), (box.lb, box.ub)
         while True:
-            status, k, nvar, nr, eps = HK.qp_cascade_run(
-                rows, plan.mixed_flags, limits, cfg, work, outs, (k, absorb, u), (ctl, nx)
-            )
+            status, k, nvar, nr, eps = HK.qp_cascade_call(
+                plan.A, plan.b, plan.w, plan.C, plan.d, z, plan.meta, plan.mixed_flags, box.lb, box.ub, cfg, Z, N, F, f,
+                slack, state, free, sel, x, stats, rfac, qbuf, k, absorb, u, ctl, nx,
+            )  # fmt: skip
             if status == HK.CASCADE_DONE:
                 break
             last_here = k
