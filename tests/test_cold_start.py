@@ -118,7 +118,7 @@ def test_a_kernel_source_edit_gets_a_new_cache_folder(tmp_path: Path) -> None:
     before = kc.sources_stamp(tmp_path)
     assert before == kc.sources_stamp(kc.PACKAGE_ROOT)
     kc._stamps.clear()
-    dep = tmp_path / "resolvers/hqp_kernels.py"  # compiled into fused_kernels' steps, not fused_kernels itself
+    dep = tmp_path / "resolvers/hqp_kernels.py"  # compiled into hqp_fused's step, not hqp_fused itself
     dep.write_text(dep.read_text() + "\n# edited\n")
     assert kc.sources_stamp(tmp_path) != before
 

@@ -303,7 +303,7 @@ def _clearance_stack(robot: rk.RobotModel, q0: np.ndarray, rng: np.random.Genera
 
 
 def test_packed_clearance_rows_equal_the_python_rows(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The fused step's compiled damper rows of clearance bounds (``fused_kernels.clearance_rows``) are bitwise those
+    """The fused step's compiled damper rows of clearance bounds (``hqp_fused.clearance_rows``) are bitwise those
     ``BoundSubtask.rows_into`` writes: the same q̇ and the same diagnostics over random stacks, on closed-form and on
     QP steps, with a centre, a bound and a rate assigned between steps."""
     robot, twin = rk.load_example_robot("panda"), rk.load_example_robot("panda")

@@ -20,19 +20,15 @@ from redundik.kinematics import DHRow
 from redundik.resolvers.kernels import lsq_level
 from redundik.resolvers.linalg import DampedSVD, damped_svd
 from redundik.resolvers.qp.base import QPDiagnostics, QPResolverBase
-from redundik.resolvers.qp.hqp import (
-    _FEASIBLE,
-    _NO_BASIS,
-    _NO_SELECTION,
-    CONTRADICTION_TOLERANCE,
-    HK,
-    HierarchicalQPResolver,
-    HQPBuild,
-)
+from redundik.resolvers.qp.hqp import HK, HierarchicalQPResolver, HQPBuild
+from redundik.resolvers.qp.hqp_constrained import _FEASIBLE, CONTRADICTION_TOLERANCE
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem
 from redundik.resolvers.qp.terms import Level
 from tests.test_qp_helpers import prepared, random_robot, tip
+
+_NO_BASIS = np.zeros((0, 0))
+_NO_SELECTION = np.zeros(0, dtype=np.int64)
 
 
 def _reference_closed_cascade(
@@ -164,20 +160,12 @@ class _PythonCascade(HierarchicalQPResolver):
             # backend on the scale of a unit weight (a weight of 1e-6 left daqp's absolute tolerances 0.3 off)
             M, rhs, eps = M / scale, rhs / scale, eps / (scale * scale)
         P, q, G, h, lb, ub = HK.level_qp_arrays(
-            M if M is not None else np.zeros((0, r)),
-            rhs if rhs is not None else np.zeros(0),
-            eps,
-            lv.C if p else np.zeros((0, n)),
-            lv.d if p else np.zeros(0),
+            (M if M is not None else np.zeros((0, r)), rhs if rhs is not None else np.zeros(0), eps),
+            (lv.C if p else np.zeros((0, n)), lv.d if p else np.zeros(0)),
             x,
-            Z if Z is not None else _NO_BASIS,
-            mode,
-            selection if selection is not None else _NO_SELECTION,
-            F,
-            f,
-            box.lb,
-            box.ub,
-            ~pinned,
+            (Z if Z is not None else _NO_BASIS, mode, selection if selection is not None else _NO_SELECTION),
+            (F, f),
+            (box.lb, box.ub, ~pinned),
             self.slack_tolerance,
         )
         nvar = r + p
@@ -218,7 +206,9 @@ class _PythonCascade(HierarchicalQPResolver):
         C, d = (lv.C, lv.d) if lv.p else (F[:0], f[:0])
         native = Z is None or selection is not None
         return bool(
-            HK.level_rows_ok(step, x, box.lb, box.ub, ~pinned, native, C, d, F, f, self.slack_tolerance, _FEASIBLE)
+            HK.level_rows_ok(
+                step, x, (box.lb, box.ub, ~pinned), native, (C, d), (F, f), self.slack_tolerance, _FEASIBLE
+            )
         )
 
     @staticmethod

@@ -49,11 +49,11 @@ def test_the_stamp_covers_every_kernel_module_and_what_it_imports() -> None:
 
 def test_the_kernels_are_cached_in_the_stamped_folder() -> None:
     from redundik.collision import kernels as ck
-    from redundik.resolvers import fused_kernels, hqp_kernels, kernels
+    from redundik.resolvers import hqp_fused, hqp_kernels, kernels
 
     folder = str(kc.cache_dir())
     assert kc.cache_dir().name == f"kernels-{kc.sources_stamp()}"
-    for fn in (kernels.in_box, hqp_kernels.closed_step, fused_kernels.fused_hqp_step, ck.__dict__[_first_jit(ck)]):
+    for fn in (kernels.in_box, hqp_kernels.closed_step, hqp_fused.fused_hqp_step, ck.__dict__[_first_jit(ck)]):
         assert fn._cache._impl.locator.get_cache_path().startswith(folder)
         assert kc.KERNELS[fn.py_func.__module__][fn.py_func.__name__] is fn
 
@@ -80,7 +80,7 @@ def test_a_change_to_a_dependency_changes_the_stamp(tmp_path: Path) -> None:
     kc._stamps.clear()
     assert kc.sources_stamp(tmp_path) == before  # deterministic
     kc._stamps.clear()
-    dep = tmp_path / "resolvers/hqp_kernels.py"  # a module fused_kernels compiles in, not fused_kernels itself
+    dep = tmp_path / "resolvers/hqp_kernels.py"  # a module hqp_fused compiles in, not hqp_fused itself
     dep.write_text(dep.read_text() + "\n# edited\n")
     after = kc.sources_stamp(tmp_path)
     assert after != before

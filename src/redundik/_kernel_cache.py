@@ -1,7 +1,7 @@
 """Where numba caches redundik's compiled kernels: a folder of the user's cache named by a stamp of every source.
 
 Numba stamps a cached function with the hash of its own file only. A kernel that calls a kernel of another module
-(``fused_kernels.fused_hqp_step`` → ``hqp_kernels.closed_step`` → ``kernels.damped_svd_factors``) has that code
+(``hqp_fused.fused_hqp_step`` → ``hqp_kernels.closed_step`` → ``kernels.damped_svd_factors``) has that code
 compiled into it, and module constants (``fused.HEADER``, ``trajectory.CIRCLE``) frozen in: after that other module
 changes, numba alone would load stale machine code. Here that cannot happen: every kernel is cached in
 ``<cache root>/kernels-<stamp>``, the stamp hashing every file of :data:`KERNEL_SOURCES` and the numba, NumPy and
@@ -42,6 +42,12 @@ KERNEL_SOURCES: tuple[str, ...] = (
     "resolvers/layouts.py",
     "resolvers/hqp_kernels.py",
     "resolvers/fused_kernels.py",
+    "resolvers/hqp_fused.py",
+    "resolvers/hqp_layout.py",
+    "resolvers/hqp_algebra.py",
+    "resolvers/hqp_level_qp.py",
+    "resolvers/hqp_native.py",
+    "resolvers/hqp_cascade.py",
     "resolvers/fused.py",
     "tasks/trajectory.py",
     "tasks/target_kernels.py",

@@ -1,0 +1,130 @@
+"""daqp's C entry point called from compiled code (numba): a level QP of ``hqp``'s cascade, or the box QPs of a batch,
+solved by the very call ``daqp.solve`` makes, without the Python wrapper (:mod:`redundik.resolvers.qp.daqp_native`
+checks the structs' layout for daqp's version and lays out the ``native`` array, ``NAT_*`` of
+:mod:`redundik.resolvers.hqp_layout`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
+
+from redundik.resolvers.hqp_layout import NAT_FN, NAT_PROBLEM, NAT_RESULT, NAT_SENSE, NAT_SETTINGS
+from redundik.resolvers.hqp_level_qp import qp_views
+from redundik.resolvers.kernels import _jit
+
+#: Words of daqp's ``DAQPProblem`` from ``NAT_PROBLEM``: (n, m) as two int32, ms, the addresses of H, f, A, bupper,
+#: blower, sense and break_points, (nh, problem_type) as two int32.
+DP_SIZES, DP_MS, DP_H, DP_F, DP_A, DP_BUPPER, DP_BLOWER, DP_SENSE, DP_BREAKS, DP_KIND = range(10)
+#: Words of daqp's ``DAQPResult`` from ``NAT_RESULT``: the addresses of x and of the multipliers, …, (exitflag,
+#: iter) as two int32 at ``DR_FLAGS``; 8 words in all.
+DR_X, DR_LAM, DR_FLAGS, DR_WORDS = 0, 1, 4, 8
+#: daqp's ``sense`` of an equality row.
+SENSE_EQUALITY = 5
+
+
+@intrinsic
+def _call_ppp(typingctx, fn, a, b, c):  # type: ignore[no-untyped-def]
+    """Call the C function at address ``fn`` as ``void fn(void*, void*, void*)`` with the three addresses."""
+    sig = types.void(types.int64, types.int64, types.int64, types.int64)
+
+    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+        vp = ir.IntType(8).as_pointer()
+        fnty = ir.FunctionType(ir.VoidType(), [vp, vp, vp])
+        target = builder.inttoptr(args[0], fnty.as_pointer())
+        builder.call(target, [builder.inttoptr(x, vp) for x in args[1:]])
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@_jit
+def native_quadprog(
+    native: np.ndarray, nx: np.ndarray, qbuf: np.ndarray, nvar: int, nr: int, neq: int
+) -> tuple[int, int]:
+    """daqp on the level QP in ``qbuf`` (the layout of :func:`qp_views`), called through its C entry point: the call
+    ``daqp.solve`` makes — the same structs, every setting but the two of the backend at daqp's defaults, the sense
+    of the last ``neq`` rows equality and of the others inequality — without the Python wrapper. The solution goes to
+    ``nx[:nvar]``, the multipliers after it.
+
+    ``native`` is laid out by ``redundik.resolvers.qp.daqp_native.NativeDaqp`` (``NAT_*``), which checked the
+    layout of daqp's structs for its version. Returns (daqp's exit flag, iterations); (0, 0) when the QP does not fit
+    the buffers (never written past them).
+    """
+    m = nvar + nr
+    if 2 * (native.shape[0] - NAT_SENSE) < m or nx.shape[0] < nvar + m:
+        return 0, 0
+    sense = native[NAT_SENSE:].view(np.int32)
+    for i in range(m):
+        sense[i] = SENSE_EQUALITY if i >= m - neq else 0
+    a = nvar * nvar
+    b = a + nvar
+    c = b + nr * nvar
+    d = c + m
+    base = qbuf.ctypes.data
+    me = native.ctypes.data
+    xa = nx.ctypes.data
+    problem = native[NAT_PROBLEM : NAT_PROBLEM + DP_KIND + 1]
+    problem[DP_SIZES] = nvar | (m << 32)  # int n, int m
+    problem[DP_MS] = nvar  # int ms: the bounds on the variables
+    problem[DP_H] = base
+    problem[DP_F] = base + 8 * a
+    problem[DP_A] = base + 8 * b if nr > 0 else 0
+    problem[DP_BUPPER] = base + 8 * c
+    problem[DP_BLOWER] = base + 8 * d
+    problem[DP_SENSE] = me + 8 * NAT_SENSE
+    problem[DP_BREAKS] = 0
+    problem[DP_KIND] = 0  # int nh, int problem_type (a QP)
+    result = native[NAT_RESULT : NAT_RESULT + DR_WORDS]
+    result[DR_X] = xa
+    result[DR_LAM] = xa + 8 * nvar
+    for i in range(DR_LAM + 1, DR_WORDS):
+        result[i] = 0
+    _call_ppp(native[NAT_FN], me + 8 * NAT_RESULT, me + 8 * NAT_PROBLEM, native[NAT_SETTINGS])  # type: ignore[call-arg]
+    flags = result[DR_FLAGS : DR_FLAGS + 1].view(np.int32)  # int exitflag, int iter
+    return flags[0], flags[1]
+
+
+@_jit
+def box_qps_native(
+    native: np.ndarray,
+    nx: np.ndarray,
+    qbuf: np.ndarray,
+    P: np.ndarray,
+    q: np.ndarray,
+    lb: np.ndarray,
+    ub: np.ndarray,
+    idx: np.ndarray,
+    dq: np.ndarray,
+    solved: np.ndarray,
+) -> int:
+    """The box QPs min ½xᵀP_i x + q_iᵀx s.t. lb_i ≤ x ≤ ub_i of the problems ``idx`` of a batch (P (N, n, n), q, lb,
+    ub (N, n)), each through :func:`native_quadprog` — the call ``DaqpBackend.solve`` makes on a bounds-only QP
+    below its split size, on the same arrays. Where daqp solves problem i at once (exit flag 1 or 2, x finite),
+    ``dq[i]`` = x clipped to the box and ``solved[k]`` = True; elsewhere ``solved[k]`` = False and ``dq[i]`` is left
+    as it was (the caller poses that QP with the backend's retries). Returns daqp's iterations summed."""
+    n = P.shape[1]
+    Pv, qv, _, upper, lower = qp_views(qbuf, n, 0)
+    total = 0
+    for k in range(idx.shape[0]):
+        i = idx[k]
+        Pv[:, :] = P[i]
+        qv[:] = q[i]
+        upper[:] = ub[i]
+        lower[:] = lb[i]
+        flag, iters = native_quadprog(native, nx, qbuf, n, 0, 0)
+        ok = flag == 1 or flag == 2
+        if ok:
+            for j in range(n):
+                if not math.isfinite(nx[j]):
+                    ok = False
+        solved[k] = ok
+        if ok:
+            total += iters
+            for j in range(n):
+                dq[i, j] = min(max(nx[j], lb[i, j]), ub[i, j])
+    return total
