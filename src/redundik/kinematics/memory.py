@@ -9,10 +9,16 @@ at construction).
 
 from __future__ import annotations
 
-import ctypes
 from typing import Any
 
 import numpy as np
+
+
+class _Memory:
+    """Read-only float64 memory at an address, for ``np.asarray`` (the array interface protocol)."""
+
+    def __init__(self, address: int, shape: tuple[int, ...]) -> None:
+        self.__array_interface__ = {"data": (address, True), "shape": shape, "typestr": "<f8", "version": 3}
 
 
 def se3_vector_view(placements: Any) -> np.ndarray | None:
@@ -34,7 +40,7 @@ def se3_vector_view(placements: Any) -> np.ndarray | None:
             or t.strides != (8,)
         ):
             return None
-    view = np.ctypeslib.as_array((ctypes.c_double * (12 * G)).from_address(base)).reshape(G, 12)
+    view = np.asarray(_Memory(base, (G, 12)))  # (no ctypes array type: each is a new class in a reference cycle)
     view.flags.writeable = False
     for g in range(G):
         M = placements[g]
