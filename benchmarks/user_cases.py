@@ -1,5 +1,6 @@
 """What users run (issue 31): a trajectory tick against a teleop tick (``set_target`` every tick, its cost included),
-a ``FrameTask`` subclass, a 10-line custom task, and TALOS with the library's ``PostureTask`` — public classes only,
+a ``FrameTask`` subclass, a 10-line custom task (its ``evaluate``, and the same rows as a compiled writer of
+``rk.CompiledTask``), and TALOS with the library's ``PostureTask`` — public classes only,
 cases interleaved tick by tick in one process, medians and p90 per case, ratios against the trajectory tick.
 
 Run: ``python benchmarks/user_cases.py [--steps N] [--json FILE]``; prints a table and the path each case took
@@ -19,6 +20,7 @@ import json
 import time
 from typing import Any
 
+import numba
 import numpy as np
 import pinocchio as pin
 
@@ -27,6 +29,7 @@ import redundik as rk
 TOOL = "panda_hand_tcp"
 Q0 = np.array([0, -0.785, 0, -2.356, 0, 1.571, 0.785, 0.02, 0.02])
 DT = 1e-3
+KINDS = ("trajectory", "teleop", "subclass", "custom_task", "compiled_task")
 
 
 class MyFrameTask(rk.FrameTask):
@@ -49,6 +52,41 @@ class ElbowHeight(rk.Task):
         return f"ElbowHeight(z_d={self.z_d})"
 
 
+@numba.njit(cache=True)
+def _elbow_rows(q, t, poses, jw, ints, floats, gain, J, e, v):  # type: ignore[no-untyped-def]
+    """The same row as ``ElbowHeight.evaluate``, as a compiled writer (``rk.CompiledRows``)."""
+    f = ints[0]
+    px, py = poses[f, 9], poses[f, 10]
+    for c in range(jw.shape[1]):  # the z row of the frame's base-aligned Jacobian: v_z + (ω × p)_z
+        if ints[1 + c]:
+            J[0, c] = jw[2, c] + jw[3, c] * py - jw[4, c] * px
+    e[0] = floats[0] - poses[f, 11]
+    v[0] = gain * e[0]
+
+
+class ElbowHeightCompiled(rk.CompiledTask):
+    """``ElbowHeight`` with its row as a compiled writer: a user's task of one file on the compiled step."""
+
+    def __init__(self, z_d: float, gain: float = 5.0) -> None:
+        self._init_task("elbow_height", gain=gain)
+        self.floats = np.array([z_d])
+        self.ints = np.zeros(0, dtype=np.int64)
+
+    def compiled_rows(self, robot: rk.RobotModel) -> rk.CompiledRows:
+        if self.ints.shape[0] == 0:
+            fid = robot.frame_id("panda_link4")
+            model = robot.model
+            cols = np.zeros(robot.nv, dtype=np.int64)
+            for j in model.supports[model.frames[fid].parentJoint]:
+                if j > 0:
+                    cols[model.joints[j].idx_v] = 1
+            self.ints = np.concatenate([[fid], cols]).astype(np.int64)
+        return rk.CompiledRows(_elbow_rows, 1, self.ints, self.floats)
+
+    def __repr__(self) -> str:
+        return f"ElbowHeightCompiled(z_d={self.floats[0]})"
+
+
 def _panda_case(kind: str, method: str) -> dict[str, Any]:
     robot = rk.load_example_robot("panda")
     circle = rk.Circle(0.1, np.pi, plane=("y", "z"))
@@ -58,6 +96,8 @@ def _panda_case(kind: str, method: str) -> dict[str, Any]:
         tasks = [MyFrameTask(TOOL, circle, gain=50.0)]
     elif kind == "custom_task":
         tasks = [rk.FrameTask(TOOL, circle, gain=50.0), ElbowHeight(0.55, gain=5.0)]
+    elif kind == "compiled_task":
+        tasks = [rk.FrameTask(TOOL, circle, gain=50.0), ElbowHeightCompiled(0.55, gain=5.0)]
     else:  # teleop
         tasks = [rk.FrameTask(TOOL, gain=40.0)]
     stack = rk.TaskStack([*tasks, rk.PostureTask(gain=1.0)])
@@ -97,7 +137,7 @@ def _tick(case: dict[str, Any], teleop: bool) -> tuple[float, Any]:
 def run(steps: int) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for method in ("pinv", "wqp", "hqp"):
-        cases = {kind: _panda_case(kind, method) for kind in ("trajectory", "teleop", "subclass", "custom_task")}
+        cases = {kind: _panda_case(kind, method) for kind in KINDS}
         cases["talos_posture"] = _talos_case(method)
         for name, c in cases.items():
             for _ in range(30):
@@ -159,7 +199,11 @@ def main(argv: list[str] | None = None) -> int:
     ev = res["custom_evaluate_us"]
     for method in ("pinv", "wqp", "hqp"):
         extra = res[f"{method}/custom_task"]["median_us"] - res[f"{method}/trajectory"]["median_us"]
-        print(f"{method}: the custom task adds {extra:.1f} µs to a tick; its evaluate alone costs {ev:.1f} µs")
+        comp = res[f"{method}/compiled_task"]["median_us"] - res[f"{method}/trajectory"]["median_us"]
+        print(
+            f"{method}: the custom task adds {extra:.1f} µs to a tick (its evaluate alone costs {ev:.1f} µs); "
+            f"as a compiled writer it adds {comp:.1f} µs"
+        )
     if args.json:
         with open(args.json, "w", encoding="utf-8") as fh:
             json.dump(res, fh, indent=1)
