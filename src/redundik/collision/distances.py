@@ -1,7 +1,7 @@
-"""A collision world's distances at one instant (:class:`Distances`, :class:`Branches`) and the interpreted
-reference of the end-sphere distances: per geometry its shape description (:func:`shape_info`), a ball's signed
-distance to a shape (:func:`sphere_to`, coal for meshes and convex hulls) and the end-sphere branches whose other
-body only coal handles (:func:`slow_end_spheres`). The compiled kernels (:mod:`redundik.collision.kernels`) hold
+"""A collision world's distances at one instant (:class:`Distances`, ``Branches``) and the interpreted
+reference of the end-sphere distances: per geometry its shape description (``shape_info``), a ball's signed
+distance to a shape (``sphere_to``, coal for meshes and convex hulls) and the end-sphere branches whose other
+body only coal handles (``slow_end_spheres``). The compiled kernels (:mod:`redundik.collision.kernels`) hold
 the same formulas."""
 
 from __future__ import annotations
@@ -129,7 +129,7 @@ def sphere_to(
 
 def shape_info(geometry: pin.GeometryModel) -> list[tuple[Any, ...]]:
     """Per geometry: ("capsule", R, half length) | ("sphere", R) | ("box", half sides) | ("halfspace", n, d) |
-    ("other", shape) (lengths [m]; the shapes :func:`sphere_to` takes)."""
+    ("other", shape) (lengths [m]; the shapes ``sphere_to`` takes)."""
     info: list[tuple[Any, ...]] = []
     for go in geometry.geometryObjects:
         g = go.geometry
@@ -155,7 +155,7 @@ def slow_end_spheres(
     influence: float,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The end spheres ``branches`` (rows of the branch table ``table``, records of
-    :mod:`redundik.collision.kernels`) whose other body only coal handles, one :func:`sphere_to` call each:
+    :mod:`redundik.collision.kernels`) whose other body only coal handles, one ``sphere_to`` call each:
     (branch indices, d [m], p1, p2, n) of those within ``influence`` [m] that are not the pair's own witness
     (:meth:`redundik.collision.world.CollisionWorld.end_spheres`)."""
     T, _kind, prm = shapes

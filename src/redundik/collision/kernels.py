@@ -18,16 +18,16 @@ Poses are world homogeneous transforms ``T`` (G, 4, 4) (rotation ``T[g, :3, :3]`
 
 The kernels take their data as records, plain tuples (numba dispatches a tuple of arrays as fast as the arrays):
 
-* :data:`Shapes` ``(T, kind, prm)``: the geometries' poses, kind codes (G,) and numbers (G, 4);
-* :data:`BranchTable` ``(br, sign)``: per end-sphere branch r, ``br[r]`` (int, columns :data:`BR_PAIR`,
-  :data:`BR_CAPSULE`, :data:`BR_OTHER`, :data:`BR_FIRST`: the pair, the capsule, the pair's other body, 1 when the
+* ``Shapes`` ``(T, kind, prm)``: the geometries' poses, kind codes (G,) and numbers (G, 4);
+* ``BranchTable`` ``(br, sign)``: per end-sphere branch r, ``br[r]`` (int, columns ``BR_PAIR``,
+  ``BR_CAPSULE``, ``BR_OTHER``, ``BR_FIRST``: the pair, the capsule, the pair's other body, 1 when the
   capsule is body 1 of the pair) and ``sign[r]`` = ±1, the end along the capsule's local z;
-* :data:`PairData` ``(d, p1, p2, n, rate, near)``: per pair the distance [m] (P,), witness points on body 1 and 2
+* ``PairData`` ``(d, p1, p2, n, rate, near)``: per pair the distance [m] (P,), witness points on body 1 and 2
   and unit normal (P, 3), ∂d/∂t [m/s] (P,), and the indices of the pairs that get rows;
-* :data:`Joints` ``(mask, pj)``: the joints' support masks (njoints, nv), the pairs' joints (P, 2) (with the spatial
+* ``Joints`` ``(mask, pj)``: the joints' support masks (njoints, nv), the pairs' joints (P, 2) (with the spatial
   Jacobian ``Js`` (6, nv) of the tick, a separate argument);
-* :data:`Gains` ``(reach, influence, safety, gamma, no_cap, ends, qp_cap)``: the damper's numbers
-  (:func:`barrier_rows`): reach, d_i, d_s [m], γ, the gain outside d_i [1/s], whether end spheres get rows, the
+* ``Gains`` ``(reach, influence, safety, gamma, no_cap, ends, qp_cap)``: the damper's numbers
+  (``barrier_rows``): reach, d_i, d_s [m], γ, the gain outside d_i [1/s], whether end spheres get rows, the
   QP rate cap [1/s] (0: the rows as h, ∂h/∂q).
 """
 
@@ -40,7 +40,7 @@ import numpy as np
 from redundik import _kernel_cache
 
 CAPSULE, BOX, HALFSPACE, OTHER = 0, 1, 2, 3
-#: Columns of a :data:`BranchTable`'s ``br``.
+#: Columns of a ``BranchTable``'s ``br``.
 BR_PAIR, BR_CAPSULE, BR_OTHER, BR_FIRST = 0, 1, 2, 3
 
 Shapes = tuple[np.ndarray, np.ndarray, np.ndarray]
@@ -402,7 +402,7 @@ def _barrier_rows_into(
     shapes: Shapes, branches: BranchTable, pairs: PairData, joints: Joints, Js: np.ndarray, gains: Gains,
     sel: np.ndarray, out: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
 ) -> int:  # fmt: skip
-    """:func:`barrier_rows` into ``out`` = (h, H, γ, row ids) (room for every row; ``sel``: the pairs of ``near``);
+    """``barrier_rows`` into ``out`` = (h, H, γ, row ids) (room for every row; ``sel``: the pairs of ``near``);
     the row count."""
     d, p1, p2, n, rate, near = pairs
     mask, pj = joints
@@ -454,7 +454,7 @@ def capsule_damper(
 ) -> tuple[int, int, int]:  # fmt: skip
     """A static world of capsule/sphere pairs in one call: :func:`load_poses` (``poses`` = (src, live)),
     :func:`capsule_pairs` (every pair, ``caps`` = (ia, ib)), the pairs within ``reach`` [m], then
-    :func:`barrier_rows` on them (no obstacle rates), written into the caller's fresh arrays (returning arrays costs
+    ``barrier_rows`` on them (no obstacle rates), written into the caller's fresh arrays (returning arrays costs
     more than the computation):
 
     * ``F`` (10 P + 2 R + R nv,): d (P,), p1, p2, n stacked (3, P, 3), then h (R,), γ (R,), ∂h/∂q (R, nv) (the first
@@ -463,7 +463,7 @@ def capsule_damper(
 
     Returns:
         (k₀, k, the number of pairs whose axes meet); with axes meeting the rows are left out (k = 0): the caller
-        asks coal for those pairs and takes the general route. ``gains`` as in :func:`barrier_rows`.
+        asks coal for those pairs and takes the general route. ``gains`` as in ``barrier_rows``.
     """
     T, _kind, prm = shapes
     ia, ib = caps

@@ -24,8 +24,8 @@ Measured on 300 reachable poses (attempts from mid-range then uniform restarts, 
 proportional damping and w_p = 2 raise the share of attempts that converge from 0.40 to 0.70 on the UR5 and from
 0.64 to 0.78 on the Panda, and lower the iterations per solved pose from 43 to 18 and from 26 to 16.
 
-Every kernel takes at most 7 parameters. :func:`lm_update`'s are plain arrays: Pinocchio's output, the targets,
-the problem's constants packed in one float and one int array, and one workspace (:func:`workspace`: the trial's
+Every kernel takes at most 7 parameters. ``lm_update``'s are plain arrays: Pinocchio's output, the targets,
+the problem's constants packed in one float and one int array, and one workspace (``workspace``: the trial's
 and the current iterate's residual, errors and q, the step, the state), because numba types a tuple's elements in
 Python at every call (3–5.5 µs per call with tuples, ≈ 1 µs packed).
 """
@@ -40,7 +40,7 @@ from redundik import _kernel_cache
 
 _jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
 
-#: Codes returned by :func:`lm_update`.
+#: Codes returned by ``lm_update``.
 CONTINUE, CONVERGED, STALLED = 0, 1, 2
 #: Indices of the state ``st``: cost ½‖r‖², λ, the cost at the stall window's start, the iteration, the window's
 #: first iteration (counts held as floats: one state array).
@@ -254,7 +254,7 @@ def box_step(
 
 @_jit
 def offsets(k: int, nv: int, nq: int) -> tuple[int, int, int, int, int, int, int]:
-    """Where the workspace's parts start (:func:`workspace`), and its length: (Jr, r, err, q, dq, state, total)
+    """Where the workspace's parts start (``workspace``), and its length: (Jr, r, err, q, dq, state, total)
     for k frames, nv velocity and nq position coordinates."""
     m = 6 * k
     o_r = 2 * m * nv
@@ -295,7 +295,7 @@ def lm_update(
         consts: :data:`PARAMS` then lo (nv,) and hi (nv,), each velocity coordinate's bounds.
         ints: nq, then mode (k,) (0 pose, 1 position), then qmap (nv,) (each velocity coordinate's index in q; −1:
             no bound applies).
-        ws: The workspace (:func:`workspace`): the trial's and the current iterate's residual rows, errors and q,
+        ws: The workspace (``workspace``): the trial's and the current iterate's residual rows, errors and q,
             the step dq (nv,) from the current iterate to the next trial (that trial's q is written for models whose
             q adds up; others compose q ⊕ dq themselves) and the state (:data:`S_COST` …).
 

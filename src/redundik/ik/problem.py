@@ -75,7 +75,7 @@ def frames_and_targets(frame: object, target: object) -> tuple[list[str], list[T
 def target_arrays(names: list[str], targets: list[Target]) -> tuple[np.ndarray, np.ndarray]:
     """(T (4k, 4), mode (k,)): each target as a homogeneous matrix (rows 4k … 4k + 3; position targets: identity
     rotation) and its mode (0 pose, 1 position); validated by the frame task's rules (an SE3 or a float 4×4 array
-    that passes the compiled check :func:`~redundik.ik.kernels.rigid_transform` skips their slower route)."""
+    that passes the compiled check ``rigid_transform`` skips their slower route)."""
     T = np.zeros((4 * len(names), 4))
     mode = np.zeros(len(names), dtype=np.int64)
     for k, (name, tgt) in enumerate(zip(names, targets, strict=True)):

@@ -115,7 +115,7 @@ class Solver:
     :func:`solve_ik` on the same robot and frames).
 
     Attributes:
-        ws: The kernel's workspace (:func:`redundik.ik.kernels.workspace`); ``q`` (2, nq) the trial and current
+        ws: The kernel's workspace (``workspace``); ``q`` (2, nq) the trial and current
             configurations, ``err`` (2, k, 2) their errors, ``dq`` the step, ``st`` the state: views of it.
         ints: (nq, mode (k,), qmap (nv,)); ``mode`` a view of it, set per target.
     """

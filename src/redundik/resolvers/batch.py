@@ -12,7 +12,7 @@ Vectorised over problems:
 * ``pinv``: q̇ = J⁺V + (I − J⁺J)z through :func:`redundik.resolvers.kernels.closed_form_batch` — the very kernel of
   the single ``pinv`` step, problem by problem;
 * ``wqp``: P = w JᵀJ + ρ I + λ I and q = −w JᵀV − ρ z for all N (batched products), the unconstrained optimum and its
-  box test by :func:`redundik.resolvers.kernels.spd_solve_batch` (the kernel of the single ``wqp`` step), the
+  box test by ``spd_solve_batch`` (the kernel of the single ``wqp`` step), the
   joint-limit boxes of all N by one call of :meth:`JointLimits.box` on a (N, nq) array. Only the problems whose
   optimum leaves the box (a limit binds) call the QP backend, with the single step's QP (the same P, q and box,
   so the loop's answer): under daqp all of them in one compiled loop through daqp's C entry point (the call its

@@ -1,5 +1,5 @@
 """Compiled Cholesky solves (numba): x = −P⁻¹q for a weighted QP's Hessian with only its coupled block factored
-(:func:`coupled_coordinates` finds the coordinates with no off-diagonal entry), the unblocked factorisation and
+(``coupled_coordinates`` finds the coordinates with no off-diagonal entry), the unblocked factorisation and
 triangular solves, and the weighted rows P += w JᵀJ, q −= w Jᵀv that make P and q."""
 
 from __future__ import annotations
@@ -213,7 +213,7 @@ def _spd_solve_full(P: np.ndarray, q: np.ndarray, x: np.ndarray, buf: np.ndarray
 
 @_jit
 def _spd_solve_split(P: np.ndarray, q: np.ndarray, nc: int, x: np.ndarray, buf: np.ndarray) -> bool:
-    """:func:`spd_solve_into` with the coupled coordinates buf[:nc] (:func:`coupled_coordinates`, stored as floats)
+    """:func:`spd_solve_into` with the coupled coordinates buf[:nc] (``coupled_coordinates``, stored as floats)
     solved by a Cholesky factorisation of their block P_cc alone, and each separable one as x_i = (−q_i/√P_ii)/√P_ii;
     false (x then undefined) when P_cc is not numerically SPD or x is not finite. ``buf`` (≥ 2n + n_c², or 2n beyond
     :data:`CHOLESKY_LOOPS_MAX`) is scratch:
@@ -295,7 +295,7 @@ def spd_solve_into(P: np.ndarray, q: np.ndarray, x: np.ndarray) -> bool:
     """x = −P⁻¹ q by Cholesky into ``x`` (P (n, n) symmetric positive definite, its lower triangle read); false when
     P is not numerically SPD (x is then zero) or x is not finite.
 
-    The separable coordinates of P (:func:`coupled_coordinates`) are solved in closed form and only the coupled
+    The separable coordinates of P (``coupled_coordinates``) are solved in closed form and only the coupled
     block is factored (``_spd_solve_split``: the same x, bit for bit, for n_c ≤ :data:`CHOLESKY_LOOPS_MAX`;
     measured per call on the benchmark's ``wqp`` steps, detection included: Talos, 22 of 38 coordinates coupled,
     5.2 → 2.4 µs; the Panda, 7 of 9, 0.38 → 0.34 µs; a dense P (the snake, n = 160) unchanged); when that solve

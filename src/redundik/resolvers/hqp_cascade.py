@@ -504,7 +504,7 @@ def qp_cascade_run(
         resume: (k0, absorb, u): the level to start at; with ``absorb``, the level whose QP the caller solved: its
             u is absorbed first and the cascade goes on at k0 + 1 (without it: a level the caller skipped, or the
             start).
-        native: (ctl, nx): :func:`_native_level` (``ctl`` empty: every level QP is returned to the caller).
+        native: (ctl, nx): ``_native_level`` (``ctl`` empty: every level QP is returned to the caller).
 
     Returns:
         (``CASCADE_DONE``, L, 0, 0, 0) when the cascade is done (q̇ in x); (``CASCADE_LEVEL_QP``, k, nvar, nr, ε)

@@ -203,7 +203,7 @@ def fused_hqp_step(
 ) -> tuple[float, float, float]:
     """One ``hqp`` step of a fused stack: the frame rows (``frame_rows``) and joint rows written into the cascade's
     least-squares buffers A, b, w at the rows ``dest[r]`` of the stack's layout (the rows ``hqp``'s per-task gather
-    would give them, :func:`_task_rows`), z of the null-space objective and its identity rows (:func:`_null_rows`);
+    would give them, ``_task_rows``), z of the null-space objective and its identity rows (``_null_rows``);
     the packed bound subtasks' damper rows into C, d (``clearance_rows``; the caller wrote the others); then
     ``closed_step`` on those rows and the inequality rows C, d.
 
@@ -218,7 +218,7 @@ def fused_hqp_step(
             velocity [rad/s], acceleration [rad/s²]) of ``LimitBox.kernel_args`` (``FusedPlan.limits``): fewer
             arrays for the call to unbox than the whole record.
         work: (Jf, ev): the frame tasks' Jacobians (K, 6, nv) and (e, v) (2, m).
-        rows, params: ``closed_step``'s (the cascade's rows and settings).
+        rows: ``closed_step``'s rows of the cascade; params: its settings (the two records passed on).
         outs: (out, stats): ``closed_step``'s.
 
     Returns:

@@ -6,7 +6,7 @@ before level 0, every least-squares level k solves
     u = (A_k Z)⁺_λ (b_k − A_k x),   x ← x + Z u,   Z ← Z·null(A_k Z)
 
 with the damped pseudo-inverse of :mod:`redundik.resolvers.linalg` (per-direction damping of the singular values
-below ε, truncation below rcond·σ_max: :func:`redundik.resolvers.kernels.damped_svd_factors`, the one
+below ε, truncation below rcond·σ_max: ``damped_svd_factors``, the one
 implementation of that rule), and the null-space objective ½‖q̇ − z‖² (identity rows) gives x ← x + Z Zᵀ(z − x)
 and leaves nothing below; so does a least-squares level whose rows are exactly √w I with √w ≥ ε (a posture given a
 level: :func:`identity_rows`), x ← x + Z Zᵀ(b − x). Rows are weighted by √w (‖√w ∘ (A q̇ − b)‖², as

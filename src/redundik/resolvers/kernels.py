@@ -13,8 +13,8 @@ references), and are re-exported here, so that the resolvers reach them all as `
 
 * :mod:`redundik.resolvers.qr_kernels` — Householder reflections and the orthonormal completion of rows;
 * :mod:`redundik.resolvers.svd_kernels` — the Jacobi eigen- and singular-value decompositions (LAPACK beyond);
-* :mod:`redundik.resolvers.damping_kernels` — the damping rule (:func:`damped_inverse_values`), the factorisation
-  behind J⁺ (:func:`factor`: the fast path Jᵀ(JJᵀ)⁻¹ when J has full row rank and is well conditioned, else the
+* :mod:`redundik.resolvers.damping_kernels` — the damping rule (``damped_inverse_values``), the factorisation
+  behind J⁺ (``factor``: the fast path Jᵀ(JJᵀ)⁻¹ when J has full row rank and is well conditioned, else the
   damped SVD), J⁺_λ b and (I − V_r V_rᵀ) z from those factors, one least-squares level of ``hqp``;
 * :mod:`redundik.resolvers.cholesky_kernels` — x = −P⁻¹q with only P's coupled block factored, the weighted rows;
 * :mod:`redundik.resolvers.box_kernels` — the joint-limit box, the box tests, ``wqp``'s unconstrained optimum in its
@@ -81,7 +81,7 @@ def _cholesky_solve_rows(
 ) -> bool:
     """out[0] = Jᵀ(JJᵀ)⁻¹V and out[1] = z − Jᵀ(JJᵀ)⁻¹Jz (eq. 5.7 and the projector of 5.8) by Cholesky, when
     JJᵀ − sI is positive definite with s = max(ε², FAST_PATH_RCOND·tr JJᵀ): then λ_min > ε² (no direction is
-    damped) and λ_min/λ_max > FAST_PATH_RCOND, the conditions of :func:`factor`'s fast path. False (nothing
+    damped) and λ_min/λ_max > FAST_PATH_RCOND, the conditions of ``factor``'s fast path. False (nothing
     written) otherwise."""
     m, n = J.shape
     buf = np.empty(2 * m * m + m)  # A = JJᵀ, its shifted copy S and a vector of m: one allocation
@@ -147,7 +147,7 @@ def closed_form_into(
     call costs about a microsecond each.)
 
     With ``lazy_sigma`` a full-row-rank J whose JJᵀ passes the Cholesky test λ_min(JJᵀ) > max(ε², 1e-6·tr JJᵀ)
-    (so :func:`factor` would take its fast path too, undamped) is solved as Jᵀ(JJᵀ)⁻¹ by Cholesky, without the
+    (so ``factor`` would take its fast path too, undamped) is solved as Jᵀ(JJᵀ)⁻¹ by Cholesky, without the
     eigendecomposition: σ_min is then returned as NaN, for the caller to compute when it is read.
 
     Returns:

@@ -1,14 +1,14 @@
 """Named layouts of the packed arrays the compiled steps share with the resolvers (no numba: the resolvers import
 these names without loading the kernels).
 
-* A joint-limit record ``lim`` (:data:`LIM_ROWS`, nv) and a box's options ``opts``
-  (:func:`redundik.resolvers.box_kernels.joint_box`, ``wqp_free_step``);
-* a ``wqp`` step's ``out`` (:data:`OUT_ROWS`, nv): the box, the unconstrained optimum, q̇ and the copy kept;
-* the closed form's ``out`` (:data:`CF_ROWS`, nv) (``kernels.closed_form_into``, ``pinv``'s step);
-* the resolver's tail of a fused step's coefficients ``coef`` (``wqp``: :data:`WQP_TAIL` entries; ``pinv``:
-  :data:`PINV_TAIL`), after the plan's own coefficients;
+* A joint-limit record ``lim`` (``LIM_ROWS``, nv) and a box's options ``opts``
+  (``joint_box``, ``wqp_free_step``);
+* a ``wqp`` step's ``out`` (``OUT_ROWS``, nv): the box, the unconstrained optimum, q̇ and the copy kept;
+* the closed form's ``out`` (``CF_ROWS``, nv) (``kernels.closed_form_into``, ``pinv``'s step);
+* the resolver's tail of a fused step's coefficients ``coef`` (``wqp``: ``WQP_TAIL`` entries; ``pinv``:
+  ``PINV_TAIL``), after the plan's own coefficients;
 * the header slots of a fused plan's ``ints`` that the ``wqp`` and ``pinv`` steps read (the plan,
-  :class:`redundik.resolvers.fused.FusedPlan`, writes them: its ``HEADER`` comment is the reference).
+  ``FusedPlan``, writes them: its ``HEADER`` comment is the reference).
 """
 
 from __future__ import annotations
@@ -26,14 +26,14 @@ BOX_OPTS = 4
 OPT_SHIFT, OPT_Z_SCALE = 4, 5
 WQP_OPTS = 6
 
-#: Rows of a ``wqp`` step's ``out`` (:data:`OUT_ROWS`, nv): the box (lb, ub, and the position parts of its bounds),
+#: Rows of a ``wqp`` step's ``out`` (``OUT_ROWS``, nv): the box (lb, ub, and the position parts of its bounds),
 #: the unconstrained optimum, q̇, and the copy of q̇ the resolver keeps (its warm start and rate-window reference).
 OUT_LB, OUT_UB, OUT_POS_LO, OUT_POS_HI, OUT_FREE, OUT_DQ, OUT_KEPT = 0, 1, 2, 3, 4, 5, 6
 #: Rows of the box part of ``out`` (lb, ub, pos_lo, pos_hi).
 OUT_BOX = 4
 OUT_ROWS = 7
 
-#: Rows of the closed form's ``out`` (:data:`CF_ROWS`, nv): J⁺V, (I − J⁺J) z and q̇ (eq. 5.8).
+#: Rows of the closed form's ``out`` (``CF_ROWS``, nv): J⁺V, (I − J⁺J) z and q̇ (eq. 5.8).
 CF_RANK, CF_NULL, CF_DQ = 0, 1, 2
 CF_ROWS = 3
 

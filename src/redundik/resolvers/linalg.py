@@ -135,7 +135,7 @@ class PseudoInverse:
     """J⁺ (possibly damped) and the null-space projector of one Jacobian, factored but not formed.
 
     The hot path never forms the n×n matrices: :meth:`solve` gives J⁺_λ b and :meth:`null_project` gives
-    P_n z = z − V_r V_rᵀ z from the factors of :func:`redundik.resolvers.kernels.factor` (the m×m eigendecomposition
+    P_n z = z − V_r V_rᵀ z from the factors of ``factor`` (the m×m eigendecomposition
     of JJᵀ on the fast path, the damped SVD otherwise). :attr:`pinv` and :attr:`null_projector` are formed on first
     access and cached.
 

@@ -1,5 +1,5 @@
-"""The record of one resolved step: :class:`StepResult`, its lazy form :class:`LazyStepResult` (diagnostics computed
-on first read, through a :class:`LazyInfo` that shares them), and :func:`nonfinite_sources`, which names what made a
+"""The record of one resolved step: :class:`StepResult`, its lazy form ``LazyStepResult`` (diagnostics computed
+on first read, through a ``LazyInfo`` that shares them), and ``nonfinite_sources``, which names what made a
 step's intermediates non-finite."""
 
 from __future__ import annotations
@@ -151,7 +151,7 @@ class LazyInfo(dict):  # type: ignore[type-arg]
 
 class _Deferred:
     """A step's pending diagnostics (σ_min, damped, info entries), computed once and shared by its result and the
-    result's :class:`LazyInfo`. Neither of those holds the other through it, so a step's result is freed as soon as
+    result's ``LazyInfo``. Neither of those holds the other through it, so a step's result is freed as soon as
     the loop drops it: no reference cycle left for the cyclic garbage collector, whose collections took ~100 µs
     every ~30 steps of a control loop that reads ``info`` (the snake's hqp run, before)."""
 
@@ -171,7 +171,7 @@ class _Deferred:
         return out
 
     def extra(self) -> dict[str, object]:
-        """The info entries (what :class:`LazyInfo` adds on first read)."""
+        """The info entries (what ``LazyInfo`` adds on first read)."""
         return self()[2]
 
 

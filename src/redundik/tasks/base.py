@@ -126,7 +126,7 @@ class CompiledRows(NamedTuple):
     * ``poses`` (nframes, 12): per frame of the model, its placement in the world at q: the rotation column-major
       (R[i, j] = ``poses[f, 3 j + i]``) then the origin (``poses[f, 9:12]``) [m] (Pinocchio's ``data.oMf``);
     * ``jw`` (6, nv): the joint Jacobians in the world frame (Pinocchio's ``data.J`` after
-      ``computeJointJacobians``; :func:`redundik.kinematics.lie_kernels.frame_jacobian_lwa` turns a frame's columns
+      ``computeJointJacobians``; ``frame_jacobian_lwa`` turns a frame's columns
       into its base-aligned Jacobian);
     * ``ints``, ``floats``: the task's own data (its frame ids, its target …), arrays it may rewrite in place between
       steps — a new target is data, not a new plan;

@@ -1,7 +1,7 @@
 """``hqp``'s constrained cascade from Python (:mod:`redundik.resolvers.qp.hqp`): the compiled cascade
 (``hqp_kernels.qp_cascade_run``) run on the plan's buffers, each level QP it leaves solved by the backend — from the
 buffer as it is when the backend can, else as a ``QPProblem`` with the regularised retries — and the levels
-contradicted by those above named; the settings the cascade reads; :class:`HQPBuild`, a built step.
+contradicted by those above named; the settings the cascade reads; ``HQPBuild``, a built step.
 """
 
 from __future__ import annotations

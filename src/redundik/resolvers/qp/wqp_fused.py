@@ -1,4 +1,4 @@
-"""The result of a fused ``wqp`` step that solved no QP (:class:`FusedWqpResult`): q̇ a view on the step's work
+"""The result of a fused ``wqp`` step that solved no QP (``FusedWqpResult``): q̇ a view on the step's work
 array, the task terms and the diagnostics computed from that array on first read."""
 
 from __future__ import annotations
