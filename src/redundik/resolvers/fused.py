@@ -31,9 +31,15 @@ import numpy as np
 
 from redundik.kinematics.memory import jacobian_view, se3_vector_view
 from redundik.kinematics.model import RobotModel
-from redundik.resolvers.base import LazyStepResult
+from redundik.resolvers.fused_external import GRADIENT as GRADIENT
+from redundik.resolvers.fused_external import LIE_NULL as LIE_NULL
+from redundik.resolvers.fused_external import NULL as NULL
+from redundik.resolvers.fused_external import ROW as ROW
+from redundik.resolvers.fused_external import TERM as TERM
+from redundik.resolvers.fused_external import PythonWriters
+from redundik.resolvers.fused_result import FusedStepResult as FusedStepResult
 from redundik.resolvers.linalg import FK
-from redundik.tasks.base import NOT_READY, CompiledRows, Edits, FrameForm, Task, TaskTerm, check_term
+from redundik.tasks.base import NOT_READY, CompiledRows, Edits, FrameForm, Task, TaskTerm
 from redundik.tasks.frame import FrameTask
 from redundik.tasks.rows import check_form
 from redundik.tasks.stack import StackLayout, TaskStack
@@ -53,11 +59,6 @@ HEADER = 24
 #: Header slots of a mixed plan (issue 31's row protocol): the rows the members without a compiled form write from
 #: Python (their ``evaluate``) after the compiled rows, and 1 when Python writers add to the null-space objective z.
 H_EXTERNAL_ROWS, H_EXTERNAL_Z = 22, 23
-#: Roles of a member written from Python in a mixed plan: rows of the main system / of its level (``ROW``), a term of
-#: the null-space objective z (``NULL``: z += v), a joint-space null term on Lie-group coordinates (``LIE_NULL``:
-#: z[sel] += K (q_ref ⊖ q)[sel], Pinocchio's difference), a gradient subtask (``GRADIENT``: z += k η), or evaluated
-#: for the step's terms only (``TERM``: a task the resolver leaves out of its closed form).
-ROW, NULL, LIE_NULL, GRADIENT, TERM = 0, 1, 2, 3, 4
 #: Bits of a level joint task's flag (the header's identity flags): an identity task (a diagonal shift), and an error
 #: the caller writes before the compiled call (Lie-group coordinates: K (q_ref ⊖ q) from Pinocchio's difference).
 IDENTITY, GIVEN_ERROR = 1, 2
@@ -69,7 +70,7 @@ B_FID, B_ROW, B_LOWER, B_UPPER, B_NAXES, B_AXES = 0, 1, 2, 3, 4, 5
 B_CENTER, B_RADIUS, B_LO, B_UP, B_RATE = 0, 3, 4, 5, 6
 
 
-class FusedPlan:
+class FusedPlan(PythonWriters):
     """The packed static data of a fused stack (module docstring); ``build`` makes one or says why not.
 
     Attributes:
@@ -365,98 +366,6 @@ class FusedPlan:
         self.refs = np.zeros((K, REF))
         self._frame_checks()
 
-    # ------------------------------------------------------------------ Python writers (a mixed plan)
-    def evaluate_external(self, robot: RobotModel, t: float) -> list[TaskTerm | None] | None:
-        """Each Python-written member's term at t (``None`` for what has no term of its own: a gradient subtask, a
-        Lie-group null term), in :attr:`external` order; the plan is packed again when a member's row count moved.
-        ``None``: a term is not a (r, nv) Jacobian with r-vectors v and e (the per-task path says what is wrong)."""
-        nv = robot._nv
-        out: list[TaskTerm | None] = []
-        rows: list[int] = []
-        for (role, member, _), writer in zip(self.external, self.writers, strict=True):
-            if writer is not None:  # a compiled writer: its rows by construction of the right shapes
-                r = writer.rows
-                J = np.zeros((r, nv))
-                e, v = np.zeros(r), np.zeros(r)
-                writer.kernel(robot.q, t, self.poses, self.jw, writer.ints, writer.floats, member.gain, J, e, v)
-                if role == NULL and r != nv:
-                    return None
-                if role == ROW:
-                    rows.append(r)
-                out.append(TaskTerm(member.name, J, v, e, member.weight))
-            elif role == ROW or role == NULL or role == TERM:
-                term = member.evaluate(robot, t)
-                J, v, e = term.J, term.v, term.error
-                if not (
-                    type(J) is np.ndarray
-                    and type(v) is np.ndarray
-                    and type(e) is np.ndarray
-                    and J.ndim == 2
-                    and J.shape[1] == nv
-                    and v.shape == e.shape == (J.shape[0],)
-                ):
-                    check_term(term, nv)  # raises, naming the task and its shapes
-                    return None  # (a term of numbers that are not float arrays: the per-task path takes it)
-                if role == NULL and J.shape[0] != nv:
-                    return None
-                if role == ROW:
-                    rows.append(J.shape[0])
-                out.append(term)
-            else:
-                out.append(None)
-        self.repacked = rows != self.external_rows
-        if self.repacked:
-            self.external_rows = rows
-            iq = np.array([j.idx_q for j in robot.joints], dtype=np.int64)
-            self._pack(robot, iq, self.level_forms, self.identity, self.main_set, self.index)
-        return out
-
-    def write_joint_errors(self, robot: RobotModel, e: np.ndarray) -> None:
-        """The errors (q_ref ⊖ q)[sel] of the level joint tasks on Lie-group coordinates (Pinocchio's
-        ``difference``) into their rows of the step's e, before the compiled call reads them."""
-        q = robot.q
-        for k in self.lie_joints:
-            a, b = self.joint_spans[k]
-            sel, target = self.level_forms[k]
-            e[a:b] = robot.difference(q, target)[sel]
-
-    def write_external(
-        self,
-        robot: RobotModel,
-        terms: list[TaskTerm | None],
-        Jrows: np.ndarray | None,
-        offset: int,
-        ev: np.ndarray,
-        weights: np.ndarray | None,
-        zx: np.ndarray,
-    ) -> None:
-        """Write the Python members' blocks into a step's buffers: a ``ROW`` member's J into ``Jrows`` (its rows
-        from ``offset``), its e and v into ``ev`` and its weight × ρ^k into ``weights`` (``wqp``); the null-space
-        objective's Python terms into ``zx`` (z += v, z[sel] += K (q_ref ⊖ q)[sel], z += k η). ``Jrows`` ``None``:
-        the caller writes the rows' J where its layout puts them."""
-        zx[:] = 0.0
-        k = 0
-        for (role, member, scale), term in zip(self.external, terms, strict=True):
-            if role == ROW:
-                assert term is not None
-                a = self.external_starts[k]
-                b = a + self.external_rows[k]
-                k += 1
-                if Jrows is not None:  # (``hqp`` places the rows itself, by its layout)
-                    Jrows[a - offset : b - offset] = term.J
-                ev[0, a:b] = term.error
-                ev[1, a:b] = term.v
-                if weights is not None:
-                    weights[a - offset : b - offset] = term.weight * scale
-            elif role == NULL:
-                assert term is not None
-                zx += term.v
-            elif role == LIE_NULL:
-                sel, target = member.joint_form(robot)
-                zx[sel] += member.gain * robot.difference(robot.q, target)[sel]
-            elif role == GRADIENT and member.gain != 0.0:
-                zx += member.direction(robot)
-
     # ------------------------------------------------------------------ per step
     def current(self, robot: RobotModel) -> bool:
         """The array-valued members are the objects packed (trajectories, targets, centres, a frame task's id and
@@ -612,62 +521,6 @@ def _identity_rows(n: int, sel: np.ndarray) -> np.ndarray:
     rows = np.eye(n)[sel]
     rows.setflags(write=False)
     return rows
-
-
-class FusedStepResult(LazyStepResult):
-    """A ``LazyStepResult`` of a fused step: ``terms`` built on first read, ``task_error`` computed in the step."""
-
-    @classmethod
-    def fused(
-        cls,
-        dq: np.ndarray,
-        make_terms: Callable[[], list[TaskTerm]],
-        task_error: float,
-        info: dict[str, object],
-        build_time: float,
-        solve_time: float,
-        main: list[int],
-        pending: Callable[[], tuple[float, bool, dict[str, object]]],
-        dq_rank: np.ndarray | None = None,
-        dq_null: np.ndarray | None = None,
-        dq_norm: float | None = None,
-        fallback: str | None = None,
-    ) -> FusedStepResult:
-        """The result; ``make_terms()`` builds the terms when they are first read."""
-        res = cls.__new__(cls)
-        res.__dict__ = {
-            "dq": dq,
-            "dq_rank": dq_rank,
-            "dq_null": dq_null,
-            "gains": None,
-            "damping": 0.0,
-            "fallback": fallback,
-            "_info": info,
-            "build_time": build_time,
-            "solve_time": solve_time,
-            "main": main,
-            "pending": pending,
-            "_make_terms": make_terms,
-            "_task_error": task_error,
-            "_dq_norm": dq_norm,  # ‖q̇‖ from the compiled call (the divergence watch reads it)
-        }
-        return res
-
-    @property
-    def terms(self) -> list[TaskTerm]:
-        d = self.__dict__
-        terms = d.get("_terms")
-        if terms is None:
-            terms = d["_terms"] = d["_make_terms"]()
-        return terms
-
-    @terms.setter
-    def terms(self, value: list[TaskTerm]) -> None:
-        self.__dict__["_terms"] = value
-
-    @property
-    def task_error(self) -> float:
-        return self.__dict__["_task_error"]
 
 
 def plan_of(resolver: object) -> FusedPlan | None:

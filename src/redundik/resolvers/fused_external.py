@@ -1,0 +1,138 @@
+"""The Python writers of a mixed fused plan (issue 31's row protocol): the members without a compiled form (their
+``evaluate``, a subtask's ``direction``) or with a compiled writer of their own (``Task.compiled_rows``), written into
+a step's buffers before the resolver's compiled call. A mixin of :class:`redundik.resolvers.fused.FusedPlan`."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from redundik.kinematics.model import RobotModel
+from redundik.tasks.base import CompiledRows, TaskTerm, check_term
+
+#: Roles of a member written from Python in a mixed plan: rows of the main system / of its level (``ROW``), a term of
+#: the null-space objective z (``NULL``: z += v), a joint-space null term on Lie-group coordinates (``LIE_NULL``:
+#: z[sel] += K (q_ref ⊖ q)[sel], Pinocchio's difference), a gradient subtask (``GRADIENT``: z += k η), or evaluated
+#: for the step's terms only (``TERM``: a task the resolver leaves out of its closed form).
+ROW, NULL, LIE_NULL, GRADIENT, TERM = 0, 1, 2, 3, 4
+
+
+class PythonWriters:
+    """The Python-written members of a plan and their writing (``FusedPlan`` sets the attributes)."""
+
+    external: list[tuple[int, Any, float]]
+    writers: list[CompiledRows | None]
+    external_rows: list[int]
+    external_starts: list[int]
+    repacked: bool
+    level_forms: list[tuple[np.ndarray, np.ndarray]]
+    lie_joints: list[int]
+    joint_spans: list[tuple[int, int]]
+    identity: list[bool]
+    main_set: set[int]
+    index: dict[int, int]
+    poses: np.ndarray
+    jw: np.ndarray
+
+    def _pack(
+        self,
+        robot: RobotModel,
+        iq: np.ndarray,
+        level_forms: list[tuple[np.ndarray, np.ndarray]],
+        identity: list[bool],
+        main: set[int],
+        index: dict[int, int],
+    ) -> None:
+        raise NotImplementedError  # (FusedPlan's)
+
+    def evaluate_external(self, robot: RobotModel, t: float) -> list[TaskTerm | None] | None:
+        """Each Python-written member's term at t (``None`` for what has no term of its own: a gradient subtask, a
+        Lie-group null term), in :attr:`external` order; the plan is packed again when a member's row count moved.
+        ``None``: a term is not a (r, nv) Jacobian with r-vectors v and e (the per-task path says what is wrong)."""
+        nv = robot._nv
+        out: list[TaskTerm | None] = []
+        rows: list[int] = []
+        for (role, member, _), writer in zip(self.external, self.writers, strict=True):
+            if writer is not None:  # a compiled writer: its rows by construction of the right shapes
+                r = writer.rows
+                J = np.zeros((r, nv))
+                e, v = np.zeros(r), np.zeros(r)
+                writer.kernel(robot.q, t, self.poses, self.jw, writer.ints, writer.floats, member.gain, J, e, v)
+                if role == NULL and r != nv:
+                    return None
+                if role == ROW:
+                    rows.append(r)
+                out.append(TaskTerm(member.name, J, v, e, member.weight))
+            elif role == ROW or role == NULL or role == TERM:
+                term = member.evaluate(robot, t)
+                J, v, e = term.J, term.v, term.error
+                if not (
+                    type(J) is np.ndarray
+                    and type(v) is np.ndarray
+                    and type(e) is np.ndarray
+                    and J.ndim == 2
+                    and J.shape[1] == nv
+                    and v.shape == e.shape == (J.shape[0],)
+                ):
+                    check_term(term, nv)  # raises, naming the task and its shapes
+                    return None  # (a term of numbers that are not float arrays: the per-task path takes it)
+                if role == NULL and J.shape[0] != nv:
+                    return None
+                if role == ROW:
+                    rows.append(J.shape[0])
+                out.append(term)
+            else:
+                out.append(None)
+        self.repacked = rows != self.external_rows
+        if self.repacked:
+            self.external_rows = rows
+            iq = np.array([j.idx_q for j in robot.joints], dtype=np.int64)
+            self._pack(robot, iq, self.level_forms, self.identity, self.main_set, self.index)
+        return out
+
+    def write_joint_errors(self, robot: RobotModel, e: np.ndarray) -> None:
+        """The errors (q_ref ⊖ q)[sel] of the level joint tasks on Lie-group coordinates (Pinocchio's
+        ``difference``) into their rows of the step's e, before the compiled call reads them."""
+        q = robot.q
+        for k in self.lie_joints:
+            a, b = self.joint_spans[k]
+            sel, target = self.level_forms[k]
+            e[a:b] = robot.difference(q, target)[sel]
+
+    def write_external(
+        self,
+        robot: RobotModel,
+        terms: list[TaskTerm | None],
+        Jrows: np.ndarray | None,
+        offset: int,
+        ev: np.ndarray,
+        weights: np.ndarray | None,
+        zx: np.ndarray,
+    ) -> None:
+        """Write the Python members' blocks into a step's buffers: a ``ROW`` member's J into ``Jrows`` (its rows
+        from ``offset``), its e and v into ``ev`` and its weight × ρ^k into ``weights`` (``wqp``); the null-space
+        objective's Python terms into ``zx`` (z += v, z[sel] += K (q_ref ⊖ q)[sel], z += k η). ``Jrows`` ``None``:
+        the caller writes the rows' J where its layout puts them."""
+        zx[:] = 0.0
+        k = 0
+        for (role, member, scale), term in zip(self.external, terms, strict=True):
+            if role == ROW:
+                assert term is not None
+                a = self.external_starts[k]
+                b = a + self.external_rows[k]
+                k += 1
+                if Jrows is not None:  # (``hqp`` places the rows itself, by its layout)
+                    Jrows[a - offset : b - offset] = term.J
+                ev[0, a:b] = term.error
+                ev[1, a:b] = term.v
+                if weights is not None:
+                    weights[a - offset : b - offset] = term.weight * scale
+            elif role == NULL:
+                assert term is not None
+                zx += term.v
+            elif role == LIE_NULL:
+                sel, target = member.joint_form(robot)
+                zx[sel] += member.gain * robot.difference(robot.q, target)[sel]
+            elif role == GRADIENT and member.gain != 0.0:
+                zx += member.direction(robot)
