@@ -1,6 +1,6 @@
 """The Python writers of a mixed fused plan (issue 31's row protocol): the members without a compiled form (their
 ``evaluate``, a subtask's ``direction``) or with a compiled writer of their own (``Task.compiled_rows``), written into
-a step's buffers before the resolver's compiled call. A mixin of :class:`redundik.resolvers.fused.FusedPlan`."""
+a step's buffers before the resolver's compiled call. A mixin of ``FusedPlan``."""
 
 from __future__ import annotations
 
