@@ -220,17 +220,7 @@ class FusedPlan(PythonWriters):
             plan.gradient_forms.append(lin)
         if mixed == "null" and any(role in (ROW, TERM) for role, _, _ in plan.external):
             return None
-        plan.writers = [  # the compiled writers of Python-placed rows (``Task.compiled_rows``): called, not evaluated
-            check_form(member, form)
-            if role in (ROW, NULL, TERM) and (form := member.compiled_rows(robot)) is not None
-            else None
-            for role, member, _ in plan.external
-        ]
-        plan.writer_checks = [
-            (member, member.form_revision)
-            for (_, member, _), w in zip(plan.external, plan.writers, strict=True)
-            if w is not None
-        ]
+        plan._compiled_writers(robot)
         jw, poses = jacobian_view(robot.data), se3_vector_view(robot.data.oMf)
         if jw is None or poses is None:  # Pinocchio's memory not laid out as checked: the per-task path
             return None
@@ -249,6 +239,20 @@ class FusedPlan(PythonWriters):
         plan.joint_checks = list(zip(plan.level_joints + plan.nulls, plan.targets + plan.null_targets, strict=True))
         plan.gradient_checks = list(zip(plan.gradients, plan.gradient_forms, strict=True))
         return plan
+
+    def _compiled_writers(self, robot: RobotModel) -> None:
+        """The compiled writers (``Task.compiled_rows``) of the Python-placed members: called, not evaluated."""
+        self.writers = [  # the compiled writers of Python-placed rows (``Task.compiled_rows``): called, not evaluated
+            check_form(member, form)
+            if role in (ROW, NULL, TERM) and (form := member.compiled_rows(robot)) is not None
+            else None
+            for role, member, _ in self.external
+        ]
+        self.writer_checks = [
+            (member, member.form_revision)
+            for (_, member, _), w in zip(self.external, self.writers, strict=True)
+            if w is not None
+        ]
 
     def _frame_checks(self) -> None:
         """Per frame member: its task, its form revision when packed, its trajectory, and a view of its packed
