@@ -220,7 +220,7 @@ class FusedPlan(PythonWriters):
             plan.gradient_forms.append(lin)
         if mixed == "null" and any(role in (ROW, TERM) for role, _, _ in plan.external):
             return None
-        plan._compiled_writers(robot)
+        plan.find_compiled_writers(robot)
         jw, poses = jacobian_view(robot.data), se3_vector_view(robot.data.oMf)
         if jw is None or poses is None:  # Pinocchio's memory not laid out as checked: the per-task path
             return None
@@ -240,7 +240,7 @@ class FusedPlan(PythonWriters):
         plan.gradient_checks = list(zip(plan.gradients, plan.gradient_forms, strict=True))
         return plan
 
-    def _compiled_writers(self, robot: RobotModel) -> None:
+    def find_compiled_writers(self, robot: RobotModel) -> None:
         """The compiled writers (``Task.compiled_rows``) of the Python-placed members: called, not evaluated."""
         self.writers = [  # the compiled writers of Python-placed rows (``Task.compiled_rows``): called, not evaluated
             check_form(member, form)
