@@ -82,6 +82,47 @@ def test_first_step_interpreted_while_compiling_then_compiled_same_answer(tmp_pa
     assert f"compiling the kernels of pinv in the background (cache: {got['cache']})" in str(got["stderr"])
 
 
+def test_no_kernel_compiles_in_the_callers_thread_during_a_cold_start(tmp_path: Path) -> None:
+    """On an empty cache, the first steps of every resolver — a frame task moved by ``set_target`` (a pose and a
+    position), a posture, a clearance gradient and a centering — compile nothing in the caller's thread (numba's
+    compile events, by thread): a kernel reached other than through a namespace would stall the first step."""
+    got = _run(
+        """
+        import json, threading
+        import pinocchio as pin
+        from numba.core import event
+        main, found = threading.get_ident(), []
+
+        class Listener(event.Listener):
+            def on_start(self, ev):
+                if threading.get_ident() == main:
+                    found.append(ev.data["dispatcher"].py_func.__qualname__)
+
+            def on_end(self, ev):
+                pass
+
+        event.register("numba:compile", Listener())
+        paths = []
+        for name in ("pinv", "wqp", "hqp"):
+            task = rk.FrameTask("7", gain=5.0)
+            near = rk.Clearance("7", [0.4, 0.0, 0.3], radius=0.05)
+            s = rk.TaskStack([task, rk.PostureTask(gain=1.0)],
+                             [rk.GradientSubtask(near, gain=0.5), rk.GradientSubtask(rk.JointCentering(), gain=-1.0)])
+            robot.update(q)
+            s.reset(robot)
+            home, res = robot.frame_pose("7"), rk.make_resolver(name)
+            for k in range(3):
+                task.set_target(pin.SE3(home.rotation, home.translation + 0.001 * k) if k % 2 else
+                                home.translation - 0.001 * k)
+                paths.append(res.step(robot, s, q, 0.01 * k, 0.01).info["path"])
+        print(json.dumps({"found": sorted(set(found)), "paths": paths}))
+        """,
+        {"REDUNDIK_CACHE_DIR": str(tmp_path)},
+    )
+    assert got["found"] == [], got["found"]
+    assert set(got["paths"]) == {"interpreted"}  # (all the steps ran before the thread finished: on the twins)
+
+
 def test_read_only_package_folder_caches_to_the_user_folder(tmp_path: Path) -> None:
     pkg = tmp_path / "site"
     cache = tmp_path / "cache"

@@ -3,7 +3,8 @@
 Per method (``pinv``, ``wqp``, ``hqp``), a fresh ``python`` runs :data:`SCRIPT` — ``import redundik``, load the
 Panda, make the ``panda_circle`` stack from public classes, ``resolver.step`` twice — with ``NUMBA_CACHE_DIR`` and
 ``XDG_CACHE_HOME`` pointing at a new empty folder (``cold``: nothing compiled yet, as after ``pip install``), then
-once more on the same folder (``warm``: the kernels load from the cache the first run wrote). It reports the import,
+once more on the same folder (``warm``: the kernels load from the cache the first run wrote; that run calls
+``rk.warm_up`` after its timings, so the cache is complete). It reports the import,
 the set-up, the first and the second step [s], the first step's ``result.info["path"]``, and the wall time of the
 process (the interpreter's own start included). ``first_dq_s`` = import + set-up + first step: how long until the
 first q̇. Whatever the library does on its first step (compile, load, run interpreted meanwhile) is what is timed.
@@ -50,7 +51,9 @@ q = robot.integrate(q, res.dq, 0.01)
 resolver.step(robot, stack, q, 0.01, 0.01)
 t4 = time.perf_counter()
 print(json.dumps({"import_s": t1 - t0, "setup_s": t2 - t1, "first_step_s": t3 - t2, "second_step_s": t4 - t3,
-                  "path": str(res.info.get("path", "?")), "interpreted": list(res.info.get("interpreted", ()))}))
+                  "path": str(res.info.get("path", "?")), "interpreted": list(res.info.get("interpreted", ()))}),
+      flush=True)
+rk.warm_up([method])  # (the cache completed, as `redundik compile` does: the warm run loads every kernel from it)
 """
 
 PEER_SCRIPT = r"""
@@ -110,6 +113,7 @@ def _peer_model(peer: str, folder: Path) -> str:
 def _run(script: str, arg: str, cache: Path | None, *extra: str) -> dict[str, Any]:
     """One fresh process: its JSON line plus ``process_s``; ``error`` instead when it failed."""
     env = dict(os.environ)
+    env.pop("REDUNDIK_COLD_START", None)  # (benchmarks/__init__ sets ``wait`` for this process: a user has the default)
     if cache is not None:
         env["NUMBA_CACHE_DIR"] = str(cache / "numba")
         env["XDG_CACHE_HOME"] = str(cache / "xdg")

@@ -195,6 +195,34 @@ def twin(kernel: Any) -> Any:
     return _twins[id(kernel)]
 
 
+class _Twins:
+    """A kernel namespace seen through its twins (:func:`twins_of`); its other attributes (constants) as they are."""
+
+    def __init__(self, space: Any) -> None:
+        self._space = space
+
+    def __getattr__(self, name: str) -> Any:
+        value = getattr(self._space, name)
+        kernels = {id(d) for funcs in _kernel_cache.KERNELS.values() for d in funcs.values()}
+        return twin(value) if id(value) in kernels or isinstance(value, _Switch) else value
+
+
+_twin_spaces: dict[int, _Twins] = {}
+
+
+def twins_of(space: Any) -> Any:
+    """``space`` (a :class:`~redundik._kernel_cache.KernelNamespace`) while no resolver's kernels are loaded in a
+    background-compiling process (:func:`cold`): a view of it whose kernels are their twins — for a kernel called
+    before the first step (``FrameTask.set_target`` ahead of the loop), which would otherwise compile in the
+    caller's thread. Otherwise ``space`` itself. Costs a set's truth test once a resolver is hot."""
+    if HOT or not cold():
+        return space
+    view = _twin_spaces.get(id(space))
+    if view is None:
+        view = _twin_spaces[id(space)] = _Twins(space)
+    return view
+
+
 def _build_twins() -> None:
     dispatchers = {id(d): d for funcs in _kernel_cache.KERNELS.values() for d in funcs.values()}
     spaces: dict[str, dict[str, Any]] = {}

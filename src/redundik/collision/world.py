@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from redundik.collision import kernels as KC
+from redundik._kernel_cache import KernelNamespace
 from redundik.collision.distances import Branches, Distances, shape_info, slow_end_spheres, sphere_to
 from redundik.collision.geometry import approximate, load_collision_model
 from redundik.collision.obstacles import OBSTACLE_KINDS, Motion, Obstacle, make_shape
@@ -37,6 +37,9 @@ from redundik.collision.pairs import candidate_pairs, default_srdf, read_srdf_pa
 from redundik.errors import ModelError
 from redundik.kinematics.memory import se3_vector_view
 from redundik.kinematics.model import RobotModel
+
+#: The compiled collision kernels, imported on first use (a namespace: a cold start puts their twins here).
+KC = KernelNamespace("redundik.collision.kernels")
 
 __all__ = [
     "OBSTACLE_KINDS",

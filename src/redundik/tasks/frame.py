@@ -8,6 +8,8 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from redundik._coldstart import twins_of
+from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
 from redundik.kinematics.model import AXES, LWA, RobotModel
 from redundik.tasks.base import NOT_READY, FrameForm, Task, TaskTerm
@@ -39,27 +41,10 @@ def resolve_axes(axes: str | Sequence[str]) -> tuple[str, ...]:
     return out
 
 
-_K: Any = None  # the compiled Lie kernels (redundik.kinematics.lie_kernels), bound at the first evaluation
-
-
-def _kernels() -> Any:
-    """The compiled Lie kernels, imported on first use (numba loads then, not when redundik is imported)."""
-    global _K
-    from redundik.kinematics import lie_kernels
-
-    _K = lie_kernels
-    return lie_kernels
-
-
-_TK: Any = None  # the compiled target writers (redundik.tasks.target_kernels): numba is imported at first use
-
-
-def _target_kernels() -> Any:
-    global _TK
-    from redundik.tasks import target_kernels
-
-    _TK = target_kernels
-    return target_kernels
+#: The compiled Lie kernels and target writers, imported on first use (numba loads then, not when redundik is
+#: imported); namespaces, so that a cold start puts their interpreted twins here while they compile.
+_K = KernelNamespace("redundik.kinematics.lie_kernels")
+_TK = KernelNamespace("redundik.tasks.target_kernels")
 
 
 #: Gain [1/s] of a frame task built without a trajectory (hold the start pose, or track targets set at run time).
@@ -239,7 +224,7 @@ class FrameTask(Task):
         traj = self.trajectory
         row = traj._kparams if traj is self._held else None
         if row is not None:  # our own started hold: the target is data, written in place
-            tk = _TK or _target_kernels()
+            tk = twins_of(_TK)  # (the kernels' twins before any resolver's kernels are loaded: no compile here)
             status = -1
             if type(target) is pin.SE3:
                 T = target.homogeneous  # type: ignore[union-attr]  # (an SE3)
@@ -369,9 +354,7 @@ class FrameTask(Task):
         m = self._m
         e, v = np.empty(m), np.empty(m)
         # one compiled call for e = (p_d − p, log3(R_d Rᵀ))[rows] and v = V_d[rows] + K e (rotations under 0.45 rad)
-        if (_K or _kernels()).frame_error(
-            p_d, R_d, pose.homogeneous, twist_d, self._gain, self.rows, self._rotation_rows, e, v
-        ):
+        if _K.frame_error(p_d, R_d, pose.homogeneous, twist_d, self._gain, self.rows, self._rotation_rows, e, v):
             return TaskTerm(self._name, J if self._all_rows else J[self.rows], v, e, self._weight)
         if self._all_rows:  # a large rotation error: Pinocchio's log3, robust up to π
             e = np.concatenate((p_d - pose.translation, pin.log3(R_d @ pose.rotation.T)))

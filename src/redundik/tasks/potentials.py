@@ -12,6 +12,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
 from redundik.kinematics.model import AXES, RobotModel
 from redundik.tasks.base import ClearanceForm, Edits, Potential, check_number
@@ -33,11 +34,8 @@ def _finite_vec(value: Sequence[float] | np.ndarray, what: str, size: int | None
     return arr
 
 
-def _kernels() -> Any:
-    """The compiled potential kernels, imported on first use (numba loads then, not when redundik is imported)."""
-    from redundik.tasks import potential_kernels
-
-    return potential_kernels
+#: The compiled potential kernels, imported on first use (a namespace: a cold start puts their twins here).
+_PK = KernelNamespace("redundik.tasks.potential_kernels")
 
 
 class _JointPotential(Potential):
@@ -402,7 +400,7 @@ class Clearance(_FramePotential):
                 jm = model.joints[j]
                 columns[jm.idx_v : jm.idx_v + jm.nv] = 1
         p = None if jw is None or poses is None else poses[fid, 9:12]
-        self._views = (data, fid, p, jw, columns, np.zeros((6, robot.nv)), _kernels().clearance_into)
+        self._views = (data, fid, p, jw, columns, np.zeros((6, robot.nv)))
         return self._views
 
     def value_and_gradient_into(self, robot: RobotModel, out: np.ndarray, scale: float = 1.0) -> float:
@@ -411,14 +409,16 @@ class Clearance(_FramePotential):
         views = self._views
         if views is None or views[0] is not robot.data or views[1] != self._fid:
             views = self._prepare(robot)
-        _, fid, p, jw, columns, J6, kernel = views
+        _, fid, p, jw, columns, J6 = views
         robot.q  # noqa: B018 - raises if update() was never called
         if p is None:  # Pinocchio's memory not as verified: the same kernel on copies through the bindings
             J6[:] = robot.frame_jacobian(fid)
             p, lwa = robot.frame_position(fid), False
         else:
             lwa = True
-        value: float = kernel(jw if lwa else J6, p, columns, self.rows, self.center, self.radius, J6, lwa, out, scale)
+        value: float = _PK.clearance_into(
+            jw if lwa else J6, p, columns, self.rows, self.center, self.radius, J6, lwa, out, scale
+        )
         return value
 
     def clearance_form(self, robot: RobotModel) -> ClearanceForm | None:

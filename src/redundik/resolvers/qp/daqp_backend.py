@@ -6,11 +6,11 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from functools import lru_cache
 
 import numpy as np
 
 from redundik.errors import SolverError
+from redundik.resolvers.linalg import K
 from redundik.resolvers.qp.backend_base import (
     Backend,
     _checked,
@@ -40,13 +40,12 @@ LIFT_MIN_N = 40
 LIFT_MAX_ROWS_PER_VARIABLE = 2
 
 
-@lru_cache(maxsize=1)
 def split_kernel() -> Callable[..., tuple[int, int]]:
-    """The compiled split of a bounds-only QP, :func:`redundik.resolvers.kernels.split_separable` (imported on first
-    use: numba loads when a split is first tried, not when redundik is imported)."""
-    from redundik.resolvers.kernels import split_separable
-
-    return split_separable
+    """The compiled split of a bounds-only QP, :func:`redundik.resolvers.kernels.split_separable`, looked up in the
+    kernel namespace at each call (numba loads when a split is first tried, not when redundik is imported; during a
+    cold start the namespace holds its interpreted twin, so the caller's thread does not compile it)."""
+    kernel: Callable[..., tuple[int, int]] = K.split_separable
+    return kernel
 
 
 def first_run_cost() -> dict[str, float]:
@@ -76,7 +75,6 @@ class DaqpBackend(Backend):
         self.iter_limit, self.primal_tol = int(iter_limit), float(primal_tol)
         #: Smallest n of a bounds-only QP that is tested for separable variables (n³ ≥ SPLIT_MIN_SAVING).
         self._split_min_n = round(SPLIT_MIN_SAVING ** (1 / 3))
-        self._split_kernel: Callable[..., tuple[int, int]] | None = None
         self._split_work: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self._split_cache: dict[tuple[int, int], tuple[np.ndarray, ...]] = {}
         #: Smallest n of a QP that carries its Gram factor (``QPProblem.factor``) solved lifted
@@ -116,9 +114,7 @@ class DaqpBackend(Backend):
         n = problem.q.shape[0]
         buffers = self._split_work.get(n)
         work, idx = self._split_views(n, 0)[:2] if buffers is None else buffers
-        kernel = self._split_kernel
-        if kernel is None:
-            kernel = self._split_kernel = split_kernel()
+        kernel = K.split_separable
         try:
             # (writable C-ordered arrays, as daqp needs them anyway: the kernel is then always called with the types
             # it was compiled for — a read-only or strided view would compile another specialisation mid-loop)
