@@ -52,7 +52,7 @@ class ElbowHeight(rk.Task):
         return f"ElbowHeight(z_d={self.z_d})"
 
 
-@numba.njit(cache=True)
+@numba.njit  # (no on-disk cache: numba keys it by the importing name, a script and a module differ)
 def _elbow_rows(q, t, poses, jw, ints, floats, gain, J, e, v):  # type: ignore[no-untyped-def]
     """The same row as ``ElbowHeight.evaluate``, as a compiled writer (``rk.CompiledRows``)."""
     f = ints[0]

@@ -208,9 +208,11 @@ class PinvResolver(Resolver):
             external = evaluated
         work = np.empty(plan.pinv_work)  # q̇'s parts, J, e and v, the frames' Jacobians: one allocation
         if external:
-            n = robot._nv
-            _, Jm, ev, _ = FK.pinv_work_views(work, len(plan.frames), plan.m, n)
+            n, m = robot._nv, plan.m
+            a = CF_ROWS * n  # (FK.pinv_work_views' J and (e, v), sliced here: a compiled call returning views
+            b = a + m * n  # costs more than the slicing)
             end = work.shape[0]  # work's tail: the Python writers' null-space terms (n,), then z (n,)
+            Jm, ev = work[a:b].reshape(m, n), work[b : b + 2 * m].reshape(2, m)
             plan.write_external(robot, external, Jm, 0, ev, None, work[end - 2 * n : end - n])
         q = robot.q
         status, rank, sigma_min, damping, err2, dq2 = FK.fused_pinv_step(
