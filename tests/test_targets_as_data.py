@@ -154,3 +154,11 @@ def test_a_subclass_keeps_the_fused_step_and_one_with_its_own_rows_runs_mixed(me
     assert own_plan is not None and own_res.info["path"] == "mixed"
     assert own_res.info["interpreted"] == ("panda_hand_tcp",)
     assert np.abs(own - base).max() > 1e-6  # its own rows are used
+
+
+def test_the_frame_tasks_ok_status_is_the_writers() -> None:
+    """``FrameTask.set_target`` reads the writers' ``OK`` as a constant of its own (no numba import): the same code."""
+    from redundik.tasks import frame, target_kernels
+
+    assert frame._STATUS_OK == target_kernels.OK
+    assert len({target_kernels.OK, target_kernels.NOT_FINITE, target_kernels.TOO_FAR, target_kernels.NOT_RIGID}) == 4

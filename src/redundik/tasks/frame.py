@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from redundik._coldstart import HOT as _HOT
 from redundik._coldstart import twins_of
 from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
@@ -45,6 +46,8 @@ def resolve_axes(axes: str | Sequence[str]) -> tuple[str, ...]:
 #: imported); namespaces, so that a cold start puts their interpreted twins here while they compile.
 _K = KernelNamespace("redundik.kinematics.lie_kernels")
 _TK = KernelNamespace("redundik.tasks.target_kernels")
+#: ``target_kernels.OK``, the writers' status of a target written (read here without importing numba).
+_STATUS_OK = 0
 
 
 #: Gain [1/s] of a frame task built without a trajectory (hold the start pose, or track targets set at run time).
@@ -221,10 +224,10 @@ class FrameTask(Task):
         Raises:
             TaskError: malformed target.
         """
-        traj = self.trajectory
+        traj = self._trajectory
         row = traj._kparams if traj is self._held else None
         if row is not None:  # our own started hold: the target is data, written in place
-            tk = twins_of(_TK)  # (the kernels' twins before any resolver's kernels are loaded: no compile here)
+            tk = _TK if _HOT else twins_of(_TK)  # (their twins until a resolver's kernels are loaded: no compile here)
             status = -1
             if type(target) is pin.SE3:
                 T = target.homogeneous  # type: ignore[union-attr]  # (an SE3)
@@ -234,7 +237,7 @@ class FrameTask(Task):
                     status = tk.pose_into(target, row, RIGID_TOLERANCE, MAX_COORDINATE)
                 elif target.shape == (3,):
                     status = tk.position_into(target, row, MAX_COORDINATE)
-            if status == tk.OK:
+            if status == _STATUS_OK:
                 traj._revision += 1
                 traj._given = True  # type: ignore[attr-defined]  # (traj is self._held, a Hold): kept by a reset
                 self._pending_position = None
