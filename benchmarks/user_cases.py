@@ -1,7 +1,8 @@
 """What users run (issue 31): a trajectory tick against a teleop tick (``set_target`` every tick, its cost included),
-a ``FrameTask`` subclass, a 10-line custom task (its ``evaluate``, and the same rows as a compiled writer of
-``rk.CompiledTask``), and TALOS with the library's ``PostureTask`` — public classes only,
-cases interleaved tick by tick in one process, medians and p90 per case, ratios against the trajectory tick.
+a ``FrameTask`` subclass, a 10-line custom task (its ``evaluate``, the same row as a compiled writer of
+``rk.CompiledTask``, and the same row as the library's own ``FrameTask`` on one axis), and TALOS with the library's
+``PostureTask`` — public classes only, cases interleaved tick by tick in one process, medians and p90 per case,
+ratios against the trajectory tick.
 
 Run: ``python benchmarks/user_cases.py [--steps N] [--json FILE]``; prints a table and the path each case took
 (``result.info["path"]``). Ratios from one run; the machine is shared, so report the spread of several runs.
@@ -29,47 +30,51 @@ import redundik as rk
 TOOL = "panda_hand_tcp"
 Q0 = np.array([0, -0.785, 0, -2.356, 0, 1.571, 0.785, 0.02, 0.02])
 DT = 1e-3
-KINDS = ("trajectory", "teleop", "subclass", "custom_task", "compiled_task")
+KINDS = ("trajectory", "teleop", "subclass", "builtin_row", "custom_task", "compiled_task")
 
 
 class MyFrameTask(rk.FrameTask):
     """A user's subclass that changes nothing about the rows (the issue's ``class MyFrameTask(FrameTask): pass``)."""
 
 
-class ElbowHeight(rk.Task):
-    """A user's 10-line task: keep the elbow's height at z_d (one row of its frame Jacobian)."""
+class ElbowSide(rk.Task):
+    """A user's 10-line task: keep the elbow's lateral position at y_d (one row of its frame Jacobian).
 
-    def __init__(self, z_d: float, gain: float = 5.0) -> None:
-        self._init_task("elbow_height", gain=gain)
-        self.z_d = z_d
+    The Panda's self-motion at ``Q0`` swings the elbow sideways: this row steers the arm's one redundant degree of
+    freedom. (Its height would not do: with the hand's pose held, it is stationary under the self-motion at ``Q0``,
+    so hand + height is a singular main task there.)"""
+
+    def __init__(self, y_d: float, gain: float = 5.0) -> None:
+        self._init_task("elbow_side", gain=gain)
+        self.y_d = y_d
 
     def evaluate(self, robot: rk.RobotModel, t: float) -> rk.TaskTerm:
-        J = robot.frame_jacobian("panda_link4")[2:3]
-        e = np.array([self.z_d - robot.frame_position("panda_link4")[2]])
+        J = robot.frame_jacobian("panda_link4")[1:2]
+        e = np.array([self.y_d - robot.frame_position("panda_link4")[1]])
         return rk.TaskTerm(self.name, J, self.gain * e, e, self.weight)
 
     def __repr__(self) -> str:
-        return f"ElbowHeight(z_d={self.z_d})"
+        return f"ElbowSide(y_d={self.y_d})"
 
 
 @numba.njit  # (no on-disk cache: numba keys it by the importing name, a script and a module differ)
 def _elbow_rows(q, t, poses, jw, ints, floats, gain, J, e, v):  # type: ignore[no-untyped-def]
-    """The same row as ``ElbowHeight.evaluate``, as a compiled writer (``rk.CompiledRows``)."""
+    """The same row as ``ElbowSide.evaluate``, as a compiled writer (``rk.CompiledRows``)."""
     f = ints[0]
-    px, py = poses[f, 9], poses[f, 10]
-    for c in range(jw.shape[1]):  # the z row of the frame's base-aligned Jacobian: v_z + (ω × p)_z
+    px, pz = poses[f, 9], poses[f, 11]
+    for c in range(jw.shape[1]):  # the y row of the frame's base-aligned Jacobian: v_y + (ω × p)_y
         if ints[1 + c]:
-            J[0, c] = jw[2, c] + jw[3, c] * py - jw[4, c] * px
-    e[0] = floats[0] - poses[f, 11]
+            J[0, c] = jw[1, c] + jw[5, c] * px - jw[3, c] * pz
+    e[0] = floats[0] - poses[f, 10]
     v[0] = gain * e[0]
 
 
-class ElbowHeightCompiled(rk.CompiledTask):
-    """``ElbowHeight`` with its row as a compiled writer: a user's task of one file on the compiled step."""
+class ElbowSideCompiled(rk.CompiledTask):
+    """``ElbowSide`` with its row as a compiled writer: a user's task of one file on the compiled step."""
 
-    def __init__(self, z_d: float, gain: float = 5.0) -> None:
-        self._init_task("elbow_height", gain=gain)
-        self.floats = np.array([z_d])
+    def __init__(self, y_d: float, gain: float = 5.0) -> None:
+        self._init_task("elbow_side", gain=gain)
+        self.floats = np.array([y_d])
         self.ints = np.zeros(0, dtype=np.int64)
 
     def compiled_rows(self, robot: rk.RobotModel) -> rk.CompiledRows:
@@ -84,20 +89,32 @@ class ElbowHeightCompiled(rk.CompiledTask):
         return rk.CompiledRows(_elbow_rows, 1, self.ints, self.floats)
 
     def __repr__(self) -> str:
-        return f"ElbowHeightCompiled(z_d={self.floats[0]})"
+        return f"ElbowSideCompiled(y_d={self.floats[0]})"
+
+
+def elbow_y0() -> float:
+    """The elbow's (``panda_link4``) lateral position at ``Q0`` [m]: the user task's target."""
+    robot = rk.load_example_robot("panda")
+    robot.update(Q0)
+    return float(robot.frame_position("panda_link4")[1])
 
 
 def _panda_case(kind: str, method: str) -> dict[str, Any]:
     robot = rk.load_example_robot("panda")
+    robot.update(Q0)
+    y0 = float(robot.frame_position("panda_link4")[1])  # the user task holds the elbow's lateral position at Q0
     circle = rk.Circle(0.1, np.pi, plane=("y", "z"))
     if kind == "trajectory":
         tasks: list[rk.Task] = [rk.FrameTask(TOOL, circle, gain=50.0)]
     elif kind == "subclass":
         tasks = [MyFrameTask(TOOL, circle, gain=50.0)]
     elif kind == "custom_task":
-        tasks = [rk.FrameTask(TOOL, circle, gain=50.0), ElbowHeight(0.55, gain=5.0)]
+        tasks = [rk.FrameTask(TOOL, circle, gain=50.0), ElbowSide(y0, gain=5.0)]
     elif kind == "compiled_task":
-        tasks = [rk.FrameTask(TOOL, circle, gain=50.0), ElbowHeightCompiled(0.55, gain=5.0)]
+        tasks = [rk.FrameTask(TOOL, circle, gain=50.0), ElbowSideCompiled(y0, gain=5.0)]
+    elif kind == "builtin_row":  # the same row through the library's own task: what the row costs by itself
+        elbow = rk.FrameTask("panda_link4", rk.Hold(), axes=["y"], gain=5.0, name="elbow_side")
+        tasks = [rk.FrameTask(TOOL, circle, gain=50.0), elbow]
     else:  # teleop
         tasks = [rk.FrameTask(TOOL, gain=40.0)]
     stack = rk.TaskStack([*tasks, rk.PostureTask(gain=1.0)])
@@ -175,7 +192,7 @@ def run(steps: int) -> dict[str, Any]:
     for _ in range(n):
         task.set_target(T)
     out["set_target_us"] = (time.perf_counter() - t0) / n * 1e6
-    elbow = ElbowHeight(0.55)  # the custom task's own cost: its evaluate alone (the target: a tick adds ≤ this + 10 %)
+    elbow = ElbowSide(0.0)  # the custom task's own cost: its evaluate alone (the target: a tick adds ≤ this + 10 %)
     for _ in range(100):
         elbow.evaluate(robot, 0.0)
     t0 = time.perf_counter()
@@ -198,11 +215,13 @@ def main(argv: list[str] | None = None) -> int:
     print(f"set_target alone: {res['set_target_us']:.2f} µs")
     ev = res["custom_evaluate_us"]
     for method in ("pinv", "wqp", "hqp"):
-        extra = res[f"{method}/custom_task"]["median_us"] - res[f"{method}/trajectory"]["median_us"]
-        comp = res[f"{method}/compiled_task"]["median_us"] - res[f"{method}/trajectory"]["median_us"]
+        base = res[f"{method}/trajectory"]["median_us"]
+        extra = res[f"{method}/custom_task"]["median_us"] - base
+        comp = res[f"{method}/compiled_task"]["median_us"] - base
+        row = res[f"{method}/builtin_row"]["median_us"] - base
         print(
             f"{method}: the custom task adds {extra:.1f} µs to a tick (its evaluate alone costs {ev:.1f} µs); "
-            f"as a compiled writer it adds {comp:.1f} µs"
+            f"as a compiled writer it adds {comp:.1f} µs; the same row as a built-in FrameTask adds {row:.1f} µs"
         )
     if args.json:
         with open(args.json, "w", encoding="utf-8") as fh:

@@ -259,7 +259,7 @@ def test_user_cases_record_their_path_and_compare_with_the_built_in(tiny) -> Non
             assert "path" not in doc
     for c in result.cases:
         if c.robot == "panda_custom_task":
-            assert "elbow_height" in c.extra["interpreted"], c.extra
+            assert "elbow_side" in c.extra["interpreted"], c.extra
         if c.robot.endswith("_teleop"):
             assert c.status == "ok", (c.robot, c.method, c.status)
     builtin = {(r["robot"], r["method"]): r for r in result.ratios() if r["builtin"] is not None}
@@ -273,13 +273,13 @@ def test_user_cases_record_their_path_and_compare_with_the_built_in(tiny) -> Non
     custom = [t for t in result.targets() if t["target"].startswith("panda_custom_task:")]
     assert len(custom) == 3 and all(t["value"] is not None for t in custom)
     md = markdown(result)
-    assert "What users run" in md and "| path |" in md and "elbow_height" in md
+    assert "What users run" in md and "| path |" in md and "elbow_side" in md
 
 
 def test_user_stacks_are_made_of_public_classes() -> None:
     """The stacks of the built-in and user cases hold the library's classes (and the user's own in the user
     cases); the benchmark-only posture is left to the labelled ``talos_actuated`` line."""
-    from benchmarks.user_cases import ElbowHeight, MyFrameTask
+    from benchmarks.user_cases import ElbowSide, MyFrameTask
 
     import redundik as rk
 
@@ -290,13 +290,13 @@ def test_user_stacks_are_made_of_public_classes() -> None:
             robot.update(sc.q0)
             stack = sc.stack(method, robot)
             for task in stack.tasks:
-                assert type(task).__module__.startswith("redundik.") or type(task) in (MyFrameTask, ElbowHeight)
+                assert type(task).__module__.startswith("redundik.") or type(task) in (MyFrameTask, ElbowSide)
             if method in ("wqp", "hqp"):
                 assert any(type(t) is rk.PostureTask for t in stack.tasks), (key, method)
             frames = [t for t in stack.tasks if isinstance(t, rk.FrameTask)]
             assert all(isinstance(t.trajectory, rk.Circle) != sc.teleop for t in frames), (key, method)
             assert all(type(t) is (MyFrameTask if key == "panda_user_task" else rk.FrameTask) for t in frames)
-            assert any(type(t) is ElbowHeight for t in stack.tasks) == (key == "panda_custom_task")
+            assert any(type(t) is ElbowSide for t in stack.tasks) == (key == "panda_custom_task")
     sc = ALL_SCENARIOS["talos_actuated"]()
     assert any(isinstance(t, ActuatedPostureTask) for t in sc.stack("wqp", sc.robot()).tasks)
 

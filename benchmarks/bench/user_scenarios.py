@@ -7,8 +7,9 @@
   (their ``set_target`` / ``T_world_frame`` inside their timed tick).
 * ``panda_user_task``: ``panda_circle`` with the hand task a user's ``class MyFrameTask(FrameTask): pass``
   (:class:`benchmarks.user_cases.MyFrameTask`); the same task set, so its peers are ``panda_circle``'s.
-* ``panda_custom_task``: ``panda_circle`` plus a user's 10-line ``Task`` subclass (the elbow height,
-  :class:`benchmarks.user_cases.ElbowHeight`, held at q0's); no peer runs that task, so it has no peer ratio, only
+* ``panda_custom_task``: ``panda_circle`` plus a user's 10-line ``Task`` subclass (the elbow's lateral position,
+  :class:`benchmarks.user_cases.ElbowSide`, held at q0's: the arm's redundant degree of freedom there); no peer
+  runs that task, so it has no peer ratio, only
   the ratio to the built-in case.
 
 Each of these, and ``talos_actuated``, is also compared with its built-in case (:data:`BASELINES`) of the same
@@ -22,7 +23,7 @@ import time
 import numpy as np
 
 from benchmarks.bench.scenarios import PANDA_Q0, Scenario, panda_scenario, talos_scenario
-from benchmarks.user_cases import ElbowHeight, MyFrameTask
+from benchmarks.user_cases import ElbowSide, MyFrameTask
 from redundik.kinematics.urdf import load_example_robot
 from redundik.tasks.base import Task
 
@@ -70,27 +71,28 @@ def panda_user_task_scenario() -> Scenario:
 
 
 def panda_custom_task_scenario() -> Scenario:
-    """``panda_circle`` plus a user's own 10-line task (elbow height held at q0's, gain 5/s, weight 1)."""
+    """``panda_circle`` plus a user's own 10-line task (the elbow's lateral position held at q0's, gain 5/s,
+    weight 1)."""
     robot = load_example_robot("panda")
     robot.update(PANDA_Q0)
-    z0 = float(robot.frame_position("panda_link4")[2])
+    y0 = float(robot.frame_position("panda_link4")[1])
 
     def extra() -> list[Task]:
-        return [ElbowHeight(z0, gain=5.0)]
+        return [ElbowSide(y0, gain=5.0)]
 
     sc = panda_scenario()
     sc.key, sc.extra_tasks = "panda_custom_task", extra
-    sc.title = "Panda circle + a user's 10-line Task subclass (elbow height, benchmarks/user_cases.py)"
+    sc.title = "Panda circle + a user's 10-line Task subclass (the elbow's lateral position, benchmarks/user_cases.py)"
     sc.methods, sc.placo, sc.all_backends = REDUNDIK_METHODS, False, False
     return sc
 
 
 def custom_task_evaluate_us(calls: int = 200, blocks: int = 7) -> float:
-    """The user's task's own cost: the median over ``blocks`` of the mean time of ``ElbowHeight.evaluate`` [µs]
+    """The user's task's own cost: the median over ``blocks`` of the mean time of ``ElbowSide.evaluate`` [µs]
     (on the Panda at q0, kinematics updated once), for issue 31's "a custom task adds its evaluate + 10 %"."""
     robot = load_example_robot("panda")
     robot.update(PANDA_Q0)
-    task = ElbowHeight(0.5, gain=5.0)
+    task = ElbowSide(0.0, gain=5.0)
     task.evaluate(robot, 0.0)
     per = []
     for _ in range(blocks):

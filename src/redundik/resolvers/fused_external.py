@@ -46,16 +46,24 @@ class PythonWriters:
     ) -> None:
         raise NotImplementedError  # (FusedPlan's)
 
-    def evaluate_external(self, robot: RobotModel, t: float) -> list[TaskTerm | None] | None:
+    def evaluate_external(self, robot: RobotModel, t: float, direct: bool = False) -> list[TaskTerm | None] | None:
         """Each Python-written member's term at t (``None`` for what has no term of its own: a gradient subtask, a
         Lie-group null term), in :attr:`external` order; the plan is packed again when a member's row count moved.
-        ``None``: a term is not a (r, nv) Jacobian with r-vectors v and e (the per-task path says what is wrong)."""
+        ``None``: a term is not a (r, nv) Jacobian with r-vectors v and e (the per-task path says what is wrong).
+
+        ``direct``: a compiled writer of main rows is not called here but by :meth:`write_external`, straight into
+        the step's buffers (its entry ``None`` until then); for a step whose buffers are its own (``pinv``, ``wqp``:
+        the result's terms are views on them)."""
         nv = robot._nv
         out: list[TaskTerm | None] = []
         rows: list[int] = []
         for (role, member, _), writer in zip(self.external, self.writers, strict=True):
             if writer is not None:  # a compiled writer: its rows by construction of the right shapes
                 r = writer.rows
+                if direct and role == ROW:
+                    rows.append(r)
+                    out.append(None)
+                    continue
                 J = np.zeros((r, nv))
                 e, v = np.zeros(r), np.zeros(r)
                 writer.kernel(robot.q, t, self.poses, self.jw, writer.ints, writer.floats, member.gain, J, e, v)
@@ -109,19 +117,34 @@ class PythonWriters:
         ev: np.ndarray,
         weights: np.ndarray | None,
         zx: np.ndarray,
+        t: float = 0.0,
     ) -> None:
         """Write the Python members' blocks into a step's buffers: a ``ROW`` member's J into ``Jrows`` (its rows
         from ``offset``), its e and v into ``ev`` and its weight × ρ^k into ``weights`` (``wqp``); the null-space
         objective's Python terms into ``zx`` (z += v, z[sel] += K (q_ref ⊖ q)[sel], z += k η). ``Jrows`` ``None``:
-        the caller writes the rows' J where its layout puts them."""
+        the caller writes the rows' J where its layout puts them. A compiled writer left by
+        ``evaluate_external(direct=True)`` (its term ``None``) writes its rows in place here, at time t, and its
+        term becomes views on them."""
         zx[:] = 0.0
         k = 0
-        for (role, member, scale), term in zip(self.external, terms, strict=True):
+        for i, (role, member, scale) in enumerate(self.external):
+            term = terms[i]
             if role == ROW:
-                assert term is not None
                 a = self.external_starts[k]
                 b = a + self.external_rows[k]
                 k += 1
+                if term is None:  # a compiled writer, straight into the step's rows
+                    assert Jrows is not None
+                    writer = self.writers[i]
+                    assert writer is not None
+                    J, e, v = Jrows[a - offset : b - offset], ev[0, a:b], ev[1, a:b]
+                    J.fill(0.0)
+                    q = robot.q
+                    writer.kernel(q, t, self.poses, self.jw, writer.ints, writer.floats, member.gain, J, e, v)
+                    terms[i] = TaskTerm(member.name, J, v, e, member.weight)
+                    if weights is not None:
+                        weights[a - offset : b - offset] = member.weight * scale
+                    continue
                 if Jrows is not None:  # (``hqp`` places the rows itself, by its layout)
                     Jrows[a - offset : b - offset] = term.J
                 ev[0, a:b] = term.error

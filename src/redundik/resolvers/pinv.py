@@ -202,7 +202,7 @@ class PinvResolver(Resolver):
         refs = plan.given_references(t) if plan.given else plan.refs
         external: list[TaskTerm | None] | tuple[()] = ()
         if plan.external:  # the members without a compiled form: their evaluate, written into the step's rows
-            evaluated = plan.evaluate_external(robot, t)
+            evaluated = plan.evaluate_external(robot, t, direct=True)
             if evaluated is None:
                 return None
             external = evaluated
@@ -213,7 +213,7 @@ class PinvResolver(Resolver):
             b = a + m * n  # costs more than the slicing)
             end = work.shape[0]  # work's tail: the Python writers' null-space terms (n,), then z (n,)
             Jm, ev = work[a:b].reshape(m, n), work[b : b + 2 * m].reshape(2, m)
-            plan.write_external(robot, external, Jm, 0, ev, None, work[end - 2 * n : end - n])
+            plan.write_external(robot, external, Jm, 0, ev, None, work[end - 2 * n : end - n], t)
         q = robot.q
         status, rank, sigma_min, damping, err2, dq2 = FK.fused_pinv_step(
             plan.jw, plan.poses, float(t), refs, q, plan.ints, plan.floats, coef, work

@@ -459,7 +459,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         prev = limits.previous(self._dq_prev)
         external: list[TaskTerm | None] | tuple[()] = ()
         if fused.external:  # the members without a compiled form: their evaluate, written into the step's rows
-            evaluated = fused.evaluate_external(robot, t)
+            evaluated = fused.evaluate_external(robot, t, direct=True)
             if evaluated is None:
                 return None
             external = evaluated
@@ -472,7 +472,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             b = a + mx * n
             ev = work[OUT_ROWS * n : OUT_ROWS * n + 2 * m].reshape(2, m)
             Jx, wx, zx = work[a:b].reshape(mx, n), work[b : b + mx], work[b + mx : b + mx + n]
-            fused.write_external(robot, external, Jx, m - mx, ev, wx, zx)
+            fused.write_external(robot, external, Jx, m - mx, ev, wx, zx, t)
         q = robot.q
         status, err2, dq2 = FK.fused_wqp_step(
             fused.jw,
