@@ -2,7 +2,13 @@
 
 from __future__ import annotations
 
+import json
 import logging
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,7 +21,7 @@ from redundik.errors import ResolverError
 def test_warm_up_steps_each_resolver_and_logs(caplog: pytest.LogCaptureFixture) -> None:
     with caplog.at_level(logging.INFO, logger="redundik"):
         out = rk.warm_up(["pinv", "hqp"])
-    assert set(out) == {"pinv", "hqp"} and all(np.isfinite(v) and v >= 0 for v in out.values())
+    assert set(out) == {"pinv", "hqp", "solve_ik"} and all(np.isfinite(v) and v >= 0 for v in out.values())
     assert any("compiled kernels" in r.getMessage() for r in caplog.records)
     with pytest.raises(ResolverError):
         rk.warm_up(["nope"])
@@ -28,8 +34,43 @@ def test_compile_command(capsys: pytest.CaptureFixture[str]) -> None:
     captured = capsys.readouterr()
     printed = captured.out
     assert str(cache_dir()) in captured.err  # says where the kernels go
-    for name in ("pinv", "feedback", "wqp", "hqp"):
+    for name in ("pinv", "feedback", "wqp", "hqp", "solve_ik"):
         assert f"{name}:" in printed
+
+
+def test_warm_up_compiles_solve_ik_ahead(tmp_path: Path) -> None:
+    """After ``rk.warm_up(ik=True)`` on an empty cache, ``solve_ik`` and its batch form compile nothing (numba's
+    compile events): ``redundik compile`` covers the IK too."""
+    code = textwrap.dedent(
+        """
+        import json, numpy as np, redundik as rk
+        from numba.core import event
+        out = rk.warm_up([], ik=True)
+        found = []
+
+        class Listener(event.Listener):
+            def on_start(self, ev):
+                found.append(ev.data["dispatcher"].py_func.__qualname__)
+
+            def on_end(self, ev):
+                pass
+
+        event.register("numba:compile", Listener())
+        robot = rk.load_example_robot("panda")
+        q = robot.neutral()
+        robot.update(q)
+        T = robot.frame_pose("panda_hand")
+        ok = [rk.solve_ik(robot, "panda_hand", T, q).success, rk.solve_ik(robot, "panda_hand", T.translation).success]
+        ok += list(rk.solve_ik_batch(robot, "panda_hand", [T, T], q).success)
+        print(json.dumps({"keys": sorted(out), "found": sorted(set(found)), "ok": [bool(x) for x in ok]}))
+        """
+    )
+    env = {**os.environ, "REDUNDIK_CACHE_DIR": str(tmp_path)}
+    cmd = [sys.executable, "-c", code]
+    run = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=900, check=False)
+    assert run.returncode == 0, run.stderr[-3000:]
+    got = json.loads(run.stdout.strip().splitlines()[-1])
+    assert got["keys"] == ["solve_ik"] and got["found"] == [] and all(got["ok"])
 
 
 def test_feedback_reports_every_member_interpreted() -> None:

@@ -38,7 +38,7 @@ def _background_warm_up(resolvers: list[str]) -> dict[str, float]:
     """:func:`redundik.warmup.warm_up`, for the cold start's background thread (:mod:`redundik._coldstart`)."""
     from redundik.warmup import warm_up
 
-    return warm_up(resolvers)
+    return warm_up(resolvers, ik=False)
 
 
 _coldstart.WARM_UP = _background_warm_up

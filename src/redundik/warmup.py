@@ -22,10 +22,11 @@ _LOG = logging.getLogger("redundik")
 RESOLVERS: tuple[str, ...] = ("pinv", "feedback", "wqp", "hqp")
 
 
-def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS) -> dict[str, float]:
+def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS, *, ik: bool = True) -> dict[str, float]:
     """Step each resolver of ``resolvers`` a few times on a small arm (a frame task on a trajectory, a target set
     at run time, a posture and a joint centering, joint limits), so that the kernels of their compiled and
-    interpreted steps are compiled or loaded; returns the seconds each took.
+    interpreted steps are compiled or loaded; with ``ik``, also :func:`redundik.solve_ik` (a pose and a position
+    target, and the batch form), under the key ``"solve_ik"``; returns the seconds each took.
 
     Raises:
         ResolverError: an unknown resolver name (the message lists the known ones).
@@ -48,6 +49,15 @@ def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS) -> dict[str, flo
             _step_both_paths(rk, robot, resolver, q0)
         _coldstart.HOT.add(name)
         out[name] = time.perf_counter() - t0
+    if ik:
+        t0 = time.perf_counter()
+        robot.update(q0)
+        home = robot.frame_pose("7")
+        with _coldstart.compiling():
+            rk.solve_ik(robot, "7", home, q0, timeout=None, max_restarts=0)
+            rk.solve_ik(robot, "7", home.translation + 0.01, q0, timeout=None, max_restarts=0)
+            rk.solve_ik_batch(robot, "7", [home, home], q0, timeout=None, max_restarts=0)
+        out["solve_ik"] = time.perf_counter() - t0
     _LOG.info("redundik: kernels ready in %.1f s", sum(out.values()))
     return out
 

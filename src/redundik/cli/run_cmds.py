@@ -163,8 +163,8 @@ def schema(
 
 
 def compile_kernels() -> None:
-    """Compile the resolvers' kernels into numba's on-disk cache now (a first run on an empty cache spends up to a
-    minute there; a container image can bake this in), then print how long each resolver took."""
+    """Compile the resolvers' and ``solve_ik``'s kernels into numba's on-disk cache now (a first run on an empty cache
+    spends up to a minute there; a container image can bake this in), then print how long each took."""
     import typer
 
     from redundik._kernel_cache import cache_dir

@@ -38,6 +38,26 @@ from redundik.resolvers.fused_external import ROW as ROW
 from redundik.resolvers.fused_external import TERM as TERM
 from redundik.resolvers.fused_external import PythonWriters
 from redundik.resolvers.fused_result import FusedStepResult as FusedStepResult
+from redundik.resolvers.layouts import B_AXES as B_AXES
+from redundik.resolvers.layouts import B_CENTER as B_CENTER
+from redundik.resolvers.layouts import B_FID as B_FID
+from redundik.resolvers.layouts import B_LO as B_LO
+from redundik.resolvers.layouts import B_LOWER as B_LOWER
+from redundik.resolvers.layouts import B_NAXES as B_NAXES
+from redundik.resolvers.layouts import B_RADIUS as B_RADIUS
+from redundik.resolvers.layouts import B_RATE as B_RATE
+from redundik.resolvers.layouts import B_ROW as B_ROW
+from redundik.resolvers.layouts import B_UP as B_UP
+from redundik.resolvers.layouts import B_UPPER as B_UPPER
+from redundik.resolvers.layouts import FLOAT_PARTS as FLOAT_PARTS
+from redundik.resolvers.layouts import GIVEN_ERROR as GIVEN_ERROR
+from redundik.resolvers.layouts import H_EXTERNAL_ROWS as H_EXTERNAL_ROWS
+from redundik.resolvers.layouts import H_EXTERNAL_Z as H_EXTERNAL_Z
+from redundik.resolvers.layouts import H_FRAME_PARAMS as H_FRAME_PARAMS
+from redundik.resolvers.layouts import HEADER as HEADER
+from redundik.resolvers.layouts import IDENTITY as IDENTITY
+from redundik.resolvers.layouts import INT_PARTS as INT_PARTS
+from redundik.resolvers.layouts import REF as REF
 from redundik.resolvers.linalg import FK
 from redundik.tasks.base import NOT_READY, CompiledRows, Edits, FrameForm, Task, TaskTerm
 from redundik.tasks.frame import FrameTask
@@ -47,27 +67,6 @@ from redundik.tasks.subtasks import GradientSubtask
 from redundik.tasks.trajectory import GIVEN, PARAMS
 
 Form = tuple[np.ndarray, np.ndarray]
-
-#: Length of a reference row (p_d, R_d row-major, twist) of ``redundik.resolvers.fused_kernels``.
-REF = 18
-#: Entries of the header of a plan's ``ints``: counts K (frame tasks), J (joint-space tasks at a level), N (null-space
-#: terms), m (rows of e), nv, nq, then the offsets of kinds (K), frame rows, row starts (K + 1), rotation flags (K),
-#: joint rows, joint row starts (J + 1), identity flags (J), q index per velocity coordinate (nv), main-row flags (m),
-#: then the offsets in ``floats`` of the trajectory parameters (K × 23), joint targets (J × nq), null weights (N × nv)
-#: and null centres (N × nq), then the offsets in ``ints`` of the frame ids (K) and the supporting columns (K × nv).
-HEADER = 24
-#: Header slots of a mixed plan (issue 31's row protocol): the rows the members without a compiled form write from
-#: Python (their ``evaluate``) after the compiled rows, and 1 when Python writers add to the null-space objective z.
-H_EXTERNAL_ROWS, H_EXTERNAL_Z = 22, 23
-#: Bits of a level joint task's flag (the header's identity flags): an identity task (a diagonal shift), and an error
-#: the caller writes before the compiled call (Lie-group coordinates: K (q_ref ⊖ q) from Pinocchio's difference).
-IDENTITY, GIVEN_ERROR = 1, 2
-#: Columns of a packed bound subtask's integer row (``fused_kernels.clearance_rows``): frame id, first row of C,
-#: lower bound set, upper bound set, the number of axes, then the axes (indices into x, y, z).
-B_FID, B_ROW, B_LOWER, B_UPPER, B_NAXES, B_AXES = 0, 1, 2, 3, 4, 5
-#: Columns of a packed bound subtask's float row: the centre (3) [m], the radius [m], lower, upper [m], the rate K
-#: [1/s].
-B_CENTER, B_RADIUS, B_LO, B_UP, B_RATE = 0, 3, 4, 5, 6
 
 
 class FusedPlan(PythonWriters):
@@ -350,7 +349,7 @@ class FusedPlan(PythonWriters):
         ints = [K, J, N, self.m, nv, nq] + [0] * (HEADER - 6)
         ints[H_EXTERNAL_ROWS] = self.mx
         ints[H_EXTERNAL_Z] = int(any(role in (NULL, LIE_NULL, GRADIENT) for role, _, _ in self.external))
-        for slot, part in zip([*range(6, 15), 20, 21], [*parts, self.fids, columns], strict=True):
+        for slot, part in zip(INT_PARTS, [*parts, self.fids, columns], strict=True):
             ints[slot] = len(ints)
             ints += part
         floats: list[float] = []
@@ -360,10 +359,10 @@ class FusedPlan(PythonWriters):
             [float(x) for w, _ in nulls for x in w],
             [float(x) for _, c in nulls for x in c],
         ]
-        for slot, chunk in zip(range(16, 20), chunks, strict=True):
+        for slot, chunk in zip(FLOAT_PARTS, chunks, strict=True):
             ints[slot] = len(floats)
             floats += chunk
-        self.param_offset = int(ints[16])
+        self.param_offset = int(ints[H_FRAME_PARAMS])
         self._slots(robot, level_forms, [int(x) for x in starts], [int(x) for x in jstarts])
         self.ints = np.array(ints, dtype=np.int64)
         self.floats = np.array(floats, dtype=float)

@@ -23,14 +23,6 @@ from __future__ import annotations
 import numpy as np
 
 from redundik.kinematics.lie_kernels import frame_error_rp, frame_jacobian_lwa
-from redundik.resolvers.fused import (
-    GIVEN_ERROR,
-    H_EXTERNAL_ROWS,
-    H_EXTERNAL_Z,
-    HEADER,
-    IDENTITY,
-    REF,
-)
 from redundik.resolvers.kernels import (
     _jit,
     closed_form_into,
@@ -41,6 +33,14 @@ from redundik.resolvers.layouts import (
     CF_DQ,
     CF_ROWS,
     FRAME_ROWS,
+    GIVEN_ERROR,
+    H_EXTERNAL_ROWS,
+    H_EXTERNAL_Z,
+    H_FRAME_COLUMNS,
+    H_FRAME_IDS,
+    H_FRAME_KINDS,
+    H_FRAME_PARAMS,
+    H_FRAME_ROTATION,
     H_FRAME_ROWS,
     H_FRAME_STARTS,
     H_IQ,
@@ -51,9 +51,14 @@ from redundik.resolvers.layouts import (
     H_JOINT_TARGETS,
     H_K,
     H_M,
+    H_MAIN,
     H_N,
     H_NQ,
+    H_NULL_CENTRES,
+    H_NULL_WEIGHTS,
     H_NV,
+    HEADER,
+    IDENTITY,
     OPT_DT,
     OPT_GAIN,
     OPT_POSITION,
@@ -63,6 +68,7 @@ from redundik.resolvers.layouts import (
     OUT_DQ,
     OUT_ROWS,
     PINV_TAIL,
+    REF,
     TAIL_DAMPING,
     TAIL_DT,
     TAIL_EPSILON,
@@ -109,14 +115,14 @@ def frame_rows(
         False as soon as a rotation error is too large for the compiled log3 (the caller then evaluates the tasks
         one by one, with Pinocchio's log3).
     """
-    K, nv = ints[0], ints[4]
-    kinds = _part(ints, 6, K)
-    starts = _part(ints, 8, K + 1)
-    rows = _part(ints, 7, starts[K])
-    rot = _part(ints, 9, K)
-    fids = _part(ints, 20, K)
-    columns = _part(ints, 21, K * nv)
-    po = ints[16]
+    K, nv = ints[H_K], ints[H_NV]
+    kinds = _part(ints, H_FRAME_KINDS, K)
+    starts = _part(ints, H_FRAME_STARTS, K + 1)
+    rows = _part(ints, H_FRAME_ROWS, starts[K])
+    rot = _part(ints, H_FRAME_ROTATION, K)
+    fids = _part(ints, H_FRAME_IDS, K)
+    columns = _part(ints, H_FRAME_COLUMNS, K * nv)
+    po = ints[H_FRAME_PARAMS]
     scratch = np.empty(REF)
     for k in range(K):
         pose = poses[fids[k]]
@@ -142,9 +148,9 @@ def _null_objective(q: np.ndarray, ints: np.ndarray, floats: np.ndarray, coef: n
     """z = Σ_k c_k w_k ⊙ (q − q_k) over 1-dof coordinates — the stack's null-space objective of eq. (5.8): a gradient
     subtask of a (weighted) joint centering (c_k its gain k), an identity regulariser such as a posture (c_k = −K,
     w_k = 1)."""
-    N, nv, nq = ints[2], ints[4], ints[5]
-    iq = _part(ints, 13, nv)
-    wo, co = ints[18], ints[19]
+    N, nv, nq = ints[H_N], ints[H_NV], ints[H_NQ]
+    iq = _part(ints, H_IQ, nv)
+    wo, co = ints[H_NULL_WEIGHTS], ints[H_NULL_CENTRES]
     z[:] = 0.0
     for k in range(N):
         c = coef[k]
@@ -167,8 +173,8 @@ def _sumsq(x: np.ndarray) -> float:
 @_jit
 def _main_error2(ints: np.ndarray, e: np.ndarray) -> float:
     """Σ e² over the main tasks' rows (the step's task error, squared)."""
-    m = ints[3]
-    main = _part(ints, 14, m)
+    m = ints[H_M]
+    main = _part(ints, H_MAIN, m)
     total = 0.0
     for r in range(m):
         if main[r]:

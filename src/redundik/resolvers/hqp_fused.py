@@ -12,21 +12,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from redundik.resolvers.fused import (
-    B_AXES,
-    B_CENTER,
-    B_FID,
-    B_LO,
-    B_LOWER,
-    B_NAXES,
-    B_RADIUS,
-    B_RATE,
-    B_ROW,
-    B_UP,
-    B_UPPER,
-    GIVEN_ERROR,
-    H_EXTERNAL_Z,
-)
 from redundik.resolvers.fused_kernels import _main_error2, _null_objective, _part, _sumsq, frame_rows
 from redundik.resolvers.hqp_kernels import closed_step
 from redundik.resolvers.hqp_layout import (
@@ -47,6 +32,21 @@ from redundik.resolvers.hqp_layout import (
     CascadeRows,
 )
 from redundik.resolvers.kernels import _jit
+from redundik.resolvers.layouts import (
+    B_AXES,
+    B_CENTER,
+    B_FID,
+    B_LO,
+    B_LOWER,
+    B_NAXES,
+    B_RADIUS,
+    B_RATE,
+    B_ROW,
+    B_UP,
+    B_UPPER,
+    GIVEN_ERROR,
+    H_EXTERNAL_Z,
+)
 from redundik.tasks.potential_kernels import clearance_into
 
 __all__ = ["clearance_rows", "fused_hqp_step"]

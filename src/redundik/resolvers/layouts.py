@@ -48,11 +48,36 @@ WQP_TAIL = 5
 TAIL_EPSILON, TAIL_MAX_DAMPING, TAIL_RCOND = 0, 1, 2
 PINV_TAIL = 3
 
-#: Header slots of a fused plan's ``ints``: the counts K (frame tasks), J (joint-space tasks of a level), N
-#: (null-space terms), m (rows of e), nv, nq; then the offsets (in ``ints``) of the frame rows, the frame row starts
-#: (K + 1), the joint rows, the joint row starts (J + 1), the joint tasks' flags (J), the q index of each velocity
-#: coordinate (nv) and the main-row flags (m); and the offset (in ``floats``) of the joint targets (J × nq).
+#: Header slots of a fused plan's ``ints`` (``FusedPlan._pack`` writes them, the fused kernels read them): the counts
+#: K (frame tasks), J (joint-space tasks of a level), N (null-space terms), m (rows of e), nv, nq; then the offsets
+#: (in ``ints``) of the frame kinds (K), the frame rows, the frame row starts (K + 1), the frames' rotation flags (K),
+#: the joint rows, the joint row starts (J + 1), the joint tasks' flags (J), the q index of each velocity coordinate
+#: (nv) and the main-row flags (m); the offsets (in ``floats``) of the trajectory parameters (K × PARAMS), the joint
+#: targets (J × nq), the null weights (N × nv) and the null centres (N × nq); the offsets (in ``ints``) of the frame
+#: ids (K) and their supporting columns (K × nv); the rows Python writers add after the compiled rows (a mixed plan),
+#: and 1 when Python writers add to the null-space objective z.
 H_K, H_J, H_N, H_M, H_NV, H_NQ = 0, 1, 2, 3, 4, 5
-H_FRAME_ROWS, H_FRAME_STARTS = 7, 8
+H_FRAME_KINDS, H_FRAME_ROWS, H_FRAME_STARTS, H_FRAME_ROTATION = 6, 7, 8, 9
 H_JOINT_ROWS, H_JOINT_STARTS, H_JOINT_FLAGS, H_IQ, H_MAIN = 10, 11, 12, 13, 14
-H_JOINT_TARGETS = 17
+H_FRAME_PARAMS, H_JOINT_TARGETS, H_NULL_WEIGHTS, H_NULL_CENTRES = 16, 17, 18, 19
+H_FRAME_IDS, H_FRAME_COLUMNS = 20, 21
+H_EXTERNAL_ROWS, H_EXTERNAL_Z = 22, 23
+#: Entries of the header (slot 15 is unused).
+HEADER = 24
+#: The ``ints`` parts in the order ``FusedPlan._pack`` lays them out, and the ``floats`` parts.
+INT_PARTS = (
+    H_FRAME_KINDS, H_FRAME_ROWS, H_FRAME_STARTS, H_FRAME_ROTATION, H_JOINT_ROWS, H_JOINT_STARTS, H_JOINT_FLAGS, H_IQ,
+    H_MAIN, H_FRAME_IDS, H_FRAME_COLUMNS,
+)  # fmt: skip
+FLOAT_PARTS = (H_FRAME_PARAMS, H_JOINT_TARGETS, H_NULL_WEIGHTS, H_NULL_CENTRES)
+#: Length of a reference row (p_d, R_d row-major, twist) of ``redundik.resolvers.fused_kernels``.
+REF = 18
+#: Bits of a level joint task's flag (the header's identity flags): an identity task (a diagonal shift), and an error
+#: the caller writes before the compiled call (Lie-group coordinates: K (q_ref ⊖ q) from Pinocchio's difference).
+IDENTITY, GIVEN_ERROR = 1, 2
+#: Columns of a packed bound subtask's integer row (``fused_kernels.clearance_rows``): frame id, first row of C,
+#: lower bound set, upper bound set, the number of axes, then the axes (indices into x, y, z).
+B_FID, B_ROW, B_LOWER, B_UPPER, B_NAXES, B_AXES = 0, 1, 2, 3, 4, 5
+#: Columns of a packed bound subtask's float row: the centre (3) [m], the radius [m], lower, upper [m], the rate K
+#: [1/s].
+B_CENTER, B_RADIUS, B_LO, B_UP, B_RATE = 0, 3, 4, 5, 6
