@@ -238,3 +238,35 @@ def test_bad_writer_is_named(form: object, words: str, method: str) -> None:
         for k in range(3):
             res.step(robot, stack, q, k * DT, DT)
     assert "'bad'" in str(err.value)
+
+
+@numba.njit(cache=False)
+def _nan_rows(q, t, poses, jw, ints, floats, gain, J, e, v):  # type: ignore[no-untyped-def]
+    J[0, 0] = 1.0
+    e[0] = floats[0] * np.nan  # a user's formula that breaks (0/0, log of a negative, ...)
+    v[0] = gain * e[0]
+
+
+class NanWriter(CompiledTask):
+    def __init__(self) -> None:
+        self._init_task("nan_row")
+
+    def compiled_rows(self, robot: RobotModel) -> CompiledRows:
+        return CompiledRows(_nan_rows, 1, np.zeros(1, dtype=np.int64), np.ones(1))
+
+    def __repr__(self) -> str:
+        return "NanWriter()"
+
+
+@pytest.mark.parametrize("method", ["pinv", "wqp", "hqp"])
+def test_a_writer_that_gives_nan_stops_the_robot_and_names_itself(method: str) -> None:
+    """A compiled writer writes straight into the step's rows (pinv, wqp): a NaN it writes reaches no q̇. The step
+    degrades to q̇ = 0 and its fallback names the writer's task, as for a Python task's NaN."""
+    robot, q = _panda()
+    stack = _stack(NanWriter())
+    stack.reset(robot)
+    res = rk.make_resolver(method)
+    for k in range(3):
+        out = res.step(robot, stack, q, k * DT, DT)
+        assert np.isfinite(out.dq).all() and not out.dq.any()
+        assert out.fallback is not None and "nan_row" in out.fallback
