@@ -45,7 +45,6 @@ from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, StepResult
 from redundik.resolvers.fused import FusedPlan
 from redundik.resolvers.layouts import (
-    FRAME_ROWS,
     LIM_AMAX,
     LIM_HI,
     LIM_LO,
@@ -70,7 +69,7 @@ from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics
 from redundik.resolvers.qp.direction import DirectionScaling, solve_direction
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, infeasible
-from redundik.resolvers.qp.wqp_fused import FusedWqpResult
+from redundik.resolvers.qp.wqp_fused import FusedWqpResult, write_external_rows
 from redundik.resolvers.settings import Setting, flag, nonnegative, unit_interval
 from redundik.resolvers.singularity import SingularityGuard
 from redundik.tasks.base import TaskTerm
@@ -466,13 +465,8 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         work = np.empty(fused.wqp_work)  # the box and answers, e and v, the frames' Jacobians: one allocation
         if fused.lie_joints:
             fused.write_joint_errors(robot, FK.wqp_work_views(work, len(fused.frames), fused.m, n)[1][0])
-        if external:  # (FK.wqp_work_views' and FK.wqp_external_views' parts, sliced here: cheaper than the calls)
-            m, mx = fused.m, fused.mx
-            a = OUT_ROWS * n + 2 * m + FRAME_ROWS * len(fused.frames) * n
-            b = a + mx * n
-            ev = work[OUT_ROWS * n : OUT_ROWS * n + 2 * m].reshape(2, m)
-            Jx, wx, zx = work[a:b].reshape(mx, n), work[b : b + mx], work[b + mx : b + mx + n]
-            fused.write_external(robot, external, Jx, m - mx, ev, wx, zx, t)
+        if external:
+            write_external_rows(fused, robot, external, work, t)
         q = robot.q
         status, err2, dq2 = FK.fused_wqp_step(
             fused.jw,

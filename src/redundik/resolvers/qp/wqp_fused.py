@@ -13,12 +13,24 @@ import numpy as np
 
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.fused import FusedPlan, FusedStepResult
-from redundik.resolvers.layouts import OUT_BOX, OUT_DQ, OUT_KEPT
+from redundik.resolvers.layouts import FRAME_ROWS, OUT_BOX, OUT_DQ, OUT_KEPT, OUT_ROWS
 from redundik.resolvers.linalg import FK
 from redundik.resolvers.qp.base import QPDiagnostics
 from redundik.tasks.base import TaskTerm
 
-__all__ = ["FusedWqpResult"]
+__all__ = ["FusedWqpResult", "write_external_rows"]
+
+
+def write_external_rows(fused: FusedPlan, robot: RobotModel, external: list[TaskTerm | None], work: np.ndarray,
+                        t: float) -> None:  # fmt: skip
+    """The Python writers' rows of a mixed plan into a ``wqp`` step's ``work``, at the parts
+    ``FK.wqp_work_views`` and ``FK.wqp_external_views`` give (sliced here: cheaper than those compiled calls)."""
+    n, m, mx = robot._nv, fused.m, fused.mx
+    a = OUT_ROWS * n + 2 * m + FRAME_ROWS * len(fused.frames) * n
+    b = a + mx * n
+    ev = work[OUT_ROWS * n : OUT_ROWS * n + 2 * m].reshape(2, m)
+    Jx, wx, zx = work[a:b].reshape(mx, n), work[b : b + mx], work[b + mx : b + mx + n]
+    fused.write_external(robot, external, Jx, m - mx, ev, wx, zx, t)
 
 
 def _fused_terms(step: tuple[Any, ...]) -> list[TaskTerm]:
