@@ -203,8 +203,7 @@ class _Twins:
 
     def __getattr__(self, name: str) -> Any:
         value = getattr(self._space, name)
-        kernels = {id(d) for funcs in _kernel_cache.KERNELS.values() for d in funcs.values()}
-        return twin(value) if id(value) in kernels or isinstance(value, _Switch) else value
+        return twin(value) if isinstance(value, _Switch) or hasattr(value, "py_func") else value
 
 
 _twin_spaces: dict[int, _Twins] = {}
