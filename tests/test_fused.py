@@ -7,6 +7,8 @@ really taken (or, where it must not be, that it was not).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -228,20 +230,63 @@ def test_large_rotation_error_takes_the_per_task_path() -> None:
 
 @pytest.mark.parametrize("method", ["pinv", "wqp", "hqp"])
 def test_a_potential_without_a_compiled_form_runs_mixed(method: str) -> None:
-    """A potential without a linear gradient: its direction is written from Python into the compiled step's z (a
-    mixed step, naming it), and the answer is the per-task path's."""
+    """A potential without a compiled writer (a user's subclass that computes η its own way): its direction is
+    written from Python into the compiled step's z (a mixed step, naming it), and the answer is the per-task path's."""
     from redundik.tasks.potentials import JointSine2
+
+    class Steeper(JointSine2):  # its own gradient: the writer it inherits must not replace it
+        def gradient(self, robot: RobotModel) -> np.ndarray:
+            return 2.0 * super().gradient(robot)
 
     def stack(robot: RobotModel) -> TaskStack:
         return TaskStack(
             [_hand(Circle(0.05, 1.5, plane=("y", "z"))), PostureTask(gain=1.0)],
-            [GradientSubtask(JointSine2("panda_joint4"))],
+            [GradientSubtask(Steeper("panda_joint4", name="steeper"))],
         )
 
     paths: list[str] = []
     took = _compare(stack, method, steps=40, paths=paths)
     assert sum(took) >= 32
     assert set(paths[2:]) == {"mixed"}
+
+
+def _chapter_potentials() -> list[Any]:
+    from redundik.tasks.potentials import Clearance, JointSine2, JointValue, VirtualPoint
+
+    return [
+        JointSine2("panda_joint4"),
+        JointValue("panda_joint2", 0.3),
+        VirtualPoint("panda_link4", [0.3, 0.2, 0.5], axes=("x", "z")),
+        Clearance("panda_link5", [0.5, 0.3, 0.4], radius=0.05),
+    ]
+
+
+@pytest.mark.parametrize("method", ["pinv", "wqp", "hqp"])
+@pytest.mark.parametrize("which", range(4))
+def test_the_chapters_potentials_run_compiled(method: str, which: int) -> None:
+    """A gradient subtask on each chapter potential with a compiled writer (sin²θ, (q − c)², a virtual point, a
+    clearance): the step is compiled (``path == "compiled"``) and its q̇ is the per-task path's (1e-12); moving the
+    potential's data between steps (a new point or centre) is followed without a new plan."""
+
+    def stack(robot: RobotModel) -> TaskStack:
+        return TaskStack(
+            [_hand(Circle(0.05, 1.5, plane=("y", "z"))), PostureTask(gain=1.0)],
+            [GradientSubtask(_chapter_potentials()[which], gain=-0.5 if which in (1, 2) else 0.5)],
+        )
+
+    def edit(k: int, robot: RobotModel, stack: TaskStack) -> None:
+        pot = stack.subtasks[0].potential
+        if k == 20 and hasattr(pot, "point"):
+            pot.point = [0.2, 0.1, 0.6]
+        if k == 20 and hasattr(pot, "center"):
+            pot.center = [0.45, 0.2, 0.5]
+        if k == 20 and hasattr(pot, "c"):
+            pot.c = -0.2
+
+    paths: list[str] = []
+    took = _compare(stack, method, steps=40, edit=edit, paths=paths)
+    assert sum(took) >= 36
+    assert set(paths[2:]) == {"compiled"}
 
 
 def test_frame_jacobian_from_joint_jacobians_is_pinocchios() -> None:

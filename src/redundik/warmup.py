@@ -24,9 +24,10 @@ RESOLVERS: tuple[str, ...] = ("pinv", "feedback", "wqp", "hqp")
 
 def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS, *, ik: bool = True) -> dict[str, float]:
     """Step each resolver of ``resolvers`` a few times on a small arm (a frame task on a trajectory, a target set
-    at run time, a posture and a joint centering, joint limits), so that the kernels of their compiled and
-    interpreted steps are compiled or loaded; with ``ik``, also :func:`redundik.solve_ik` (a pose and a position
-    target, and the batch form), under the key ``"solve_ik"``; returns the seconds each took.
+    at run time, a posture, a joint centering and the potentials with compiled writers, joint limits), so that the
+    kernels of their compiled and interpreted steps are compiled or loaded; with ``ik``, also
+    :func:`redundik.solve_ik` (a pose and a position target, and the batch form), under the key ``"solve_ik"``;
+    returns the seconds each took.
 
     Raises:
         ResolverError: an unknown resolver name (the message lists the known ones).
@@ -62,6 +63,20 @@ def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS, *, ik: bool = Tr
     return out
 
 
+def _gradients(rk: Any) -> list[Any]:
+    """Gradient subtasks on a joint centering and on each potential with a compiled writer (their kernels)."""
+    from redundik.tasks.waypoints import JointWaypoints
+
+    return [
+        rk.GradientSubtask(rk.JointCentering(), gain=-1.0),
+        rk.GradientSubtask(rk.JointSine2("4"), gain=0.01),
+        rk.GradientSubtask(rk.JointValue("2", 0.3), gain=-0.01),
+        rk.GradientSubtask(rk.VirtualPoint("3", [0.5, 0.5, 0.5]), gain=-0.01),
+        rk.GradientSubtask(rk.Clearance("5", [1.0, 1.0, 1.0], 0.1), gain=0.01),
+        rk.GradientSubtask(JointWaypoints("1", [0.5, 0.3]), gain=-0.01),
+    ]
+
+
 def _step_both_paths(rk: Any, robot: Any, resolver: Any, q0: np.ndarray) -> None:
     """Three steps of each of the warm-up's stacks, on the resolver's compiled step and on its per-task path."""
     for fuse in (True, False) if hasattr(resolver, "fuse") else (None,):
@@ -69,7 +84,7 @@ def _step_both_paths(rk: Any, robot: Any, resolver: Any, q0: np.ndarray) -> None
             resolver.fuse = fuse
         for teleop in (False, True):
             task = rk.FrameTask("7", None if teleop else rk.Circle(0.02, np.pi, plane=("y", "z")), gain=5.0)
-            stack = rk.TaskStack([task, rk.PostureTask(gain=1.0)], [rk.GradientSubtask(rk.JointCentering(), gain=-1.0)])
+            stack = rk.TaskStack([task, rk.PostureTask(gain=1.0)], _gradients(rk))
             q = q0.copy()
             robot.update(q)
             stack.reset(robot)

@@ -59,8 +59,9 @@ from redundik.resolvers.layouts import IDENTITY as IDENTITY
 from redundik.resolvers.layouts import INT_PARTS as INT_PARTS
 from redundik.resolvers.layouts import REF as REF
 from redundik.resolvers.linalg import FK
-from redundik.tasks.base import NOT_READY, CompiledRows, Edits, FrameForm, Task, TaskTerm
+from redundik.tasks.base import NOT_READY, CompiledGradient, CompiledRows, Edits, FrameForm, Task, TaskTerm
 from redundik.tasks.frame import FrameTask
+from redundik.tasks.potential_rows import compiled_writer
 from redundik.tasks.rows import check_form
 from redundik.tasks.stack import StackLayout, TaskStack
 from redundik.tasks.subtasks import GradientSubtask
@@ -133,8 +134,9 @@ class FusedPlan(PythonWriters):
         self.joint_spans: list[tuple[int, int]] = []  # each level joint task's rows among the step's rows
         self.external_names: tuple[str, ...] = ()
         #: per external member, its compiled writer (``Task.compiled_rows``) or ``None`` (its ``evaluate`` runs)
-        self.writers: list[CompiledRows | None] = []
-        self.writer_checks: list[tuple[Task, int]] = []  # the writers' tasks and their form revisions when planned
+        self.writers: list[CompiledRows | CompiledGradient | None] = []
+        #: the writers' tasks and potentials, with their form revisions when planned
+        self.writer_checks: list[tuple[Any, int]] = []
         self.mx = 0  # rows written from Python (after the compiled rows)
         self.index: dict[int, int] = {}
         self.level_forms: list[Form] = []
@@ -223,7 +225,7 @@ class FusedPlan(PythonWriters):
         jw, poses = jacobian_view(robot.data), se3_vector_view(robot.data.oMf)
         if jw is None or poses is None:  # Pinocchio's memory not laid out as checked: the per-task path
             return None
-        plan.jw, plan.poses = jw, poses
+        plan.jw, plan.poses, plan.eta = jw, poses, np.zeros(robot.nv)
         index = {id(t): i for i, t in enumerate(stack.tasks)}
         plan.index = index
         scale = scales or {}
@@ -240,18 +242,23 @@ class FusedPlan(PythonWriters):
         return plan
 
     def find_compiled_writers(self, robot: RobotModel) -> None:
-        """The compiled writers (``Task.compiled_rows``) of the Python-placed members: called, not evaluated."""
-        self.writers = [  # the compiled writers of Python-placed rows (``Task.compiled_rows``): called, not evaluated
-            check_form(member, form)
-            if role in (ROW, NULL, TERM) and (form := member.compiled_rows(robot)) is not None
-            else None
-            for role, member, _ in self.external
-        ]
-        self.writer_checks = [
-            (member, member.form_revision)
-            for (_, member, _), w in zip(self.external, self.writers, strict=True)
-            if w is not None
-        ]
+        """The compiled writers of the Python-placed members — a task's ``Task.compiled_rows``, a gradient
+        subtask's ``Potential.compiled_gradient`` (``potential_rows.compiled_writer``) —: called, not evaluated."""
+        writers: list[CompiledRows | CompiledGradient | None] = []
+        checks: list[tuple[Any, int]] = []
+        for role, member, _ in self.external:
+            form: CompiledRows | CompiledGradient | None = None
+            owner = member
+            if role in (ROW, NULL, TERM):
+                form = member.compiled_rows(robot)
+                form = None if form is None else check_form(member, form)
+            elif role == GRADIENT:
+                owner = getattr(member, "potential", None)
+                form = compiled_writer(owner, robot)
+            writers.append(form)
+            if form is not None:
+                checks.append((owner, owner.form_revision))
+        self.writers, self.writer_checks = writers, checks
 
     def _frame_checks(self) -> None:
         """Per frame member: its task, its form revision when packed, its trajectory, and a view of its packed

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from redundik.kinematics.model import RobotModel
-from redundik.tasks.base import CompiledRows, TaskTerm, check_term
+from redundik.tasks.base import CompiledGradient, CompiledRows, TaskTerm, check_term
 
 #: Roles of a member written from Python in a mixed plan: rows of the main system / of its level (``ROW``), a term of
 #: the null-space objective z (``NULL``: z += v), a joint-space null term on Lie-group coordinates (``LIE_NULL``:
@@ -22,7 +22,7 @@ class PythonWriters:
     """The Python-written members of a plan and their writing (``FusedPlan`` sets the attributes)."""
 
     external: list[tuple[int, Any, float]]
-    writers: list[CompiledRows | None]
+    writers: list[CompiledRows | CompiledGradient | None]
     external_rows: list[int]
     external_starts: list[int]
     repacked: bool
@@ -34,6 +34,7 @@ class PythonWriters:
     index: dict[int, int]
     poses: np.ndarray
     jw: np.ndarray
+    eta: np.ndarray  # (nv,) scratch of a potential's compiled writer
 
     def _pack(
         self,
@@ -58,7 +59,10 @@ class PythonWriters:
         out: list[TaskTerm | None] = []
         rows: list[int] = []
         for (role, member, _), writer in zip(self.external, self.writers, strict=True):
-            if writer is not None:  # a compiled writer: its rows by construction of the right shapes
+            if role == GRADIENT:  # (written by ``write_external``: its compiled writer, or ``direction``)
+                out.append(None)
+            elif writer is not None:  # a compiled writer: its rows by construction of the right shapes
+                assert isinstance(writer, CompiledRows)
                 r = writer.rows
                 if direct and role == ROW:
                     rows.append(r)
@@ -136,7 +140,7 @@ class PythonWriters:
                 if term is None:  # a compiled writer, straight into the step's rows
                     assert Jrows is not None
                     writer = self.writers[i]
-                    assert writer is not None
+                    assert isinstance(writer, CompiledRows)
                     J, e, v = Jrows[a - offset : b - offset], ev[0, a:b], ev[1, a:b]
                     J.fill(0.0)
                     q = robot.q
@@ -158,4 +162,12 @@ class PythonWriters:
                 sel, target = member.joint_form(robot)
                 zx[sel] += member.gain * robot.difference(robot.q, target)[sel]
             elif role == GRADIENT and member.gain != 0.0:
-                zx += member.direction(robot)
+                writer = self.writers[i]
+                if writer is None:
+                    zx += member.direction(robot)
+                else:  # its potential's compiled writer: z += k η (eq. 5.8)
+                    assert isinstance(writer, CompiledGradient)
+                    eta = self.eta
+                    eta.fill(0.0)
+                    writer.kernel(robot.q, self.poses, self.jw, writer.ints, writer.floats, eta)
+                    zx += member.gain * eta

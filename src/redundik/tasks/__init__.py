@@ -5,9 +5,19 @@ section 5.3) and a joint visiting waypoints (:mod:`.waypoints`, the (6+1) robot'
 """
 
 from redundik.tasks.balance import CoMTask, ContactTask, SupportPolygon
-from redundik.tasks.base import Barrier, BarrierTerm, CompiledRows, Potential, Task, TaskTerm, stack_terms
+from redundik.tasks.base import (
+    Barrier,
+    BarrierTerm,
+    CompiledGradient,
+    CompiledRows,
+    Potential,
+    Task,
+    TaskTerm,
+    stack_terms,
+)
 from redundik.tasks.coupling import JointCoupling
 from redundik.tasks.frame import AXIS_SETS, DEFAULT_HOLD_GAIN, FrameTask, PostureTask
+from redundik.tasks.potential_rows import CompiledPotential
 from redundik.tasks.potential_task import PotentialTask
 from redundik.tasks.potentials import (
     BestPosture,
@@ -35,6 +45,8 @@ __all__ = [
     "Circle",
     "Clearance",
     "CoMTask",
+    "CompiledGradient",
+    "CompiledPotential",
     "CompiledRows",
     "CompiledTask",
     "ContactTask",

@@ -149,6 +149,29 @@ class CompiledRows(NamedTuple):
     floats: np.ndarray
 
 
+class CompiledGradient(NamedTuple):
+    """A potential's p(q) and η = ∂p/∂q as a compiled writer: the optional compiled form of a potential
+    (``Potential.compiled_gradient``), which a compiled step calls in place of ``gradient`` (a gradient subtask's
+    z = k η, eq. 5.8).
+
+    A step calls ``kernel(q, poses, jw, ints, floats, eta)`` — a ``numba.njit`` function — with ``q``, ``poses``
+    and ``jw`` as for :class:`CompiledRows` (the configuration, the frames' placements, the joint Jacobians in the
+    world frame) and ``ints``, ``floats`` the potential's own data (rewritten in place when it is assigned: data, not
+    a new plan); the kernel writes η into ``eta`` (nv,; zeros on entry) and returns p.
+    :class:`redundik.tasks.potential_rows.CompiledPotential` derives ``value`` and ``gradient`` from the same kernel:
+    one formula, two paths.
+
+    Attributes:
+        kernel: The compiled writer.
+        ints: int64 data (1-D).
+        floats: float64 data (1-D).
+    """
+
+    kernel: Any
+    ints: np.ndarray
+    floats: np.ndarray
+
+
 class Edits:
     """A counter that every change of a task's or a gradient subtask's gain or weight moves (their validated setters):
     a fused step (:mod:`redundik.resolvers.fused`) re-reads its coefficients when it has moved."""
@@ -341,6 +364,16 @@ class Potential(ABC):
         """(w (nv,), q_c (nq,)) when η = w ⊙ (q ⊖ q_c) (a weighted joint centering), for a fused step; else ``None``.
 
         The arrays returned must be the same objects while the potential is unchanged."""
+        return None
+
+    #: Moved whenever the form of the potential's compiled writer changes (another frame, other axes): a compiled
+    #: step plans its stack again. Values it reads (a centre, a radius, a point) are data and do not move it.
+    form_revision: int = 0
+
+    def compiled_gradient(self, robot: RobotModel) -> CompiledGradient | None:
+        """p and η as a compiled writer (:class:`CompiledGradient`) on ``robot``, which a compiled step calls in
+        place of :meth:`gradient`; ``None`` (the default): only :meth:`gradient` gives η. The returned arrays stay
+        the potential's (rewritten in place); a change of their size or meaning must move :attr:`form_revision`."""
         return None
 
     def __repr__(self) -> str:

@@ -15,8 +15,11 @@ import numpy as np
 from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
 from redundik.kinematics.model import AXES, RobotModel
-from redundik.tasks.base import ClearanceForm, Edits, Potential, check_number
+from redundik.tasks.base import ClearanceForm, CompiledGradient, Edits, Potential, check_number
 from redundik.tasks.frame import resolve_axes
+from redundik.tasks.joint_potentials import JointSine2 as JointSine2
+from redundik.tasks.joint_potentials import JointValue as JointValue
+from redundik.tasks.potential_rows import CompiledPotential, frame_point_ints, supporting_columns
 
 
 def _finite_vec(value: Sequence[float] | np.ndarray, what: str, size: int | None = None) -> np.ndarray:
@@ -36,70 +39,6 @@ def _finite_vec(value: Sequence[float] | np.ndarray, what: str, size: int | None
 
 #: The compiled potential kernels, imported on first use (a namespace: a cold start puts their twins here).
 _PK = KernelNamespace("redundik.tasks.potential_kernels")
-
-
-class _JointPotential(Potential):
-    """Base for potentials of a single 1-dof joint."""
-
-    def __init__(self, joint: str, name: str | None) -> None:
-        if not isinstance(joint, str) or not joint:
-            raise TaskError(f"{type(self).__name__}: joint must be a joint name (a string), got {joint!r}")
-        self.joint = joint
-        self.name = name or f"{type(self).__name__.lower()}_{joint}"
-        self._iq = -1
-        self._iv = -1
-
-    def check(self, robot: RobotModel) -> None:
-        try:
-            info = robot.joint(self.joint)
-        except Exception as exc:
-            raise TaskError(f"subtask '{self.name}': {exc}") from exc
-        if info.idx_q < 0:
-            raise TaskError(f"subtask '{self.name}': joint '{self.joint}' is not a 1-dof joint")
-        self._iq, self._iv = info.idx_q, info.idx_v
-
-    def _value(self, robot: RobotModel) -> float:
-        if self._iq < 0:
-            self.check(robot)
-        return float(robot.q[self._iq])
-
-
-class JointSine2(_JointPotential):
-    """Singularity avoidance through one joint: p = sin²θ_j, η_j = sin 2θ_j (the chapter's p = sin²θ6, sin²θ3).
-
-    Maximised (k > 0) it drives θ_j towards ±90°, away from the wrist/elbow singularity at 0.
-    """
-
-    def __init__(self, joint: str, name: str | None = None) -> None:
-        super().__init__(joint, name or f"sin2_{joint}")
-
-    def value(self, robot: RobotModel) -> float:
-        return float(np.sin(self._value(robot)) ** 2)
-
-    def gradient(self, robot: RobotModel) -> np.ndarray:
-        g = np.zeros(robot.nv)
-        g[self._iv] = np.sin(2.0 * self._value(robot))
-        return g
-
-
-class JointValue(_JointPotential):
-    """A single joint towards a value: p = (q_j − c)², η_j = 2(q_j − c) (the (6+1) robot's p = (d1 − c)²)."""
-
-    def __init__(self, joint: str, value: float, name: str | None = None) -> None:
-        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-            raise TaskError(f"joint value potential on '{joint}': value must be a number, got {type(value).__name__}")
-        if not np.isfinite(value):
-            raise TaskError(f"joint value potential on '{joint}': value must be finite, got {value}")
-        self.c = float(value)
-        super().__init__(joint, name or f"value_{joint}")
-
-    def value(self, robot: RobotModel) -> float:
-        return (self._value(robot) - self.c) ** 2
-
-    def gradient(self, robot: RobotModel) -> np.ndarray:
-        g = np.zeros(robot.nv)
-        g[self._iv] = 2.0 * (self._value(robot) - self.c)
-        return g
 
 
 class JointCentering(Potential):
@@ -236,6 +175,7 @@ class _FramePotential(Potential):
             raise TaskError(f"subtask '{self.name}': frame must be a frame name (a string), got {value!r:.80}")
         self._frame = value
         self._fid = -1
+        self.form_revision += 1  # (a compiled step's writer reads the frame's id: planned again)
         Edits.count += 1
 
     @property
@@ -254,6 +194,7 @@ class _FramePotential(Potential):
         rows = np.array([AXES[a] for a in axes], dtype=np.int64)
         rows.setflags(write=False)
         self._axes, self._rows = axes, rows
+        self.form_revision += 1
         Edits.count += 1
 
     @property
@@ -272,6 +213,14 @@ class _FramePotential(Potential):
             self.check(robot)
         return self._fid
 
+    def _writer(self, robot: RobotModel, kernel: str, floats: np.ndarray) -> CompiledGradient:
+        """The compiled writer ``kernel`` of ``potential_kernels`` in the frame-point layout on ``robot``."""
+        fid = self._id(robot)
+        if fid >= robot.model.nframes:  # (an id of another robot's model)
+            self.check(robot)
+            fid = self._fid
+        return CompiledGradient(getattr(_PK, kernel), frame_point_ints(robot, fid, self.rows), floats)
+
 
 def _point(value: Sequence[float] | np.ndarray, what: str) -> np.ndarray:
     """A read-only copy of a finite point (3,) [m]."""
@@ -280,7 +229,7 @@ def _point(value: Sequence[float] | np.ndarray, what: str) -> np.ndarray:
     return arr
 
 
-class VirtualPoint(_FramePotential):
+class VirtualPoint(_FramePotential, CompiledPotential):
     """A frame point to a virtual point: p = ½‖S(p_f(q) − p_v)‖², η = J_vᵀ S (p_f − p_v).
 
     This is the chapter's elbow-to-virtual-safe-point potential p = ½(μ_x² + μ_z²) of the (6+1) robot with
@@ -300,6 +249,7 @@ class VirtualPoint(_FramePotential):
         axes: str | Sequence[str] = "position",
         name: str | None = None,
     ) -> None:
+        self._floats = np.zeros(3)  # p_v: the compiled writer's data, rewritten in place
         super().__init__(frame, axes, name or f"virtual_point_{frame}")
         self.point = point
 
@@ -313,17 +263,11 @@ class VirtualPoint(_FramePotential):
     @point.setter
     def point(self, value: Sequence[float] | np.ndarray) -> None:
         self._point = _point(value, f"subtask '{self.name}': point")
+        self._floats[:] = self._point
 
-    def _mu(self, robot: RobotModel) -> np.ndarray:
-        return (robot.frame_position(self._id(robot)) - self.point)[self.rows]
-
-    def value(self, robot: RobotModel) -> float:
-        mu = self._mu(robot)
-        return float(0.5 * mu @ mu)
-
-    def gradient(self, robot: RobotModel) -> np.ndarray:
-        J = robot.frame_jacobian(self._id(robot))[self.rows]
-        return J.T @ self._mu(robot)
+    def compiled_gradient(self, robot: RobotModel) -> CompiledGradient:
+        """p and η from one compiled call (``potential_kernels.virtual_point_gradient``)."""
+        return self._writer(robot, "virtual_point_gradient", self._floats)
 
 
 class Clearance(_FramePotential):
@@ -352,6 +296,7 @@ class Clearance(_FramePotential):
         #: the kernel),
         #: p_f and data.J views on Pinocchio's memory, or ``None`` when those could not be verified.
         self._views: tuple[Any, ...] | None = None
+        self._floats = np.zeros(4)  # (p_o, r): the compiled writer's data, rewritten in place
         super().__init__(frame, axes, name or f"clearance_{frame}")
         self.center = center
         self.radius = radius
@@ -368,6 +313,7 @@ class Clearance(_FramePotential):
     @center.setter
     def center(self, value: Sequence[float] | np.ndarray) -> None:
         self._center = _point(value, f"subtask '{self.name}': center")
+        self._floats[0:3] = self._center
         Edits.count += 1
 
     @property
@@ -378,6 +324,7 @@ class Clearance(_FramePotential):
     @radius.setter
     def radius(self, value: float) -> None:
         self._radius = check_number(value, f"subtask '{self.name}': radius", low=0.0)
+        self._floats[3] = self._radius
         Edits.count += 1
 
     def __getstate__(self) -> dict[str, Any]:
@@ -393,12 +340,7 @@ class Clearance(_FramePotential):
         fid = self._id(robot)
         data = robot.data
         jw, poses = jacobian_view(data), se3_vector_view(data.oMf)
-        model = robot.model
-        columns = np.zeros(robot.nv, dtype=np.int64)
-        for j in model.supports[model.frames[fid].parentJoint]:
-            if j > 0:
-                jm = model.joints[j]
-                columns[jm.idx_v : jm.idx_v + jm.nv] = 1
+        columns = supporting_columns(robot, fid)
         p = None if jw is None or poses is None else poses[fid, 9:12]
         self._views = (data, fid, p, jw, columns, np.zeros((6, robot.nv)))
         return self._views
@@ -434,6 +376,13 @@ class Clearance(_FramePotential):
         if views[2] is None:
             return None
         return ClearanceForm(views[1], self.rows, self.center, self.radius, views[4])
+
+    def compiled_gradient(self, robot: RobotModel) -> CompiledGradient | None:
+        """p and η as a compiled writer (``potential_kernels.clearance_gradient``: the same kernel); ``None`` when
+        the views of Pinocchio's memory could not be verified."""
+        if self.clearance_form(robot) is None:
+            return None
+        return self._writer(robot, "clearance_gradient", self._floats)
 
     def value_and_gradient(self, robot: RobotModel) -> tuple[float, np.ndarray]:
         """(p [m], η), from one frame position and one Jacobian."""

@@ -6,19 +6,25 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
-from redundik.tasks.base import Potential
+from redundik.tasks.base import CompiledGradient
+from redundik.tasks.potential_rows import CompiledPotential
+
+#: The compiled potential kernels, imported on first use (a namespace: a cold start puts their twins here).
+_PK = KernelNamespace("redundik.tasks.potential_kernels")
 
 
-class JointWaypoints(Potential):
+class JointWaypoints(CompiledPotential):
     """A joint visiting values in turn: p = (q_j − c_i)² with c_i the active waypoint, η_j = 2(q_j − c_i).
 
     The (6+1) robot's round trip (section 5.2, Figs. 5.2–5.5): with p = (d_1 − c)² and k < 0 the null-space motion
     slides the arm to c; the chapter then brings it back home. Here the waypoint switches to the next value once
     |q_j − c_i| < ``tolerance``, so one run does the whole trip: ``values = [c, d_1(0)]``. Between switches p is the
     chapter's (d_1 − c)² and its gradient is exact; the switch is the only discontinuity. The state (active index)
-    is reset by :meth:`check`, which :meth:`TaskStack.reset` calls at the start of every run.
+    is reset by :meth:`check`, which :meth:`TaskStack.reset` calls at the start of every run. p, η and the switch
+    are one compiled writer (``potential_kernels.waypoints_gradient``; the active index is its data).
 
     Args:
         joint: Joint name (e.g. the track joint ``"1"``).
@@ -38,8 +44,19 @@ class JointWaypoints(Potential):
         if not (np.isfinite(tolerance) and tolerance > 0):
             raise TaskError(f"subtask '{self.name}': tolerance must be > 0, got {tolerance}")
         self.joint, self.values, self.tolerance = joint, vals, float(tolerance)
-        self.active = 0
+        #: the writer's data: (idx_q, idx_v, active index, count) and (tolerance, c_1, c_2, …)
+        self._ints = np.array([-1, -1, 0, vals.size], dtype=np.int64)
+        self._floats = np.concatenate([[self.tolerance], vals])
         self._iq = self._iv = -1
+
+    @property
+    def active(self) -> int:
+        """The index of the active waypoint."""
+        return int(self._ints[2])
+
+    @active.setter
+    def active(self, value: int) -> None:
+        self._ints[2] = int(value)
 
     def check(self, robot: RobotModel) -> None:
         try:
@@ -49,15 +66,14 @@ class JointWaypoints(Potential):
         if info.idx_q < 0:
             raise TaskError(f"subtask '{self.name}': joint '{self.joint}' is not a 1-dof joint")
         self._iq, self._iv = info.idx_q, info.idx_v
+        self._ints[0], self._ints[1] = info.idx_q, info.idx_v
         self.active = 0
 
-    def _delta(self, robot: RobotModel) -> float:
-        if self._iq < 0:
+    def compiled_gradient(self, robot: RobotModel) -> CompiledGradient:
+        """``potential_kernels.waypoints_gradient`` (the joint looked up when it was not yet)."""
+        if self._iq < 0 or self._iq >= robot.nq:
             self.check(robot)
-        x = float(robot.q[self._iq])
-        while self.active < self.values.size - 1 and abs(x - self.values[self.active]) < self.tolerance:
-            self.active += 1
-        return x - float(self.values[self.active])
+        return CompiledGradient(_PK.waypoints_gradient, self._ints, self._floats)
 
     def reached(self, q_series: np.ndarray) -> int:
         """How many of the waypoints, in order, a run through the configurations ``q_series`` (samples, nq)
@@ -77,15 +93,6 @@ class JointWaypoints(Potential):
     def target(self) -> float:
         """The active waypoint c_i."""
         return float(self.values[self.active])
-
-    def value(self, robot: RobotModel) -> float:
-        return self._delta(robot) ** 2
-
-    def gradient(self, robot: RobotModel) -> np.ndarray:
-        delta = self._delta(robot)
-        g = np.zeros(robot.nv)
-        g[self._iv] = 2.0 * delta
-        return g
 
     def __repr__(self) -> str:
         return f"JointWaypoints(joint={self.joint!r}, values={self.values.tolist()}, tolerance={self.tolerance})"

@@ -1,0 +1,92 @@
+"""Potentials of one 1-dof joint (section 5.2): sin²θ_j (singularity avoidance) and (q_j − c)², each given by its
+compiled writer (``potential_kernels.sine2_gradient``, ``joint_value_gradient``): the per-task path and the
+resolvers' compiled steps run the same formula."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from redundik._kernel_cache import KernelNamespace
+from redundik.errors import TaskError
+from redundik.kinematics.model import RobotModel
+from redundik.tasks.base import CompiledGradient
+from redundik.tasks.potential_rows import CompiledPotential
+
+#: The compiled potential kernels, imported on first use (a namespace: a cold start puts their twins here).
+_PK = KernelNamespace("redundik.tasks.potential_kernels")
+
+
+class _JointPotential(CompiledPotential):
+    """Base for potentials of a single 1-dof joint; its writer's ``ints`` are (idx_q, idx_v), rewritten in place
+    when it is checked against a robot."""
+
+    def __init__(self, joint: str, name: str | None) -> None:
+        if not isinstance(joint, str) or not joint:
+            raise TaskError(f"{type(self).__name__}: joint must be a joint name (a string), got {joint!r}")
+        self.joint = joint
+        self.name = name or f"{type(self).__name__.lower()}_{joint}"
+        self._iq = -1
+        self._iv = -1
+        self._ints = np.zeros(2, dtype=np.int64)
+        self._floats = np.zeros(1)
+
+    def check(self, robot: RobotModel) -> None:
+        try:
+            info = robot.joint(self.joint)
+        except Exception as exc:
+            raise TaskError(f"subtask '{self.name}': {exc}") from exc
+        if info.idx_q < 0:
+            raise TaskError(f"subtask '{self.name}': joint '{self.joint}' is not a 1-dof joint")
+        self._iq, self._iv = info.idx_q, info.idx_v
+        self._ints[0], self._ints[1] = info.idx_q, info.idx_v
+
+    def _writer(self, robot: RobotModel, kernel: Any) -> CompiledGradient:
+        """``kernel`` with this potential's data on ``robot`` (the joint looked up when it was not yet, or
+        ``robot`` is another model)."""
+        if self._iq < 0 or self._iq >= robot.nq:
+            self.check(robot)
+        return CompiledGradient(kernel, self._ints, self._floats)
+
+
+class JointSine2(_JointPotential):
+    """Singularity avoidance through one joint: p = sin²θ_j, η_j = sin 2θ_j (the chapter's p = sin²θ6, sin²θ3).
+
+    Maximised (k > 0) it drives θ_j towards ±90°, away from the wrist/elbow singularity at 0.
+    """
+
+    def __init__(self, joint: str, name: str | None = None) -> None:
+        super().__init__(joint, name or f"sin2_{joint}")
+
+    def compiled_gradient(self, robot: RobotModel) -> CompiledGradient:
+        """``potential_kernels.sine2_gradient``."""
+        return self._writer(robot, _PK.sine2_gradient)
+
+
+class JointValue(_JointPotential):
+    """A single joint towards a value: p = (q_j − c)², η_j = 2(q_j − c) (the (6+1) robot's p = (d1 − c)²).
+
+    ``c`` may be assigned between steps (a finite number): it is the writer's data, used from the next step."""
+
+    def __init__(self, joint: str, value: float, name: str | None = None) -> None:
+        super().__init__(joint, name or f"value_{joint}")
+        self.c = value
+
+    @property
+    def c(self) -> float:
+        """The joint value c [rad or length unit]."""
+        return float(self._floats[0])
+
+    @c.setter
+    def c(self, value: float) -> None:
+        if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+            what = f"joint value potential on '{self.joint}'"
+            raise TaskError(f"{what}: value must be a number, got {type(value).__name__}")
+        if not np.isfinite(value):
+            raise TaskError(f"joint value potential on '{self.joint}': value must be finite, got {value}")
+        self._floats[0] = float(value)
+
+    def compiled_gradient(self, robot: RobotModel) -> CompiledGradient:
+        """``potential_kernels.joint_value_gradient``."""
+        return self._writer(robot, _PK.joint_value_gradient)
