@@ -11,9 +11,9 @@ import pytest
 from redundik.config.loader import load_task
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
-#: Classes without a compiled form: their rows or η come from Python (a mixed step names them). The kernel
-#: Hessian ∂J/∂q of Manipulability and BestPosture and coal's distances of the collision barriers are not compiled.
-NOT_COMPILED = {"Manipulability", "BestPosture", "CollisionAvoidance", "SupportPolygon"}
+#: Classes without a compiled form: their rows come from Python (a mixed step names them): coal's distances of the
+#: collision barrier and the support polygon's rows.
+NOT_COMPILED = {"CollisionAvoidance", "SupportPolygon"}
 
 
 def _source_class(member: object) -> str:

@@ -74,6 +74,8 @@ def _gradients(rk: Any) -> list[Any]:
         rk.GradientSubtask(rk.VirtualPoint("3", [0.5, 0.5, 0.5]), gain=-0.01),
         rk.GradientSubtask(rk.Clearance("5", [1.0, 1.0, 1.0], 0.1), gain=0.01),
         rk.GradientSubtask(JointWaypoints("1", [0.5, 0.3]), gain=-0.01),
+        rk.GradientSubtask(rk.BestPosture("7"), gain=-0.001),
+        rk.GradientSubtask(rk.Manipulability("7", axes="position"), gain=0.001),
     ]
 
 

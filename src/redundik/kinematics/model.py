@@ -459,7 +459,7 @@ class RobotModel:
         # pairs [j, k]: ad(J_k) J_j = (ω_k × v_j + v_k × ω_j, ω_k × ω_j)
         hv = np.cross(w[None, :, :], v[:, None, :]) + np.cross(v[None, :, :], w[:, None, :])  # (j, k, 3)
         hw = np.cross(w[None, :, :], w[:, None, :])
-        mask = self._support_mask()[:, :, None]  # [j, k]: joint(k) supports joint(j)
+        mask = self.support_mask()[:, :, None]  # [j, k]: joint(k) supports joint(j)
         hv *= mask
         hw *= mask
         p = np.array(self.data.oMf[fid].translation)
@@ -470,7 +470,7 @@ class RobotModel:
         out[:3] = (hv + np.cross(hw, p) + np.cross(w[:, None, :], jl[None, :, :])).transpose(2, 0, 1)
         return out
 
-    def _support_mask(self) -> np.ndarray:
+    def support_mask(self) -> np.ndarray:
         """Boolean (nv, nv) matrix M[j, k] = joint of velocity k is joint of velocity j or one of its ancestors."""
         if self._support is None:
             owner = np.empty(self.nv, dtype=int)

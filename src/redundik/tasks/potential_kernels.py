@@ -19,9 +19,12 @@ __all__ = [
     "FP_AXES",
     "FP_AXES_N",
     "FP_FRAME",
+    "best_posture_gradient",
     "clearance_gradient",
     "clearance_into",
+    "frame_jacobian_hessian",
     "joint_value_gradient",
+    "manipulability_gradient",
     "sine2_gradient",
     "virtual_point_gradient",
     "waypoints_gradient",
@@ -35,6 +38,11 @@ J_IQ, J_IV = 0, 1
 FP_FRAME, FP_AXES_N, FP_AXES = 0, 1, 2
 #: ``floats`` of a clearance: the obstacle's centre p_o (3) [m], then its radius r [m]; of a virtual point: p_v (3).
 FP_POINT, FP_RADIUS = 0, 3
+#: ``ints`` of a potential of frame Jacobians and their derivatives (``BestPosture``, ``Manipulability``): the number
+#: F of frames, the number k of twist rows that count, those k rows, the F frame ids, F × nv flags (the columns of the
+#: joints that support each frame), then nv × nv flags M[j, k]: the joint of velocity k is the joint of velocity j
+#: or one of its ancestors (``RobotModel.support_mask``). ``floats`` of ``BestPosture``: the joint weights w (nv).
+JP_FRAMES, JP_ROWS_N, JP_ROWS = 0, 1, 2
 
 
 @_jit
@@ -158,3 +166,105 @@ def waypoints_gradient(
     d = x - floats[1 + k]
     eta[ints[J_IV]] = 2.0 * d
     return d * d
+
+
+@_jit
+def frame_jacobian_hessian(
+    jw: np.ndarray, p: np.ndarray, columns: np.ndarray, mask: np.ndarray, J6: np.ndarray, H: np.ndarray
+) -> None:
+    """∂J/∂q_k of a frame's base-aligned Jacobian J6 (6, nv; written by ``frame_jacobian_lwa``) into H (6, nv, nv),
+    ``H[:, j, k] = ∂J_j/∂q_k`` (``RobotModel.frame_jacobian_derivatives``, the same formula): with the world
+    columns S_j = (v_j, ω_j) of ``jw``, ∂S_j/∂q_k = ad(S_k) S_j = (ω_k × v_j + v_k × ω_j, ω_k × ω_j) when M[j, k]
+    (``mask``), and the origin's ∂p/∂q_k = J6[0:3, k]: ∂J_j/∂q_k = (∂v_j + ∂ω_j × p + ω_j × ∂p/∂q_k, ∂ω_j)."""
+    frame_jacobian_lwa(jw, p, columns, J6)
+    nv = jw.shape[1]
+    for j in range(nv):
+        if not columns[j]:
+            for r in range(6):
+                for k in range(nv):
+                    H[r, j, k] = 0.0
+            continue
+        vx, vy, vz, wx, wy, wz = jw[0, j], jw[1, j], jw[2, j], jw[3, j], jw[4, j], jw[5, j]
+        for k in range(nv):
+            hvx = hvy = hvz = hwx = hwy = hwz = 0.0
+            if mask[j * nv + k] and columns[k]:
+                ax, ay, az, bx, by, bz = jw[0, k], jw[1, k], jw[2, k], jw[3, k], jw[4, k], jw[5, k]  # (v_k, ω_k)
+                hvx = (by * vz - bz * vy) + (ay * wz - az * wy)
+                hvy = (bz * vx - bx * vz) + (az * wx - ax * wz)
+                hvz = (bx * vy - by * vx) + (ax * wy - ay * wx)
+                hwx, hwy, hwz = by * wz - bz * wy, bz * wx - bx * wz, bx * wy - by * wx
+            dpx, dpy, dpz = J6[0, k], J6[1, k], J6[2, k]  # ∂p/∂q_k (zero off the frame's support)
+            H[0, j, k] = hvx + (hwy * p[2] - hwz * p[1]) + (wy * dpz - wz * dpy)
+            H[1, j, k] = hvy + (hwz * p[0] - hwx * p[2]) + (wz * dpx - wx * dpz)
+            H[2, j, k] = hvz + (hwx * p[1] - hwy * p[0]) + (wx * dpy - wy * dpx)
+            H[3, j, k] = hwx
+            H[4, j, k] = hwy
+            H[5, j, k] = hwz
+
+
+@_jit
+def best_posture_gradient(
+    q: np.ndarray, poses: np.ndarray, jw: np.ndarray, ints: np.ndarray, floats: np.ndarray, eta: np.ndarray
+) -> float:
+    """``BestPosture`` (eq. 5.12): p = Σ_f tr(J_f W J_fᵀ) over the rows that count, η_k = 2 Σ_f tr(∂J_f/∂q_k W J_fᵀ).
+    Layout ``JP_*``; ``floats`` = w (nv)."""
+    nv = eta.shape[0]
+    nf, m = ints[JP_FRAMES], ints[JP_ROWS_N]
+    fids = JP_ROWS + m
+    mask = ints[fids + nf + nf * nv :]
+    J6 = np.empty((6, nv))
+    H = np.empty((6, nv, nv))
+    value = 0.0
+    for f in range(nf):
+        fid = ints[fids + f]
+        columns = ints[fids + nf + f * nv : fids + nf + (f + 1) * nv]
+        frame_jacobian_hessian(jw, poses[fid, 9:12], columns, mask, J6, H)
+        for i in range(m):
+            r = ints[JP_ROWS + i]
+            for j in range(nv):
+                jwj = J6[r, j] * floats[j]
+                value += J6[r, j] * jwj
+                for k in range(nv):
+                    eta[k] += 2.0 * jwj * H[r, j, k]
+    return value
+
+
+@_jit
+def manipulability_gradient(
+    q: np.ndarray, poses: np.ndarray, jw: np.ndarray, ints: np.ndarray, floats: np.ndarray, eta: np.ndarray
+) -> float:
+    """``Manipulability``: p = √det(J Jᵀ) = Π σ_i of the frame Jacobian's rows that count, and
+    η_k = Σ_i (Π_{l≠i} σ_l) u_iᵀ (∂J/∂q_k) v_i from the SVD J = Σ σ_i u_i v_iᵀ (no inverse of JJᵀ: finite at a
+    singularity). Layout ``JP_*`` with one frame."""
+    nv = eta.shape[0]
+    m = ints[JP_ROWS_N]
+    fids = JP_ROWS + m
+    fid = ints[fids]
+    columns = ints[fids + 1 : fids + 1 + nv]
+    J6 = np.empty((6, nv))
+    H = np.empty((6, nv, nv))
+    frame_jacobian_hessian(jw, poses[fid, 9:12], columns, ints[fids + 1 + nv :], J6, H)
+    J = np.empty((m, nv))
+    for i in range(m):
+        J[i] = J6[ints[JP_ROWS + i]]
+    U, s, Vt = np.linalg.svd(J, full_matrices=False)
+    kk = s.shape[0]
+    value = 1.0
+    for i in range(kk):
+        value *= s[i]
+    for i in range(kk):
+        others = 1.0
+        for l in range(kk):
+            if l != i:
+                others *= s[l]
+        for a in range(m):
+            ua = U[a, i] * others
+            if ua == 0.0:
+                continue
+            r = ints[JP_ROWS + a]
+            for n in range(nv):
+                c = ua * Vt[i, n]
+                if c != 0.0:
+                    for k in range(nv):
+                        eta[k] += c * H[r, n, k]
+    return value

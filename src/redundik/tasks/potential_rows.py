@@ -20,7 +20,14 @@ from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import CompiledGradient, Potential
 from redundik.tasks.rows import kinematic_views
 
-__all__ = ["CompiledGradient", "CompiledPotential", "compiled_writer", "frame_point_ints", "supporting_columns"]
+__all__ = [
+    "CompiledGradient",
+    "CompiledPotential",
+    "compiled_writer",
+    "frame_point_ints",
+    "jacobian_product_ints",
+    "supporting_columns",
+]
 
 #: The methods through which a potential gives p or η: a subclass that overrides one of them below the class that
 #: defines its ``compiled_gradient`` has values of its own; the inherited writer is not used (:func:`compiled_writer`).
@@ -44,6 +51,17 @@ def frame_point_ints(robot: RobotModel, fid: int, rows: np.ndarray) -> np.ndarra
     axes, the axes, then :func:`supporting_columns`."""
     head = np.array([fid, rows.shape[0]], dtype=np.int64)
     return np.concatenate([head, np.asarray(rows, dtype=np.int64), supporting_columns(robot, fid)])
+
+
+def jacobian_product_ints(robot: RobotModel, fids: list[int], rows: np.ndarray) -> np.ndarray:
+    """The ``ints`` of a potential of frame Jacobians and their derivatives (``potential_kernels.JP_*``): the
+    number of frames and of rows, the rows, the frame ids, each frame's :func:`supporting_columns`, then
+    ``RobotModel.support_mask`` (nv × nv, row-major)."""
+    head = np.array([len(fids), rows.shape[0]], dtype=np.int64)
+    parts = [head, np.asarray(rows, dtype=np.int64), np.asarray(fids, dtype=np.int64)]
+    parts += [supporting_columns(robot, fid) for fid in fids]
+    parts.append(robot.support_mask().astype(np.int64).reshape(-1))
+    return np.concatenate(parts)
 
 
 def _definer(kind: type, name: str) -> type:

@@ -19,7 +19,12 @@ from redundik.tasks.base import ClearanceForm, CompiledGradient, Edits, Potentia
 from redundik.tasks.frame import resolve_axes
 from redundik.tasks.joint_potentials import JointSine2 as JointSine2
 from redundik.tasks.joint_potentials import JointValue as JointValue
-from redundik.tasks.potential_rows import CompiledPotential, frame_point_ints, supporting_columns
+from redundik.tasks.potential_rows import (
+    CompiledPotential,
+    frame_point_ints,
+    jacobian_product_ints,
+    supporting_columns,
+)
 
 
 def _finite_vec(value: Sequence[float] | np.ndarray, what: str, size: int | None = None) -> np.ndarray:
@@ -396,44 +401,41 @@ class Clearance(_FramePotential):
         return self.value_and_gradient(robot)[1]
 
 
+_NONE = np.zeros(0)  # (a writer without float data)
+
 #: The methods that compute a clearance: a subclass that overrides one has no ``clearance_form``.
 _CLEARANCE_FORMULA = ("value_and_gradient_into", "value_and_gradient", "value", "gradient", "_prepare")
 
 
-class Manipulability(_FramePotential):
+class Manipulability(_FramePotential, CompiledPotential):
     """Yoshikawa's manipulability p = √det(J Jᵀ) of a frame Jacobian (rows ``axes``), section 5.2.
 
     The chapter calls its gradient "unfeasible" symbolically; numerically it is exact and cheap. With the SVD
     J = Σ σ_i u_i v_iᵀ, p = Π σ_i and dσ_i = u_iᵀ dJ v_i, so ∂p/∂q_k = Σ_i (Π_{l≠i} σ_l) u_iᵀ (∂J/∂q_k) v_i, with
     ∂J/∂q_k exact from :meth:`RobotModel.frame_jacobian_derivatives`. This form needs no inverse of JJᵀ, so it
-    stays finite at a singularity (where p is not differentiable). Maximise it (k > 0).
+    stays finite at a singularity (where p is not differentiable). Maximise it (k > 0). p and η are one compiled
+    writer (``potential_kernels.manipulability_gradient``).
     """
 
     def __init__(self, frame: str, axes: str | Sequence[str] = "pose", name: str | None = None) -> None:
         super().__init__(frame, axes, name or f"manipulability_{frame}")
 
-    def value(self, robot: RobotModel) -> float:
-        J = robot.frame_jacobian(self._id(robot))[self.rows]
-        return float(np.prod(np.linalg.svd(J, compute_uv=False)))
-
-    def gradient(self, robot: RobotModel) -> np.ndarray:
+    def compiled_gradient(self, robot: RobotModel) -> CompiledGradient:
+        """p and η from one compiled call (``potential_kernels.manipulability_gradient``)."""
         fid = self._id(robot)
-        J = robot.frame_jacobian(fid)[self.rows]
-        U, s, Vt = np.linalg.svd(J, full_matrices=False)  # (m, k), (k,), (k, nv)
-        k = s.size
-        others = np.array([np.prod(np.delete(s, i)) for i in range(k)])  # Π_{l≠i} σ_l
-        H = robot.frame_jacobian_derivatives(fid)[self.rows]  # (m, nv, nv): H[:, :, c] = ∂J/∂q_c
-        # u_iᵀ H_c v_i for every i and c
-        dsig = np.einsum("mi,mnc,in->ic", U, H, Vt)
-        return others @ dsig
+        if fid >= robot.model.nframes:  # (an id of another robot's model)
+            self.check(robot)
+            fid = self._fid
+        return CompiledGradient(_PK.manipulability_gradient, jacobian_product_ints(robot, [fid], self.rows), _NONE)
 
 
-class BestPosture(Potential):
+class BestPosture(CompiledPotential):
     """Best posture in the sense of uniform joint-torque distribution (5.12): p = tr(J W Jᵀ); minimise it.
 
     J stacks the frame Jacobians (rows ``axes``) of one or more end-effectors; W = diag(w) is the joint weight.
     ∂p/∂q_k = 2 tr((∂J/∂q_k) W Jᵀ), exact, from Pinocchio's kinematic Hessian. ``torques(F)`` gives τ = JᵀF, whose
-    spread the chapter plots against p (Fig. 5.5).
+    spread the chapter plots against p (Fig. 5.5). p and η are one compiled writer
+    (``potential_kernels.best_posture_gradient``).
 
     Args:
         frames: One frame name or several.
@@ -452,11 +454,32 @@ class BestPosture(Potential):
         self.name = name
         self._fids: list[int] = []
         self.frames = frames
-        self.axes = resolve_axes(axes)
-        self.rows = np.array([AXES[a] for a in self.axes])
-        self.weights = None if weights is None else _finite_vec(weights, f"subtask '{name}': weights")
-        if self.weights is not None and np.any(self.weights <= 0):
-            raise TaskError(f"subtask '{name}': weights must be > 0 (W is positive definite)")
+        self.axes = axes
+        self.weights = weights
+
+    @property
+    def axes(self) -> tuple[str, ...]:
+        """The rows of each frame Jacobian that count (a name of ``AXIS_SETS`` or a list of axes on assignment)."""
+        return self._axes
+
+    @axes.setter
+    def axes(self, value: str | Sequence[str]) -> None:
+        self._axes = resolve_axes(value)
+        self.rows = np.array([AXES[a] for a in self._axes], dtype=np.int64)
+        self.form_revision += 1  # (a compiled step's writer reads them: planned again)
+
+    @property
+    def weights(self) -> np.ndarray | None:
+        """The diagonal of W (nv, > 0), or ``None`` for the identity; an assignment is used from the next step."""
+        return self._weights
+
+    @weights.setter
+    def weights(self, value: Sequence[float] | None) -> None:
+        arr = None if value is None else _finite_vec(value, f"subtask '{self.name}': weights")
+        if arr is not None and np.any(arr <= 0):
+            raise TaskError(f"subtask '{self.name}': weights must be > 0 (W is positive definite)")
+        self._weights = arr
+        self.form_revision += 1
 
     @property
     def frames(self) -> tuple[str, ...]:
@@ -471,6 +494,7 @@ class BestPosture(Potential):
             raise TaskError(f"subtask '{self.name}': frames must be one frame name or several, got {value!r:.80}")
         self._frames = names
         self._fids = []
+        self.form_revision += 1
 
     def check(self, robot: RobotModel) -> None:
         try:
@@ -492,20 +516,12 @@ class BestPosture(Potential):
             self.check(robot)
         return np.vstack([robot.frame_jacobian(f)[self.rows] for f in self._fids])
 
-    def value(self, robot: RobotModel) -> float:
-        J = self.jacobian(robot)
-        return float(np.sum(J * J * self._w(robot)))
-
-    def gradient(self, robot: RobotModel) -> np.ndarray:
-        if not self._fids:
+    def compiled_gradient(self, robot: RobotModel) -> CompiledGradient:
+        """p and η from one compiled call (``potential_kernels.best_posture_gradient``)."""
+        if not self._fids or max(self._fids) >= robot.model.nframes:
             self.check(robot)
-        w = self._w(robot)
-        g = np.zeros(robot.nv)
-        for fid in self._fids:
-            H = robot.frame_jacobian_derivatives(fid)[self.rows]  # (m, nv, nv)
-            Jf = robot.frame_jacobian(fid)[self.rows]
-            g += 2.0 * np.einsum("ij,ijk->k", Jf * w, H)
-        return g
+        ints = jacobian_product_ints(robot, self._fids, self.rows)
+        return CompiledGradient(_PK.best_posture_gradient, ints, np.array(self._w(robot), dtype=float))
 
     def torques(self, robot: RobotModel, force: Sequence[float]) -> np.ndarray:
         """Joint torques τ = JᵀF for a Cartesian load F (size rows·frames), the chapter's statics."""
