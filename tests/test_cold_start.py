@@ -58,22 +58,25 @@ def _run(code: str, env: dict[str, str], timeout: float = 900) -> dict[str, obje
 def test_first_step_interpreted_while_compiling_then_compiled_same_answer(tmp_path: Path) -> None:
     got = _run(
         """
-        import json, logging
+        import json, logging, sys
         from redundik import _coldstart, _kernel_cache
         logging.basicConfig(level=logging.WARNING)
         s, res = stack(), rk.make_resolver("pinv")
         first = res.step(robot, s, q, 0.0, 0.01)
+        numba_first = "numba" in sys.modules  # (imported by the thread that compiles: not before the first q̇)
         second = res.step(robot, s, q, 0.01, 0.01)  # (the thread starts at the second step)
         busy = _coldstart._worker is not None and _coldstart._worker.is_alive()
         assert _coldstart.wait(900)
         again = res.step(robot, s, q, 0.0, 0.01)
         print(json.dumps({"first": first.info["path"], "second": second.info["path"], "busy": busy,
+                          "numba_first": numba_first,
                           "dq1": first.dq.tolist(), "later": again.info["path"], "dq2": again.dq.tolist(),
                           "cache": str(_kernel_cache.cache_dir())}))
         """,
         {"REDUNDIK_CACHE_DIR": str(tmp_path)},
     )
     assert got["first"] == got["second"] == "interpreted" and got["busy"]
+    assert got["numba_first"] is False
     assert got["later"] == "compiled"
     dq1, dq2 = np.array(got["dq1"]), np.array(got["dq2"])
     assert np.isfinite(dq1).all() and np.abs(dq1).max() > 0
@@ -141,7 +144,13 @@ def test_read_only_package_folder_caches_to_the_user_folder(tmp_path: Path) -> N
             assert kernels.squares_below(x, 100.0)
             print(json.dumps({"file": rk.__file__, "cache": str(_kernel_cache.cache_dir())}))
             """,
-            {"PYTHONPATH": str(pkg), "XDG_CACHE_HOME": str(cache), "REDUNDIK_CACHE_DIR": ""},
+            # (kernels called directly, ahead of any step: numba is not deferred for the first steps)
+            {
+                "PYTHONPATH": str(pkg),
+                "XDG_CACHE_HOME": str(cache),
+                "REDUNDIK_CACHE_DIR": "",
+                "REDUNDIK_COLD_START": "wait",
+            },
         )
     finally:
         for path in [pkg, *pkg.rglob("*")]:
@@ -172,7 +181,11 @@ def test_the_users_numba_cache_setting_is_left_alone(tmp_path: Path) -> None:
         print(json.dumps({"dir": numba.config.CACHE_DIR,
                           "ours": kernels.squares_below._cache._impl.locator.get_cache_path()}))
         """,
-        {"REDUNDIK_CACHE_DIR": str(tmp_path / "ours"), "NUMBA_CACHE_DIR": str(tmp_path / "theirs")},
+        {
+            "REDUNDIK_CACHE_DIR": str(tmp_path / "ours"),
+            "NUMBA_CACHE_DIR": str(tmp_path / "theirs"),
+            "REDUNDIK_COLD_START": "wait",
+        },
     )
     assert got["dir"] == str(tmp_path / "theirs")
     assert str(got["ours"]).startswith(str(tmp_path / "ours"))

@@ -151,7 +151,9 @@ def test_native_daqp_is_off_for_an_unchecked_daqp_version(monkeypatch: pytest.Mo
     """Another daqp version than those whose struct layouts were read: no native call, and the reason said."""
     monkeypatch.setattr(daqp_native, "_decided", False)
     monkeypatch.setattr(daqp_native, "_entry", None)
-    monkeypatch.setattr(daqp_native.metadata, "version", lambda name: "99.0")
+    import importlib.metadata
+
+    monkeypatch.setattr(importlib.metadata, "version", lambda name: "99.0")
     assert daqp_native.entry() == 0
     assert "daqp 99.0" in daqp_native.status() and "not checked" in daqp_native.status()
     monkeypatch.undo()

@@ -12,7 +12,8 @@ first q̇. Whatever the library does on its first step (compile, load, run inter
 mink and pink (when installed) run the same task set once each in a fresh process (import, set-up, first
 ``solve_ik``): they compile nothing, so one run is their cold and warm start.
 
-These are one-shot figures: they run after the interleaved cases, one process at a time.
+These are one-shot figures: they run after the interleaved cases, one process at a time. The processes run in the
+user's environment (:func:`_user_env`), with redundik's bytecode written first as ``pip install`` writes it.
 """
 
 from __future__ import annotations
@@ -110,10 +111,29 @@ def _peer_model(peer: str, folder: Path) -> str:
     return str(path)
 
 
+def _user_env() -> dict[str, str]:
+    """This process's environment as a user's shell has it: without ``REDUNDIK_COLD_START`` (benchmarks/__init__
+    sets ``wait`` here; a user has the default) and without ``PYTHONDONTWRITEBYTECODE`` (set on this machine: every
+    import of redundik then compiled its sources to bytecode again, some 0.1 s, which a ``pip install`` — it writes
+    the bytecode — or an interpreter that may write it never pays after its first import)."""
+    env = dict(os.environ)
+    env.pop("REDUNDIK_COLD_START", None)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    return env
+
+
+def compile_bytecode() -> None:
+    """Write redundik's bytecode as ``pip install`` does (``compileall`` of the package), before the first run."""
+    import redundik
+
+    folder = str(Path(redundik.__file__).parent)
+    command = [sys.executable, "-m", "compileall", "-q", folder]
+    subprocess.run(command, env=_user_env(), capture_output=True, check=False)
+
+
 def _run(script: str, arg: str, cache: Path | None, *extra: str) -> dict[str, Any]:
     """One fresh process: its JSON line plus ``process_s``; ``error`` instead when it failed."""
-    env = dict(os.environ)
-    env.pop("REDUNDIK_COLD_START", None)  # (benchmarks/__init__ sets ``wait`` for this process: a user has the default)
+    env = _user_env()
     if cache is not None:
         env["NUMBA_CACHE_DIR"] = str(cache / "numba")
         env["XDG_CACHE_HOME"] = str(cache / "xdg")
@@ -154,6 +174,7 @@ def run_cold_start(
     from redundik.peers._deps import available
 
     out: list[dict[str, Any]] = []
+    compile_bytecode()
     for method in methods:
         if mode == "cold":
             with tempfile.TemporaryDirectory(prefix="redundik-cold-") as tmp:

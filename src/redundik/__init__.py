@@ -42,6 +42,10 @@ def _background_warm_up(resolvers: list[str]) -> dict[str, float]:
 
 
 _coldstart.WARM_UP = _background_warm_up
+if _coldstart.background():  # the first steps run the kernels' own code: numba is imported by the thread compiling them
+    from redundik import _kernel_cache
+
+    _kernel_cache.defer_numba()
 
 if TYPE_CHECKING:
     from redundik.control import ControlLoop, DeadlineStats, Tick, Watchdog

@@ -18,7 +18,16 @@ for much of its work; single steps up to some 60 ms). When the thread is done it
 the compiled kernels back, and the resolver takes its compiled step from its next step on: no indirection is left
 on the hot path.
 
-``REDUNDIK_COLD_START=wait`` turns this off: the first step compiles in the caller's thread (numba's default).
+Numba itself is imported by that thread, not before the first step: ``import redundik`` in a background-compiling
+process defers numba (:func:`redundik._kernel_cache.defer_numba`, when no one imported it yet), so the kernel
+modules hold their plain functions, which the first steps run as twins; the thread imports numba, decorates them
+(:func:`adopt`) and hands the dispatchers to whatever held the functions. Importing numba and decorating the kernels
+took about 0.2 s of every first q̇; the first step is now a few milliseconds. An entry point that wants compiled
+kernels from its first call (``solve_ik``, the batch API) decorates them at once (:func:`compiled_now`); a process
+that never steps a resolver decorates them in a thread of its own :data:`ADOPT_DELAY` after it first uses a kernel.
+
+``REDUNDIK_COLD_START=wait`` turns this off: numba is imported with the kernels and the first step compiles in the
+caller's thread (numba's default).
 """
 
 from __future__ import annotations
@@ -118,11 +127,6 @@ def _start() -> None:
     global _worker
     if _worker is not None and _worker.is_alive():
         return
-    _LOG.warning(
-        "redundik: compiling the kernels of %s in the background (cache: %s); steps run interpreted until then",
-        ", ".join(_pending),
-        _kernel_cache.cache_dir(),
-    )
     if _worker is None:
         atexit.register(_at_exit)
     _worker = threading.Thread(target=_run, name="redundik-compile", daemon=True)
@@ -140,8 +144,33 @@ def _at_exit() -> None:
         )
 
 
+#: The interpreter's thread switch interval [s] while the background thread works (:func:`_run`).
+SWITCH_INTERVAL = 1e-4
+
+
 def _run() -> None:
-    """The background thread: warm up each pending resolver, then hand them to :func:`ready`."""
+    """The background thread: warm up each pending resolver, then hand them to :func:`ready`.
+
+    Its work (importing numba, loading or compiling the kernels) reads many files, and each read lets the caller's
+    thread take the interpreter's lock back for a whole switch interval (5 ms by default): with a step loop that never
+    sleeps, that made minutes of a 1-second job. The switch interval is :data:`SWITCH_INTERVAL` while the thread
+    works, and put back after (unless something else changed it meanwhile)."""
+    _with_short_switches(_work)
+
+
+def _with_short_switches(work: Any) -> None:
+    """``work()`` with the switch interval at most :data:`SWITCH_INTERVAL` (see :func:`_run`)."""
+    before = sys.getswitchinterval()
+    short = min(before, SWITCH_INTERVAL)
+    sys.setswitchinterval(short)
+    try:
+        work()
+    finally:
+        if sys.getswitchinterval() == short:
+            sys.setswitchinterval(before)
+
+
+def _work() -> None:
     warm_up = WARM_UP
     if warm_up is None:  # (the package's facade sets it: ``redundik/__init__.py``)
         _LOG.warning("redundik: no warm-up registered; the kernels compile at their first call instead")
@@ -150,6 +179,12 @@ def _run() -> None:
             _pending.clear()
         return
 
+    adopt()  # numba imported and the kernels decorated here, not in the caller's thread (when deferred)
+    _LOG.warning(
+        "redundik: compiling the kernels of %s in the background (cache: %s); steps run interpreted until then",
+        ", ".join(_pending),
+        _kernel_cache.cache_dir(),
+    )
     while True:
         with _lock:
             if not _pending:
@@ -203,7 +238,7 @@ class _Twins:
 
     def __getattr__(self, name: str) -> Any:
         value = getattr(self._space, name)
-        return twin(value) if isinstance(value, _Switch) or hasattr(value, "py_func") else value
+        return twin(value) if isinstance(value, _Switch) or _kernel_cache.is_kernel(value) else value
 
 
 _twin_spaces: dict[int, _Twins] = {}
@@ -228,7 +263,7 @@ def _build_twins() -> None:
     for mod_name, funcs in _kernel_cache.KERNELS.items():
         space = spaces[mod_name] = dict(vars(sys.modules[mod_name]))
         for disp in funcs.values():
-            f = disp.py_func
+            f = getattr(disp, "py_func", disp)  # (the function itself while numba is deferred)
             fn = types.FunctionType(f.__code__, space, f.__name__, f.__defaults__, f.__closure__)
             fn.__kwdefaults__ = f.__kwdefaults__
             _twins[id(disp)] = fn
@@ -258,9 +293,81 @@ def _install(compiled_too: bool = False) -> None:
     kernels = {id(d): d for funcs in _kernel_cache.KERNELS.values() for d in funcs.values()}
     for space in spaces.values():
         for key, value in list(space.items()):
-            if id(value) in kernels and kernels[id(value)] is value and (compiled_too or not value.signatures):
+            if id(value) in kernels and kernels[id(value)] is value and (compiled_too or not _compiled(value)):
                 _saved.append((space, key, value))
                 space[key] = _Switch(value, _twins[id(value)])
+
+
+def _compiled(kernel: Any) -> bool:
+    """Whether numba compiled ``kernel`` for some argument types already (a deferred function: no)."""
+    return bool(getattr(kernel, "signatures", None))
+
+
+def adopt() -> None:
+    """Decorate the kernels numba was deferred for (:func:`redundik._kernel_cache.materialize`) and hand their
+    dispatchers to whatever held the functions: a switch's compiled side, the original a switch puts back, a
+    namespace or module global that still holds a function (a switch now, while cold; the dispatcher otherwise).
+    Called by the thread that compiles, before it compiles."""
+    if not _kernel_cache.deferred():
+        return
+    made = _kernel_cache.materialize()
+    with _lock:
+        for k, (space, key, value) in enumerate(_saved):
+            disp = made.get(id(value))
+            if disp is not None:
+                _saved[k] = (space, key, disp)
+        for space in _spaces():
+            for key, value in list(space.items()):
+                if isinstance(value, _Switch):
+                    value.kernel = made.get(id(value.kernel), value.kernel)
+                elif id(value) in made:
+                    disp = made[id(value)]
+                    if _saved:  # (cold: the twin in front, its dispatcher put back by _restore)
+                        _saved.append((space, key, disp))
+                        space[key] = _Switch(disp, twin(value))
+                    else:
+                        space[key] = disp
+
+
+#: Seconds after the first use of a kernel namespace at which a process that never started the compiling thread
+#: decorates its deferred kernels in a thread of its own (a script that evaluates tasks or potentials, never a step).
+ADOPT_DELAY = 1.0
+_timer: threading.Timer | None = None
+_timer_lock = threading.Lock()  # (not ``_lock``: a namespace is first used under it, by ``_install``)
+
+
+def _adopt_soon() -> None:
+    """:data:`redundik._kernel_cache.FIRST_USE`: schedule :func:`adopt` in a thread, once."""
+    global _timer
+    with _timer_lock:
+        if _timer is None:
+            _timer = threading.Timer(ADOPT_DELAY, _with_short_switches, (adopt,))
+            _timer.daemon = True
+            _timer.start()
+
+
+_kernel_cache.FIRST_USE.append(_adopt_soon)
+
+
+def compiled_now() -> None:
+    """For an entry point that wants compiled kernels from its first call (``solve_ik``, the batch API): numba
+    imported and the deferred kernels decorated now, in the caller's thread (a no-op once done)."""
+    if _kernel_cache.deferred():
+        adopt()
+
+
+def _spaces() -> list[dict[str, Any]]:
+    """The namespaces that may hold kernels (the kernel modules excepted): every redundik module's globals and the
+    filled kernel namespaces."""
+    spaces: dict[int, dict[str, Any]] = {}
+    for mod_name in [m for m in sys.modules if m.startswith("redundik.") and m not in _kernel_cache.KERNELS]:
+        space = vars(sys.modules[mod_name])
+        spaces[id(space)] = space
+        for value in list(space.values()):
+            if isinstance(value, _kernel_cache.KernelNamespace) and "_module" in value.__dict__:
+                if len(value.__dict__) > 1:
+                    spaces[id(value.__dict__)] = value.__dict__
+    return list(spaces.values())
 
 
 def _restore() -> None:

@@ -20,6 +20,7 @@ from __future__ import annotations
 import hashlib
 import os
 import sys
+import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -123,9 +124,42 @@ def _make_writable(folder: Path) -> bool:
     return os.access(folder, os.W_OK | os.X_OK)
 
 
-def jit(fn: Callable[..., Any]) -> Any:
-    """``numba.njit(cache=True, nogil=True)`` with the cache in :func:`cache_dir` (``cache=False`` when that folder
-    cannot be written); numba's configured cache folder is restored after the decoration."""
+#: While True, :func:`jit` returns the function itself and numba is not imported (:func:`defer_numba`).
+_deferred = False
+#: The functions :func:`jit` returned undecorated, and the module globals made later (:func:`later`), in the order
+#: they were made; :func:`materialize` turns them into numba's objects.
+_pending_kernels: list[Callable[..., Any]] = []
+_pending_globals: list[tuple[str, str, Callable[[], Any]]] = []
+_pending_ids: set[int] = set()
+#: Called when a kernel namespace is first used while numba is deferred (``_coldstart`` schedules the
+#: decoration then, so that no process keeps running the kernels' Python code).
+FIRST_USE: list[Callable[[], None]] = []
+#: function → its dispatcher, for the functions :func:`materialize` decorated.
+DISPATCHERS: dict[int, Any] = {}
+_materialize_lock = threading.RLock()
+
+
+def defer_numba() -> None:
+    """Make :func:`jit` return functions undecorated until :func:`materialize` (numba not imported meanwhile: about
+    0.2 s of a process's start), when numba is not imported yet. A background cold start does it
+    (:mod:`redundik._coldstart`): the first steps run the kernels' own code anyway."""
+    global _deferred
+    with _materialize_lock:
+        if "numba" not in sys.modules:
+            _deferred = True
+
+
+def is_kernel(value: Any) -> bool:
+    """Whether ``value`` is a kernel :func:`jit` made: a dispatcher, or a function while numba is deferred."""
+    return hasattr(value, "py_func") or id(value) in _pending_ids
+
+
+def deferred() -> bool:
+    """Whether kernels made now stay undecorated (numba not imported yet)."""
+    return _deferred
+
+
+def _decorate(fn: Callable[..., Any]) -> Any:
     import numba
 
     folder = cache_dir()
@@ -134,11 +168,66 @@ def jit(fn: Callable[..., Any]) -> Any:
     saved = config.CACHE_DIR
     config.CACHE_DIR = str(folder) if cached else saved
     try:
-        dispatcher = numba.njit(cache=cached, nogil=True)(fn)
+        return numba.njit(cache=cached, nogil=True)(fn)
     finally:
         config.CACHE_DIR = saved
+
+
+def jit(fn: Callable[..., Any]) -> Any:
+    """``numba.njit(cache=True, nogil=True)`` with the cache in :func:`cache_dir` (``cache=False`` when that folder
+    cannot be written); numba's configured cache folder is restored after the decoration. While numba is deferred
+    (:func:`defer_numba`) the function itself, decorated by :func:`materialize`."""
+    with _materialize_lock:
+        if _deferred:
+            _pending_kernels.append(fn)
+            _pending_ids.add(id(fn))
+            KERNELS.setdefault(fn.__module__, {})[fn.__name__] = fn
+            return fn
+    dispatcher = _decorate(fn)
     KERNELS.setdefault(fn.__module__, {})[fn.__name__] = dispatcher
     return dispatcher
+
+
+def later(module: str, name: str, make: Callable[[], Any]) -> Any:
+    """A module global that needs numba (a ``numba.extending.intrinsic``): ``make()`` now, or — while numba is
+    deferred — a stand-in bound to ``make()`` by :func:`materialize` (called before then: an error)."""
+    with _materialize_lock:
+        if _deferred:
+            _pending_globals.append((module, name, make))
+
+            def stand_in(*args: Any) -> Any:
+                raise RuntimeError(f"{module}.{name} needs numba: it is made when the kernels are compiled")
+
+            return stand_in
+    return make()
+
+
+def materialize() -> dict[int, Any]:
+    """Import numba and decorate every function :func:`jit` left undecorated: each module global that held one now
+    holds its dispatcher (the globals :func:`later` deferred made first). Returns function id → dispatcher."""
+    global _deferred
+    with _materialize_lock:
+        if not _deferred:
+            return DISPATCHERS
+        import numba  # noqa: F401 - (the import this whole deferral is about)
+
+        for module, name, make in _pending_globals:
+            vars(sys.modules[module])[name] = make()
+        made = [(fn, _decorate(fn)) for fn in _pending_kernels]
+        for fn, disp in made:
+            DISPATCHERS[id(fn)] = disp
+            KERNELS[fn.__module__][fn.__name__] = disp
+        for module in KERNELS:  # (every dispatcher made before any global changes): defined or imported there
+            space = vars(sys.modules[module])
+            for key, value in list(space.items()):
+                disp = DISPATCHERS.get(id(value))
+                if disp is not None and disp.py_func is value:
+                    space[key] = disp
+        _pending_kernels.clear()
+        _pending_globals.clear()
+        _pending_ids.clear()
+        _deferred = False
+        return DISPATCHERS
 
 
 class KernelNamespace:
@@ -152,6 +241,9 @@ class KernelNamespace:
     def __getattr__(self, name: str) -> Any:
         import importlib
 
+        if _deferred:  # (kernels wanted while numba is deferred: decorated soon, whatever the caller does next)
+            for hook in FIRST_USE:
+                hook()
         kernels = importlib.import_module(self.__dict__["_module"])
         self.__dict__.update({k: v for k, v in vars(kernels).items() if not k.startswith("__")})
         return getattr(kernels, name)

@@ -36,6 +36,8 @@ def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS, *, ik: bool = Tr
     from redundik import _coldstart
     from redundik._kernel_cache import cache_dir
 
+    _coldstart.adopt()  # (numba imported and the deferred kernels decorated: _kernel_cache.defer_numba)
+
     _LOG.info(
         "redundik: loading the compiled kernels from %s (a first run on an empty cache compiles them: up to a minute)",
         cache_dir(),

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from redundik._coldstart import compiled_now
 from redundik.errors import ResolverError
 from redundik.ik.problem import build_problem, frames_and_targets, start_configuration, target_arrays
 from redundik.ik.solve import IKResult, Solver, settings, warm_up
@@ -97,6 +98,7 @@ def solve_ik_batch(
     Raises:
         ModelError, TaskError, ResolverError: as :func:`redundik.solve_ik`, the message naming the problem.
     """
+    compiled_now()
     s = settings(position_tolerance, orientation_tolerance, max_iterations, timeout, max_restarts)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ResolverError(f"solve_ik_batch: seed must be an int ≥ 0, got {seed!r:.60}")

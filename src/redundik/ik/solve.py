@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
+from redundik._coldstart import compiled_now
 from redundik.errors import ResolverError
 from redundik.ik import kernels as K
 from redundik.ik.problem import (
@@ -313,6 +314,7 @@ def solve_ik(
         TaskError: a target that is not an SE3, a rigid 4×4 matrix or a finite position (3,).
         ResolverError: a tolerance, budget or count that is not a positive number, or a bad seed.
     """
+    compiled_now()  # (the kernels compiled from the first call: its time budget is for solving)
     s = settings(position_tolerance, orientation_tolerance, max_iterations, timeout, max_restarts)
     names, targets = frames_and_targets(frame, target)
     solver = cached_solver(robot, names)

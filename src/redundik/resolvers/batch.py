@@ -34,6 +34,7 @@ from typing import cast
 import numpy as np
 import pinocchio as pin
 
+from redundik._coldstart import compiled_now
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver
@@ -258,6 +259,7 @@ class BatchResolver:
         Raises:
             ResolverError: shapes that do not match, non-finite inputs or dt ≤ 0.
         """
+        compiled_now()  # (a batch is compiled from its first call)
         q, targets = self._check(q, targets, dt)
         N = q.shape[0]
         J, e, ep = self._kinematics(q, targets)

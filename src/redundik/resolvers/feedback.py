@@ -23,6 +23,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from redundik._coldstart import HOT, ready
 from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver, StepResult, nonfinite_sources
@@ -87,6 +88,8 @@ class FeedbackResolver(Resolver):
             )
 
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
+        if "feedback" not in HOT:  # (its kernels' twins while they compile in the background: redundik._coldstart)
+            ready("feedback")
         t0 = time.perf_counter()
         terms = stack.evaluate(robot, t)
         sig = self.stack_key(stack)

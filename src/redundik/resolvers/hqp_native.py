@@ -7,12 +7,11 @@ checks the structs' layout for daqp's version and lays out the ``native`` array,
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
-from llvmlite import ir
-from numba import types
-from numba.extending import intrinsic
 
+from redundik import _kernel_cache
 from redundik.resolvers.hqp_layout import NAT_FN, NAT_PROBLEM, NAT_RESULT, NAT_SENSE, NAT_SETTINGS
 from redundik.resolvers.hqp_level_qp import qp_views
 from redundik.resolvers.kernels import _jit
@@ -27,19 +26,31 @@ DR_X, DR_LAM, DR_FLAGS, DR_WORDS = 0, 1, 4, 8
 SENSE_EQUALITY = 5
 
 
-@intrinsic
-def _call_ppp(typingctx, fn, a, b, c):  # type: ignore[no-untyped-def]
-    """Call the C function at address ``fn`` as ``void fn(void*, void*, void*)`` with the three addresses."""
-    sig = types.void(types.int64, types.int64, types.int64, types.int64)
+def _make_call_ppp() -> Any:
+    """The intrinsic ``_call_ppp(fn, a, b, c)``: call the C function at address ``fn`` as
+    ``void fn(void*, void*, void*)`` with the three addresses (made when numba is imported:
+    ``_kernel_cache.later``)."""
+    from llvmlite import ir
+    from numba import types
+    from numba.extending import intrinsic
 
-    def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
-        vp = ir.IntType(8).as_pointer()
-        fnty = ir.FunctionType(ir.VoidType(), [vp, vp, vp])
-        target = builder.inttoptr(args[0], fnty.as_pointer())
-        builder.call(target, [builder.inttoptr(x, vp) for x in args[1:]])
-        return context.get_dummy_value()
+    @intrinsic
+    def _call_ppp(typingctx, fn, a, b, c):  # type: ignore[no-untyped-def]
+        sig = types.void(types.int64, types.int64, types.int64, types.int64)
 
-    return sig, codegen
+        def codegen(context, builder, signature, args):  # type: ignore[no-untyped-def]
+            vp = ir.IntType(8).as_pointer()
+            fnty = ir.FunctionType(ir.VoidType(), [vp, vp, vp])
+            target = builder.inttoptr(args[0], fnty.as_pointer())
+            builder.call(target, [builder.inttoptr(x, vp) for x in args[1:]])
+            return context.get_dummy_value()
+
+        return sig, codegen
+
+    return _call_ppp
+
+
+_call_ppp = _kernel_cache.later(__name__, "_call_ppp", _make_call_ppp)
 
 
 @_jit
@@ -84,7 +95,7 @@ def native_quadprog(
     result[DR_LAM] = xa + 8 * nvar
     for i in range(DR_LAM + 1, DR_WORDS):
         result[i] = 0
-    _call_ppp(native[NAT_FN], me + 8 * NAT_RESULT, me + 8 * NAT_PROBLEM, native[NAT_SETTINGS])  # type: ignore[call-arg]
+    _call_ppp(native[NAT_FN], me + 8 * NAT_RESULT, me + 8 * NAT_PROBLEM, native[NAT_SETTINGS])
     flags = result[DR_FLAGS : DR_FLAGS + 1].view(np.int32)  # int exitflag, int iter
     return flags[0], flags[1]
 

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import ctypes
 import sys
-from importlib import metadata
 from typing import Any
 
 import numpy as np
@@ -45,6 +44,8 @@ def _find() -> tuple[int, Any] | str:
     if sys.byteorder != "little" or ctypes.sizeof(ctypes.c_void_p) != 8:
         return "not a little-endian 64-bit process"
     try:
+        from importlib import metadata  # (30 ms to import: only when daqp's native call is first looked for)
+
         import daqp
 
         version = metadata.version("daqp")
