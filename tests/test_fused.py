@@ -9,11 +9,14 @@ from __future__ import annotations
 
 from typing import Any
 
+import numba
 import numpy as np
 import pinocchio as pin
 import pytest
 
+import redundik as rk
 from redundik import resolvers as rs
+from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
 from redundik.kinematics.urdf import load_example_robot
 from redundik.resolvers.fused import FusedPlan
@@ -503,3 +506,43 @@ def test_blas_is_limited_inside_a_step_and_restored_after() -> None:
     res.step(robot, stack, sc.q0, DT, DT)
     assert seen and all(n == 1 for n in seen[-1]), seen
     assert blas_threads() == before
+
+
+@numba.njit
+def _nan_gradient(q, poses, jw, ints, floats, eta):  # type: ignore[no-untyped-def]
+    eta[0] = np.nan
+    return 0.0
+
+
+class _NanPotential(rk.CompiledPotential):
+    name = "nan_writer"
+
+    def compiled_gradient(self, robot: RobotModel) -> rk.CompiledGradient:
+        return rk.CompiledGradient(_nan_gradient, np.zeros(0, np.int64), np.zeros(0))
+
+
+class _MalformedPotential(rk.CompiledPotential):
+    name = "malformed_writer"
+
+    def compiled_gradient(self, robot: RobotModel) -> rk.CompiledGradient:
+        return rk.CompiledGradient(_nan_gradient, np.zeros(0), np.zeros(0))  # ints not int64
+
+
+@pytest.mark.parametrize("method", ["pinv", "wqp", "hqp"])
+def test_a_potential_writer_that_writes_nan_stops_the_step_and_names_it(method: str) -> None:
+    """A compiled gradient writer that writes NaN: q̇ = 0 and the fallback names its subtask; a malformed writer is
+    refused with a TaskError naming the potential."""
+    robot = _panda()
+    q = _q0(robot)
+    robot.update(q)
+    stack = TaskStack([_hand(None, gain=5.0)], [GradientSubtask(_NanPotential(), gain=1.0)])
+    stack.reset(robot)
+    res = rs.make_resolver(method)
+    for k in range(3):
+        out = res.step(robot, stack, q, k * DT, DT)
+        assert np.all(out.dq == 0.0)
+        assert out.fallback is not None and "nan_writer" in out.fallback
+    bad = TaskStack([_hand(None, gain=5.0)], [GradientSubtask(_MalformedPotential(), gain=1.0)])
+    bad.reset(robot)
+    with pytest.raises(TaskError, match=r"malformed_writer.*ints must be a 1-D int64 array"):
+        rs.make_resolver(method).step(robot, bad, q, 0.0, DT)

@@ -32,6 +32,7 @@ from redundik.resolvers.result import StepResult as StepResult
 from redundik.resolvers.result import nonfinite_sources as nonfinite_sources
 from redundik.resolvers.singularity import LimiterOption, SpeedLimiter
 from redundik.tasks.base import Edits
+from redundik.tasks.potential_rows import compiled_writer
 from redundik.tasks.stack import TaskStack
 
 if TYPE_CHECKING:
@@ -376,7 +377,11 @@ class Resolver(ABC):
                 names.append(task.name)
         for sub in stack.subtasks:
             potential = getattr(sub, "potential", None)
-            if not compiled_capable or potential is None or potential.linear_gradient(robot) is None:
+            if (
+                not compiled_capable
+                or potential is None
+                or (potential.linear_gradient(robot) is None and compiled_writer(potential, robot) is None)
+            ):
                 names.append(str(getattr(sub, "name", type(sub).__name__)))
         self.__dict__["_interpreted_cache"] = (self._checked, stack, tuple(names))
         if compiled_capable and names:
