@@ -47,6 +47,18 @@ def squares_below(q: np.ndarray, bound2: float) -> bool:
 
 
 @_jit
+def scaled_max(x: np.ndarray, inv: np.ndarray) -> float:
+    """max_i |x_i · inv_i| (0 for an empty x): with ``inv`` the joints' 1 / cap, the largest ratio of a joint speed to
+    its cap (the joint-speed cap's test, ``SpeedLimiter.apply``)."""
+    out = 0.0
+    for i in range(x.shape[0]):
+        r = abs(x[i] * inv[i])
+        if r > out:
+            out = r
+    return out
+
+
+@_jit
 def in_box(x: np.ndarray, lb: np.ndarray, ub: np.ndarray, tol: float) -> bool:
     """True when lb − tol ≤ x ≤ ub + tol elementwise."""
     for i in range(x.shape[0]):

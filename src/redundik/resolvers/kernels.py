@@ -43,6 +43,7 @@ from redundik.resolvers.box_kernels import clip_twice as clip_twice
 from redundik.resolvers.box_kernels import in_box as in_box
 from redundik.resolvers.box_kernels import joint_box as joint_box
 from redundik.resolvers.box_kernels import limit_box as limit_box
+from redundik.resolvers.box_kernels import scaled_max as scaled_max
 from redundik.resolvers.box_kernels import spd_solve_batch as spd_solve_batch
 from redundik.resolvers.box_kernels import spd_solve_box as spd_solve_box
 from redundik.resolvers.box_kernels import spd_solve_box_into as spd_solve_box_into

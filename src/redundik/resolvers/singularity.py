@@ -60,6 +60,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from redundik.errors import ResolverError
+from redundik.resolvers.linalg import K
 
 if TYPE_CHECKING:
     from redundik.kinematics.model import RobotModel
@@ -322,8 +323,7 @@ class SpeedLimiter:
                 norm = math.sqrt(float(dq.dot(dq)))
         caps = self.caps(robot)
         if caps is not None and norm > self.floor:
-            x = dq * self._inv  # q̇_i / c_i: ‖x‖ ≤ 1 leaves every joint within its cap (two cheap operations)
-            over = float(np.max(np.abs(x))) if float(x.dot(x)) > 1.0 else 0.0
+            over = float(K.scaled_max(dq, self._inv))  # max_i |q̇_i| / c_i, one compiled call
             if over > 1.0:
                 s = 1.0 / over
                 dq = dq * s
