@@ -18,6 +18,17 @@ from redundik.tasks.potential_rows import CompiledPotential
 _PK = KernelNamespace("redundik.tasks.potential_kernels")
 
 
+def one_dof_joint(robot: RobotModel, joint: str, name: str) -> tuple[int, int]:
+    """(idx_q, idx_v) of the 1-dof ``joint`` of ``robot``; a :class:`TaskError` naming subtask ``name`` otherwise."""
+    try:
+        info = robot.joint(joint)
+    except Exception as exc:
+        raise TaskError(f"subtask '{name}': {exc}") from exc
+    if info.idx_q < 0:
+        raise TaskError(f"subtask '{name}': joint '{joint}' is not a 1-dof joint")
+    return info.idx_q, info.idx_v
+
+
 class _JointPotential(CompiledPotential):
     """Base for potentials of a single 1-dof joint; its writer's ``ints`` are (idx_q, idx_v), rewritten in place
     when it is checked against a robot."""
@@ -33,14 +44,7 @@ class _JointPotential(CompiledPotential):
         self._floats = np.zeros(1)
 
     def check(self, robot: RobotModel) -> None:
-        try:
-            info = robot.joint(self.joint)
-        except Exception as exc:
-            raise TaskError(f"subtask '{self.name}': {exc}") from exc
-        if info.idx_q < 0:
-            raise TaskError(f"subtask '{self.name}': joint '{self.joint}' is not a 1-dof joint")
-        self._iq, self._iv = info.idx_q, info.idx_v
-        self._ints[0], self._ints[1] = info.idx_q, info.idx_v
+        self._iq, self._iv = self._ints[0], self._ints[1] = one_dof_joint(robot, self.joint, self.name)
 
     def _writer(self, robot: RobotModel, kernel: Any) -> CompiledGradient:
         """``kernel`` with this potential's data on ``robot`` (the joint looked up when it was not yet, or

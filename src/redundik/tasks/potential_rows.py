@@ -18,7 +18,7 @@ import numpy as np
 from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import CompiledGradient, Potential
-from redundik.tasks.rows import kinematic_views
+from redundik.tasks.rows import kinematic_views, writer_problems
 
 __all__ = [
     "CompiledGradient",
@@ -94,11 +94,7 @@ def check_gradient_form(potential: Any, form: Any) -> CompiledGradient:
         raise TaskError(
             f"potential '{name}': compiled_gradient must return a CompiledGradient or None, got {type(form).__name__}"
         )
-    problems = [] if callable(form.kernel) else ["kernel is not callable"]
-    for field, dtype in (("ints", np.int64), ("floats", np.float64)):
-        arr = getattr(form, field)
-        if not (isinstance(arr, np.ndarray) and arr.dtype == dtype and arr.ndim == 1):
-            problems.append(f"{field} must be a 1-D {np.dtype(dtype).name} array")
+    problems = writer_problems(form)
     if problems:
         raise TaskError(f"potential '{name}': compiled_gradient: " + "; ".join(problems))
     return form

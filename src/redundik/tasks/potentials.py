@@ -464,7 +464,10 @@ class BestPosture(CompiledPotential):
 
     @axes.setter
     def axes(self, value: str | Sequence[str]) -> None:
-        self._axes = resolve_axes(value)
+        try:
+            self._axes = resolve_axes(value)
+        except TaskError as exc:
+            raise TaskError(f"subtask '{self.name}': {exc}") from None
         self.rows = np.array([AXES[a] for a in self._axes], dtype=np.int64)
         self.form_revision += 1  # (a compiled step's writer reads them: planned again)
 

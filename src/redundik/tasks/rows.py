@@ -22,7 +22,7 @@ from redundik.kinematics.memory import jacobian_view, se3_vector_view
 from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import CompiledRows, Task, TaskTerm
 
-__all__ = ["CompiledRows", "CompiledTask", "kinematic_views", "write_rows"]
+__all__ = ["CompiledRows", "CompiledTask", "kinematic_views", "write_rows", "writer_problems"]
 
 
 def kinematic_views(robot: RobotModel) -> tuple[np.ndarray, np.ndarray]:
@@ -73,6 +73,17 @@ class CompiledTask(Task):
         return TaskTerm(self.name, J, v, e, self.weight)
 
 
+def writer_problems(form: Any) -> list[str]:
+    """What is wrong with a compiled writer's ``kernel``, ``ints`` and ``floats`` (a callable, 1-D int64 and float64
+    arrays): the checks :func:`check_form` and ``potential_rows.check_gradient_form`` share."""
+    problems = [] if callable(form.kernel) else ["kernel is not callable"]
+    for field, dtype in (("ints", np.int64), ("floats", np.float64)):
+        arr = getattr(form, field)
+        if not (isinstance(arr, np.ndarray) and arr.dtype == dtype and arr.ndim == 1):
+            problems.append(f"{field} must be a 1-D {np.dtype(dtype).name} array")
+    return problems
+
+
 def check_form(task: Any, form: Any) -> CompiledRows:
     """``form`` if it is a well-made :class:`CompiledRows` (a callable kernel, rows ≥ 0, 1-D int64 and float64
     arrays); a :class:`TaskError` naming the task and what was wrong otherwise."""
@@ -81,15 +92,9 @@ def check_form(task: Any, form: Any) -> CompiledRows:
         raise TaskError(f"task '{name}': compiled_rows returned None; a CompiledTask must give its writer")
     if not isinstance(form, CompiledRows):
         raise TaskError(f"task '{name}': compiled_rows must return a CompiledRows or None, got {type(form).__name__}")
-    problems = []
-    if not callable(form.kernel):
-        problems.append("kernel is not callable")
+    problems = writer_problems(form)
     if isinstance(form.rows, bool) or not isinstance(form.rows, (int, np.integer)) or int(form.rows) < 0:
         problems.append(f"rows must be an integer ≥ 0, got {form.rows!r}")
-    for field, dtype in (("ints", np.int64), ("floats", np.float64)):
-        arr = getattr(form, field)
-        if not (isinstance(arr, np.ndarray) and arr.dtype == dtype and arr.ndim == 1):
-            problems.append(f"{field} must be a 1-D {np.dtype(dtype).name} array")
     if problems:
         raise TaskError(f"task '{name}': compiled_rows: " + "; ".join(problems))
     return form

@@ -10,6 +10,7 @@ from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import CompiledGradient
+from redundik.tasks.joint_potentials import one_dof_joint
 from redundik.tasks.potential_rows import CompiledPotential
 
 #: The compiled potential kernels, imported on first use (a namespace: a cold start puts their twins here).
@@ -59,14 +60,7 @@ class JointWaypoints(CompiledPotential):
         self._ints[2] = int(value)
 
     def check(self, robot: RobotModel) -> None:
-        try:
-            info = robot.joint(self.joint)
-        except Exception as exc:
-            raise TaskError(f"subtask '{self.name}': {exc}") from exc
-        if info.idx_q < 0:
-            raise TaskError(f"subtask '{self.name}': joint '{self.joint}' is not a 1-dof joint")
-        self._iq, self._iv = info.idx_q, info.idx_v
-        self._ints[0], self._ints[1] = info.idx_q, info.idx_v
+        self._iq, self._iv = self._ints[0], self._ints[1] = one_dof_joint(robot, self.joint, self.name)
         self.active = 0
 
     def compiled_gradient(self, robot: RobotModel) -> CompiledGradient:
