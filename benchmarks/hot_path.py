@@ -31,7 +31,8 @@ def _harness() -> tuple[Any, Any, Any, Any]:
         from redundik.peers.bench.scenarios import SCENARIOS
     except ImportError:  # the harness moved out of the package: the checkout's benchmarks/bench
         sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parents[1]))
-        from benchmarks.bench.runners import MinkRunner, PinkRunner, RedundikRunner  # type: ignore[no-redef]
+        from benchmarks.bench.peer_runners import MinkRunner, PinkRunner  # type: ignore[no-redef]
+        from benchmarks.bench.runners import RedundikRunner  # type: ignore[no-redef]
         from benchmarks.bench.scenarios import SCENARIOS  # type: ignore[no-redef]
     return SCENARIOS, RedundikRunner, MinkRunner, PinkRunner
 

@@ -10,7 +10,8 @@ from typing import Any
 import numpy as np
 
 from benchmarks.bench import batch as batch_case
-from benchmarks.bench.runners import MinkShelfRunner, Runner
+from benchmarks.bench.peer_runners import MinkShelfRunner
+from benchmarks.bench.runners import Runner
 
 #: Largest fraction of steps that may fall back (or raise) or leave the robot frozen before a case is FAILED.
 MAX_BAD_FRACTION = 0.01

@@ -19,14 +19,9 @@ import numpy as np
 from benchmarks.bench import batch as batch_case
 from benchmarks.bench.cases import CaseResult, case_status, summarise, summarise_case, versions
 from benchmarks.bench.cold_start import run_cold_start
+from benchmarks.bench.peer_runners import MinkRunner, MinkShelfRunner, PinkRunner, PinkShelfRunner
 from benchmarks.bench.placo_peer import PlacoRunner, find_placo_python
-from benchmarks.bench.runners import (
-    MinkRunner,
-    MinkShelfRunner,
-    PinkRunner,
-    PinkShelfRunner,
-    RedundikRunner,
-)
+from benchmarks.bench.runners import RedundikRunner
 from benchmarks.bench.scenarios import SCENARIOS as BUILTIN_SCENARIOS
 from benchmarks.bench.scenarios import SNAKE_SIZES
 from benchmarks.bench.user_scenarios import BASELINES, PEERS_OF, USER_SCENARIOS, custom_task_evaluate_us

@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from benchmarks.bench.runners import _PeerRunner
+from benchmarks.bench.peer_runners import _PeerRunner
 from benchmarks.bench.scenarios import POSTURE_GAIN, POSTURE_WEIGHT, Scenario, urdf_path
 
 WORKER = Path(__file__).resolve().with_name("placo_worker.py")
