@@ -1,8 +1,9 @@
 """What users run (issue 31): a trajectory tick against a teleop tick (``set_target`` every tick, its cost included),
-a ``FrameTask`` subclass, a 10-line custom task (its ``evaluate``, the same row as a compiled writer of
-``rk.CompiledTask``, and the same row as the library's own ``FrameTask`` on one axis), and TALOS with the library's
-``PostureTask`` — public classes only, cases interleaved tick by tick in one process, medians and p90 per case,
-ratios against the trajectory tick.
+the same tick with the posture's reference moved every tick (``PostureTask.set_target``), a ``FrameTask`` subclass, a
+10-line custom task (its ``evaluate``, the same row as a compiled writer of ``rk.CompiledTask``, and the same row as
+the library's own ``FrameTask`` on one axis), and TALOS with the library's ``PostureTask``; the custom task's
+``evaluate`` alone is also timed in the rotation — public classes only, cases interleaved tick by tick in one process,
+medians and p90 per case, ratios against the trajectory tick.
 
 Run: ``python benchmarks/user_cases.py [--steps N] [--json FILE]``; prints a table and the path each case took
 (``result.info["path"]``). Ratios from one run; the machine is shared, so report the spread of several runs.
@@ -30,7 +31,7 @@ import redundik as rk
 TOOL = "panda_hand_tcp"
 Q0 = np.array([0, -0.785, 0, -2.356, 0, 1.571, 0.785, 0.02, 0.02])
 DT = 1e-3
-KINDS = ("trajectory", "teleop", "subclass", "builtin_row", "custom_task", "compiled_task")
+KINDS = ("trajectory", "teleop", "posture_target", "subclass", "builtin_row", "custom_task", "compiled_task")
 
 
 class MyFrameTask(rk.FrameTask):
@@ -115,13 +116,19 @@ def _panda_case(kind: str, method: str) -> dict[str, Any]:
     elif kind == "builtin_row":  # the same row through the library's own task: what the row costs by itself
         elbow = rk.FrameTask("panda_link4", rk.Hold(), axes=["y"], gain=5.0, name="elbow_side")
         tasks = [rk.FrameTask(TOOL, circle, gain=50.0), elbow]
+    elif kind == "posture_target":  # the trajectory case, with the posture's q_ref set every tick
+        tasks = [rk.FrameTask(TOOL, circle, gain=50.0)]
     else:  # teleop
         tasks = [rk.FrameTask(TOOL, gain=40.0)]
     stack = rk.TaskStack([*tasks, rk.PostureTask(gain=1.0)])
     robot.update(Q0)
     stack.reset(robot)
     home = robot.frame_pose(TOOL)
-    return {"robot": robot, "stack": stack, "res": rk.make_resolver(method), "q": Q0.copy(), "k": 0, "home": home}
+    posture = stack.tasks[-1] if kind == "posture_target" else None
+    return {
+        "robot": robot, "stack": stack, "res": rk.make_resolver(method), "q": Q0.copy(), "k": 0, "home": home,
+        "posture": posture,
+    }  # fmt: skip
 
 
 def _talos_case(method: str) -> dict[str, Any]:
@@ -131,19 +138,48 @@ def _talos_case(method: str) -> dict[str, Any]:
     hands = [rk.FrameTask(f, rk.Circle(0.05, np.pi, plane=("y", "z")), gain=20.0) for f in ("gripper_left_joint",)]
     stack = rk.TaskStack([*hands, rk.PostureTask(gain=1.0)])
     stack.reset(robot)
-    return {"robot": robot, "stack": stack, "res": rk.make_resolver(method), "q": q0.copy(), "k": 0, "home": None}
+    return {"robot": robot, "stack": stack, "res": rk.make_resolver(method), "q": q0.copy(), "k": 0, "home": None,
+            "posture": None}  # fmt: skip
+
+
+def _evaluate_case() -> dict[str, Any]:
+    """The custom task's ``evaluate`` alone, timed in the same rotation as the steps (the kinematics updated at a
+    moving q first, untimed): its own cost under the same cache conditions as the step that calls it."""
+    robot = rk.load_example_robot("panda")
+    robot.update(Q0)
+    return {"robot": robot, "task": ElbowSide(float(robot.frame_position("panda_link4")[1])), "k": 0}
+
+
+def _evaluate_tick(case: dict[str, Any]) -> float:
+    k = case["k"]
+    q = Q0.copy()
+    q[:7] += 0.2 * np.sin(1e-3 * k + np.arange(7))
+    case["robot"].update(q)
+    t0 = time.perf_counter()
+    case["task"].evaluate(case["robot"], k * DT)
+    elapsed = time.perf_counter() - t0
+    case["k"] = k + 1
+    return elapsed
 
 
 def _tick(case: dict[str, Any], teleop: bool) -> tuple[float, Any]:
+    if "task" in case:  # the custom task's evaluate alone
+        return _evaluate_tick(case), None
     k = case["k"]
     t = k * DT
     target = None
     if teleop:  # the operator's new pose (made outside the timed tick: the user's cost, not the library's)
         h = case["home"]
         target = pin.SE3(h.rotation, h.translation + np.array([0.0, 0.05 * np.sin(2 * t), 0.03 * np.sin(4 * t)]))
+    posture = case["posture"]
+    if posture is not None:  # a moving posture reference (a planner's nominal configuration), made untimed
+        ref = Q0.copy()
+        ref[:7] += 0.1 * np.sin(2 * t + np.arange(7))
     t0 = time.perf_counter()
     if target is not None:
         case["stack"].tasks[0].set_target(target)  # timed: set_target is part of a teleop tick
+    if posture is not None:
+        posture.set_target(ref)  # timed, as set_target above
     res = case["res"].step(case["robot"], case["stack"], case["q"], t, DT)
     elapsed = time.perf_counter() - t0
     case["q"] = case["robot"].integrate(case["q"], res.dq, DT)
@@ -156,6 +192,7 @@ def run(steps: int) -> dict[str, Any]:
     for method in ("pinv", "wqp", "hqp"):
         cases = {kind: _panda_case(kind, method) for kind in KINDS}
         cases["talos_posture"] = _talos_case(method)
+        cases["custom_evaluate"] = _evaluate_case()
         for name, c in cases.items():
             for _ in range(30):
                 _tick(c, name == "teleop")
@@ -170,7 +207,10 @@ def run(steps: int) -> dict[str, Any]:
                     times[name].append(_tick(cases[name], name == "teleop")[0])
         finally:
             gc.enable()
-        paths = {name: _tick(c, name == "teleop")[1].info["path"] for name, c in cases.items()}
+        paths = {
+            name: "-" if name == "custom_evaluate" else _tick(c, name == "teleop")[1].info["path"]
+            for name, c in cases.items()
+        }
         base = float(np.median(times["trajectory"]))
         for name, ts in times.items():
             arr = np.array(ts) * 1e6
@@ -215,12 +255,14 @@ def main(argv: list[str] | None = None) -> int:
     print(f"set_target alone: {res['set_target_us']:.2f} µs")
     ev = res["custom_evaluate_us"]
     for method in ("pinv", "wqp", "hqp"):
+        rot = res[f"{method}/custom_evaluate"]["median_us"]
         base = res[f"{method}/trajectory"]["median_us"]
         extra = res[f"{method}/custom_task"]["median_us"] - base
         comp = res[f"{method}/compiled_task"]["median_us"] - base
         row = res[f"{method}/builtin_row"]["median_us"] - base
         print(
-            f"{method}: the custom task adds {extra:.1f} µs to a tick (its evaluate alone costs {ev:.1f} µs); "
+            f"{method}: the custom task adds {extra:.1f} µs to a tick (its evaluate alone: {ev:.1f} µs in a tight "
+            f"loop, {rot:.1f} µs in the rotation); "
             f"as a compiled writer it adds {comp:.1f} µs; the same row as a built-in FrameTask adds {row:.1f} µs"
         )
     if args.json:

@@ -162,3 +162,78 @@ def test_the_frame_tasks_ok_status_is_the_writers() -> None:
 
     assert frame._STATUS_OK == target_kernels.OK
     assert len({target_kernels.OK, target_kernels.NOT_FINITE, target_kernels.TOO_FAR, target_kernels.NOT_RIGID}) == 4
+
+
+def _posture_run(robot_name: str, method: str, fuse: bool, priority: int | None, steps: int = 60):
+    """A hand task on a circle and a posture whose q_ref moves every tick (``set_target``, a new float64 array)."""
+    robot = rk.load_example_robot(robot_name)
+    q = Q0.copy() if robot_name == "panda" else robot.neutral()
+    frame = TOOL if robot_name == "panda" else "gripper_left_joint"
+    post = rk.PostureTask(gain=2.0, priority=priority)
+    hand = rk.FrameTask(frame, rk.Circle(0.05, np.pi, plane=("y", "z")), axes="position", gain=20.0, priority=0)
+    stack = rk.TaskStack([hand, post])
+    resolver = rk.make_resolver(method)
+    resolver.fuse = fuse
+    robot.update(q)
+    stack.reset(robot)
+    base = q.copy()
+    arm = [robot.model.joints[robot.model.getJointId(n)].idx_q for n in robot.joint_names[-7:]]
+    out, plans, paths = [], [], []
+    dt = 1e-3
+    for k in range(steps):
+        ref = base.copy()
+        ref[arm] += 0.2 * np.sin(0.05 * k + np.arange(len(arm)))  # a moving posture reference (revolute joints)
+        post.set_target(ref)
+        res = resolver.step(robot, stack, q, k * dt, dt)
+        out.append(res.dq.copy())
+        plans.append(plan_of(resolver))
+        paths.append(res.info["path"])
+        q = robot.integrate(q, res.dq, dt)
+    return np.array(out), plans, paths
+
+
+@pytest.mark.parametrize(
+    ("robot_name", "method", "priority"),
+    [
+        ("panda", "pinv", None),
+        ("panda", "wqp", None),
+        ("panda", "wqp", 1),
+        ("panda", "hqp", None),
+        ("panda", "hqp", 1),
+        ("talos", "wqp", 1),  # a free flyer: the level's error on Lie-group coordinates, written from Python
+        ("talos", "hqp", None),
+    ],
+)
+def test_a_posture_target_moved_every_tick_is_data(robot_name: str, method: str, priority: int | None) -> None:
+    """``PostureTask.set_target`` every tick: the fused plan is kept (the new q_ref written into its row of the
+    plan), the step stays compiled, and q̇ is the per-task path's to 1e-12 — not the previous target's."""
+    fused, plans, paths = _posture_run(robot_name, method, True, priority)
+    general, _, _ = _posture_run(robot_name, method, False, priority)
+    np.testing.assert_allclose(fused, general, rtol=0, atol=1e-12)
+    assert plans[2] is not None and all(p is plans[2] for p in plans[2:]), "a posture target planned the stack again"
+    if robot_name == "panda":
+        assert set(paths[2:]) == {"compiled"}, paths
+    assert np.abs(np.diff(fused, axis=0)).max() > 1e-4  # the posture's moving target moves q̇
+
+
+def test_a_posture_target_is_still_checked_where_it_is_set_and_against_the_robot() -> None:
+    robot = rk.load_example_robot("panda")
+    post = rk.PostureTask(gain=1.0)
+    stack = rk.TaskStack([rk.FrameTask(TOOL, rk.Hold(), axes="position"), post])
+    resolver = rk.make_resolver("wqp")
+    robot.update(Q0)
+    stack.reset(robot)
+    resolver.step(robot, stack, Q0, 0.0, 1e-3)
+    for bad, words in (
+        (np.full(9, np.nan), "NaN or infinite"),
+        (np.full(9, 1e7), "beyond"),
+        (np.array([1.0, np.inf] + [0.0] * 7), "NaN or infinite"),
+    ):
+        with pytest.raises(TaskError, match=words):
+            post.set_target(bad)
+    post.set_target(np.zeros(4))  # a configuration of another robot: refused at the next step, naming the task
+    with pytest.raises(Exception, match="posture") as info:
+        resolver.step(robot, stack, Q0, 1e-3, 1e-3)
+    assert "9" in str(info.value) and "4" in str(info.value)
+    target = post.target
+    assert target is not None and not target.flags.writeable

@@ -233,6 +233,12 @@ class RobotModel:
         return self._nv
 
     @property
+    def has_quaternions(self) -> bool:
+        """A joint's coordinates include a unit quaternion (a free flyer, a spherical joint): a configuration is
+        checked and normalised there by :meth:`check_configuration`."""
+        return bool(self._quaternions)
+
+    @property
     def joint_names(self) -> list[str]:
         """Names of the velocity coordinates, in q̇ order."""
         return [j.name for j in self.joints]

@@ -54,6 +54,7 @@ from redundik.resolvers.layouts import GIVEN_ERROR as GIVEN_ERROR
 from redundik.resolvers.layouts import H_EXTERNAL_ROWS as H_EXTERNAL_ROWS
 from redundik.resolvers.layouts import H_EXTERNAL_Z as H_EXTERNAL_Z
 from redundik.resolvers.layouts import H_FRAME_PARAMS as H_FRAME_PARAMS
+from redundik.resolvers.layouts import H_JOINT_TARGETS, H_NULL_CENTRES
 from redundik.resolvers.layouts import HEADER as HEADER
 from redundik.resolvers.layouts import IDENTITY as IDENTITY
 from redundik.resolvers.layouts import INT_PARTS as INT_PARTS
@@ -120,6 +121,8 @@ class FusedPlan(PythonWriters):
         self.revisions: list[int] = []  # the trajectories' revisions as last copied into ``floats``
         self.param_offset = 0  # where the trajectories' parameter rows (K × PARAMS) start in ``floats``
         self.joint_checks: list[tuple[Task, np.ndarray]] = []
+        #: per ``joint_checks`` entry, where its q_ref lies in ``floats`` (a view): a new target is written there
+        self.target_rows: list[np.ndarray] = []
         self.gradient_checks: list[tuple[GradientSubtask, Form]] = []
         self.slots: list[tuple[int, Any, int, int, int, Any]] = []  # per stack task, for ``terms``
         self.qp = False  # built for wqp (weights, joint tasks at a level) rather than pinv
@@ -370,11 +373,21 @@ class FusedPlan(PythonWriters):
             ints[slot] = len(floats)
             floats += chunk
         self.param_offset = int(ints[H_FRAME_PARAMS])
+        spans, a = [], ints[H_JOINT_TARGETS]
+        for target in self.targets:
+            spans.append((a, a + target.shape[0]))
+            a += target.shape[0]
+        a = ints[H_NULL_CENTRES] + sum(c.shape[0] for _, c in self.gradient_forms)
+        for target in self.null_targets:
+            spans.append((a, a + target.shape[0]))
+            a += target.shape[0]
         self._slots(robot, level_forms, [int(x) for x in starts], [int(x) for x in jstarts])
         self.ints = np.array(ints, dtype=np.int64)
         self.floats = np.array(floats, dtype=float)
+        self.target_rows = [self.floats[a:b] for a, b in spans]
         self.refs = np.zeros((K, REF))
         self._frame_checks()
+        self.lay_out_writes()
 
     # ------------------------------------------------------------------ per step
     def current(self, robot: RobotModel) -> bool:
@@ -399,14 +412,34 @@ class FusedPlan(PythonWriters):
                     return False
                 packed[:] = row
                 revisions[k] = now
-        for joint, target in self.joint_checks:
+        for k, (joint, target) in enumerate(self.joint_checks):
             form = joint.joint_form(robot)
-            if form is None or form[1] is not target:
+            if form is None:
+                return False
+            if form[1] is not target and not self._new_target(k, form):
                 return False
         for sub, (w, c) in self.gradient_checks:
             lin = sub.potential.linear_gradient(robot)
             if lin is None or lin[0] is not w or lin[1] is not c:
                 return False
+        return True
+
+    def _new_target(self, k: int, form: Form) -> bool:
+        """A joint task's new q_ref (a new array: ``set_target``) written in place into its row of ``floats``, as
+        data (no new plan); False when it does not fit that row (another size: the stack is planned again)."""
+        row = self.target_rows[k]
+        target = form[1]
+        if target.shape != row.shape:
+            return False
+        row[:] = target
+        joint = self.joint_checks[k][0]
+        self.joint_checks[k] = (joint, target)
+        J = len(self.level_joints)
+        if k < J:
+            self.targets[k] = target
+            self.level_forms[k] = (self.level_forms[k][0], target)
+        else:
+            self.null_targets[k - J] = target
         return True
 
     def coefficients(self, tail: tuple[float, ...]) -> np.ndarray:

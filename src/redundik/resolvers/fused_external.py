@@ -35,6 +35,11 @@ class PythonWriters:
     poses: np.ndarray
     jw: np.ndarray
     eta: np.ndarray  # (nv,) scratch of a potential's compiled writer
+    #: Per member, laid out at each packing (:meth:`lay_out_writes`): (index, role, member, scale, first row, end
+    #: row, compiled writer or ``None``) — what :meth:`write_external` walks.
+    writes: list[tuple[int, int, Any, float, int, int, CompiledRows | CompiledGradient | None]]
+    null_external: bool  # a member writes a term of the null-space objective (``zx`` is read, zeroed first)
+    direct_rows: list[int] | None  # every member a compiled writer of main rows: their row counts; else None
 
     def _pack(
         self,
@@ -47,6 +52,24 @@ class PythonWriters:
     ) -> None:
         raise NotImplementedError  # (FusedPlan's)
 
+    def lay_out_writes(self) -> None:
+        """:attr:`writes`, :attr:`null_external` and :attr:`direct_rows` for the members' row counts and starts of
+        this packing (``FusedPlan._pack`` calls it last)."""
+        writers = self.writers if len(self.writers) == len(self.external) else [None] * len(self.external)
+        writes = []
+        k = 0
+        for i, ((role, member, scale), writer) in enumerate(zip(self.external, writers, strict=True)):
+            a = b = 0
+            if role == ROW:
+                a = self.external_starts[k]
+                b = a + self.external_rows[k]
+                k += 1
+            writes.append((i, role, member, scale, a, b, writer))
+        self.writes = writes
+        self.null_external = any(role in (NULL, LIE_NULL, GRADIENT) for role, _, _ in self.external)
+        direct = all(role == ROW and isinstance(w, CompiledRows) for role, _, _, _, _, _, w in writes)
+        self.direct_rows = [w.rows for w in writers if isinstance(w, CompiledRows)] if direct else None
+
     def evaluate_external(self, robot: RobotModel, t: float, direct: bool = False) -> list[TaskTerm | None] | None:
         """Each Python-written member's term at t (``None`` for what has no term of its own: a gradient subtask, a
         Lie-group null term), in :attr:`external` order; the plan is packed again when a member's row count moved.
@@ -55,6 +78,9 @@ class PythonWriters:
         ``direct``: a compiled writer of main rows is not called here but by :meth:`write_external`, straight into
         the step's buffers (its entry ``None`` until then); for a step whose buffers are its own (``pinv``, ``wqp``:
         the result's terms are views on them)."""
+        if direct and self.direct_rows == self.external_rows:  # compiled writers only: nothing to evaluate here
+            self.repacked = False
+            return [None] * len(self.external)
         nv = robot._nv
         out: list[TaskTerm | None] = []
         rows: list[int] = []
@@ -129,40 +155,36 @@ class PythonWriters:
         the caller writes the rows' J where its layout puts them. A compiled writer left by
         ``evaluate_external(direct=True)`` (its term ``None``) writes its rows in place here, at time t, and its
         term becomes views on them."""
-        zx[:] = 0.0
-        k = 0
-        for i, (role, member, scale) in enumerate(self.external):
-            term = terms[i]
+        if self.null_external:
+            zx.fill(0.0)
+        q = robot.q
+        e_all, v_all = ev[0], ev[1]
+        for i, role, member, scale, a, b, writer in self.writes:
             if role == ROW:
-                a = self.external_starts[k]
-                b = a + self.external_rows[k]
-                k += 1
+                term = terms[i]
                 if term is None:  # a compiled writer, straight into the step's rows
-                    assert Jrows is not None
-                    writer = self.writers[i]
-                    assert isinstance(writer, CompiledRows)
-                    J, e, v = Jrows[a - offset : b - offset], ev[0, a:b], ev[1, a:b]
+                    assert Jrows is not None and isinstance(writer, CompiledRows)
+                    J, e, v = Jrows[a - offset : b - offset], e_all[a:b], v_all[a:b]
                     J.fill(0.0)
-                    q = robot.q
                     writer.kernel(q, t, self.poses, self.jw, writer.ints, writer.floats, member.gain, J, e, v)
-                    terms[i] = TaskTerm(member.name, J, v, e, member.weight)
-                    if weights is not None:
-                        weights[a - offset : b - offset] = member.weight * scale
-                    continue
-                if Jrows is not None:  # (``hqp`` places the rows itself, by its layout)
-                    Jrows[a - offset : b - offset] = term.J
-                ev[0, a:b] = term.error
-                ev[1, a:b] = term.v
+                    weight = member.weight
+                    terms[i] = TaskTerm(member.name, J, v, e, weight)
+                else:
+                    if Jrows is not None:  # (``hqp`` places the rows itself, by its layout)
+                        Jrows[a - offset : b - offset] = term.J
+                    e_all[a:b] = term.error
+                    v_all[a:b] = term.v
+                    weight = term.weight
                 if weights is not None:
-                    weights[a - offset : b - offset] = term.weight * scale
+                    weights[a - offset : b - offset] = weight * scale
             elif role == NULL:
+                term = terms[i]
                 assert term is not None
                 zx += term.v
             elif role == LIE_NULL:
                 sel, target = member.joint_form(robot)
                 zx[sel] += member.gain * robot.difference(robot.q, target)[sel]
             elif role == GRADIENT and member.gain != 0.0:
-                writer = self.writers[i]
                 if writer is None:
                     zx += member.direction(robot)
                 else:  # its potential's compiled writer: z += k η (eq. 5.8)

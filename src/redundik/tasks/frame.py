@@ -57,6 +57,7 @@ DEFAULT_HOLD_GAIN = 10.0
 #: Largest target coordinate accepted [length unit of the model] (the task files' bound on numbers too): a target
 #: beyond it is a unit or sign mistake, and its error would only make every step fall back.
 MAX_COORDINATE = 1e6
+_MAX_COORDINATE2 = MAX_COORDINATE * MAX_COORDINATE
 #: Largest |RRᵀ − I| entry of a target rotation taken without a message (the 4×4 check of ``_as_pose`` is looser on
 #: the diagonal: a target refused here is checked again there, and taken if it passes).
 RIGID_TOLERANCE = 1e-6
@@ -446,7 +447,16 @@ class PostureTask(Task):
         self.set_target(q)
 
     def set_target(self, q: Sequence[float] | np.ndarray) -> None:
-        """A new reference configuration q_ref (size nq), checked against the robot at the next evaluation."""
+        """A new reference configuration q_ref (size nq), checked against the robot at the next evaluation.
+
+        Call it as often as every control tick: a fused step writes the new q_ref into its plan as data (no new
+        plan). A float64 vector is checked in a few operations (finite, within ±``MAX_COORDINATE``) and copied."""
+        if type(q) is np.ndarray and q.dtype == np.float64 and q.ndim == 1 and q.dot(q) <= _MAX_COORDINATE2:
+            arr = q.copy()  # (every entry finite and within ±MAX_COORDINATE; else the checks below, and their words)
+            arr.flags.writeable = False
+            self._given = arr
+            self._target = None
+            return
         what = f"posture task '{self.name}': set_target"
         arr = _numbers(q, what, "a configuration").reshape(-1)
         if not np.all(np.isfinite(arr)):
@@ -456,10 +466,13 @@ class PostureTask(Task):
         self._target = None
 
     def reset(self, robot: RobotModel) -> None:
-        if self._given is None:
+        given = self._given
+        if given is None:
             self._target = _read_only(robot.q.copy())
+        elif given.shape == (robot.nq,) and not robot.has_quaternions:  # (finite and bounded: checked where set)
+            self._target = given
         else:
-            self._target = _read_only(robot.check_configuration(self._given, f"task '{self.name}': target"))
+            self._target = _read_only(robot.check_configuration(given, f"task '{self.name}': target"))
 
     def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
         target = self._target
@@ -470,8 +483,17 @@ class PostureTask(Task):
         return TaskTerm(self._name, _identity(robot.nv), self._gain * e, e, self._weight)
 
     def joint_form(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray] | None:
-        """(every velocity coordinate, q_ref) once the target is known (after the first evaluation or reset)."""
+        """(every velocity coordinate, q_ref) once the target is known: after the first evaluation or reset, or
+        given (``set_target``: checked against the robot here, as :meth:`evaluate` would, so a fused step takes the
+        new target as data).
+
+        Raises:
+            TaskError: a given target that is not one of this robot's configurations.
+        """
         target = self._target
+        if target is None and self._given is not None:
+            self.reset(robot)
+            target = self._target
         if target is None or target.shape[0] != robot.nq:
             return None
         sel = self._sel

@@ -333,15 +333,14 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         """The rows of the members written from Python into the cascade's least-squares buffers, at the rows
         ``dest`` gives them (their J, v and weight), as the compiled call writes the others."""
         dest, A, b, w = plan.dest, plan.A, plan.b, plan.w
-        k = 0
-        for (role, _, _), term in zip(fused.external, external, strict=True):
+        for i, role, _, _, start, end, _ in fused.writes:
+            term = external[i]
             if role == ROW and term is not None:
-                start = fused.external_starts[k]
-                k += 1
-                rows = dest[start : start + term.J.shape[0]]
-                A[rows] = term.J
-                b[rows] = term.v
-                w[rows] = term.weight
+                d = int(dest[start])  # (a member's rows are contiguous in the buffers: ``_Plan.lay_out``)
+                e = d + end - start
+                A[d:e] = term.J
+                b[d:e] = term.v
+                w[d:e] = term.weight
 
     def _fused_solve(
         self, robot: RobotModel, stack: TaskStack, plan: _Plan, fused: FusedPlan, t: float, dt: float
