@@ -237,3 +237,43 @@ def test_a_posture_target_is_still_checked_where_it_is_set_and_against_the_robot
     assert "9" in str(info.value) and "4" in str(info.value)
     target = post.target
     assert target is not None and not target.flags.writeable
+
+
+def _relative_run(method: str, fuse: bool, steps: int = 200):
+    """The Panda's hand held relative to its link 4, the relative target moved every tick (``set_target``)."""
+    robot = rk.load_example_robot("panda")
+    rel = rk.RelativePoseTask("panda_hand", "panda_link1", axes="position", gain=20.0)
+    stack = rk.TaskStack([rel, rk.PostureTask(gain=1.0)])
+    resolver = rk.make_resolver(method)
+    resolver.fuse = fuse
+    q, dt = Q0.copy(), 2e-3
+    robot.update(q)
+    stack.reset(robot)
+    start = rel.target
+    assert start is not None
+    out, plans, paths = [], [], []
+    for k in range(steps):
+        offset = np.array([0.02 * np.sin(0.04 * min(k, 40)), 0.02, 0.0])  # moving, then held from step 40
+        rel.set_target(pin.SE3(start.rotation, start.translation + offset) if k % 2 else
+                       (pin.SE3(start.rotation, start.translation + offset)).homogeneous)  # fmt: skip
+        res = resolver.step(robot, stack, q, k * dt, dt)
+        out.append(res.dq.copy())
+        plans.append(plan_of(resolver))
+        paths.append(res.info["path"])
+        q = robot.integrate(q, res.dq, dt)
+    robot.update(q)
+    return np.array(out), plans, paths, rel.relative_pose(robot).translation - (start.translation + offset)
+
+
+@pytest.mark.parametrize("method", ["pinv", "wqp", "hqp"])
+def test_a_relative_target_moved_every_tick_is_data(method: str) -> None:
+    fused, plans, paths, miss = _relative_run(method, True)
+    general, _, _, _ = _relative_run(method, False)
+    np.testing.assert_allclose(fused, general, rtol=0, atol=1e-12)
+    assert plans[2] is not None and all(p is plans[2] for p in plans[2:]), "a relative target planned the stack again"
+    assert set(paths[2:]) == {"compiled"}, paths
+    assert np.linalg.norm(miss) < 1e-3  # it reached the last target (held for 0.32 s at 20 /s)
+    with pytest.raises(TaskError, match="homogeneous"):
+        rk.RelativePoseTask("panda_hand", "panda_link4").set_target(np.eye(3))
+    with pytest.raises(TaskError, match="homogeneous"):
+        rk.RelativePoseTask("panda_hand", "panda_link4").set_target(np.full((4, 4), np.nan))

@@ -81,22 +81,50 @@ class RelativePoseTask(CompiledTask):
         self.rows = np.array([AXES[a] for a in self.axes], dtype=int)
         self.gain, self.weight = float(gain), float(weight)
         self._target: pin.SE3 | None = None
-        self._given: pin.SE3 | None = None
-        if target is not None:
-            m = np.asarray(target, dtype=float)
-            rot = m[:3, :3] if m.shape == (4, 4) else None
-            if (
-                rot is None
-                or not np.all(np.isfinite(m))
-                or not np.allclose(rot @ rot.T, np.eye(3), atol=1e-6)
-                or np.linalg.det(rot) < 0
-            ):
-                raise TaskError(f"task '{self.name}': target must be a finite 4×4 homogeneous transform")
-            self._given = pin.SE3(rot, m[:3, 3])
+        self._given: pin.SE3 | None = None if target is None else self._pose(target)
         self._ids: tuple[int, int] | None = None
         self._data: object = None  # the robot data the writer's frame ids and columns are for
         self._ints = np.zeros(0, dtype=np.int64)
         self._floats = np.zeros(12)  # (p_d, R_d row-major): the target, rewritten in place
+
+    def _pose(self, target: object) -> pin.SE3:
+        """``target`` (an SE3 or a 4×4 homogeneous matrix) as an SE3, checked: finite, a rotation block."""
+        try:
+            m = np.asarray(target.homogeneous if isinstance(target, pin.SE3) else target, dtype=float)
+        except (TypeError, ValueError):
+            m = np.zeros(0)
+        rot = m[:3, :3] if m.shape == (4, 4) else None
+        if (
+            rot is None
+            or not np.all(np.isfinite(m))
+            or not np.allclose(rot @ rot.T, np.eye(3), atol=1e-6)
+            or np.linalg.det(rot) < 0
+        ):
+            raise TaskError(
+                f"task '{self.name}': target must be an SE3 or a finite 4×4 homogeneous transform, got {target!r:.80}"
+            )
+        return pin.SE3(rot, m[:3, 3])
+
+    def set_target(self, target: pin.SE3 | np.ndarray | Sequence[Sequence[float]]) -> None:
+        """A new relative pose T_B^A (an SE3 or a 4×4 homogeneous matrix), held from now on and kept across resets
+        (a new grip of the carried object). Data: written in place into the compiled writer's target, so a fused
+        step keeps its plan; call it as often as every tick.
+
+        Raises:
+            TaskError: not a finite homogeneous transform with a rotation block.
+        """
+        pose = self._pose(target)
+        self._given = pose
+        if self._target is not None:
+            self._target = pose.copy()
+            self._floats[0:3] = pose.translation
+            self._floats[3:12] = pose.rotation.reshape(-1)
+
+    @property
+    def target(self) -> pin.SE3 | None:
+        """T_B^A held (a copy): the given one, or the one captured at :meth:`reset`; ``None`` before."""
+        held = self._target if self._target is not None else self._given
+        return None if held is None else held.copy()
 
     @property
     def dim(self) -> int:
