@@ -347,15 +347,7 @@ class FusedPlan(PythonWriters):
             np.maximum(iq, 0).tolist(),
             main_rows,
         ]
-        columns: list[int] = []
-        model = robot.model
-        for fid in self.fids:  # the velocity columns of the joints that move the frame
-            col = [0] * nv
-            for j in model.supports[model.frames[fid].parentJoint]:
-                if j > 0:
-                    jm = model.joints[j]
-                    col[jm.idx_v : jm.idx_v + jm.nv] = [1] * jm.nv
-            columns += col
+        columns = _frame_columns(robot, self.fids)
         ints = [K, J, N, self.m, nv, nq] + [0] * (HEADER - 6)
         ints[H_EXTERNAL_ROWS] = self.mx
         ints[H_EXTERNAL_Z] = int(any(role in (NULL, LIE_NULL, GRADIENT) for role, _, _ in self.external))
@@ -373,21 +365,27 @@ class FusedPlan(PythonWriters):
             ints[slot] = len(floats)
             floats += chunk
         self.param_offset = int(ints[H_FRAME_PARAMS])
-        spans, a = [], ints[H_JOINT_TARGETS]
-        for target in self.targets:
-            spans.append((a, a + target.shape[0]))
-            a += target.shape[0]
-        a = ints[H_NULL_CENTRES] + sum(c.shape[0] for _, c in self.gradient_forms)
-        for target in self.null_targets:
-            spans.append((a, a + target.shape[0]))
-            a += target.shape[0]
         self._slots(robot, level_forms, [int(x) for x in starts], [int(x) for x in jstarts])
         self.ints = np.array(ints, dtype=np.int64)
         self.floats = np.array(floats, dtype=float)
-        self.target_rows = [self.floats[a:b] for a, b in spans]
+        self.target_rows = self._target_rows()
         self.refs = np.zeros((K, REF))
         self._frame_checks()
         self.lay_out_writes()
+
+    def _target_rows(self) -> list[np.ndarray]:
+        """Views of ``floats`` where each joint task's q_ref lies, in ``joint_checks`` order (the level joint tasks'
+        targets, then the null ones' after the gradients' centres)."""
+        rows = []
+        a = int(self.ints[H_JOINT_TARGETS])
+        for target in self.targets:
+            rows.append(self.floats[a : a + target.shape[0]])
+            a += target.shape[0]
+        a = int(self.ints[H_NULL_CENTRES]) + sum(c.shape[0] for _, c in self.gradient_forms)
+        for target in self.null_targets:
+            rows.append(self.floats[a : a + target.shape[0]])
+            a += target.shape[0]
+        return rows
 
     # ------------------------------------------------------------------ per step
     def current(self, robot: RobotModel) -> bool:
@@ -557,6 +555,20 @@ class FusedPlan(PythonWriters):
                 rows = _identity_rows(robot.nv, null_forms[k][0])  # type: ignore[index]
                 slots.append((2, self.nulls[k], -1, 0, 0, rows))
         self.slots = slots
+
+
+def _frame_columns(robot: RobotModel, fids: list[int]) -> list[int]:
+    """Per frame, flattened: 1 on the velocity columns of the joints that move it (its supporting joints), else 0."""
+    columns: list[int] = []
+    model, nv = robot.model, robot.nv
+    for fid in fids:
+        col = [0] * nv
+        for j in model.supports[model.frames[fid].parentJoint]:
+            if j > 0:
+                jm = model.joints[j]
+                col[jm.idx_v : jm.idx_v + jm.nv] = [1] * jm.nv
+        columns += col
+    return columns
 
 
 def _identity_rows(n: int, sel: np.ndarray) -> np.ndarray:
