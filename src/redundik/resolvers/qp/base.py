@@ -151,7 +151,11 @@ class QPDiagnostics:
         return info
 
 
-def keep_safe(dq: np.ndarray, C: np.ndarray, d: np.ndarray, tol: float = 1e-6) -> tuple[np.ndarray, float]:
+#: How far a q̇ may break a safety row before :func:`keep_safe` scales it [row units: m/s for the dampers].
+SAFETY_TOLERANCE = 1e-6
+
+
+def keep_safe(dq: np.ndarray, C: np.ndarray, d: np.ndarray, tol: float = SAFETY_TOLERANCE) -> tuple[np.ndarray, float]:
     """(α q̇, α): the largest α ∈ [0, 1] with C (α q̇) ≤ d + tol, when ``dq`` violates a row by more than ``tol``.
 
     The last guard of the safety rows (collision dampers, d = γh ≥ 0 [m/s] while the pair is apart): whatever

@@ -273,7 +273,7 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         layout = self.layout(stack)
         n = robot.nv
         plan = self._plan_for(layout, n)
-        if plan.critical or self.limits.has_jerk:  # (a jerk limit: the box needs the last two q̇)
+        if self.limits.has_jerk:  # (a jerk limit: the box needs the last two q̇)
             return super().solve(robot, stack, t, dt)
         fused = plan.fused
         if fused is None or fused == FusedPlan.NOT_YET:
@@ -289,6 +289,8 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
                     return res
             else:
                 plan.fused = None  # a member changed (a new target, trajectory): planned again at the next step
+        if plan.critical:  # safety rows the fused step's answer broke (or it needs a QP): the template guards them
+            return super().solve(robot, stack, t, dt)
         t0 = time.perf_counter()
         terms = [task.evaluate(robot, t) for task in stack.tasks]  # stack.evaluate, inlined
         z, targets, bounds = plan.gather(robot, stack, terms, dt)  # gather_rows + fill, in one pass
@@ -348,7 +350,9 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         """:meth:`solve` of a fused stack (:mod:`redundik.resolvers.fused`): the bound subtasks' rows as
         :meth:`_Plan.gather` writes them, then one compiled call from Pinocchio's Jacobians through the rows to the
         unconstrained cascade and its tests (``hqp_fused.fused_hqp_step``); ``None`` when this step needs the
-        per-task path (a rotation error beyond the compiled log3's range)."""
+        per-task path (a rotation error beyond the compiled log3's range) or, with safety rows (a critical barrier:
+        collision distances), when neither the closed form nor the native cascade gives a q̇ that keeps them (the
+        template then solves, relaxes and guards them as without the fused step)."""
         t0 = time.perf_counter()
         n = robot._nv
         external: list[TaskTerm | None] | tuple[()] = ()
@@ -397,6 +401,14 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         zs = z if plan.layout.has_null_objective else None
         make_terms = fused.terms_once(Jf, ev, q, robot, external)
         windowed = prev.shape[0] > 0
+        critical = plan.critical  # safety rows: an answer is kept only if it holds them, else the template's step
+        if critical and (status != 1.0 or not plan.keeps_safety_rows(out[OUT_DQ, 0])):
+            if status == 0.0:  # a constraint is active: the native cascade, if its answer keeps the safety rows
+                lean = self._native_cascade(plan, out[OUT_LB, 0], out[OUT_UB, 0], plan.zero if zs is None else zs)
+                if lean is not None and finite(lean[0]):
+                    if plan.keeps_safety_rows(np.clip(lean[0], out[OUT_LB, 0], out[OUT_UB, 0])):
+                        return self._native_result(plan, lean, out, windowed, zs, bounds, make_terms, err2, t0, t1)
+            return None
         if status != 1.0:  # a constraint is active (0), or q̇ is not finite (2): the template, on the same rows
             if status != 0.0:  # q̇ not finite: the template, its terms at hand to say where from
                 terms = make_terms()

@@ -38,6 +38,7 @@ from redundik.resolvers.hqp_layout import (
 )
 from redundik.resolvers.linalg import _Kernels
 from redundik.resolvers.qp.backends import Backend, DaqpBackend
+from redundik.resolvers.qp.base import SAFETY_TOLERANCE
 from redundik.resolvers.qp.daqp_native import NativeDaqp
 from redundik.resolvers.qp.terms import StepRows
 from redundik.tasks.base import Edits, TaskTerm
@@ -93,7 +94,10 @@ class _Plan:
         self.A, self.b, self.w = np.zeros((16, n)), np.zeros(16), np.ones(16)
         self.C, self.d = np.zeros((4, n)), np.zeros(4)
         self.eye, self.zero = np.eye(n), np.zeros(n)
-        self.critical = any(b.critical for level in layout.levels for b in level.bounds)  # safety rows: template
+        #: safety rows (a critical barrier's): the fused step keeps its answer only when they hold, else the template
+        self.critical = any(b.critical for level in layout.levels for b in level.bounds)
+        #: the safety rows' (first, end) rows of C, d as the last :meth:`fused_bounds` wrote them
+        self.safety_rows: list[tuple[int, int]] = []
         self._weights: list[tuple[int, int, float]] = []  # per block (first row, end, weight) last written into w
         #: Per level, what :meth:`gather` evaluates: (task indices, target subtasks, bound subtasks, whether the level
         #: carries the null-space objective, whether it adds the objective's identity rows after its own).
@@ -224,9 +228,11 @@ class _Plan:
         cs: int,
         bounds: list[tuple[Any, Any, list[str]]],
         written: _Written | None,
+        safety: list[tuple[int, int]] | None = None,
     ) -> tuple[int, _Written | None]:
         """A level's bound subtasks' rows into C, d from row ``cs`` (:meth:`gather`'s, appended to ``bounds``);
-        returns the next row and the record of the rows written by ``rows_into``."""
+        returns the next row and the record of the rows written by ``rows_into``. ``safety``: the (first, end) rows
+        of the critical ones are appended to it."""
         C, d = self.C, self.d
         for bsub in bsubs:
             k = bsub.fixed_rows
@@ -238,15 +244,16 @@ class _Plan:
                 if written is None:
                     written = _Written()
                 bounds.append((written, slice(cs, e), bsub.row_names))
-                cs = e
-                continue
-            Ci, di, rn = bsub.rows(robot, dt)
-            bounds.append((Ci, di, rn))
-            e = cs + Ci.shape[0]
-            if e > C.shape[0]:
-                C, d = self._grow_ineq(e)
-            C[cs:e] = Ci
-            d[cs:e] = di
+            else:
+                Ci, di, rn = bsub.rows(robot, dt)
+                bounds.append((Ci, di, rn))
+                e = cs + Ci.shape[0]
+                if e > C.shape[0]:
+                    C, d = self._grow_ineq(e)
+                C[cs:e] = Ci
+                d[cs:e] = di
+            if safety is not None and bsub.critical:
+                safety.append((cs, e))
             cs = e
         return cs, written
 
@@ -261,10 +268,12 @@ class _Plan:
         written: _Written | None = None
         cs = 0
         offsets = []
+        safety: list[tuple[int, int]] = []
         for (_, _, bsubs, _, _), ls_row in zip(self.members, self.ls_offsets, strict=False):
             offsets.append((ls_row, cs))
             if bsubs:
-                cs, written = self._bound_rows(robot, dt, bsubs, cs, bounds, written)
+                cs, written = self._bound_rows(robot, dt, bsubs, cs, bounds, written, safety)
+        self.safety_rows = safety
         offsets.append((self.ls_offsets[-1], cs))
         if written is not None:
             self._written = (weakref.ref(written), cs)
@@ -273,6 +282,14 @@ class _Plan:
                 meta[META_LS, k], meta[META_INEQ, k] = ls_row, ineq_row
             self._offsets = offsets
         return bounds
+
+    def keeps_safety_rows(self, dq: np.ndarray) -> bool:
+        """Every safety row of the last :meth:`fused_bounds` holds at ``dq`` to ``keep_safe``'s tolerance."""
+        C, d = self.C, self.d
+        for a, e in self.safety_rows:
+            if e > a and not bool((C[a:e] @ dq <= d[a:e] + SAFETY_TOLERANCE).all()):
+                return False
+        return True
 
     def packed_bounds(self, robot: RobotModel) -> _Packed | None:
         """The bound subtasks packed for the fused step's compiled damper rows (``hqp_fused.clearance_rows``),
