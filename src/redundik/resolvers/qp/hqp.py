@@ -401,36 +401,10 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         zs = z if plan.layout.has_null_objective else None
         make_terms = fused.terms_once(Jf, ev, q, robot, external)
         windowed = prev.shape[0] > 0
-        critical = plan.critical  # safety rows: an answer is kept only if it holds them, else the template's step
-        if critical and (status != 1.0 or not plan.keeps_safety_rows(out[OUT_DQ, 0])):
-            if status == 0.0:  # a constraint is active: the native cascade, if its answer keeps the safety rows
-                lean = self._native_cascade(plan, out[OUT_LB, 0], out[OUT_UB, 0], plan.zero if zs is None else zs)
-                if lean is not None and finite(lean[0]):
-                    if plan.keeps_safety_rows(np.clip(lean[0], out[OUT_LB, 0], out[OUT_UB, 0])):
-                        return self._native_result(plan, lean, out, windowed, zs, bounds, make_terms, err2, t0, t1)
-            return None
-        if status != 1.0:  # a constraint is active (0), or q̇ is not finite (2): the template, on the same rows
-            if status != 0.0:  # q̇ not finite: the template, its terms at hand to say where from
-                terms = make_terms()
-                built = HQPBuild(
-                    lambda: plan.step_rows(terms, zs, [], bounds), limits.box_from(out[_BOX, 0], windowed), n,
-                    layout=plan.layout, z=zs, critical=False,
-                )  # fmt: skip
-                return self._finish(robot, stack, terms, built, t0, t1)
-            lean = self._native_cascade(plan, out[OUT_LB, 0], out[OUT_UB, 0], plan.zero if zs is None else zs)
-            if lean is not None and finite(lean[0]):  # (a non-finite q̇ takes the template: it says where from)
-                return self._native_result(plan, lean, out, windowed, zs, bounds, make_terms, err2, t0, t1)
-            built = HQPBuild(
-                lambda: plan.step_rows(make_terms(), zs, [], bounds), limits.box_from(out[_BOX, 0], windowed), n,
-                infeasible=True, layout=plan.layout, z=zs, filled=True, critical=False,
-            )  # fmt: skip
-            # the constrained cascade; the terms are built only if read (or for a fallback), the task error is the
-            # compiled call's
-            dq, pending, fallback, relaxed, info, t2 = self._settle(robot, stack, make_terms, built)
-            res = FusedStepResult.fused(
-                dq, make_terms, math.sqrt(err2), info, t1 - t0, t2 - t1, plan.layout.main, pending, fallback=fallback
+        if status != 1.0 or (plan.critical and not plan.keeps_safety_rows(out[OUT_DQ, 0])):
+            return self._constrained_step(
+                robot, stack, plan, status, out, windowed, zs, bounds, make_terms, err2, t0, t1
             )
-            return with_relaxed(res, relaxed)
         kept = out[OUT_KEPT, 0]
         self._dq_prev = kept
 
@@ -453,6 +427,53 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
             diagnostics,
             dq_norm=math.sqrt(dq2),
         )
+
+    def _constrained_step(
+        self,
+        robot: RobotModel,
+        stack: TaskStack,
+        plan: _Plan,
+        status: float,
+        out: np.ndarray,
+        windowed: bool,
+        zs: np.ndarray | None,
+        bounds: list[tuple[Any, Any, list[str]]],
+        make_terms: Callable[[], list[TaskTerm]],
+        err2: float,
+        t0: float,
+        t1: float,
+    ) -> StepResult | None:
+        """A fused step whose closed form is not the answer: a constraint is active (``status`` 0), q̇ is not finite
+        (2), or it breaks a safety row. The native cascade's answer when it settles the step (and, with safety rows,
+        keeps them); else the template's second half on the same rows — or, with safety rows, ``None``: the
+        template's whole step, which solves, relaxes and guards them as without the fused step."""
+        critical = plan.critical
+        if status == 0.0:  # the native cascade settles most of these steps
+            lb, ub = out[OUT_LB, 0], out[OUT_UB, 0]
+            lean = self._native_cascade(plan, lb, ub, plan.zero if zs is None else zs)
+            if lean is not None and finite(lean[0]):  # (a non-finite q̇ takes the template: it says where from)
+                if not critical or plan.keeps_safety_rows(np.clip(lean[0], lb, ub)):
+                    return self._native_result(plan, lean, out, windowed, zs, bounds, make_terms, err2, t0, t1)
+        if critical:
+            return None
+        n, box = plan.n, self.limits.box_from(out[_BOX, 0], windowed)
+        if status != 0.0:  # q̇ not finite: the template, its terms at hand to say where from
+            terms = make_terms()
+            built = HQPBuild(
+                lambda: plan.step_rows(terms, zs, [], bounds), box, n, layout=plan.layout, z=zs, critical=False
+            )
+            return self._finish(robot, stack, terms, built, t0, t1)
+        built = HQPBuild(
+            lambda: plan.step_rows(make_terms(), zs, [], bounds), box, n,
+            infeasible=True, layout=plan.layout, z=zs, filled=True, critical=False,
+        )  # fmt: skip
+        # the constrained cascade; the terms are built only if read (or for a fallback), the task error is the
+        # compiled call's
+        dq, pending, fallback, relaxed, info, t2 = self._settle(robot, stack, make_terms, built)
+        res = FusedStepResult.fused(
+            dq, make_terms, math.sqrt(err2), info, t1 - t0, t2 - t1, plan.layout.main, pending, fallback=fallback
+        )
+        return with_relaxed(res, relaxed)
 
     def _native_result(
         self,
