@@ -277,3 +277,23 @@ def test_a_relative_target_moved_every_tick_is_data(method: str) -> None:
         rk.RelativePoseTask("panda_hand", "panda_link4").set_target(np.eye(3))
     with pytest.raises(TaskError, match="homogeneous"):
         rk.RelativePoseTask("panda_hand", "panda_link4").set_target(np.full((4, 4), np.nan))
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        np.eye(4, dtype=bool),
+        np.eye(4) + 0j,
+        "T",
+        None,
+        np.eye(3),
+        np.full((4, 4), np.inf),
+        np.vstack([np.eye(4)[:3], [0.0, 0.0, 1.0, 1.0]]),  # not a homogeneous matrix's last row
+        np.diag([2.0, 1.0, 1.0, 1.0]),  # not a rotation
+    ],
+)
+def test_a_relative_target_is_checked_where_it_is_set(bad: object) -> None:
+    task = rk.RelativePoseTask("panda_hand", "panda_link1")
+    with pytest.raises(TaskError, match="homogeneous transform"):
+        task.set_target(bad)  # type: ignore[arg-type]
+    assert task.target is None  # nothing was taken

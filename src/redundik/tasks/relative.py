@@ -90,13 +90,15 @@ class RelativePoseTask(CompiledTask):
     def _pose(self, target: object) -> pin.SE3:
         """``target`` (an SE3 or a 4×4 homogeneous matrix) as an SE3, checked: finite, a rotation block."""
         try:
-            m = np.asarray(target.homogeneous if isinstance(target, pin.SE3) else target, dtype=float)
+            raw = np.asarray(target.homogeneous if isinstance(target, pin.SE3) else target)
+            m = np.asarray(raw, dtype=float) if raw.dtype.kind in "iuf" else np.zeros(0)  # (no bools, complex, text)
         except (TypeError, ValueError):
             m = np.zeros(0)
         rot = m[:3, :3] if m.shape == (4, 4) else None
         if (
             rot is None
             or not np.all(np.isfinite(m))
+            or not np.allclose(m[3], (0.0, 0.0, 0.0, 1.0), atol=1e-9)
             or not np.allclose(rot @ rot.T, np.eye(3), atol=1e-6)
             or np.linalg.det(rot) < 0
         ):
