@@ -296,7 +296,7 @@ class Resolver(ABC):
             norm = math.sqrt(dq.dot(dq))
         speed = self._limiter  # the joint-speed cap and the singularity guard (issue 33; resolvers/singularity.py)
         if speed is not None:
-            if speed.guard is not None or norm > speed.floor:
+            if speed.binds(res.dq, norm):
                 res, norm = speed.apply(self, robot, stack, res, dt, norm)
             speed.seen = self.__dict__.get("_dq_prev")  # (a QP resolver's rate window of the next step)
         factor = watch.update(norm, res.task_error)

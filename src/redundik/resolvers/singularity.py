@@ -309,6 +309,13 @@ class SpeedLimiter:
             self.floor, self._inv = cached[2], 1.0 / c
         return cached[1]
 
+    def binds(self, dq: np.ndarray, norm: float) -> bool:
+        """Whether :meth:`apply` has work this step: a guard is set, the caps are not built yet, or ‖q̇‖ [rad/s]
+        exceeds :attr:`floor` and some joint its cap (max_i |q̇_i| / c_i > 1: one compiled call)."""
+        if self.guard is not None or self._caps is None:
+            return True
+        return norm > self.floor and float(K.scaled_max(dq, self._inv)) > 1.0
+
     def apply(
         self, resolver: Resolver, robot: RobotModel, stack: TaskStack, res: StepResult, dt: float, norm: float
     ) -> tuple[StepResult, float]:

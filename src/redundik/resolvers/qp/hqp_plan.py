@@ -350,7 +350,10 @@ class _Plan:
 
     def written_bounds(self, packed: _Packed) -> list[tuple[Any, Any, list[str]]]:
         """:meth:`fused_bounds` for packed bounds, whose rows the compiled call writes: the offsets table, the
-        previous record's rows kept if held, and this step's record (``bounds`` of :meth:`gather`)."""
+        previous record's rows kept if held, and this step's record (``bounds`` of :meth:`gather`).
+
+        The compiled call writes them into new inequality buffers (``C``, ``d``), which this step's record holds:
+        the last step's result keeps its own rows without a copy."""
         if self._written is not None:
             self._keep_written()
         if self._offsets is not packed.offsets:
@@ -361,7 +364,8 @@ class _Plan:
         if not packed.slices:
             return []
         written = _Written()
-        self._written = (weakref.ref(written), packed.rows)
+        written.C = self.C = np.zeros(self.C.shape)
+        written.d = self.d = np.zeros(self.d.shape)
         return [(written, sl, names) for sl, names in packed.slices]
 
     def fuse(self, robot: RobotModel, stack: TaskStack, t: float = 0.0) -> FusedPlan | str | bool:

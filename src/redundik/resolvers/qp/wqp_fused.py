@@ -55,6 +55,13 @@ def _fused_diagnostics(step: tuple[Any, ...], main: list[int]) -> tuple[float, b
     return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
 
 
+#: The entries of a ``FusedWqpResult`` that every step shares (``pending``: the diagnostics are computed from the
+#: step's work array when first read).
+_TEMPLATE: dict[str, Any] = {
+    "dq_rank": None, "dq_null": None, "gains": None, "damping": 0.0, "fallback": None, "pending": True,
+}  # fmt: skip
+
+
 class FusedWqpResult(FusedStepResult):
     """The result of a fused ``wqp`` step that solved no QP: q̇ a view on the step's work array; the task terms and
     the diagnostics (active limits, residuals, σ_min) computed from that array on first read."""
@@ -79,22 +86,13 @@ class FusedWqpResult(FusedStepResult):
         """The result of ``fused_wqp_step``'s outputs (``t1``: when the compiled call returned)."""
         n = robot._nv
         res = cls.__new__(cls)
-        res.__dict__ = {
-            "dq": work[OUT_DQ * n : (OUT_DQ + 1) * n],
-            "dq_rank": None,
-            "dq_null": None,
-            "gains": None,
-            "damping": 0.0,
-            "fallback": None,
-            "_info": {"backend": "closed-form", "qp": 0, "iterations": 0},
-            "build_time": build_time,
-            "main": main,
-            "pending": True,  # ``_resolve`` computes the diagnostics from the step's work array
-            "_task_error": math.sqrt(err2),
-            "_dq_norm": math.sqrt(dq2),  # ‖q̇‖ from the compiled call (the divergence watch reads it)
-            "_step": (resolver, fused, work, q, robot, windowed, lam, external),
-        }
-        res.__dict__["solve_time"] = time.perf_counter() - t1
+        d = res.__dict__ = _TEMPLATE.copy()  # (the constant entries; one copy is cheaper than a literal)
+        d["dq"] = work[OUT_DQ * n : (OUT_DQ + 1) * n]
+        d["_info"] = {"backend": "closed-form", "qp": 0, "iterations": 0}
+        d["build_time"], d["main"] = build_time, main
+        d["_task_error"], d["_dq_norm"] = math.sqrt(err2), math.sqrt(dq2)  # (‖q̇‖: the divergence watch reads it)
+        d["_step"] = (resolver, fused, work, q, robot, windowed, lam, external)
+        d["solve_time"] = time.perf_counter() - t1
         return res
 
     def _pending_fn(self) -> Callable[[], tuple[float, bool, dict[str, object]]]:
