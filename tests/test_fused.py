@@ -420,17 +420,6 @@ def test_fused_hqp_bounds_and_gradients_agree() -> None:
     _compare(stack, "hqp", steps=80)  # the link's height beside the hand, at level 0
 
 
-def test_hqp_target_subtasks_are_not_fused() -> None:
-    """A target subtask's row is evaluated in Python: hqp's per-task path, and the same answer."""
-    from redundik.tasks.potentials import JointSine2
-    from redundik.tasks.subtasks import TargetSubtask
-
-    def stack(robot: RobotModel) -> TaskStack:
-        return TaskStack([_hand(Circle(0.05, 1.5, plane=("y", "z")))], [TargetSubtask(JointSine2("panda_joint4"), 0.5)])
-
-    assert not any(_compare(stack, "hqp", steps=20, fused_expected=False))
-
-
 @pytest.mark.parametrize(
     ("scenario", "method"),
     [

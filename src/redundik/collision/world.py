@@ -201,14 +201,40 @@ class CollisionWorld:
         self.pair_joints = [(int(objs[i].parentJoint), int(objs[j].parentJoint)) for i, j in pairs]
         self.pair_names = [f"{objs[i].name}|{objs[j].name}" for i, j in pairs]
         self._moving = {self.n_links + k for k, ob in enumerate(self.obstacles) if ob.motion is not None}
-        self.data = pin.GeometryData(gm)
-        for req in self.data.distanceRequests:
-            req.enable_signed_distance = True
-        self._poses, self._poses_of = _placements_view(self.data), self.data  # the view and the data it reads
+        self._new_data()
         self._cache = None
         self._pending = None
         self._pj: tuple[np.ndarray, np.ndarray] | None = None
         self._tables()
+
+    def _new_data(self) -> None:
+        """Coal's geometry data for :attr:`geometry` (signed distances) and the view of its placements."""
+        self.data = pin.GeometryData(self.geometry)
+        for req in self.data.distanceRequests:
+            req.enable_signed_distance = True
+        self._poses, self._poses_of = _placements_view(self.data), self.data  # the view and the data it reads
+
+    def _bind_static(self) -> None:
+        """Capsule pairs off in coal's data (the kernels compute them); ``_static``: ``kernels.capsule_damper``'s fixed
+        arguments for a static world of capsules read from oMg's memory (else ``None``)."""
+        for k in self._cap.tolist():
+            self.data.deactivateCollisionPair(k)
+        self._static: tuple[Any, ...] | None = None
+        if self._cap.size == len(self.pairs) and not self._moving and self._poses is not None:
+            poses, caps = (self._poses, self._live_arr), (self._cap_a, self._cap_b)
+            self._static = (poses, self._shapes, caps, self._branches, self._joints)
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Copied or pickled without coal's data (it does not pickle) and views of it (a copy would read a frozen
+        array as its placements): the copy makes its own."""
+        dropped = ("data", "_poses", "_poses_of", "_static", "_cache", "_pending", "_dist")
+        return {key: value for key, value in self.__dict__.items() if key not in dropped}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._new_data()
+        self._bind_static()
+        self._cache = self._pending = self._dist = None
 
     def _tables(self) -> None:
         """The per-tick kernels' static data: shape codes, capsule pairs (computed by
@@ -232,8 +258,6 @@ class CollisionWorld:
         caps = (kind[pa] == KC.CAPSULE) & (kind[pb] == KC.CAPSULE) if self.pairs else np.zeros(0, dtype=bool)
         self._cap = np.flatnonzero(caps)
         self._coal = np.flatnonzero(~caps)
-        for k in self._cap.tolist():
-            self.data.deactivateCollisionPair(k)
         self._live = sorted({g for pair in self.pairs for g in pair if g < self.n_links})
         self._live_arr = np.array(self._live, dtype=np.int64)
         self._T = np.tile(np.eye(4), (G, 1, 1))  # world poses of the geometries (obstacles: set here and by set_time)
@@ -264,12 +288,7 @@ class CollisionWorld:
         self._pj2 = np.array(self.pair_joints, dtype=np.int64).reshape(-1, 2)
         #: The joints (kernels.Joints): support masks, the pairs' joints.
         self._joints = (self._joint_masks(), self._pj2)
-        #: ``collision.kernels.capsule_damper``'s fixed arguments, for a static world of capsules only
-        #: whose placements are read from oMg's memory (else ``None``).
-        self._static: tuple[Any, ...] | None = None
-        if self._cap.size == len(self.pairs) and not self._moving and self._poses is not None:
-            poses, caps = (self._poses, self._live_arr), (self._cap_a, self._cap_b)
-            self._static = (poses, self._shapes, caps, self._branches, self._joints)
+        self._bind_static()
         #: (pairs P, rows at most R = P + branches, nv): the sizes of capsule_damper's arrays.
         self._sizes = (len(self.pairs), len(self.pairs) + len(self._br_pair), int(self.model.nv))
         self._pa, self._pb = pa, pb

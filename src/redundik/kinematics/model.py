@@ -180,6 +180,11 @@ class RobotModel:
                 setattr(model, name, value)
         state["model"] = model
         state["_nonfinite"] = nonfinite
+        # Pinocchio's data is not part of the state: the copy makes its own and computes it again at its q. Objects
+        # that keep views of this robot's data (a frame task's live pose, a fused plan's Jacobians) recognise it by
+        # identity; a data object copied beside the robot would pass that test while its views stayed frozen copies
+        # (a copied stack silently followed a pose that no longer moved).
+        del state["data"]
         return state
 
     def __setstate__(self, state: dict[str, object]) -> None:
@@ -192,6 +197,9 @@ class RobotModel:
             vector[index] = value
             setattr(model, name, vector)
         self.__dict__.update(state)
+        self.data = self.model.createData()
+        if self._q is not None:
+            self._update_checked(self._q)
 
     def _check_model(self) -> None:
         """Refuse a model no resolver could use: no moving joint, a NaN or inverted limit, a zero joint axis.

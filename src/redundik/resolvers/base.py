@@ -360,15 +360,21 @@ class Resolver(ABC):
             dict.__setitem__(info, "path", INTERPRETED)
             dict.__setitem__(info, "interpreted", self._interpreted_members(robot, stack))
 
+    def compiled_off(self) -> str | None:
+        """Why this resolver's options keep every step off its compiled step (a one-time warning says it), or
+        ``None``: the per-stack and per-step reasons are the members' (:meth:`_interpreted_members`)."""
+        return None
+
     def _interpreted_members(self, robot: RobotModel, stack: TaskStack) -> tuple[str, ...]:
         """The names of the stack's members whose rows only their Python ``evaluate`` gives (no frame or joint form;
         a subtask without a linear gradient), worked out once per checked membership; a one-time ``logging``
         warning names them when this resolver could have taken the compiled step. Every member when the resolver
         has no compiled step (``feedback``) or it is switched off (``fuse = False``)."""
         cached = self.__dict__.get("_interpreted_cache")
-        if cached is not None and cached[0] is self._checked and cached[1] is stack:
+        off = self.compiled_off()
+        if cached is not None and cached[0] is self._checked and cached[1] is stack and cached[3] == off:
             return cached[2]
-        compiled_capable = bool(getattr(self, "fuse", False))
+        compiled_capable = bool(getattr(self, "fuse", False)) and off is None
         names: list[str] = []
         for task in stack.tasks:
             if not compiled_capable or (
@@ -383,7 +389,12 @@ class Resolver(ABC):
                 or (potential.linear_gradient(robot) is None and compiled_writer(potential, robot) is None)
             ):
                 names.append(str(getattr(sub, "name", type(sub).__name__)))
-        self.__dict__["_interpreted_cache"] = (self._checked, stack, tuple(names))
+        self.__dict__["_interpreted_cache"] = (self._checked, stack, tuple(names), off)
+        if off is not None and (self.name, (off,)) not in _WARNED_INTERPRETED:
+            _WARNED_INTERPRETED.add((self.name, (off,)))
+            _LOG.warning(
+                "%s: every step runs interpreted (each member's Python evaluate, then the solve): %s", self.name, off
+            )
         if compiled_capable and names:
             key = (self.name, tuple(names))
             if key not in _WARNED_INTERPRETED:

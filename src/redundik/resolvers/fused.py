@@ -35,6 +35,8 @@ from redundik.resolvers.fused_external import GRADIENT as GRADIENT
 from redundik.resolvers.fused_external import LIE_NULL as LIE_NULL
 from redundik.resolvers.fused_external import NULL as NULL
 from redundik.resolvers.fused_external import ROW as ROW
+from redundik.resolvers.fused_external import ROWS as ROWS
+from redundik.resolvers.fused_external import TARGET as TARGET
 from redundik.resolvers.fused_external import TERM as TERM
 from redundik.resolvers.fused_external import PythonWriters
 from redundik.resolvers.fused_result import FusedStepResult as FusedStepResult
@@ -157,6 +159,7 @@ class FusedPlan(PythonWriters):
         scales: dict[int, tuple[float, bool]] | None,
         null_scale: float,
         mixed: bool | str = False,
+        targets: list[tuple[Any, float]] | None = None,
     ) -> FusedPlan | str | None:
         """The plan of ``stack``; ``None`` when a member has no compiled form and ``mixed`` is off (the per-task
         path then runs), or ``NOT_YET`` when a frame task has not been evaluated on this robot yet.
@@ -168,6 +171,7 @@ class FusedPlan(PythonWriters):
                 ``direction``) into the step's buffers before the compiled call (:attr:`external`), instead of
                 sending the whole stack down the per-task path; ``"null"``: only terms of the null-space objective
                 (a resolver whose compiled step takes no Python-written rows: ``hqp``).
+            targets: (target subtask, ρ^k of its level): each a row ηᵀq̇ = ṗ_d + K e written from Python.
         """
         plan = cls()
         iq = np.array([j.idx_q for j in robot.joints], dtype=np.int64)
@@ -222,7 +226,11 @@ class FusedPlan(PythonWriters):
                 continue
             plan.gradients.append(sub)
             plan.gradient_forms.append(lin)
-        if mixed == "null" and any(role in (ROW, TERM) for role, _, _ in plan.external):
+        if targets and not mixed:
+            return None
+        for sub, rho in targets or ():
+            plan.add_external(sub, TARGET, rho)
+        if mixed == "null" and any(role in (ROW, TERM, TARGET) for role, _, _ in plan.external):
             return None
         plan.find_compiled_writers(robot)
         jw, poses = jacobian_view(robot.data), se3_vector_view(robot.data.oMf)
@@ -255,7 +263,7 @@ class FusedPlan(PythonWriters):
             if role in (ROW, NULL, TERM):
                 form = member.compiled_rows(robot)
                 form = None if form is None else check_form(member, form)
-            elif role == GRADIENT:
+            elif role == GRADIENT or role == TARGET:
                 owner = getattr(member, "potential", None)
                 form = compiled_writer(owner, robot)
             writers.append(form)
@@ -274,8 +282,9 @@ class FusedPlan(PythonWriters):
         self.revisions = [f.trajectory.revision for f in self.forms]
 
     def add_external(self, member: Any, role: int, scale: float) -> None:
-        """Register a member written from Python (role ``ROW``, ``NULL``, ``LIE_NULL``, ``GRADIENT`` or ``TERM``)."""
-        if role != GRADIENT:
+        """Register a member written from Python (role ``ROW``, ``NULL``, ``LIE_NULL``, ``GRADIENT``, ``TERM`` or
+        ``TARGET``); a gradient or a target subtask has no task term of its own (it is not in :attr:`order`)."""
+        if role != GRADIENT and role != TARGET:
             self.order.append(("x", len(self.external)))
         self.external.append((role, member, scale))
 
@@ -293,8 +302,8 @@ class FusedPlan(PythonWriters):
         K, J = len(self.frames), len(self.level_joints)
         self.robot = robot
         rows_of = [r for r in self.external_rows]
-        if len(rows_of) != sum(1 for role, _, _ in self.external if role == ROW):
-            rows_of = self.external_rows = [0] * sum(1 for role, _, _ in self.external if role == ROW)
+        if len(rows_of) != sum(1 for role, _, _ in self.external if role in ROWS):
+            rows_of = self.external_rows = [0] * sum(1 for role, _, _ in self.external if role in ROWS)
         self.mx = sum(rows_of)
         writers = self.writers if len(self.writers) == len(self.external) else [None] * len(self.external)
         self.external_names = tuple(
@@ -328,7 +337,7 @@ class FusedPlan(PythonWriters):
         self.joint_spans = [(mf + int(jstarts[k]), mf + int(jstarts[k + 1])) for k in range(J)]
         a = mf + int(jstarts[-1])
         self.external_starts.clear()
-        for (role, member, _), rows in zip([x for x in self.external if x[0] == ROW], rows_of, strict=True):
+        for (role, member, _), rows in zip([x for x in self.external if x[0] in ROWS], rows_of, strict=True):
             self.external_starts.append(a)
             if role == ROW and index[id(member)] in main:
                 main_rows[a : a + rows] = [1] * rows

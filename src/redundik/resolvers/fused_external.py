@@ -14,8 +14,11 @@ from redundik.tasks.base import CompiledGradient, CompiledRows, TaskTerm, check_
 #: Roles of a member written from Python in a mixed plan: rows of the main system / of its level (``ROW``), a term of
 #: the null-space objective z (``NULL``: z += v), a joint-space null term on Lie-group coordinates (``LIE_NULL``:
 #: z[sel] += K (q_ref ⊖ q)[sel], Pinocchio's difference), a gradient subtask (``GRADIENT``: z += k η), or evaluated
-#: for the step's terms only (``TERM``: a task the resolver leaves out of its closed form).
-ROW, NULL, LIE_NULL, GRADIENT, TERM = 0, 1, 2, 3, 4
+#: for the step's terms only (``TERM``: a task the resolver leaves out of its closed form), or the one weighted row
+#: ηᵀq̇ = ṗ_d + K (p_d − p) of a target subtask (``TARGET``: rows of its level, no task term of its own).
+ROW, NULL, LIE_NULL, GRADIENT, TERM, TARGET = 0, 1, 2, 3, 4, 5
+#: The roles whose members write rows of the system (their row counts size the step's buffers).
+ROWS = (ROW, TARGET)
 
 
 class PythonWriters:
@@ -60,15 +63,16 @@ class PythonWriters:
         k = 0
         for i, ((role, member, scale), writer) in enumerate(zip(self.external, writers, strict=True)):
             a = b = 0
-            if role == ROW:
+            if role in ROWS:
                 a = self.external_starts[k]
                 b = a + self.external_rows[k]
                 k += 1
             writes.append((i, role, member, scale, a, b, writer))
         self.writes = writes
         self.null_external = any(role in (NULL, LIE_NULL, GRADIENT) for role, _, _ in self.external)
-        direct = all(role == ROW and isinstance(w, CompiledRows) for role, _, _, _, _, _, w in writes)
-        self.direct_rows = [w.rows for w in writers if isinstance(w, CompiledRows)] if direct else None
+        direct = all(_direct(role, w) for role, _, _, _, _, _, w in writes)
+        counts = [w.rows if isinstance(w, CompiledRows) else 1 for _, _, _, _, _, _, w in writes]  # (a target: 1)
+        self.direct_rows = counts if direct else None
 
     def evaluate_external(self, robot: RobotModel, t: float, direct: bool = False) -> list[TaskTerm | None] | None:
         """Each Python-written member's term at t (``None`` for what has no term of its own: a gradient subtask, a
@@ -87,6 +91,15 @@ class PythonWriters:
         for (role, member, _), writer in zip(self.external, self.writers, strict=True):
             if role == GRADIENT:  # (written by ``write_external``: its compiled writer, or ``direction``)
                 out.append(None)
+            elif role == TARGET:  # one row: by its potential's compiled writer in write_external, or its ``row``
+                rows.append(1)
+                if direct and writer is not None:
+                    out.append(None)
+                    continue
+                target_term = _target_term(member, writer, robot, self)
+                if target_term is None:
+                    return None  # (a gradient that is not a float vector (nv,): the per-task path says what is wrong)
+                out.append(target_term)
             elif writer is not None:  # a compiled writer: its rows by construction of the right shapes
                 assert isinstance(writer, CompiledRows)
                 r = writer.rows
@@ -129,6 +142,17 @@ class PythonWriters:
             self._pack(robot, iq, self.level_forms, self.identity, self.main_set, self.index)
         return out
 
+    def subtask_rows(self, terms: list[TaskTerm | None]) -> list[tuple[np.ndarray, float]]:
+        """The target subtasks' rows (η, v) of a step whose Python members were evaluated (``terms``: every target
+        subtask's term given), in :attr:`external` order — their levels' order."""
+        rows = []
+        for i, role, _, _, _, _, _ in self.writes:
+            if role == TARGET:
+                term = terms[i]
+                assert term is not None
+                rows.append((term.J[0], float(term.v[0])))
+        return rows
+
     def write_joint_errors(self, robot: RobotModel, e: np.ndarray) -> None:
         """The errors (q_ref ⊖ q)[sel] of the level joint tasks on Lie-group coordinates (Pinocchio's
         ``difference``) into their rows of the step's e, before the compiled call reads them."""
@@ -160,7 +184,23 @@ class PythonWriters:
         q = robot.q
         e_all, v_all = ev[0], ev[1]
         for i, role, member, scale, a, b, writer in self.writes:
-            if role == ROW:
+            if role == TARGET:
+                term = terms[i]
+                if term is None:  # its potential's compiled writer, straight into the step's row
+                    assert Jrows is not None and isinstance(writer, CompiledGradient)
+                    eta = Jrows[a - offset]
+                    eta.fill(0.0)
+                    p = writer.kernel(q, self.poses, self.jw, writer.ints, writer.floats, eta)
+                    e_all[a] = err = member.target - p
+                    v_all[a] = member.target_rate + member.rate * err
+                else:
+                    if Jrows is not None:
+                        Jrows[a - offset] = term.J[0]
+                    e_all[a] = term.error[0]
+                    v_all[a] = term.v[0]
+                if weights is not None:
+                    weights[a - offset] = member.weight * scale
+            elif role == ROW:
                 term = terms[i]
                 if term is None:  # a compiled writer, straight into the step's rows
                     assert Jrows is not None and isinstance(writer, CompiledRows)
@@ -193,3 +233,26 @@ class PythonWriters:
                     eta.fill(0.0)
                     writer.kernel(robot.q, self.poses, self.jw, writer.ints, writer.floats, eta)
                     zx += member.gain * eta
+
+
+def _direct(role: int, writer: CompiledRows | CompiledGradient | None) -> bool:
+    """A member that ``write_external`` writes straight into the step's rows (nothing to evaluate first): a task's
+    compiled writer of main rows, or a target subtask whose potential has a compiled writer."""
+    if role == ROW:
+        return isinstance(writer, CompiledRows)
+    return role == TARGET and isinstance(writer, CompiledGradient)
+
+
+def _target_term(sub: Any, writer: CompiledRows | CompiledGradient | None, robot: RobotModel,
+                 plan: PythonWriters) -> TaskTerm | None:  # fmt: skip
+    """A target subtask's row as a term (1, nv): η, v = ṗ_d + K e, e = p_d − p (``TargetSubtask.row``), from its
+    potential's compiled writer when it has one; ``None`` when its gradient is not a float vector (nv,)."""
+    if isinstance(writer, CompiledGradient):
+        eta = np.zeros(robot._nv)
+        e = sub.target - writer.kernel(robot.q, plan.poses, plan.jw, writer.ints, writer.floats, eta)
+        v = sub.target_rate + sub.rate * e
+    else:
+        eta, v, e = sub.row(robot)
+        if not (type(eta) is np.ndarray and eta.dtype == np.float64 and eta.shape == (robot._nv,)):
+            return None
+    return TaskTerm(sub.name, eta.reshape(1, -1), np.array([float(v)]), np.array([float(e)]), sub.weight)

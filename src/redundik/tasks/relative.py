@@ -134,13 +134,18 @@ class RelativePoseTask(CompiledTask):
         return len(self.rows)
 
     def reset(self, robot: RobotModel) -> None:
+        """Bind to ``robot`` and hold the given target, or the frames' relative pose now."""
+        self._bind(robot)
+        self._target = self._given.copy() if self._given is not None else self.relative_pose(robot)
+        self._floats[0:3] = self._target.translation
+        self._floats[3:12] = self._target.rotation.reshape(-1)
+
+    def _bind(self, robot: RobotModel) -> None:
+        """The frames' ids and velocity columns on ``robot`` (the compiled writer's ``ints``); the target is kept."""
         try:
             self._ids = (robot.frame_id(self.frame_a), robot.frame_id(self.frame_b))
         except Exception as exc:
             raise TaskError(f"task '{self.name}': {exc}") from exc
-        self._target = self._given.copy() if self._given is not None else self.relative_pose(robot)
-        self._floats[0:3] = self._target.translation
-        self._floats[3:12] = self._target.rotation.reshape(-1)
         model, nv = robot.model, robot.nv
         columns = []
         for fid in self._ids:  # the velocity columns of the joints that move each frame
@@ -177,8 +182,10 @@ class RelativePoseTask(CompiledTask):
 
     def compiled_rows(self, robot: RobotModel) -> CompiledRows:
         """The rows of the module docstring (``row_kernels.relative_rows``)."""
-        if self._ids is None or self._target is None or self._data is not robot.data:
+        if self._ids is None or self._target is None:
             self.reset(robot)
+        elif self._data is not robot.data:  # another robot object (or a copy of this one): bound again, target kept
+            self._bind(robot)
         return CompiledRows(_RK.relative_rows, len(self.rows), self._ints, self._floats)
 
     def __repr__(self) -> str:

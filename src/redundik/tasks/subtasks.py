@@ -112,6 +112,26 @@ class Subtask(ABC):
     def __repr__(self) -> str: ...
 
 
+def _gradient(owner: str, potential: Potential, eta: object, robot: RobotModel) -> np.ndarray:
+    """``eta``, a potential's η = ∂p/∂q, as a float vector (nv,); a :class:`TaskError` naming the subtask and the
+    potential when it is not one (a user's potential giving another size used to end in numpy's broadcast error)."""
+    nv = robot.nv
+    if type(eta) is np.ndarray and eta.shape == (nv,) and eta.dtype == np.float64:
+        return eta
+    try:
+        arr = np.asarray(eta, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise TaskError(
+            f"subtask '{owner}': the gradient of potential '{potential.name}' is not a vector of numbers ({exc})"
+        ) from exc
+    if arr.shape != (nv,):
+        raise TaskError(
+            f"subtask '{owner}': the gradient of potential '{potential.name}' has shape {arr.shape}, expected ({nv},)"
+            " (one entry per velocity coordinate of the robot)"
+        )
+    return arr
+
+
 def _potential(obj: object, what: str) -> Potential:
     if not isinstance(obj, Potential):
         raise TaskError(f"{what}: expected a Potential (p(q) with its gradient), got {type(obj).__name__}")
@@ -152,7 +172,8 @@ class GradientSubtask(Subtask):
 
     def direction(self, robot: RobotModel) -> np.ndarray:
         """This subtask's part of z: k η, shape (nv,) (eq. 5.8)."""
-        return self._gain * self.potential.gradient(robot)
+        potential = self.potential
+        return self._gain * _gradient(self.name, potential, potential.gradient(robot), robot)
 
     def __repr__(self) -> str:
         return f"GradientSubtask({self.potential!r}, gain={self._gain})"
@@ -211,8 +232,9 @@ class TargetSubtask(Subtask):
 
     def row(self, robot: RobotModel) -> tuple[np.ndarray, float, float]:
         """(η, v, e): the 1-row task ηᵀq̇ = v with v = ṗ_d + K e and e = p_d − p."""
-        e = self.target - self.potential.value(robot)
-        return self.potential.gradient(robot), self.target_rate + self.rate * e, e
+        potential = self.potential
+        e = self.target - potential.value(robot)
+        return _gradient(self.name, potential, potential.gradient(robot), robot), self.target_rate + self.rate * e, e
 
     def __repr__(self) -> str:
         return f"TargetSubtask({self.potential!r}, target={self.target}, rate={self.rate})"
@@ -370,6 +392,7 @@ class BoundSubtask(Subtask):
             p = src.value_and_gradient_into(robot, row, -1.0 if lower is not None else 1.0)  # type: ignore[attr-defined]
         else:
             p, eta = src.value_and_gradient(robot)
+            eta = _gradient(self.name, src, eta, robot)
             if lower is not None:
                 np.negative(eta, out=row)
             else:

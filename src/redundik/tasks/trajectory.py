@@ -97,6 +97,23 @@ class Trajectory(ABC):
     _p0: np.ndarray  # the start position [length] (a view of ``_kparams`` once it exists)
     _R0: np.ndarray  # the start rotation (a view of ``_kparams`` once it exists)
 
+    def __getstate__(self) -> dict[str, object]:
+        """The state for a copy or a pickle, without the views of the parameter row (``_p0``, ``_R0``): a copied view
+        is a frozen array, which the per-task path would read while a new target went into the row."""
+        state = dict(self.__dict__)
+        if state.get("_kparams") is not None:
+            state.pop("_p0", None)
+            state.pop("_R0", None)
+        return state
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        """Restore a copy: ``_p0`` and ``_R0`` views of its own parameter row again."""
+        self.__dict__.update(state)
+        row = self._kparams
+        if row is not None:
+            self._p0 = row[0:3]
+            self._R0 = row[3:12].reshape(3, 3)
+
     @property
     def revision(self) -> int:
         """A counter that moves whenever the parameter row's values are rewritten in place (a new target of a

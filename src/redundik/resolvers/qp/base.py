@@ -221,6 +221,15 @@ class QPResolverBase(Resolver):
         self._dq_hist: tuple[np.ndarray | None, np.ndarray | None] = (None, None)
         self._layout: tuple[tuple[int, ...], StackLayout] | None = None
 
+    def compiled_off(self) -> str | None:
+        """A jerk limit (its box needs the last two q̇) or ``scaling="direction"`` keeps the steps interpreted."""
+        if self.limits.has_jerk:
+            return "a jerk limit (the limit box reads the last two q̇) has no compiled step"
+        scaling = getattr(self, "scaling", "off")  # (wqp and hqp have it)
+        if scaling != "off":
+            return f"scaling={scaling!r} has no compiled step"
+        return None
+
     def check(self, robot: RobotModel, stack: TaskStack) -> None:
         super().check(robot, stack)
         self.limits.bind(robot)

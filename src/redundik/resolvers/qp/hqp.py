@@ -32,7 +32,7 @@ takes Zᵀ(b − x) without a factorisation, and the per-level rows
 (``StepRows``), the limit box's record, the Level records, σ_min per level and the rank-loss test are built only
 when the step goes on to the QPs or its diagnostics are read (``LazyStepResult``).
 Fused step (exact, :mod:`redundik.resolvers.fused`): a stack of frame tasks, joint-space tasks and linear gradient
-subtasks, with bound subtasks but no target subtask, skips the tasks' ``evaluate``: one compiled call
+subtasks, with bound and target subtasks (their rows from Python), skips the tasks' ``evaluate``: one compiled call
 (``hqp_fused.fused_hqp_step``) writes their rows from Pinocchio's Jacobians into the same buffers at the rows
 the per-task gather gives them, then runs the closed-form path above; the bound subtasks' rows are written beside
 it as the gather writes them. The same q̇, terms and diagnostics (``tests/test_fused.py``).
@@ -110,6 +110,7 @@ from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, StepResult
 from redundik.resolvers.fused import (
     ROW,
+    TARGET,
     FusedPlan,
     FusedStepResult,
 )
@@ -337,7 +338,7 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         dest, A, b, w = plan.dest, plan.A, plan.b, plan.w
         for i, role, _, _, start, end, _ in fused.writes:
             term = external[i]
-            if role == ROW and term is not None:
+            if (role == ROW or role == TARGET) and term is not None:
                 d = int(dest[start])  # (a member's rows are contiguous in the buffers: ``_Plan.lay_out``)
                 e = d + end - start
                 A[d:e] = term.J
@@ -400,17 +401,18 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         t1 = time.perf_counter()
         zs = z if plan.layout.has_null_objective else None
         make_terms = fused.terms_once(Jf, ev, q, robot, external)
+        targets = fused.subtask_rows(external) if external else []
         windowed = prev.shape[0] > 0
         if status != 1.0 or (plan.critical and not plan.keeps_safety_rows(out[OUT_DQ, 0])):
             return self._constrained_step(
-                robot, stack, plan, status, out, windowed, zs, bounds, make_terms, err2, t0, t1
+                robot, stack, plan, status, out, windowed, (zs, targets), bounds, make_terms, err2, t0, t1
             )
         kept = out[OUT_KEPT, 0]
         self._dq_prev = kept
 
         def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
             box = limits.box_from(out[_BOX, 0], windowed)
-            built = HQPBuild(plan.step_rows(make_terms(), zs, [], bounds), box, n, stats)
+            built = HQPBuild(plan.step_rows(make_terms(), zs, targets, bounds), box, n, stats)
             diag = QPDiagnostics()
             diag.active_limits = box.active(kept, limits.joint_names)
             self._diagnose(built, kept, diag)
@@ -436,7 +438,7 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         status: float,
         out: np.ndarray,
         windowed: bool,
-        zs: np.ndarray | None,
+        null: tuple[np.ndarray | None, list[tuple[np.ndarray, float]]],
         bounds: list[tuple[Any, Any, list[str]]],
         make_terms: Callable[[], list[TaskTerm]],
         err2: float,
@@ -446,25 +448,27 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         """A fused step whose closed form is not the answer: a constraint is active (``status`` 0), q̇ is not finite
         (2), or it breaks a safety row. The native cascade's answer when it settles the step (and, with safety rows,
         keeps them); else the template's second half on the same rows — or, with safety rows, ``None``: the
-        template's whole step, which solves, relaxes and guards them as without the fused step."""
+        template's whole step, which solves, relaxes and guards them as without the fused step. ``null``: z of the
+        null-space objective (or ``None``) and the target subtasks' rows (η, v), in level order."""
+        zs, targets = null
         critical = plan.critical
         if status == 0.0:  # the native cascade settles most of these steps
             lb, ub = out[OUT_LB, 0], out[OUT_UB, 0]
             lean = self._native_cascade(plan, lb, ub, plan.zero if zs is None else zs)
             if lean is not None and finite(lean[0]):  # (a non-finite q̇ takes the template: it says where from)
                 if not critical or plan.keeps_safety_rows(np.clip(lean[0], lb, ub)):
-                    return self._native_result(plan, lean, out, windowed, zs, bounds, make_terms, err2, t0, t1)
+                    return self._native_result(plan, lean, out, windowed, null, bounds, make_terms, err2, t0, t1)
         if critical:
             return None
         n, box = plan.n, self.limits.box_from(out[_BOX, 0], windowed)
         if status != 0.0:  # q̇ not finite: the template, its terms at hand to say where from
             terms = make_terms()
             built = HQPBuild(
-                lambda: plan.step_rows(terms, zs, [], bounds), box, n, layout=plan.layout, z=zs, critical=False
+                lambda: plan.step_rows(terms, zs, targets, bounds), box, n, layout=plan.layout, z=zs, critical=False
             )
             return self._finish(robot, stack, terms, built, t0, t1)
         built = HQPBuild(
-            lambda: plan.step_rows(make_terms(), zs, [], bounds), box, n,
+            lambda: plan.step_rows(make_terms(), zs, targets, bounds), box, n,
             infeasible=True, layout=plan.layout, z=zs, filled=True, critical=False,
         )  # fmt: skip
         # the constrained cascade; the terms are built only if read (or for a fallback), the task error is the
@@ -481,7 +485,7 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         lean: tuple[np.ndarray, np.ndarray, np.ndarray, int, int],
         out: np.ndarray,
         windowed: bool,
-        zs: np.ndarray | None,
+        null: tuple[np.ndarray | None, list[tuple[np.ndarray, float]]],
         bounds: list[tuple[Any, Any, list[str]]],
         make_terms: Callable[[], list[TaskTerm]],
         err2: float,
@@ -492,6 +496,7 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         :meth:`_settle` makes of it — q̇ clipped to the limit box (both rows: returned and kept), the same info,
         the same diagnostics on first read — without the template's records."""
         x, qstats, rfac, nqp, iters = lean
+        zs, targets = null
         lb, ub = out[OUT_LB, 0], out[OUT_UB, 0]
         clipped = np.empty((2, x.shape[0]))
         K.clip_twice(x, lb, ub, clipped)
@@ -502,7 +507,7 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
 
         def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
             box = limits.box_from(out[_BOX, 0], windowed)
-            built = HQPBuild(plan.step_rows(make_terms(), zs, [], bounds), box, plan.n, infeasible=True)
+            built = HQPBuild(plan.step_rows(make_terms(), zs, targets, bounds), box, plan.n, infeasible=True)
             built.qp_stats, built.qp_r = qstats, rfac
             diag = QPDiagnostics(backend=name, qp=nqp, iterations=iters)
             diag.active_limits = box.active(kept, limits.joint_names)

@@ -25,6 +25,8 @@ from redundik.resolvers.fused import (
     B_UP,
     B_UPPER,
     ROW,
+    ROWS,
+    TARGET,
     FusedPlan,
 )
 from redundik.resolvers.hqp_layout import (
@@ -370,18 +372,18 @@ class _Plan:
 
     def fuse(self, robot: RobotModel, stack: TaskStack, t: float = 0.0) -> FusedPlan | str | bool:
         """The fused form of this plan's stack (:mod:`redundik.resolvers.fused`): every task a frame task or a
-        joint-space task, no target subtask (bound subtasks are evaluated as :meth:`gather` does); the rows of
+        joint-space task or written from Python (a target subtask's row after its level's tasks, as :meth:`gather`
+        lays it; bound subtasks are evaluated as :meth:`gather` does); the rows of
         its least-squares buffers each fused row goes to (``dest``, :func:`hqp_fused.fused_hqp_step`). Returns
         the plan, ``FusedPlan.NOT_YET`` or False (the per-task path)."""
         layout = self.layout
-        if any(level.targets for level in layout.levels):
-            return False
         null = set(layout.null_tasks)
         scales = {i: (1.0, bool(task.identity_jacobian)) for i, task in enumerate(stack.tasks) if i not in null}
-        built = FusedPlan.build(robot, stack, layout, scales, 1.0, mixed=True)
+        targets = [(sub, 1.0) for level in layout.levels for sub in level.targets]
+        built = FusedPlan.build(robot, stack, layout, scales, 1.0, mixed=True, targets=targets)
         if not isinstance(built, FusedPlan):
             return False if built is None else built
-        if any(role == ROW for role, _, _ in built.external):  # their row counts size the buffers: evaluated now,
+        if any(role in ROWS for role, _, _ in built.external):  # their row counts size the buffers: evaluated now,
             terms = built.evaluate_external(robot, t)  # and these terms used by this step (no second evaluate)
             if terms is None:
                 return False
@@ -405,20 +407,26 @@ class _Plan:
             elif kind == "j":
                 spans[i] = (mf + jstarts[k], mf + jstarts[k + 1])
         rows_of = iter(zip(built.external_starts, built.external_rows, strict=True))
+        target_rows: dict[int, int] = {}  # a target subtask's one row, by the subtask's id
         for role, member, _ in built.external:
             if role == ROW:
                 a, r = next(rows_of)
                 spans[built.index[id(member)]] = (a, a + r)
+            elif role == TARGET:
+                target_rows[id(member)] = next(rows_of)[0]
         dest = [0] * built.m
         mixed_starts: list[int] = []
         ls_offsets = []
         ms = 0
-        for tasks, _, _, _, mixed in self.members:
+        for tasks, subs, _, _, mixed in self.members:
             ls_offsets.append(ms)
             for i in tasks:
                 a, e = spans[i]
                 dest[a:e] = range(ms, ms + e - a)
                 ms += e - a
+            for sub in subs:  # (after the level's tasks, as ``gather`` lays them)
+                dest[target_rows[id(sub)]] = ms
+                ms += 1
             if mixed:
                 mixed_starts.append(ms)
                 ms += self.n

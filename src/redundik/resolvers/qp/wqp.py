@@ -56,7 +56,6 @@ from redundik.resolvers.layouts import (
     OPT_RATE,
     OPT_SHIFT,
     OPT_Z_SCALE,
-    OUT_BOX,
     OUT_DQ,
     OUT_FREE,
     OUT_KEPT,
@@ -69,7 +68,7 @@ from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics
 from redundik.resolvers.qp.direction import DirectionScaling, solve_direction
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, infeasible
-from redundik.resolvers.qp.wqp_fused import FusedWqpResult, write_external_rows
+from redundik.resolvers.qp.wqp_fused import FusedWqpResult, free_diagnostics, write_external_rows
 from redundik.resolvers.settings import Setting, flag, nonnegative, unit_interval
 from redundik.resolvers.singularity import SingularityGuard
 from redundik.tasks.base import TaskTerm
@@ -304,9 +303,10 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         return shift, z, lam
 
     def solve(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
-        """One step; a stack of tasks only (no target or bound subtask) takes the lean path below: rows
-        accumulated, then box, null-space objective, unconstrained optimum and its box test in one compiled
-        call; the backend is called (through the shared template) only when that optimum leaves the box.
+        """One step: the fused step when the stack has a plan (its target subtasks' rows written from Python, its
+        bound rows tested beside it); else, for a stack of tasks only, the lean path below: rows accumulated, then
+        box, null-space objective, unconstrained optimum and its box test in one compiled call; the backend is
+        called (through the shared template) only when that optimum leaves the box.
         ``scaling="direction"`` takes the interpreted step of :mod:`redundik.resolvers.qp.direction`."""
         if self.scaling != "off":
             return solve_direction(self, robot, stack, t, dt, self.stuck_below)
@@ -314,7 +314,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         if plan is None or stack is not self._stepping or plan.key is not self._checked:  # else: the step's plan
             plan = self._plan_for(stack, self.layout(stack))
             plan.key = self._checked if stack is self._stepping else None
-        if plan.targets or self.limits.has_jerk:  # (a jerk limit: the box needs the last two q̇)
+        if self.limits.has_jerk:  # (a jerk limit: the box needs the last two q̇)
             return super().solve(robot, stack, t, dt)
         fused = plan.fused
         if fused is None or fused == FusedPlan.NOT_YET:
@@ -330,7 +330,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
                     return res
             else:
                 plan.fused = None  # a member changed (a new target, trajectory): planned again at the next step
-        if plan.bounds:  # the template: the bound rows as the QP's inequalities
+        if plan.bounds or plan.targets:  # the template: the bound rows as the QP's inequalities, the target rows
             return super().solve(robot, stack, t, dt)
         t0 = time.perf_counter()
         terms = [task.evaluate(robot, t) for task in stack.tasks]  # stack.evaluate, inlined
@@ -349,7 +349,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             return self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1)
         dq, kept = out[OUT_DQ], out[OUT_KEPT]
         self._dq_prev = kept
-        diagnostics = self._free_diagnostics(lambda: terms, plan.main, out, windowed, kept, lam)
+        diagnostics = free_diagnostics(self, lambda: terms, plan.main, out, windowed, kept, lam)
         return LazyStepResult.make(
             dq,
             terms,
@@ -403,35 +403,26 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         )  # (the free optimum is known to leave the box or to break a bound row)
         return self._finish(robot, stack, terms, built, t0, t1)
 
-    def _free_diagnostics(
-        self,
-        terms_of: Callable[[], list[TaskTerm]],
-        main: list[int],
-        out: np.ndarray,
-        windowed: bool,
-        kept: np.ndarray,
-        lam: float,
-    ) -> Callable[[], tuple[float, bool, dict[str, object]]]:
-        """The diagnostics of a lean step that solved no QP, computed on first read of the result's diagnostics
-        (``out``: the box rows lb, ub, pos_lo, pos_hi first, as (≥ 4, n) or flat)."""
-        limits = self.limits
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Restore a copy or a pickle: ``_diag`` a view on the copy's own P again (a copied view is a separate
+        array: the diagonal shift written through it never reached P, and a copied resolver solved another QP)."""
+        self.__dict__.update(state)
+        P = self._P
+        if P is not None and P.ndim == 2 and P.shape[0]:
+            self._diag = P.reshape(-1)[:: P.shape[0] + 1]
 
-        def diagnostics() -> tuple[float, bool, dict[str, object]]:
-            terms = terms_of()
-            diag = QPDiagnostics()
-            box_rows = out if out.ndim == 2 else out[: OUT_BOX * kept.shape[0]].reshape(OUT_BOX, -1)
-            diag.active_limits = limits.box_from(box_rows, windowed).active(kept, limits.joint_names)
-            self._diagnose_terms([terms[i] for i in main], lam, kept, diag)
-            return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
-
-        return diagnostics
+    def compiled_off(self) -> str | None:
+        """:meth:`QPResolverBase.compiled_off`, and ``lm_damping`` (λ grows with the error, computed per task)."""
+        if self.lm_damping:
+            return "lm_damping (λ grows with the task error) has no compiled step"
+        return super().compiled_off()
 
     def _fused_plan(self, robot: RobotModel, stack: TaskStack, plan: _Plan) -> FusedPlan | str | bool:
         """The fused form of the plan's stack (:mod:`redundik.resolvers.fused`), ``NOT_YET`` or False (none)."""
         if self.lm_damping:  # λ grows with the error: the per-task path computes it
             return False
         scales = {i: (scale, identity) for i, scale, identity in plan.tasks}
-        built = FusedPlan.build(robot, stack, plan.layout, scales, plan.null_scale, mixed=True)
+        built = FusedPlan.build(robot, stack, plan.layout, scales, plan.null_scale, mixed=True, targets=plan.targets)
         return False if built is None else built
 
     def _fused_solve(

@@ -18,7 +18,7 @@ from redundik.resolvers.linalg import FK
 from redundik.resolvers.qp.base import QPDiagnostics
 from redundik.tasks.base import TaskTerm
 
-__all__ = ["FusedWqpResult", "write_external_rows"]
+__all__ = ["FusedWqpResult", "free_diagnostics", "write_external_rows"]
 
 
 def write_external_rows(fused: FusedPlan, robot: RobotModel, external: list[TaskTerm | None], work: np.ndarray,
@@ -31,6 +31,30 @@ def write_external_rows(fused: FusedPlan, robot: RobotModel, external: list[Task
     ev = work[OUT_ROWS * n : OUT_ROWS * n + 2 * m].reshape(2, m)
     Jx, wx, zx = work[a:b].reshape(mx, n), work[b : b + mx], work[b + mx : b + mx + n]
     fused.write_external(robot, external, Jx, m - mx, ev, wx, zx, t)
+
+
+def free_diagnostics(
+    resolver: Any,
+    terms_of: Callable[[], list[TaskTerm]],
+    main: list[int],
+    out: np.ndarray,
+    windowed: bool,
+    kept: np.ndarray,
+    lam: float,
+) -> Callable[[], tuple[float, bool, dict[str, object]]]:
+    """The diagnostics of a ``wqp`` lean step that solved no QP, computed on first read of the result's diagnostics
+    (``out``: the box rows lb, ub, pos_lo, pos_hi first, as (≥ 4, n) or flat)."""
+    limits = resolver.limits
+
+    def diagnostics() -> tuple[float, bool, dict[str, object]]:
+        terms = terms_of()
+        diag = QPDiagnostics()
+        box_rows = out if out.ndim == 2 else out[: OUT_BOX * kept.shape[0]].reshape(OUT_BOX, -1)
+        diag.active_limits = limits.box_from(box_rows, windowed).active(kept, limits.joint_names)
+        resolver._diagnose_terms([terms[i] for i in main], lam, kept, diag)
+        return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
+
+    return diagnostics
 
 
 def _fused_terms(step: tuple[Any, ...]) -> list[TaskTerm]:
