@@ -297,3 +297,30 @@ def test_a_relative_target_is_checked_where_it_is_set(bad: object) -> None:
     with pytest.raises(TaskError, match="homogeneous transform"):
         task.set_target(bad)  # type: ignore[arg-type]
     assert task.target is None  # nothing was taken
+
+
+def test_a_teleop_stack_stepped_by_two_resolvers_in_turn() -> None:
+    """One teleoperated stack stepped by a pinv and a wqp resolver in turn: each fused plan takes the hold's parameter
+    row for its own packed data when it packs, so the other must copy every new target it reads. Each resolver's q̇
+    is that of the same resolver on a stack of its own with the same targets (1e-12)."""
+    robot = rk.load_example_robot("panda")
+    robot.update(Q0)
+
+    def make() -> tuple[rk.TaskStack, pin.SE3]:
+        stack = rk.TaskStack([rk.FrameTask(TOOL, gain=40.0), rk.PostureTask(gain=1.0)])
+        stack.reset(robot)
+        return stack, robot.frame_pose(TOOL)
+
+    shared, home = make()
+    own = {m: make()[0] for m in ("pinv", "wqp")}
+    both = {m: rk.make_resolver(m) for m in ("pinv", "wqp")}
+    alone = {m: rk.make_resolver(m) for m in ("pinv", "wqp")}
+    for k in range(80):
+        t = 0.01 * k
+        for m in ("pinv", "wqp") if k % 3 else ("wqp", "pinv"):
+            shared.tasks[0].set_target(_target(home, t))
+            own[m].tasks[0].set_target(_target(home, t))
+            a = both[m].step(robot, shared, Q0, t, 0.01)
+            b = alone[m].step(robot, own[m], Q0, t, 0.01)
+            np.testing.assert_allclose(a.dq, b.dq, rtol=0, atol=1e-12, err_msg=f"{m}, step {k}")
+            assert a.info["path"] == "compiled" or k < 2

@@ -280,6 +280,8 @@ class FusedPlan(PythonWriters):
             for k, f in enumerate(self.forms)
         ]
         self.revisions = [f.trajectory.revision for f in self.forms]
+        for _, _, traj, packed in self.frame_checks:  # a new target is then written straight into ``floats``
+            traj.share_parameters(packed)
 
     def add_external(self, member: Any, role: int, scale: float) -> None:
         """Register a member written from Python (role ``ROW``, ``NULL``, ``LIE_NULL``, ``GRADIENT``, ``TERM`` or
@@ -417,7 +419,8 @@ class FusedPlan(PythonWriters):
                 row = traj.parameters
                 if row is None:
                     return False
-                packed[:] = row
+                if row is not packed:  # (shared with the plan: written there already)
+                    packed[:] = row
                 revisions[k] = now
         for k, (joint, target) in enumerate(self.joint_checks):
             form = joint.joint_form(robot)

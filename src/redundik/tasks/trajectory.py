@@ -131,6 +131,18 @@ class Trajectory(ABC):
         packs (read it, do not write it: a new target goes through the task or the trajectory's setters)."""
         return self._kparams
 
+    def share_parameters(self, row: np.ndarray) -> bool:
+        """Keep the parameter row in ``row`` from now on (a float64 view of a fused plan's packed data, of the row's
+        size): its values copied there, ``_p0`` and ``_R0`` views of it, so that a target written in place reaches
+        the plan without a copy at the next step. False: no parameter row yet, or ``row`` of another size."""
+        own = self._kparams
+        if own is None or row.shape != own.shape or row.dtype != np.float64:
+            return False
+        if own is not row:
+            row[:] = own
+            self._kparams, self._p0, self._R0 = row, row[0:3], row[3:12].reshape(3, 3)
+        return True
+
     def _params_row(self, kind: int, extra: Sequence[float] = ()) -> None:
         """Set ``_kind`` and ``_kparams`` = (p0, R0 row-major, extra...) for the compiled reference; ``_p0`` and
         ``_R0`` become views of the row (one copy of the data, which in-place target writes update)."""
