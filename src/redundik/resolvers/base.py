@@ -362,7 +362,7 @@ class Resolver(ABC):
 
     def compiled_off(self) -> str | None:
         """Why this resolver's options keep every step off its compiled step (a one-time warning says it), or
-        ``None``: the per-stack and per-step reasons are the members' (:meth:`_interpreted_members`)."""
+        ``None``: the reasons are then the members' (their compiled forms)."""
         return None
 
     def _interpreted_members(self, robot: RobotModel, stack: TaskStack) -> tuple[str, ...]:

@@ -412,7 +412,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             self._diag = P.reshape(-1)[:: P.shape[0] + 1]
 
     def compiled_off(self) -> str | None:
-        """:meth:`QPResolverBase.compiled_off`, and ``lm_damping`` (λ grows with the error, computed per task)."""
+        """``QPResolverBase.compiled_off``, and ``lm_damping`` (λ grows with the error, computed per task)."""
         if self.lm_damping:
             return "lm_damping (λ grows with the task error) has no compiled step"
         return super().compiled_off()
