@@ -165,3 +165,33 @@ def test_options_without_a_compiled_step_name_every_member(
     assert res.info["path"] == "interpreted"
     assert set(res.info["interpreted"]) == {stack.tasks[0].name, stack.tasks[1].name, "sine"}
     assert any(why in r.getMessage() and "every step runs interpreted" in r.getMessage() for r in caplog.records)
+
+
+@pytest.mark.parametrize("method", ["wqp", "hqp"])
+@pytest.mark.parametrize("fuse", [True, False])
+def test_a_nan_target_row_degrades_and_is_named(method: str, fuse: bool) -> None:
+    """A user's potential whose value and gradient turn NaN: the step does not raise (hqp's compiled cascade raised
+    numpy's LinAlgError), q̇ is finite and within the limits, and the fallback names the subtask."""
+
+    class Broken(rk.Potential):
+        name = "broken"
+
+        def value(self, robot: RobotModel) -> float:
+            return float("nan")
+
+        def gradient(self, robot: RobotModel) -> np.ndarray:
+            return np.full(robot.nv, np.nan)
+
+    robot = rk.load_example_robot("panda")
+    q = _q0(robot)
+    robot.update(q)
+    stack = TaskStack(
+        [_hand(Circle(0.05, 1.5, plane=("y", "z"))), PostureTask(gain=1.0)], [TargetSubtask(Broken(), 0.0)]
+    )
+    stack.reset(robot)
+    resolver = rk.make_resolver(method)
+    resolver.fuse = fuse  # type: ignore[attr-defined]
+    for k in range(3):
+        res = resolver.step(robot, stack, q, k * 0.01, 0.01)
+        assert np.isfinite(res.dq).all()
+        assert res.fallback is not None and "subtask 'broken'" in res.fallback

@@ -106,6 +106,7 @@ from typing import Any
 import numpy as np
 
 from redundik._coldstart import ready
+from redundik.errors import SolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, StepResult
 from redundik.resolvers.fused import (
@@ -301,7 +302,10 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         out = np.empty((7, 1, n))
         stats = np.empty((plan.meta.shape[1] - 1, 4))
         rows = plan.rows(plan.zero if z is None else z)
-        status = HK.closed_step(rows, plan.params, robot.q, limits.kernel_args(robot), float(dt), prev, out, stats)
+        try:
+            status = HK.closed_step(rows, plan.params, robot.q, limits.kernel_args(robot), float(dt), prev, out, stats)
+        except np.linalg.LinAlgError:  # non-finite rows (a NaN gradient): the template says where from
+            return super().solve(robot, stack, t, dt)
         windowed = prev.shape[0] > 0
         if status != 1:  # a constraint is active (0), or q̇ is not finite (2): the template, on the same rows
             built = HQPBuild(
@@ -391,11 +395,14 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         out = np.empty((7, 1, n))
         stats = np.empty((plan.meta.shape[1] - 1, 4))
         q = robot.q
-        status, err2, dq2 = HFK.fused_hqp_call(
-            fused.jw, fused.poses, refs, float(t), float(dt), q, prev, fused.ints, fused.floats, plan.dest, bint, bcols,
-            bfl, coef, args[0], fused.limits(args), Jf, ev, plan.A, plan.b, plan.w, plan.C, plan.d, z, plan.meta,
-            plan.params, out, stats,
-        )  # fmt: skip
+        try:
+            status, err2, dq2 = HFK.fused_hqp_call(
+                fused.jw, fused.poses, refs, float(t), float(dt), q, prev, fused.ints, fused.floats, plan.dest, bint,
+                bcols, bfl, coef, args[0], fused.limits(args), Jf, ev, plan.A, plan.b, plan.w, plan.C, plan.d, z,
+                plan.meta, plan.params, out, stats,
+            )  # fmt: skip
+        except np.linalg.LinAlgError:  # non-finite rows: the per-task path (it says where from)
+            return None
         if status < 0.0:
             return None
         t1 = time.perf_counter()
@@ -520,11 +527,14 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         )  # fmt: skip
 
     def _resolve(self, built: HQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, str | None]:
-        if not built.infeasible:
-            x = self._lean_cascade(built, built.layout)
-            if x is not None:
-                return x, None
-        x, notes = self._qp_cascade(built, diag)
+        try:
+            if not built.infeasible:
+                x = self._lean_cascade(built, built.layout)
+                if x is not None:
+                    return x, None
+            x, notes = self._qp_cascade(built, diag)
+        except np.linalg.LinAlgError as exc:  # non-finite rows (a NaN gradient): the template's fallback names them
+            raise SolverError(f"hqp: the rows are not finite ({exc})") from exc
         return x, ("hqp: " + "; ".join(notes)) if notes else None
 
     def _safety_rows(self, built: HQPBuild, stack: TaskStack) -> tuple[np.ndarray, np.ndarray] | None:
