@@ -42,6 +42,7 @@ class PythonWriters:
     #: row, compiled writer or ``None``) — what :meth:`write_external` walks.
     writes: list[tuple[int, int, Any, float, int, int, CompiledRows | CompiledGradient | None]]
     null_external: bool  # a member writes a term of the null-space objective (``zx`` is read, zeroed first)
+    has_targets: bool  # a member is a target subtask's row (:meth:`subtask_rows` has rows to give)
     direct_rows: list[int] | None  # every member a compiled writer of main rows: their row counts; else None
 
     def _pack(
@@ -70,6 +71,7 @@ class PythonWriters:
             writes.append((i, role, member, scale, a, b, writer))
         self.writes = writes
         self.null_external = any(role in (NULL, LIE_NULL, GRADIENT) for role, _, _ in self.external)
+        self.has_targets = any(role == TARGET for role, _, _ in self.external)
         direct = all(_direct(role, w) for role, _, _, _, _, _, w in writes)
         counts = [w.rows if isinstance(w, CompiledRows) else 1 for _, _, _, _, _, _, w in writes]  # (a target: 1)
         self.direct_rows = counts if direct else None

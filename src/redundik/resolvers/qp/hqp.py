@@ -408,7 +408,7 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         t1 = time.perf_counter()
         zs = z if plan.layout.has_null_objective else None
         make_terms = fused.terms_once(Jf, ev, q, robot, external)
-        targets = fused.subtask_rows(external) if external else []
+        targets = fused.subtask_rows(external) if external and fused.has_targets else []
         windowed = prev.shape[0] > 0
         if status != 1.0 or (plan.critical and not plan.keeps_safety_rows(out[OUT_DQ, 0])):
             return self._constrained_step(
