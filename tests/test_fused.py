@@ -424,6 +424,7 @@ def test_fused_hqp_bounds_and_gradients_agree() -> None:
     ("scenario", "method"),
     [
         ("talos_actuated", "wqp"),
+        ("talos", "wqp"),
         ("talos", "pinv"),
         ("talos_actuated", "hqp"),
         ("panda_circle", "hqp"),
@@ -431,11 +432,11 @@ def test_fused_hqp_bounds_and_gradients_agree() -> None:
     ],
 )
 def test_benchmark_stacks_fused_agree(scenario: str, method: str) -> None:
-    """Talos (free-flyer base, two hands, a posture of the actuated joints — ``talos_actuated``'s benchmark-only
-    class; ``talos`` now has the library's ``PostureTask``, whose fused form is issue 31 item 3 — limits binding on
-    a third of the steps), the Panda's 3-level hqp (a post clearance between hand and posture) and the snake's (three
-    clearances, a centering gradient): the benchmark's stacks take the fused step and give the per-task path's q̇
-    and terms."""
+    """Talos (free-flyer base, two hands, a posture: ``talos_actuated``'s benchmark-only class of the actuated joints,
+    or ``talos``'s library ``PostureTask`` of every coordinate, the base's error Pinocchio's difference — limits
+    binding on a third of the steps), the Panda's 3-level hqp (a post clearance between hand and posture) and the
+    snake's (three clearances, a centering gradient): the benchmark's stacks take the fused step and give the
+    per-task path's q̇ and terms."""
     from benchmarks.bench.runners import RedundikRunner
     from benchmarks.bench.scenarios import SCENARIOS
 

@@ -266,3 +266,17 @@ def test_squares_below_is_the_steps_check_of_q() -> None:
             with np.errstate(all="ignore"):
                 expected = bool(np.isfinite(q).all() and float(np.sum(q.astype(np.longdouble) ** 2)) < bound2)
             assert kernels.squares_below(q, bound2) is expected, q
+
+
+@pytest.mark.parametrize(("K", "m", "n"), [(0, 0, 1), (1, 6, 9), (2, 13, 38), (3, 7, 4)])
+def test_wqp_work_views_sliced_in_python_are_the_compiled_ones(K: int, m: int, n: int) -> None:
+    """``wqp_fused.work_views`` (the step's Python slicing) names the same parts of ``work`` as the kernels'
+    ``wqp_work_views``: the same offsets, shapes and memory."""
+    from redundik.resolvers.linalg import FK
+    from redundik.resolvers.qp.wqp_fused import work_views
+
+    work = np.arange(float(FK.wqp_work_size(K, m, n, 0)))
+    for ours, theirs in zip(work_views(work, K, m, n), FK.wqp_work_views(work, K, m, n), strict=True):
+        assert ours.shape == theirs.shape
+        np.testing.assert_array_equal(ours, theirs)
+        assert ours.size == 0 or np.shares_memory(ours, work)

@@ -67,3 +67,64 @@ def test_the_callers_array_stays_writeable_and_a_bad_target_is_refused() -> None
     assert given.flags.writeable and post.target is not None and post.target[0] == 0.0
     with pytest.raises(TaskError, match="NaN or infinite"):
         post.target = np.full(9, np.nan)
+
+
+class _BaseAndArm(rk.Task):
+    """A user's joint-space task on some base and arm coordinates of a free-flyer robot (a selection that is not
+    every coordinate): J = I[sel], e = (q_ref ⊖ q)[sel] — its ``joint_form`` lets a fused step take it."""
+
+    def __init__(self, sel: list[int], target: np.ndarray) -> None:
+        self._init_task("base_and_arm", gain=2.0)
+        self.sel, self.target = np.array(sel), target
+
+    def joint_form(self, robot: rk.RobotModel) -> tuple[np.ndarray, np.ndarray]:
+        return self.sel, self.target
+
+    def evaluate(self, robot: rk.RobotModel, t: float) -> rk.TaskTerm:
+        e = robot.difference(robot.q, self.target)[self.sel]
+        return rk.TaskTerm(self.name, np.eye(robot.nv)[self.sel], self.gain * e, e, self.weight)
+
+    def __repr__(self) -> str:
+        return f"_BaseAndArm({self.sel.tolist()})"
+
+
+@pytest.mark.parametrize("method", ["wqp", "hqp"])
+@pytest.mark.parametrize("which", ["posture", "selection"])
+def test_a_free_flyer_joint_task_is_compiled_and_agrees(method: str, which: str) -> None:
+    """On a free-flyer robot a joint-space task's error (q_ref ⊖ q)[sel] is Pinocchio's difference (the base's 6
+    coordinates are not subtractions), written before the compiled call: the library's ``PostureTask`` (every
+    coordinate) and a user's selection (base and arm coordinates, out of order) give the per-task path's q̇ and
+    terms, the base tilted and displaced from the target."""
+    robot = rk.load_example_robot("talos")
+    q_ref = robot.neutral()
+    q0 = q_ref.copy()
+    q0[:3] += [0.05, -0.02, 0.01]
+    q0[3:7] = [0.05, -0.03, 0.02, 1.0]
+    q0[3:7] /= np.linalg.norm(q0[3:7])
+    arm = robot.joint("arm_left_4_joint").idx_v
+    results = []
+    for fuse in (True, False):
+        joint = rk.PostureTask(q_ref, gain=1.0) if which == "posture" else _BaseAndArm([arm, 5, 0, 3, arm + 1], q_ref)
+        if method == "hqp":
+            joint.priority = 1  # type: ignore[attr-defined]
+        hand = rk.FrameTask("gripper_left_joint", rk.Circle(0.05, 2.0, plane=("y", "z")), gain=5.0)
+        stack = rk.TaskStack([hand, joint])
+        robot.update(q0)
+        stack.reset(robot)
+        res = make_resolver(method)
+        res.fuse = fuse  # type: ignore[attr-defined]
+        q, steps = q0.copy(), []
+        for k in range(40):
+            step = res.step(robot, stack, q, k * 0.01, 0.01)
+            steps.append((step.dq.copy(), [(t.J.copy(), t.v.copy()) for t in step.terms], step.info["path"]))
+            q = robot.integrate(q, step.dq, 0.01)
+        results.append(steps)
+    compiled, plain = results
+    assert {path for _, _, path in compiled} == {"compiled"}
+    assert {path for _, _, path in plain} == {"interpreted"}
+    for k, ((dq_a, terms_a, _), (dq_b, terms_b, _)) in enumerate(zip(compiled, plain, strict=True)):
+        np.testing.assert_allclose(dq_a, dq_b, rtol=0, atol=1e-11, err_msg=f"step {k}")
+        for (Ja, va), (Jb, vb) in zip(terms_a, terms_b, strict=True):
+            np.testing.assert_allclose(Ja, Jb, rtol=0, atol=1e-13)
+            np.testing.assert_allclose(va, vb, rtol=0, atol=1e-11)
+    assert np.abs(compiled[0][1][1][1][:6] if which == "posture" else compiled[0][1][1][1]).max() > 1e-3

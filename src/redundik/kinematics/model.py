@@ -41,6 +41,8 @@ MAX_NV = 256
 #: accepted: | ‖q_quat‖ − 1 | ≤ 1e-3 is rounding or a float32 round trip, normalised silently; anything farther (a
 #: zero, tiny or scaled quaternion) is a ModelError naming the joint (it was a rotation scaled by ‖q‖², silently).
 QUATERNION_TOLERANCE = 1e-3
+#: A quaternion norm this close to 1 is taken as unit (4 units in the last place: ``integrate`` gives ≤ 1).
+_UNIT_ROUNDOFF = 4 * 2.220446049250313e-16
 
 
 def _float_vectors(model: pin.Model) -> dict[str, np.ndarray]:
@@ -352,9 +354,11 @@ class RobotModel:
             raise ModelError(f"{where}: contains NaN or infinite values: {arr.tolist()}")
         return self._unit_quaternions(arr, where) if self._quaternions else arr
 
-    def _unit_quaternions(self, q: np.ndarray, where: str) -> np.ndarray:
+    def _unit_quaternions(self, q: np.ndarray, where: str | None) -> np.ndarray:
         """``q`` with its quaternions normalised (a copy when one is changed), if each is within
-        :data:`QUATERNION_TOLERANCE` of unit norm.
+        :data:`QUATERNION_TOLERANCE` of unit norm. A norm within :data:`_UNIT_ROUNDOFF` of 1 (a few units in the last
+        place: what ``integrate`` returns) is left as it is: dividing by it would change q by less than its own
+        round-off. ``where``: what the error names (``None``: the robot's q).
 
         Raises:
             ModelError: a quaternion farther from unit norm; names the joint and its coordinates.
@@ -363,9 +367,10 @@ class RobotModel:
         for name, i in self._quaternions:
             x, y, z, w = q[i : i + 4].tolist()
             norm = math.sqrt(x * x + y * y + z * z + w * w)
-            if norm == 1.0:
+            if abs(norm - 1.0) <= _UNIT_ROUNDOFF:
                 continue
             if not abs(norm - 1.0) <= QUATERNION_TOLERANCE:
+                where = f"robot '{self.name}': q" if where is None else where
                 raise ModelError(
                     f"{where}: joint '{name}': the quaternion (x, y, z, w) = q[{i}:{i + 4}] = "
                     f"{[round(v, 6) for v in (x, y, z, w)]} has norm {norm:.3g}; expected a unit quaternion (norm "
@@ -416,7 +421,7 @@ class RobotModel:
         """:meth:`update` for a q already checked (float64, shape (nq,), finite): a resolver's step checks it once.
         A model with quaternions has them checked and normalised here (a few operations per quaternion)."""
         if self._quaternions:
-            q = self._unit_quaternions(q, f"robot '{self.name}': q")
+            q = self._unit_quaternions(q, None)
         pin.computeJointJacobians(self.model, self.data, q)
         pin.updateFramePlacements(self.model, self.data)
         self._q = q.copy()

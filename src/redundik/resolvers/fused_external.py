@@ -7,6 +7,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+import pinocchio as pin
 
 from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import CompiledGradient, CompiledRows, TaskTerm, check_term
@@ -158,11 +159,16 @@ class PythonWriters:
     def write_joint_errors(self, robot: RobotModel, e: np.ndarray) -> None:
         """The errors (q_ref ⊖ q)[sel] of the level joint tasks on Lie-group coordinates (Pinocchio's
         ``difference``) into their rows of the step's e, before the compiled call reads them."""
-        q = robot.q
+        q, model = robot.q, robot.model
+        seen = self.__dict__.setdefault("_whole", {})  # k → (sel, sel is every coordinate in order)
         for k in self.lie_joints:
             a, b = self.joint_spans[k]
             sel, target = self.level_forms[k]
-            e[a:b] = robot.difference(q, target)[sel]
+            whole = seen.get(k)
+            if whole is None or whole[0] is not sel:
+                whole = seen[k] = (sel, bool(np.array_equal(sel, np.arange(robot._nv))))
+            d = pin.difference(model, q, target)  # (RobotModel.difference, without its wrapper)
+            e[a:b] = d if whole[1] else d[sel]
 
     def write_external(
         self,

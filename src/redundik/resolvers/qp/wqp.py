@@ -68,7 +68,7 @@ from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics
 from redundik.resolvers.qp.direction import DirectionScaling, solve_direction
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, infeasible
-from redundik.resolvers.qp.wqp_fused import FusedWqpResult, free_diagnostics, write_external_rows
+from redundik.resolvers.qp.wqp_fused import FusedWqpResult, free_diagnostics, work_views, write_external_rows
 from redundik.resolvers.settings import Setting, flag, nonnegative, unit_interval
 from redundik.resolvers.singularity import SingularityGuard
 from redundik.tasks.base import TaskTerm
@@ -455,7 +455,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             external = evaluated
         work = np.empty(fused.wqp_work)  # the box and answers, e and v, the frames' Jacobians: one allocation
         if fused.lie_joints:
-            fused.write_joint_errors(robot, FK.wqp_work_views(work, len(fused.frames), fused.m, n)[1][0])
+            fused.write_joint_errors(robot, work[OUT_ROWS * n : OUT_ROWS * n + fused.m])  # (e: the first row of ev)
         if external:
             write_external_rows(fused, robot, external, work, t)
         q = robot.q
@@ -485,8 +485,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         windowed = prev.shape[0] > 0
         if status == 0.0:  # a limit or a bound row binds: the backend, through the template
             K, m = len(fused.frames), fused.m
-            _, ev, Jf = FK.wqp_work_views(work, K, m, n)
-            out = work[: OUT_ROWS * n].reshape(OUT_ROWS, n)
+            out, ev, Jf = work_views(work, K, m, n)
             terms = fused.terms(Jf, ev, q, robot, external)
             return self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1, bounds)
         self._dq_prev = work[OUT_KEPT * n : (OUT_KEPT + 1) * n]

@@ -14,11 +14,18 @@ import numpy as np
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.fused import FusedPlan, FusedStepResult
 from redundik.resolvers.layouts import FRAME_ROWS, OUT_BOX, OUT_DQ, OUT_KEPT, OUT_ROWS
-from redundik.resolvers.linalg import FK
 from redundik.resolvers.qp.base import QPDiagnostics
 from redundik.tasks.base import TaskTerm
 
-__all__ = ["FusedWqpResult", "free_diagnostics", "write_external_rows"]
+__all__ = ["FusedWqpResult", "free_diagnostics", "work_views", "write_external_rows"]
+
+
+def work_views(work: np.ndarray, K: int, m: int, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``FK.wqp_work_views`` sliced in Python: ``out`` (``OUT_ROWS``, n), (e, v) (2, m) and the frames' Jacobians
+    (K, 6, n) of a ``wqp`` step's ``work`` (a compiled call that returns arrays costs more than these slices)."""
+    a = OUT_ROWS * n
+    b = a + 2 * m
+    return work[:a].reshape(OUT_ROWS, n), work[a:b].reshape(2, m), work[b : b + FRAME_ROWS * K * n].reshape(K, 6, n)
 
 
 def write_external_rows(fused: FusedPlan, robot: RobotModel, external: list[TaskTerm | None], work: np.ndarray,
@@ -60,7 +67,7 @@ def free_diagnostics(
 def _fused_terms(step: tuple[Any, ...]) -> list[TaskTerm]:
     """The task terms of a fused ``wqp`` step, from its work array."""
     _, fused, work, q, robot, _, _, external = step
-    _, ev, Jf = FK.wqp_work_views(work, len(fused.frames), fused.m, robot._nv)
+    _, ev, Jf = work_views(work, len(fused.frames), fused.m, robot._nv)
     return fused.terms(Jf, ev, q, robot, external)
 
 
