@@ -150,3 +150,36 @@ def test_update_and_integrate_refuse_nan_and_wrong_sizes() -> None:
     with pytest.raises(ModelError, match="q must be 2 real numbers"):
         robot.integrate(np.zeros(3), np.zeros(2), 0.01)
     np.testing.assert_allclose(robot.integrate(q, np.ones(2), 0.5), [0.5, 0.5])
+
+
+@pytest.mark.parametrize("frame", [-1, 10**6, 2.0, None, True, [3]])
+@pytest.mark.parametrize("query", ["frame_position", "frame_pose", "frame_jacobian"])
+def test_a_frame_that_is_neither_a_known_name_nor_an_index_in_range_is_refused(frame: object, query: str) -> None:
+    """-1 used to read the last frame (Python's indexing through the bindings), 2.0 or None to end in Boost's
+    ``ArgumentError``: now a ModelError naming the robot and what a frame is."""
+    robot = rk.load_example_robot("panda")
+    robot.update(robot.neutral())
+    with pytest.raises(ModelError, match=r"frame index .* outside|a frame is given by its name or its index"):
+        getattr(robot, query)(frame)
+
+
+@pytest.mark.parametrize("name", ["panda", "talos", "ur5"])
+def test_frame_lookups_are_pinocchios(name: str) -> None:
+    """``frame_id`` (a table made once per model) is ``getFrameId`` for every frame name, a frame added to the model
+    afterwards included; ``frame_position`` (read from a view on Pinocchio's placements) is the frame's translation,
+    by name or index (numpy's integers and strings too), a copy that follows the next update."""
+    robot = rk.load_example_robot(name)
+    model = robot.model
+    for q in (robot.neutral(), robot.random_configuration(np.random.default_rng(3))):
+        robot.update(q)
+        for fid, frame in enumerate(model.frames):
+            assert robot.frame_id(frame.name) == model.getFrameId(frame.name)
+            expected = np.array(robot.data.oMf[fid].translation)
+            for key in (frame.name, fid, np.int64(fid), np.str_(frame.name)):
+                got = robot.frame_position(key)  # type: ignore[arg-type]
+                np.testing.assert_array_equal(got, expected)
+            got[0] += 1.0  # (a copy: the robot's data is not touched)
+            np.testing.assert_array_equal(robot.frame_position(fid), expected)
+    parent = model.frames[model.nframes - 1]
+    added = model.addFrame(pin.Frame("added_tip", parent.parentJoint, pin.SE3.Identity(), pin.FrameType.OP_FRAME))
+    assert robot.frame_id("added_tip") == added

@@ -21,6 +21,7 @@ import pinocchio as pin
 
 from redundik._names import did_you_mean
 from redundik.errors import ModelError
+from redundik.kinematics.memory import se3_vector_view
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 WORLD = pin.ReferenceFrame.WORLD
@@ -104,6 +105,10 @@ class RobotModel:
     _nv: int = field(init=False, default=0, repr=False)
     #: (joint name, index of the quaternion's first coordinate in q) of every free-flyer / spherical joint
     _quaternions: tuple[tuple[str, int], ...] = field(init=False, default=(), repr=False)
+    #: (model, its frame count, name → first frame id): :meth:`frame_id`'s table, made again when either changes
+    _frame_ids: tuple[pin.Model, int, dict[str, int]] | None = field(init=False, default=None, repr=False)
+    #: (data, a (nframes, 12) view on its frame placements or None: not verified): :meth:`frame_position`'s
+    _placements: tuple[pin.Data, np.ndarray | None] | None = field(init=False, default=None, repr=False)
 
     def __post_init__(self) -> None:
         if int(self.model.nv) > MAX_NV:
@@ -187,6 +192,7 @@ class RobotModel:
         # identity; a data object copied beside the robot would pass that test while its views stayed frozen copies
         # (a copied stack silently followed a pose that no longer moved).
         del state["data"]
+        state["_frame_ids"] = state["_placements"] = None  # (made again for the copy's model and data)
         return state
 
     def __setstate__(self, state: dict[str, object]) -> None:
@@ -259,11 +265,22 @@ class RobotModel:
         return [f.name for f in self.model.frames]
 
     def frame_id(self, name: str) -> int:
-        """Index of the frame called ``name``.
+        """Index of the frame called ``name`` (the first one of that name, as Pinocchio's ``getFrameId``), from a
+        table made once per model (a task that looks its frame up by name at every tick pays a dictionary lookup).
 
         Raises:
             ModelError: if no such frame exists; the message lists close matches.
         """
+        table = self._frame_ids
+        model = self.model
+        if table is None or table[0] is not model or table[1] != model.nframes:
+            ids: dict[str, int] = {}
+            for i, frame in enumerate(model.frames):
+                ids.setdefault(frame.name, i)
+            table = self._frame_ids = (model, model.nframes, ids)
+        fid = table[2].get(name) if type(name) is str else None
+        if fid is not None:
+            return fid
         if not self.model.existFrame(name):
             raise ModelError(
                 f"frame '{name}' does not exist in robot '{self.name}'; {did_you_mean(name, self.frame_names)}"
@@ -446,18 +463,47 @@ class RobotModel:
         """:meth:`frame_pose` as a live view on the kinematic data, for internal hot paths (a task that reads its
         frame every tick): it changes at every :meth:`update`, and writing to it corrupts the model's state until
         the next one. Use :meth:`frame_pose` to keep a pose."""
-        fid = frame if isinstance(frame, int) else self.frame_id(frame)
-        self.q  # noqa: B018 - raises if update() was never called
+        fid = self._frame_index(frame)
+        if self._q is None:
+            self.q  # noqa: B018 - raises: update() was never called
         return self.data.oMf[fid]
 
     def frame_position(self, frame: str | int) -> np.ndarray:
         """Origin of a frame in the world frame, shape (3,) (a copy)."""
-        return np.array(self.frame_pose_view(frame).translation)
+        placements = self._placements
+        data = self.data
+        if placements is None or placements[0] is not data:
+            placements = self._placements = (data, se3_vector_view(data.oMf))
+        fid = self._frame_index(frame)
+        view = placements[1]
+        if view is None or self._q is None:
+            return np.array(self.frame_pose_view(fid).translation)  # (its error; a view not verified)
+        return view[fid, 9:12].copy()
+
+    def _frame_index(self, frame: str | int) -> int:
+        """The frame id of a name or an index.
+
+        Raises:
+            ModelError: an unknown name, an index outside [0, nframes), or neither a name nor an integer.
+        """
+        if type(frame) is str:
+            return self.frame_id(frame)
+        if isinstance(frame, (int, np.integer)) and not isinstance(frame, bool):
+            fid = int(frame)
+            if 0 <= fid < self.model.nframes:
+                return fid
+            raise ModelError(f"robot '{self.name}': frame index {fid} is outside [0, {self.model.nframes})")
+        if isinstance(frame, str):  # (a str subclass: numpy's str_)
+            return self.frame_id(str(frame))
+        raise ModelError(
+            f"robot '{self.name}': a frame is given by its name or its index, got {type(frame).__name__} {frame!r}"
+        )
 
     def frame_jacobian(self, frame: str | int) -> np.ndarray:
         """Base-aligned 6×nv Jacobian of a frame: rows (v_x, v_y, v_z, ω_x, ω_y, ω_z), eq. (5.6)."""
-        fid = frame if isinstance(frame, int) else self.frame_id(frame)
-        self.q  # noqa: B018
+        fid = self._frame_index(frame)
+        if self._q is None:
+            self.q  # noqa: B018 - raises: update() was never called
         J = np.asarray(pin.getFrameJacobian(self.model, self.data, fid, LWA))
         return J if J.ndim == 2 else J.reshape(6, self._nv)  # the bindings return a 6×1 matrix as shape (6,)
 
@@ -470,7 +516,7 @@ class RobotModel:
         J = X(p) J^s with X(p) = [[I, −[p]×], [0, I]], hence ∂J/∂q_k = X(p) ∂J^s/∂q_k + [[0, −[∂p/∂q_k]×], [0, 0]] J^s,
         with ∂p/∂q_k the k-th linear column of J. Derivatives are along the velocity coordinates (q ⊕ ε e_k).
         """
-        fid = frame if isinstance(frame, int) else self.frame_id(frame)
+        fid = self._frame_index(frame)
         self.q  # noqa: B018 - raises if update() was never called
         fr = self.model.frames[fid]
         js = np.asarray(pin.getJointJacobian(self.model, self.data, fr.parentJoint, WORLD))  # (6, nv)
