@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
 import pinocchio as pin
@@ -109,6 +109,8 @@ class RobotModel:
     _frame_ids: tuple[pin.Model, int, dict[str, int]] | None = field(init=False, default=None, repr=False)
     #: (data, a (nframes, 12) view on its frame placements or None: not verified): :meth:`frame_position`'s
     _placements: tuple[pin.Data, np.ndarray | None] | None = field(init=False, default=None, repr=False)
+    #: (joints, name → first JointInfo, the (3, nv) rows lower, upper, velocity): made once per ``joints``
+    _joint_table: tuple[Any, dict[str, JointInfo], np.ndarray] | None = field(init=False, default=None, repr=False)
 
     def __post_init__(self) -> None:
         if int(self.model.nv) > MAX_NV:
@@ -192,7 +194,7 @@ class RobotModel:
         # identity; a data object copied beside the robot would pass that test while its views stayed frozen copies
         # (a copied stack silently followed a pose that no longer moved).
         del state["data"]
-        state["_frame_ids"] = state["_placements"] = None  # (made again for the copy's model and data)
+        state["_frame_ids"] = state["_placements"] = state["_joint_table"] = None  # (made again for the copy)
         return state
 
     def __setstate__(self, state: dict[str, object]) -> None:
@@ -294,9 +296,9 @@ class RobotModel:
         Raises:
             ModelError: if no such joint exists; the message lists the valid names.
         """
-        for j in self.joints:
-            if j.name == name:
-                return j
+        info = self._joints_table()[1].get(name) if type(name) is str else None
+        if info is not None:
+            return info
         raise ModelError(
             f"joint '{name}' does not exist in robot '{self.name}'; {did_you_mean(name, self.joint_names)}"
             f"available: {self.joint_names}"
@@ -399,20 +401,33 @@ class RobotModel:
         return out
 
     # ------------------------------------------------------------------ limits
+    def _joints_table(self) -> tuple[Any, dict[str, JointInfo], np.ndarray]:
+        """:attr:`_joint_table` for the current ``joints`` (made again if they were replaced)."""
+        table = self._joint_table
+        joints = self.joints
+        if table is None or table[0] is not joints:
+            by_name: dict[str, JointInfo] = {}
+            for j in joints:
+                by_name.setdefault(j.name, j)
+            rows = np.array([[j.lower for j in joints], [j.upper for j in joints], [j.velocity for j in joints]])
+            rows.setflags(write=False)
+            table = self._joint_table = (joints, by_name, rows.reshape(3, len(joints)))
+        return table
+
     @property
     def lower_limits(self) -> np.ndarray:
-        """Lower position limits per velocity coordinate (``-inf`` where unlimited)."""
-        return np.array([j.lower for j in self.joints])
+        """Lower position limits per velocity coordinate (``-inf`` where unlimited); a copy."""
+        return self._joints_table()[2][0].copy()
 
     @property
     def upper_limits(self) -> np.ndarray:
-        """Upper position limits per velocity coordinate (``+inf`` where unlimited)."""
-        return np.array([j.upper for j in self.joints])
+        """Upper position limits per velocity coordinate (``+inf`` where unlimited); a copy."""
+        return self._joints_table()[2][1].copy()
 
     @property
     def velocity_limits(self) -> np.ndarray:
-        """Velocity limits per velocity coordinate (``inf`` where unlimited)."""
-        return np.array([j.velocity for j in self.joints])
+        """Velocity limits per velocity coordinate (``inf`` where unlimited); a copy."""
+        return self._joints_table()[2][2].copy()
 
     def limit_violation(self, q: np.ndarray, tol: float = 1e-9) -> np.ndarray:
         """Per-joint amount by which q is outside its position limits (0 inside), in q̇ order."""

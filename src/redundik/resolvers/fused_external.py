@@ -42,6 +42,9 @@ class PythonWriters:
     #: Per member, laid out at each packing (:meth:`lay_out_writes`): (index, role, member, scale, first row, end
     #: row, compiled writer or ``None``) — what :meth:`write_external` walks.
     writes: list[tuple[int, int, Any, float, int, int, CompiledRows | CompiledGradient | None]]
+    #: Per member, in :attr:`external` order: (role, member, compiled writer or ``None``) — what
+    #: :meth:`evaluate_external` walks (laid out with :attr:`writes`).
+    evaluations: list[tuple[int, Any, CompiledRows | CompiledGradient | None]]
     null_external: bool  # a member writes a term of the null-space objective (``zx`` is read, zeroed first)
     has_targets: bool  # a member is a target subtask's row (:meth:`subtask_rows` has rows to give)
     direct_rows: list[int] | None  # every member a compiled writer of main rows: their row counts; else None
@@ -71,6 +74,7 @@ class PythonWriters:
                 k += 1
             writes.append((i, role, member, scale, a, b, writer))
         self.writes = writes
+        self.evaluations = [(role, member, w) for (role, member, _), w in zip(self.external, writers, strict=True)]
         self.null_external = any(role in (NULL, LIE_NULL, GRADIENT) for role, _, _ in self.external)
         self.has_targets = any(role == TARGET for role, _, _ in self.external)
         direct = all(_direct(role, w) for role, _, _, _, _, _, w in writes)
@@ -91,8 +95,26 @@ class PythonWriters:
         nv = robot._nv
         out: list[TaskTerm | None] = []
         rows: list[int] = []
-        for (role, member, _), writer in zip(self.external, self.writers, strict=True):
-            if role == GRADIENT:  # (written by ``write_external``: its compiled writer, or ``direction``)
+        for role, member, writer in self.evaluations:
+            if writer is None and (role == ROW or role == NULL or role == TERM):  # (first: a user's task)
+                term = member.evaluate(robot, t)
+                J, v, e = term.J, term.v, term.error
+                if not (
+                    type(J) is np.ndarray
+                    and type(v) is np.ndarray
+                    and type(e) is np.ndarray
+                    and J.ndim == 2
+                    and J.shape[1] == nv
+                    and v.shape == e.shape == (J.shape[0],)
+                ):
+                    check_term(term, nv)  # raises, naming the task and its shapes
+                    return None  # (a term of numbers that are not float arrays: the per-task path takes it)
+                if role == ROW:
+                    rows.append(J.shape[0])
+                elif role == NULL and J.shape[0] != nv:
+                    return None
+                out.append(term)
+            elif role == GRADIENT:  # (written by ``write_external``: its compiled writer, or ``direction``)
                 out.append(None)
             elif role == TARGET:  # one row: by its potential's compiled writer in write_external, or its ``row``
                 rows.append(1)
@@ -118,25 +140,7 @@ class PythonWriters:
                 if role == ROW:
                     rows.append(r)
                 out.append(TaskTerm(member.name, J, v, e, member.weight))
-            elif role == ROW or role == NULL or role == TERM:
-                term = member.evaluate(robot, t)
-                J, v, e = term.J, term.v, term.error
-                if not (
-                    type(J) is np.ndarray
-                    and type(v) is np.ndarray
-                    and type(e) is np.ndarray
-                    and J.ndim == 2
-                    and J.shape[1] == nv
-                    and v.shape == e.shape == (J.shape[0],)
-                ):
-                    check_term(term, nv)  # raises, naming the task and its shapes
-                    return None  # (a term of numbers that are not float arrays: the per-task path takes it)
-                if role == NULL and J.shape[0] != nv:
-                    return None
-                if role == ROW:
-                    rows.append(J.shape[0])
-                out.append(term)
-            else:
+            else:  # (a Lie-group null term: written by ``write_external``)
                 out.append(None)
         self.repacked = rows != self.external_rows
         if self.repacked:
@@ -192,23 +196,7 @@ class PythonWriters:
         q = robot.q
         e_all, v_all = ev[0], ev[1]
         for i, role, member, scale, a, b, writer in self.writes:
-            if role == TARGET:
-                term = terms[i]
-                if term is None:  # its potential's compiled writer, straight into the step's row
-                    assert Jrows is not None and isinstance(writer, CompiledGradient)
-                    eta = Jrows[a - offset]
-                    eta.fill(0.0)
-                    p = writer.kernel(q, self.poses, self.jw, writer.ints, writer.floats, eta)
-                    e_all[a] = err = member.target - p
-                    v_all[a] = member.target_rate + member.rate * err
-                else:
-                    if Jrows is not None:
-                        Jrows[a - offset] = term.J[0]
-                    e_all[a] = term.error[0]
-                    v_all[a] = term.v[0]
-                if weights is not None:
-                    weights[a - offset] = member.weight * scale
-            elif role == ROW:
+            if role == ROW:  # (first: the common member)
                 term = terms[i]
                 if term is None:  # a compiled writer, straight into the step's rows
                     assert Jrows is not None and isinstance(writer, CompiledRows)
@@ -225,6 +213,22 @@ class PythonWriters:
                     weight = term.weight
                 if weights is not None:
                     weights[a - offset : b - offset] = weight * scale
+            elif role == TARGET:
+                term = terms[i]
+                if term is None:  # its potential's compiled writer, straight into the step's row
+                    assert Jrows is not None and isinstance(writer, CompiledGradient)
+                    eta = Jrows[a - offset]
+                    eta.fill(0.0)
+                    p = writer.kernel(q, self.poses, self.jw, writer.ints, writer.floats, eta)
+                    e_all[a] = err = member.target - p
+                    v_all[a] = member.target_rate + member.rate * err
+                else:
+                    if Jrows is not None:
+                        Jrows[a - offset] = term.J[0]
+                    e_all[a] = term.error[0]
+                    v_all[a] = term.v[0]
+                if weights is not None:
+                    weights[a - offset] = member.weight * scale
             elif role == NULL:
                 term = terms[i]
                 assert term is not None
