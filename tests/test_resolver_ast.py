@@ -53,6 +53,10 @@ ALLOWED: dict[tuple[str, str], str] = {
     ("resolver", "_resolve"): "a QP resolver's template (resolvers/qp/base.py), in its direction mode",
     ("resolver", "_diagnose"): "an hqp resolver's diagnostics (resolvers/qp/hqp.py), in its direction mode",
     ("resolver", "_solve_qp"): "a QP resolver's backend call (resolvers/qp/base.py), in its direction mode",
+    ("resolver", "_P"): "a WeightedQPResolver's Hessian, solved by its native box step (resolvers/qp/wqp_native.py)",
+    ("resolver", "_q"): "a WeightedQPResolver's gradient, solved by its native box step (resolvers/qp/wqp_native.py)",
+    ("resolver", "_dq_hist"): "a QP resolver's last two q̇ (its jerk window), kept by its native box step as by its "
+    "template",
 }
 
 

@@ -50,6 +50,11 @@ def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS, *, ik: bool = Tr
         resolver = rk.make_resolver(name)
         with _coldstart.compiling():  # this thread's kernel calls compile: none runs interpreted
             _step_both_paths(rk, robot, resolver, q0)
+            _speed_cap()
+            if name == "wqp":  # (a step whose limit binds solves its box QP through daqp's C entry point)
+                from redundik.resolvers.qp.wqp_native import warm_native_box
+
+                warm_native_box()
         _coldstart.HOT.add(name)
         out[name] = time.perf_counter() - t0
     if ik:
@@ -63,6 +68,14 @@ def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS, *, ik: bool = Tr
         out["solve_ik"] = time.perf_counter() - t0
     _LOG.info("redundik: kernels ready in %.1f s", sum(out.values()))
     return out
+
+
+def _speed_cap() -> None:
+    """The joint-speed cap's test (``SpeedLimiter.binds``: max |q̇_i| / c_i), which a step reaches only when ‖q̇‖
+    exceeds the smallest cap: the warm-up's slow steps never do, and a loop's first fast step compiled it."""
+    from redundik.resolvers.linalg import K
+
+    K.scaled_max(np.ones(2), np.ones(2))
 
 
 def _gradients(rk: Any) -> list[Any]:

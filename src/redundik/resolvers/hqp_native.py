@@ -15,6 +15,7 @@ from redundik import _kernel_cache
 from redundik.resolvers.hqp_layout import NAT_FN, NAT_PROBLEM, NAT_RESULT, NAT_SENSE, NAT_SETTINGS
 from redundik.resolvers.hqp_level_qp import qp_views
 from redundik.resolvers.kernels import _jit
+from redundik.resolvers.layouts import OUT_DQ, OUT_KEPT, OUT_LB, OUT_UB
 
 #: Words of daqp's ``DAQPProblem`` from ``NAT_PROBLEM``: (n, m) as two int32, ms, the addresses of H, f, A, bupper,
 #: blower, sense and break_points, (nh, problem_type) as two int32.
@@ -139,3 +140,31 @@ def box_qps_native(
             for j in range(n):
                 dq[i, j] = min(max(nx[j], lb[i, j]), ub[i, j])
     return total
+
+
+@_jit
+def box_qp_native_into(native: np.ndarray, nx: np.ndarray, qbuf: np.ndarray, P: np.ndarray, q: np.ndarray,
+                       out: np.ndarray) -> tuple[int, int]:  # fmt: skip
+    """The box QP min ½xᵀPx + qᵀx s.t. lb ≤ x ≤ ub of one ``wqp`` step (P (n, n), q (n,); lb, ub the rows
+    ``OUT_LB``, ``OUT_UB`` of ``out`` (``layouts.OUT_ROWS``, n)) through :func:`native_quadprog`: the call
+    ``DaqpBackend.solve`` makes on a bounds-only QP below its split size, on the same numbers. Where daqp solves it at
+    once (exit flag 1 or 2) and x is finite, x clipped to the box (``clip_twice``'s projection) goes to the rows
+    ``OUT_DQ`` and ``OUT_KEPT``; otherwise nothing is written there (the caller poses the QP with the backend's
+    retries). Returns (daqp's exit flag, its iterations); the flag is 0 when x is not finite."""
+    n = P.shape[0]
+    Pv, qv, _, upper, lower = qp_views(qbuf, n, 0)
+    Pv[:, :] = P
+    qv[:] = q
+    upper[:] = out[OUT_UB]
+    lower[:] = out[OUT_LB]
+    flag, iters = native_quadprog(native, nx, qbuf, n, 0, 0)
+    if flag != 1 and flag != 2:
+        return flag, iters
+    for j in range(n):
+        if not math.isfinite(nx[j]):
+            return 0, iters
+    for j in range(n):
+        v = min(max(nx[j], out[OUT_LB, j]), out[OUT_UB, j])
+        out[OUT_DQ, j] = v
+        out[OUT_KEPT, j] = v
+    return flag, iters

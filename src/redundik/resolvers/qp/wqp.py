@@ -69,6 +69,7 @@ from redundik.resolvers.qp.direction import DirectionScaling, solve_direction
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, infeasible
 from redundik.resolvers.qp.wqp_fused import FusedWqpResult, free_diagnostics, work_views, write_external_rows
+from redundik.resolvers.qp.wqp_native import native_box_step
 from redundik.resolvers.settings import Setting, flag, nonnegative, unit_interval
 from redundik.resolvers.singularity import SingularityGuard
 from redundik.tasks.base import TaskTerm
@@ -345,8 +346,9 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         z = _NO_Z if z is None else z
         inside = K.wqp_free_step(self._P, self._q, z, robot.q, args[0], lim, opts, prev, out)
         windowed = prev.shape[0] > 0
-        if not inside:  # a constraint is active (or the optimum is not finite): the backend, through the template
-            return self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1)
+        if not inside:  # a constraint is active (or the optimum is not finite): daqp's C entry, or the template
+            native = native_box_step(self, stack, terms, out, windowed, lam, t0, t1)
+            return native or self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1)
         dq, kept = out[OUT_DQ], out[OUT_KEPT]
         self._dq_prev = kept
         diagnostics = free_diagnostics(self, lambda: terms, plan.main, out, windowed, kept, lam)
@@ -487,7 +489,8 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             K, m = len(fused.frames), fused.m
             out, ev, Jf = work_views(work, K, m, n)
             terms = fused.terms(Jf, ev, q, robot, external)
-            return self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1, bounds)
+            native = None if bounds is not None else native_box_step(self, stack, terms, out, windowed, lam, t0, t1)
+            return native or self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1, bounds)
         self._dq_prev = work[OUT_KEPT * n : (OUT_KEPT + 1) * n]
         return FusedWqpResult.of(
             self, fused, work, q, robot, windowed, lam, err2, dq2, t1 - t0, t1, plan.main, external

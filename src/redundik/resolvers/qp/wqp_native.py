@@ -1,0 +1,90 @@
+"""``wqp``'s box QP through daqp's C entry point: a step whose unconstrained optimum leaves the joint-limit box (a
+limit binds) solves min ½ q̇ᵀP q̇ + gᵀq̇ s.t. lb ≤ q̇ ≤ ub in one compiled call (``hqp_native.box_qp_native_into``)
+instead of the template's second half (``QPProblem``, the backend's Python wrapper, the settling).
+
+It is the template's answer, not an approximation: the same QP goes to the same daqp function with the same settings
+(the call ``DaqpBackend.solve`` makes on a bounds-only QP below its split size, checked bit for bit by
+:mod:`redundik.resolvers.qp.daqp_native` for the daqp version installed), x is clipped to the box as the template
+clips it, and the result carries the same info, diagnostics and kept q̇. Anything else — another backend, a QP daqp
+does not solve at once (the template then poses it with every retry), bound rows, a problem at or above the
+backend's split or lift size, the native call off — returns ``None`` and the template solves the step as before.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from redundik._coldstart import ready
+from redundik.resolvers.base import LazyStepResult, StepResult
+from redundik.resolvers.layouts import OUT_DQ, OUT_KEPT, OUT_LB, OUT_ROWS, OUT_UB
+from redundik.resolvers.qp.base import QPDiagnostics
+from redundik.resolvers.qp.daqp_backend import DaqpBackend
+from redundik.resolvers.qp.daqp_native import HK, NativeDaqp
+from redundik.tasks.base import TaskTerm
+from redundik.tasks.stack import TaskStack
+
+__all__ = ["native_box_step", "warm_native_box"]
+
+
+def native_box_step(
+    resolver: Any,  # the WeightedQPResolver stepping (its module imports this one)
+    stack: TaskStack,
+    terms: list[TaskTerm],
+    out: np.ndarray,
+    windowed: bool,
+    lam: float,
+    t0: float,
+    t1: float,
+) -> StepResult | None:
+    """The step's result when daqp's C entry point solves its box QP at once (module docstring), else ``None``.
+
+    ``out`` (``layouts.OUT_ROWS``, n): the step's box rows and answers (``wqp_free_step``'s), with the resolver's
+    ``_P`` and ``_q`` holding the QP; ``lam``: the step's λ; ``t0``/``t1`` [s]: when the step started and its build
+    ended."""
+    backend = resolver.backend
+    n = out.shape[1]
+    if type(backend) is not DaqpBackend or n >= backend._split_min_n or n >= backend.lift_min_n or not ready("wqp"):
+        return None  # (ready: not during a cold start, whose steps run the kernels' interpreted twins)
+    cached = resolver.__dict__.get("_native_box")
+    native = NativeDaqp.for_backend(backend, n, 0, None if cached is None else cached[0])
+    if native is None:
+        return None
+    if cached is None or cached[0] is not native or cached[1].shape[0] < n * n + 3 * n:
+        cached = resolver.__dict__["_native_box"] = (native, np.empty(n * n + 3 * n))
+    flag, iterations = HK.box_qp_native_into(native.ctl, native.x, cached[1], resolver._P, resolver._q, out)
+    if flag != 1 and flag != 2:
+        return None
+    dq, kept = out[OUT_DQ], out[OUT_KEPT]
+    before = resolver._dq_prev
+    resolver._dq_hist = (kept, np.zeros_like(kept) if before is None else before)  # (as the template keeps them)
+    resolver._dq_prev = kept
+    t2 = time.perf_counter()
+    limits = resolver.limits
+    box = limits.box_from(out, windowed)
+    main = resolver.layout(stack).main
+    diag = QPDiagnostics()
+    diag.backend, diag.qp, diag.iterations = backend.name, 1, int(iterations)
+
+    def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
+        diag.active_limits = box.active(kept, limits.joint_names)
+        resolver._diagnose_terms([terms[i] for i in main], lam, kept, diag)
+        return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
+
+    info: dict[str, object] = {"backend": diag.backend, "qp": 1, "iterations": diag.iterations}
+    return LazyStepResult.make(dq, terms, None, info, t1 - t0, t2 - t1, main, diagnostics)
+
+
+def warm_native_box() -> None:
+    """Compile (or load) the native box QP's kernel on a 2-variable QP whose bound binds, with the argument types
+    of a step's call (``redundik.warmup`` calls it with the ``wqp`` kernels, so that the first step whose limit
+    binds does not compile it in the control loop's thread); nothing when daqp's native call is off."""
+    backend = DaqpBackend()
+    native = NativeDaqp.for_backend(backend, 2, 0, None)
+    if native is None:
+        return
+    out = np.zeros((OUT_ROWS, 2))
+    out[OUT_LB], out[OUT_UB] = -1.0, 0.5
+    HK.box_qp_native_into(native.ctl, native.x, np.empty(10), np.eye(2), np.array([-1.0, 0.0]), out)

@@ -1,0 +1,146 @@
+"""``wqp``'s box QP through daqp's C entry point (:mod:`redundik.resolvers.qp.wqp_native`) is the template's answer:
+on steps where a joint limit binds, a resolver with the native call and one without it (``daqp_native.enabled``
+off: the backend's Python wrapper, through the template) give the same q̇, bit for bit, the same kept q̇ (the next
+step's rate window), info, diagnostics, relaxations and fallbacks — fused or per-task, with and without a rate
+window — and the lane is taken on those steps (counted), never with another backend."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import redundik as rk
+from redundik.resolvers.qp import daqp_native, wqp
+from redundik.resolvers.registry import make_resolver
+
+Q0 = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.02, 0.02])
+DT = 0.01
+
+
+def _stack() -> rk.TaskStack:
+    """The hand on a fast 20 cm circle: the velocity limits bind on many steps; a posture below it."""
+    hand = rk.FrameTask("panda_hand_tcp", rk.Circle(0.2, 6.0, plane=("x", "z")), gain=30.0)
+    return rk.TaskStack([hand, rk.PostureTask(gain=1.0)])
+
+
+def _run(native: bool, fuse: bool, limits: dict[str, float], backend: str, monkeypatch: pytest.MonkeyPatch,
+         steps: int = 120) -> tuple[list[tuple[object, ...]], int]:  # fmt: skip
+    monkeypatch.setattr(daqp_native, "enabled", native)
+    taken = [0]
+    original = wqp.native_box_step
+
+    def counting(*args: object, **kwargs: object) -> object:
+        res = original(*args, **kwargs)  # type: ignore[arg-type]
+        taken[0] += res is not None
+        return res
+
+    monkeypatch.setattr(wqp, "native_box_step", counting)
+    robot = rk.load_example_robot("panda")
+    robot.update(Q0)
+    stack = _stack()
+    stack.reset(robot)
+    res = make_resolver("wqp", backend=backend, limits=limits)
+    res.fuse = fuse  # type: ignore[attr-defined]
+    q, out = Q0.copy(), []
+    for k in range(steps):
+        step = res.step(robot, stack, q, k * DT, DT)
+        info = dict(step.info)
+        out.append((step.dq.copy(), res._dq_prev.copy(), info, step.relaxed, step.fallback, step.sigma_min,
+                    step.damped, [t.v.copy() for t in step.terms]))  # fmt: skip
+        q = robot.integrate(q, step.dq, DT)
+    return out, taken[0]
+
+
+@pytest.mark.parametrize("fuse", [True, False])
+@pytest.mark.parametrize("limits", [{}, {"acceleration": 40.0}], ids=["box", "rate_window"])
+def test_the_native_box_qp_is_the_templates_answer(fuse: bool, limits: dict[str, float],
+                                                    monkeypatch: pytest.MonkeyPatch) -> None:  # fmt: skip
+    if not daqp_native.entry():
+        pytest.skip(f"daqp's native call is off here: {daqp_native.status()}")  # (CI installs daqp 0.11.0)
+    native, taken = _run(True, fuse, limits, "daqp", monkeypatch)
+    template, taken_off = _run(False, fuse, limits, "daqp", monkeypatch)
+    qp_steps = sum(1 for step in native if step[2]["qp"])
+    assert qp_steps >= 20, f"a limit bound on {qp_steps} of 120 steps only"  # (the test could fail)
+    assert taken == qp_steps and taken_off == 0
+    for k, (a, b) in enumerate(zip(native, template, strict=True)):
+        np.testing.assert_array_equal(a[0], b[0], err_msg=f"q̇, step {k}")
+        np.testing.assert_array_equal(a[1], b[1], err_msg=f"kept q̇, step {k}")
+        assert a[2] == b[2], f"info, step {k}"
+        assert a[3:7] == b[3:7], f"relaxed, fallback, σ_min, damped, step {k}"
+        for va, vb in zip(a[7], b[7], strict=True):
+            np.testing.assert_array_equal(va, vb)
+
+
+def test_another_backend_never_takes_the_native_box(monkeypatch: pytest.MonkeyPatch) -> None:
+    out, taken = _run(True, True, {}, "quadprog", monkeypatch, steps=60)
+    assert taken == 0 and any(step[2]["qp"] for step in out)
+    assert {step[2]["backend"] for step in out if step[2]["qp"]} == {"quadprog"}
+
+
+def test_warm_up_compiles_the_native_box_kernel(tmp_path: Path) -> None:
+    """On an empty kernel cache, after ``warm_up(["wqp"])`` (what the cold start's background thread runs), fast
+    steps whose limits bind take the native box QP without compiling anything in the caller's thread (numba's
+    compile events, by thread): its kernel, and the joint-speed cap's test, are among those the warm-up compiles
+    (the cap's compiled at the loop's first fast step before), not a stall in a control loop."""
+    import json
+    import os
+    import subprocess
+    import sys
+    import textwrap
+
+    from redundik import _kernel_cache as kc
+
+    code = textwrap.dedent(
+        """
+        import json, threading
+        import numpy as np
+        import redundik as rk
+        from numba.core import event
+        from redundik.resolvers.qp import wqp
+        from redundik.warmup import warm_up
+
+        warm_up(["wqp"], ik=False)
+        main, found, taken = threading.get_ident(), [], [0]
+
+        class Listener(event.Listener):
+            def on_start(self, ev):
+                if threading.get_ident() == main:
+                    found.append(ev.data["dispatcher"].py_func.__qualname__)
+
+            def on_end(self, ev):
+                pass
+
+        original = wqp.native_box_step
+
+        def counting(*args):
+            res = original(*args)
+            taken[0] += res is not None
+            return res
+
+        wqp.native_box_step = counting
+        event.register("numba:compile", Listener())
+        robot = rk.load_example_robot("panda")
+        q = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.02, 0.02])
+        robot.update(q)
+        hand = rk.FrameTask("panda_hand_tcp", rk.Circle(0.2, 6.0, plane=("x", "z")), gain=30.0)
+        stack = rk.TaskStack([hand, rk.PostureTask(gain=1.0)])
+        stack.reset(robot)
+        res, qp = rk.make_resolver("wqp"), 0
+        for k in range(60):
+            step = res.step(robot, stack, q, 0.01 * k, 0.01)
+            qp += step.info["qp"]
+            q = robot.integrate(q, step.dq, 0.01)
+        print(json.dumps({"found": sorted(set(found)), "taken": taken[0], "qp": qp}))
+        """
+    )
+    env = {**os.environ, "PYTHONPATH": str(kc.PACKAGE_ROOT.parent), "REDUNDIK_COLD_START": "wait",
+           "REDUNDIK_CACHE_DIR": str(tmp_path)}  # fmt: skip
+    out = subprocess.run(
+        [sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=900, check=False
+    )
+    assert out.returncode == 0, out.stderr[-3000:]
+    got = json.loads(out.stdout.strip().splitlines()[-1])
+    assert got["qp"] >= 10 and got["taken"] == got["qp"], got
+    assert got["found"] == [], got["found"]
