@@ -143,10 +143,41 @@ def deadline_stats(
 def _positive(value: object, key: str, *, zero: bool = False) -> float:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ResolverError(f"control loop: {key} must be a number [s], got {short_repr(value)}")
-    x = float(value)
+    try:
+        x = float(value)
+    except OverflowError:  # an int beyond the float range (10**400): out of range, refused below
+        x = math.inf
     if not (math.isfinite(x) and (x >= 0.0 if zero else x > 0.0)):
-        raise ResolverError(f"control loop: {key} must be finite and {'≥' if zero else '>'} 0 [s], got {value!r}")
+        raise ResolverError(
+            f"control loop: {key} must be finite and {'≥' if zero else '>'} 0 [s], got {short_repr(value)}"
+        )
     return x
+
+
+def _check_parts(robot: object, stack: object, resolver: object) -> None:
+    """Refuse at construction what would fail at the first tick (an ``AttributeError`` deep in a step): a robot that
+    is not a :class:`~redundik.kinematics.RobotModel`, a stack that is not a :class:`~redundik.tasks.TaskStack` (a
+    list of tasks), a resolver without a callable ``step``.
+
+    Raises:
+        ResolverError: naming the argument and what was expected.
+    """
+    from redundik.kinematics.model import RobotModel
+    from redundik.tasks.stack import TaskStack
+
+    if not isinstance(robot, RobotModel):
+        raise ResolverError(
+            f"control loop: robot must be a RobotModel (rk.load_example_robot, rk.from_urdf, ...), got "
+            f"{type(robot).__name__} {short_repr(robot)}"
+        )
+    if not isinstance(stack, TaskStack):
+        hint = " (wrap the tasks: rk.TaskStack([...]))" if isinstance(stack, (list, tuple)) else ""
+        raise ResolverError(f"control loop: stack must be a TaskStack, got {type(stack).__name__}{hint}")
+    if not callable(getattr(resolver, "step", None)):
+        raise ResolverError(
+            f"control loop: resolver must be a resolver (rk.make_resolver(...)), got {type(resolver).__name__} "
+            f"{short_repr(resolver)}"
+        )
 
 
 class ControlLoop:
@@ -169,7 +200,8 @@ class ControlLoop:
         sleep: Sleeps a duration [s] (default ``time.sleep``).
 
     Raises:
-        ResolverError: a period, slack or spin that is not a finite number > 0 (≥ 0), read/write not callable.
+        ResolverError: a period, slack or spin that is not a finite number > 0 (≥ 0), read/write not callable, a
+            robot that is not a RobotModel, a stack that is not a TaskStack, a resolver without a ``step``.
     """
 
     def __init__(
@@ -189,6 +221,7 @@ class ControlLoop:
         clock: Callable[[], float] = time.perf_counter,
         sleep: Callable[[float], object] = time.sleep,
     ) -> None:
+        _check_parts(robot, stack, resolver)
         self.period = _positive(period, "period")
         for key, fn in (("read", read), ("write", write), ("clock", clock), ("sleep", sleep)):
             if not callable(fn):
@@ -197,7 +230,7 @@ class ControlLoop:
         self.read, self.write, self.clock, self.sleep = read, write, clock, sleep
         self.warm, self.reset = warm, reset
         self.gc_slack: float | None = None
-        if gc_slack == "auto":
+        if isinstance(gc_slack, str) and gc_slack == "auto":  # (an array's == is elementwise)
             self.gc_slack = 0.5 * self.period
         elif gc_slack is not None:
             self.gc_slack = _positive(gc_slack, "gc_slack", zero=True)

@@ -11,7 +11,7 @@ idle. One problem at a time keeps each one on its own fastest path and the answe
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -102,8 +102,12 @@ def solve_ik_batch(
     s = settings(position_tolerance, orientation_tolerance, max_iterations, timeout, max_restarts)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ResolverError(f"solve_ik_batch: seed must be an int ≥ 0, got {seed!r:.60}")
-    if isinstance(targets, (str, bytes)) or not hasattr(targets, "__len__"):
-        raise ResolverError(f"solve_ik_batch: targets must be a sequence or an array of N targets, got {targets!r:.60}")
+    if isinstance(targets, (str, bytes, Mapping)) or not isinstance(targets, (Sequence, np.ndarray)):
+        # (a mapping is solve_ik's frame → target form: here it was indexed 0, 1, ... and ended in a KeyError)
+        raise ResolverError(
+            f"solve_ik_batch: targets must be a sequence (a list, a tuple) or an array of N targets, got "
+            f"{type(targets).__name__} {targets!r:.60}"
+        )
     n = len(targets)
     names, _ = frames_and_targets(frame, [None] * len(frame) if not isinstance(frame, str) else None)
     problem = build_problem(robot, names)

@@ -30,9 +30,15 @@ def positive(value: object, what: str, unit: str, *, allow_none: bool = False) -
         return None
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ResolverError(f"solve_ik: {what} must be a number > 0 [{unit}], got {value!r:.60}")
-    if not (math.isfinite(value) and value > 0):
-        raise ResolverError(f"solve_ik: {what} must be finite and > 0 [{unit}], got {value}")
-    return float(value)
+    try:
+        x = float(value)
+    except OverflowError:  # an int beyond the float range (10**400): out of range, refused below
+        x = math.inf
+    if not (math.isfinite(x) and x > 0):
+        raise ResolverError(
+            f"solve_ik: {what} must be finite and > 0 [{unit}] (within the float range), got {value!r:.60}"
+        )
+    return x
 
 
 def count(value: object, what: str, minimum: int, *, allow_none: bool = False) -> int | None:

@@ -20,7 +20,7 @@ import numpy as np
 import pinocchio as pin
 
 from redundik._names import did_you_mean
-from redundik.errors import ModelError
+from redundik.errors import ModelError, short_repr
 from redundik.kinematics.memory import se3_vector_view
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
@@ -56,6 +56,32 @@ def _float_vectors(model: pin.Model) -> dict[str, np.ndarray]:
             if isinstance(value, np.ndarray) and value.dtype.kind == "f":
                 vectors[name] = np.array(value, dtype=float)
     return vectors
+
+
+def _finite_real(value: object, what: str, low: float | None = None) -> float:
+    """``value`` as a float when it is a finite real number (not a bool) ≥ ``low``, else a :class:`ModelError`
+    naming ``what`` (an int beyond the float range too: out of range, not an ``OverflowError``)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ModelError(f"{what} must be a real number, got {type(value).__name__} {short_repr(value)}")
+    try:
+        x = float(value)
+    except OverflowError:  # an int beyond the float range
+        x = math.inf
+    if not math.isfinite(x) or (low is not None and x < low):
+        rule = "a finite number" if low is None else f"a finite number ≥ {low:g}"
+        raise ModelError(f"{what} must be {rule} (within the float range), got {short_repr(value)}")
+    return x
+
+
+def _reals(value: object, what: str) -> np.ndarray:
+    """``value`` as a 1-D float array of real numbers (no bool, complex or text: never cast), else a ModelError."""
+    try:
+        raw = np.asarray(value)
+        if raw.dtype.kind not in "fiuO" or value is None:
+            raise TypeError(f"dtype {raw.dtype}")
+        return np.asarray(raw, dtype=float).reshape(-1)
+    except (TypeError, ValueError) as exc:
+        raise ModelError(f"{what}, got {type(value).__name__} ({exc})") from None
 
 
 @dataclass(frozen=True)
@@ -134,41 +160,19 @@ class RobotModel:
                 kind = "prismatic"
             else:
                 kind = "other"
-            if jmodel.nq == 1 and jmodel.nv == 1:
+            if jmodel.nq == 1 and jmodel.nv == 1:  # (name, idx_q, idx_v, kind, lower, upper, velocity)
                 iq, iv = jmodel.idx_q, jmodel.idx_v
-                joints.append(
-                    JointInfo(
-                        name=jname,
-                        idx_q=iq,
-                        idx_v=iv,
-                        kind=kind,
-                        lower=float(self.model.lowerPositionLimit[iq]),
-                        upper=float(self.model.upperPositionLimit[iq]),
-                        velocity=float(self.model.velocityLimit[iv]),
-                    )
-                )
+                limits = float(self.model.lowerPositionLimit[iq]), float(self.model.upperPositionLimit[iq])
+                joints.append(JointInfo(jname, iq, iv, kind, *limits, float(self.model.velocityLimit[iv])))
             else:
                 for k in range(jmodel.nv):
-                    joints.append(
-                        JointInfo(
-                            name=f"{jname}.{k}",
-                            idx_q=jmodel.idx_q + k if jmodel.nq == jmodel.nv else -1,
-                            idx_v=jmodel.idx_v + k,
-                            kind="other",
-                            lower=-np.inf,
-                            upper=np.inf,
-                            velocity=float(self.model.velocityLimit[jmodel.idx_v + k]),
-                        )
-                    )
+                    iq, iv = jmodel.idx_q + k if jmodel.nq == jmodel.nv else -1, jmodel.idx_v + k
+                    velocity = float(self.model.velocityLimit[iv])
+                    joints.append(JointInfo(f"{jname}.{k}", iq, iv, "other", -np.inf, np.inf, velocity))
         self.joints = tuple(joints)
-        quats = []
-        for jid in range(1, self.model.njoints):
-            short = self.model.joints[jid].shortname()
-            if short == "JointModelFreeFlyer":
-                quats.append((self.model.names[jid], self.model.joints[jid].idx_q + 3))
-            elif short == "JointModelSpherical":
-                quats.append((self.model.names[jid], self.model.joints[jid].idx_q))
-        self._quaternions = tuple(quats)
+        first = {"JointModelFreeFlyer": 3, "JointModelSpherical": 0}  # the quaternion's offset in the joint's q
+        joints_q = [(self.model.names[j], self.model.joints[j]) for j in range(1, self.model.njoints)]
+        self._quaternions = tuple((n, jm.idx_q + first[s]) for n, jm in joints_q if (s := jm.shortname()) in first)
         self._check_model()
 
     def __getstate__(self) -> dict[str, object]:
@@ -271,7 +275,7 @@ class RobotModel:
         table made once per model (a task that looks its frame up by name at every tick pays a dictionary lookup).
 
         Raises:
-            ModelError: if no such frame exists; the message lists close matches.
+            ModelError: if no such frame exists (the message lists close matches), or ``name`` is not a str.
         """
         table = self._frame_ids
         model = self.model
@@ -283,6 +287,10 @@ class RobotModel:
         fid = table[2].get(name) if type(name) is str else None
         if fid is not None:
             return fid
+        if not isinstance(name, str):  # (Boost.Python's ArgumentError otherwise)
+            raise ModelError(
+                f"robot '{self.name}': a frame name (str) was expected, got {type(name).__name__} {short_repr(name)}"
+            )
         if not self.model.existFrame(name):
             raise ModelError(
                 f"frame '{name}' does not exist in robot '{self.name}'; {did_you_mean(name, self.frame_names)}"
@@ -309,9 +317,17 @@ class RobotModel:
         """The neutral configuration (zeros for a D-H chain)."""
         return np.asarray(pin.neutral(self.model), dtype=float)
 
-    def random_configuration(self, rng: np.random.Generator | None = None) -> np.ndarray:
-        """A configuration drawn uniformly within the joint limits (±π for unlimited revolute joints)."""
-        rng = rng if rng is not None else np.random.default_rng()
+    def random_configuration(self, rng: np.random.Generator | int | None = None) -> np.ndarray:
+        """A configuration drawn uniformly within the joint limits (±π for unlimited revolute joints), with ``rng``: a
+        ``numpy.random.Generator``, an int seed ≥ 0 (``np.random.default_rng(seed)``) or ``None`` (fresh entropy);
+        anything else is a :class:`ModelError`."""
+        if rng is None or (isinstance(rng, (int, np.integer)) and not isinstance(rng, bool) and rng >= 0):
+            rng = np.random.default_rng(None if rng is None else int(rng))
+        elif not isinstance(rng, np.random.Generator):
+            raise ModelError(
+                f"robot '{self.name}': random_configuration(rng): expected a numpy Generator "
+                f"(np.random.default_rng(...)), an int seed ≥ 0 or None, got {type(rng).__name__} {short_repr(rng)}"
+            )
         lo = np.array(self.model.lowerPositionLimit, dtype=float)
         hi = np.array(self.model.upperPositionLimit, dtype=float)
         lo = np.where(np.isfinite(lo) & (lo > -1e10), lo, -np.pi)
@@ -330,29 +346,44 @@ class RobotModel:
         """q ⊕ q̇·dt on the configuration manifold (plain q + q̇·dt for a D-H chain).
 
         This is the chapter's first-order update q_new = q + q̇·dt.
+
+        Raises:
+            ModelError: a q that :meth:`update` refuses (a quaternion far from unit norm), a dq that is not nv real
+                numbers, a dt that is not a finite number, or a non-finite result (NaN in q or dq).
         """
-        v = np.asarray(dq, dtype=float)
-        if v.shape != (self.nv,):
-            if v.size != self.nv:
-                raise ModelError(f"integrate: dq has {v.size} entries, robot '{self.name}' has nv = {self.nv}")
-            v = v.reshape(-1)
-        if isinstance(dt, bool) or not isinstance(dt, (int, float, np.integer, np.floating)) or not math.isfinite(dt):
-            raise ModelError(f"integrate: dt must be a finite number [s], got {dt!r}")
-        try:
-            out = np.asarray(pin.integrate(self.model, q, v * dt), dtype=float)
-        except (TypeError, ValueError, RuntimeError):  # Pinocchio's multi-line C++ messages: say what was wrong
-            arr = np.asarray(q)
-            raise ModelError(
-                f"integrate: q must be {self.nq} real numbers for robot '{self.name}', got shape {arr.shape}"
-            ) from None
+        nv = self._nv
+        v = dq
+        if not (type(dq) is np.ndarray and dq.dtype == np.float64 and dq.shape == (nv,)):
+            v = _reals(dq, f"integrate: dq must be {nv} real numbers for robot '{self.name}'")
+            if v.size != nv:
+                raise ModelError(f"integrate: dq has {v.size} entries, robot '{self.name}' has nv = {nv}")
+        if type(dt) is not float or not math.isfinite(dt):
+            dt = _finite_real(dt, "integrate: dt")
+        if not (type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self._nq,)):
+            q = self.check_configuration(q, f"integrate: q must be {self._nq} real numbers for robot '{self.name}'")
+        elif self._quaternions:  # (a zero quaternion gave a zero quaternion back, which update refuses)
+            q = self._unit_quaternions(q, f"integrate: q for robot '{self.name}'")
+        out = np.asarray(pin.integrate(self.model, q, v * dt), dtype=float)
         if not math.isfinite(float(out @ out)) and not np.isfinite(out).all():
-            bad = "q" if not np.isfinite(np.asarray(q, dtype=float)).all() else "dq"
+            bad = "q" if not np.isfinite(q).all() else "dq"
             raise ModelError(f"integrate: the result is not finite ({bad} contains NaN or infinite values)")
         return out
 
     def difference(self, q0: np.ndarray, q1: np.ndarray) -> np.ndarray:
-        """The velocity that goes from q0 to q1 in unit time (q1 ⊖ q0)."""
+        """The velocity that goes from q0 to q1 in unit time (q1 ⊖ q0).
+
+        Raises:
+            ModelError: q0 or q1 refused by :meth:`check_configuration` (size, NaN, a quaternion far from unit).
+        """
+        q0, q1 = self._checked(q0, "difference(q0)"), self._checked(q1, "difference(q1)")
         return np.asarray(pin.difference(self.model, q0, q1), dtype=float)
+
+    def _checked(self, q: Any, what: str) -> np.ndarray:
+        """:meth:`check_configuration`, in a few operations for a finite (one reduction) float64 array (nq,)."""
+        fast = type(q) is np.ndarray and q.dtype == np.float64 and q.shape == (self._nq,)
+        if fast and math.isfinite(np.add.reduce(q)):
+            return self._unit_quaternions(q, f"robot '{self.name}': {what}") if self._quaternions else q
+        return self.check_configuration(q, f"robot '{self.name}': {what}")
 
     def check_configuration(self, q: Sequence[float] | np.ndarray, where: str = "q") -> np.ndarray:
         """Return ``q`` as a float array after checking its size and finiteness.
@@ -360,13 +391,7 @@ class RobotModel:
         Raises:
             ModelError: wrong length or non-finite entries; names ``where`` and the expected size.
         """
-        try:
-            raw = np.asarray(q)
-            if raw.dtype.kind not in "fiuO":  # bool, complex, strings: not joint values
-                raise TypeError(f"dtype {raw.dtype}")
-            arr = np.asarray(raw, dtype=float).reshape(-1)
-        except (TypeError, ValueError) as exc:
-            raise ModelError(f"{where}: expected {self.nq} real numbers for robot '{self.name}', got {exc}") from None
+        arr = _reals(q, f"{where}: expected {self.nq} real numbers for robot '{self.name}'")
         if arr.shape[0] != self.nq:
             raise ModelError(f"{where}: expected {self.nq} values for robot '{self.name}', got {arr.shape[0]}")
         if not np.all(np.isfinite(arr)):
@@ -430,7 +455,11 @@ class RobotModel:
         return self._joints_table()[2][2].copy()
 
     def limit_violation(self, q: np.ndarray, tol: float = 1e-9) -> np.ndarray:
-        """Per-joint amount by which q is outside its position limits (0 inside), in q̇ order."""
+        """Per-joint amount by which q is outside its position limits (0 inside, and below ``tol``), in q̇ order;
+        a q that :meth:`check_configuration` refuses or a tol that is not a finite number ≥ 0 is a ModelError."""
+        q = self._checked(q, "limit_violation(q)")
+        if not (type(tol) is float and 0.0 <= tol < math.inf):
+            tol = _finite_real(tol, f"robot '{self.name}': limit_violation: tol", low=0.0)
         out = np.zeros(len(self.joints))
         for k, j in enumerate(self.joints):
             if j.idx_q < 0:
@@ -559,9 +588,7 @@ class RobotModel:
                 owner[jm.idx_v : jm.idx_v + jm.nv] = jid
             mask = np.zeros((self.nv, self.nv))
             for j in range(self.nv):
-                anc = set(self.model.supports[int(owner[j])])
-                for k in range(self.nv):
-                    mask[j, k] = 1.0 if owner[k] in anc else 0.0
+                mask[j] = np.isin(owner, list(self.model.supports[int(owner[j])]))
             self._support = mask
         return self._support
 

@@ -144,15 +144,25 @@ class Resolver(ABC):
     _stepping: TaskStack | None = None
     #: The command watchdog (:mod:`redundik.resolvers.watchdog`), or ``None``; :attr:`command_timeout` makes one.
     watchdog: Watchdog | None = None
-    #: BLAS threads inside a step: an int, or ``None`` to leave the process's setting alone. The default ``"auto"``
-    #: limits BLAS to one thread for robots with nv ≥ :data:`BLAS_LIMIT_NV` = 64 (threaded products on small matrices
-    #: stall on busy cores) unless the user set ``OMP_NUM_THREADS``/``OPENBLAS_NUM_THREADS``/``MKL_NUM_THREADS``.
-    blas_threads: int | str | None = "auto"
+    #: The checked value of :attr:`blas_threads` (the class default until one is assigned): what a step reads.
+    _blas_threads: int | str | None = "auto"
     #: The joint-speed cap [rad/s] and the singularity guard (:mod:`redundik.resolvers.singularity`): options of
     #: the built-in resolvers' constructors; ``None`` (no cap, no guard) unless assigned.
     max_joint_speed = LimiterOption()
     singularity = LimiterOption()
     _limiter: SpeedLimiter | None = None
+
+    @property
+    def blas_threads(self) -> int | str | None:
+        """BLAS threads inside a step: an integer ≥ 1, or ``None`` to leave the process's setting alone. The default
+        ``"auto"`` limits BLAS to one thread for robots with nv ≥ :data:`BLAS_LIMIT_NV` = 64 (threaded products on
+        small matrices stall on busy cores) unless the user set ``OMP_NUM_THREADS``/``OPENBLAS_NUM_THREADS``/
+        ``MKL_NUM_THREADS``. Checked on assignment (:func:`check_blas_threads`), used from the next step."""
+        return self._blas_threads
+
+    @blas_threads.setter
+    def blas_threads(self, value: int | str | None) -> None:
+        self._blas_threads = check_blas_threads(self.name, "blas_threads", value)
 
     def check(self, robot: RobotModel, stack: TaskStack) -> None:
         """Refuse a stack this resolver cannot handle.
@@ -269,7 +279,7 @@ class Resolver(ABC):
                 check_gains(stack, dt, self.name)
         self._stepping = stack  # the stack whose membership was just checked (``stack_key``)
         try:
-            if self.blas_threads == "auto" and (robot._nv < BLAS_LIMIT_NV or _USER_CHOSE_THREADS):
+            if self._blas_threads == "auto" and (robot._nv < BLAS_LIMIT_NV or _USER_CHOSE_THREADS):
                 res = self.solve(robot, stack, t, dt)
             else:
                 res = self._solve_blas_limited(robot, stack, t, dt)
@@ -327,7 +337,7 @@ class Resolver(ABC):
 
     def _solve_blas_limited(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
         """:meth:`solve` with BLAS limited to :attr:`blas_threads` threads (``"auto"``: one, on a large robot)."""
-        threads = self.blas_threads
+        threads = self._blas_threads
         if threads is None:
             return self.solve(robot, stack, t, dt)
         limiter = _blas_limiter()
@@ -444,14 +454,43 @@ class Resolver(ABC):
         for key, val in (("dt", dt), ("t", t)):
             if isinstance(val, bool) or not isinstance(val, (int, float, np.integer, np.floating)):
                 raise ResolverError(f"{self.name}: {key} must be a number [s], got {type(val).__name__}")
-            if not math.isfinite(float(val)):
-                raise ResolverError(f"{self.name}: {key} must be finite [s], got {val}")
+            try:
+                finite = math.isfinite(float(val))
+            except OverflowError:  # an int beyond the float range (10**400)
+                finite = False
+            if not finite:
+                raise ResolverError(f"{self.name}: {key} must be finite [s] (within the float range), got {val!r:.60}")
         if not dt > 0:
             raise ResolverError(f"{self.name}: dt must be > 0 [s], got {dt}")
         return arr
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"
+
+
+#: Most BLAS threads :attr:`Resolver.blas_threads` accepts (the libraries take a C int).
+MAX_BLAS_THREADS = 2**31 - 1
+
+
+def check_blas_threads(who: str, key: str, value: object) -> int | str | None:
+    """``None``, ``"auto"`` or an integer 1 ≤ n ≤ :data:`MAX_BLAS_THREADS`: :attr:`Resolver.blas_threads`'s check,
+    with the signature of a :class:`~redundik.resolvers.settings.Setting` check (resolver name, option name, value).
+
+    Raises:
+        ResolverError: anything else (a bool, a float such as 2.5 or NaN, 0, a negative number, another string).
+    """
+    if value is None or (isinstance(value, str) and value == "auto"):
+        return "auto" if value is not None else None
+    if (
+        isinstance(value, (int, np.integer))
+        and not isinstance(value, (bool, np.bool_))
+        and 1 <= value <= MAX_BLAS_THREADS
+    ):
+        return int(value)
+    raise ResolverError(
+        f"{who}: {key} must be None (leave BLAS alone), 'auto' or an integer number of threads ≥ 1, got "
+        f"{type(value).__name__} {value!r:.60}"
+    )
 
 
 def check_gains(stack: TaskStack, dt: float, who: str) -> None:

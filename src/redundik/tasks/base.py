@@ -22,7 +22,7 @@ from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
-from redundik.errors import TaskError
+from redundik.errors import TaskError, short_repr
 from redundik.kinematics.model import RobotModel
 
 #: Task, subtask and potential names: a letter or digit first, then letters, digits, ``_ . : -`` (≤ 64 chars).
@@ -44,15 +44,35 @@ def check_name(name: object, what: str) -> str:
     return name
 
 
+def default_name(name: object, default: str, what: str) -> str:
+    """``default`` when ``name`` is ``None``, else ``name`` if it is a non-empty str (the ``name or default`` of the
+    constructors, which took ``""`` for ``None`` and failed on an array's truth value).
+
+    Raises:
+        TaskError: ``name`` neither ``None`` nor a non-empty str; the message names ``what`` and the default.
+    """
+    if name is None:
+        return default
+    if not isinstance(name, str) or not name:
+        raise TaskError(
+            f"{what}: name must be a non-empty string (or None for the default '{default}'), got "
+            f"{type(name).__name__} {short_repr(name)}"
+        )
+    return name
+
+
 def check_number(value: object, what: str, *, low: float | None = None, strict: bool = False) -> float:
     """A finite float ≥ ``low`` (> ``low`` when ``strict``).
 
     Raises:
-        TaskError: not a real number, NaN/inf, or out of range; the message names ``what``.
+        TaskError: not a real number, NaN/inf, beyond the float range, or out of range; the message names ``what``.
     """
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise TaskError(f"{what} must be a number, got {type(value).__name__}")
-    val = float(value)
+    try:
+        val = float(value)
+    except OverflowError:  # an int beyond the float range (10**400)
+        raise TaskError(f"{what} must be a finite number, got {short_repr(value)}: out of the float range") from None
     if not math.isfinite(val):
         raise TaskError(f"{what} must be a finite number, got {val}")
     if low is not None and (val <= low if strict else val < low):

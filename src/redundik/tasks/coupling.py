@@ -7,7 +7,7 @@ import numpy as np
 from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
-from redundik.tasks.base import CompiledRows
+from redundik.tasks.base import CompiledRows, check_number, default_name
 from redundik.tasks.rows import CompiledTask
 
 #: the compiled writers of the built-in tasks (loaded at first use)
@@ -44,18 +44,15 @@ class JointCoupling(CompiledTask):
         priority: int | None = None,
         name: str | None = None,
     ) -> None:
-        self.name = name or f"coupling_{joint_i}_{joint_j}"
+        for key, joint in (("joint_i", joint_i), ("joint_j", joint_j)):
+            if not isinstance(joint, str) or not joint:
+                raise TaskError(f"JointCoupling: {key} must be a joint name (a str), got {joint!r:.60}")
+        self.name = default_name(name, f"coupling_{joint_i}_{joint_j}", "JointCoupling")
         if joint_i == joint_j:
             raise TaskError(f"task '{self.name}': joint_i and joint_j must differ, got '{joint_i}' twice")
-        if offset is not None and not np.isfinite(offset):
-            raise TaskError(f"task '{self.name}': offset must be finite, got {offset}")
-        if not (np.isfinite(gain) and gain >= 0):
-            raise TaskError(f"task '{self.name}': gain must be a finite number ≥ 0, got {gain}")
-        if not (np.isfinite(weight) and weight > 0):
-            raise TaskError(f"task '{self.name}': weight must be > 0, got {weight}")
         self.joint_i, self.joint_j = joint_i, joint_j
-        self.offset = None if offset is None else float(offset)
-        self.gain, self.weight, self.priority = float(gain), float(weight), priority
+        self.offset = None if offset is None else check_number(offset, f"task '{self.name}': offset [rad or m]")
+        self.gain, self.weight, self.priority = gain, weight, priority  # (Task's setters: check_number)
         self._idx: tuple[int, int, int, int] | None = None
         self._c: float | None = self.offset
         self._ints = np.zeros(4, dtype=np.int64)  # the compiled writer's data, rewritten in place

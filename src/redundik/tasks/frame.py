@@ -11,9 +11,9 @@ import pinocchio as pin
 from redundik._coldstart import HOT as _HOT
 from redundik._coldstart import twins_of
 from redundik._kernel_cache import KernelNamespace
-from redundik.errors import TaskError
+from redundik.errors import TaskError, short_repr
 from redundik.kinematics.model import AXES, LWA, RobotModel
-from redundik.tasks.base import NOT_READY, FrameForm, Task, TaskTerm
+from redundik.tasks.base import NOT_READY, FrameForm, Task, TaskTerm, default_name
 from redundik.tasks.trajectory import Hold, Trajectory
 
 #: Named axis sets.
@@ -26,19 +26,27 @@ AXIS_SETS: dict[str, tuple[str, ...]] = {
 
 
 def resolve_axes(axes: str | Sequence[str]) -> tuple[str, ...]:
-    """Turn ``"pose"``/``"position"``/``"orientation"``/``"planar"`` or a list of axis names into axis names.
+    """Turn ``"pose"``/``"position"``/``"orientation"``/``"planar"`` or a list (a tuple, a 1-D array) of axis names
+    into axis names, in the order given (the order of the task's rows).
 
     Raises:
-        TaskError: on an unknown name; lists the valid ones.
+        TaskError: an unknown name (lists the valid ones), a repeated or empty list, an unordered set, or anything
+            else than a name or a sequence of names.
     """
     if isinstance(axes, str):
         if axes not in AXIS_SETS:
             raise TaskError(f"unknown axes '{axes}'; expected one of {sorted(AXIS_SETS)} or a list of {list(AXES)}")
         return AXIS_SETS[axes]
-    out = tuple(axes)
-    bad = [a for a in out if a not in AXES]
-    if bad or not out or len(set(out)) != len(out):
-        raise TaskError(f"axes {list(out)}: expected distinct names among {list(AXES)}")
+    if isinstance(axes, (set, frozenset)):  # (its order, the rows' order, would change from run to run)
+        raise TaskError(f"axes {short_repr(axes)}: a set has no order; give a list or a tuple of {list(AXES)}")
+    if not isinstance(axes, (list, tuple, np.ndarray)):
+        raise TaskError(
+            f"axes must be one of {sorted(AXIS_SETS)} or a list of names among {list(AXES)}, got "
+            f"{type(axes).__name__} {short_repr(axes)}"
+        )
+    out = tuple(str(a) if isinstance(a, str) else a for a in (axes.tolist() if isinstance(axes, np.ndarray) else axes))
+    if not out or any(not isinstance(a, str) or a not in AXES for a in out) or len(set(out)) != len(out):
+        raise TaskError(f"axes {short_repr(list(out))}: expected distinct names among {list(AXES)}")
     return out
 
 
@@ -142,7 +150,7 @@ class FrameTask(Task):
     ) -> None:
         if gain is None:
             gain = 0.0 if trajectory is not None else DEFAULT_HOLD_GAIN
-        self._init_task(name or frame, weight=weight, gain=gain, priority=priority)
+        self._init_task(default_name(name, frame, "FrameTask"), weight=weight, gain=gain, priority=priority)
         self._frame = ""
         self.frame = frame
         self.trajectory = trajectory if trajectory is not None else Hold()

@@ -4,14 +4,15 @@ resolvers' compiled steps run the same formula."""
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 
 from redundik._kernel_cache import KernelNamespace
-from redundik.errors import TaskError
+from redundik.errors import TaskError, short_repr
 from redundik.kinematics.model import RobotModel
-from redundik.tasks.base import CompiledGradient
+from redundik.tasks.base import CompiledGradient, default_name
 from redundik.tasks.potential_rows import CompiledPotential
 
 #: The compiled potential kernels, imported on first use (a namespace: a cold start puts their twins here).
@@ -37,7 +38,7 @@ class _JointPotential(CompiledPotential):
         if not isinstance(joint, str) or not joint:
             raise TaskError(f"{type(self).__name__}: joint must be a joint name (a string), got {joint!r}")
         self.joint = joint
-        self.name = name or f"{type(self).__name__.lower()}_{joint}"
+        self.name = default_name(name, f"{type(self).__name__.lower()}_{joint}", type(self).__name__)
         self._iq = -1
         self._iv = -1
         self._ints = np.zeros(2, dtype=np.int64)
@@ -61,7 +62,7 @@ class JointSine2(_JointPotential):
     """
 
     def __init__(self, joint: str, name: str | None = None) -> None:
-        super().__init__(joint, name or f"sin2_{joint}")
+        super().__init__(joint, f"sin2_{joint}" if name is None else name)
 
     def compiled_gradient(self, robot: RobotModel) -> CompiledGradient:
         """``potential_kernels.sine2_gradient``."""
@@ -74,7 +75,7 @@ class JointValue(_JointPotential):
     ``c`` may be assigned between steps (a finite number): it is the writer's data, used from the next step."""
 
     def __init__(self, joint: str, value: float, name: str | None = None) -> None:
-        super().__init__(joint, name or f"value_{joint}")
+        super().__init__(joint, f"value_{joint}" if name is None else name)
         self.c = value
 
     @property
@@ -87,9 +88,16 @@ class JointValue(_JointPotential):
         if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
             what = f"joint value potential on '{self.joint}'"
             raise TaskError(f"{what}: value must be a number, got {type(value).__name__}")
-        if not np.isfinite(value):
-            raise TaskError(f"joint value potential on '{self.joint}': value must be finite, got {value}")
-        self._floats[0] = float(value)
+        try:
+            c = float(value)
+        except OverflowError:  # an int beyond the float range (10**400)
+            c = math.inf
+        if not math.isfinite(c):
+            raise TaskError(
+                f"joint value potential on '{self.joint}': value must be finite (within the float range), got "
+                f"{short_repr(value)}"
+            )
+        self._floats[0] = c
 
     def compiled_gradient(self, robot: RobotModel) -> CompiledGradient:
         """``potential_kernels.joint_value_gradient``."""

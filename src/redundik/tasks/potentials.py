@@ -15,7 +15,7 @@ import numpy as np
 from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
 from redundik.kinematics.model import AXES, RobotModel
-from redundik.tasks.base import ClearanceForm, CompiledGradient, Edits, Potential, check_number
+from redundik.tasks.base import ClearanceForm, CompiledGradient, Edits, Potential, check_number, default_name
 from redundik.tasks.frame import resolve_axes
 from redundik.tasks.joint_potentials import JointSine2 as JointSine2
 from redundik.tasks.joint_potentials import JointValue as JointValue
@@ -255,7 +255,7 @@ class VirtualPoint(_FramePotential, CompiledPotential):
         name: str | None = None,
     ) -> None:
         self._floats = np.zeros(3)  # p_v: the compiled writer's data, rewritten in place
-        super().__init__(frame, axes, name or f"virtual_point_{frame}")
+        super().__init__(frame, axes, default_name(name, f"virtual_point_{frame}", "VirtualPoint"))
         self.point = point
 
     _position_only = True
@@ -302,7 +302,7 @@ class Clearance(_FramePotential):
         #: p_f and data.J views on Pinocchio's memory, or ``None`` when those could not be verified.
         self._views: tuple[Any, ...] | None = None
         self._floats = np.zeros(4)  # (p_o, r): the compiled writer's data, rewritten in place
-        super().__init__(frame, axes, name or f"clearance_{frame}")
+        super().__init__(frame, axes, default_name(name, f"clearance_{frame}", "Clearance"))
         self.center = center
         self.radius = radius
 
@@ -418,7 +418,7 @@ class Manipulability(_FramePotential, CompiledPotential):
     """
 
     def __init__(self, frame: str, axes: str | Sequence[str] = "pose", name: str | None = None) -> None:
-        super().__init__(frame, axes, name or f"manipulability_{frame}")
+        super().__init__(frame, axes, default_name(name, f"manipulability_{frame}", "Manipulability"))
 
     def compiled_gradient(self, robot: RobotModel) -> CompiledGradient:
         """p and η from one compiled call (``potential_kernels.manipulability_gradient``)."""
@@ -492,10 +492,14 @@ class BestPosture(CompiledPotential):
 
     @frames.setter
     def frames(self, value: str | Sequence[str]) -> None:
-        names = (value,) if isinstance(value, str) else tuple(value)
+        # one name, or a list / tuple of names (not a set or a dict: the rows of J follow the frames' order)
+        names = (value,) if isinstance(value, str) else tuple(value) if isinstance(value, (list, tuple)) else ()
         if not names or not all(isinstance(f, str) and f for f in names):
-            raise TaskError(f"subtask '{self.name}': frames must be one frame name or several, got {value!r:.80}")
-        self._frames = names
+            raise TaskError(
+                f"subtask '{self.name}': frames must be one frame name (a str) or a list / tuple of names, got "
+                f"{type(value).__name__} {value!r:.80}"
+            )
+        self._frames = tuple(str(f) for f in names)
         self._fids = []
         self.form_revision += 1
 

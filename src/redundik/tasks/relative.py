@@ -26,7 +26,7 @@ import pinocchio as pin
 from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
 from redundik.kinematics.model import AXES, RobotModel
-from redundik.tasks.base import CompiledRows
+from redundik.tasks.base import CompiledRows, default_name
 from redundik.tasks.frame import resolve_axes
 from redundik.tasks.rows import CompiledTask
 
@@ -69,17 +69,16 @@ class RelativePoseTask(CompiledTask):
         target: np.ndarray | Sequence[Sequence[float]] | None = None,
         name: str | None = None,
     ) -> None:
-        self.name = name or f"{frame_a}_in_{frame_b}"
+        for key, frame in (("frame_a", frame_a), ("frame_b", frame_b)):
+            if not isinstance(frame, str) or not frame:
+                raise TaskError(f"RelativePoseTask: {key} must be a frame name (a str), got {frame!r:.60}")
+        self.name = default_name(name, f"{frame_a}_in_{frame_b}", "RelativePoseTask")
         if frame_a == frame_b:
             raise TaskError(f"task '{self.name}': frame_a and frame_b must differ, got '{frame_a}' twice")
-        if not (np.isfinite(gain) and gain >= 0):
-            raise TaskError(f"task '{self.name}': gain must be a finite number ≥ 0, got {gain}")
-        if not (np.isfinite(weight) and weight > 0):
-            raise TaskError(f"task '{self.name}': weight must be > 0, got {weight}")
         self.frame_a, self.frame_b = frame_a, frame_b
         self.axes = resolve_axes(axes)
         self.rows = np.array([AXES[a] for a in self.axes], dtype=int)
-        self.gain, self.weight = float(gain), float(weight)
+        self.gain, self.weight = gain, weight  # (Task's setters: check_number)
         self._target: pin.SE3 | None = None
         self._given: pin.SE3 | None = None if target is None else self._pose(target)
         self._ids: tuple[int, int] | None = None

@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from redundik.errors import ResolverError
+from redundik.errors import ResolverError, TaskError, short_repr
 from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import Task, TaskTerm
 from redundik.tasks.subtasks import BoundSubtask, GradientSubtask, Subtask, TargetSubtask
@@ -124,8 +124,13 @@ class TaskStack:
 
         Raises:
             ResolverError: a member that is not a Task / Subtask, or a repeated name.
-            TaskError: a subtask that does not fit the robot.
+            TaskError: ``robot`` is not a RobotModel, or a subtask does not fit the robot.
         """
+        if not isinstance(robot, RobotModel):  # (each task's reset would fail on its first attribute of it)
+            raise TaskError(
+                f"task stack: expected a RobotModel (rk.load_example_robot, rk.from_urdf, rk.from_dh, ...), got "
+                f"{type(robot).__name__} {short_repr(robot)}"
+            )
         self._check_members()
         for sub in self.subtasks:
             sub.check(robot)

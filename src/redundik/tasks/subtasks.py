@@ -20,7 +20,16 @@ import numpy as np
 
 from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
-from redundik.tasks.base import Barrier, ClearanceForm, Edits, Potential, check_name, check_number, check_priority
+from redundik.tasks.base import (
+    Barrier,
+    ClearanceForm,
+    Edits,
+    Potential,
+    check_name,
+    check_number,
+    check_priority,
+    default_name,
+)
 
 _ROW_SOURCES: dict[type, bool] = {}
 
@@ -154,7 +163,7 @@ class GradientSubtask(Subtask):
 
     def __init__(self, potential: Potential, gain: float = 1.0, *, name: str | None = None) -> None:
         self.potential = _potential(potential, "GradientSubtask")
-        self.name = name or potential.name
+        self.name = default_name(name, potential.name, "GradientSubtask")
         self.gain = gain
 
     @property
@@ -209,7 +218,7 @@ class TargetSubtask(Subtask):
         name: str | None = None,
     ) -> None:
         self.potential = _potential(potential, "TargetSubtask")
-        self.name = name or potential.name
+        self.name = default_name(name, potential.name, "TargetSubtask")
         self.set_target(target, target_rate)
         self.rate = rate
         self.weight = weight
@@ -271,7 +280,7 @@ class BoundSubtask(Subtask):
         if not isinstance(source, (Potential, Barrier)):
             raise TaskError(f"BoundSubtask: expected a Potential or a Barrier, got {type(source).__name__}")
         self.source = source
-        self.name = name or source.name
+        self.name = default_name(name, source.name, "BoundSubtask")
         self._lower = None if lower is None else check_number(lower, f"subtask '{self.name}': lower")
         self._upper = None if upper is None else check_number(upper, f"subtask '{self.name}': upper")
         self._check_bounds(self._lower, self._upper)

@@ -16,7 +16,7 @@ import numpy as np
 import pinocchio as pin
 
 from redundik._kernel_cache import KernelNamespace
-from redundik.errors import TaskError
+from redundik.errors import TaskError, short_repr
 from redundik.kinematics.model import AXES
 
 #: Largest magnitude of a trajectory parameter (a length, a speed, a rate): beyond it the task rows overflow.
@@ -40,14 +40,36 @@ def _vec(value: Sequence[float] | np.ndarray, size: int, what: str) -> np.ndarra
     return arr
 
 
+def _float(value: object, what: str) -> float:
+    """``value`` as a float when it is a real number (not a bool); an int beyond the float range gives ``inf`` (the
+    caller's range check refuses it, rather than an ``OverflowError``)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TaskError(f"{what} must be a number, got {type(value).__name__} {short_repr(value)}")
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf
+
+
+def _time(t: object, trajectory: object) -> float:
+    """A reference's ``t`` [s] as a float, checked: the slow branch of the references' one-test fast path.
+
+    Raises:
+        TaskError: not a real number, or NaN / infinite / beyond the float range; names the trajectory's class.
+    """
+    what = f"{type(trajectory).__name__}.reference(t)"
+    x = _float(t, f"{what}: t [s]")
+    if not math.isfinite(x):
+        raise TaskError(f"{what}: t must be a finite time [s], got {short_repr(t)}")
+    return x
+
+
 def _number(value: object, what: str, *, positive: bool = False) -> float:
     """``value`` as a float: a real number (not a bool), finite, at most :data:`MAX_MAGNITUDE` in magnitude."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise TaskError(f"{what} must be a number, got {type(value).__name__}")
-    x = float(value)
+    x = _float(value, what)
     if not math.isfinite(x) or abs(x) > MAX_MAGNITUDE or (positive and x <= 0):
         rule = "a positive number" if positive else "a finite number"
-        raise TaskError(f"{what} must be {rule}, at most {MAX_MAGNITUDE:g} in magnitude, got {value}")
+        raise TaskError(f"{what} must be {rule}, at most {MAX_MAGNITUDE:g} in magnitude, got {short_repr(value)}")
     return x
 
 
@@ -189,7 +211,10 @@ class Trajectory(ABC):
 
     @abstractmethod
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Desired position (3,), rotation (3, 3) and twist (6,) at time t [s] as plain arrays (the hot path)."""
+        """Desired position (3,), rotation (3, 3) and twist (6,) at time t [s] as plain arrays (the hot path).
+
+        A t that is not a finite real number is a :class:`TaskError` (the built-in trajectories test it in one
+        operation on the fast path: a float that is finite)."""
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}()"
@@ -255,6 +280,8 @@ class Hold(Trajectory):
         return "Hold()" if pose is None else f"Hold(pose at {np.round(pose.translation, 6).tolist()})"
 
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if type(t) is not float or not math.isfinite(t):
+            _time(t, self)  # (raises: a held pose does not depend on t, but a NaN time is a caller's bug)
         self.start_pose  # noqa: B018 - raises if start() was never called
         return self._p0, self._R0, self._zero
 
@@ -302,9 +329,11 @@ class Line(Trajectory):
         self._params_row(LINE, self.velocity.tolist())
 
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if type(t) is not float or not math.isfinite(t):
+            t = _time(t, self)
         self.start_pose  # noqa: B018 - raises if start() was never called
         out = np.empty(18)
-        _TK.reference_into(LINE, self._kparams, float(t), out)  # p0 + v t, (v, 0)
+        _TK.reference_into(LINE, self._kparams, t, out)  # p0 + v t, (v, 0)
         return out[:3], self._R0, out[12:]
 
     def __repr__(self) -> str:
@@ -445,10 +474,12 @@ class Circle(Trajectory):
         self._params_row(CIRCLE, extra)
 
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if type(t) is not float or not math.isfinite(t):
+            t = _time(t, self)
         if self._start is None:
             self.start_pose  # noqa: B018 - raises: start() was never called
         out = np.empty(18)
-        _TK.reference_into(CIRCLE, self._kparams, float(t), out)  # one implementation
+        _TK.reference_into(CIRCLE, self._kparams, t, out)  # one implementation
         return out[:3], self._R0, out[12:]
 
     def __repr__(self) -> str:
@@ -476,11 +507,10 @@ class PoseInterpolation(Trajectory):
     # that a new value is used from the next step on, not ignored
     @staticmethod
     def _checked_duration(duration: object) -> float:
-        if isinstance(duration, bool) or not isinstance(duration, (int, float, np.integer, np.floating)):
-            raise TaskError(f"pose interpolation duration must be a number [s], got {type(duration).__name__}")
-        if not (np.isfinite(duration) and duration > 0):
-            raise TaskError(f"pose interpolation duration must be > 0 [s], got {duration}")
-        return float(duration)
+        value = _float(duration, "pose interpolation duration")
+        if not (math.isfinite(value) and value > 0):
+            raise TaskError(f"pose interpolation duration must be > 0 [s] and finite, got {short_repr(duration)}")
+        return value
 
     @staticmethod
     def _checked_position(position: Sequence[float] | np.ndarray) -> np.ndarray:
@@ -552,6 +582,8 @@ class PoseInterpolation(Trajectory):
             )
 
     def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        if type(t) is not float or not math.isfinite(t):
+            t = _time(t, self)
         self.start_pose  # noqa: B018 - raises if start() was never called
         s = min(max(t / self.duration, 0.0), 1.0)
         pos = self._p0 + s * self._dp

@@ -9,7 +9,7 @@ import numpy as np
 from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
-from redundik.tasks.base import CompiledGradient
+from redundik.tasks.base import CompiledGradient, default_name
 from redundik.tasks.joint_potentials import one_dof_joint
 from redundik.tasks.potential_rows import CompiledPotential
 
@@ -38,7 +38,7 @@ class JointWaypoints(CompiledPotential):
     """
 
     def __init__(self, joint: str, values: Sequence[float], tolerance: float = 0.05, name: str | None = None) -> None:
-        self.name = name or f"waypoints_{joint}"
+        self.name = default_name(name, f"waypoints_{joint}", "JointWaypoints")
         vals = np.asarray(values, dtype=float).reshape(-1)
         if vals.size == 0 or not np.all(np.isfinite(vals)):
             raise TaskError(f"subtask '{self.name}': values must be one or more finite numbers, got {list(values)}")
