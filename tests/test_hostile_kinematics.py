@@ -183,3 +183,16 @@ def test_frame_lookups_are_pinocchios(name: str) -> None:
     parent = model.frames[model.nframes - 1]
     added = model.addFrame(pin.Frame("added_tip", parent.parentJoint, pin.SE3.Identity(), pin.FrameType.OP_FRAME))
     assert robot.frame_id("added_tip") == added
+
+
+@pytest.mark.parametrize("call", ["update", "check_configuration", "limit_violation", "difference"])
+def test_a_configuration_shaped_as_a_matrix_is_refused(call: str) -> None:
+    """A (3, 3) array for the Panda's nq = 9 used to be flattened without a word (``Resolver.step`` refuses it): a
+    configuration is a vector, or a matrix of one row or one column."""
+    robot = rk.load_example_robot("panda")
+    q = robot.neutral()
+    args = {"difference": (q, q.reshape(3, 3))}.get(call, (q.reshape(3, 3),))
+    with pytest.raises(ModelError, match=r"shape \(3, 3\)"):
+        getattr(robot, call)(*args)
+    robot.update(q.reshape(1, 9))  # (one row, or one column: still a configuration)
+    robot.update(q.reshape(9, 1))

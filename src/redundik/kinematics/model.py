@@ -22,6 +22,8 @@ import pinocchio as pin
 from redundik._names import did_you_mean
 from redundik.errors import ModelError, short_repr
 from redundik.kinematics.memory import se3_vector_view
+from redundik.kinematics.values import finite_real as _finite_real
+from redundik.kinematics.values import reals as _reals
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 WORLD = pin.ReferenceFrame.WORLD
@@ -56,32 +58,6 @@ def _float_vectors(model: pin.Model) -> dict[str, np.ndarray]:
             if isinstance(value, np.ndarray) and value.dtype.kind == "f":
                 vectors[name] = np.array(value, dtype=float)
     return vectors
-
-
-def _finite_real(value: object, what: str, low: float | None = None) -> float:
-    """``value`` as a float when it is a finite real number (not a bool) ≥ ``low``, else a :class:`ModelError`
-    naming ``what`` (an int beyond the float range too: out of range, not an ``OverflowError``)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ModelError(f"{what} must be a real number, got {type(value).__name__} {short_repr(value)}")
-    try:
-        x = float(value)
-    except OverflowError:  # an int beyond the float range
-        x = math.inf
-    if not math.isfinite(x) or (low is not None and x < low):
-        rule = "a finite number" if low is None else f"a finite number ≥ {low:g}"
-        raise ModelError(f"{what} must be {rule} (within the float range), got {short_repr(value)}")
-    return x
-
-
-def _reals(value: object, what: str) -> np.ndarray:
-    """``value`` as a 1-D float array of real numbers (no bool, complex or text: never cast), else a ModelError."""
-    try:
-        raw = np.asarray(value)
-        if raw.dtype.kind not in "fiuO" or value is None:
-            raise TypeError(f"dtype {raw.dtype}")
-        return np.asarray(raw, dtype=float).reshape(-1)
-    except (TypeError, ValueError) as exc:
-        raise ModelError(f"{what}, got {type(value).__name__} ({exc})") from None
 
 
 @dataclass(frozen=True)
