@@ -26,7 +26,8 @@ def test_clearance_equals_the_numpy_formula(name: str) -> None:
     through value_and_gradient, value, gradient and value_and_gradient_into (scale ±1), over random states."""
     robot = rk.load_example_robot(name)
     rng = np.random.default_rng(5)
-    frames = robot.frame_names[1::7][:12]
+    moved = [f for f in robot.frame_names if robot.model.frames[robot.frame_id(f)].parentJoint > 0]  # (a joint moves)
+    frames = moved[::7][:12]
     for fr in frames:
         for axes in ("position", ("x", "y"), ("z",), ("x", "z")):
             c = Clearance(fr, rng.normal(scale=0.5, size=3), radius=0.05, axes=axes)
@@ -40,6 +41,24 @@ def test_clearance_equals_the_numpy_formula(name: str) -> None:
                 out = np.full(robot.nv, np.nan)
                 assert c.value_and_gradient_into(robot, out, -1.0) == p1
                 np.testing.assert_array_equal(out, -g1)
+
+
+@pytest.mark.parametrize("potential", ["Clearance", "VirtualPoint", "Manipulability"])
+def test_a_frame_potential_on_a_frame_fixed_to_the_world_is_refused(potential: str) -> None:
+    """A frame no joint moves has a constant potential and a zero gradient: a subtask on it would silently do
+    nothing (``FrameTask`` refuses such a frame too)."""
+    from redundik.errors import TaskError
+
+    robot = rk.load_example_robot("panda")
+    make = {
+        "Clearance": lambda: Clearance("panda_link0", [0.3, 0.0, 0.5], radius=0.05),
+        "VirtualPoint": lambda: rk.VirtualPoint("panda_link0", [0.3, 0.0, 0.5]),
+        "Manipulability": lambda: rk.Manipulability("panda_link0"),
+    }[potential]
+    stack = rk.TaskStack([rk.FrameTask("panda_hand")], [rk.GradientSubtask(make(), gain=0.1)])
+    robot.update(robot.neutral())
+    with pytest.raises(TaskError, match="'panda_link0' is fixed to the world"):
+        stack.reset(robot)
 
 
 def test_clearance_follows_moved_centres_radii_and_robots() -> None:

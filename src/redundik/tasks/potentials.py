@@ -208,10 +208,22 @@ class _FramePotential(Potential):
         return self._rows
 
     def check(self, robot: RobotModel) -> None:
+        """Look the frame up on ``robot``.
+
+        Raises:
+            TaskError: an unknown frame, or one fixed to the world (no joint moves it: the potential would be a
+                constant, its gradient zero — a subtask that silently does nothing, which ``FrameTask`` refuses too).
+        """
         try:
-            self._fid = robot.frame_id(self.frame)
+            fid = robot.frame_id(self.frame)
         except Exception as exc:
             raise TaskError(f"subtask '{self.name}': {exc}") from exc
+        if robot.model.frames[fid].parentJoint == 0:
+            raise TaskError(
+                f"subtask '{self.name}': frame '{self.frame}' is fixed to the world (no joint moves it): its "
+                "potential is a constant and its gradient zero; choose a frame on the robot's chain"
+            )
+        self._fid = fid
 
     def _id(self, robot: RobotModel) -> int:
         if self._fid < 0:
