@@ -144,3 +144,88 @@ def test_warm_up_compiles_the_native_box_kernel(tmp_path: Path) -> None:
     got = json.loads(out.stdout.strip().splitlines()[-1])
     assert got["qp"] >= 10 and got["taken"] == got["qp"], got
     assert got["found"] == [], got["found"]
+
+
+def _talos_run(native: bool, monkeypatch: pytest.MonkeyPatch, steps: int = 150) -> tuple[list[tuple[object, ...]], int]:
+    from benchmarks.bench.runners import RedundikRunner
+    from benchmarks.bench.scenarios import SCENARIOS
+
+    monkeypatch.setattr(daqp_native, "enabled", native)
+    taken = [0]
+    original = wqp.native_box_step
+
+    def counting(*args: object, **kwargs: object) -> object:
+        res = original(*args, **kwargs)  # type: ignore[arg-type]
+        taken[0] += res is not None
+        return res
+
+    monkeypatch.setattr(wqp, "native_box_step", counting)
+    runner = RedundikRunner(SCENARIOS["talos"](), "wqp", None, {})
+    dt, out = runner.scenario.dt, []
+    for k in range(steps):
+        step = runner.resolver.step(runner.robot, runner.stack, runner.q, k * dt, dt)
+        out.append((step.dq.copy(), dict(step.info), step.relaxed, step.fallback, step.sigma_min))
+        runner.q = runner.robot.integrate(runner.q, step.dq, dt)
+    return out, taken[0]
+
+
+def test_the_split_native_box_qp_is_the_templates_answer(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Talos (nv = 38, above daqp's split size 22): the separable variables in closed form and daqp on the coupled
+    ones, as ``DaqpBackend`` splits the QP — the same q̇, info and diagnostics as through the template."""
+    if not daqp_native.entry():
+        pytest.skip(f"daqp's native call is off here: {daqp_native.status()}")
+    native, taken = _talos_run(True, monkeypatch)
+    template, taken_off = _talos_run(False, monkeypatch)
+    qp_steps = sum(1 for step in native if step[1]["qp"])
+    assert qp_steps >= 20 and taken == qp_steps and taken_off == 0, (qp_steps, taken)
+    for k, (a, b) in enumerate(zip(native, template, strict=True)):
+        np.testing.assert_array_equal(a[0], b[0], err_msg=f"q̇, step {k}")
+        assert a[1:] == b[1:], f"info, relaxed, fallback, σ_min, step {k}"
+
+
+@pytest.mark.parametrize("n", [5, 9, 24, 38])
+def test_the_native_box_kernels_are_daqp_backends_solve(n: int) -> None:
+    """On random box QPs — a coupled block and separable variables, some of them clipped onto a bound, some bounds
+    binding on the coupled ones — the native kernels (whole below the split size, split from it on) give
+    ``DaqpBackend.solve``'s x clipped to the box and its iteration count, bit for bit (whenever daqp solves at
+    once); the split's clipped variables are counted as the backend counts them."""
+    from redundik.resolvers.layouts import OUT_DQ, OUT_KEPT, OUT_LB, OUT_ROWS, OUT_UB
+    from redundik.resolvers.qp.daqp_backend import SPLIT_MIN_SAVING, DaqpBackend
+    from redundik.resolvers.qp.daqp_native import HK, NativeDaqp
+    from redundik.resolvers.qp.problem import QPProblem
+
+    if not daqp_native.entry():
+        pytest.skip(f"daqp's native call is off here: {daqp_native.status()}")
+    backend = DaqpBackend()
+    native = NativeDaqp.for_backend(backend, n, 0, None)
+    assert native is not None
+    qbuf, work, idx = np.empty(n * n + 3 * n), np.empty((4 + n, n)), np.empty(n, dtype=np.int64)
+    rng = np.random.default_rng(n)
+    clipped_seen = 0
+    for trial in range(40):
+        nc = max(2, n // 2)
+        F = rng.normal(size=(nc + 2, nc))
+        P = np.diag(rng.uniform(0.5, 2.0, n))
+        coupled = rng.permutation(n)[:nc]
+        P[np.ix_(coupled, coupled)] += F.T @ F
+        q = rng.normal(scale=3.0, size=n)
+        lb, ub = -rng.uniform(0.1, 1.0, n), rng.uniform(0.1, 1.0, n)
+        x_sep = -q / np.diag(P)
+        clipped_seen += int(np.sum(((x_sep < lb) | (x_sep > ub))[np.setdiff1d(np.arange(n), coupled)]))
+        out = np.zeros((OUT_ROWS, n))
+        out[OUT_LB], out[OUT_UB] = lb, ub
+        if n < backend._split_min_n:
+            flag, iterations = HK.box_qp_native_into(native.ctl, native.x, qbuf, P, q, out)
+        else:
+            flag, iterations, parts = HK.box_qp_native_split_into(
+                native.ctl, native.x, qbuf, P, q, out, SPLIT_MIN_SAVING, work, idx
+            )
+            assert parts == nc, "the split finds the coupled block"
+        empty = np.zeros((0, n))
+        sol = backend.solve(QPProblem(P.copy(), q.copy(), empty, np.zeros(0), empty, np.zeros(0), lb, ub))
+        assert flag in (1, 2), f"trial {trial}: daqp's exit flag {flag}"
+        np.testing.assert_array_equal(out[OUT_DQ], np.clip(sol.x, lb, ub), err_msg=f"trial {trial}")
+        np.testing.assert_array_equal(out[OUT_KEPT], out[OUT_DQ])
+        assert iterations == sol.iterations, f"trial {trial}"
+    if n >= 22:
+        assert clipped_seen > 20  # (the split's clipped count was exercised)

@@ -128,7 +128,7 @@ from redundik.resolvers.hqp_level_qp import (
     qp_buffer_size,
     qp_views,
 )
-from redundik.resolvers.hqp_native import box_qp_native_into, box_qps_native, native_quadprog
+from redundik.resolvers.hqp_native import box_qp_native_into, box_qp_native_split_into, box_qps_native, native_quadprog
 from redundik.resolvers.kernels import _jit, clip_twice, damped_svd_factors, in_box, limit_box
 from redundik.tasks.potential_kernels import clearance_into  # first_run_cost loads it too
 
@@ -202,6 +202,7 @@ __all__ = [
     "_certified_rows",
     "_ridge_triangular",
     "box_qp_native_into",
+    "box_qp_native_split_into",
     "box_qps_native",
     "cascade_qp_dims",
     "cascade_qp_size",

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from redundik import _kernel_cache
+from redundik.resolvers.box_kernels import split_separable
 from redundik.resolvers.hqp_layout import NAT_FN, NAT_PROBLEM, NAT_RESULT, NAT_SENSE, NAT_SETTINGS
 from redundik.resolvers.hqp_level_qp import qp_views
 from redundik.resolvers.kernels import _jit
@@ -168,3 +169,45 @@ def box_qp_native_into(native: np.ndarray, nx: np.ndarray, qbuf: np.ndarray, P: 
         out[OUT_DQ, j] = v
         out[OUT_KEPT, j] = v
     return flag, iters
+
+
+@_jit
+def box_qp_native_split_into(native: np.ndarray, nx: np.ndarray, qbuf: np.ndarray, P: np.ndarray, q: np.ndarray,
+                             out: np.ndarray, min_saving: int, work: np.ndarray,
+                             idx: np.ndarray) -> tuple[int, int, int]:  # fmt: skip
+    """:func:`box_qp_native_into` for a QP at or above ``DaqpBackend``'s split size: the separable variables in
+    closed form and daqp on the coupled ones (``box_kernels.split_separable``, then :func:`native_quadprog` on the
+    coupled QP as ``DaqpBackend._solve_split`` poses it), x assembled and clipped into the rows ``OUT_DQ`` and
+    ``OUT_KEPT`` of ``out``; ``work`` (4 + n, n) and ``idx`` (n,) are the split's scratch.
+
+    Returns:
+        (daqp's exit flag, its iterations plus the separable variables clipped onto a bound, n_c): n_c = −1 when the
+        split is not made (nothing solved: the caller poses the whole QP); flag 0 when x is not finite.
+    """
+    n = P.shape[0]
+    lb, ub = out[OUT_LB], out[OUT_UB]
+    nc, clipped = split_separable(P, q, lb, ub, min_saving, work, idx)
+    if nc < 0:
+        return 0, 0, -1
+    Pv, qv, _, upper, lower = qp_views(qbuf, nc, 0)
+    Pc = work[4:].reshape(-1)
+    for a in range(nc):
+        qv[a] = work[1, a]
+        lower[a] = work[2, a]
+        upper[a] = work[3, a]
+        for c in range(nc):
+            Pv[a, c] = Pc[a * nc + c]
+    flag, iters = native_quadprog(native, nx, qbuf, nc, 0, 0)
+    if flag != 1 and flag != 2:
+        return flag, iters, nc
+    for a in range(nc):
+        if not math.isfinite(nx[a]):
+            return 0, iters, nc
+    x = work[0]  # (the separable entries, from the split; the coupled ones from daqp)
+    for a in range(nc):
+        x[idx[a]] = nx[a]
+    for j in range(n):
+        v = min(max(x[j], lb[j]), ub[j])
+        out[OUT_DQ, j] = v
+        out[OUT_KEPT, j] = v
+    return flag, iters + clipped, nc

@@ -5,9 +5,11 @@ instead of the template's second half (``QPProblem``, the backend's Python wrapp
 It is the template's answer, not an approximation: the same QP goes to the same daqp function with the same settings
 (the call ``DaqpBackend.solve`` makes on a bounds-only QP below its split size, checked bit for bit by
 :mod:`redundik.resolvers.qp.daqp_native` for the daqp version installed), x is clipped to the box as the template
-clips it, and the result carries the same info, diagnostics and kept q̇. Anything else — another backend, a QP daqp
-does not solve at once (the template then poses it with every retry), bound rows, a problem at or above the
-backend's split or lift size, the native call off — returns ``None`` and the template solves the step as before.
+clips it, and the result carries the same info, diagnostics and kept q̇; from the backend's split size on, the
+separable variables in closed form and daqp on the coupled ones, as the backend splits it. Anything else — another
+backend, a QP daqp does not solve at once (the template then poses it with every retry), bound rows, a problem the
+backend could lift (its lift size), the native call off — returns ``None`` and the template solves the step as
+before.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from redundik._coldstart import ready
 from redundik.resolvers.base import LazyStepResult, StepResult
 from redundik.resolvers.layouts import OUT_DQ, OUT_KEPT, OUT_LB, OUT_ROWS, OUT_UB
 from redundik.resolvers.qp.base import QPDiagnostics
-from redundik.resolvers.qp.daqp_backend import DaqpBackend
+from redundik.resolvers.qp.daqp_backend import SPLIT_MIN_SAVING, DaqpBackend
 from redundik.resolvers.qp.daqp_native import HK, NativeDaqp
 from redundik.tasks.base import TaskTerm
 from redundik.tasks.stack import TaskStack
@@ -46,15 +48,26 @@ def native_box_step(
     ended."""
     backend = resolver.backend
     n = out.shape[1]
-    if type(backend) is not DaqpBackend or n >= backend._split_min_n or n >= backend.lift_min_n or not ready("wqp"):
+    if type(backend) is not DaqpBackend or not ready("wqp"):
         return None  # (ready: not during a cold start, whose steps run the kernels' interpreted twins)
     cached = resolver.__dict__.get("_native_box")
     native = NativeDaqp.for_backend(backend, n, 0, None if cached is None else cached[0])
     if native is None:
         return None
-    if cached is None or cached[0] is not native or cached[1].shape[0] < n * n + 3 * n:
-        cached = resolver.__dict__["_native_box"] = (native, np.empty(n * n + 3 * n))
-    flag, iterations = HK.box_qp_native_into(native.ctl, native.x, cached[1], resolver._P, resolver._q, out)
+    if cached is None or cached[0] is not native or cached[2].shape != (n,):
+        scratch = (np.empty(n * n + 3 * n), np.empty((4 + n, n)), np.empty(n, dtype=np.int64))
+        cached = resolver.__dict__["_native_box"] = (native, *scratch)
+    _, qbuf, work, idx = cached
+    P, g = resolver._P, resolver._q
+    whole = n < backend._split_min_n  # (DaqpBackend.solve's order: the split, then the lifted QP, then P as given)
+    if not whole:
+        flag, iterations, nc = HK.box_qp_native_split_into(native.ctl, native.x, qbuf, P, g, out, SPLIT_MIN_SAVING,
+                                                           work, idx)  # fmt: skip
+        whole = nc < 0
+    if whole:
+        if n >= backend.lift_min_n:  # (the backend may lift it: its own solve decides)
+            return None
+        flag, iterations = HK.box_qp_native_into(native.ctl, native.x, qbuf, P, g, out)
     if flag != 1 and flag != 2:
         return None
     dq, kept = out[OUT_DQ], out[OUT_KEPT]
@@ -78,13 +91,16 @@ def native_box_step(
 
 
 def warm_native_box() -> None:
-    """Compile (or load) the native box QP's kernel on a 2-variable QP whose bound binds, with the argument types
-    of a step's call (``redundik.warmup`` calls it with the ``wqp`` kernels, so that the first step whose limit
-    binds does not compile it in the control loop's thread); nothing when daqp's native call is off."""
+    """Compile (or load) the native box QP's kernels (whole and split) on a 2-variable QP whose bound binds, with the
+    argument types of a step's call (``redundik.warmup`` calls it with the ``wqp`` kernels, so that the first step
+    whose limit binds does not compile them in the control loop's thread); nothing when daqp's native call is
+    off."""
     backend = DaqpBackend()
     native = NativeDaqp.for_backend(backend, 2, 0, None)
     if native is None:
         return
     out = np.zeros((OUT_ROWS, 2))
     out[OUT_LB], out[OUT_UB] = -1.0, 0.5
-    HK.box_qp_native_into(native.ctl, native.x, np.empty(10), np.eye(2), np.array([-1.0, 0.0]), out)
+    qbuf, work, idx = np.empty(10), np.empty((6, 2)), np.empty(2, dtype=np.int64)
+    HK.box_qp_native_into(native.ctl, native.x, qbuf, np.eye(2), np.array([-1.0, 0.0]), out)
+    HK.box_qp_native_split_into(native.ctl, native.x, qbuf, np.eye(2), np.array([-1.0, 0.0]), out, 0, work, idx)
