@@ -7,10 +7,13 @@ Problem i is one control step from configuration q_i towards a target pose T_i o
 exactly what :meth:`BatchResolver.loop_stack` builds for the one-by-one loop (:meth:`BatchResolver.solve_loop`).
 Vectorised over problems:
 
-* kinematics: one ``pinocchio.computeFrameJacobian`` per problem into preallocated (N, 6, nv) / (N, 4, 4) buffers;
-  pose errors e = (p_d − p, log(R_d Rᵀ)) for all N at once;
-* ``pinv``: q̇ = J⁺V + (I − J⁺J)z through :func:`redundik.resolvers.kernels.closed_form_batch` — the very kernel of
-  the single ``pinv`` step, problem by problem;
+* kinematics: one ``pinocchio.computeJointJacobians`` per problem (what ``RobotModel.update`` computes for a step),
+  its joint Jacobians and the frame's parent placement copied out through verified views of the Data (two copies a
+  problem, into buffers kept per N); then for all N at once the frame placement, its base-aligned Jacobian and the
+  pose errors e = (p_d − p, log(R_d Rᵀ));
+* ``pinv``: q̇ = J⁺V + (I − J⁺J)z as the single step computes it (``kernels.closed_form_into``): the problems that
+  pass its Cholesky test (full row rank, nothing damped) by one ``spd_solve_batch`` call, the others through
+  :func:`redundik.resolvers.kernels.closed_form_batch` (the single step's damped factorisation);
 * ``wqp``: P = w JᵀJ + ρ I + λ I and q = −w JᵀV − ρ z for all N (batched products), the unconstrained optimum and its
   box test by ``spd_solve_batch`` (the kernel of the single ``wqp`` step), the
   joint-limit boxes of all N by one call of :meth:`JointLimits.box` on a (N, nq) array. Only the problems whose
@@ -20,8 +23,12 @@ Vectorised over problems:
   problem daqp does not solve at once is posed to ``backend.solve`` with its retries, and a problem the backend
   refuses goes through the single-problem ``wqp`` step itself (its relaxation and fallback, exactly as the loop).
 
-Agreement with the loop: ≤ 1e-9 in q̇ (tested); the differences are rounding in the kinematics (Pinocchio's
-``computeFrameJacobian`` vs ``computeJointJacobians``) and in batched products.
+Agreement with the loop: ≤ 1e-9 in q̇ (tested); the differences are rounding in batched products (NumPy's stacked
+products, q̇ = z + Jᵀ(JJᵀ)⁻¹(V − Jz) for ``pinv``'s two solves).
+
+Cost (panda_batch1000, 1000 problems, this 2-core machine, warm): ≈ 1.1 ms of the ≈ 2.5 ms of a ``wqp`` call is the
+per-problem Pinocchio call and its two copies, ≈ 0.45 ms ``spd_solve_batch``, ≈ 0.13 ms daqp on the binding
+problems; the rest whole-array NumPy.
 """
 
 from __future__ import annotations
@@ -36,6 +43,7 @@ import pinocchio as pin
 
 from redundik._coldstart import compiled_now
 from redundik.errors import ResolverError, SolverError
+from redundik.kinematics.memory import jacobian_view, se3_vector_view
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver
 from redundik.resolvers.linalg import RCOND, K
@@ -49,7 +57,7 @@ from redundik.tasks.base import Task
 from redundik.tasks.frame import FrameTask, PostureTask, resolve_axes
 from redundik.tasks.stack import TaskStack
 
-_LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
 
 
 @dataclass
@@ -77,6 +85,54 @@ class BatchResult:
     def qp_fraction(self) -> float:
         """Fraction of the problems that needed the QP backend."""
         return float(np.mean(self.qp)) if self.qp.size else 0.0
+
+
+def _placement_map(R: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """W (12, 12) such that x W, for x = (R_i column-major, t_i) a joint's placement oMi in the world (as
+    :func:`redundik.kinematics.memory.se3_vector_view` lays it out), is (R_f row-major, p_f) of the frame placed at
+    (R, p) in that joint: oMf = oMi · (R, p), R_f = R_i R and p_f = R_i p + t_i [m]; N placements then take one
+    matrix product (N, 12) · (12, 12)."""
+    W = np.zeros((12, 12))
+    for a in range(3):
+        for b in range(3):  # (R_i)_ab is x[3b + a]
+            W[3 * b + a, 3 * a : 3 * a + 3] = R[b]  # (R_f)_ac += (R_i)_ab R_bc
+            W[3 * b + a, 9 + a] = p[b]  # (p_f)_a += (R_i)_ab p_b
+        W[9 + a, 9 + a] = 1.0  # (p_f)_a += (t_i)_a
+    return W
+
+
+def _supporting_columns(robot: RobotModel, fid: int) -> np.ndarray:
+    """(nv,) bool: True on the velocity columns of the joints that support frame ``fid`` (those its Jacobian may have
+    nonzero, as ``fused._frame_columns``)."""
+    model = robot.model
+    columns = np.zeros(robot.nv, dtype=bool)
+    for j in model.supports[model.frames[fid].parentJoint]:
+        if j > 0:
+            jm = model.joints[j]
+            columns[jm.idx_v : jm.idx_v + jm.nv] = True
+    return columns
+
+
+def _all_rigid(T: np.ndarray) -> bool:
+    """Whether every transform of T (N ≥ 1, 4, 4; finite) is rigid by :meth:`BatchResolver._check`'s test — RRᵀ
+    within 1e-6 of I, det R > 0 and a last row (0, 0, 0, 1) within 1e-12 — in a few whole-array operations (the
+    per-problem test then only names the problems that fail). det R by its cofactor expansion: with RRᵀ that close
+    to I, |det R| ≈ 1 and its sign is the LU determinant's."""
+    r = np.ascontiguousarray(T[:, :3, :3].transpose(1, 2, 0))  # r[i, k]: entry (i, k) of every R, (N,)
+    gram = np.empty((6, T.shape[0]))  # RRᵀ − I: its upper triangle
+    for n, (i, j) in enumerate(((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))):
+        g = gram[n]
+        np.multiply(r[i, 0], r[j, 0], out=g)
+        g += r[i, 1] * r[j, 1]
+        g += r[i, 2] * r[j, 2]
+    gram[:3] -= 1.0
+    if not float(np.max(np.abs(gram))) <= 1e-6:
+        return False
+    (a, b, c), (d, e, f), (g, h, k) = r
+    det = a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g)
+    if not float(np.min(det)) > 0.0:
+        return False
+    return float(np.max(np.abs(T[:, 3] - _LAST_ROW))) <= 1e-12
 
 
 def batch_log3(R: np.ndarray) -> np.ndarray:
@@ -134,6 +190,7 @@ class BatchResolver:
         self.resolver, self.robot, self.frame = resolver, robot, frame
         self.axes = resolve_axes(axes)
         self.rows = np.array([("x", "y", "z", "rx", "ry", "rz").index(a) for a in self.axes])
+        self._all_rows = self.rows.tolist() == list(range(6))
         for key, value in (("gain", gain), ("posture_gain", posture_gain)):
             if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
                 raise ResolverError(f"batch: {key} must be a number [1/s], got {type(value).__name__}")
@@ -149,6 +206,17 @@ class BatchResolver:
                 f"batch: frame '{frame}' is fixed to the world (no joint moves it): no target could ever be reached"
             )
         self._data = robot.model.createData()
+        placed = robot.model.frames[self.fid]
+        self._parent = int(placed.parentJoint)
+        self._to_frame = _placement_map(np.array(placed.placement.rotation), np.array(placed.placement.translation))
+        self._columns = _supporting_columns(robot, self.fid)
+        self._views: tuple[np.ndarray, np.ndarray] | None = None  # (data.J, data.oMi[parent]) as live views, or None
+        J_view, placements = jacobian_view(self._data), se3_vector_view(self._data.oMi)
+        if J_view is not None and placements is not None:
+            self._views = (J_view.T, placements[self._parent])  # (nv, 6) C-ordered, and R (column-major), t (12,)
+        #: Scratch arrays kept from call to call (:meth:`_buffer`), and the rows of the kinematics' two buffers
+        self._buffers: dict[str, np.ndarray] = {}
+        self._rows_of: tuple[np.ndarray, list[np.ndarray], list[np.ndarray]] | None = None
         self._native: NativeDaqp | None = None  # daqp's C entry for the binding problems' box QPs (kept)
         self._qbuf = np.empty(0)
 
@@ -191,30 +259,80 @@ class BatchResolver:
         return BatchResult(dq, err, used, notes, relaxed, capped)
 
     # ------------------------------------------------------------------ the batch
+    def _buffer(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
+        """A float64 scratch array of ``shape`` (contents undefined), the same one from call to call while the shape
+        stays: a batch's intermediates (a few MB for 1000 Panda problems) are not allocated afresh each call, whose
+        pages the allocator would otherwise return to the system and fault in again (measured: ≈ 0.3–1.5 ms of a
+        ≈ 3 ms call when other work runs between calls). Valid until the next call of the batch."""
+        buf = self._buffers.get(name)
+        if buf is None or buf.shape != shape:
+            buf = self._buffers[name] = np.empty(shape)
+        return buf
+
     def _kinematics(self, q: np.ndarray, targets: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(J (N, m, nv), e (N, m), posture error (N, nv)) at the N configurations."""
-        model, data, fid = self.robot.model, self._data, self.fid
+        """(J (N, m, nv), e (N, m), posture error (N, nv)) at the N configurations.
+
+        Per problem one ``pinocchio.computeJointJacobians`` (the joint placements and the joint Jacobians in the
+        world frame, as ``RobotModel.update`` computes them for a step), read through verified views of the Data
+        (:mod:`redundik.kinematics.memory`; two copies a problem); then for all N at once the frame's placement
+        oMf = oMi(parent) · placement and its base-aligned Jacobian, linear rows v + ω × p and angular rows ω on the
+        supporting joints' columns (the arithmetic of ``lie_kernels.frame_jacobian_lwa``: Pinocchio's
+        ``LOCAL_WORLD_ALIGNED`` frame Jacobian)."""
+        model, data = self.robot.model, self._data
         N, nv = q.shape[0], self.robot.nv
-        J6 = np.empty((N, 6, nv))
-        M = np.empty((N, 4, 4))
-        for i in range(N):
-            J6[i] = pin.computeFrameJacobian(model, data, q[i], fid, _LWA)
-            M[i] = data.oMf[fid].homogeneous
-        e6 = np.empty((N, 6))
-        e6[:, :3] = targets[:, :3, 3] - M[:, :3, 3]
-        if np.any(self.rows >= 3):
-            e6[:, 3:] = batch_log3(targets[:, :3, :3] @ M[:, :3, :3].transpose(0, 2, 1))
-        else:
-            e6[:, 3:] = 0.0
+        JwT = self._buffer("JwT", (N, nv, 6))  # joint Jacobians in the world frame, transposed [m/rad, 1]
+        placement = self._buffer("placement", (N, 12))  # the parent joint's rotation (column-major), origin [m]
+        rows_of = self._rows_of
+        if rows_of is None or rows_of[0] is not JwT:  # (row views made once per buffer: a copy into one is cheap)
+            rows_of = self._rows_of = (JwT, list(JwT), list(placement))
+        _, J_rows, M_rows = rows_of
+        jacobians = pin.computeJointJacobians
+        if self._views is not None:
+            J_view, M_view = self._views
+            for qi, J_row, M_row in zip(q, J_rows, M_rows, strict=True):  # (the Pinocchio call, two copies a problem)
+                jacobians(model, data, qi)
+                J_row[...] = J_view
+                M_row[...] = M_view
+        else:  # (bindings that return copies: read Pinocchio's objects problem by problem)
+            for i, qi in enumerate(q):
+                jacobians(model, data, qi)
+                JwT[i] = np.asarray(data.J).reshape(6, nv).T
+                M = data.oMi[self._parent]
+                placement[i, :9] = M.rotation.ravel(order="F")
+                placement[i, 9:] = M.translation
+        Jw = JwT.transpose(0, 2, 1)
+        frame = np.matmul(placement, self._to_frame, out=self._buffer("frame", (N, 12)))  # one product for all N:
+        R, p = frame[:, :9].reshape(N, 3, 3), frame[:, 9:]  # the frame's rotation (row-major) and origin [m]
+        J6 = self._buffer("J6", (N, 6, nv))
+        J6[:, 3:] = Jw[:, 3:]
+        w = (Jw[:, 3], Jw[:, 4], Jw[:, 5])
+        t1, t2 = self._buffer("t1", (N, nv)), self._buffer("t2", (N, nv))
+        for a, (b, c) in enumerate(((1, 2), (2, 0), (0, 1))):  # v + ω × p: (ω × p)_a = ω_b p_c − ω_c p_b
+            np.multiply(w[b], p[:, c : c + 1], out=t1)
+            np.multiply(w[c], p[:, b : b + 1], out=t2)
+            np.subtract(t1, t2, out=t1)
+            np.add(Jw[:, a], t1, out=J6[:, a])
+        if not self._columns.all():
+            J6[:, :, ~self._columns] = 0.0
+        rows = self.rows
+        e = self._buffer("e", (N, rows.shape[0]))
+        for k, row in enumerate(rows):
+            if row < 3:
+                e[:, k] = targets[:, row, 3] - p[:, row]
+        if np.any(rows >= 3):
+            rot = batch_log3(np.matmul(targets[:, :3, :3], R.transpose(0, 2, 1), out=self._buffer("E", (N, 3, 3))))
+            for k, row in enumerate(rows):
+                if row >= 3:
+                    e[:, k] = rot[:, row - 3]
         if self.posture_gain > 0:
             ref = q if self.posture_target is None else np.broadcast_to(self.posture_target, q.shape)
             if self.robot.nq == nv:
-                ep = ref - q
+                ep = np.subtract(ref, q, out=self._buffer("ep", (N, nv)))
             else:
                 ep = np.stack([pin.difference(model, q[i], ref[i]) for i in range(N)])
         else:
             ep = np.zeros((N, nv))
-        return J6[:, self.rows], e6[:, self.rows], ep
+        return (J6 if self._all_rows else J6[:, rows]), e, ep
 
     def _check(self, q: np.ndarray, targets: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """q (N, nq) and targets (N, 4, 4) as float arrays, checked with dt; raises :class:`ResolverError`."""
@@ -234,12 +352,16 @@ class BatchResolver:
             raise ResolverError(f"batch: dt must be a number [s], got {type(dt).__name__}")
         if not (math.isfinite(dt) and dt > 0):
             raise ResolverError(f"batch: dt must be finite and > 0 [s], got {dt}")
-        for key, arr in (("q", q), ("targets", targets)):
-            bad = ~np.isfinite(arr.reshape(N, int(np.prod(arr.shape[1:])))).all(axis=1)
-            if bad.any():
-                raise ResolverError(
-                    f"batch: {key} of problems {np.flatnonzero(bad)[:8].tolist()} contain NaN or infinite values"
-                )
+        finite = N > 0 and math.isfinite(float(np.add.reduce(q, axis=None)) + float(np.add.reduce(targets, axis=None)))
+        if not finite:  # (a finite sum: every entry is finite; else the per-problem test names the problems)
+            for key, arr in (("q", q), ("targets", targets)):
+                bad = ~np.isfinite(arr.reshape(N, int(np.prod(arr.shape[1:])))).all(axis=1)
+                if bad.any():
+                    raise ResolverError(
+                        f"batch: {key} of problems {np.flatnonzero(bad)[:8].tolist()} contain NaN or infinite values"
+                    )
+        if N and _all_rigid(targets):
+            return q, targets
         R = targets[:, :3, :3]
         rigid = (
             np.all(np.abs(R @ R.transpose(0, 2, 1) - np.eye(3)) <= 1e-6, axis=(1, 2))
@@ -263,8 +385,8 @@ class BatchResolver:
         q, targets = self._check(q, targets, dt)
         N = q.shape[0]
         J, e, ep = self._kinematics(q, targets)
-        V = self.gain * e
-        z = self.posture_gain * ep
+        V = np.multiply(self.gain, e, out=self._buffer("V", e.shape))
+        z = np.multiply(self.posture_gain, ep, out=self._buffer("z", ep.shape))
         err = np.linalg.norm(e, axis=1)
         r = self.resolver
         if r.singularity is not None:
@@ -273,16 +395,63 @@ class BatchResolver:
                 "resolves independent problems: set singularity=None for the batch, or step the problems one by one"
             )
         if isinstance(r, PinvResolver):
-            dq_r, dq_n, _, _, _ = K.closed_form_batch(
-                np.ascontiguousarray(J), V, z, self.posture_gain > 0, r.epsilon, r.max_damping, RCOND
-            )
-            out = BatchResult(dq_r + dq_n, err, np.zeros(N, dtype=bool), [None] * N, [()] * N)
+            dq = self._solve_pinv(r, np.ascontiguousarray(J), V, z)
+            out = BatchResult(dq, err, np.zeros(N, dtype=bool), [None] * N, [()] * N)
         else:
             out = self._solve_wqp(cast(WeightedQPResolver, r), q, targets, J, V, z, e, err, dt)
         limiter = r._limiter  # the joint-speed cap, as each problem's step applies it (resolvers/singularity.py)
         caps = None if limiter is None else limiter.caps(self.robot)
-        out.capped = np.zeros(N, dtype=bool) if caps is None else cap_rows(out.dq, caps)
+        if caps is None or (N and float(np.max(np.abs(out.dq) / caps)) <= 1.0):  # (no row over its caps: none scaled)
+            out.capped = np.zeros(N, dtype=bool)
+        else:
+            out.capped = cap_rows(out.dq, caps)
         return out
+
+    def _solve_pinv(self, r: PinvResolver, J: np.ndarray, V: np.ndarray, z: np.ndarray) -> np.ndarray:
+        """q̇ = J⁺V + (I − J⁺J)z (eq. 5.8) of the N problems (J (N, m, n), V (N, m) [m/s, rad/s], z (N, n)
+        [rad/s]), shape (N, n) [rad/s]: each problem's answer of the single ``pinv`` step
+        (``kernels.closed_form_into`` with its lazy σ_min), to rounding.
+
+        A problem whose J passes that kernel's Cholesky test — JJᵀ − sI positive definite with
+        s = max(ε², 1e-6·tr JJᵀ), so J has full row rank and no direction is damped — is solved as
+        q̇ = z + Jᵀ(JJᵀ)⁻¹(V − Jz) (the same q̇ as Jᵀ(JJᵀ)⁻¹V + z − Jᵀ(JJᵀ)⁻¹Jz), the test and the solve for all N in
+        one call of ``spd_solve_batch`` (its unblocked Cholesky factorisation and substitutions). The other
+        problems (a damped or rank-deficient J, non-finite data) go through ``closed_form_batch``: the single step's
+        factorisation (the eigen- or the damped SVD path), exactly.
+        """
+        N, m, n = J.shape
+        has_z = self.posture_gain > 0
+        if N == 0 or not 0 < m <= n:
+            dq_r, dq_n, _, _, _ = K.closed_form_batch(J, V, z, has_z, r.epsilon, r.max_damping, RCOND)
+            return cast(np.ndarray, dq_r + dq_n)
+        Jt = self._buffer("Jt", (N, n, m))
+        np.copyto(Jt, J.transpose(0, 2, 1))
+        P = self._buffer("P", (2, N, m, m))  # the shifted JJᵀ − sI (only its test), then JJᵀ
+        A = np.matmul(J, Jt, out=P[1])  # JJᵀ (N, m, m)
+        tr = np.trace(A, axis1=1, axis2=2)
+        P[0] = A
+        P[0].reshape(N, m * m)[:, :: m + 1] -= np.maximum(r.epsilon * r.epsilon, K.FAST_PATH_RCOND * tr)[:, None]
+        rhs = self._buffer("rhs", (2, N, m))  # spd_solve_batch's x = −P⁻¹q: q = 0, then q = Jz − V
+        rhs[0] = 0.0
+        if has_z:
+            np.matmul(J, z[:, :, None], out=rhs[1][:, :, None])
+            rhs[1] -= V
+        else:
+            np.negative(V, out=rhs[1])
+        inf = self._buffers.get("inf")
+        if inf is None or inf.shape != (2 * N, m):
+            inf = self._buffers["inf"] = np.full((2 * N, m), np.inf)
+            self._buffers["-inf"] = -inf
+        x, ok, _ = K.spd_solve_batch(P.reshape(-1, m, m), rhs.reshape(-1, m), self._buffers["-inf"], inf, 0.0)
+        dq = (Jt @ x[N:, :, None])[:, :, 0]
+        if has_z:
+            dq += z
+        good = ok[:N] & ok[N:] & (tr > 0.0) & np.isfinite(tr)
+        if not good.all():
+            bad = np.flatnonzero(~good)
+            dq_r, dq_n, _, _, _ = K.closed_form_batch(J[bad], V[bad], z[bad], has_z, r.epsilon, r.max_damping, RCOND)
+            dq[bad] = dq_r + dq_n
+        return dq
 
     def _solve_wqp(
         self,
@@ -299,19 +468,22 @@ class BatchResolver:
         N, nv = q.shape[0], self.robot.nv
         has_posture = self.posture_gain > 0
         scale = r.level_ratio if has_posture else 1.0  # ρ^(L−1): the lowest level's weight
-        Jt = J.transpose(0, 2, 1)  # (N, nv, m); the frame task's weight is 1 at level 0
-        P = Jt @ J
-        qv = -(Jt @ V[:, :, None])[:, :, 0]
-        idx = np.arange(nv)
+        m = J.shape[1]
+        Jt = self._buffer("Jt", (N, nv, m))  # Jᵀ, contiguous (NumPy's stacked product is then several times faster);
+        np.copyto(Jt, J.transpose(0, 2, 1))  # the frame task's weight is 1 at level 0
+        P = np.matmul(Jt, J, out=self._buffer("P", (N, nv, nv)))
+        qv = self._buffer("qv", (N, nv))
+        np.matmul(Jt, V[:, :, None], out=qv[:, :, None])
+        np.negative(qv, out=qv)
+        diagonal = P.reshape(N, nv * nv)[:, :: nv + 1]  # (a view on P's diagonals)
         if has_posture:
-            P[:, idx, idx] += scale
-            qv -= scale * z
+            diagonal += scale
+            qv -= np.multiply(scale, z, out=self._buffer("t1", (N, nv)))
         lam = np.full(N, r.damping * scale)
         if r.lm_damping:
             lam += r.lm_damping * np.einsum("nm,nm->n", e, e)
-        P[:, idx, idx] += lam[:, None]
-        r.limits.bind(self.robot)
-        box = r.limits.box(self.robot, q, dt)  # (N, nv) bounds: one call for every problem
+        diagonal += lam[:, None]
+        box = r.limits.box(self.robot, q, dt)  # (N, nv) bounds: one call for every problem (bound to the robot)
         lb = np.ascontiguousarray(np.broadcast_to(box.lb, (N, nv)))
         ub = np.ascontiguousarray(np.broadcast_to(box.ub, (N, nv)))
         x, _, inside = K.spd_solve_batch(np.ascontiguousarray(P), qv, lb, ub, 1e-12)
