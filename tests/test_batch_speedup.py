@@ -110,6 +110,28 @@ def test_the_batch_jacobian_and_error_are_pinocchios(panda_mixed: tuple) -> None
 
 
 @pytest.mark.parametrize("method", ["pinv", "wqp"])
+@pytest.mark.parametrize("axes", ["pose", ("x", "rz", "y")])
+def test_large_rotation_errors_take_pinocchios_log3_and_equal_the_loop(
+    method: str, axes: object, panda_mixed: tuple
+) -> None:
+    """Targets turned 0.6–2.5 rad (beyond ``frame_rows_batch``'s small-angle log3) among small ones, with all rows
+    and a reordered subset: the compiled kernels' fallback rows equal the loop."""
+    robot, Q, T = panda_mixed
+    rng = np.random.default_rng(23)
+    T = T.copy()
+    for i in range(0, Q.shape[0], 3):
+        axis = rng.normal(size=3)
+        turn = pin.exp3(rng.uniform(0.6, 2.5) * axis / np.linalg.norm(axis))
+        T[i, :3, :3] = turn @ T[i, :3, :3]
+    batch = BatchResolver(make_resolver(method), robot, "panda_hand", axes=axes, gain=5.0, posture_target=Q0)
+    got, ref = batch.solve(Q, T, 0.01), batch.solve_loop(Q, T, 0.01)
+    assert not batch._done.all()  # (the fallback ran)
+    np.testing.assert_allclose(got.dq, ref.dq, atol=1e-9, rtol=0)
+    np.testing.assert_allclose(got.task_error, ref.task_error, atol=1e-9)
+    np.testing.assert_array_equal(got.qp, ref.qp)
+
+
+@pytest.mark.parametrize("method", ["pinv", "wqp"])
 def test_a_floating_base_batch_equals_the_loop(method: str) -> None:
     """nq ≠ nv (a free-flyer's quaternion): the posture error by Pinocchio's difference, the Jacobian's base
     columns included."""

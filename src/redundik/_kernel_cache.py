@@ -57,6 +57,7 @@ KERNEL_SOURCES: tuple[str, ...] = (
     "collision/kernels.py",
     "ik/kernels.py",
     "resolvers/jerk_kernels.py",
+    "resolvers/batch_kernels.py",
 )
 
 #: Every kernel :func:`jit` made: ``{module name: {function name: numba dispatcher}}`` (read by

@@ -9,26 +9,28 @@ Vectorised over problems:
 
 * kinematics: one ``pinocchio.computeJointJacobians`` per problem (what ``RobotModel.update`` computes for a step),
   its joint Jacobians and the frame's parent placement copied out through verified views of the Data (two copies a
-  problem, into buffers kept per N); then for all N at once the frame placement, its base-aligned Jacobian and the
-  pose errors e = (p_d − p, log(R_d Rᵀ));
+  problem, into buffers kept per N); then one compiled loop over the N problems
+  (``batch_kernels.frame_rows_batch``) for the frame placement, its base-aligned Jacobian and the pose errors
+  e = (p_d − p, log(R_d Rᵀ)) (Pinocchio's ``log3`` for the rotation errors beyond the small-angle formula);
 * ``pinv``: q̇ = J⁺V + (I − J⁺J)z as the single step computes it (``kernels.closed_form_into``): the problems that
   pass its Cholesky test (full row rank, nothing damped) by one ``spd_solve_batch`` call, the others through
   :func:`redundik.resolvers.kernels.closed_form_batch` (the single step's damped factorisation);
-* ``wqp``: P = w JᵀJ + ρ I + λ I and q = −w JᵀV − ρ z for all N (batched products), the unconstrained optimum and its
-  box test by ``spd_solve_batch`` (the kernel of the single ``wqp`` step), the
-  joint-limit boxes of all N by one call of :meth:`JointLimits.box` on a (N, nq) array. Only the problems whose
-  optimum leaves the box (a limit binds) call the QP backend, with the single step's QP (the same P, q and box,
-  so the loop's answer): under daqp all of them in one compiled loop through daqp's C entry point (the call its
-  Python wrapper makes, bit for bit; ``hqp_kernels.box_qps_native``), under another backend one ``solve`` each; a
-  problem daqp does not solve at once is posed to ``backend.solve`` with its retries, and a problem the backend
-  refuses goes through the single-problem ``wqp`` step itself (its relaxation and fallback, exactly as the loop).
+* ``wqp``: P = w JᵀJ + ρ I + λ I, q = −w JᵀV − ρ z, the unconstrained optimum and its box test (the kernels of the
+  single ``wqp`` step: ``gram_update``, ``spd_solve_box_into``) in one compiled loop over the N problems
+  (``batch_kernels.wqp_box_batch``), the joint-limit boxes of all N by one call of :meth:`JointLimits.box` on a (N, nq)
+  array. Only the problems whose optimum leaves the box (a limit binds) call the QP backend, with the single step's QP
+  (the same P, q and box, so the loop's answer): under daqp all of them in one compiled loop through daqp's C entry
+  point (the call its Python wrapper makes, bit for bit; ``hqp_kernels.box_qps_native``), under another backend one
+  ``solve`` each; a problem daqp does not solve at once is posed to ``backend.solve`` with its retries, and a problem
+  the backend refuses goes through the single-problem ``wqp`` step itself (its relaxation and fallback, exactly as the
+  loop).
 
-Agreement with the loop: ≤ 1e-9 in q̇ (tested); the differences are rounding in batched products (NumPy's stacked
-products, q̇ = z + Jᵀ(JJᵀ)⁻¹(V − Jz) for ``pinv``'s two solves).
+Agreement with the loop: ≤ 1e-9 in q̇ (tested); the differences are rounding (NumPy's stacked products and
+q̇ = z + Jᵀ(JJᵀ)⁻¹(V − Jz) for ``pinv``'s two solves; ``wqp`` matched the loop bit for bit on panda_batch1000).
 
-Cost (panda_batch1000, 1000 problems, this 2-core machine, warm): ≈ 1.1 ms of the ≈ 2.5 ms of a ``wqp`` call is the
-per-problem Pinocchio call and its two copies, ≈ 0.45 ms ``spd_solve_batch``, ≈ 0.13 ms daqp on the binding
-problems; the rest whole-array NumPy.
+Cost (panda_batch1000, 1000 problems, this 2-core machine, warm): ≈ 1.1 ms of the ≈ 2.6 ms of a ``wqp`` call is the
+per-problem Pinocchio call and its two copies, ≈ 0.13 ms daqp on the binding problems, most of the rest the two
+compiled loops (the NumPy version of their maths, multi-MB intermediates, took ≈ 0.35 ms more).
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ from redundik._coldstart import compiled_now
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.memory import jacobian_view, se3_vector_view
 from redundik.kinematics.model import RobotModel
+from redundik.resolvers import batch_kernels as BK
 from redundik.resolvers.base import Resolver
 from redundik.resolvers.linalg import RCOND, K
 from redundik.resolvers.pinv import PinvResolver
@@ -190,7 +193,6 @@ class BatchResolver:
         self.resolver, self.robot, self.frame = resolver, robot, frame
         self.axes = resolve_axes(axes)
         self.rows = np.array([("x", "y", "z", "rx", "ry", "rz").index(a) for a in self.axes])
-        self._all_rows = self.rows.tolist() == list(range(6))
         for key, value in (("gain", gain), ("posture_gain", posture_gain)):
             if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
                 raise ResolverError(f"batch: {key} must be a number [1/s], got {type(value).__name__}")
@@ -219,6 +221,7 @@ class BatchResolver:
         self._rows_of: tuple[np.ndarray, list[np.ndarray], list[np.ndarray]] | None = None
         self._native: NativeDaqp | None = None  # daqp's C entry for the binding problems' box QPs (kept)
         self._qbuf = np.empty(0)
+        self._done = np.empty(0, dtype=np.bool_)  # frame_rows_batch's small-angle flags (kept per N)
 
     # ------------------------------------------------------------------ the one-by-one reference
     def loop_stack(self, q: np.ndarray, target: np.ndarray) -> TaskStack:
@@ -274,10 +277,11 @@ class BatchResolver:
 
         Per problem one ``pinocchio.computeJointJacobians`` (the joint placements and the joint Jacobians in the
         world frame, as ``RobotModel.update`` computes them for a step), read through verified views of the Data
-        (:mod:`redundik.kinematics.memory`; two copies a problem); then for all N at once the frame's placement
-        oMf = oMi(parent) · placement and its base-aligned Jacobian, linear rows v + ω × p and angular rows ω on the
-        supporting joints' columns (the arithmetic of ``lie_kernels.frame_jacobian_lwa``: Pinocchio's
-        ``LOCAL_WORLD_ALIGNED`` frame Jacobian)."""
+        (:mod:`redundik.kinematics.memory`; two copies a problem); then one compiled loop
+        (``batch_kernels.frame_rows_batch``): the frame's placement oMf = oMi(parent) · placement, its base-aligned
+        Jacobian rows (``lie_kernels.frame_jacobian_lwa``: Pinocchio's ``LOCAL_WORLD_ALIGNED`` frame Jacobian) and the
+        error e = (p_d − p [m], log3(R_d Rᵀ) [rad]) (``lie_kernels.frame_error_rp``; Pinocchio's ``log3`` where the
+        rotation error exceeds its small-angle range)."""
         model, data = self.robot.model, self._data
         N, nv = q.shape[0], self.robot.nv
         JwT = self._buffer("JwT", (N, nv, 6))  # joint Jacobians in the world frame, transposed [m/rad, 1]
@@ -300,30 +304,18 @@ class BatchResolver:
                 M = data.oMi[self._parent]
                 placement[i, :9] = M.rotation.ravel(order="F")
                 placement[i, 9:] = M.translation
-        Jw = JwT.transpose(0, 2, 1)
-        frame = np.matmul(placement, self._to_frame, out=self._buffer("frame", (N, 12)))  # one product for all N:
-        R, p = frame[:, :9].reshape(N, 3, 3), frame[:, 9:]  # the frame's rotation (row-major) and origin [m]
-        J6 = self._buffer("J6", (N, 6, nv))
-        J6[:, 3:] = Jw[:, 3:]
-        w = (Jw[:, 3], Jw[:, 4], Jw[:, 5])
-        t1, t2 = self._buffer("t1", (N, nv)), self._buffer("t2", (N, nv))
-        for a, (b, c) in enumerate(((1, 2), (2, 0), (0, 1))):  # v + ω × p: (ω × p)_a = ω_b p_c − ω_c p_b
-            np.multiply(w[b], p[:, c : c + 1], out=t1)
-            np.multiply(w[c], p[:, b : b + 1], out=t2)
-            np.subtract(t1, t2, out=t1)
-            np.add(Jw[:, a], t1, out=J6[:, a])
-        if not self._columns.all():
-            J6[:, :, ~self._columns] = 0.0
         rows = self.rows
+        J = self._buffer("J", (N, rows.shape[0], nv))
         e = self._buffer("e", (N, rows.shape[0]))
-        for k, row in enumerate(rows):
-            if row < 3:
-                e[:, k] = targets[:, row, 3] - p[:, row]
-        if np.any(rows >= 3):
-            rot = batch_log3(np.matmul(targets[:, :3, :3], R.transpose(0, 2, 1), out=self._buffer("E", (N, 3, 3))))
-            for k, row in enumerate(rows):
-                if row >= 3:
-                    e[:, k] = rot[:, row - 3]
+        done = self._done if self._done.shape[0] == N else np.empty(N, dtype=np.bool_)
+        self._done = done
+        rotation = bool(np.any(rows >= 3))
+        BK.frame_rows_batch(JwT, placement, self._to_frame, targets, self._columns, rows, rotation, J, e, done)
+        for k in np.flatnonzero(~done).tolist():  # a rotation error beyond the small-angle log3: Pinocchio's log3
+            frame = placement[k] @ self._to_frame
+            R, p = frame[:9].reshape(3, 3), frame[9:]
+            err6 = np.concatenate((targets[k, :3, 3] - p, pin.log3(targets[k, :3, :3] @ R.T)))
+            e[k] = err6[rows]
         if self.posture_gain > 0:
             ref = q if self.posture_target is None else np.broadcast_to(self.posture_target, q.shape)
             if self.robot.nq == nv:
@@ -332,7 +324,7 @@ class BatchResolver:
                 ep = np.stack([pin.difference(model, q[i], ref[i]) for i in range(N)])
         else:
             ep = np.zeros((N, nv))
-        return (J6 if self._all_rows else J6[:, rows]), e, ep
+        return J, e, ep
 
     def _check(self, q: np.ndarray, targets: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
         """q (N, nq) and targets (N, 4, 4) as float arrays, checked with dt; raises :class:`ResolverError`."""
@@ -385,9 +377,7 @@ class BatchResolver:
         q, targets = self._check(q, targets, dt)
         N = q.shape[0]
         J, e, ep = self._kinematics(q, targets)
-        V = np.multiply(self.gain, e, out=self._buffer("V", e.shape))
         z = np.multiply(self.posture_gain, ep, out=self._buffer("z", ep.shape))
-        err = np.linalg.norm(e, axis=1)
         r = self.resolver
         if r.singularity is not None:
             raise ResolverError(
@@ -395,10 +385,11 @@ class BatchResolver:
                 "resolves independent problems: set singularity=None for the batch, or step the problems one by one"
             )
         if isinstance(r, PinvResolver):
-            dq = self._solve_pinv(r, np.ascontiguousarray(J), V, z)
-            out = BatchResult(dq, err, np.zeros(N, dtype=bool), [None] * N, [()] * N)
+            V = np.multiply(self.gain, e, out=self._buffer("V", e.shape))
+            dq = self._solve_pinv(r, J, V, z)
+            out = BatchResult(dq, np.linalg.norm(e, axis=1), np.zeros(N, dtype=bool), [None] * N, [()] * N)
         else:
-            out = self._solve_wqp(cast(WeightedQPResolver, r), q, targets, J, V, z, e, err, dt)
+            out = self._solve_wqp(cast(WeightedQPResolver, r), q, targets, J, z, e, dt)
         limiter = r._limiter  # the joint-speed cap, as each problem's step applies it (resolvers/singularity.py)
         caps = None if limiter is None else limiter.caps(self.robot)
         if caps is None or (N and float(np.max(np.abs(out.dq) / caps)) <= 1.0):  # (no row over its caps: none scaled)
@@ -459,35 +450,31 @@ class BatchResolver:
         q: np.ndarray,
         targets: np.ndarray,
         J: np.ndarray,
-        V: np.ndarray,
         z: np.ndarray,
         e: np.ndarray,
-        err: np.ndarray,
         dt: float,
     ) -> BatchResult:
+        """q̇ (N, nv) [rad/s] of the N ``wqp`` problems (J (N, m, nv), z (N, nv) [rad/s], e (N, m) [m, rad]): each
+        problem's P, q, unconstrained optimum and box test in one compiled loop (``batch_kernels.wqp_box_batch``),
+        the joint-limit boxes of all N by one :meth:`JointLimits.box` call; the problems whose optimum leaves the box
+        take the single step's QP (see the module docstring)."""
         N, nv = q.shape[0], self.robot.nv
         has_posture = self.posture_gain > 0
         scale = r.level_ratio if has_posture else 1.0  # ρ^(L−1): the lowest level's weight
-        m = J.shape[1]
-        Jt = self._buffer("Jt", (N, nv, m))  # Jᵀ, contiguous (NumPy's stacked product is then several times faster);
-        np.copyto(Jt, J.transpose(0, 2, 1))  # the frame task's weight is 1 at level 0
-        P = np.matmul(Jt, J, out=self._buffer("P", (N, nv, nv)))
-        qv = self._buffer("qv", (N, nv))
-        np.matmul(Jt, V[:, :, None], out=qv[:, :, None])
-        np.negative(qv, out=qv)
-        diagonal = P.reshape(N, nv * nv)[:, :: nv + 1]  # (a view on P's diagonals)
-        if has_posture:
-            diagonal += scale
-            qv -= np.multiply(scale, z, out=self._buffer("t1", (N, nv)))
-        lam = np.full(N, r.damping * scale)
-        if r.lm_damping:
-            lam += r.lm_damping * np.einsum("nm,nm->n", e, e)
-        diagonal += lam[:, None]
         box = r.limits.box(self.robot, q, dt)  # (N, nv) bounds: one call for every problem (bound to the robot)
-        lb = np.ascontiguousarray(np.broadcast_to(box.lb, (N, nv)))
-        ub = np.ascontiguousarray(np.broadcast_to(box.ub, (N, nv)))
-        x, _, inside = K.spd_solve_batch(np.ascontiguousarray(P), qv, lb, ub, 1e-12)
-        dq = np.minimum(np.maximum(x, lb), ub)
+        bounds = self._buffer("box", (2, N, nv))  # lb, ub: the kernel's record
+        np.copyto(bounds[0], box.lb)
+        np.copyto(bounds[1], box.ub)
+        lb, ub = bounds[0], bounds[1]
+        P = self._buffer("P", (N, nv, nv))
+        qv = self._buffer("qv", (N, nv))
+        dq = np.empty((N, nv))
+        inside = np.empty(N, dtype=np.bool_)
+        err = np.empty(N)
+        coef = np.empty(BK.WB_COEFS)
+        coef[BK.WB_GAIN], coef[BK.WB_SCALE], coef[BK.WB_POSTURE] = self.gain, scale, float(has_posture)
+        coef[BK.WB_DAMPING], coef[BK.WB_LM], coef[BK.WB_TOL] = r.damping * scale, float(r.lm_damping or 0.0), 1e-12
+        BK.wqp_box_batch(J, e, z, coef, bounds, P, qv, dq, inside, err)
         notes: list[str | None] = [None] * N
         relaxed: list[tuple[str, ...]] = [()] * N
         bind = np.flatnonzero(~inside)
