@@ -157,7 +157,7 @@ class Resolver(ABC):
         """BLAS threads inside a step: an integer ≥ 1, or ``None`` to leave the process's setting alone. The default
         ``"auto"`` limits BLAS to one thread for robots with nv ≥ :data:`BLAS_LIMIT_NV` = 64 (threaded products on
         small matrices stall on busy cores) unless the user set ``OMP_NUM_THREADS``/``OPENBLAS_NUM_THREADS``/
-        ``MKL_NUM_THREADS``. Checked on assignment (:func:`check_blas_threads`), used from the next step."""
+        ``MKL_NUM_THREADS``. Checked on assignment (``check_blas_threads``), used from the next step."""
         return self._blas_threads
 
     @blas_threads.setter
