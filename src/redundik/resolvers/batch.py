@@ -47,9 +47,8 @@ from redundik._coldstart import compiled_now
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.memory import jacobian_view, se3_vector_view
 from redundik.kinematics.model import RobotModel
-from redundik.resolvers import batch_kernels as BK
 from redundik.resolvers.base import Resolver
-from redundik.resolvers.linalg import RCOND, K
+from redundik.resolvers.linalg import RCOND, K, _Kernels
 from redundik.resolvers.pinv import PinvResolver
 from redundik.resolvers.qp.backends import DaqpBackend
 from redundik.resolvers.qp.daqp_native import HK, NativeDaqp
@@ -61,6 +60,8 @@ from redundik.tasks.frame import FrameTask, PostureTask, resolve_axes
 from redundik.tasks.stack import TaskStack
 
 _LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
+
+BK = _Kernels("batch_kernels")  # (numba loads on first use, not when redundik is imported)
 
 
 @dataclass
