@@ -27,10 +27,6 @@ Vectorised over problems:
 
 Agreement with the loop: ≤ 1e-9 in q̇ (tested); the differences are rounding (NumPy's stacked products and
 q̇ = z + Jᵀ(JJᵀ)⁻¹(V − Jz) for ``pinv``'s two solves; ``wqp`` matched the loop bit for bit on panda_batch1000).
-
-Cost (panda_batch1000, 1000 problems, this 2-core machine, warm): ≈ 1.1 ms of the ≈ 2.6 ms of a ``wqp`` call is the
-per-problem Pinocchio call and its two copies, ≈ 0.13 ms daqp on the binding problems, most of the rest the two
-compiled loops (the NumPy version of their maths, multi-MB intermediates, took ≈ 0.35 ms more).
 """
 
 from __future__ import annotations
@@ -266,8 +262,8 @@ class BatchResolver:
     def _buffer(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
         """A float64 scratch array of ``shape`` (contents undefined), the same one from call to call while the shape
         stays: a batch's intermediates (a few MB for 1000 Panda problems) are not allocated afresh each call, whose
-        pages the allocator would otherwise return to the system and fault in again (measured: ≈ 0.3–1.5 ms of a
-        ≈ 3 ms call when other work runs between calls). Valid until the next call of the batch."""
+        pages the allocator would otherwise return to the system and fault in again at each call. Valid until the next
+        call of the batch."""
         buf = self._buffers.get(name)
         if buf is None or buf.shape != shape:
             buf = self._buffers[name] = np.empty(shape)
