@@ -25,8 +25,8 @@ def _stack() -> rk.TaskStack:
     return rk.TaskStack([hand, rk.PostureTask(gain=1.0)])
 
 
-def _run(native: bool, fuse: bool, limits: dict[str, float], backend: str, monkeypatch: pytest.MonkeyPatch,
-         steps: int = 120) -> tuple[list[tuple[object, ...]], int]:  # fmt: skip
+def _count_native_steps(native: bool, monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """Switch daqp's native call on or off and count the steps the native box QP answers (a one-entry list)."""
     monkeypatch.setattr(daqp_native, "enabled", native)
     taken = [0]
     original = wqp.native_box_step
@@ -37,6 +37,12 @@ def _run(native: bool, fuse: bool, limits: dict[str, float], backend: str, monke
         return res
 
     monkeypatch.setattr(wqp, "native_box_step", counting)
+    return taken
+
+
+def _run(native: bool, fuse: bool, limits: dict[str, float], backend: str, monkeypatch: pytest.MonkeyPatch,
+         steps: int = 120) -> tuple[list[tuple[object, ...]], int]:  # fmt: skip
+    taken = _count_native_steps(native, monkeypatch)
     robot = rk.load_example_robot("panda")
     robot.update(Q0)
     stack = _stack()
@@ -150,16 +156,7 @@ def _talos_run(native: bool, monkeypatch: pytest.MonkeyPatch, steps: int = 150) 
     from benchmarks.bench.runners import RedundikRunner
     from benchmarks.bench.scenarios import SCENARIOS
 
-    monkeypatch.setattr(daqp_native, "enabled", native)
-    taken = [0]
-    original = wqp.native_box_step
-
-    def counting(*args: object, **kwargs: object) -> object:
-        res = original(*args, **kwargs)  # type: ignore[arg-type]
-        taken[0] += res is not None
-        return res
-
-    monkeypatch.setattr(wqp, "native_box_step", counting)
+    taken = _count_native_steps(native, monkeypatch)
     runner = RedundikRunner(SCENARIOS["talos"](), "wqp", None, {})
     dt, out = runner.scenario.dt, []
     for k in range(steps):
