@@ -215,3 +215,43 @@ def test_twins_give_the_compiled_answer(name: str) -> None:
         answers.append(out.dq.copy())
     np.testing.assert_allclose(answers[1], answers[0], rtol=0, atol=1e-12)
     np.testing.assert_allclose(answers[1], answers[2], rtol=0, atol=1e-12)
+
+
+def test_compiling_thread_survives_imports_in_the_callers_thread() -> None:
+    """The compiling thread walks redundik's modules while the caller's thread may import: a walk of ``sys.modules``
+    itself raised "dictionary changed size during iteration" there, the thread died and its kernels were never
+    adopted (a script that imported a module about a second after its first task evaluation)."""
+    import threading
+    import types
+
+    errors: list[BaseException] = []
+    stop = threading.Event()
+
+    def walk() -> None:
+        while not stop.is_set():
+            try:
+                _coldstart._spaces()
+            except BaseException as exc:  # (what the thread would die of)
+                errors.append(exc)
+                return
+
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)
+    walker = threading.Thread(target=walk)
+    walker.start()
+    try:
+        for k in range(20000):  # the caller's thread importing meanwhile
+            name = f"redundik._import_race_{k % 64}"
+            if name in sys.modules:
+                del sys.modules[name]
+            else:
+                sys.modules[name] = types.ModuleType(name)
+            if errors:
+                break
+    finally:
+        stop.set()
+        walker.join()
+        sys.setswitchinterval(interval)
+        for k in range(64):
+            sys.modules.pop(f"redundik._import_race_{k}", None)
+    assert not errors, f"the walk of redundik's modules failed while another thread imported: {errors[0]!r}"

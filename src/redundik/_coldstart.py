@@ -282,8 +282,10 @@ def _install(compiled_too: bool = False) -> None:
         return
 
     spaces: dict[int, dict[str, Any]] = {}
-    for mod_name in [m for m in sys.modules if m.startswith("redundik.") and m not in _kernel_cache.KERNELS]:
-        space = vars(sys.modules[mod_name])
+    for mod_name, module in _redundik_modules():
+        if mod_name in _kernel_cache.KERNELS:
+            continue
+        space = vars(module)
         spaces[id(space)] = space
         for value in list(space.values()):
             if isinstance(value, _kernel_cache.KernelNamespace):
@@ -356,12 +358,22 @@ def compiled_now() -> None:
         adopt()
 
 
+def _redundik_modules() -> list[tuple[str, types.ModuleType]]:
+    """redundik's loaded modules, as (name, module), from one snapshot of ``sys.modules``: the compiling thread
+    walks them while the caller's thread may import (iterating ``sys.modules`` itself then raises "dictionary
+    changed size during iteration", and the thread dies with its kernels never adopted)."""
+    loaded = list(sys.modules.items())  # (one C-level copy: no other thread runs during it)
+    return [(name, mod) for name, mod in loaded if name.startswith("redundik.") and isinstance(mod, types.ModuleType)]
+
+
 def _spaces() -> list[dict[str, Any]]:
     """The namespaces that may hold kernels (the kernel modules excepted): every redundik module's globals and the
     filled kernel namespaces."""
     spaces: dict[int, dict[str, Any]] = {}
-    for mod_name in [m for m in sys.modules if m.startswith("redundik.") and m not in _kernel_cache.KERNELS]:
-        space = vars(sys.modules[mod_name])
+    for mod_name, module in _redundik_modules():
+        if mod_name in _kernel_cache.KERNELS:
+            continue
+        space = vars(module)
         spaces[id(space)] = space
         for value in list(space.values()):
             if isinstance(value, _kernel_cache.KernelNamespace) and "_module" in value.__dict__:
@@ -377,8 +389,8 @@ def _restore() -> None:
         if isinstance(space.get(key), _Switch):
             space[key] = value
     _saved.clear()
-    for mod_name in [m for m in sys.modules if m.startswith("redundik.")]:  # kernels bound to a switch later
-        space = vars(sys.modules[mod_name])
+    for _, module in _redundik_modules():  # kernels bound to a switch later
+        space = vars(module)
         for key, value in list(space.items()):
             if isinstance(value, _Switch):
                 space[key] = value.kernel
