@@ -364,3 +364,29 @@ def test_stack_reset_without_a_robot_says_a_robot_model_was_expected(robot: Any)
     stack = rk.TaskStack([rk.FrameTask("panda_hand")])
     with pytest.raises(TaskError, match=r"task stack: expected a RobotModel .* got"):
         stack.reset(robot)
+
+
+@pytest.mark.parametrize("method", ["wqp", "hqp"])
+@pytest.mark.parametrize(
+    ("levels", "match"),
+    [
+        ("", "expected a mapping"),  # a string was iterated as names: '1,2' gave {'1': 0, ',': 1, '2': 2}
+        ("hand,posture", "expected a mapping"),
+        ({"hand", "posture"}, "expected a mapping"),  # a set: no order of levels
+        ([{"hand"}], "level 0 must be a name or a list of names"),
+        ([["hand"], [None]], "level 1 has None"),
+        ([[""]], "level 0 has ''"),
+        ({"": 1}, "is not a task or subtask name"),
+        ({None: 1}, "is not a task or subtask name"),
+        ([["hand", True]], "level 0 has True"),
+    ],
+)
+def test_levels_refuse_what_is_not_names_by_level(method: str, levels: Any, match: str) -> None:
+    with pytest.raises(rk.RedundikError, match=match):
+        rk.make_resolver(method, levels=levels)
+
+
+def test_levels_take_integer_names_as_yaml_reads_them() -> None:
+    """``levels: {3: 1}`` in YAML has an integer key: the task named '3' (a D-H frame's default name)."""
+    assert rk.make_resolver("hqp", levels={3: 1}).levels == {"3": 1}  # type: ignore[attr-defined]
+    assert rk.make_resolver("hqp", levels=[[3], "b"]).levels == {"3": 0, "b": 1}  # type: ignore[attr-defined]

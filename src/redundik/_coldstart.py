@@ -258,11 +258,11 @@ def twins_of(space: Any) -> Any:
 
 
 def _build_twins() -> None:
-    dispatchers = {id(d): d for funcs in _kernel_cache.KERNELS.values() for d in funcs.values()}
+    dispatchers = {id(d): d for funcs in list(_kernel_cache.KERNELS.values()) for d in list(funcs.values())}
     spaces: dict[str, dict[str, Any]] = {}
-    for mod_name, funcs in _kernel_cache.KERNELS.items():
+    for mod_name, funcs in list(_kernel_cache.KERNELS.items()):  # (snapshots: another thread may import)
         space = spaces[mod_name] = dict(vars(sys.modules[mod_name]))
-        for disp in funcs.values():
+        for disp in list(funcs.values()):
             f = getattr(disp, "py_func", disp)  # (the function itself while numba is deferred)
             fn = types.FunctionType(f.__code__, space, f.__name__, f.__defaults__, f.__closure__)
             fn.__kwdefaults__ = f.__kwdefaults__
@@ -292,7 +292,7 @@ def _install(compiled_too: bool = False) -> None:
                 value.__getattr__("__name__")  # imports its module and fills its namespace
                 spaces[id(value.__dict__)] = value.__dict__
     _build_twins()  # (after the namespaces loaded their modules)
-    kernels = {id(d): d for funcs in _kernel_cache.KERNELS.values() for d in funcs.values()}
+    kernels = {id(d): d for funcs in list(_kernel_cache.KERNELS.values()) for d in list(funcs.values())}
     for space in spaces.values():
         for key, value in list(space.items()):
             if id(value) in kernels and kernels[id(value)] is value and (compiled_too or not _compiled(value)):

@@ -56,25 +56,45 @@ def make_limits(limits: LimitsOption) -> JointLimits:
     raise ResolverError(f"limits: expected a mapping, true/false or JointLimits, got {limits!r}")
 
 
+def _is_name(name: object) -> bool:
+    """A task or subtask name of a level override: a non-empty string, or an integer (YAML reads ``3:`` as one)."""
+    if isinstance(name, str):
+        return bool(name.strip())
+    return isinstance(name, (int, np.integer)) and not isinstance(name, bool)
+
+
 def make_levels(levels: LevelsOption) -> dict[str, int]:
     """Level overrides by name, from a mapping ``{name: level}`` or a list of levels ``[[names of level 0], ...]``.
 
     Raises:
-        ResolverError: a negative or non-integer level, or a name given twice.
+        ResolverError: a negative or non-integer level, a name given twice, a name that is not a non-empty string,
+            or levels given as anything else (a string: its characters are not names).
     """
     if levels is None:
         return {}
     out: dict[str, int] = {}
     if isinstance(levels, Mapping):
         for name, lv in levels.items():
+            if not _is_name(name):
+                raise ResolverError(f"levels: {name!r:.80} is not a task or subtask name")
             if isinstance(lv, bool) or not isinstance(lv, (int, np.integer)) or lv < 0:
                 raise ResolverError(f"levels: '{name}' must be an integer level ≥ 0, got {lv!r}")
             out[str(name)] = int(lv)
         return out
+    if isinstance(levels, (str, bytes)) or not isinstance(levels, (list, tuple)):  # (a string: one name per char)
+        raise ResolverError(
+            "levels: expected a mapping {name: level} or a list of levels, each a name or a list of names, got "
+            f"{levels!r:.80}"
+        )
     for k, names in enumerate(levels):
-        if isinstance(names, str):
+        if _is_name(names):
             names = [names]
+        if not isinstance(names, (list, tuple)):
+            raise ResolverError(f"levels: level {k} must be a name or a list of names, got {names!r:.80}")
         for name in names:
+            if not _is_name(name):
+                raise ResolverError(f"levels: level {k} has {name!r:.80}, expected a task or subtask name")
+            name = str(name)
             if name in out:
                 raise ResolverError(f"levels: '{name}' appears in level {out[name]} and level {k}")
             out[str(name)] = k
