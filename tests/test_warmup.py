@@ -73,11 +73,16 @@ def test_warm_up_compiles_solve_ik_ahead(tmp_path: Path) -> None:
     assert got["keys"] == ["solve_ik"] and got["found"] == [] and all(got["ok"])
 
 
-def test_feedback_reports_every_member_interpreted() -> None:
+def test_feedback_reports_its_path() -> None:
+    """``feedback`` takes its compiled step; switched off (``fuse = False``) every member is named interpreted."""
     robot = rk.from_dh([rk.DHRow("1", a=1.0), rk.DHRow("2", a=1.0), rk.DHRow("3", a=1.0)])
     stack = rk.TaskStack([rk.FrameTask("3", rk.Line([0.2, -0.4]), axes="planar")])
     q = np.radians([30.0, 60.0, -30.0])
     robot.update(q)
     stack.reset(robot)
-    res = rk.make_resolver("feedback").step(robot, stack, q, 0.0, 0.01)
+    resolver = rk.make_resolver("feedback")
+    res = resolver.step(robot, stack, q, 0.0, 0.01)
+    assert res.info["path"] == "compiled" and res.info["interpreted"] == ()
+    resolver.fuse = False  # type: ignore[attr-defined]
+    res = resolver.step(robot, stack, q, 0.0, 0.01)
     assert res.info["path"] == "interpreted" and res.info["interpreted"] == ("3",)

@@ -58,6 +58,7 @@ KERNEL_SOURCES: tuple[str, ...] = (
     "ik/kernels.py",
     "resolvers/jerk_kernels.py",
     "resolvers/batch_kernels.py",
+    "resolvers/feedback_kernels.py",
 )
 
 #: Every kernel :func:`jit` made: ``{module name: {function name: numba dispatcher}}`` (read by

@@ -18,8 +18,9 @@ optimum) gives k = 0, never 0/0.
 
 from __future__ import annotations
 
+import math
 import time
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -27,11 +28,22 @@ from redundik._coldstart import HOT, ready
 from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver, StepResult, nonfinite_sources
-from redundik.resolvers.linalg import damped_svd, pseudo_inverse, pseudo_inverse_unchecked
+from redundik.resolvers.fused import FusedPlan
+from redundik.resolvers.layouts import CF_ROWS, FRAME_ROWS
+from redundik.resolvers.linalg import FK, RCOND, _Kernels, damped_svd, pseudo_inverse, pseudo_inverse_unchecked
 from redundik.resolvers.pinv import main_system
-from redundik.resolvers.settings import Setting, nonnegative
+from redundik.resolvers.settings import Setting, flag, nonnegative
 from redundik.resolvers.singularity import SingularityGuard
+from redundik.tasks.base import CompiledGradient, TaskTerm
+from redundik.tasks.potential_rows import compiled_writer
 from redundik.tasks.stack import StackLayout, TaskStack
+
+#: The compiled law (:mod:`redundik.resolvers.feedback_kernels`), loaded on first use.
+FBK = _Kernels("feedback_kernels")
+#: :mod:`redundik.resolvers.feedback_kernels`' layouts (``FB_*``), repeated here so that importing this module does
+#: not load numba; ``tests/test_feedback_compiled.py`` checks that they are the kernel module's.
+FB_RANK, FB_NULL, FB_DQ, FB_ROWS = 0, 1, 2, 3
+FB_J_RANK, FB_SIGMA_MIN, FB_DAMPING, FB_D_RANK, FB_D_DAMPING = 0, 1, 2, 3, 4
 
 
 class FeedbackResolver(Resolver):
@@ -54,6 +66,12 @@ class FeedbackResolver(Resolver):
 
     name = "feedback"
     accepts: ClassVar[tuple[str, ...]] = ("gradient", "target")
+    #: Take the compiled step when the stack allows it: the main rows and z as ``pinv``'s fused step writes them
+    #: (:mod:`redundik.resolvers.fused`), the target subtasks' rows from their potentials' compiled writers (their
+    #: ``row`` from Python otherwise: a mixed step), then the law in one compiled call
+    #: (:mod:`redundik.resolvers.feedback_kernels`). The per-task path otherwise (the same answer: a switch for
+    #: comparisons and tests).
+    fuse = Setting(flag)
 
     epsilon = Setting(nonnegative)
     max_damping = Setting(nonnegative)
@@ -68,7 +86,9 @@ class FeedbackResolver(Resolver):
         singularity: SingularityGuard | dict[str, float] | bool | None = None,
     ) -> None:
         self.epsilon, self.max_damping, self.d_epsilon = epsilon, max_damping, d_epsilon  # (validated: Setting)
+        self.fuse = True
         self._layout: tuple[tuple[int, ...], StackLayout] | None = None
+        self._fused: _FusedFeedback | None = None
         self.max_joint_speed, self.singularity = max_joint_speed, singularity  # (validated on assignment)
 
     def check(self, robot: RobotModel, stack: TaskStack) -> None:
@@ -91,12 +111,16 @@ class FeedbackResolver(Resolver):
         if "feedback" not in HOT:  # (its kernels' twins while they compile in the background: redundik._coldstart)
             ready("feedback")
         t0 = time.perf_counter()
-        terms = stack.evaluate(robot, t)
         sig = self.stack_key(stack)
         cached = self._layout
         if cached is None or (cached[0] is not sig and cached[0] != sig):
             self._layout = cached = (sig, stack.layout())
         layout = cached[1]
+        if self.fuse and ready("feedback"):
+            res = self._fused_solve(robot, stack, layout, t, t0)
+            if res is not None:
+                return res
+        terms = stack.evaluate(robot, t)
         J, V, z = main_system(robot, stack, terms, layout)
         subs = stack.target_subtasks
         r = len(subs)
@@ -118,7 +142,7 @@ class FeedbackResolver(Resolver):
         d_damped, d_rank = False, 0
         k = np.zeros(r)
         if r:
-            PN = pi.null_projector @ N  # (n, r)
+            PN = np.column_stack([pi.null_project(np.ascontiguousarray(N[:, i])) for i in range(r)])  # P N (n, r)
             D = N.T @ PN  # (r, r), symmetric positive semi-definite
             scale = float(np.sum(N * N))
             dk = damped_svd(D, epsilon=self.d_epsilon * scale, max_damping=self.d_epsilon * scale)
@@ -150,5 +174,144 @@ class FeedbackResolver(Resolver):
             main=layout.main,
         )
 
+    def reset(self) -> None:
+        super().reset()
+        self._fused = None
+
+    def _fused_solve(
+        self, robot: RobotModel, stack: TaskStack, layout: StackLayout, t: float, t0: float
+    ) -> StepResult | None:
+        """The compiled step (:attr:`fuse`); ``None`` when this step needs the per-task path (a member without a
+        compiled form of its main rows, a rotation error beyond the compiled log3's range, a non-finite q̇ or target
+        row to diagnose, a stack that cannot be planned yet)."""
+        fused = self._fused
+        if fused is None or not fused.current(robot, stack, layout):
+            fused = self._fused = _FusedFeedback.build(robot, stack, layout)
+        plan = fused.plan
+        if plan is None:
+            return None
+        external: list[TaskTerm | None] | tuple[()] = ()
+        if plan.external:  # the members without a compiled form: their evaluate, written into the step's rows
+            evaluated = plan.evaluate_external(robot, t, direct=True)
+            if evaluated is None:
+                return None
+            external = evaluated
+        n, m, K = robot._nv, plan.m, len(plan.frames)
+        work = np.empty(plan.pinv_work)
+        a = CF_ROWS * n  # (FK.pinv_work_views' J, (e, v) and the frames' Jacobians, sliced here: cheaper than a call)
+        b, c = a + m * n, a + m * n + 2 * m
+        Jm, ev, Jf = (
+            work[a:b].reshape(m, n),
+            work[b:c].reshape(2, m),
+            work[c : c + FRAME_ROWS * K * n].reshape(K, FRAME_ROWS, n),
+        )
+        if external:
+            end = work.shape[0]  # (the Python writers' null-space terms, before z: FK.pinv_null_views)
+            plan.write_external(robot, external, Jm, 0, ev, None, work[end - 2 * n : end - n], t)
+        q = robot.q
+        coef = plan.coefficients((self.epsilon, self.max_damping, RCOND))
+        refs = plan.given_references(t) if plan.given else plan.refs
+        args = (plan.jw, plan.poses, float(t), refs, q, plan.ints, plan.floats, coef, work)
+        status, has_z, _ = FK.fused_pinv_rows(*args)
+        if status < 0.0:
+            return None
+        Nt, rhs = fused.target_rows(robot)
+        if Nt is None:
+            return None
+        t1 = time.perf_counter()
+        out = np.empty((FB_ROWS, n))
+        gains, report = np.empty(rhs.shape[0]), np.empty(5)
+        z = work[work.shape[0] - n :]
+        FBK.feedback_law(Jm, ev[1], z, bool(has_z), Nt, rhs, fused.settings(self), out, gains, report)
+        dq = out[FB_DQ]
+        if not math.isfinite(dq.dot(dq)):  # a non-finite (or overflowing) q̇: the per-task path diagnoses it
+            return None
+        terms = plan.terms(Jf, ev, q, robot, external)
+        d_damping = float(report[FB_D_DAMPING])
+        res = StepResult(
+            dq=dq,
+            terms=terms,
+            dq_rank=out[FB_RANK],
+            dq_null=out[FB_NULL],
+            gains=gains,
+            damped=report[FB_DAMPING] > 0.0 or d_damping > 0.0,
+            damping=float(report[FB_DAMPING]),
+            sigma_min=float(report[FB_SIGMA_MIN]),
+            info={
+                "sigma_min": float(report[FB_SIGMA_MIN]),
+                "rank": int(report[FB_J_RANK]),
+                "D_damped": d_damping > 0.0,
+                "D_rank": int(report[FB_D_RANK]),
+            },
+            build_time=t1 - t0,
+            solve_time=time.perf_counter() - t1,
+            main=layout.main,
+        )
+        res.__dict__["_compiled"] = plan.external_names + fused.python_targets or True
+        return res
+
     def __repr__(self) -> str:
         return f"FeedbackResolver(epsilon={self.epsilon}, d_epsilon={self.d_epsilon})"
+
+
+class _FusedFeedback:
+    """A ``feedback`` stack laid out for its compiled step: ``pinv``'s fused plan of the main rows and z (the
+    target subtasks are not in it), and per target subtask its potential's compiled writer or ``None`` (its
+    ``row`` is called)."""
+
+    def __init__(self, robot: RobotModel, layout: StackLayout, plan: FusedPlan | None, targets: list[Any]) -> None:
+        self.robot, self.layout, self.plan, self.targets = robot, layout, plan, targets
+        self.writers: list[CompiledGradient | None] = []
+        self.revisions: list[int] = []
+        self.python_targets: tuple[str, ...] = ()
+        self._settings = np.empty(4)
+        self._settings_of: tuple[float, float, float] | None = None
+
+    @classmethod
+    def build(cls, robot: RobotModel, stack: TaskStack, layout: StackLayout) -> _FusedFeedback:
+        targets = list(stack.target_subtasks)
+        built = FusedPlan.build(robot, stack, layout, None, 1.0, mixed=True)
+        out = cls(robot, layout, built if isinstance(built, FusedPlan) else None, targets)
+        out.writers = [compiled_writer(sub.potential, robot) for sub in targets]
+        out.revisions = [sub.potential.form_revision for sub in targets]
+        out.python_targets = tuple(sub.name for sub, w in zip(targets, out.writers, strict=True) if w is None)
+        return out
+
+    def current(self, robot: RobotModel, stack: TaskStack, layout: StackLayout) -> bool:
+        """Laid out for this membership, robot and potentials' forms (a plan not made yet is made again)."""
+        plan = self.plan
+        if layout is not self.layout or robot is not self.robot or plan is None or not plan.current(robot):
+            return False
+        if stack.target_subtasks != self.targets:
+            return False
+        return all(sub.potential.form_revision == rev for sub, rev in zip(self.targets, self.revisions, strict=True))
+
+    def settings(self, resolver: FeedbackResolver) -> np.ndarray:
+        """``feedback_law``'s settings (ε, λ_max, rcond, d_ε) of ``resolver``'s current options."""
+        key = (resolver.epsilon, resolver.max_damping, resolver.d_epsilon)
+        if key != self._settings_of:
+            self._settings[:] = (key[0], key[1], RCOND, key[2])
+            self._settings_of = key
+        return self._settings
+
+    def target_rows(self, robot: RobotModel) -> tuple[np.ndarray | None, np.ndarray]:
+        """(N as rows (r, n), ẏ_d + K(y_d − y) (r,)) at this step (``TargetSubtask.row``); N ``None``: a row that
+        is not finite, or a gradient that is not a float vector (nv,) (the per-task path says what is wrong)."""
+        r, n = len(self.targets), robot._nv
+        Nt, rhs = np.zeros((r, n)), np.empty(r)
+        plan = self.plan
+        assert plan is not None
+        q = robot.q
+        for i, (sub, writer) in enumerate(zip(self.targets, self.writers, strict=True)):
+            if writer is not None:
+                e = sub.target - writer.kernel(q, plan.poses, plan.jw, writer.ints, writer.floats, Nt[i])
+                rhs[i] = sub.target_rate + sub.rate * e
+            else:
+                eta, v, _ = sub.row(robot)
+                if not (type(eta) is np.ndarray and eta.dtype == np.float64 and eta.shape == (n,)):
+                    return None, rhs
+                Nt[i] = eta
+                rhs[i] = v
+        if r and not math.isfinite(float(Nt.sum()) + float(rhs.sum())):  # (a NaN or ±inf entry: the sum is not)
+            return None, rhs
+        return Nt, rhs

@@ -83,7 +83,7 @@ from redundik.resolvers.layouts import (
 from redundik.tasks.target_kernels import reference_into
 from redundik.tasks.trajectory import GIVEN, PARAMS
 
-__all__ = ["HEADER", "REF", "frame_rows", "fused_pinv_step", "fused_wqp_step", "reference_into"]
+__all__ = ["HEADER", "REF", "frame_rows", "fused_pinv_rows", "fused_pinv_step", "fused_wqp_step", "reference_into"]
 
 
 @_jit
@@ -325,7 +325,7 @@ def fused_wqp_step(
 
 
 @_jit
-def fused_pinv_step(
+def fused_pinv_rows(
     Jw: np.ndarray,
     poses: np.ndarray,
     t: float,
@@ -335,25 +335,20 @@ def fused_pinv_step(
     floats: np.ndarray,
     coef: np.ndarray,
     work: np.ndarray,
-) -> tuple[float, int, float, float, float, float]:
-    """One ``pinv`` step of a fused stack: the frame tasks' rows stacked into J (m, n) and e, v, z of the
-    null-space objective (``_null_objective``), and the closed form q̇ = J⁺V + (I − J⁺J) z (eq. 5.8,
-    ``closed_form_into``, σ_min lazily).
-
-    ``work`` (flat, one allocation a step; :func:`pinv_work_views` names its parts): J⁺V, (I − J⁺J) z and q̇
-    (``layouts.CF_ROWS``, n), then J (m, n), e and v (2, m), the frames' Jacobians (K, 6, n), the null-space terms
-    Python writers give (n,) and z (n,). ``coef``: gain (K) per frame task, the N null coefficients, then the
-    resolver's tail (``layouts.PINV_TAIL``: ε, λ_max and rcond).
+) -> tuple[float, bool, float]:
+    """The rows of a ``pinv`` step of a fused stack (the first half of :func:`fused_pinv_step`, and the rows of a
+    ``feedback`` step): the frame tasks' rows stacked into J (m, n), e and v, and z of the null-space objective
+    (``_null_objective``, plus the terms Python writers gave) — into ``work``'s parts (:func:`pinv_work_views`).
 
     Returns:
-        (status — −1 a rotation error too large for the compiled log3, 1 done —, rank, σ_min (NaN: to compute on
-        request), damping, Σ e², ‖q̇‖²).
+        (status — −1 a rotation error too large for the compiled log3, 1 done —, whether z has a term, Σ e² of the
+        main rows).
     """
     K, N, m, nv = ints[H_K], ints[H_N], ints[H_M], ints[H_NV]
-    out, Jm, ev, Jf = pinv_work_views(work, K, m, nv)
+    _, Jm, ev, Jf = pinv_work_views(work, K, m, nv)
     e, v = ev[0], ev[1]
     if not frame_rows(Jw, poses, t, refs, ints, floats, coef[0:K], Jf, e, v):
-        return -1.0, 0, 0.0, 0.0, 0.0, 0.0
+        return -1.0, False, 0.0
     starts = _part(ints, H_FRAME_STARTS, K + 1)
     rows = _part(ints, H_FRAME_ROWS, starts[K])
     for k in range(K):
@@ -370,10 +365,43 @@ def fused_pinv_step(
         for i in range(nv):
             z[i] += zx[i]
         has_z = True
+    return 1.0, has_z, _main_error2(ints, e[0:m])
+
+
+@_jit
+def fused_pinv_step(
+    Jw: np.ndarray,
+    poses: np.ndarray,
+    t: float,
+    refs: np.ndarray,
+    q: np.ndarray,
+    ints: np.ndarray,
+    floats: np.ndarray,
+    coef: np.ndarray,
+    work: np.ndarray,
+) -> tuple[float, int, float, float, float, float]:
+    """One ``pinv`` step of a fused stack: its rows (:func:`fused_pinv_rows`) and the closed form
+    q̇ = J⁺V + (I − J⁺J) z (eq. 5.8, ``closed_form_into``, σ_min lazily).
+
+    ``work`` (flat, one allocation a step; :func:`pinv_work_views` names its parts): J⁺V, (I − J⁺J) z and q̇
+    (``layouts.CF_ROWS``, n), then J (m, n), e and v (2, m), the frames' Jacobians (K, 6, n), the null-space terms
+    Python writers give (n,) and z (n,). ``coef``: gain (K) per frame task, the N null coefficients, then the
+    resolver's tail (``layouts.PINV_TAIL``: ε, λ_max and rcond).
+
+    Returns:
+        (status — −1 a rotation error too large for the compiled log3, 1 done —, rank, σ_min (NaN: to compute on
+        request), damping, Σ e², ‖q̇‖²).
+    """
+    status, has_z, err2 = fused_pinv_rows(Jw, poses, t, refs, q, ints, floats, coef, work)
+    if status < 0.0:
+        return -1.0, 0, 0.0, 0.0, 0.0, 0.0
+    K, N, m, nv = ints[H_K], ints[H_N], ints[H_M], ints[H_NV]
+    out, Jm, ev, _ = pinv_work_views(work, K, m, nv)
+    _, z = pinv_null_views(work, nv)
     tail = coef[K + N : K + N + PINV_TAIL]
     eps, lmax, rcond = tail[TAIL_EPSILON], tail[TAIL_MAX_DAMPING], tail[TAIL_RCOND]
-    rank, sigma_min, damping = closed_form_into(Jm, v, z, has_z, eps, lmax, rcond, out, True)
-    return 1.0, rank, sigma_min, damping, _main_error2(ints, e[0:m]), _sumsq(out[CF_DQ])
+    rank, sigma_min, damping = closed_form_into(Jm, ev[1], z, has_z, eps, lmax, rcond, out, True)
+    return 1.0, rank, sigma_min, damping, err2, _sumsq(out[CF_DQ])
 
 
 def wqp_work_size(K: int, m: int, nv: int, mx: int = 0) -> int:

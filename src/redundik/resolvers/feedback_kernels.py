@@ -1,0 +1,85 @@
+"""The compiled form of the chapter's state-feedback law for the subtask gains (section 5.2, after eq. 5.15; the
+formulas are :mod:`redundik.resolvers.feedback`'s): from the main rows J, V, the null-space objective z and the target
+subtasks' rows (N, ẏ_d + K(y_d − y)), the gains k and q̇ = J⁺V + P(N k + z), with the damping rules and factors of
+``damping_kernels.factor`` and ``damped_svd_factors`` — the kernels the interpreted law calls.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from redundik import _kernel_cache
+from redundik.resolvers.damping_kernels import damped_svd_factors, factor, null_project_factored, solve_factored
+
+_jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
+
+#: Rows of :func:`feedback_law`'s ``out`` (n each): J⁺V, P(N k + z), q̇.
+FB_RANK, FB_NULL, FB_DQ = 0, 1, 2
+#: Number of rows of ``out``.
+FB_ROWS = 3
+#: Entries of :func:`feedback_law`'s ``settings``: ε and λ_max of J⁺, the rank threshold, d_ε of D.
+FB_EPSILON, FB_MAX_DAMPING, FB_RCOND, FB_D_EPSILON = 0, 1, 2, 3
+#: Entries of its ``report``: rank of J, σ_min, λ of J⁺, rank of D, λ of D (0: D undamped).
+FB_J_RANK, FB_SIGMA_MIN, FB_DAMPING, FB_D_RANK, FB_D_DAMPING = 0, 1, 2, 3, 4
+
+
+@_jit
+def feedback_law(
+    J: np.ndarray,
+    V: np.ndarray,
+    z: np.ndarray,
+    has_z: bool,
+    Nt: np.ndarray,
+    rhs: np.ndarray,
+    settings: np.ndarray,
+    out: np.ndarray,
+    gains: np.ndarray,
+    report: np.ndarray,
+) -> None:
+    """k = D⁻¹[ẏ_d + K(y_d − y) − NᵀJ⁺V − NᵀP z] with D = NᵀPN, and q̇ = J⁺V + P(N k + z) (eq. 5.15 and the law
+    after it, P = I − J⁺J): J⁺ damped by ``settings`` (ε, λ_max, rcond), D by d_ε·‖N‖_F² (scale-free).
+
+    Args:
+        J, V: The main rows (m, n) and their right-hand side (m,).
+        z: The null-space objective (n,), read when ``has_z``.
+        Nt: The target subtasks' gradients η_i as rows (r, n); rhs: their ẏ_d + K(y_d − y) (r,).
+        settings: ``FB_EPSILON`` … ``FB_D_EPSILON``.
+        out: J⁺V, P(N k + z) and q̇ (``FB_ROWS``, n), written.
+        gains: k (r,), written; report: ``FB_J_RANK`` … ``FB_D_DAMPING``, written.
+    """
+    m, n = J.shape
+    r = Nt.shape[0]
+    eps, lmax, rcond = settings[FB_EPSILON], settings[FB_MAX_DAMPING], settings[FB_RCOND]
+    fast, U, _, Vt, inv, rank, smin, damping = factor(J, eps, lmax, rcond)
+    dq_r = out[FB_RANK]
+    if m == 0:
+        dq_r[:] = 0.0
+    else:
+        dq_r[:] = solve_factored(fast, J, U, inv, Vt, V)
+    Pz = np.zeros(n)
+    if has_z:
+        Pz = null_project_factored(fast, J, U, inv, Vt, rank, z)
+    report[FB_J_RANK], report[FB_SIGMA_MIN], report[FB_DAMPING] = rank, smin, damping
+    report[FB_D_RANK], report[FB_D_DAMPING] = 0.0, 0.0
+    dq_n = out[FB_NULL]
+    dq_n[:] = Pz
+    if r > 0:
+        PN = np.empty((n, r))
+        for i in range(r):
+            PN[:, i] = null_project_factored(fast, J, U, inv, Vt, rank, np.ascontiguousarray(Nt[i]))
+        D = np.ascontiguousarray(Nt @ PN)  # (r, r), symmetric positive semi-definite
+        scale = 0.0
+        for i in range(r):
+            for j in range(n):
+                scale += Nt[i, j] * Nt[i, j]
+        d_eps = settings[FB_D_EPSILON] * scale
+        Ud, s, Vtd, invd, d_rank, _, d_damping = damped_svd_factors(D, d_eps, d_eps, rcond)
+        b = rhs - Nt @ dq_r - Nt @ Pz
+        k = s.shape[0]
+        if k == 0:
+            gains[:] = 0.0
+        else:
+            gains[:] = np.ascontiguousarray(Vtd[:k].T) @ (invd * (Ud.T @ b))
+        dq_n += PN @ gains
+        report[FB_D_RANK], report[FB_D_DAMPING] = d_rank, d_damping
+    out[FB_DQ] = dq_r + dq_n
