@@ -18,6 +18,7 @@ optimum) gives k = 0, never 0/0.
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from typing import Any, ClassVar
@@ -29,6 +30,7 @@ from redundik.errors import ResolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver, StepResult, nonfinite_sources
 from redundik.resolvers.fused import FusedPlan
+from redundik.resolvers.fused_result import FusedStepResult
 from redundik.resolvers.layouts import CF_ROWS, FRAME_ROWS
 from redundik.resolvers.linalg import FK, RCOND, _Kernels, damped_svd, pseudo_inverse, pseudo_inverse_unchecked
 from redundik.resolvers.pinv import main_system
@@ -44,6 +46,7 @@ FBK = _Kernels("feedback_kernels")
 #: not load numba; ``tests/test_feedback_compiled.py`` checks that they are the kernel module's.
 FB_RANK, FB_NULL, FB_DQ, FB_ROWS = 0, 1, 2, 3
 FB_J_RANK, FB_SIGMA_MIN, FB_DAMPING, FB_D_RANK, FB_D_DAMPING = 0, 1, 2, 3, 4
+_NO_ROWS: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # nv → (N (0, nv), rhs (0,)) of a stack without targets
 
 
 class FeedbackResolver(Resolver):
@@ -212,7 +215,7 @@ class FeedbackResolver(Resolver):
         coef = plan.coefficients((self.epsilon, self.max_damping, RCOND))
         refs = plan.given_references(t) if plan.given else plan.refs
         args = (plan.jw, plan.poses, float(t), refs, q, plan.ints, plan.floats, coef, work)
-        status, has_z, _ = FK.fused_pinv_rows(*args)
+        status, has_z, err2 = FK.fused_pinv_rows(*args)
         if status < 0.0:
             return None
         Nt, rhs = fused.target_rows(robot)
@@ -224,30 +227,28 @@ class FeedbackResolver(Resolver):
         z = work[work.shape[0] - n :]
         FBK.feedback_law(Jm, ev[1], z, bool(has_z), Nt, rhs, fused.settings(self), out, gains, report)
         dq = out[FB_DQ]
-        if not math.isfinite(dq.dot(dq)):  # a non-finite (or overflowing) q̇: the per-task path diagnoses it
+        dq2 = dq.dot(dq)
+        if not math.isfinite(dq2):  # a non-finite (or overflowing) q̇: the per-task path diagnoses it
             return None
-        terms = plan.terms(Jf, ev, q, robot, external)
-        d_damping = float(report[FB_D_DAMPING])
-        res = StepResult(
-            dq=dq,
-            terms=terms,
-            dq_rank=out[FB_RANK],
-            dq_null=out[FB_NULL],
-            gains=gains,
-            damped=report[FB_DAMPING] > 0.0 or d_damping > 0.0,
-            damping=float(report[FB_DAMPING]),
-            sigma_min=float(report[FB_SIGMA_MIN]),
-            info={
-                "sigma_min": float(report[FB_SIGMA_MIN]),
-                "rank": int(report[FB_J_RANK]),
-                "D_damped": d_damping > 0.0,
-                "D_rank": int(report[FB_D_RANK]),
-            },
-            build_time=t1 - t0,
-            solve_time=time.perf_counter() - t1,
-            main=layout.main,
+        smin, damping, d_damping = float(report[FB_SIGMA_MIN]), float(report[FB_DAMPING]), float(report[FB_D_DAMPING])
+        info: dict[str, object] = {"sigma_min": smin, "rank": int(report[FB_J_RANK]), "D_damped": d_damping > 0.0,
+                                   "D_rank": int(report[FB_D_RANK])}  # fmt: skip
+        res = FusedStepResult.fused(
+            dq,
+            functools.partial(plan.terms, Jf, ev, q, robot, external),  # (the terms: built when first read)
+            math.sqrt(err2),
+            info,
+            t1 - t0,
+            time.perf_counter() - t1,
+            layout.main,
+            None,  # type: ignore[arg-type]  # (nothing left to compute: the diagnostics are the kernel's)
+            out[FB_RANK],
+            out[FB_NULL],
+            math.sqrt(dq2),
         )
-        res.__dict__["_compiled"] = plan.external_names + fused.python_targets or True
+        d = res.__dict__
+        d["gains"], d["damping"], d["_sigma_min"], d["_damped"] = gains, damping, smin, damping > 0.0 or d_damping > 0.0
+        d["_compiled"] = plan.external_names + fused.python_targets or True
         return res
 
     def __repr__(self) -> str:
@@ -281,9 +282,7 @@ class _FusedFeedback:
         """Laid out for this membership, robot and potentials' forms (a plan not made yet is made again)."""
         plan = self.plan
         if layout is not self.layout or robot is not self.robot or plan is None or not plan.current(robot):
-            return False
-        if stack.target_subtasks != self.targets:
-            return False
+            return False  # (a new membership, its target subtasks included, comes with a new layout)
         return all(sub.potential.form_revision == rev for sub, rev in zip(self.targets, self.revisions, strict=True))
 
     def settings(self, resolver: FeedbackResolver) -> np.ndarray:
@@ -298,6 +297,8 @@ class _FusedFeedback:
         """(N as rows (r, n), ẏ_d + K(y_d − y) (r,)) at this step (``TargetSubtask.row``); N ``None``: a row that
         is not finite, or a gradient that is not a float vector (nv,) (the per-task path says what is wrong)."""
         r, n = len(self.targets), robot._nv
+        if r == 0:
+            return _NO_ROWS[n] if n in _NO_ROWS else _NO_ROWS.setdefault(n, (np.zeros((0, n)), np.zeros(0)))
         Nt, rhs = np.zeros((r, n)), np.empty(r)
         plan = self.plan
         assert plan is not None
@@ -312,6 +313,6 @@ class _FusedFeedback:
                     return None, rhs
                 Nt[i] = eta
                 rhs[i] = v
-        if r and not math.isfinite(float(Nt.sum()) + float(rhs.sum())):  # (a NaN or ±inf entry: the sum is not)
+        if not math.isfinite(float(Nt.sum()) + float(rhs.sum())):  # (a NaN or ±inf entry: the sum is not)
             return None, rhs
         return Nt, rhs
