@@ -21,6 +21,7 @@ from __future__ import annotations
 import functools
 import math
 import time
+from collections.abc import Callable
 from typing import Any, ClassVar
 
 import numpy as np
@@ -32,7 +33,7 @@ from redundik.resolvers.base import Resolver, StepResult, nonfinite_sources
 from redundik.resolvers.fused import FusedPlan
 from redundik.resolvers.fused_result import FusedStepResult
 from redundik.resolvers.layouts import CF_ROWS, FRAME_ROWS
-from redundik.resolvers.linalg import FK, RCOND, _Kernels, damped_svd, pseudo_inverse, pseudo_inverse_unchecked
+from redundik.resolvers.linalg import FK, RCOND, _Kernels, contiguous, pseudo_inverse
 from redundik.resolvers.pinv import main_system
 from redundik.resolvers.settings import Setting, flag, nonnegative
 from redundik.resolvers.singularity import SingularityGuard
@@ -126,56 +127,44 @@ class FeedbackResolver(Resolver):
         terms = stack.evaluate(robot, t)
         J, V, z = main_system(robot, stack, terms, layout)
         subs = stack.target_subtasks
-        r = len(subs)
-        N = np.empty((robot.nv, r))
+        n, r = robot.nv, len(subs)
+        Nt = np.empty((r, n))
         rhs = np.empty(r)
         for i, s in enumerate(subs):
             eta, v, _ = s.row(robot)  # v = ṗ_d + K (p_d − p)
-            N[:, i] = eta
+            Nt[i] = eta
             rhs[i] = v
         t1 = time.perf_counter()
-        pi = pseudo_inverse_unchecked(J, self.epsilon, self.max_damping)
-        dq_r = pi.solve(V)
-        if z is None:
-            Pz = np.zeros(robot.nv)
-        elif np.isfinite(z).all():
-            Pz = pi.null_project(z)
-        else:  # (null_project refuses a non-finite z: the NaN goes on to the step's diagnosed fallback instead)
-            Pz = np.full(robot.nv, np.nan)
-        d_damped, d_rank = False, 0
-        k = np.zeros(r)
-        if r:
-            PN = np.column_stack([pi.null_project(np.ascontiguousarray(N[:, i])) for i in range(r)])  # P N (n, r)
-            D = N.T @ PN  # (r, r), symmetric positive semi-definite
-            scale = float(np.sum(N * N))
-            dk = damped_svd(D, epsilon=self.d_epsilon * scale, max_damping=self.d_epsilon * scale)
-            k = dk.solve(rhs - N.T @ dq_r - N.T @ Pz)
-            d_damped, d_rank = dk.damped, dk.rank
-            dq_n = PN @ k + Pz
-        else:
-            dq_n = Pz
-        dq = dq_r + dq_n
+        J = contiguous(J)
+        out, gains, report = self._law(J, contiguous(V), z, Nt, rhs, n)
+        dq = out[FB_DQ]
         fallback = None
         if not np.isfinite(dq).all():
-            bad = nonfinite_sources(terms, robot, stack, z=z, subtask_gradients=N)
+            bad = nonfinite_sources(terms, robot, stack, z=z, subtask_gradients=Nt.T)
             fallback = f"non-finite q̇ (from {', '.join(bad) or 'the decoupling law'}): q̇ = 0 this step"
-            dq = np.zeros(robot.nv)
-        t2 = time.perf_counter()
-        return StepResult(
-            dq=dq,
-            terms=terms,
-            dq_rank=dq_r,
-            dq_null=dq_n,
-            gains=k,
-            damped=pi.damped or d_damped,
-            damping=pi.damping,
-            sigma_min=pi.sigma_min,
-            fallback=fallback,
-            info={"sigma_min": pi.sigma_min, "rank": pi.rank, "D_damped": d_damped, "D_rank": d_rank},
-            build_time=t1 - t0,
-            solve_time=t2 - t1,
-            main=layout.main,
-        )
+            dq = np.zeros(n)
+        error = math.sqrt(sum(float(terms[i].error.dot(terms[i].error)) for i in layout.main))
+        res = _result(dq, out, gains, report, J, lambda: terms, error, t1 - t0, time.perf_counter() - t1, layout.main)
+        res.__dict__["fallback"] = fallback
+        return res
+
+    def _law(
+        self, J: np.ndarray, V: np.ndarray, z: np.ndarray | None, Nt: np.ndarray, rhs: np.ndarray, n: int
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``feedback_law`` on these rows: (J⁺V, P(N k + z), q̇) (``FB_ROWS``, n), the gains k and the report."""
+        out = np.empty((FB_ROWS, n))
+        gains, report = np.empty(rhs.shape[0]), np.empty(5)
+        zc = _zeros(n) if z is None else contiguous(z)
+        FBK.feedback_law(J, V, zc, z is not None, Nt, rhs, self._settings(), out, gains, report)
+        return out, gains, report
+
+    def _settings(self) -> np.ndarray:
+        """``feedback_law``'s settings (ε, λ_max, rcond, d_ε) of the current options."""
+        key = (self.epsilon, self.max_damping, self.d_epsilon)
+        cached = self.__dict__.get("_settings_of")
+        if cached is None or cached[0] != key:
+            cached = self.__dict__["_settings_of"] = (key, np.array([key[0], key[1], RCOND, key[2]]))
+        return cached[1]
 
     def reset(self) -> None:
         super().reset()
@@ -225,30 +214,15 @@ class FeedbackResolver(Resolver):
         out = np.empty((FB_ROWS, n))
         gains, report = np.empty(rhs.shape[0]), np.empty(5)
         z = work[work.shape[0] - n :]
-        FBK.feedback_law(Jm, ev[1], z, bool(has_z), Nt, rhs, fused.settings(self), out, gains, report)
+        FBK.feedback_law(Jm, ev[1], z, bool(has_z), Nt, rhs, self._settings(), out, gains, report)
         dq = out[FB_DQ]
         dq2 = dq.dot(dq)
         if not math.isfinite(dq2):  # a non-finite (or overflowing) q̇: the per-task path diagnoses it
             return None
-        smin, damping, d_damping = float(report[FB_SIGMA_MIN]), float(report[FB_DAMPING]), float(report[FB_D_DAMPING])
-        info: dict[str, object] = {"sigma_min": smin, "rank": int(report[FB_J_RANK]), "D_damped": d_damping > 0.0,
-                                   "D_rank": int(report[FB_D_RANK])}  # fmt: skip
-        res = FusedStepResult.fused(
-            dq,
-            functools.partial(plan.terms, Jf, ev, q, robot, external),  # (the terms: built when first read)
-            math.sqrt(err2),
-            info,
-            t1 - t0,
-            time.perf_counter() - t1,
-            layout.main,
-            None,  # type: ignore[arg-type]  # (nothing left to compute: the diagnostics are the kernel's)
-            out[FB_RANK],
-            out[FB_NULL],
-            math.sqrt(dq2),
-        )
-        d = res.__dict__
-        d["gains"], d["damping"], d["_sigma_min"], d["_damped"] = gains, damping, smin, damping > 0.0 or d_damping > 0.0
-        d["_compiled"] = plan.external_names + fused.python_targets or True
+        make_terms = functools.partial(plan.terms, Jf, ev, q, robot, external)  # (built when first read)
+        res = _result(dq, out, gains, report, Jm, make_terms, math.sqrt(err2), t1 - t0, time.perf_counter() - t1,
+                      layout.main, math.sqrt(dq2))  # fmt: skip
+        res.__dict__["_compiled"] = plan.external_names + fused.python_targets or True
         return res
 
     def __repr__(self) -> str:
@@ -265,8 +239,6 @@ class _FusedFeedback:
         self.writers: list[CompiledGradient | None] = []
         self.revisions: list[int] = []
         self.python_targets: tuple[str, ...] = ()
-        self._settings = np.empty(4)
-        self._settings_of: tuple[float, float, float] | None = None
 
     @classmethod
     def build(cls, robot: RobotModel, stack: TaskStack, layout: StackLayout) -> _FusedFeedback:
@@ -284,14 +256,6 @@ class _FusedFeedback:
         if layout is not self.layout or robot is not self.robot or plan is None or not plan.current(robot):
             return False  # (a new membership, its target subtasks included, comes with a new layout)
         return all(sub.potential.form_revision == rev for sub, rev in zip(self.targets, self.revisions, strict=True))
-
-    def settings(self, resolver: FeedbackResolver) -> np.ndarray:
-        """``feedback_law``'s settings (ε, λ_max, rcond, d_ε) of ``resolver``'s current options."""
-        key = (resolver.epsilon, resolver.max_damping, resolver.d_epsilon)
-        if key != self._settings_of:
-            self._settings[:] = (key[0], key[1], RCOND, key[2])
-            self._settings_of = key
-        return self._settings
 
     def target_rows(self, robot: RobotModel) -> tuple[np.ndarray | None, np.ndarray]:
         """(N as rows (r, n), ẏ_d + K(y_d − y) (r,)) at this step (``TargetSubtask.row``); N ``None``: a row that
@@ -316,3 +280,53 @@ class _FusedFeedback:
         if not math.isfinite(float(Nt.sum()) + float(rhs.sum())):  # (a NaN or ±inf entry: the sum is not)
             return None, rhs
         return Nt, rhs
+
+
+def _zeros(n: int) -> np.ndarray:
+    """A zero vector of n (z of a stack without a null-space objective: the kernel does not read it; writable, so
+    that it has the kernel's one compiled signature)."""
+    z = _NO_Z.get(n)
+    if z is None:
+        z = _NO_Z[n] = np.zeros(n)
+    return z
+
+
+_NO_Z: dict[int, np.ndarray] = {}
+
+
+def _result(
+    dq: np.ndarray,
+    out: np.ndarray,
+    gains: np.ndarray,
+    report: np.ndarray,
+    J: np.ndarray,
+    make_terms: Callable[[], list[TaskTerm]],
+    task_error: float,
+    build_time: float,
+    solve_time: float,
+    main: list[int],
+    dq_norm: float | None = None,
+) -> FusedStepResult:
+    """The step's result from ``feedback_law``'s outputs: the terms built when first read, and σ_min of the main
+    rows J computed when first read if the law took its Cholesky route (reported NaN)."""
+    smin, damping, d_damping = float(report[FB_SIGMA_MIN]), float(report[FB_DAMPING]), float(report[FB_D_DAMPING])
+    info: dict[str, object] = {"rank": int(report[FB_J_RANK]), "D_damped": d_damping > 0.0,
+                               "D_rank": int(report[FB_D_RANK])}  # fmt: skip
+    pending = None
+    if smin != smin:  # (NaN: J well conditioned and undamped)
+        pending = functools.partial(_sigma_min, J, d_damping > 0.0)
+    else:
+        info["sigma_min"] = smin
+    res = FusedStepResult.fused(dq, make_terms, task_error, info, build_time, solve_time, main, pending,  # type: ignore[arg-type]
+                                out[FB_RANK], out[FB_NULL], dq_norm)  # fmt: skip
+    d = res.__dict__
+    d["gains"], d["damping"] = gains, damping
+    if pending is None:
+        d["_sigma_min"], d["_damped"] = smin, damping > 0.0 or d_damping > 0.0
+    return res
+
+
+def _sigma_min(J: np.ndarray, d_damped: bool) -> tuple[float, bool, dict[str, object]]:
+    """σ_min of a well-conditioned, undamped J (the law's Cholesky route), on first read."""
+    smin = float(np.sqrt(max(float(np.linalg.eigvalsh(J @ J.T)[0]), 0.0)))
+    return smin, d_damped, {"sigma_min": smin}

@@ -77,18 +77,14 @@ _jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redun
 
 
 @_jit
-def _cholesky_solve_rows(
-    J: np.ndarray, V: np.ndarray, z: np.ndarray, has_z: bool, epsilon: float, out: np.ndarray
-) -> bool:
-    """out[0] = Jᵀ(JJᵀ)⁻¹V and out[1] = z − Jᵀ(JJᵀ)⁻¹Jz (eq. 5.7 and the projector of 5.8) by Cholesky, when
-    JJᵀ − sI is positive definite with s = max(ε², FAST_PATH_RCOND·tr JJᵀ): then λ_min > ε² (no direction is
-    damped) and λ_min/λ_max > FAST_PATH_RCOND, the conditions of ``factor``'s fast path. False (nothing
-    written) otherwise."""
+def gram_cholesky(J: np.ndarray, epsilon: float, buf: np.ndarray) -> bool:
+    """The Cholesky factor L of JJᵀ (m, m) into ``buf[0 : m²]`` (lower triangle, row-major), when JJᵀ − sI is
+    positive definite with s = max(ε², FAST_PATH_RCOND·tr JJᵀ): then λ_min > ε² (no direction is damped) and
+    λ_min/λ_max > FAST_PATH_RCOND, the conditions of ``factor``'s fast path. False otherwise (``buf``, at least
+    2m², is then scratch)."""
     m, n = J.shape
-    buf = np.empty(2 * m * m + m)  # A = JJᵀ, its shifted copy S and a vector of m: one allocation
     A = buf[0 : m * m].reshape((m, m))
     S = buf[m * m : 2 * m * m].reshape((m, m))
-    y = buf[2 * m * m :]
     tr = 0.0
     for i in range(m):
         for j in range(i, m):
@@ -105,7 +101,20 @@ def _cholesky_solve_rows(
         for j in range(m):
             S[i, j] = A[i, j]
         S[i, i] -= shift
-    if not _chol_in_place(S) or not _chol_in_place(A):
+    return _chol_in_place(S) and _chol_in_place(A)
+
+
+@_jit
+def _cholesky_solve_rows(
+    J: np.ndarray, V: np.ndarray, z: np.ndarray, has_z: bool, epsilon: float, out: np.ndarray
+) -> bool:
+    """out[0] = Jᵀ(JJᵀ)⁻¹V and out[1] = z − Jᵀ(JJᵀ)⁻¹Jz (eq. 5.7 and the projector of 5.8) by Cholesky, when
+    :func:`gram_cholesky` succeeds (``factor``'s fast path, undamped). False (nothing written) otherwise."""
+    m, n = J.shape
+    buf = np.empty(2 * m * m + m)  # A = JJᵀ, its shifted copy S and a vector of m: one allocation
+    A = buf[0 : m * m].reshape((m, m))
+    y = buf[2 * m * m :]
+    if not gram_cholesky(J, epsilon, buf):
         return False
     _chol_solve(A, V, y)
     for j in range(n):
