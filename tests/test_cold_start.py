@@ -106,7 +106,7 @@ def test_no_kernel_compiles_in_the_callers_thread_during_a_cold_start(tmp_path: 
 
         event.register("numba:compile", Listener())
         paths = []
-        for name in ("pinv", "wqp", "hqp"):
+        for name in ("pinv", "feedback", "wqp", "hqp"):
             task = rk.FrameTask("7", gain=5.0)
             near = rk.Clearance("7", [0.4, 0.0, 0.3], radius=0.05)
             s = rk.TaskStack([task, rk.PostureTask(gain=1.0)],
@@ -191,7 +191,7 @@ def test_the_users_numba_cache_setting_is_left_alone(tmp_path: Path) -> None:
     assert str(got["ours"]).startswith(str(tmp_path / "ours"))
 
 
-@pytest.mark.parametrize("name", ["pinv", "wqp", "hqp"])
+@pytest.mark.parametrize("name", ["pinv", "feedback", "wqp", "hqp"])
 def test_twins_give_the_compiled_answer(name: str) -> None:
     """The interpreted path on the kernels' twins (the cold start's) against the compiled kernels, in this process."""
     robot = rk.from_dh([rk.DHRow(str(k), a=0.3, alpha=np.pi / 2 if k % 2 else -np.pi / 2) for k in range(1, 8)])
@@ -199,7 +199,10 @@ def test_twins_give_the_compiled_answer(name: str) -> None:
     answers = []
     for twins in (False, True, None):  # None: the compiled step
         task = rk.FrameTask("7", rk.Circle(0.02, np.pi, plane=("y", "z")), gain=5.0)
-        stack = rk.TaskStack([task, rk.PostureTask(gain=1.0)], [rk.GradientSubtask(rk.JointCentering(), gain=-1.0)])
+        subs: list[rk.Subtask] = [rk.GradientSubtask(rk.JointCentering(), gain=-1.0)]
+        if name == "feedback":  # (a target subtask: the law's gains, not only its pinv part)
+            subs.append(rk.TargetSubtask(rk.JointSine2("4"), target=0.5, rate=1.0))
+        stack = rk.TaskStack([task, rk.PostureTask(gain=1.0)], subs)
         robot.update(q)
         stack.reset(robot)
         res = rk.make_resolver(name)

@@ -238,3 +238,43 @@ def test_derivatives_match_finite_differences(cls: type, make: Case, seed: int) 
         _check_potential(robot, obj, q)
         checked += 1
     assert checked
+
+
+@pytest.mark.parametrize("seed", range(2))
+@pytest.mark.parametrize(
+    ("cls", "make"),
+    [(cls, make) for cls, cases in CASES.items() if issubclass(cls, Potential) for _, make in cases],
+    ids=[f"{cls.__name__}-{name}" for cls, cases in CASES.items() if issubclass(cls, Potential) for name, _ in cases],
+)
+def test_compiled_writers_equal_value_and_gradient(cls: type, make: Case, seed: int) -> None:
+    """A potential's compiled writer (what a compiled step calls for a gradient or a target subtask's row) gives the
+    p and η of its ``value`` and ``gradient``, for every potential class that has one (a new one is checked too)."""
+    from redundik.tasks.potential_rows import compiled_writer
+
+    robot, potential, q = make(seed)
+    assert isinstance(potential, Potential)
+    robot.update(q)
+    potential.check(robot)
+    writer = compiled_writer(potential, robot)
+    if writer is None:
+        return
+    from redundik.kinematics.memory import jacobian_view, se3_vector_view
+
+    jw, poses = jacobian_view(robot.data), se3_vector_view(robot.data.oMf)  # (what a compiled step passes)
+    assert jw is not None and poses is not None
+    eta = np.zeros(robot.nv)
+    p = writer.kernel(robot.q, poses, jw, writer.ints, writer.floats, eta)
+    assert p == pytest.approx(potential.value(robot), rel=1e-12, abs=1e-12)
+    np.testing.assert_allclose(eta, potential.gradient(robot), rtol=1e-12, atol=1e-12)
+
+
+def test_joint_centering_has_no_writer_on_a_free_flyer_orientation() -> None:
+    """A centre given for every coordinate weighs the free flyer's orientation, which is not a subtraction
+    (Pinocchio's difference): no compiled writer, so a target subtask on it keeps its Python row. The default centre
+    (the middle of the finite ranges) leaves the base out: a writer."""
+    from redundik.tasks.potential_rows import compiled_writer
+
+    robot, q = _talos(0)
+    robot.update(q)
+    assert compiled_writer(JointCentering(center=robot.neutral()), robot) is None
+    assert compiled_writer(JointCentering(), robot) is not None

@@ -59,7 +59,7 @@ def _run_both(robot: rk.RobotModel, stacks: list[rk.TaskStack], q0: np.ndarray, 
     ("file", "run", "path", "python"),
     [
         ("planar3r_line.yaml", "feedback", "compiled", ()),
-        ("dualarm17.yaml", "independent_feedback", "mixed", ("centering",)),
+        ("dualarm17.yaml", "independent_feedback", "compiled", ()),
     ],
 )
 def test_shipped_feedback_runs_take_the_compiled_step(file: str, run: str, path: str, python: tuple[str, ...]) -> None:

@@ -26,8 +26,6 @@ def test_shipped_runs_are_compiled_but_for_the_named_classes(path: Path) -> None
     plan = load_task(path)
     robot = plan.robot.model
     for name, run in plan.runs.items():
-        if run.resolver_name == "feedback":  # (the chapter's gain law has no compiled step)
-            continue
         members = {m.name: m for m in [*run.stack.tasks, *run.stack.subtasks]}
         allowed = {n for n, m in members.items() if _source_class(m) in NOT_COMPILED}
         q = run.q0.copy()

@@ -20,6 +20,7 @@ __all__ = [
     "FP_AXES_N",
     "FP_FRAME",
     "best_posture_gradient",
+    "centering_gradient",
     "clearance_gradient",
     "clearance_into",
     "frame_jacobian_hessian",
@@ -118,6 +119,24 @@ def joint_value_gradient(
     d = q[ints[J_IQ]] - floats[0]
     eta[ints[J_IV]] = 2.0 * d
     return d * d
+
+
+@_jit
+def centering_gradient(
+    q: np.ndarray, poses: np.ndarray, jw: np.ndarray, ints: np.ndarray, floats: np.ndarray, eta: np.ndarray
+) -> float:
+    """``JointCentering`` on vector-space coordinates (5.9, 5.10): p = ½ Σ w_k (q_k − c_k)², η_k = w_k (q_k − c_k);
+    ``ints`` = the index in q of each velocity coordinate (not read where w_k = 0), ``floats`` = (w (nv), c at those
+    indices (nv))."""
+    nv = ints.shape[0]
+    p = 0.0
+    for k in range(nv):
+        w = floats[k]
+        if w != 0.0:
+            d = q[ints[k]] - floats[nv + k]
+            eta[k] = w * d
+            p += w * d * d
+    return 0.5 * p
 
 
 @_jit

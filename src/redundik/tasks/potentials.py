@@ -83,6 +83,7 @@ class JointCentering(Potential):
             arr.setflags(write=False)
         self._center = arr
         self._c = self._w = None  # computed again against the robot at the next evaluation
+        self.form_revision += 1  # (a compiled step's writer holds (w, q_c): planned again)
 
     @property
     def weights(self) -> np.ndarray | None:
@@ -102,6 +103,7 @@ class JointCentering(Potential):
             arr.setflags(write=False)
         self._weights = arr
         self._c = self._w = None
+        self.form_revision += 1
 
     def check(self, robot: RobotModel) -> None:
         if self.center is None:
@@ -150,6 +152,20 @@ class JointCentering(Potential):
         # exact for vector-space joints (q_c ⊖ q is linear in q); the chart's first-order value on SO(3) bases
         d = self._delta(robot)  # (first: it computes _w when a new centre or weights were set)
         return self._w * d
+
+    def compiled_gradient(self, robot: RobotModel) -> CompiledGradient | None:
+        """``potential_kernels.centering_gradient`` (a target subtask's row on a compiled step; a gradient subtask
+        uses :meth:`linear_gradient`); ``None`` when a weighted coordinate is not a subtraction (a free-flyer's
+        orientation: Pinocchio's difference)."""
+        lin = self.linear_gradient(robot)
+        if lin is None:
+            return None
+        w, c = lin
+        iq = np.array([j.idx_q for j in robot.joints], dtype=np.int64)
+        if w.shape[0] != iq.shape[0] or bool(((iq < 0) & (w != 0.0)).any()):
+            return None
+        floats = np.concatenate([w, np.where(iq >= 0, c[np.maximum(iq, 0)], 0.0)])
+        return CompiledGradient(_PK.centering_gradient, np.where(w != 0.0, iq, -1), floats)
 
     def __repr__(self) -> str:
         return f"JointCentering(name={self.name!r})"
