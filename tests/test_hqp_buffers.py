@@ -379,3 +379,28 @@ def test_native_cascade_result_equals_the_template(scenario: str) -> None:
     for a, b in held:
         assert dict(a.info) == dict(b.info)
     assert lean_steps[0] > 10, lean_steps
+
+
+@pytest.mark.parametrize("scenario", ["panda_circle", "snake10"])
+def test_packed_bound_rows_read_late_are_those_of_their_step(scenario: str) -> None:
+    """Bound subtasks on clearances are written by the compiled step into the plan's inequality buffers (no new
+    buffers a step): a step's diagnostics read after later steps — the bound level's residual and σ_min among them —
+    are those read at once in a twin run, on every step, closed-form or not."""
+    from benchmarks.bench.runners import RedundikRunner
+    from benchmarks.bench.scenarios import SCENARIOS
+
+    now = RedundikRunner(SCENARIOS[scenario](), "hqp", None, {})
+    late = RedundikRunner(SCENARIOS[scenario](), "hqp", None, {})
+    assert any(level.bounds for level in now.stack.layout().levels)
+    dt = now.scenario.dt
+    eager, held = [], []
+    for k in range(120):
+        a = now.resolver.step(now.robot, now.stack, now.q, k * dt, dt)
+        b = late.resolver.step(late.robot, late.stack, late.q, k * dt, dt)
+        eager.append(dict(a.info))
+        held.append(b)
+        now.q = now.robot.integrate(now.q, a.dq, dt)
+        late.q = late.robot.integrate(late.q, b.dq, dt)
+    assert {info["path"] for info in eager} == {"compiled"}
+    for info, res in zip(eager, held, strict=True):
+        assert dict(res.info) == info
