@@ -12,16 +12,9 @@ import pytest
 
 import redundik as rk
 from redundik.config.loader import load_task
-from redundik.resolvers import feedback, feedback_kernels
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 DT = 0.01
-
-
-def test_the_resolver_reads_the_kernel_modules_layouts() -> None:
-    names = ["FB_RANK", "FB_NULL", "FB_DQ", "FB_ROWS", "FB_J_RANK", "FB_SIGMA_MIN", "FB_DAMPING", "FB_D_RANK"]
-    for name in [*names, "FB_D_DAMPING"]:
-        assert getattr(feedback, name) == getattr(feedback_kernels, name), name
 
 
 def _agree(a: rk.StepResult, b: rk.StepResult) -> None:

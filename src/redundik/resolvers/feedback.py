@@ -32,7 +32,25 @@ from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver, StepResult, nonfinite_sources
 from redundik.resolvers.fused import FusedPlan
 from redundik.resolvers.fused_result import FusedStepResult
-from redundik.resolvers.layouts import CF_ROWS, FRAME_ROWS
+from redundik.resolvers.layouts import (
+    CF_ROWS,
+    FB_D_DAMPING,
+    FB_D_EPSILON,
+    FB_D_RANK,
+    FB_DAMPING,
+    FB_DQ,
+    FB_EPSILON,
+    FB_J_RANK,
+    FB_MAX_DAMPING,
+    FB_NULL,
+    FB_RANK,
+    FB_RCOND,
+    FB_REPORT,
+    FB_ROWS,
+    FB_SETTINGS,
+    FB_SIGMA_MIN,
+    FRAME_ROWS,
+)
 from redundik.resolvers.linalg import FK, RCOND, _Kernels, contiguous, pseudo_inverse
 from redundik.resolvers.pinv import main_system
 from redundik.resolvers.settings import Setting, flag, nonnegative
@@ -43,10 +61,6 @@ from redundik.tasks.stack import StackLayout, TaskStack
 
 #: The compiled law (:mod:`redundik.resolvers.feedback_kernels`), loaded on first use.
 FBK = _Kernels("feedback_kernels")
-#: :mod:`redundik.resolvers.feedback_kernels`' layouts (``FB_*``), repeated here so that importing this module does
-#: not load numba; ``tests/test_feedback_compiled.py`` checks that they are the kernel module's.
-FB_RANK, FB_NULL, FB_DQ, FB_ROWS = 0, 1, 2, 3
-FB_J_RANK, FB_SIGMA_MIN, FB_DAMPING, FB_D_RANK, FB_D_DAMPING = 0, 1, 2, 3, 4
 _NO_ROWS: dict[int, tuple[np.ndarray, np.ndarray]] = {}  # nv → (N (0, nv), rhs (0,)) of a stack without targets
 
 
@@ -153,7 +167,7 @@ class FeedbackResolver(Resolver):
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``feedback_law`` on these rows: (J⁺V, P(N k + z), q̇) (``FB_ROWS``, n), the gains k and the report."""
         out = np.empty((FB_ROWS, n))
-        gains, report = np.empty(rhs.shape[0]), np.empty(5)
+        gains, report = np.empty(rhs.shape[0]), np.empty(FB_REPORT)
         zc = _zeros(n) if z is None else contiguous(z)
         FBK.feedback_law(J, V, zc, z is not None, Nt, rhs, self._settings(), out, gains, report)
         return out, gains, report
@@ -163,7 +177,10 @@ class FeedbackResolver(Resolver):
         key = (self.epsilon, self.max_damping, self.d_epsilon)
         cached = self.__dict__.get("_settings_of")
         if cached is None or cached[0] != key:
-            cached = self.__dict__["_settings_of"] = (key, np.array([key[0], key[1], RCOND, key[2]]))
+            settings = np.empty(FB_SETTINGS)
+            settings[FB_EPSILON], settings[FB_MAX_DAMPING], settings[FB_D_EPSILON] = key
+            settings[FB_RCOND] = RCOND
+            cached = self.__dict__["_settings_of"] = (key, settings)
         return cached[1]
 
     def reset(self) -> None:
@@ -211,10 +228,7 @@ class FeedbackResolver(Resolver):
         if Nt is None:
             return None
         t1 = time.perf_counter()
-        out = np.empty((FB_ROWS, n))
-        gains, report = np.empty(rhs.shape[0]), np.empty(5)
-        z = work[work.shape[0] - n :]
-        FBK.feedback_law(Jm, ev[1], z, bool(has_z), Nt, rhs, self._settings(), out, gains, report)
+        out, gains, report = self._law(Jm, ev[1], work[work.shape[0] - n :] if has_z else None, Nt, rhs, n)
         dq = out[FB_DQ]
         dq2 = dq.dot(dq)
         if not math.isfinite(dq2):  # a non-finite (or overflowing) q̇: the per-task path diagnoses it

@@ -12,17 +12,22 @@ from redundik import _kernel_cache
 from redundik.resolvers.cholesky_kernels import _chol_solve
 from redundik.resolvers.damping_kernels import damped_svd_factors, factor, null_project_factored, solve_factored
 from redundik.resolvers.kernels import gram_cholesky
+from redundik.resolvers.layouts import (
+    FB_D_DAMPING,
+    FB_D_EPSILON,
+    FB_D_RANK,
+    FB_DAMPING,
+    FB_DQ,
+    FB_EPSILON,
+    FB_J_RANK,
+    FB_MAX_DAMPING,
+    FB_NULL,
+    FB_RANK,
+    FB_RCOND,
+    FB_SIGMA_MIN,
+)
 
 _jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
-
-#: Rows of :func:`feedback_law`'s ``out`` (n each): J⁺V, P(N k + z), q̇.
-FB_RANK, FB_NULL, FB_DQ = 0, 1, 2
-#: Number of rows of ``out``.
-FB_ROWS = 3
-#: Entries of :func:`feedback_law`'s ``settings``: ε and λ_max of J⁺, the rank threshold, d_ε of D.
-FB_EPSILON, FB_MAX_DAMPING, FB_RCOND, FB_D_EPSILON = 0, 1, 2, 3
-#: Entries of its ``report``: rank of J, σ_min, λ of J⁺, rank of D, λ of D (0: D undamped).
-FB_J_RANK, FB_SIGMA_MIN, FB_DAMPING, FB_D_RANK, FB_D_DAMPING = 0, 1, 2, 3, 4
 
 
 @_jit
@@ -47,9 +52,9 @@ def feedback_law(
         J, V: The main rows (m, n) and their right-hand side (m,).
         z: The null-space objective (n,), read when ``has_z``.
         Nt: The target subtasks' gradients η_i as rows (r, n); rhs: their ẏ_d + K(y_d − y) (r,).
-        settings: ``FB_EPSILON`` … ``FB_D_EPSILON``.
-        out: J⁺V, P(N k + z) and q̇ (``FB_ROWS``, n), written.
-        gains: k (r,), written; report: ``FB_J_RANK`` … ``FB_D_DAMPING``, written.
+        settings: ``layouts.FB_EPSILON`` … ``FB_D_EPSILON``.
+        out: J⁺V, P(N k + z) and q̇ (``layouts.FB_ROWS``, n), written.
+        gains: k (r,), written; report: ``layouts.FB_J_RANK`` … ``FB_D_DAMPING``, written.
     """
     m, n = J.shape
     r = Nt.shape[0]

@@ -5,6 +5,7 @@ these names without loading the kernels).
   (``joint_box``, ``wqp_free_step``);
 * a ``wqp`` step's ``out`` (``OUT_ROWS``, nv): the box, the unconstrained optimum, q̇ and the copy kept;
 * the closed form's ``out`` (``CF_ROWS``, nv) (``kernels.closed_form_into``, ``pinv``'s step);
+* the ``feedback`` law's ``out`` (``FB_ROWS``, nv), ``settings`` and ``report`` (``feedback_kernels.feedback_law``);
 * the resolver's tail of a fused step's coefficients ``coef`` (``wqp``: ``WQP_TAIL`` entries; ``pinv``:
   ``PINV_TAIL``), after the plan's own coefficients;
 * the header slots of a fused plan's ``ints`` that the ``wqp`` and ``pinv`` steps read (the plan,
@@ -36,6 +37,17 @@ OUT_ROWS = 7
 #: Rows of the closed form's ``out`` (``CF_ROWS``, nv): J⁺V, (I − J⁺J) z and q̇ (eq. 5.8).
 CF_RANK, CF_NULL, CF_DQ = 0, 1, 2
 CF_ROWS = 3
+
+#: Rows of the ``feedback`` law's ``out`` (``FB_ROWS``, nv): J⁺V, P(N k + z), q̇ (eq. 5.15 and the law after it).
+FB_RANK, FB_NULL, FB_DQ = 0, 1, 2
+FB_ROWS = 3
+#: Entries of its ``settings``: ε and λ_max of J⁺, the rank threshold, d_ε of D (``FB_SETTINGS`` entries).
+FB_EPSILON, FB_MAX_DAMPING, FB_RCOND, FB_D_EPSILON = 0, 1, 2, 3
+FB_SETTINGS = 4
+#: Entries of its ``report``: rank of J, σ_min (NaN: J well conditioned and undamped, to compute when read), λ of J⁺,
+#: rank of D, λ of D (0: D undamped) (``FB_REPORT`` entries).
+FB_J_RANK, FB_SIGMA_MIN, FB_DAMPING, FB_D_RANK, FB_D_DAMPING = 0, 1, 2, 3, 4
+FB_REPORT = 5
 
 #: A frame task's Jacobian rows (linear, angular).
 FRAME_ROWS = 6
