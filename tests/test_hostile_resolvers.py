@@ -105,3 +105,79 @@ def test_step_with_the_wrong_kind_of_robot_or_stack_says_so(name: str) -> None:
         with pytest.raises(ResolverError, match=f"robot must be a RobotModel, got {type(bad_robot).__name__}"):
             resolver.step(bad_robot, stack, q, 0.0, 0.01)  # type: ignore[arg-type]
     assert np.isfinite(resolver.step(robot, stack, q, 0.0, 0.01).dq).all()  # and the loop goes on
+
+
+class _NonFiniteRowTask(rk.Task):
+    """A user's task whose row has one NaN or infinite entry, in J or in v."""
+
+    def __init__(self, where: str, value: float) -> None:
+        self._init_task("bad_row", gain=1.0)
+        self.where, self.value = where, value
+
+    def __repr__(self) -> str:
+        return f"_NonFiniteRowTask({self.where!r})"
+
+    def evaluate(self, robot: rk.RobotModel, t: float) -> rk.TaskTerm:
+        J = np.array(robot.frame_jacobian("4")[:1])
+        e = np.array([0.1])
+        v = e.copy()
+        if self.where == "J":
+            J[0, 2] = self.value
+        else:
+            v[0] = self.value
+        return rk.TaskTerm(self.name, J, v, e, 1.0)
+
+
+class _NonFiniteGradient(rk.Potential):
+    """A user's potential whose gradient has one NaN or infinite entry."""
+
+    name = "bad_gradient"
+
+    def __init__(self, value: float) -> None:
+        self.bad = value
+
+    def value(self, robot: rk.RobotModel) -> float:
+        return 0.3
+
+    def gradient(self, robot: rk.RobotModel) -> np.ndarray:
+        g = np.ones(robot.nv)
+        g[3] = self.bad
+        return g
+
+
+@pytest.mark.parametrize("value", [math.nan, math.inf])
+@pytest.mark.parametrize("fuse", [True, False])
+@pytest.mark.parametrize(
+    ("method", "where"),
+    [
+        (method, where)
+        for method in ("pinv", "feedback", "wqp", "hqp")
+        for where in ("task J", "task v", "gradient", "target")
+        if not (method == "pinv" and where == "target")  # (pinv takes no target subtask: it refuses them)
+    ],
+)
+def test_a_non_finite_row_falls_back_and_names_its_member(method: str, fuse: bool, where: str, value: float) -> None:
+    """A NaN or infinite entry in a task's J or v, a gradient or a target subtask's gradient: the step falls back
+    (a finite q̇) and names the member, and reading its diagnostics raises nothing. A NaN row used to reach the
+    SVD of ``pinv``, ``feedback`` and ``wqp`` (numba's LinAlgError out of ``step``), and ``hqp``'s rank test on read."""
+    robot = rk.from_dh([rk.DHRow(str(k), a=0.3, alpha=np.pi / 2 if k % 2 else -np.pi / 2) for k in range(1, 8)])
+    q = np.full(robot.nq, 0.3)
+    robot.update(q)
+    tasks: list[rk.Task] = [rk.FrameTask("7", None, gain=5.0)]
+    subtasks: list[rk.Subtask] = []
+    if where.startswith("task"):
+        tasks.append(_NonFiniteRowTask(where[-1], value))
+    elif where == "gradient":
+        subtasks.append(rk.GradientSubtask(_NonFiniteGradient(value), gain=1.0))
+    else:
+        subtasks.append(rk.TargetSubtask(_NonFiniteGradient(value), target=0.5))
+    stack = rk.TaskStack(tasks, subtasks)
+    stack.reset(robot)
+    resolver = rk.make_resolver(method)
+    resolver.fuse = fuse  # type: ignore[attr-defined]
+    with np.errstate(invalid="ignore"):  # (the diagnostics' residual of a NaN row is NaN)
+        res = resolver.step(robot, stack, q, 0.0, 0.01)
+        assert np.isfinite(res.dq).all()
+        assert res.fallback is not None and ("bad_row" in res.fallback or "bad_gradient" in res.fallback)
+        dict(res.info)
+        _ = (res.sigma_min, res.damped, res.task_error, res.terms, res.dq_rank, res.dq_null)

@@ -58,13 +58,30 @@ def damped_inverse_values(s: np.ndarray, epsilon: float, max_damping: float, rco
 
 
 @_jit
+def _all_finite(M: np.ndarray) -> bool:
+    """Whether every entry of the matrix M is finite."""
+    m, n = M.shape
+    for i in range(m):
+        for j in range(n):
+            if not math.isfinite(M[i, j]):
+                return False
+    return True
+
+
+@_jit
 def damped_svd_factors(
     M: np.ndarray, epsilon: float, max_damping: float, rcond: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, float, float]:
     """The damped SVD of M (m, n), m ≥ 1: (U_k (m, k), σ (k,), Vt (n, n), inverse values, rank, σ_min, damping).
 
-    damping = λ at σ_min, √(1 − (σ_min/ε)²)·λ_max, when σ_min < ε (else 0); σ_min = ∞ when M = 0.
+    damping = λ at σ_min, √(1 − (σ_min/ε)²)·λ_max, when σ_min < ε (else 0); σ_min = ∞ when M = 0. A non-finite M
+    (a NaN row from a task or potential) has no SVD: NaN factors (rank 0, σ_min and damping NaN), so that what is
+    solved with them is NaN and the resolver's diagnosed fallback names the row, instead of an exception.
     """
+    if not _all_finite(M):
+        m, n = M.shape
+        k = min(m, n)
+        return np.full((m, k), np.nan), np.full(k, np.nan), np.eye(n), np.full(k, np.nan), 0, np.nan, np.nan
     U, s, Vt = svd_full(M)
     inv, rank = damped_inverse_values(s, epsilon, max_damping, rcond)
     sigma_min, damping = _damping_at(s, rank, epsilon, max_damping)
@@ -121,7 +138,7 @@ def factor(
     m, n = J.shape
     if m == 0:
         return False, np.zeros((0, 0)), np.zeros(0), np.eye(n), np.zeros(0), 0, np.inf, 0.0
-    if m <= n:
+    if m <= n and _all_finite(J):  # (a non-finite J: the NaN factors of damped_svd_factors)
         A = np.empty((m, m))
         for i in range(m):  # JJᵀ (m, m), symmetric by construction
             for j in range(i, m):

@@ -51,7 +51,7 @@ from redundik.resolvers.layouts import (
     FB_SIGMA_MIN,
     FRAME_ROWS,
 )
-from redundik.resolvers.linalg import FK, RCOND, _Kernels, contiguous, pseudo_inverse
+from redundik.resolvers.linalg import FK, RCOND, _Kernels, contiguous, gram_sigma_min, pseudo_inverse
 from redundik.resolvers.pinv import main_system
 from redundik.resolvers.settings import Setting, flag, nonnegative
 from redundik.resolvers.singularity import SingularityGuard
@@ -342,5 +342,5 @@ def _result(
 
 def _sigma_min(J: np.ndarray, d_damped: bool) -> tuple[float, bool, dict[str, object]]:
     """σ_min of a well-conditioned, undamped J (the law's Cholesky route), on first read."""
-    smin = float(np.sqrt(max(float(np.linalg.eigvalsh(J @ J.T)[0]), 0.0)))
+    smin = gram_sigma_min(J)
     return smin, d_damped, {"sigma_min": smin}

@@ -65,6 +65,7 @@ __all__ = [
     "contiguous",
     "damped_inverse_values",
     "damped_svd",
+    "gram_sigma_min",
     "pseudo_inverse",
 ]
 #: Default relative threshold of the numerical rank.
@@ -198,6 +199,14 @@ class PseudoInverse:
         return (
             f"PseudoInverse(n={self.n}, rank={self.rank}, sigma_min={self.sigma_min:.3g}, damping={self.damping:.3g})"
         )
+
+
+def gram_sigma_min(J: np.ndarray) -> float:
+    """σ_min of J (m ≥ 1 rows, full row rank) from the eigenvalues of JJᵀ: what a step that solved J by Cholesky
+    reports when its diagnostics are read; NaN for a non-finite J (its step fell back, the fallback says why)."""
+    if not np.isfinite(J).all():
+        return math.nan
+    return float(np.sqrt(max(float(np.linalg.eigvalsh(J @ J.T)[0]), 0.0)))
 
 
 def contiguous(J: np.ndarray) -> np.ndarray:

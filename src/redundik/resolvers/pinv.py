@@ -20,7 +20,7 @@ from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import LazyStepResult, Resolver, StepResult, nonfinite_sources
 from redundik.resolvers.fused import FusedPlan, FusedStepResult
 from redundik.resolvers.layouts import CF_DQ, CF_NULL, CF_RANK, CF_ROWS
-from redundik.resolvers.linalg import FK, RCOND, K, contiguous
+from redundik.resolvers.linalg import FK, RCOND, K, contiguous, gram_sigma_min
 from redundik.resolvers.settings import Setting, flag
 from redundik.resolvers.singularity import SingularityGuard
 from redundik.tasks.base import TaskTerm, stack_terms
@@ -172,7 +172,7 @@ class PinvResolver(Resolver):
         if sigma_min != sigma_min:  # NaN: J well conditioned and undamped, σ_min computed on first read
 
             def diagnostics() -> tuple[float, bool, dict[str, object]]:
-                smin = float(np.sqrt(max(float(np.linalg.eigvalsh(J @ J.T)[0]), 0.0)))
+                smin = gram_sigma_min(J)
                 return smin, False, {"sigma_min": smin}
 
             return LazyStepResult.make(
@@ -232,7 +232,7 @@ def _fused_sigma(step: tuple[Any, ...]) -> tuple[float, bool, dict[str, object]]
     """σ_min of a fused ``pinv`` step's main Jacobian (read from its work array; the step was undamped)."""
     work, plan, _, robot, _ = step
     Jm = FK.pinv_work_views(work, len(plan.frames), plan.m, robot._nv)[1]
-    smin = float(np.sqrt(max(float(np.linalg.eigvalsh(Jm @ Jm.T)[0]), 0.0)))
+    smin = gram_sigma_min(Jm)
     return smin, False, {"sigma_min": smin}
 
 

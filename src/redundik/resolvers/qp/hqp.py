@@ -244,8 +244,9 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
             diag.sigma_min = sigma_min
         rows = lv.m + (lv.z.shape[0] if lv.z is not None else 0)
         if projected and not lv.pure_null_objective and rank < min(rows, r):
-            if rank < min(int(np.linalg.matrix_rank(lv.ls_rows()[0])), r):
-                diag.rank_loss_levels.append(lv.priority)
+            A = lv.ls_rows()[0]
+            if np.isfinite(A).all() and rank < min(int(np.linalg.matrix_rank(A)), r):  # (a NaN row has no rank:
+                diag.rank_loss_levels.append(lv.priority)  # its step fell back, the fallback names it)
 
     def _lean_cascade(self, built: HQPBuild, layout: StackLayout) -> np.ndarray | None:
         """The unconstrained cascade (the module docstring's shortcut) in one compiled call, its per-level

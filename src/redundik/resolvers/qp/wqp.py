@@ -570,7 +570,9 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         damped when λ ≥ 1e-3·σ_min² (the regulariser then bends the main-task solution)."""
         if main_terms:
             J = main_terms[0].J if len(main_terms) == 1 else np.vstack([t.J for t in main_terms])
-            if J.shape[0]:
+            if J.shape[0] and not np.isfinite(J).all():  # (a NaN row: the step fell back, its fallback names it)
+                diag.sigma_min = math.nan
+            elif J.shape[0]:
                 gram = J @ J.T if J.shape[0] <= J.shape[1] else J.T @ J
                 ev = np.linalg.eigvalsh(gram)
                 nz = ev[ev > 1e-20 * max(float(ev[-1]), 1e-300)]
