@@ -194,7 +194,7 @@ class FeedbackResolver(Resolver):
         compiled form of its main rows, a rotation error beyond the compiled log3's range, a non-finite q̇ or target
         row to diagnose, a stack that cannot be planned yet)."""
         fused = self._fused
-        if fused is None or not fused.current(robot, stack, layout):
+        if fused is None or not fused.current(robot, layout):
             fused = self._fused = _FusedFeedback.build(robot, stack, layout)
         plan = fused.plan
         if plan is None:
@@ -253,22 +253,29 @@ class _FusedFeedback:
         self.writers: list[CompiledGradient | None] = []
         self.revisions: list[int] = []
         self.python_targets: tuple[str, ...] = ()
+        self.retry = False  # (no plan yet: a frame task not evaluated on this robot; planned again next step)
 
     @classmethod
     def build(cls, robot: RobotModel, stack: TaskStack, layout: StackLayout) -> _FusedFeedback:
         targets = list(stack.target_subtasks)
         built = FusedPlan.build(robot, stack, layout, None, 1.0, mixed=True)
         out = cls(robot, layout, built if isinstance(built, FusedPlan) else None, targets)
+        out.retry = built == FusedPlan.NOT_YET  # (None: no compiled form for this membership, not tried again)
         out.writers = [compiled_writer(sub.potential, robot) for sub in targets]
         out.revisions = [sub.potential.form_revision for sub in targets]
         out.python_targets = tuple(sub.name for sub, w in zip(targets, out.writers, strict=True) if w is None)
         return out
 
-    def current(self, robot: RobotModel, stack: TaskStack, layout: StackLayout) -> bool:
-        """Laid out for this membership, robot and potentials' forms (a plan not made yet is made again)."""
+    def current(self, robot: RobotModel, layout: StackLayout) -> bool:
+        """Laid out for this membership, robot and potentials' forms. Without a plan: current unless it was not
+        ready yet (a membership with no compiled form is not planned again at every step)."""
         plan = self.plan
-        if layout is not self.layout or robot is not self.robot or plan is None or not plan.current(robot):
+        if layout is not self.layout or robot is not self.robot:
             return False  # (a new membership, its target subtasks included, comes with a new layout)
+        if plan is None:
+            return not self.retry
+        if not plan.current(robot):
+            return False
         return all(sub.potential.form_revision == rev for sub, rev in zip(self.targets, self.revisions, strict=True))
 
     def target_rows(self, robot: RobotModel) -> tuple[np.ndarray | None, np.ndarray]:
