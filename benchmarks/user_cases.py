@@ -27,6 +27,7 @@ import numpy as np
 import pinocchio as pin
 
 import redundik as rk
+from redundik.kinematics.layouts import POSE_P
 
 TOOL = "panda_hand_tcp"
 Q0 = np.array([0, -0.785, 0, -2.356, 0, 1.571, 0.785, 0.02, 0.02])
@@ -61,12 +62,12 @@ class ElbowSide(rk.Task):
 @numba.njit  # (no on-disk cache: numba keys it by the importing name, a script and a module differ)
 def _elbow_rows(q, t, poses, jw, ints, floats, gain, J, e, v):  # type: ignore[no-untyped-def]
     """The same row as ``ElbowSide.evaluate``, as a compiled writer (``rk.CompiledRows``)."""
-    f = ints[0]
-    px, pz = poses[f, 9], poses[f, 11]
+    f = ints[0]  # (ints: the frame, then a flag per column; floats: y_d)
+    px, py, pz = poses[f, POSE_P : POSE_P + 3]  # the frame's origin [m]
     for c in range(jw.shape[1]):  # the y row of the frame's base-aligned Jacobian: v_y + (ω × p)_y
         if ints[1 + c]:
             J[0, c] = jw[1, c] + jw[5, c] * px - jw[3, c] * pz
-    e[0] = floats[0] - poses[f, 10]
+    e[0] = floats[0] - py
     v[0] = gain * e[0]
 
 

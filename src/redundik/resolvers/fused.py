@@ -40,17 +40,6 @@ from redundik.resolvers.fused_external import TARGET as TARGET
 from redundik.resolvers.fused_external import TERM as TERM
 from redundik.resolvers.fused_external import PythonWriters
 from redundik.resolvers.fused_result import FusedStepResult as FusedStepResult
-from redundik.resolvers.layouts import B_AXES as B_AXES
-from redundik.resolvers.layouts import B_CENTER as B_CENTER
-from redundik.resolvers.layouts import B_FID as B_FID
-from redundik.resolvers.layouts import B_LO as B_LO
-from redundik.resolvers.layouts import B_LOWER as B_LOWER
-from redundik.resolvers.layouts import B_NAXES as B_NAXES
-from redundik.resolvers.layouts import B_RADIUS as B_RADIUS
-from redundik.resolvers.layouts import B_RATE as B_RATE
-from redundik.resolvers.layouts import B_ROW as B_ROW
-from redundik.resolvers.layouts import B_UP as B_UP
-from redundik.resolvers.layouts import B_UPPER as B_UPPER
 from redundik.resolvers.layouts import FLOAT_PARTS as FLOAT_PARTS
 from redundik.resolvers.layouts import GIVEN_ERROR as GIVEN_ERROR
 from redundik.resolvers.layouts import H_EXTERNAL_ROWS as H_EXTERNAL_ROWS
@@ -64,6 +53,7 @@ from redundik.resolvers.layouts import REF as REF
 from redundik.resolvers.linalg import FK
 from redundik.tasks.base import NOT_READY, CompiledGradient, CompiledRows, Edits, FrameForm, Task, TaskTerm
 from redundik.tasks.frame import FrameTask
+from redundik.tasks.layouts import REF_P, REF_R, REF_TWIST
 from redundik.tasks.potential_rows import compiled_writer
 from redundik.tasks.rows import check_form
 from redundik.tasks.stack import StackLayout, TaskStack
@@ -483,9 +473,9 @@ class FusedPlan(PythonWriters):
         refs = self.refs
         for k in self.given:
             p_d, R_d, twist = self.trajs[k].reference(t)
-            refs[k, 0:3] = p_d
-            refs[k, 3:12] = np.asarray(R_d).reshape(-1)
-            refs[k, 12:18] = twist
+            refs[k, REF_P : REF_P + 3] = p_d
+            refs[k, REF_R : REF_R + 9] = np.asarray(R_d).reshape(-1)
+            refs[k, REF_TWIST : REF_TWIST + 6] = twist
             self.frames[k].reference_sampled(np.array(R_d))
         return refs
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from redundik.kinematics.layouts import POSE_P
 from redundik.resolvers.fused_kernels import _main_error2, _null_objective, _part, _sumsq, frame_rows
 from redundik.resolvers.hqp_kernels import closed_step
 from redundik.resolvers.hqp_layout import (
@@ -80,8 +81,8 @@ def clearance_rows(
         rate = fb[B_RATE]
         gamma = cap if rate == 0 else min(rate, cap)
         p = clearance_into(
-            Jw, poses[fid, 9:12], bcols[k], ib[B_AXES : B_AXES + ib[B_NAXES]], fb[B_CENTER : B_CENTER + 3],
-            fb[B_RADIUS], J6, True, C[row], -1.0 if lower else 1.0,
+            Jw, poses[fid, POSE_P : POSE_P + 3], bcols[k], ib[B_AXES : B_AXES + ib[B_NAXES]],
+            fb[B_CENTER : B_CENTER + 3], fb[B_RADIUS], J6, True, C[row], -1.0 if lower else 1.0,
         )  # fmt: skip
         if lower:
             d[row] = gamma * (p - fb[B_LO])

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from redundik.resolvers.hqp_layout import Basis, Box, JointLeastSquares, LeastSquares, Rows
+from redundik.resolvers.hqp_layout import META_INEQ, META_LS, Basis, Box, JointLeastSquares, LeastSquares, Rows
 from redundik.resolvers.kernels import _jit
 
 
@@ -90,15 +90,16 @@ def qp_buffer_size(n: int, p_max: int, rows: int) -> int:
 @_jit
 def cascade_qp_dims(n: int, meta: np.ndarray) -> tuple[int, int, int]:
     """(most variables, most rows) of a level QP of :func:`level_qp_into` or :func:`level_qp_joint_into` for the
-    levels packed in ``meta`` (their least-squares rows start at ``meta[0]``, their inequality rows at ``meta[1]``),
+    levels packed in ``meta`` (their least-squares rows start at ``meta[META_LS]``, their inequality rows at
+    ``meta[META_INEQ]``),
     and the most least-squares rows of a level."""
     L = meta.shape[1] - 1
     p_max = 0
     m_max = 0
     for k in range(L):
-        p_max = max(p_max, meta[1, k + 1] - meta[1, k])
-        m_max = max(m_max, meta[0, k + 1] - meta[0, k])
-    return n + p_max + m_max, p_max + meta[1, L] + 2 * n + m_max, m_max
+        p_max = max(p_max, meta[META_INEQ, k + 1] - meta[META_INEQ, k])
+        m_max = max(m_max, meta[META_LS, k + 1] - meta[META_LS, k])
+    return n + p_max + m_max, p_max + meta[META_INEQ, L] + 2 * n + m_max, m_max
 
 
 @_jit

@@ -34,6 +34,16 @@ from redundik.tasks.base import (
     check_number,
 )
 from redundik.tasks.frame import DEFAULT_HOLD_GAIN, FrameTask
+from redundik.tasks.layouts import (
+    COM_BODIES,
+    COM_BODY,
+    COM_LEVER,
+    COM_MASS,
+    COM_NBODIES,
+    COM_NROWS,
+    COM_ROWS,
+    COM_TARGET,
+)
 
 _COM_AXES = {"x": 0, "y": 1, "z": 2}
 #: the compiled writers of the built-in tasks (loaded at first use)
@@ -51,7 +61,7 @@ def com_layout(robot: RobotModel, rows: np.ndarray) -> tuple[np.ndarray, np.ndar
     for f, frame in enumerate(model.frames):
         if frame.type == pin.FrameType.JOINT and frame.placement.isIdentity() and frame.parentJoint not in joint_frame:
             joint_frame[frame.parentJoint] = f
-    fids, columns, floats = [], [], [0.0, 0.0, 0.0]
+    fids, columns, floats = [], [], [0.0] * COM_BODIES  # (the target c_d from COM_TARGET: written by the task)
     for j in range(1, model.njoints):
         if j not in joint_frame:
             return None
@@ -62,8 +72,13 @@ def com_layout(robot: RobotModel, rows: np.ndarray) -> tuple[np.ndarray, np.ndar
                 col[model.joints[s].idx_v : model.joints[s].idx_v + model.joints[s].nv] = 1
         columns.append(col)
         inertia = model.inertias[j]
-        floats += [inertia.mass / total, *np.asarray(inertia.lever, dtype=float)]
-    ints = np.concatenate([[len(fids), len(rows)], rows, fids, *columns]).astype(np.int64)
+        body = [0.0] * COM_BODY
+        body[COM_MASS] = inertia.mass / total
+        body[COM_LEVER : COM_LEVER + 3] = np.asarray(inertia.lever, dtype=float).tolist()
+        floats += body
+    head = [0] * COM_ROWS
+    head[COM_NBODIES], head[COM_NROWS] = len(fids), len(rows)
+    ints = np.concatenate([head, rows, fids, *columns]).astype(np.int64)
     return ints, np.array(floats, dtype=float)
 
 
@@ -129,7 +144,7 @@ class CoMTask(Task):
     def target(self, value: Sequence[float] | np.ndarray | None) -> None:
         self._target = None if value is None else self._vec(value)
         if self._layout is not None and self._target is not None:
-            self._layout[2][0:3] = self._target  # (the compiled writer's data: written in place)
+            self._layout[2][COM_TARGET : COM_TARGET + 3] = self._target  # (the compiled writer's data: in place)
 
     def set_target(self, target: Sequence[float] | np.ndarray) -> None:
         """A new CoM target c_d (3,) [m]; kept across resets."""
@@ -152,7 +167,7 @@ class CoMTask(Task):
             layout = self._layout = (robot.data, packed[0], packed[1])
             self._form_revision += 1
             assert self._target is not None
-            layout[2][0:3] = self._target
+            layout[2][COM_TARGET : COM_TARGET + 3] = self._target
         return CompiledRows(_RK.com_rows, len(self.rows), layout[1], layout[2])
 
     def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:

@@ -8,6 +8,7 @@ from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import CompiledRows, check_number, default_name
+from redundik.tasks.layouts import CPL_FLOATS, CPL_INTS, CPL_IQ_I, CPL_IQ_J, CPL_IV_I, CPL_IV_J, CPL_OFFSET
 from redundik.tasks.rows import CompiledTask
 
 #: the compiled writers of the built-in tasks (loaded at first use)
@@ -55,8 +56,8 @@ class JointCoupling(CompiledTask):
         self.gain, self.weight, self.priority = gain, weight, priority  # (Task's setters: check_number)
         self._idx: tuple[int, int, int, int] | None = None
         self._c: float | None = self.offset
-        self._ints = np.zeros(4, dtype=np.int64)  # the compiled writer's data, rewritten in place
-        self._floats = np.zeros(1)
+        self._ints = np.zeros(CPL_INTS, dtype=np.int64)  # the compiled writer's data, rewritten in place
+        self._floats = np.zeros(CPL_FLOATS)
 
     def reset(self, robot: RobotModel) -> None:
         idx = []
@@ -71,8 +72,9 @@ class JointCoupling(CompiledTask):
         self._idx = (idx[0], idx[1], idx[2], idx[3])
         q = robot.q
         self._c = self.offset if self.offset is not None else float(q[idx[0]] - q[idx[2]])
-        self._ints[:] = self._idx  # (the same rows on other joints: data, not a new form)
-        self._floats[0] = self._c
+        ints = self._ints  # (the same rows on other joints: data, not a new form)
+        ints[CPL_IQ_I], ints[CPL_IV_I], ints[CPL_IQ_J], ints[CPL_IV_J] = self._idx
+        self._floats[CPL_OFFSET] = self._c
 
     def compiled_rows(self, robot: RobotModel) -> CompiledRows:
         """One row: J = (e_i − e_j)ᵀ, e = c − (q_i − q_j), v = K e (``row_kernels.coupling_rows``)."""

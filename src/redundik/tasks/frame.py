@@ -14,6 +14,7 @@ from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError, short_repr
 from redundik.kinematics.model import AXES, LWA, RobotModel
 from redundik.tasks.base import NOT_READY, FrameForm, Task, TaskTerm, default_name
+from redundik.tasks.layouts import P0, REF_R
 from redundik.tasks.trajectory import Hold, Trajectory
 
 #: Named axis sets.
@@ -254,7 +255,7 @@ class FrameTask(Task):
         pose = _as_pose(target, f"frame task '{self.name}': set_target")  # the checks, and their messages
         if row is not None:
             if isinstance(pose, np.ndarray):
-                row[0:3] = pose
+                row[P0 : P0 + 3] = pose
                 traj._revision += 1
                 traj._given = True  # type: ignore[attr-defined]
             else:
@@ -265,7 +266,7 @@ class FrameTask(Task):
             last = self._last_R if traj._kparams is None else traj._R0  # (a compiled reference holds R0)
             if last is not None:
                 if last.shape != (3, 3):  # a fused step's reference row (p_d, R_d row-major, twist)
-                    last = last[3:12].reshape(3, 3)
+                    last = last[REF_R : REF_R + 9].reshape(3, 3)
                 self._hold(pin.SE3(np.array(last), pose))
             else:
                 self._pending_position = pose

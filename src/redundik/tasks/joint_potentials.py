@@ -13,6 +13,7 @@ from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError, short_repr
 from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import CompiledGradient, default_name
+from redundik.tasks.layouts import J_INTS, J_IQ, J_IV, JV_CENTER
 from redundik.tasks.potential_rows import CompiledPotential
 
 #: The compiled potential kernels, imported on first use (a namespace: a cold start puts their twins here).
@@ -41,11 +42,11 @@ class _JointPotential(CompiledPotential):
         self.name = default_name(name, f"{type(self).__name__.lower()}_{joint}", type(self).__name__)
         self._iq = -1
         self._iv = -1
-        self._ints = np.zeros(2, dtype=np.int64)
-        self._floats = np.zeros(1)
+        self._ints = np.zeros(J_INTS, dtype=np.int64)
+        self._floats = np.zeros(JV_CENTER + 1)
 
     def check(self, robot: RobotModel) -> None:
-        self._iq, self._iv = self._ints[0], self._ints[1] = one_dof_joint(robot, self.joint, self.name)
+        self._iq, self._iv = self._ints[J_IQ], self._ints[J_IV] = one_dof_joint(robot, self.joint, self.name)
 
     def _writer(self, robot: RobotModel, kernel: Any) -> CompiledGradient:
         """``kernel`` with this potential's data on ``robot`` (the joint looked up when it was not yet, or
@@ -81,7 +82,7 @@ class JointValue(_JointPotential):
     @property
     def c(self) -> float:
         """The joint value c [rad or length unit]."""
-        return float(self._floats[0])
+        return float(self._floats[JV_CENTER])
 
     @c.setter
     def c(self, value: float) -> None:
@@ -97,7 +98,7 @@ class JointValue(_JointPotential):
                 f"joint value potential on '{self.joint}': value must be finite (within the float range), got "
                 f"{short_repr(value)}"
             )
-        self._floats[0] = c
+        self._floats[JV_CENTER] = c
 
     def compiled_gradient(self, robot: RobotModel) -> CompiledGradient:
         """``potential_kernels.joint_value_gradient``."""

@@ -11,7 +11,25 @@ import math
 import numpy as np
 
 from redundik import _kernel_cache
+from redundik.kinematics.layouts import POSE_P
 from redundik.kinematics.lie_kernels import frame_jacobian_lwa
+from redundik.tasks.layouts import (
+    FP_AXES,
+    FP_AXES_N,
+    FP_FRAME,
+    FP_POINT,
+    FP_RADIUS,
+    J_IQ,
+    J_IV,
+    JP_FRAMES,
+    JP_ROWS,
+    JP_ROWS_N,
+    JV_CENTER,
+    WP_ACTIVE,
+    WP_COUNT,
+    WP_POINTS,
+    WP_TOLERANCE,
+)
 
 _jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
 
@@ -30,20 +48,6 @@ __all__ = [
     "virtual_point_gradient",
     "waypoints_gradient",
 ]
-
-#: ``ints`` of a joint potential's writer: the joint's index in q, then in q̇.
-J_IQ, J_IV = 0, 1
-#: ``ints`` of a frame-point potential's writer (``Clearance``, ``VirtualPoint``): the frame's id, the number k of
-#: axes that count, then those k axes (indices into x, y, z), then nv flags: nonzero on the velocity columns of the
-#: joints that support the frame (``frame_jacobian_lwa``).
-FP_FRAME, FP_AXES_N, FP_AXES = 0, 1, 2
-#: ``floats`` of a clearance: the obstacle's centre p_o (3) [m], then its radius r [m]; of a virtual point: p_v (3).
-FP_POINT, FP_RADIUS = 0, 3
-#: ``ints`` of a potential of frame Jacobians and their derivatives (``BestPosture``, ``Manipulability``): the number
-#: F of frames, the number k of twist rows that count, those k rows, the F frame ids, F × nv flags (the columns of the
-#: joints that support each frame), then nv × nv flags M[j, k]: the joint of velocity k is the joint of velocity j
-#: or one of its ancestors (``RobotModel.support_mask``). ``floats`` of ``BestPosture``: the joint weights w (nv).
-JP_FRAMES, JP_ROWS_N, JP_ROWS = 0, 1, 2
 
 
 @_jit
@@ -116,7 +120,7 @@ def joint_value_gradient(
     q: np.ndarray, poses: np.ndarray, jw: np.ndarray, ints: np.ndarray, floats: np.ndarray, eta: np.ndarray
 ) -> float:
     """``JointValue``: p = (q_j − c)², η_j = 2 (q_j − c); ``ints`` = (idx_q, idx_v), ``floats`` = (c,)."""
-    d = q[ints[J_IQ]] - floats[0]
+    d = q[ints[J_IQ]] - floats[JV_CENTER]
     eta[ints[J_IV]] = 2.0 * d
     return d * d
 
@@ -145,7 +149,7 @@ def clearance_gradient(
 ) -> float:
     """``Clearance``: p = ‖S(p_f − p_o)‖ − r [m] and η (:func:`clearance_into`), in the frame-point layout."""
     k = ints[FP_AXES_N]
-    p = poses[ints[FP_FRAME], 9:12]
+    p = poses[ints[FP_FRAME], POSE_P : POSE_P + 3]
     J6 = np.empty((6, eta.shape[0]))
     rows, columns = ints[FP_AXES : FP_AXES + k], ints[FP_AXES + k :]
     return clearance_into(jw, p, columns, rows, floats[FP_POINT : FP_POINT + 3], floats[FP_RADIUS], J6, True, eta, 1.0)
@@ -157,7 +161,7 @@ def virtual_point_gradient(
 ) -> float:
     """``VirtualPoint``: p = ½‖S(p_f − p_v)‖², η = J_vᵀ Sᵀ S (p_f − p_v), in the frame-point layout."""
     k = ints[FP_AXES_N]
-    p = poses[ints[FP_FRAME], 9:12]
+    p = poses[ints[FP_FRAME], POSE_P : POSE_P + 3]
     J6 = np.empty((6, eta.shape[0]))
     frame_jacobian_lwa(jw, p, ints[FP_AXES + k :], J6)
     value = 0.0
@@ -178,11 +182,11 @@ def waypoints_gradient(
     p = (q_j − c_i)², η_j = 2 (q_j − c_i). ``ints`` = (idx_q, idx_v, active index i, count), the index rewritten in
     place; ``floats`` = (tolerance, c_1, c_2, …)."""
     x = q[ints[J_IQ]]
-    k = ints[2]
-    while k < ints[3] - 1 and abs(x - floats[1 + k]) < floats[0]:
+    k = ints[WP_ACTIVE]
+    while k < ints[WP_COUNT] - 1 and abs(x - floats[WP_POINTS + k]) < floats[WP_TOLERANCE]:
         k += 1
-    ints[2] = k
-    d = x - floats[1 + k]
+    ints[WP_ACTIVE] = k
+    d = x - floats[WP_POINTS + k]
     eta[ints[J_IV]] = 2.0 * d
     return d * d
 
@@ -237,7 +241,7 @@ def best_posture_gradient(
     for f in range(nf):
         fid = ints[fids + f]
         columns = ints[fids + nf + f * nv : fids + nf + (f + 1) * nv]
-        frame_jacobian_hessian(jw, poses[fid, 9:12], columns, mask, J6, H)
+        frame_jacobian_hessian(jw, poses[fid, POSE_P : POSE_P + 3], columns, mask, J6, H)
         for i in range(m):
             r = ints[JP_ROWS + i]
             for j in range(nv):
@@ -259,10 +263,11 @@ def manipulability_gradient(
     m = ints[JP_ROWS_N]
     fids = JP_ROWS + m
     fid = ints[fids]
-    columns = ints[fids + 1 : fids + 1 + nv]
+    cols = fids + 1  # one frame: its columns, then the support mask
+    columns = ints[cols : cols + nv]
     J6 = np.empty((6, nv))
     H = np.empty((6, nv, nv))
-    frame_jacobian_hessian(jw, poses[fid, 9:12], columns, ints[fids + 1 + nv :], J6, H)
+    frame_jacobian_hessian(jw, poses[fid, POSE_P : POSE_P + 3], columns, ints[cols + nv :], J6, H)
     J = np.empty((m, nv))
     for i in range(m):
         J[i] = J6[ints[JP_ROWS + i]]

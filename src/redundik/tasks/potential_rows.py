@@ -18,6 +18,7 @@ import numpy as np
 from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import CompiledGradient, Potential
+from redundik.tasks.layouts import FP_AXES, FP_AXES_N, FP_FRAME, JP_FRAMES, JP_ROWS, JP_ROWS_N
 from redundik.tasks.rows import kinematic_views, writer_problems
 
 __all__ = [
@@ -47,17 +48,19 @@ def supporting_columns(robot: RobotModel, fid: int) -> np.ndarray:
 
 
 def frame_point_ints(robot: RobotModel, fid: int, rows: np.ndarray) -> np.ndarray:
-    """The ``ints`` of a frame-point potential's writer (``potential_kernels.FP_*``): the frame id, the number of
+    """The ``ints`` of a frame-point potential's writer (``tasks.layouts``' ``FP_*``): the frame id, the number of
     axes, the axes, then :func:`supporting_columns`."""
-    head = np.array([fid, rows.shape[0]], dtype=np.int64)
+    head = np.zeros(FP_AXES, dtype=np.int64)
+    head[FP_FRAME], head[FP_AXES_N] = fid, rows.shape[0]
     return np.concatenate([head, np.asarray(rows, dtype=np.int64), supporting_columns(robot, fid)])
 
 
 def jacobian_product_ints(robot: RobotModel, fids: list[int], rows: np.ndarray) -> np.ndarray:
-    """The ``ints`` of a potential of frame Jacobians and their derivatives (``potential_kernels.JP_*``): the
+    """The ``ints`` of a potential of frame Jacobians and their derivatives (``tasks.layouts``' ``JP_*``): the
     number of frames and of rows, the rows, the frame ids, each frame's :func:`supporting_columns`, then
     ``RobotModel.support_mask`` (nv × nv, row-major)."""
-    head = np.array([len(fids), rows.shape[0]], dtype=np.int64)
+    head = np.zeros(JP_ROWS, dtype=np.int64)
+    head[JP_FRAMES], head[JP_ROWS_N] = len(fids), rows.shape[0]
     parts = [head, np.asarray(rows, dtype=np.int64), np.asarray(fids, dtype=np.int64)]
     parts += [supporting_columns(robot, fid) for fid in fids]
     parts.append(robot.support_mask().astype(np.int64).reshape(-1))

@@ -14,11 +14,13 @@ import numpy as np
 
 from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
+from redundik.kinematics.layouts import POSE_P
 from redundik.kinematics.model import AXES, RobotModel
 from redundik.tasks.base import ClearanceForm, CompiledGradient, Edits, Potential, check_number, default_name
 from redundik.tasks.frame import resolve_axes
 from redundik.tasks.joint_potentials import JointSine2 as JointSine2
 from redundik.tasks.joint_potentials import JointValue as JointValue
+from redundik.tasks.layouts import FP_POINT, FP_RADIUS
 from redundik.tasks.potential_rows import (
     CompiledPotential,
     frame_point_ints,
@@ -282,7 +284,7 @@ class VirtualPoint(_FramePotential, CompiledPotential):
         axes: str | Sequence[str] = "position",
         name: str | None = None,
     ) -> None:
-        self._floats = np.zeros(3)  # p_v: the compiled writer's data, rewritten in place
+        self._floats = np.zeros(FP_POINT + 3)  # p_v: the compiled writer's data, rewritten in place
         super().__init__(frame, axes, default_name(name, f"virtual_point_{frame}", "VirtualPoint"))
         self.point = point
 
@@ -296,7 +298,7 @@ class VirtualPoint(_FramePotential, CompiledPotential):
     @point.setter
     def point(self, value: Sequence[float] | np.ndarray) -> None:
         self._point = _point(value, f"subtask '{self.name}': point")
-        self._floats[:] = self._point
+        self._floats[FP_POINT : FP_POINT + 3] = self._point
 
     def compiled_gradient(self, robot: RobotModel) -> CompiledGradient:
         """p and η from one compiled call (``potential_kernels.virtual_point_gradient``)."""
@@ -329,7 +331,7 @@ class Clearance(_FramePotential):
         #: the kernel),
         #: p_f and data.J views on Pinocchio's memory, or ``None`` when those could not be verified.
         self._views: tuple[Any, ...] | None = None
-        self._floats = np.zeros(4)  # (p_o, r): the compiled writer's data, rewritten in place
+        self._floats = np.zeros(FP_RADIUS + 1)  # (p_o, r): the compiled writer's data, rewritten in place
         super().__init__(frame, axes, default_name(name, f"clearance_{frame}", "Clearance"))
         self.center = center
         self.radius = radius
@@ -346,7 +348,7 @@ class Clearance(_FramePotential):
     @center.setter
     def center(self, value: Sequence[float] | np.ndarray) -> None:
         self._center = _point(value, f"subtask '{self.name}': center")
-        self._floats[0:3] = self._center
+        self._floats[FP_POINT : FP_POINT + 3] = self._center
         Edits.count += 1
 
     @property
@@ -357,7 +359,7 @@ class Clearance(_FramePotential):
     @radius.setter
     def radius(self, value: float) -> None:
         self._radius = check_number(value, f"subtask '{self.name}': radius", low=0.0)
-        self._floats[3] = self._radius
+        self._floats[FP_RADIUS] = self._radius
         Edits.count += 1
 
     def __getstate__(self) -> dict[str, Any]:
@@ -374,7 +376,7 @@ class Clearance(_FramePotential):
         data = robot.data
         jw, poses = jacobian_view(data), se3_vector_view(data.oMf)
         columns = supporting_columns(robot, fid)
-        p = None if jw is None or poses is None else poses[fid, 9:12]
+        p = None if jw is None or poses is None else poses[fid, POSE_P : POSE_P + 3]
         self._views = (data, fid, p, jw, columns, np.zeros((6, robot.nv)))
         return self._views
 

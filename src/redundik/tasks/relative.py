@@ -28,6 +28,7 @@ from redundik.errors import TaskError
 from redundik.kinematics.model import AXES, RobotModel
 from redundik.tasks.base import CompiledRows, default_name
 from redundik.tasks.frame import resolve_axes
+from redundik.tasks.layouts import REL_FLOATS, REL_FRAME_A, REL_FRAME_B, REL_NROWS, REL_P, REL_R, REL_ROWS
 from redundik.tasks.rows import CompiledTask
 
 #: the compiled writers of the built-in tasks (loaded at first use)
@@ -84,7 +85,7 @@ class RelativePoseTask(CompiledTask):
         self._ids: tuple[int, int] | None = None
         self._data: object = None  # the robot data the writer's frame ids and columns are for
         self._ints = np.zeros(0, dtype=np.int64)
-        self._floats = np.zeros(12)  # (p_d, R_d row-major): the target, rewritten in place
+        self._floats = np.zeros(REL_FLOATS)  # (p_d, R_d row-major): the target, rewritten in place
 
     def _pose(self, target: object) -> pin.SE3:
         """``target`` (an SE3 or a 4×4 homogeneous matrix) as an SE3, checked: finite, a rotation block."""
@@ -118,8 +119,7 @@ class RelativePoseTask(CompiledTask):
         self._given = pose
         if self._target is not None:
             self._target = pose.copy()
-            self._floats[0:3] = pose.translation
-            self._floats[3:12] = pose.rotation.reshape(-1)
+            self._write_target()
 
     @property
     def target(self) -> pin.SE3 | None:
@@ -136,8 +136,13 @@ class RelativePoseTask(CompiledTask):
         """Bind to ``robot`` and hold the given target, or the frames' relative pose now."""
         self._bind(robot)
         self._target = self._given.copy() if self._given is not None else self.relative_pose(robot)
-        self._floats[0:3] = self._target.translation
-        self._floats[3:12] = self._target.rotation.reshape(-1)
+        self._write_target()
+
+    def _write_target(self) -> None:
+        """The held target into the compiled writer's ``floats`` (``tasks.layouts``' ``REL_P``, ``REL_R``)."""
+        assert self._target is not None
+        self._floats[REL_P : REL_P + 3] = self._target.translation
+        self._floats[REL_R : REL_R + 9] = self._target.rotation.reshape(-1)
 
     def _bind(self, robot: RobotModel) -> None:
         """The frames' ids and velocity columns on ``robot`` (the compiled writer's ``ints``); the target is kept."""
@@ -153,7 +158,9 @@ class RelativePoseTask(CompiledTask):
                 if j > 0:
                     col[model.joints[j].idx_v : model.joints[j].idx_v + model.joints[j].nv] = 1
             columns.append(col)
-        ints = np.concatenate([[self._ids[0], self._ids[1], len(self.rows)], self.rows, *columns]).astype(np.int64)
+        head = [0] * REL_ROWS
+        head[REL_FRAME_A], head[REL_FRAME_B], head[REL_NROWS] = self._ids[0], self._ids[1], len(self.rows)
+        ints = np.concatenate([head, self.rows, *columns]).astype(np.int64)
         if self._data is not robot.data or not np.array_equal(ints, self._ints):
             self._form_revision += 1
         self._ints, self._data = ints, robot.data

@@ -14,7 +14,29 @@ import math
 import numpy as np
 
 from redundik import _kernel_cache
+from redundik.kinematics.layouts import POSE_P, POSE_R
 from redundik.kinematics.lie_kernels import frame_jacobian_lwa
+from redundik.tasks.layouts import (
+    COM_BODIES,
+    COM_BODY,
+    COM_LEVER,
+    COM_MASS,
+    COM_NBODIES,
+    COM_NROWS,
+    COM_ROWS,
+    COM_TARGET,
+    CPL_IQ_I,
+    CPL_IQ_J,
+    CPL_IV_I,
+    CPL_IV_J,
+    CPL_OFFSET,
+    REL_FRAME_A,
+    REL_FRAME_B,
+    REL_NROWS,
+    REL_P,
+    REL_R,
+    REL_ROWS,
+)
 
 _jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
 
@@ -36,10 +58,10 @@ def coupling_rows(
 ) -> None:
     """Joint coupling q_i − q_j = c (section 5.3): J = (e_i − e_j)ᵀ, e = c − (q_i − q_j), v = K e.
 
-    ``ints`` = (idx_q i, idx_v i, idx_q j, idx_v j); ``floats`` = (c,) [rad or m]."""
-    J[0, ints[1]] = 1.0
-    J[0, ints[3]] = -1.0
-    e[0] = floats[0] - (q[ints[0]] - q[ints[2]])
+    ``ints`` = (idx_q i, idx_v i, idx_q j, idx_v j); ``floats`` = (c,) [rad or m] (``tasks.layouts``' ``CPL_*``)."""
+    J[0, ints[CPL_IV_I]] = 1.0
+    J[0, ints[CPL_IV_J]] = -1.0
+    e[0] = floats[CPL_OFFSET] - (q[ints[CPL_IQ_I]] - q[ints[CPL_IQ_J]])
     v[0] = gain * e[0]
 
 
@@ -96,21 +118,23 @@ def relative_rows(
     [J_A^ω − J_B^ω]][rows], v = K e.
 
     ``ints`` = (frame A, frame B, r, rows (r), A's supporting columns (nv), B's (nv)); ``floats`` = (p_d (3) [m],
-    R_d row-major (9))."""
+    R_d row-major (9)) (``tasks.layouts``' ``REL_*``)."""
     nv = jw.shape[1]
-    fa, fb, r = ints[0], ints[1], ints[2]
-    Ra = poses[fa, 0:9].reshape(3, 3).T  # (stored column-major)
-    Rb = poses[fb, 0:9].reshape(3, 3).T
-    d = poses[fa, 9:12] - poses[fb, 9:12]
+    fa, fb, r = ints[REL_FRAME_A], ints[REL_FRAME_B], ints[REL_NROWS]
+    cols = REL_ROWS + r  # A's supporting columns, then B's
+    Ra = poses[fa, POSE_R : POSE_R + 9].reshape(3, 3).T  # (stored column-major)
+    Rb = poses[fb, POSE_R : POSE_R + 9].reshape(3, 3).T
+    pa, pb = poses[fa, POSE_P : POSE_P + 3], poses[fb, POSE_P : POSE_P + 3]
+    d = pa - pb
     ja, jb = np.empty((6, nv)), np.empty((6, nv))
-    frame_jacobian_lwa(jw, poses[fa, 9:12], ints[3 + r : 3 + r + nv], ja)
-    frame_jacobian_lwa(jw, poses[fb, 9:12], ints[3 + r + nv : 3 + r + 2 * nv], jb)
+    frame_jacobian_lwa(jw, pa, ints[cols : cols + nv], ja)
+    frame_jacobian_lwa(jw, pb, ints[cols + nv : cols + 2 * nv], jb)
     err = np.empty(6)
     M = np.empty((3, 3))
     for i in range(3):  # p_d − R_bᵀ d; and M = R_d R_relᵀ = R_d R_aᵀ R_b
-        err[i] = floats[i] - (Rb[0, i] * d[0] + Rb[1, i] * d[1] + Rb[2, i] * d[2])
+        err[i] = floats[REL_P + i] - (Rb[0, i] * d[0] + Rb[1, i] * d[1] + Rb[2, i] * d[2])
     Rrel = Rb.T @ Ra
-    Rd = floats[3:12].reshape(3, 3)
+    Rd = floats[REL_R : REL_R + 9].reshape(3, 3)
     for i in range(3):
         for j in range(3):
             M[i, j] = Rd[i, 0] * Rrel[j, 0] + Rd[i, 1] * Rrel[j, 1] + Rd[i, 2] * Rrel[j, 2]
@@ -126,7 +150,7 @@ def relative_rows(
             full[i, c] = Rb[0, i] * lv0 + Rb[1, i] * lv1 + Rb[2, i] * lv2
             full[3 + i, c] = Rb[0, i] * aw0 + Rb[1, i] * aw1 + Rb[2, i] * aw2
     for k in range(r):
-        row = ints[3 + k]
+        row = ints[REL_ROWS + k]
         e[k] = err[row]
         v[k] = gain * err[row]
         for c in range(nv):
@@ -151,20 +175,23 @@ def com_rows(
     v = K e.
 
     ``ints`` = (bodies b, r, rows (r), per body its joint's frame id (b), per body its supporting columns (b × nv));
-    ``floats`` = (c_d (3) [m], per body m_i / M, l_i (3) [m] (b × 4))."""
+    ``floats`` = (c_d (3) [m], per body m_i / M, l_i (3) [m] (b × 4)) (``tasks.layouts``' ``COM_*``)."""
     nv = jw.shape[1]
-    b, r = ints[0], ints[1]
-    fids = 2 + r
+    b, r = ints[COM_NBODIES], ints[COM_NROWS]
+    fids = COM_ROWS + r
     cols = fids + b
     c = np.zeros(3)
     Jc = np.zeros((3, nv))
     for i in range(b):
         f = ints[fids + i]
-        w = floats[3 + 4 * i]
-        lx, ly, lz = floats[4 + 4 * i], floats[5 + 4 * i], floats[6 + 4 * i]
+        body = COM_BODIES + COM_BODY * i
+        w = floats[body + COM_MASS]
+        lever = floats[body + COM_LEVER : body + COM_LEVER + 3]
+        lx, ly, lz = lever[0], lever[1], lever[2]
+        R = poses[f, POSE_R : POSE_R + 9]  # column-major: column j at 3 j
         ci = np.empty(3)
-        for k in range(3):  # p + R l, R stored column-major
-            ci[k] = poses[f, 9 + k] + poses[f, k] * lx + poses[f, 3 + k] * ly + poses[f, 6 + k] * lz
+        for k in range(3):  # p + R l
+            ci[k] = poses[f, POSE_P + k] + R[k] * lx + R[3 + k] * ly + R[6 + k] * lz
             c[k] += w * ci[k]
         for col in range(nv):
             if ints[cols + i * nv + col]:
@@ -173,8 +200,8 @@ def com_rows(
                 Jc[1, col] += w * (jw[1, col] + wz * ci[0] - wx * ci[2])
                 Jc[2, col] += w * (jw[2, col] + wx * ci[1] - wy * ci[0])
     for k in range(r):
-        row = ints[2 + k]
-        e[k] = floats[row] - c[row]
+        row = ints[COM_ROWS + k]
+        e[k] = floats[COM_TARGET + row] - c[row]
         v[k] = gain * e[k]
         for col in range(nv):
             J[k, col] = Jc[row, col]

@@ -19,6 +19,20 @@ import math
 import numpy as np
 
 from redundik import _kernel_cache
+from redundik.tasks.layouts import (
+    CIRCLE_C,
+    CIRCLE_E1,
+    CIRCLE_E2,
+    CIRCLE_PHASE,
+    CIRCLE_W,
+    LINE_V,
+    P0,
+    R0,
+    REF,
+    REF_P,
+    REF_R,
+    REF_TWIST,
+)
 from redundik.tasks.trajectory import CIRCLE, GIVEN, LINE
 
 _jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
@@ -50,8 +64,8 @@ def _rotation_status(T: np.ndarray, tol: float) -> int:
 
 @_jit
 def pose_into(T: np.ndarray, row: np.ndarray, tol: float, max_coordinate: float) -> int:
-    """Check the homogeneous matrix ``T`` (4, 4) and write its position [length] into ``row[0:3]`` and its rotation
-    (row-major) into ``row[3:12]``; the status (module docstring)."""
+    """Check the homogeneous matrix ``T`` (4, 4) and write its position [length] at ``P0`` and its rotation
+    (row-major) at ``R0`` of ``row`` (``tasks.layouts``); the status (module docstring)."""
     if T.shape[0] != 4 or T.shape[1] != 4:
         return BAD_SHAPE
     for i in range(3):
@@ -69,15 +83,15 @@ def pose_into(T: np.ndarray, row: np.ndarray, tol: float, max_coordinate: float)
         if abs(T[3, j] - (1.0 if j == 3 else 0.0)) > tol:
             return NOT_RIGID
     for i in range(3):
-        row[i] = T[i, 3]
+        row[P0 + i] = T[i, 3]
         for j in range(3):
-            row[3 + 3 * i + j] = T[i, j]
+            row[R0 + 3 * i + j] = T[i, j]
     return OK
 
 
 @_jit
 def position_into(p: np.ndarray, row: np.ndarray, max_coordinate: float) -> int:
-    """Check the position ``p`` (3,) [length] and write it into ``row[0:3]`` (the orientation is kept)."""
+    """Check the position ``p`` (3,) [length] and write it at ``row[P0]`` (the orientation is kept)."""
     if p.shape[0] != 3:
         return BAD_SHAPE
     for i in range(3):
@@ -86,32 +100,35 @@ def position_into(p: np.ndarray, row: np.ndarray, max_coordinate: float) -> int:
         if abs(p[i]) > max_coordinate:
             return TOO_FAR
     for i in range(3):
-        row[i] = p[i]
+        row[P0 + i] = p[i]
     return OK
 
 
 @_jit
 def reference_into(kind: int, params: np.ndarray, t: float, out: np.ndarray) -> None:
-    """The reference (p_d, R_d, twist) of a ``HOLD``, ``LINE`` or ``CIRCLE`` trajectory at t [s] into ``out`` (18,).
+    """The reference (p_d, R_d, twist) of a ``HOLD``, ``LINE`` or ``CIRCLE`` trajectory at t [s] into ``out``
+    (``REF``,).
 
     Line: p = p0 + v t, twist (v, 0). Circle: p = c + cos(ωt + φ) r e1 + sin(ωt + φ) r e2, twist
     (ω (cos a · r e2 − sin a · r e1), 0). Orientation held (R0). ``GIVEN`` writes nothing.
     """
     if kind == GIVEN:
         return
-    for i in range(12):
-        out[i] = params[i]
-    for i in range(12, 18):
+    for i in range(3):
+        out[REF_P + i] = params[P0 + i]
+    for i in range(9):
+        out[REF_R + i] = params[R0 + i]
+    for i in range(REF_TWIST, REF):
         out[i] = 0.0
     if kind == LINE:
         for i in range(3):
-            out[i] = params[i] + params[12 + i] * t
-            out[12 + i] = params[12 + i]
+            out[REF_P + i] = params[P0 + i] + params[LINE_V + i] * t
+            out[REF_TWIST + i] = params[LINE_V + i]
     elif kind == CIRCLE:
-        w = params[21]
-        a = w * t + params[22]
+        w = params[CIRCLE_W]
+        a = w * t + params[CIRCLE_PHASE]
         c, s = math.cos(a), math.sin(a)
         for i in range(3):
-            a1, b1 = params[15 + i], params[18 + i]
-            out[i] = params[12 + i] + c * a1 + s * b1
-            out[12 + i] = w * (c * b1 - s * a1)
+            a1, b1 = params[CIRCLE_E1 + i], params[CIRCLE_E2 + i]
+            out[REF_P + i] = params[CIRCLE_C + i] + c * a1 + s * b1
+            out[REF_TWIST + i] = w * (c * b1 - s * a1)

@@ -18,6 +18,7 @@ import pinocchio as pin
 from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError, short_repr
 from redundik.kinematics.model import AXES
+from redundik.tasks.layouts import EXTRA, P0, PARAMS, R0, REF, REF_P, REF_TWIST
 
 #: Largest magnitude of a trajectory parameter (a length, a speed, a rate): beyond it the task rows overflow.
 MAX_MAGNITUDE = 1e12
@@ -95,8 +96,6 @@ def _rigid(pose: object, what: str) -> pin.SE3:
 #: Kinds of compiled reference (``target_kernels.reference_into``); ``GIVEN``: none, the
 #: trajectory's :meth:`Trajectory.reference` is sampled in Python.
 GIVEN, HOLD, LINE, CIRCLE = 0, 1, 2, 3
-#: Length of a compiled reference's parameter row: p0 (3), R0 (9, row-major), up to 11 kind-specific numbers.
-PARAMS = 23
 
 #: The compiled trajectory references (:mod:`redundik.tasks.target_kernels`), imported at first use; a cold start
 #: puts their interpreted twins here while they compile.
@@ -133,8 +132,8 @@ class Trajectory(ABC):
         self.__dict__.update(state)
         row = self._kparams
         if row is not None:
-            self._p0 = row[0:3]
-            self._R0 = row[3:12].reshape(3, 3)
+            self._p0 = row[P0 : P0 + 3]
+            self._R0 = row[R0 : R0 + 9].reshape(3, 3)
 
     @property
     def revision(self) -> int:
@@ -162,21 +161,21 @@ class Trajectory(ABC):
             return False
         if own is not row:
             row[:] = own
-            self._kparams, self._p0, self._R0 = row, row[0:3], row[3:12].reshape(3, 3)
+            self._kparams, self._p0, self._R0 = row, row[P0 : P0 + 3], row[R0 : R0 + 9].reshape(3, 3)
         return True
 
     def _params_row(self, kind: int, extra: Sequence[float] = ()) -> None:
         """Set ``_kind`` and ``_kparams`` = (p0, R0 row-major, extra...) for the compiled reference; ``_p0`` and
         ``_R0`` become views of the row (one copy of the data, which in-place target writes update)."""
         row = np.zeros(PARAMS)
-        row[0:3] = self._p0
-        row[3:12] = np.asarray(self._R0).reshape(-1)
-        row[12 : 12 + len(extra)] = extra
+        row[P0 : P0 + 3] = self._p0
+        row[R0 : R0 + 9] = np.asarray(self._R0).reshape(-1)
+        row[EXTRA : EXTRA + len(extra)] = extra
         self._kparams = row
         self._kind = kind
         self._revision += 1
-        self._p0 = row[0:3]
-        self._R0 = row[3:12].reshape(3, 3)
+        self._p0 = row[P0 : P0 + 3]
+        self._R0 = row[R0 : R0 + 9].reshape(3, 3)
 
     def start(self, pose: pin.SE3) -> None:
         """Anchor the trajectory at the frame pose at t = 0."""
@@ -259,8 +258,8 @@ class Hold(Trajectory):
         """Hold ``pose`` (checked) from now on: written into the started hold's parameter row in place."""
         row = self._kparams
         assert row is not None  # (started)
-        row[0:3] = pose.translation
-        row[3:12] = np.asarray(pose.rotation).reshape(-1)
+        row[P0 : P0 + 3] = pose.translation
+        row[R0 : R0 + 9] = np.asarray(pose.rotation).reshape(-1)
         self._given = True
         self._revision += 1
 
@@ -332,9 +331,9 @@ class Line(Trajectory):
         if type(t) is not float or not math.isfinite(t):
             t = _time(t, self)
         self.start_pose  # noqa: B018 - raises if start() was never called
-        out = np.empty(18)
+        out = np.empty(REF)
         _TK.reference_into(LINE, self._kparams, t, out)  # p0 + v t, (v, 0)
-        return out[:3], self._R0, out[12:]
+        return out[REF_P : REF_P + 3], self._R0, out[REF_TWIST : REF_TWIST + 6]
 
     def __repr__(self) -> str:
         return f"Line(velocity={self.velocity.tolist()})"
@@ -478,9 +477,9 @@ class Circle(Trajectory):
             t = _time(t, self)
         if self._start is None:
             self.start_pose  # noqa: B018 - raises: start() was never called
-        out = np.empty(18)
+        out = np.empty(REF)
         _TK.reference_into(CIRCLE, self._kparams, t, out)  # one implementation
-        return out[:3], self._R0, out[12:]
+        return out[REF_P : REF_P + 3], self._R0, out[REF_TWIST : REF_TWIST + 6]
 
     def __repr__(self) -> str:
         return f"Circle(radius={self.radius}, omega={self.omega}, plane={self.plane})"

@@ -11,6 +11,7 @@ from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import CompiledGradient, default_name
 from redundik.tasks.joint_potentials import one_dof_joint
+from redundik.tasks.layouts import J_IQ, J_IV, WP_ACTIVE, WP_COUNT, WP_POINTS, WP_TOLERANCE
 from redundik.tasks.potential_rows import CompiledPotential
 
 #: The compiled potential kernels, imported on first use (a namespace: a cold start puts their twins here).
@@ -46,21 +47,23 @@ class JointWaypoints(CompiledPotential):
             raise TaskError(f"subtask '{self.name}': tolerance must be > 0, got {tolerance}")
         self.joint, self.values, self.tolerance = joint, vals, float(tolerance)
         #: the writer's data: (idx_q, idx_v, active index, count) and (tolerance, c_1, c_2, …)
-        self._ints = np.array([-1, -1, 0, vals.size], dtype=np.int64)
-        self._floats = np.concatenate([[self.tolerance], vals])
+        self._ints = np.full(WP_COUNT + 1, -1, dtype=np.int64)
+        self._ints[WP_ACTIVE], self._ints[WP_COUNT] = 0, vals.size
+        self._floats = np.empty(WP_POINTS + vals.size)
+        self._floats[WP_TOLERANCE], self._floats[WP_POINTS:] = self.tolerance, vals
         self._iq = self._iv = -1
 
     @property
     def active(self) -> int:
         """The index of the active waypoint."""
-        return int(self._ints[2])
+        return int(self._ints[WP_ACTIVE])
 
     @active.setter
     def active(self, value: int) -> None:
-        self._ints[2] = int(value)
+        self._ints[WP_ACTIVE] = int(value)
 
     def check(self, robot: RobotModel) -> None:
-        self._iq, self._iv = self._ints[0], self._ints[1] = one_dof_joint(robot, self.joint, self.name)
+        self._iq, self._iv = self._ints[J_IQ], self._ints[J_IV] = one_dof_joint(robot, self.joint, self.name)
         self.active = 0
 
     def compiled_gradient(self, robot: RobotModel) -> CompiledGradient:

@@ -170,7 +170,7 @@ def replay_data(
         world_frames: Per run, the world at the drawn samples (:func:`redundik.viewer.world.sample_world`).
     """
     center, radius = world_bounds(parts, runs)
-    lows = [float(np.min(r.poses[:, :, 11])) for r in runs]
+    lows = [float(np.min(r.poses.reshape(*r.poses.shape[:2], 3, 4)[:, :, 2, 3])) for r in runs]  # (3×4: z of t)
     floor = min(0.0, *lows) if lows else 0.0
     step = float(10 ** np.floor(np.log10(radius / 2))) if radius > 0 else 0.1
     top = float(center[2]) + radius

@@ -12,7 +12,17 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from redundik.kinematics.model import RobotModel
-from redundik.resolvers.fused import (
+from redundik.resolvers.fused import ROW, ROWS, TARGET, FusedPlan
+from redundik.resolvers.hqp_layout import (
+    H_FRAME_STARTS,
+    H_J,
+    H_JOINT_STARTS,
+    H_K,
+    META_INEQ,
+    META_KIND,
+    META_LS,
+)
+from redundik.resolvers.layouts import (
     B_AXES,
     B_CENTER,
     B_FID,
@@ -24,19 +34,6 @@ from redundik.resolvers.fused import (
     B_ROW,
     B_UP,
     B_UPPER,
-    ROW,
-    ROWS,
-    TARGET,
-    FusedPlan,
-)
-from redundik.resolvers.hqp_layout import (
-    H_FRAME_STARTS,
-    H_J,
-    H_JOINT_STARTS,
-    H_K,
-    META_INEQ,
-    META_KIND,
-    META_LS,
 )
 from redundik.resolvers.linalg import _Kernels
 from redundik.resolvers.qp.backends import Backend, DaqpBackend
