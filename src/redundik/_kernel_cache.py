@@ -33,6 +33,7 @@ CACHE_ENV = "REDUNDIK_CACHE_DIR"
 #: constants or functions they import (checked against the imports by ``tests/test_kernel_cache.py``).
 KERNEL_SOURCES: tuple[str, ...] = (
     "kinematics/lie_kernels.py",
+    "kinematics/layouts.py",
     "_kernel_cache.py",
     "resolvers/kernels.py",
     "resolvers/qr_kernels.py",
@@ -51,11 +52,14 @@ KERNEL_SOURCES: tuple[str, ...] = (
     "resolvers/hqp_cascade.py",
     "resolvers/fused.py",
     "tasks/trajectory.py",
+    "tasks/layouts.py",
     "tasks/target_kernels.py",
     "tasks/row_kernels.py",
     "tasks/potential_kernels.py",
     "collision/kernels.py",
+    "collision/layouts.py",
     "ik/kernels.py",
+    "ik/layouts.py",
     "resolvers/jerk_kernels.py",
     "resolvers/batch_kernels.py",
     "resolvers/feedback_kernels.py",

@@ -1,8 +1,9 @@
 """A collision world's distances at one instant (:class:`Distances`, ``Branches``) and the interpreted
-reference of the end-sphere distances: per geometry its shape description (``shape_info``), a ball's signed
-distance to a shape (``sphere_to``, coal for meshes and convex hulls) and the end-sphere branches whose other
-body only coal handles (``slow_end_spheres``). The compiled kernels (:mod:`redundik.collision.kernels`) hold
-the same formulas."""
+reference of the end-sphere distances: per geometry its shape description (``shape_info``) and the kernels'
+record of it (``shape_table``), a ball's signed distance to a shape (``sphere_to``, coal for meshes and convex
+hulls) and the end-sphere branches whose other body only coal handles (``slow_end_spheres``). The compiled kernels
+(:mod:`redundik.collision.kernels`) hold the same formulas; the records' layouts are those of
+:mod:`redundik.collision.layouts`."""
 
 from __future__ import annotations
 
@@ -13,6 +14,23 @@ from typing import Any
 import coal
 import numpy as np
 import pinocchio as pin
+
+from redundik.collision.layouts import (
+    BOX,
+    BOX_HALVES,
+    BR_CAPSULE,
+    BR_FIRST,
+    BR_OTHER,
+    BR_PAIR,
+    CAP_HALF,
+    CAP_RADIUS,
+    CAPSULE,
+    HALFSPACE,
+    HS_D,
+    HS_NORMAL,
+    OTHER,
+    SHAPE_PRM,
+)
 
 
 @dataclass
@@ -146,6 +164,24 @@ def shape_info(geometry: pin.GeometryModel) -> list[tuple[Any, ...]]:
     return info
 
 
+def shape_table(info: list[tuple[Any, ...]]) -> tuple[np.ndarray, np.ndarray]:
+    """(kind codes (G,), numbers (G, ``SHAPE_PRM``)) of the geometries described by ``info`` (``shape_info``): the
+    kernels' record of the shapes (:mod:`redundik.collision.layouts`; a sphere is a capsule of half length 0)."""
+    G = len(info)
+    kind = np.full(G, OTHER, dtype=np.int64)
+    prm = np.zeros((G, SHAPE_PRM))
+    for g, inf in enumerate(info):
+        if inf[0] == "capsule":
+            kind[g], prm[g, CAP_RADIUS], prm[g, CAP_HALF] = CAPSULE, inf[1], inf[2]
+        elif inf[0] == "sphere":
+            kind[g], prm[g, CAP_RADIUS], prm[g, CAP_HALF] = CAPSULE, inf[1], 0.0
+        elif inf[0] == "box":
+            kind[g], prm[g, BOX_HALVES] = BOX, inf[1]
+        elif inf[0] == "halfspace":
+            kind[g], prm[g, HS_NORMAL], prm[g, HS_D] = HALFSPACE, inf[1], inf[2]
+    return kind, prm
+
+
 def slow_end_spheres(
     info: list[tuple[Any, ...]],
     shapes: tuple[np.ndarray, np.ndarray, np.ndarray],
@@ -162,13 +198,13 @@ def slow_end_spheres(
     br, sign = table
     keep, dd, pp1, pp2, nn = [], [], [], [], []
     for r in branches.tolist():
-        k, b, o = int(br[r, 0]), int(br[r, 1]), int(br[r, 2])
-        c = T[b, :3, 3] + sign[r] * prm[b, 1] * T[b, :3, 2]
-        hit = sphere_to(c, float(prm[b, 0]), info[o], pin.SE3(T[o]))
+        k, b, o = int(br[r, BR_PAIR]), int(br[r, BR_CAPSULE]), int(br[r, BR_OTHER])
+        c = T[b, :3, 3] + sign[r] * prm[b, CAP_HALF] * T[b, :3, 2]
+        hit = sphere_to(c, float(prm[b, CAP_RADIUS]), info[o], pin.SE3(T[o]))
         if hit is None or hit[0] >= influence:
             continue
         d_e, ps, po, u = hit
-        q1, q2, nrm = (ps, po, u) if br[r, 3] else (po, ps, -u)
+        q1, q2, nrm = (ps, po, u) if br[r, BR_FIRST] else (po, ps, -u)
         if abs(d_e - dist.d[k]) < 1e-9 and np.abs(q1 - dist.p1[k]).max() < 1e-7:
             continue  # the pair's own witness
         keep.append(r)

@@ -7,16 +7,18 @@ one compiled call over every pair costs about as much as one of those operations
 :mod:`redundik.collision.world` (its docstrings carry the derivations); the tests hold the kernels to coal's
 distances and to finite differences.
 
-Shapes are described per geometry g by a kind code and four numbers:
+Shapes are described per geometry g by a kind code and four numbers (the layouts of
+:mod:`redundik.collision.layouts`, with their units):
 
-* ``CAPSULE`` (a sphere is a capsule of half length 0): ``prm[g] = (R, half length, 0, 0)``, axis local z;
-* ``BOX``: ``prm[g] = (half sides x, y, z, 0)``;
-* ``HALFSPACE``, the solid {x : nᵀx ≤ d} of the geometry's frame: ``prm[g] = (n_x, n_y, n_z, d)``;
+* ``CAPSULE`` (a sphere is a capsule of half length 0): ``prm[g]`` the radius R and the half length, axis local z;
+* ``BOX``: ``prm[g]`` the half sides along x, y, z;
+* ``HALFSPACE``, the solid {x : nᵀx ≤ d} of the geometry's frame: ``prm[g]`` the normal n and d;
 * ``OTHER`` (meshes / convex hulls): left to coal.
 
 Poses are world homogeneous transforms ``T`` (G, 4, 4) (rotation ``T[g, :3, :3]``, translation ``T[g, :3, 3]``).
 
-The kernels take their data as records, plain tuples (numba dispatches a tuple of arrays as fast as the arrays):
+The kernels take their data as records, plain tuples (numba dispatches a tuple of arrays as fast as the arrays),
+their slots and columns named in :mod:`redundik.collision.layouts`:
 
 * ``Shapes`` ``(T, kind, prm)``: the geometries' poses, kind codes (G,) and numbers (G, 4);
 * ``BranchTable`` ``(br, sign)``: per end-sphere branch r, ``br[r]`` (int, columns ``BR_PAIR``,
@@ -38,10 +40,44 @@ import math
 import numpy as np
 
 from redundik import _kernel_cache
-
-CAPSULE, BOX, HALFSPACE, OTHER = 0, 1, 2, 3
-#: Columns of a ``BranchTable``'s ``br``.
-BR_PAIR, BR_CAPSULE, BR_OTHER, BR_FIRST = 0, 1, 2, 3
+from redundik.collision.layouts import (
+    BOX,
+    BOX_HX,
+    BOX_HY,
+    BOX_HZ,
+    BR_CAPSULE,
+    BR_FIRST,
+    BR_OTHER,
+    BR_PAIR,
+    CAP_HALF,
+    CAP_RADIUS,
+    CAPSULE,
+    F_DIST,
+    F_GAMMA,
+    F_H,
+    F_JAC,
+    F_PAIR,
+    F_POINTS,
+    GAIN_ENDS,
+    GAIN_REACH,
+    HALFSPACE,
+    HS_D,
+    HS_NX,
+    HS_NY,
+    HS_NZ,
+    OTHER,
+    PAIR_D,
+    PAIR_NEAR,
+    PJ_BODY1,
+    PJ_BODY2,
+    POSES_LIVE,
+    POSES_SRC,
+    PTS,
+    PTS_N,
+    PTS_P1,
+    PTS_P2,
+    TABLE_BR,
+)
 
 Shapes = tuple[np.ndarray, np.ndarray, np.ndarray]
 BranchTable = tuple[np.ndarray, np.ndarray]
@@ -128,7 +164,7 @@ def _capsule_pairs_into(
     """:func:`capsule_pairs` into given arrays (p1, p2, n of the pairs whose axes meet: zeros)."""
     for k in range(ia.shape[0]):
         a, b = ia[k], ib[k]
-        ra, ha, rb, hb = prm[a, 0], prm[a, 1], prm[b, 0], prm[b, 1]
+        ra, ha, rb, hb = prm[a, CAP_RADIUS], prm[a, CAP_HALF], prm[b, CAP_RADIUS], prm[b, CAP_HALF]
         za = (T[a, 0, 2] * ha, T[a, 1, 2] * ha, T[a, 2, 2] * ha)
         zb = (T[b, 0, 2] * hb, T[b, 1, 2] * hb, T[b, 2, 2] * hb)
         sa = (T[a, 0, 3] - za[0], T[a, 1, 3] - za[1], T[a, 2, 3] - za[2])
@@ -160,7 +196,7 @@ def _ball_to(
     from the ball to the shape, ok); scalar arithmetic only."""
     z3 = (0.0, 0.0, 0.0)
     if kind == CAPSULE:
-        h = prm[1]
+        h = prm[CAP_HALF]
         ax = (T[o, 0, 2] * h, T[o, 1, 2] * h, T[o, 2, 2] * h)
         a = (T[o, 0, 3] - ax[0], T[o, 1, 3] - ax[1], T[o, 2, 3] - ax[2])
         s = 0.0
@@ -173,7 +209,7 @@ def _ball_to(
         if L <= 1e-12:
             return 0.0, z3, z3, z3, False
         u = (v[0] / L, v[1] / L, v[2] / L)
-        R0 = prm[0]
+        R0 = prm[CAP_RADIUS]
         pb = (c[0] + r * u[0], c[1] + r * u[1], c[2] + r * u[2])
         ps = (x[0] - R0 * u[0], x[1] - R0 * u[1], x[2] - R0 * u[2])
         return L - r - R0, pb, ps, u, True
@@ -182,7 +218,7 @@ def _ball_to(
         cl0 = T[o, 0, 0] * w[0] + T[o, 1, 0] * w[1] + T[o, 2, 0] * w[2]  # Rᵀ(c − t)
         cl1 = T[o, 0, 1] * w[0] + T[o, 1, 1] * w[1] + T[o, 2, 1] * w[2]
         cl2 = T[o, 0, 2] * w[0] + T[o, 1, 2] * w[1] + T[o, 2, 2] * w[2]
-        h0, h1, h2 = prm[0], prm[1], prm[2]
+        h0, h1, h2 = prm[BOX_HX], prm[BOX_HY], prm[BOX_HZ]
         b0, b1, b2 = min(max(cl0, -h0), h0), min(max(cl1, -h1), h1), min(max(cl2, -h2), h2)
         v0, v1, v2 = b0 - cl0, b1 - cl1, b2 - cl2
         L = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
@@ -218,11 +254,11 @@ def _ball_to(
         return dist, (c[0] + r * u[0], c[1] + r * u[1], c[2] + r * u[2]), ps, u, True
     if kind == HALFSPACE:
         nw = (
-            T[o, 0, 0] * prm[0] + T[o, 0, 1] * prm[1] + T[o, 0, 2] * prm[2],
-            T[o, 1, 0] * prm[0] + T[o, 1, 1] * prm[1] + T[o, 1, 2] * prm[2],
-            T[o, 2, 0] * prm[0] + T[o, 2, 1] * prm[1] + T[o, 2, 2] * prm[2],
+            T[o, 0, 0] * prm[HS_NX] + T[o, 0, 1] * prm[HS_NY] + T[o, 0, 2] * prm[HS_NZ],
+            T[o, 1, 0] * prm[HS_NX] + T[o, 1, 1] * prm[HS_NY] + T[o, 1, 2] * prm[HS_NZ],
+            T[o, 2, 0] * prm[HS_NX] + T[o, 2, 1] * prm[HS_NY] + T[o, 2, 2] * prm[HS_NZ],
         )
-        h = nw[0] * (c[0] - T[o, 0, 3]) + nw[1] * (c[1] - T[o, 1, 3]) + nw[2] * (c[2] - T[o, 2, 3]) - prm[3]
+        h = nw[0] * (c[0] - T[o, 0, 3]) + nw[1] * (c[1] - T[o, 1, 3]) + nw[2] * (c[2] - T[o, 2, 3]) - prm[HS_D]
         u = (-nw[0], -nw[1], -nw[2])
         pb = (c[0] + r * u[0], c[1] + r * u[1], c[2] + r * u[2])
         ps = (c[0] - h * nw[0], c[1] - h * nw[1], c[2] - h * nw[2])
@@ -246,9 +282,9 @@ def _end_sphere(
     k, b, o = br[r, BR_PAIR], br[r, BR_CAPSULE], br[r, BR_OTHER]
     if kind[o] == OTHER:
         return False, 0.0, z3, z3, z3
-    e = sign[r] * prm[b, 1]
+    e = sign[r] * prm[b, CAP_HALF]
     c = (T[b, 0, 3] + e * T[b, 0, 2], T[b, 1, 3] + e * T[b, 1, 2], T[b, 2, 3] + e * T[b, 2, 2])
-    de, ps, po, u, ok = _ball_to(c, prm[b, 0], kind[o], prm[o], T, o)
+    de, ps, po, u, ok = _ball_to(c, prm[b, CAP_RADIUS], kind[o], prm[o], T, o)
     if not ok or de >= reach:
         return False, 0.0, z3, z3, z3
     if br[r, BR_FIRST]:
@@ -274,7 +310,7 @@ def end_spheres(
         (branch indices (m,), d (m,), p1 (m, 3), p2 (m, 3), n (m, 3)) of the branches :func:`_end_sphere` keeps with
         reach ``influence`` [m].
     """
-    br = branches[0]
+    br = branches[TABLE_BR]
     m = br.shape[0]
     idx = np.empty(m, dtype=np.int64)
     d = np.empty(m)
@@ -377,11 +413,11 @@ def barrier_rows(
         ``qp_cap`` > 0 [1/s] the first two are instead the QP rows C q̇ ≤ d of the damper,
         d = min(γ, ``qp_cap``) h [m/s] and C = −∂h/∂q (:meth:`redundik.tasks.subtasks.BoundSubtask.rows`).
     """
-    d, near = pairs[0], pairs[5]
-    br = branches[0]
+    d, near = pairs[PAIR_D], pairs[PAIR_NEAR]
+    br = branches[TABLE_BR]
     P = d.shape[0]
     k0 = near.shape[0]
-    m = br.shape[0] if gains[5] and k0 else 0
+    m = br.shape[0] if gains[GAIN_ENDS] and k0 else 0
     sel = np.zeros(P, dtype=np.bool_)
     for i in range(k0):
         sel[near[i]] = True
@@ -408,7 +444,7 @@ def _barrier_rows_into(
     mask, pj = joints
     reach, influence, safety, gamma, no_cap, ends, qp_cap = gains
     h, H, gam, ids = out
-    br = branches[0]
+    br = branches[TABLE_BR]
     P = d.shape[0]
     k0 = near.shape[0]
     m = br.shape[0] if ends and k0 else 0
@@ -417,7 +453,7 @@ def _barrier_rows_into(
         nr = (n[k, 0], n[k, 1], n[k, 2])
         a = (p1[k, 0], p1[k, 1], p1[k, 2])
         b = (p2[k, 0], p2[k, 1], p2[k, 2])
-        _row_into(H, i, Js, mask[pj[k, 0]], mask[pj[k, 1]], nr, a, b)
+        _row_into(H, i, Js, mask[pj[k, PJ_BODY1]], mask[pj[k, PJ_BODY2]], nr, a, b)
         dk = d[k]
         if dk < influence:
             h[i], gam[i] = dk - safety + rate[k] / gamma, gamma
@@ -432,7 +468,7 @@ def _barrier_rows_into(
         kept, de, q1, q2, nr = _end_sphere(shapes, branches, r, d, p1, reach)
         if not kept:
             continue
-        _row_into(H, c_, Js, mask[pj[k, 0]], mask[pj[k, 1]], nr, q1, q2)
+        _row_into(H, c_, Js, mask[pj[k, PJ_BODY1]], mask[pj[k, PJ_BODY2]], nr, q1, q2)
         if de < influence:
             h[c_], gam[c_] = de - safety + 0.0 / gamma, gamma
         else:
@@ -457,8 +493,9 @@ def capsule_damper(
     ``barrier_rows`` on them (no obstacle rates), written into the caller's fresh arrays (returning arrays costs
     more than the computation):
 
-    * ``F`` (10 P + 2 R + R nv,): d (P,), p1, p2, n stacked (3, P, 3), then h (R,), γ (R,), ∂h/∂q (R, nv) (the first
-      k entries, rows), with R = P + the number of branches (room for every row);
+    * ``F`` (``F_PAIR`` P + (``F_JAC`` + nv) R,): d (P,), p1, p2, n stacked (``PTS``, P, 3), then h (R,), γ (R,),
+      ∂h/∂q (R, nv) (the first k entries, rows), with R = P + the number of branches (room for every row; the blocks
+      of :mod:`redundik.collision.layouts`);
     * ``I`` (P + R,): the pairs with d < ``reach`` (the first k₀ of P), the row ids (the first k of R).
 
     Returns:
@@ -467,13 +504,14 @@ def capsule_damper(
     """
     T, _kind, prm = shapes
     ia, ib = caps
-    reach = gains[0]
-    P, R, nv = ia.shape[0], branches[0].shape[0] + ia.shape[0], Js.shape[1]
-    load_poses(poses[0], poses[1], T)
-    d = F[:P]
-    pts = F[P : 10 * P].reshape((3, P, 3))
+    reach = gains[GAIN_REACH]
+    P, R, nv = ia.shape[0], branches[TABLE_BR].shape[0] + ia.shape[0], Js.shape[1]
+    load_poses(poses[POSES_SRC], poses[POSES_LIVE], T)
+    d = F[F_DIST * P : F_POINTS * P]
+    pts = F[F_POINTS * P : F_PAIR * P].reshape((PTS, P, 3))
+    p1, p2, n = pts[PTS_P1], pts[PTS_P2], pts[PTS_N]
     ok = np.empty(P, dtype=np.bool_)
-    _capsule_pairs_into(T, prm, ia, ib, d, pts[0], pts[1], pts[2], ok)
+    _capsule_pairs_into(T, prm, ia, ib, d, p1, p2, n, ok)
     sel = np.zeros(P, dtype=np.bool_)
     bad, k0 = 0, 0
     for k in range(P):
@@ -485,8 +523,12 @@ def capsule_damper(
             k0 += 1
     if bad:
         return k0, 0, bad
-    o = 10 * P
-    pairs = (d, pts[0], pts[1], pts[2], np.zeros(P), I[:k0])
-    out = (F[o : o + R], F[o + 2 * R :].reshape((R, nv)), F[o + R : o + 2 * R], I[P:])
-    k = _barrier_rows_into(shapes, branches, pairs, joints, Js, gains, sel, out)
+    o = F_PAIR * P
+    pairs = (d, p1, p2, n, np.zeros(P), I[:k0])
+    h, H, gam = (
+        F[o + F_H * R : o + F_GAMMA * R],
+        F[o + F_JAC * R :].reshape((R, nv)),
+        F[o + F_GAMMA * R : o + F_JAC * R],
+    )
+    k = _barrier_rows_into(shapes, branches, pairs, joints, Js, gains, sel, (h, H, gam, I[P:]))
     return k0, k, 0

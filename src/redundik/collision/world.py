@@ -30,8 +30,10 @@ import numpy as np
 import pinocchio as pin
 
 from redundik._kernel_cache import KernelNamespace
-from redundik.collision.distances import Branches, Distances, shape_info, slow_end_spheres, sphere_to
+from redundik.collision import layouts as L
+from redundik.collision.distances import Branches, Distances, shape_info, shape_table, slow_end_spheres, sphere_to
 from redundik.collision.geometry import approximate, load_collision_model
+from redundik.collision.layouts import F_DIST, F_GAMMA, F_H, F_JAC, F_PAIR, F_POINTS, PTS, PTS_N, PTS_P1, PTS_P2
 from redundik.collision.obstacles import OBSTACLE_KINDS, Motion, Obstacle, make_shape
 from redundik.collision.pairs import candidate_pairs, default_srdf, read_srdf_pairs
 from redundik.errors import ModelError
@@ -241,21 +243,11 @@ class CollisionWorld:
         :func:`~redundik.collision.kernels.capsule_pairs`, deactivated in coal), coal's pairs, end-sphere branches."""
         info = self._shape_info()
         G = len(info)
-        kind = np.full(G, KC.OTHER, dtype=np.int64)
-        prm = np.zeros((G, 4))
-        for g, inf in enumerate(info):
-            if inf[0] == "capsule":
-                kind[g], prm[g, :2] = KC.CAPSULE, (inf[1], inf[2])
-            elif inf[0] == "sphere":
-                kind[g], prm[g, :2] = KC.CAPSULE, (inf[1], 0.0)
-            elif inf[0] == "box":
-                kind[g], prm[g, :3] = KC.BOX, inf[1]
-            elif inf[0] == "halfspace":
-                kind[g], prm[g, :3], prm[g, 3] = KC.HALFSPACE, inf[1], inf[2]
+        kind, prm = shape_table(info)
         self._kind, self._prm = kind, prm
         pa = np.array([i for i, _ in self.pairs], dtype=np.int64)
         pb = np.array([j for _, j in self.pairs], dtype=np.int64)
-        caps = (kind[pa] == KC.CAPSULE) & (kind[pb] == KC.CAPSULE) if self.pairs else np.zeros(0, dtype=bool)
+        caps = (kind[pa] == L.CAPSULE) & (kind[pb] == L.CAPSULE) if self.pairs else np.zeros(0, dtype=bool)
         self._cap = np.flatnonzero(caps)
         self._coal = np.flatnonzero(~caps)
         self._live = sorted({g for pair in self.pairs for g in pair if g < self.n_links})
@@ -269,15 +261,15 @@ class CollisionWorld:
         rows: list[tuple[int, int, int, bool, float]] = []
         for k, (i, j) in enumerate(self.pairs):
             for b, o, first in ((i, j, True), (j, i, False)):
-                if kind[b] == KC.CAPSULE and prm[b, 1] > 0:
+                if kind[b] == L.CAPSULE and prm[b, L.CAP_HALF] > 0:
                     rows += [(k, b, o, first, 1.0), (k, b, o, first, -1.0)]
-        #: The branch table (kernels.BranchTable): (pair, capsule, other body, capsule is body 1), the end ±1.
-        self._branches = (
-            np.array([r[:4] for r in rows], dtype=np.int64).reshape(-1, 4),
-            np.array([r[4] for r in rows], dtype=float),
-        )
-        self._br_pair = self._branches[0][:, KC.BR_PAIR].copy()
-        self._br_other = kind[self._branches[0][:, KC.BR_OTHER]] == KC.OTHER
+        br = np.zeros((len(rows), L.BR_COLS), dtype=np.int64)
+        for r, (k, b, o, first, _sg) in enumerate(rows):
+            br[r, L.BR_PAIR], br[r, L.BR_CAPSULE], br[r, L.BR_OTHER], br[r, L.BR_FIRST] = k, b, o, first
+        #: The branch table (kernels.BranchTable, layouts ``TABLE_BR``, ``TABLE_SIGN``): the int table, the ends ±1.
+        self._branches = (br, np.array([sg for *_, sg in rows], dtype=float))
+        self._br_pair = br[:, L.BR_PAIR].copy()
+        self._br_other = kind[br[:, L.BR_OTHER]] == L.OTHER
         self._br_any_other = bool(self._br_other.any())
         #: The geometries (kernels.Shapes): world poses, kind codes, numbers.
         self._shapes = (self._T, kind, prm)
@@ -285,7 +277,7 @@ class CollisionWorld:
         self._br_labels = [f"{self.pair_names[k]}@{names[b]}{'+' if sg > 0 else '-'}" for k, b, _o, _f, sg in rows]
         #: Row labels by row id (``collision.kernels.barrier_rows``): the pairs, then the branches.
         self.row_labels = self.pair_names + self._br_labels
-        self._pj2 = np.array(self.pair_joints, dtype=np.int64).reshape(-1, 2)
+        self._pj2 = np.array(self.pair_joints, dtype=np.int64).reshape(-1, L.PJ_COLS)
         #: The joints (kernels.Joints): support masks, the pairs' joints.
         self._joints = (self._joint_masks(), self._pj2)
         self._bind_static()
@@ -406,8 +398,9 @@ class CollisionWorld:
         if self._pending is not None:
             F, I, k0 = self._pending
             P = len(self.pairs)
-            pts = F[P : 10 * P].reshape(3, P, 3)
-            self._dist, self._pending = Distances(F[:P], pts[0], pts[1], pts[2], np.zeros(P), I[:k0]), None
+            d, pts = F[F_DIST * P : F_POINTS * P], F[F_POINTS * P : F_PAIR * P].reshape(PTS, P, 3)
+            self._dist = Distances(d, pts[PTS_P1], pts[PTS_P2], pts[PTS_N], np.zeros(P), I[:k0])
+            self._pending = None
         assert self._dist is not None
         return self._dist
 
@@ -513,18 +506,19 @@ class CollisionWorld:
         ):
             pin.updateGeometryPlacements(self.model, robot.data, self.geometry, self.data)
             P, R, nv = self._sizes
-            F, I = np.empty(10 * P + (2 + nv) * R), np.empty(P + R, dtype=np.int64)
+            F, I = np.empty(F_PAIR * P + (F_JAC + nv) * R), np.empty(P + R, dtype=np.int64)
             gains = (float(reach), float(influence), float(safety), float(gamma), float(no_cap), bool(ends),
                      float(qp_cap))  # fmt: skip
             k0, k, bad = KC.capsule_damper(*static, np.asarray(robot.data.J), gains, F, I)
             if not bad:
                 self._dist, self._pending = None, (F, I, k0)  # the Distances built when read (compute)
                 self._cache = (robot, self.time, reach, key)
-                o = 10 * P
-                return F[:P], (
-                    F[o : o + k],
-                    F[o + 2 * R : o + 2 * R + k * nv].reshape(k, nv),
-                    F[o + R : o + R + k],
+                o = F_PAIR * P
+                h, gam, jac = o + F_H * R, o + F_GAMMA * R, o + F_JAC * R
+                return F[F_DIST * P : F_POINTS * P], (
+                    F[h : h + k],
+                    F[jac : jac + k * nv].reshape(k, nv),
+                    F[gam : gam + k],
                     I[P : P + k],
                 )
         dist = self.compute(robot, reach)  # (axes meeting: coal's normals)
@@ -566,8 +560,8 @@ class CollisionWorld:
     def _pair_joint_arrays(self) -> tuple[np.ndarray, np.ndarray]:
         pj: tuple[np.ndarray, np.ndarray] | None = getattr(self, "_pj", None)
         if pj is None or len(pj[0]) != len(self.pair_joints):
-            arr = np.array(self.pair_joints, dtype=np.int64).reshape(-1, 2)
-            pj = (arr[:, 0].copy(), arr[:, 1].copy())
+            arr = np.array(self.pair_joints, dtype=np.int64).reshape(-1, L.PJ_COLS)
+            pj = (arr[:, L.PJ_BODY1].copy(), arr[:, L.PJ_BODY2].copy())
             self._pj = pj
         return pj
 

@@ -27,7 +27,8 @@ proportional damping and w_p = 2 raise the share of attempts that converge from 
 Every kernel takes at most 7 parameters. ``lm_update``'s are plain arrays: Pinocchio's output, the targets,
 the problem's constants packed in one float and one int array, and one workspace (``workspace``: the trial's
 and the current iterate's residual, errors and q, the step, the state), because numba types a tuple's elements in
-Python at every call (3–5.5 µs per call with tuples, ≈ 1 µs packed).
+Python at every call (3–5.5 µs per call with tuples, ≈ 1 µs packed). Their layouts are named in
+:mod:`redundik.ik.layouts`.
 """
 
 from __future__ import annotations
@@ -37,24 +38,34 @@ import math
 import numpy as np
 
 from redundik import _kernel_cache
+from redundik.ik.layouts import (
+    CURRENT,
+    ERR_POS,
+    ERR_ROT,
+    IK_MODES,
+    IK_NQ,
+    N_ERR,
+    N_ITERATES,
+    N_PARAMS,
+    N_STATE,
+    P_COST_DAMPING,
+    P_RATIO,
+    P_TOL_POS,
+    P_TOL_ROT,
+    P_WINDOW,
+    P_WPOS,
+    S_COST,
+    S_ITER,
+    S_LAM,
+    S_WINDOW_COST,
+    S_WINDOW_START,
+    TRIAL,
+)
 
 _jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
 
 #: Codes returned by ``lm_update``.
 CONTINUE, CONVERGED, STALLED = 0, 1, 2
-#: Indices of the state ``st``: cost ½‖r‖², λ, the cost at the stall window's start, the iteration, the window's
-#: first iteration (counts held as floats: one state array).
-S_COST, S_LAM, S_WINDOW_COST, S_ITER, S_WINDOW_START = 0, 1, 2, 3, 4
-#: Length of the state.
-N_STATE = 5
-#: Indices of the parameters ``params`` (:data:`PARAMS`): position tolerance [m], orientation tolerance [rad], stall
-#: window [iterations], stall ratio [1], position weight [rad/m], cost damping [1].
-P_TOL_POS, P_TOL_ROT, P_WINDOW, P_RATIO, P_WPOS, P_COST_DAMPING = 0, 1, 2, 3, 4, 5
-#: The parameters' names, in order.
-PARAMS = ("position_tolerance", "orientation_tolerance", "stall_window", "stall_ratio", "position_weight",
-          "cost_damping")  # fmt: skip
-N_PARAMS = 6
-
 LAM_START, LAM_MIN, LAM_MAX = 1e-3, 1e-12, 1e8
 
 
@@ -142,7 +153,7 @@ def residual(
             ep += d * d
             for j in range(nv):
                 Jr[row + i, j] = w_pos * J6[b + i, j]
-        err[k, 0] = math.sqrt(ep)
+        err[k, ERR_POS] = math.sqrt(ep)
         row += 3
         if mode[k] == 0:
             for i in range(3):
@@ -154,13 +165,13 @@ def residual(
                 r[row + i] = w[i]
                 for j in range(nv):
                     Jr[row + i, j] = Ji[i, 0] * J6[b + 3, j] + Ji[i, 1] * J6[b + 4, j] + Ji[i, 2] * J6[b + 5, j]
-            err[k, 1] = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+            err[k, ERR_ROT] = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
         else:  # a position target: its rotation rows are zero (the buffers are reused over targets)
             for i in range(3):
                 r[row + i] = 0.0
                 for j in range(nv):
                     Jr[row + i, j] = 0.0
-            err[k, 1] = 0.0
+            err[k, ERR_ROT] = 0.0
         row += 3
     cost = 0.0
     for i in range(row):
@@ -257,10 +268,10 @@ def offsets(k: int, nv: int, nq: int) -> tuple[int, int, int, int, int, int, int
     """Where the workspace's parts start (``workspace``), and its length: (Jr, r, err, q, dq, state, total)
     for k frames, nv velocity and nq position coordinates."""
     m = 6 * k
-    o_r = 2 * m * nv
-    o_err = o_r + 2 * m
-    o_q = o_err + 4 * k
-    o_dq = o_q + 2 * nq
+    o_r = N_ITERATES * m * nv
+    o_err = o_r + N_ITERATES * m
+    o_q = o_err + N_ITERATES * k * N_ERR
+    o_dq = o_q + N_ITERATES * nq
     o_st = o_dq + nv
     return 0, o_r, o_err, o_q, o_dq, o_st, o_st + N_STATE
 
@@ -268,14 +279,15 @@ def offsets(k: int, nv: int, nq: int) -> tuple[int, int, int, int, int, int, int
 @_jit
 def workspace(ws: np.ndarray, k: int, nv: int, nq: int) -> tuple[np.ndarray, ...]:
     """Views of the workspace ``ws`` (one float array, :func:`offsets`): (Jr (2, m, nv), r (2, m), err (2, k, 2),
-    q (2, nq), dq (nv,), st (:data:`N_STATE`,)); index 0 the trial, 1 the current iterate (m = 6k rows)."""
+    q (2, nq), dq (nv,), st (:data:`N_STATE`,)); index ``TRIAL`` the trial, ``CURRENT`` the current iterate (m = 6k
+    rows; the layouts of :mod:`redundik.ik.layouts`)."""
     o_J, o_r, o_err, o_q, o_dq, o_st, end = offsets(k, nv, nq)
     m = 6 * k
     return (
-        ws[o_J:o_r].reshape((2, m, nv)),
-        ws[o_r:o_err].reshape((2, m)),
-        ws[o_err:o_q].reshape((2, k, 2)),
-        ws[o_q:o_dq].reshape((2, nq)),
+        ws[o_J:o_r].reshape((N_ITERATES, m, nv)),
+        ws[o_r:o_err].reshape((N_ITERATES, m)),
+        ws[o_err:o_q].reshape((N_ITERATES, k, N_ERR)),
+        ws[o_q:o_dq].reshape((N_ITERATES, nq)),
         ws[o_dq:o_st],
         ws[o_st:end],
     )
@@ -292,9 +304,10 @@ def lm_update(
         J6: (6k, nv) the frames' LOCAL_WORLD_ALIGNED Jacobians at the trial, frame after frame (Pinocchio's).
         M: (4k, 4) the frames' poses at the trial.
         T: (4k, 4) their targets.
-        consts: :data:`PARAMS` then lo (nv,) and hi (nv,), each velocity coordinate's bounds.
+        consts: the parameters (:data:`redundik.ik.layouts.PARAMS`) then lo (nv,) and hi (nv,), each velocity
+            coordinate's bounds.
         ints: nq, then mode (k,) (0 pose, 1 position), then qmap (nv,) (each velocity coordinate's index in q; −1:
-            no bound applies).
+            no bound applies) (slots ``IK_NQ``, ``IK_MODES``).
         ws: The workspace (``workspace``): the trial's and the current iterate's residual rows, errors and q,
             the step dq (nv,) from the current iterate to the next trial (that trial's q is written for models whose
             q adds up; others compose q ⊕ dq themselves) and the state (:data:`S_COST` …).
@@ -306,14 +319,14 @@ def lm_update(
         :data:`CONVERGED` (the current iterate meets both tolerances), :data:`STALLED` (λ beyond its cap, the cost
         fell by less than the stall ratio over the window, or no step is left) or :data:`CONTINUE`.
     """
-    k, nv, nq = T.shape[0] // 4, J6.shape[1], ints[0]
-    mode, qmap = ints[1 : 1 + k], ints[1 + k : 1 + k + nv]
+    k, nv, nq = T.shape[0] // 4, J6.shape[1], ints[IK_NQ]
+    mode, qmap = ints[IK_MODES : IK_MODES + k], ints[IK_MODES + k : IK_MODES + k + nv]
     params, lo, hi = consts[:N_PARAMS], consts[N_PARAMS : N_PARAMS + nv], consts[N_PARAMS + nv : N_PARAMS + 2 * nv]
     Jr, r, err, q, dq, st = workspace(ws, k, nv, nq)
-    cost = residual((J6, M, T, mode), params[P_WPOS], Jr[0], r[0], err[0])
+    cost = residual((J6, M, T, mode), params[P_WPOS], Jr[TRIAL], r[TRIAL], err[TRIAL])
     conv = True
     for f in range(k):
-        if err[0, f, 0] > params[P_TOL_POS] or err[0, f, 1] > params[P_TOL_ROT]:
+        if err[TRIAL, f, ERR_POS] > params[P_TOL_POS] or err[TRIAL, f, ERR_ROT] > params[P_TOL_ROT]:
             conv = False
     if first:
         st[S_LAM] = LAM_START
@@ -323,10 +336,10 @@ def lm_update(
     else:
         st[S_ITER] += 1.0
     if first or conv or cost < st[S_COST]:
-        Jr[1, :, :] = Jr[0, :, :]
-        r[1, :] = r[0, :]
-        err[1, :, :] = err[0, :, :]
-        q[1, :] = q[0, :]
+        Jr[CURRENT, :, :] = Jr[TRIAL, :, :]
+        r[CURRENT, :] = r[TRIAL, :]
+        err[CURRENT, :, :] = err[TRIAL, :, :]
+        q[CURRENT, :] = q[TRIAL, :]
         st[S_COST] = cost
         if not first:
             st[S_LAM] = max(st[S_LAM] / 3.0, LAM_MIN)
@@ -343,9 +356,9 @@ def lm_update(
         st[S_WINDOW_COST] = st[S_COST]
     qv = np.empty(nv)
     for j in range(nv):
-        qv[j] = q[1, qmap[j]] if qmap[j] >= 0 else np.nan
+        qv[j] = q[CURRENT, qmap[j]] if qmap[j] >= 0 else np.nan
     damping = st[S_LAM] + params[P_COST_DAMPING] * st[S_COST]
-    while not box_step(Jr[1], r[1], damping, qv, (lo, hi), dq):
+    while not box_step(Jr[CURRENT], r[CURRENT], damping, qv, (lo, hi), dq):
         st[S_LAM] = max(10.0 * st[S_LAM], 1e-9)
         if st[S_LAM] > LAM_MAX:
             return STALLED
@@ -355,10 +368,10 @@ def lm_update(
         big = max(big, abs(dq[j]))
     if big < 1e-14:
         return STALLED
-    q[0, :] = q[1, :]
+    q[TRIAL, :] = q[CURRENT, :]
     for j in range(nv):
         if qmap[j] >= 0:
-            q[0, qmap[j]] += dq[j]
+            q[TRIAL, qmap[j]] += dq[j]
     return CONTINUE
 
 

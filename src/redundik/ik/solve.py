@@ -30,6 +30,21 @@ import pinocchio as pin
 from redundik._coldstart import compiled_now
 from redundik.errors import ResolverError
 from redundik.ik import kernels as K
+from redundik.ik.layouts import (
+    CURRENT,
+    ERR_POS,
+    ERR_ROT,
+    IK_MODES,
+    IK_NQ,
+    N_PARAMS,
+    P_COST_DAMPING,
+    P_RATIO,
+    P_TOL_POS,
+    P_TOL_ROT,
+    P_WINDOW,
+    P_WPOS,
+    TRIAL,
+)
 from redundik.ik.problem import (
     Problem,
     build_problem,
@@ -89,7 +104,7 @@ class IKResult:
 class Settings:
     """Checked options of one solve (see :func:`solve_ik`)."""
 
-    params: np.ndarray  # kernels.PARAMS: tolerances [m, rad], stall window and ratio, position weight, cost damping
+    params: np.ndarray  # layouts.PARAMS: tolerances [m, rad], stall window and ratio, position weight, cost damping
     max_iterations: int
     timeout: float | None
     max_restarts: int | None
@@ -107,7 +122,9 @@ def settings(
     restarts = count(max_restarts, "max_restarts", 0, allow_none=True)
     if budget is None and restarts is None:
         raise ResolverError("solve_ik: give a timeout [s] or max_restarts (or both): with neither it could run forever")
-    params = np.array([tp, tr, STALL_WINDOW, STALL_RATIO, POSITION_WEIGHT, COST_DAMPING], dtype=float)
+    params = np.empty(N_PARAMS)
+    params[P_TOL_POS], params[P_TOL_ROT], params[P_WINDOW], params[P_RATIO] = tp, tr, STALL_WINDOW, STALL_RATIO
+    params[P_WPOS], params[P_COST_DAMPING] = POSITION_WEIGHT, COST_DAMPING
     return Settings(params, int(it or 1), budget, restarts)
 
 
@@ -118,7 +135,7 @@ class Solver:
     Attributes:
         ws: The kernel's workspace (``workspace``); ``q`` (2, nq) the trial and current
             configurations, ``err`` (2, k, 2) their errors, ``dq`` the step, ``st`` the state: views of it.
-        ints: (nq, mode (k,), qmap (nv,)); ``mode`` a view of it, set per target.
+        ints: (nq, mode (k,), qmap (nv,)) (``layouts.IK_NQ``, ``IK_MODES``); ``mode`` a view of it, set per target.
     """
 
     def __init__(self, problem: Problem) -> None:
@@ -129,8 +146,9 @@ class Solver:
         self.J6, self.M = np.zeros((6 * k, nv)), np.zeros((4 * k, 4))
         self.ws = np.zeros(K.offsets(k, nv, nq)[-1])
         _, _, self.err, self.q, self.dq, self.st = K.workspace(self.ws, k, nv, nq)
-        self.ints = np.concatenate([[nq], np.zeros(k, dtype=np.int64), problem.qmap]).astype(np.int64)
-        self.mode = self.ints[1 : 1 + k]
+        self.ints = np.zeros(IK_MODES + k + nv, dtype=np.int64)
+        self.ints[IK_NQ], self.ints[IK_MODES + k :] = nq, problem.qmap
+        self.mode = self.ints[IK_MODES : IK_MODES + k]
 
     def kinematics(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(J6 (6k, nv), M (4k, 4)): the frames' LOCAL_WORLD_ALIGNED Jacobians and poses at q (Pinocchio)."""
@@ -149,9 +167,9 @@ class Solver:
         int, int, bool
     ]:  # fmt: skip
         """Iterate from q (within the limits) towards T; (code, iterations, out of time). The attempt's best iterate
-        is ``self.q[1]`` (its errors ``self.err[1]``)."""
+        is ``self.q[CURRENT]`` (its errors ``self.err[CURRENT]``)."""
         p, ints, ws = self.p, self.ints, self.ws
-        qt = self.q[0]
+        qt = self.q[TRIAL]
         qt[:] = q
         kin, update, clock = self.kinematics, K.lm_update, time.perf_counter
         first = True
@@ -164,7 +182,7 @@ class Solver:
             if clock() > deadline:
                 return K.STALLED, it + 1, True
             if not p.additive:
-                qt[:] = np.minimum(np.maximum(pin.integrate(self.model, self.q[1], self.dq), p.q_lo), p.q_hi)
+                qt[:] = np.minimum(np.maximum(pin.integrate(self.model, self.q[CURRENT], self.dq), p.q_lo), p.q_hi)
         return K.STALLED, s.max_iterations, False
 
     def run(self, q_start: np.ndarray, T: np.ndarray, mode: np.ndarray, s: Settings, seed: Seed) -> IKResult:
@@ -175,17 +193,17 @@ class Solver:
         p = self.p
         self.mode[:] = mode
         consts = np.concatenate([s.params, p.lo, p.hi])
-        tol_p, tol_r = s.params[K.P_TOL_POS], s.params[K.P_TOL_ROT]
+        tol_p, tol_r = s.params[P_TOL_POS], s.params[P_TOL_ROT]
         q, restarts, iterations = q_start, 0, 0
         rng: np.random.Generator | None = None
         best_score, best_q, best_err = np.inf, q_start, np.full((len(p.fids), 2), np.inf)
         while True:
             code, its, late = self.attempt(q, T, consts, s, deadline)
             iterations += its
-            err = self.err[1]
-            score = max(float(err[:, 0].max()) / tol_p, float(err[:, 1].max()) / tol_r)
+            err = self.err[CURRENT]
+            score = max(float(err[:, ERR_POS].max()) / tol_p, float(err[:, ERR_ROT].max()) / tol_r)
             if score < best_score:
-                best_score, best_q, best_err = score, self.q[1].copy(), err.copy()
+                best_score, best_q, best_err = score, self.q[CURRENT].copy(), err.copy()
             if code == K.CONVERGED:
                 reason = "converged"
                 break
@@ -202,9 +220,9 @@ class Solver:
         q_out = np.minimum(np.maximum(best_q, p.q_lo), p.q_hi)  # rounding only: iterates are in the box
         return IKResult(
             q=q_out, success=reason == "converged", iterations=iterations,
-            position_error=float(best_err[:, 0].max()), orientation_error=float(best_err[:, 1].max()),
+            position_error=float(best_err[:, ERR_POS].max()), orientation_error=float(best_err[:, ERR_ROT].max()),
             reason=reason, restarts=restarts, elapsed=time.perf_counter() - t0,
-            frame_errors={n: (float(e[0]), float(e[1])) for n, e in zip(p.names, best_err, strict=True)},
+            frame_errors={n: (float(e[ERR_POS]), float(e[ERR_ROT])) for n, e in zip(p.names, best_err, strict=True)},
         )  # fmt: skip
 
 
@@ -218,7 +236,7 @@ def warm_up(solver: Solver) -> None:
     if _warm:
         return
     p = solver.p
-    q = solver.q[0]
+    q = solver.q[TRIAL]
     q[:] = p.q_mid
     T = np.tile(np.eye(4), (len(p.fids), 1))
     consts = np.concatenate([settings(1e-5, 1e-4, 1, None, 0).params, p.lo, p.hi])
