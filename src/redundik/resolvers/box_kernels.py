@@ -240,10 +240,7 @@ def joint_box(
 def limit_box(
     q: np.ndarray,
     iq: np.ndarray,
-    lo: np.ndarray,
-    hi: np.ndarray,
-    vmax: np.ndarray,
-    amax: np.ndarray,
+    lim: np.ndarray,
     position: bool,
     has_rate: bool,
     gain: float,
@@ -251,11 +248,13 @@ def limit_box(
     dq_prev: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    """:func:`joint_box` from the separate arrays and options of ``JointLimits.kernel_args`` (between q and dt),
-    the form ``JointLimits.box`` and ``hqp``'s compiled step call: the record and the options are tuples here (no
-    copy; :func:`joint_box` reads them as it reads the arrays)."""
-    opts = (1.0 if position else 0.0, 1.0 if has_rate else 0.0, gain, dt)
-    joint_box(q, iq, (lo, hi, vmax, amax), opts, dq_prev, out)
+    """:func:`joint_box` with its options as separate arguments (position limits apply, rate limits apply, the
+    position gain g, dt [s]): the form ``JointLimits.box`` calls with its joint-limit record ``lim``
+    (``LIM_ROWS`` or ``LIM_JERK_ROWS``, nv; rows ``LIM_LO`` … ``LIM_AMAX`` read) and ``hqp``'s compiled step with
+    a tuple of those rows; the options are a tuple here (no copy; :func:`joint_box` reads them as it reads an
+    array)."""
+    opts = (1.0 if position else 0.0, 1.0 if has_rate else 0.0, gain, dt)  # (OPT_POSITION, OPT_RATE, OPT_GAIN, OPT_DT)
+    joint_box(q, iq, lim, opts, dq_prev, out)
 
 
 @_jit

@@ -53,12 +53,12 @@ from redundik.resolvers.layouts import REF as REF
 from redundik.resolvers.linalg import FK
 from redundik.tasks.base import NOT_READY, CompiledGradient, CompiledRows, Edits, FrameForm, Task, TaskTerm
 from redundik.tasks.frame import FrameTask
-from redundik.tasks.layouts import REF_P, REF_R, REF_TWIST
+from redundik.tasks.layouts import PARAMS, REF_P, REF_R, REF_TWIST
 from redundik.tasks.potential_rows import compiled_writer
 from redundik.tasks.rows import check_form
 from redundik.tasks.stack import StackLayout, TaskStack
 from redundik.tasks.subtasks import GradientSubtask
-from redundik.tasks.trajectory import GIVEN, PARAMS
+from redundik.tasks.trajectory import GIVEN
 
 Form = tuple[np.ndarray, np.ndarray]
 

@@ -10,8 +10,9 @@ Nothing here is a second implementation of what the per-task path computes.
 
 A call takes few arguments (each costs the dispatcher time): the plan's static data packed in one integer array
 ``ints`` and one float array ``floats``, whose layout ``fused.HEADER`` describes (written by ``fused.FusedPlan``), and
-the step's coefficients in ``coef`` (gains, weights × level ratios; then the limit options and λ for ``wqp``, ε,
-λ_max and rcond for ``pinv``).
+the step's coefficients in ``coef`` (gains, weights × level ratios; then the limit options, λ, dt and t for ``wqp``,
+ε, λ_max and rcond for ``pinv``); ``wqp``'s P, g and joint-limit rows in the resolver's QP record ``qp``
+(``layouts.QP_P`` + nv, nv).
 
 Reference rows (18,): p_d (3) [length], R_d (9, row-major), twist (v, ω) (6) [length/s, rad/s]. Trajectory parameter
 rows (``PARAMS`` = 23,): p0 (3), R0 (9, row-major), then per kind — ``LINE``: velocity (3); ``CIRCLE``: centre (3),
@@ -22,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from redundik.kinematics.layouts import POSE_P, POSE_R
 from redundik.kinematics.lie_kernels import frame_error_rp, frame_jacobian_lwa
 from redundik.resolvers.kernels import (
     _jit,
@@ -59,6 +61,7 @@ from redundik.resolvers.layouts import (
     H_NV,
     HEADER,
     IDENTITY,
+    LIM_ROWS,
     OPT_DT,
     OPT_GAIN,
     OPT_POSITION,
@@ -68,6 +71,9 @@ from redundik.resolvers.layouts import (
     OUT_DQ,
     OUT_ROWS,
     PINV_TAIL,
+    QP_G,
+    QP_LIM,
+    QP_P,
     REF,
     TAIL_DAMPING,
     TAIL_DT,
@@ -77,11 +83,13 @@ from redundik.resolvers.layouts import (
     TAIL_POSITION,
     TAIL_RATE,
     TAIL_RCOND,
+    TAIL_T,
     WQP_OPTS,
     WQP_TAIL,
 )
+from redundik.tasks.layouts import PARAMS, REF_P, REF_R, REF_TWIST
 from redundik.tasks.target_kernels import reference_into
-from redundik.tasks.trajectory import GIVEN, PARAMS
+from redundik.tasks.trajectory import GIVEN
 
 __all__ = ["HEADER", "REF", "frame_rows", "fused_pinv_rows", "fused_pinv_step", "fused_wqp_step", "reference_into"]
 
@@ -109,7 +117,8 @@ def frame_rows(
     """Every frame task's Jacobian (``frame_jacobian_lwa`` from the joint Jacobians ``Jw`` into ``Jf[k]``), its
     reference at t (compiled kinds: here; ``GIVEN``: the caller's row of ``refs``), error e and velocity v (rows
     starts[k]:starts[k+1] of e, v; ``frame_error_rp``) at the frame's placement, row ``fid`` of ``poses`` (the
-    frames' placements, rotation column-major then translation).
+    frames' placements, ``kinematics.layouts``: the rotation column-major from ``POSE_R``, the origin [m] from
+    ``POSE_P``); a reference row as ``tasks.layouts`` lays it out (``REF_P``, ``REF_R``, ``REF_TWIST``).
 
     Returns:
         False as soon as a rotation error is too large for the compiled log3 (the caller then evaluates the tasks
@@ -126,7 +135,7 @@ def frame_rows(
     scratch = np.empty(REF)
     for k in range(K):
         pose = poses[fids[k]]
-        p = pose[9:12]
+        p = pose[POSE_P : POSE_P + 3]
         frame_jacobian_lwa(Jw, p, columns[k * nv : (k + 1) * nv], Jf[k])
         kind = kinds[k]
         if kind == GIVEN:
@@ -135,10 +144,9 @@ def frame_rows(
             reference_into(kind, floats[po + k * PARAMS : po + (k + 1) * PARAMS], t, scratch)
             r = scratch
         a, b = starts[k], starts[k + 1]
-        R = pose[0:9].reshape((3, 3)).T  # column-major storage: the C reshape is Rᵀ
-        if not frame_error_rp(
-            r[0:3], r[3:12].reshape((3, 3)), R, p, r[12:18], gains[k], rows[a:b], rot[k] != 0, e[a:b], v[a:b]
-        ):
+        R = pose[POSE_R : POSE_R + 9].reshape((3, 3)).T  # column-major storage: the C reshape is Rᵀ
+        p_d, R_d, twist = r[REF_P : REF_P + 3], r[REF_R : REF_R + 9].reshape((3, 3)), r[REF_TWIST : REF_TWIST + 6]
+        if not frame_error_rp(p_d, R_d, R, p, twist, gains[k], rows[a:b], rot[k] != 0, e[a:b], v[a:b]):
             return False
     return True
 
@@ -265,23 +273,22 @@ def _external_grams(Jx: np.ndarray, wx: np.ndarray, v: np.ndarray, P: np.ndarray
 def fused_wqp_step(
     Jw: np.ndarray,
     poses: np.ndarray,
-    t: float,
     refs: np.ndarray,
     q: np.ndarray,
     ints: np.ndarray,
     floats: np.ndarray,
     coef: np.ndarray,
-    lim: np.ndarray,
+    qp: np.ndarray,
     dq_prev: np.ndarray,
-    P: np.ndarray,
-    g: np.ndarray,
     work: np.ndarray,
 ) -> tuple[float, float, float]:
     """One ``wqp`` step of a fused stack: frame rows (``frame_rows``) and joint rows (e = (q_ref − q)[sel],
     v = K e) into e, v (``ev`` (2, m)); P = Σ w JᵀJ and g = −Σ w Jᵀv (``gram_update``; a joint task adds w on P's
     diagonal, or to the diagonal shift when it is an identity task, as the per-task path does); the null-space
-    objective z (``_null_objective``); then ``wqp_free_step`` (the limit box from the joint-limit record ``lim``
-    (``layouts.LIM_ROWS``, nv); the optimum; its test).
+    objective z (``_null_objective``); then ``wqp_free_step`` (the limit box; the optimum; its test).
+
+    ``qp``: the resolver's QP record (``layouts.QP_P`` + nv, nv): the joint-limit record (``layouts.LIM_ROWS`` rows
+    from ``QP_LIM``, read), g (row ``QP_G``) and P (nv rows from ``QP_P``), both written.
 
     ``work`` (flat, one allocation a step; :func:`wqp_work_views` names its parts): ``out``
     (``layouts.OUT_ROWS``, nv) — the box and the answers of ``wqp_free_step`` —, e and v (2, m), and the frames'
@@ -289,7 +296,7 @@ def fused_wqp_step(
 
     ``coef``: gain (K), weight·ρ^k (K) per frame task; gain (J), weight·ρ^k (J) per joint task; ρ of the null-space
     objective; its N coefficients; then the resolver's tail (``layouts.WQP_TAIL``: position, rate, the position
-    gain, λ, dt).
+    gain, λ, dt [s], the step's time t [s]).
 
     Returns:
         (status, Σ e² of the main rows, ‖q̇‖² when inside): status −1 — a rotation error too large for the compiled
@@ -299,11 +306,12 @@ def fused_wqp_step(
     K, J, N, m, nv = ints[H_K], ints[H_J], ints[H_N], ints[H_M], ints[H_NV]
     out, ev, Jf = wqp_work_views(work, K, m, nv)
     e, v = ev[0], ev[1]
-    if not frame_rows(Jw, poses, t, refs, ints, floats, coef[0:K], Jf, e, v):
-        return -1.0, 0.0, 0.0
-    _frame_grams(Jf, v, ints, coef[K : 2 * K], P, g)
+    P, g = qp[QP_P : QP_P + nv], qp[QP_G]
     c0 = 2 * K
     tail = coef[c0 + 2 * J + 1 + N : c0 + 2 * J + 1 + N + WQP_TAIL]
+    if not frame_rows(Jw, poses, tail[TAIL_T], refs, ints, floats, coef[0:K], Jf, e, v):
+        return -1.0, 0.0, 0.0
+    _frame_grams(Jf, v, ints, coef[K : 2 * K], P, g)
     shift = _joint_grams(q, ints, floats, coef[c0 : c0 + 2 * J], ev, P, g, tail[TAIL_DAMPING])  # λ + identity weights
     mx = ints[H_EXTERNAL_ROWS]
     Jx, wx, zx = wqp_external_views(work, K, m, nv, mx)
@@ -320,6 +328,7 @@ def fused_wqp_step(
     opts = np.empty(WQP_OPTS)
     opts[OPT_POSITION], opts[OPT_RATE], opts[OPT_GAIN] = tail[TAIL_POSITION], tail[TAIL_RATE], tail[TAIL_GAIN]
     opts[OPT_DT], opts[OPT_SHIFT], opts[OPT_Z_SCALE] = tail[TAIL_DT], shift, z_scale
+    lim = qp[QP_LIM : QP_LIM + LIM_ROWS]
     inside = wqp_free_step(P, g, z, q, _part(ints, H_IQ, nv), lim, opts, dq_prev, out)
     return (1.0 if inside else 0.0), _main_error2(ints, e[0:m]), _sumsq(out[OUT_DQ]) if inside else 0.0
 

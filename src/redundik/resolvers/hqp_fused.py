@@ -47,6 +47,13 @@ from redundik.resolvers.layouts import (
     B_UPPER,
     GIVEN_ERROR,
     H_EXTERNAL_Z,
+    LIM_AMAX,
+    LIM_HI,
+    LIM_LO,
+    LIM_VMAX,
+    OPT_GAIN,
+    OPT_POSITION,
+    OPT_RATE,
 )
 from redundik.tasks.potential_kernels import clearance_into
 
@@ -241,8 +248,9 @@ def fused_hqp_step(
     if bint.shape[0] > 0:
         clearance_rows(Jw, poses, dt, bint, bcols, bfl, C, d)
     iq, lim = limits
-    o = 2 * K + 2 * ints[H_J] + 1 + ints[H_N]  # (the limits' options, after the null coefficients)
-    box_args = (iq, lim[0], lim[1], lim[2], lim[3], coef[o] != 0.0, coef[o + 1] != 0.0, coef[o + 2])
+    o = 2 * K + 2 * ints[H_J] + 1 + ints[H_N]  # the limits' options (OPT_* of a box), after the null coefficients
+    position, has_rate, gain = coef[o + OPT_POSITION] != 0.0, coef[o + OPT_RATE] != 0.0, coef[o + OPT_GAIN]
+    box_args = (iq, lim[LIM_LO], lim[LIM_HI], lim[LIM_VMAX], lim[LIM_AMAX], position, has_rate, gain)
     status = closed_step(rows, params, q, box_args, dt, dq_prev, out, stats)
     return float(status), _main_error2(ints, ev[0][0:m]), _sumsq(out[OUT_DQ, 0]) if status == 1 else 0.0
 

@@ -425,8 +425,8 @@ def closed_step(
     stats: np.ndarray,
 ) -> int:
     """One ``hqp`` step's closed-form path in one call, into ``out`` (7, 1, n, rows ``OUT_*``): the joint-limit box
-    at the configuration ``q`` (nq,) (``kernels.limit_box`` on the ``limits`` record (iq, lo, hi, vmax, amax,
-    position, has_rate, gain) of ``LimitBox.kernel_args``: rows lb, ub, pos_lo, pos_hi [rad/s or m/s]), the
+    at the configuration ``q`` (nq,) (``box_kernels.limit_box`` on the ``limits`` (iq, lo, hi, vmax, amax, position,
+    has_rate, gain) of ``JointLimits.kernel_args``: rows lb, ub, pos_lo, pos_hi [rad/s or m/s]), the
     unconstrained cascade's q̇ (:func:`closed_cascade`, row ``OUT_CASCADE``) and q̇ clipped to the box
     (``kernels.clip_twice``: rows ``OUT_DQ``, ``OUT_KEPT``, the q̇ returned and the copy kept); ``stats`` as
     :func:`closed_cascade`'s.
@@ -438,7 +438,7 @@ def closed_step(
     """
     iq, lo, hi, vmax, amax, position, has_rate, gain = limits
     box = out[OUT_LB : OUT_POS_HI + 1]
-    limit_box(q.reshape((1, q.shape[0])), iq, lo, hi, vmax, amax, position, has_rate, gain, dt, dq_prev, box)
+    limit_box(q.reshape((1, q.shape[0])), iq, (lo, hi, vmax, amax), position, has_rate, gain, dt, dq_prev, box)
     lb = out[OUT_LB, 0]
     ub = out[OUT_UB, 0]
     x = out[OUT_CASCADE, 0]

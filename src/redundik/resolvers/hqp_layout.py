@@ -81,6 +81,6 @@ Work = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndar
 Outs = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 Resume = tuple[int, bool, np.ndarray]
 Native = tuple[np.ndarray, np.ndarray]
-#: The joint-limit arguments of ``kernels.limit_box`` (``LimitBox.kernel_args``): (iq, lo, hi, vmax, amax, position,
-#: has_rate, gain).
+#: The joint limits as ``JointLimits.kernel_args`` gives them: (iq, lo, hi, vmax, amax, position, has_rate, gain)
+#: (``closed_step`` passes the four rows to ``box_kernels.limit_box`` as its ``lim`` record).
 LimitArgs = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, bool, bool, float]

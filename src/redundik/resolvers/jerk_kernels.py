@@ -38,6 +38,19 @@ import math
 import numpy as np
 
 from redundik import _kernel_cache
+from redundik.resolvers.layouts import (
+    JERK_BRAKE_HI,
+    JERK_BRAKE_LO,
+    JERK_LB,
+    JERK_UB,
+    JERK_WINDOW_HI,
+    JERK_WINDOW_LO,
+    LIM_AMAX,
+    LIM_HI,
+    LIM_JMAX,
+    LIM_LO,
+    LIM_VMAX,
+)
 
 _jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
 
@@ -107,12 +120,10 @@ def _edge(
 
 @_jit
 def jerk_box(
-    qv: np.ndarray,
-    lo: np.ndarray,
-    hi: np.ndarray,
-    vmax: np.ndarray,
-    amax: np.ndarray,
-    jmax: np.ndarray,
+    q: np.ndarray,
+    iq: np.ndarray,
+    lim: np.ndarray,
+    position: bool,
     gain: float,
     dt: float,
     v1: np.ndarray,
@@ -120,37 +131,44 @@ def jerk_box(
     out: np.ndarray,
     status: np.ndarray,
 ) -> None:
-    """The jerk-limited box of every joint with a finite ``jmax`` (the module docstring's rules).
+    """The jerk-limited box of every joint with a finite jerk limit (the module docstring's rules).
 
-    ``qv`` (nv,) is each q̇ coordinate's position (0 where it has none; its limits are then ±inf), ``lo``/``hi``
-    the position limits (±inf where none), ``vmax``/``amax``/``jmax`` (nv,) the velocity [rad/s], acceleration
-    [rad/s²] and jerk [rad/s³] limits (inf where none), ``gain`` g, ``dt`` [s], ``v1``/``v2`` the last two q̇.
-    Writes, for those joints, rows (lb, ub, braking_lo, braking_hi, window_lo, window_hi) of ``out`` (6, nv) and
-    ``status`` (nv,) ``OK`` or ``EMPTY`` (no candidate meets jerk, acceleration and viability together; the row is
-    then left to the caller's relaxation). Joints with an infinite ``jmax`` are not touched.
+    ``q`` (nq,) is the configuration and ``iq`` (nv,) each q̇ coordinate's q index; ``lim`` the joint-limit record
+    (``LIM_JERK_ROWS``, nv: ``layouts.LIM_LO``/``LIM_HI`` the position limits, ±inf where none; ``LIM_VMAX``,
+    ``LIM_AMAX``, ``LIM_JMAX`` the velocity [rad/s], acceleration [rad/s²] and jerk [rad/s³] limits, inf where
+    none); ``position``: the position limits apply (else each joint is taken at 0 between ±inf); ``gain`` g,
+    ``dt`` [s], ``v1``/``v2`` the last two q̇ [rad/s]. Writes, for those joints, the rows ``JERK_LB``,
+    ``JERK_UB``, ``JERK_BRAKE_LO``, ``JERK_BRAKE_HI``, ``JERK_WINDOW_LO``, ``JERK_WINDOW_HI`` of ``out``
+    (``JERK_ROWS``, nv) and ``status`` (nv,) ``OK`` or ``EMPTY`` (no candidate meets jerk, acceleration and
+    viability together; the row is then left to the caller's relaxation). Joints with an infinite jerk limit are
+    not touched.
     """
-    for i in range(qv.shape[0]):
-        j = jmax[i]
+    for i in range(iq.shape[0]):
+        j = lim[LIM_JMAX, i]
         if not j < math.inf:
             continue
-        alpha = amax[i] * dt
+        if position:
+            q_i, lo_i, hi_i = q[iq[i]], lim[LIM_LO, i], lim[LIM_HI, i]
+        else:
+            q_i, lo_i, hi_i = 0.0, -math.inf, math.inf
+        alpha = lim[LIM_AMAX, i] * dt
         beta = j * dt * dt
         d1 = v1[i] - v2[i]
         wl = v1[i] + max(d1 - beta, -alpha)
         wu = v1[i] + min(d1 + beta, alpha)
-        q, vm = qv[i], vmax[i]
-        mhi = -lo[i]  # the lower side, mirrored (q → −q): its limit as an upper one
+        vm = lim[LIM_VMAX, i]
+        mhi = -lo_i  # the lower side, mirrored (q → −q): its limit as an upper one
         status[i] = EMPTY
-        out[4, i], out[5, i] = wl, wu
+        out[JERK_WINDOW_LO, i], out[JERK_WINDOW_HI, i] = wl, wu
         if not wl <= wu:
             continue
-        if breach_up(q, wl, wl - v1[i], hi[i], vm, alpha, beta, dt, gain, 0.0):
+        if breach_up(q_i, wl, wl - v1[i], hi_i, vm, alpha, beta, dt, gain, 0.0):
             continue
-        if breach_up(-q, -wu, v1[i] - wu, mhi, vm, alpha, beta, dt, gain, 0.0):
+        if breach_up(-q_i, -wu, v1[i] - wu, mhi, vm, alpha, beta, dt, gain, 0.0):
             continue
-        ub = _edge(q, v1[i], wl, wu, hi[i], vm, alpha, beta, dt, gain)
-        lb = -_edge(-q, -v1[i], -wu, -wl, mhi, vm, alpha, beta, dt, gain)
+        ub = _edge(q_i, v1[i], wl, wu, hi_i, vm, alpha, beta, dt, gain)
+        lb = -_edge(-q_i, -v1[i], -wu, -wl, mhi, vm, alpha, beta, dt, gain)
         if lb > ub:
             continue
-        out[0, i], out[1, i], out[2, i], out[3, i] = lb, ub, lb, ub
+        out[JERK_LB, i], out[JERK_UB, i], out[JERK_BRAKE_LO, i], out[JERK_BRAKE_HI, i] = lb, ub, lb, ub
         status[i] = OK

@@ -1,8 +1,9 @@
 """Named layouts of the packed arrays the compiled steps share with the resolvers (no numba: the resolvers import
 these names without loading the kernels).
 
-* A joint-limit record ``lim`` (``LIM_ROWS``, nv) and a box's options ``opts``
-  (``joint_box``, ``wqp_free_step``);
+* A joint-limit record ``lim`` (``LIM_ROWS``, nv; ``LIM_JERK_ROWS`` with the jerk limits) and a box's options
+  ``opts`` (``joint_box``, ``limit_box``, ``jerk_box``, ``wqp_free_step``); the rows of ``jerk_box``'s ``out``;
+* a ``wqp`` resolver's QP record ``qp`` (``QP_P`` + nv, nv): the joint-limit record, g and P of its fused step;
 * a ``wqp`` step's ``out`` (``OUT_ROWS``, nv): the box, the unconstrained optimum, q̇ and the copy kept;
 * the closed form's ``out`` (``CF_ROWS``, nv) (``kernels.closed_form_into``, ``pinv``'s step);
 * the ``feedback`` law's ``out`` (``FB_ROWS``, nv), ``settings`` and ``report`` (``feedback_kernels.feedback_law``);
@@ -14,10 +15,21 @@ these names without loading the kernels).
 
 from __future__ import annotations
 
+from redundik.tasks.layouts import REF as REF  # a reference row (p_d, R_d row-major, twist): the tasks' layout
+
 #: Rows of a joint-limit record ``lim`` (4, nv): lower and upper position limits [rad or m] (±inf where none), the
 #: velocity limits [rad/s or m/s] and the rate (acceleration) limits [rad/s² or m/s²] (inf where none).
 LIM_LO, LIM_HI, LIM_VMAX, LIM_AMAX = 0, 1, 2, 3
 LIM_ROWS = 4
+#: A record with jerk limits (``JointLimits``' own, ``LIM_JERK_ROWS``, nv) adds the jerk limits [rad/s³ or m/s³]
+#: (inf where none) as row ``LIM_JMAX`` (readers of the first ``LIM_ROWS`` rows take it as it is).
+LIM_JMAX = 4
+LIM_JERK_ROWS = 5
+
+#: Rows of ``jerk_box``'s ``out`` (``JERK_ROWS``, nv): the box (lb, ub), the braking (viability) bounds and the
+#: jerk window's ends [rad/s or m/s].
+JERK_LB, JERK_UB, JERK_BRAKE_LO, JERK_BRAKE_HI, JERK_WINDOW_LO, JERK_WINDOW_HI = 0, 1, 2, 3, 4, 5
+JERK_ROWS = 6
 
 #: Entries of a box's options ``opts``: position limits apply (1.0/0.0), rate limits apply (1.0/0.0), the position
 #: gain g [-] and dt [s] (``joint_box``); then, for ``wqp_free_step``, the diagonal shift of P and the scale of the
@@ -33,6 +45,13 @@ OUT_LB, OUT_UB, OUT_POS_LO, OUT_POS_HI, OUT_FREE, OUT_DQ, OUT_KEPT = 0, 1, 2, 3,
 #: Rows of the box part of ``out`` (lb, ub, pos_lo, pos_hi).
 OUT_BOX = 4
 OUT_ROWS = 7
+
+#: Rows of a ``wqp`` resolver's QP record ``qp`` (``QP_P`` + nv, nv), the fused step's: the joint-limit record
+#: (``LIM_ROWS`` rows from ``QP_LIM``), the QP's linear term g (row ``QP_G``), then its Hessian P (nv rows from
+#: ``QP_P``; the resolver's ``_P`` and ``_q`` are views on these rows).
+QP_LIM = 0
+QP_G = LIM_ROWS
+QP_P = LIM_ROWS + 1
 
 #: Rows of the closed form's ``out`` (``CF_ROWS``, nv): J⁺V, (I − J⁺J) z and q̇ (eq. 5.8).
 CF_RANK, CF_NULL, CF_DQ = 0, 1, 2
@@ -53,9 +72,9 @@ FB_REPORT = 5
 FRAME_ROWS = 6
 
 #: The ``wqp`` resolver's tail of a fused step's ``coef``: position limits apply (1.0/0.0), rate limits apply, the
-#: position gain, λ (the Hessian's diagonal shift) and dt [s].
-TAIL_POSITION, TAIL_RATE, TAIL_GAIN, TAIL_DAMPING, TAIL_DT = 0, 1, 2, 3, 4
-WQP_TAIL = 5
+#: position gain, λ (the Hessian's diagonal shift), dt [s] and the step's time t [s] (written at every step).
+TAIL_POSITION, TAIL_RATE, TAIL_GAIN, TAIL_DAMPING, TAIL_DT, TAIL_T = 0, 1, 2, 3, 4, 5
+WQP_TAIL = 6
 #: The ``pinv`` resolver's tail of a fused step's ``coef``: ε, λ_max and rcond of the damping rule.
 TAIL_EPSILON, TAIL_MAX_DAMPING, TAIL_RCOND = 0, 1, 2
 PINV_TAIL = 3
@@ -82,8 +101,6 @@ INT_PARTS = (
     H_MAIN, H_FRAME_IDS, H_FRAME_COLUMNS,
 )  # fmt: skip
 FLOAT_PARTS = (H_FRAME_PARAMS, H_JOINT_TARGETS, H_NULL_WEIGHTS, H_NULL_CENTRES)
-#: Length of a reference row (p_d, R_d row-major, twist) of ``redundik.resolvers.fused_kernels``.
-REF = 18
 #: Bits of a level joint task's flag (the header's identity flags): an identity task (a diagonal shift), and an error
 #: the caller writes before the compiled call (Lie-group coordinates: K (q_ref ⊖ q) from Pinocchio's difference).
 IDENTITY, GIVEN_ERROR = 1, 2

@@ -56,6 +56,24 @@ import numpy as np
 
 from redundik.errors import ResolverError, short_repr
 from redundik.kinematics.model import RobotModel
+from redundik.resolvers.layouts import (
+    JERK_BRAKE_HI,
+    JERK_BRAKE_LO,
+    JERK_LB,
+    JERK_ROWS,
+    JERK_UB,
+    JERK_WINDOW_HI,
+    JERK_WINDOW_LO,
+    LIM_AMAX,
+    LIM_HI,
+    LIM_JERK_ROWS,
+    LIM_JMAX,
+    LIM_LO,
+    LIM_VMAX,
+    OUT_BOX,
+    OUT_LB,
+    OUT_UB,
+)
 from redundik.resolvers.linalg import K, _Kernels
 
 #: The jerk kernels (:mod:`redundik.resolvers.jerk_kernels`), loaded on first use.
@@ -412,16 +430,17 @@ class JointLimits:
         else:
             amax = np.full(nv, np.inf if self.acceleration is None else float(self.acceleration))
         self._iq = np.maximum(iq, 0)  # q index per q̇ coordinate (0 where none: its limits are ±inf anyway)
-        self._lo, self._hi = lo, hi
-        self._vmax = vmax if self.velocity else np.full(nv, np.inf)
-        self._amax = amax
         jmax = np.full(nv, np.inf)
         if isinstance(self.jerk, Mapping):
             for jn, val in self.jerk.items():
                 jmax[index[jn]] = val
         elif self.jerk is not None:
             jmax[:] = float(self.jerk)
-        self._jmax = jmax
+        lim = self._lim = np.empty((LIM_JERK_ROWS, nv))  # the kernels' record; the arrays below are its rows
+        lim[LIM_LO], lim[LIM_HI], lim[LIM_AMAX], lim[LIM_JMAX] = lo, hi, amax, jmax
+        lim[LIM_VMAX] = vmax if self.velocity else np.inf
+        self._lo, self._hi, self._vmax = lim[LIM_LO], lim[LIM_HI], lim[LIM_VMAX]
+        self._amax, self._jmax = lim[LIM_AMAX], lim[LIM_JMAX]
         self._has_rate = bool(np.isfinite(amax).any())
         self._no_prev = np.zeros((0, nv))
         self._names = names
@@ -444,29 +463,20 @@ class JointLimits:
         return self._hi.copy()
 
     def kernel_args(self, robot: RobotModel) -> tuple[Any, ...]:
-        """(iq, lo, hi, vmax, amax, position, has_rate, gain): the arguments of ``K.limit_box`` between q and dt,
-        bound to ``robot`` (for a compiled step that computes its box inside, as ``wqp``'s)."""
+        """(iq, lo, hi, vmax, amax, position, has_rate, gain), bound to ``robot``: the q index of each q̇ coordinate,
+        the rows ``LIM_LO`` … ``LIM_AMAX`` of the joint-limit record (:mod:`redundik.resolvers.layouts`) and the
+        options of ``K.limit_box`` (for a compiled step that computes its box inside, as ``wqp``'s and ``hqp``'s;
+        a new tuple when the limits or their options changed)."""
         args = self._args
         bound = self._robot
         if bound is None or bound() is not robot:
             self.bind(robot)
             args = None
         if args is None or args[5] is not self.position or args[7] != self.position_gain:  # options read as now
-            args = self._args = self._limit_args()
+            args = self._args = (
+                self._iq, self._lo, self._hi, self._vmax, self._amax, self.position, self._has_rate, self.position_gain,
+            )  # fmt: skip
         return args
-
-    def _limit_args(self) -> tuple[Any, ...]:
-        """:meth:`kernel_args` of the bound robot (the options read as they are now)."""
-        return (
-            self._iq,
-            self._lo,
-            self._hi,
-            self._vmax,
-            self._amax,
-            self.position,
-            self._has_rate,
-            self.position_gain,
-        )
 
     def previous(self, dq_prev: np.ndarray | None) -> np.ndarray:
         """The ``dq_prev`` argument of ``K.limit_box`` for one configuration: (1, nv) with a rate limit and a
@@ -503,11 +513,12 @@ class JointLimits:
         if bound is None or bound() is not robot:
             self.bind(robot)
         if self.has_jerk:
-            return jerk_limited_box(self, q, float(dt), dq_prev, dq_prev2)
+            return jerk_limited_box(self, self._lim, q, float(dt), dq_prev, dq_prev2)
         if type(q) is np.ndarray and q.dtype == np.float64 and q.ndim == 1 and (dq_prev is None or not self._has_rate):
             # the control loop's case, in a few operations: one configuration, no rate window
-            out1 = np.empty((4, 1, self._lo.shape[0]))
-            K.limit_box(q.reshape(1, -1), *self._limit_args(), float(dt), self._no_prev, out1)
+            out1 = np.empty((OUT_BOX, 1, self._lo.shape[0]))
+            K.limit_box(q.reshape(1, -1), self._iq, self._lim, self.position, self._has_rate, self.position_gain,
+                        float(dt), self._no_prev, out1)  # fmt: skip
             return self.box_from(out1[:, 0], False)
         q = np.asarray(q, dtype=float)
         single = q.ndim == 1
@@ -515,8 +526,9 @@ class JointLimits:
         if self._has_rate and dq_prev is not None:
             prev = np.asarray(dq_prev, dtype=float).reshape(1, -1) if single else np.asarray(dq_prev, dtype=float)
         qq = q.reshape(1, -1) if single else q
-        out = np.empty((4, qq.shape[0], self._lo.shape[0]))
-        K.limit_box(qq, *self._limit_args(), float(dt), prev, out)  # one compiled call: the module docstring's rules
+        out = np.empty((OUT_BOX, qq.shape[0], self._lo.shape[0]))
+        # one compiled call: the module docstring's rules
+        K.limit_box(qq, self._iq, self._lim, self.position, self._has_rate, self.position_gain, float(dt), prev, out)
         lb, ub, pl, pu = out[:, 0] if single else out
         if prev is not self._no_prev:
             return LimitBox(lb, ub, pl, pu, self._vmax, lb, ub)
@@ -529,12 +541,11 @@ class JointLimits:
         )
 
 
-def jerk_limited_box(
-    limits: JointLimits, q: np.ndarray, dt: float, dq_prev: np.ndarray | None, dq_prev2: np.ndarray | None
-) -> LimitBox:
-    """The box of a bound ``limits`` with a jerk limit (module docstring): the acceleration-limited box of every
-    joint, then the jerk window and the viability bound where a jerk limit is set, relaxed in the documented order
-    where they leave nothing.
+def jerk_limited_box(limits: JointLimits, lim: np.ndarray, q: np.ndarray, dt: float, dq_prev: np.ndarray | None,
+                     dq_prev2: np.ndarray | None) -> LimitBox:  # fmt: skip
+    """The box of a bound ``limits`` with a jerk limit (module docstring), its joint-limit record ``lim``
+    (``LIM_JERK_ROWS``, nv): the acceleration-limited box of every joint, then the jerk window and the viability
+    bound where a jerk limit is set, relaxed in the documented order where they leave nothing.
 
     Raises:
         ResolverError: ``q`` is a stack of configurations.
@@ -542,41 +553,39 @@ def jerk_limited_box(
     q = np.asarray(q, dtype=float)
     if q.ndim != 1:
         raise ResolverError("limits: a jerk limit needs one configuration per box (no batches of configurations)")
-    nv = limits._lo.shape[0]
+    nv = lim.shape[1]
     v1 = np.zeros(nv) if dq_prev is None else np.asarray(dq_prev, dtype=float).reshape(nv)
     v2 = (np.zeros(nv) if dq_prev is None else v1) if dq_prev2 is None else np.asarray(dq_prev2, dtype=float)
-    args = limits._limit_args()
-    base = np.empty((4, 1, nv))
-    K.limit_box(q.reshape(1, -1), *args, dt, v1.reshape(1, -1) if limits._has_rate else limits._no_prev, base)
+    position, rate, gain, q1 = limits.position, limits._has_rate, limits.position_gain, q.reshape(1, -1)
+    base = np.empty((OUT_BOX, 1, nv))
+    K.limit_box(q1, limits._iq, lim, position, rate, gain, dt, v1.reshape(1, -1) if rate else limits._no_prev, base)
     lb, ub, pl, pu = (row.copy() for row in base[:, 0])
     rate_lo, rate_hi = lb.copy(), ub.copy()
-    qv = q[limits._iq] if limits.position else np.zeros(nv)
-    lo = limits._lo if limits.position else np.full(nv, -np.inf)
-    hi = limits._hi if limits.position else np.full(nv, np.inf)
-    out = np.empty((6, nv))
+    out = np.empty((JERK_ROWS, nv))
     status = np.zeros(nv, dtype=np.int64)
-    JK.jerk_box(qv, lo, hi, limits._vmax, limits._amax, limits._jmax, limits.position_gain, dt, v1, v2, out, status)
-    jerk = np.isfinite(limits._jmax)
+    JK.jerk_box(q, limits._iq, lim, position, gain, dt, v1, v2, out, status)
+    jmax = lim[LIM_JMAX]
+    jerk = np.isfinite(jmax)
     ok = jerk & (status == 0)
     empty = jerk & (status != 0)
-    lb[ok], ub[ok] = out[0, ok], out[1, ok]
+    lb[ok], ub[ok] = out[JERK_LB, ok], out[JERK_UB, ok]
     # the braking bound is the position's where it cuts the window (else the window's end is the jerk's or the rate's)
-    pl[ok] = np.where(out[2] > out[4], out[2], -np.inf)[ok]
-    pu[ok] = np.where(out[3] < out[5], out[3], np.inf)[ok]
+    pl[ok] = np.where(out[JERK_BRAKE_LO] > out[JERK_WINDOW_LO], out[JERK_BRAKE_LO], -np.inf)[ok]
+    pu[ok] = np.where(out[JERK_BRAKE_HI] < out[JERK_WINDOW_HI], out[JERK_BRAKE_HI], np.inf)[ok]
     d1 = v1 - v2
-    beta = limits._jmax * dt * dt
+    beta = jmax * dt * dt
     jlo, jhi = v1 + d1 - beta, v1 + d1 + beta
-    rate_lo[ok], rate_hi[ok] = out[4, ok], out[5, ok]
+    rate_lo[ok], rate_hi[ok] = out[JERK_WINDOW_LO, ok], out[JERK_WINDOW_HI, ok]
     relaxed: tuple[str, ...] = ()
     if empty.any():  # jerk first: the acceleration-limited box, and in it the q̇ closest to the jerk window
         relaxed = (JERK_RELAXED,)
         lb[empty] = np.clip(jlo[empty], rate_lo[empty], rate_hi[empty])
         ub[empty] = np.clip(jhi[empty], rate_lo[empty], rate_hi[empty])
-        if limits._has_rate:  # then the acceleration: its window did not meet the position/velocity box
-            free = np.empty((4, 1, nv))
-            K.limit_box(q.reshape(1, -1), *args, dt, limits._no_prev, free)
-            step = limits._amax * dt
-            moved = empty & ((v1 - step > free[1, 0]) | (v1 + step < free[0, 0]))
+        if rate:  # then the acceleration: its window did not meet the position/velocity box
+            free = np.empty((OUT_BOX, 1, nv))
+            K.limit_box(q1, limits._iq, lim, position, rate, gain, dt, limits._no_prev, free)
+            step = lim[LIM_AMAX] * dt
+            moved = empty & ((v1 - step > free[OUT_UB, 0]) | (v1 + step < free[OUT_LB, 0]))
             if moved.any():
                 relaxed += (ACCELERATION_RELAXED,)
-    return LimitBox(lb, ub, pl, pu, limits._vmax, rate_lo, rate_hi, jlo, jhi, relaxed)
+    return LimitBox(lb, ub, pl, pu, lim[LIM_VMAX], rate_lo, rate_hi, jlo, jhi, relaxed)

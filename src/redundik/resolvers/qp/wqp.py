@@ -60,7 +60,12 @@ from redundik.resolvers.layouts import (
     OUT_FREE,
     OUT_KEPT,
     OUT_ROWS,
+    QP_G,
+    QP_LIM,
+    QP_P,
+    TAIL_T,
     WQP_OPTS,
+    WQP_TAIL,
 )
 from redundik.resolvers.linalg import FK, K
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend
@@ -103,6 +108,8 @@ class WQPBuild:
 
 
 _NO_Z = np.zeros(0)
+#: The step's time t in a fused step's ``coef``, counted from its end (the resolver's tail, ``layouts.WQP_TAIL``).
+_COEF_T = TAIL_T - WQP_TAIL
 
 
 class _Plan:
@@ -177,14 +184,15 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         self.damping, self.lm_damping, self.level_ratio = damping, lm_damping, level_ratio  # (validated: Setting)
         self.scaling, self.stuck_below = scaling, stuck_below
         self.fuse = True
-        self._P: np.ndarray | None = None
+        self._P: np.ndarray | None = None  # (views on the QP record ``_qp``: ``_buffers``)
         self._q: np.ndarray | None = None
+        self._qp = np.zeros((QP_P, 0))
         self._plan: _Plan | None = None
         self._no_rows, self._no_rhs = np.zeros((0, 0)), np.zeros(0)
         self._diag = np.zeros(0)
         #: (the limits' kernel arguments, λ, dt, the fused step's coefficients of the resolver) as last read
         self._tail: tuple[object, float, float, tuple[float, ...]] = (None, math.nan, math.nan, ())
-        #: (the limits' kernel arguments, their record ``lim``, the options ``opts``) of the lean step's box
+        #: (the limits' kernel arguments, their record ``lim`` in ``_qp``'s rows, the options ``opts`` of the lean box)
         self._record: tuple[object, np.ndarray, np.ndarray] = (None, np.zeros((LIM_ROWS, 0)), np.zeros(WQP_OPTS))
         self.max_joint_speed, self.singularity = max_joint_speed, singularity  # (validated on assignment)
 
@@ -269,9 +277,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         P = self._P
         q = self._q
         if P is None or q is None or P.shape[0] != n:
-            P, q = self._P, self._q = np.empty((n, n)), np.empty(n)
-            self._diag = P.reshape(-1)[:: n + 1]  # a view on P's diagonal
-            self._no_rows, self._no_rhs = np.zeros((0, n)), np.zeros(0)
+            P, q = self._buffers(n)
         lam = shift = self.damping * plan.last_scale  # λ (``_lambda``), its first term inlined
         if self.lm_damping:
             lam = shift = self._lambda(plan, terms)
@@ -363,15 +369,27 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             diagnostics,
         )
 
+    def _buffers(self, n: int) -> tuple[np.ndarray, np.ndarray]:
+        """(P, g): the QP record ``_qp`` (``QP_P`` + n, n; :mod:`.layouts`) allocated for n velocity coordinates,
+        ``_P`` and ``_q`` views on its rows (``_diag`` on P's diagonal); its joint-limit rows are written at the
+        next ``_box_record``."""
+        qp = self._qp = np.empty((QP_P + n, n))
+        P, g = self._P, self._q = qp[QP_P:], qp[QP_G]
+        self._diag = P.reshape(-1)[:: n + 1]  # a view on P's diagonal
+        self._no_rows, self._no_rhs = np.zeros((0, n)), np.zeros(0)
+        self._record = (None, *self._record[1:])
+        return P, g
+
     def _box_record(self, args: tuple[Any, ...]) -> tuple[np.ndarray, np.ndarray]:
-        """The joint-limit record ``lim`` and the options ``opts`` of ``K.wqp_free_step`` (:mod:`.layouts`) for the
-        limits' kernel arguments ``args`` (re-read when they are a new tuple: the limits or their options changed);
-        the caller writes dt, the shift and the null-space scale into ``opts``."""
+        """The joint-limit record ``lim`` (the rows ``QP_LIM`` … of the QP record ``_qp``) and the options ``opts`` of
+        ``K.wqp_free_step`` (:mod:`.layouts`) for the limits' kernel arguments ``args`` (written when they are a new
+        tuple — the limits or their options changed — or the record is new); the caller writes dt, the shift and the
+        null-space scale into ``opts``."""
         record = self._record
         if record[0] is not args:
             opts = np.zeros(WQP_OPTS)
             opts[OPT_POSITION], opts[OPT_RATE], opts[OPT_GAIN] = float(args[5]), float(args[6]), float(args[7])
-            lim = np.empty((LIM_ROWS, args[1].shape[0]))
+            lim = self._qp[QP_LIM : QP_LIM + LIM_ROWS]
             lim[LIM_LO], lim[LIM_HI], lim[LIM_VMAX], lim[LIM_AMAX] = args[1], args[2], args[3], args[4]
             record = self._record = (args, lim, opts)
         return record[1], record[2]
@@ -406,12 +424,13 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         return self._finish(robot, stack, terms, built, t0, t1)
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        """Restore a copy or a pickle: ``_diag`` a view on the copy's own P again (a copied view is a separate
-        array: the diagonal shift written through it never reached P, and a copied resolver solved another QP)."""
+        """Restore a copy or a pickle: ``_P``, ``_q`` and ``_diag`` views on the copy's own QP record again (a copied
+        view is a separate array: the rows and shifts a step wrote into it would not reach the QP solved)."""
         self.__dict__.update(state)
-        P = self._P
-        if P is not None and P.ndim == 2 and P.shape[0]:
-            self._diag = P.reshape(-1)[:: P.shape[0] + 1]
+        qp, n = self._qp, self._qp.shape[1]
+        if n:  # P, g (and the limit rows, at the next box): views on the copy's own QP record again
+            P, self._q, self._record = qp[QP_P:], qp[QP_G], (None, *self._record[1:])
+            self._P, self._diag = P, P.reshape(-1)[:: n + 1]
 
     def compiled_off(self) -> str | None:
         """``QPResolverBase.compiled_off``, and ``lm_damping`` (λ grows with the error, computed per task)."""
@@ -435,18 +454,19 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         error beyond the compiled log3's range)."""
         t0 = time.perf_counter()
         n = robot._nv
-        P, g = self._P, self._q
-        if P is None or g is None or P.shape[0] != n:
-            P, g = self._P, self._q = np.empty((n, n)), np.empty(n)
-            self._diag = P.reshape(-1)[:: n + 1]
-            self._no_rows, self._no_rhs = np.zeros((0, n)), np.zeros(0)
+        if self._qp.shape[1] != n:
+            self._buffers(n)
+        qp = self._qp
         limits = self.limits
         args = limits.kernel_args(robot)
+        if self._record[0] is not args:  # the limits or their options changed (or the record is new): their rows
+            self._box_record(args)
         lam = self.damping * plan.last_scale
         tail = self._tail
         if tail[0] is not args or tail[1] != lam or tail[2] != dt:  # the limits' options, λ or dt changed: re-read
-            tail = self._tail = (args, lam, dt, (float(args[5]), float(args[6]), float(args[7]), lam, float(dt)))
-        coef = fused.coefficients(tail[3])  # (its tail: layouts.TAIL_POSITION … TAIL_DT)
+            tail = self._tail = (args, lam, dt, (float(args[5]), float(args[6]), float(args[7]), lam, float(dt), 0.0))
+        coef = fused.coefficients(tail[3])  # (its tail: layouts.TAIL_POSITION … TAIL_T)
+        coef[_COEF_T] = t
         refs = fused.given_references(t) if fused.given else fused.refs
         prev = limits.previous(self._dq_prev)
         external: list[TaskTerm | None] | tuple[()] = ()
@@ -462,19 +482,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             write_external_rows(fused, robot, external, work, t)
         q = robot.q
         status, err2, dq2 = FK.fused_wqp_step(
-            fused.jw,
-            fused.poses,
-            float(t),
-            refs,
-            q,
-            fused.ints,
-            fused.floats,
-            coef,
-            fused.limits(args),
-            prev,
-            P,
-            g,
-            work,
+            fused.jw, fused.poses, refs, q, fused.ints, fused.floats, coef, qp, prev, work
         )
         if status < 0.0:
             return None
