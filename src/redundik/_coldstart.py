@@ -153,7 +153,7 @@ def _run() -> None:
 
     Its work (importing numba, loading or compiling the kernels) reads many files, and each read lets the caller's
     thread take the interpreter's lock back for a whole switch interval (5 ms by default): with a step loop that never
-    sleeps, that made minutes of a 1-second job. The switch interval is :data:`SWITCH_INTERVAL` while the thread
+    sleeps, that stretches a 1-second job to minutes. The switch interval is :data:`SWITCH_INTERVAL` while the thread
     works, and put back after (unless something else changed it meanwhile)."""
     _with_short_switches(_work)
 

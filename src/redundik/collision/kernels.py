@@ -1,9 +1,9 @@
 """Compiled kernels (numba) of the collision world: capsule–capsule distances, capsule end-sphere distances and the
 exact distance Jacobian rows, each one call over all the pairs of a tick.
 
-Why compiled: per pair, the NumPy route is a dozen small-array operations (≈ 20 µs for an end sphere in Python,
-mostly call overhead), so with 20 candidate pairs the collision rows cost several times the rest of a ``wqp`` step;
-one compiled call over every pair costs about as much as one of those operations. The formulas are those of
+Why compiled: per pair, the NumPy route would be a dozen small-array operations, mostly call overhead, so with
+20 candidate pairs the collision rows would cost several times the rest of a ``wqp`` step; one compiled call over
+every pair costs about as much as one of those operations. The formulas are those of
 :mod:`redundik.collision.world` (its docstrings carry the derivations); the tests hold the kernels to coal's
 distances and to finite differences.
 

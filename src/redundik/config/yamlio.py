@@ -44,8 +44,8 @@ MAX_EXPANDED_NODES = 500_000
 MAX_NODES = 400_000
 MAX_NODES_PURE_PYTHON = 100_000
 #: Longest list under a top-level key, refused while parsing (before the rest of the file is read): ``dh`` rows
-#: (a 10 000-row table took 3-24 s to be refused after a full parse). 5× the schema's ``MAX_DH_ROWS`` = 200, so a
-#: table just over the schema's limit still gets the schema's own message ("at most 200 D-H rows, got 201").
+#: (after a full parse, a 10 000-row table would take 3-24 s to be refused). 5× the schema's ``MAX_DH_ROWS`` = 200,
+#: so a table just over the schema's limit still gets the schema's own message ("at most 200 D-H rows, got 201").
 MAX_TOP_LEVEL_LIST: dict[str, int] = {"dh": 1000}
 #: Longest error message built from a YAML problem [characters].
 _MAX_MESSAGE = 240

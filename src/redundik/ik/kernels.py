@@ -1,9 +1,9 @@
 """Compiled kernels (numba) of :func:`redundik.solve_ik`: pose residuals and one box-constrained Levenberg–Marquardt
 iteration, one call per iteration.
 
-Why compiled: Pinocchio gives a frame's pose and Jacobian in ≈ 1.5 µs, while the NumPy route for the rest of an
-iteration (residual, normal equations, a solve, the box) is a dozen small-array calls (≈ 20 µs of call overhead);
-one compiled call does it in about a microsecond, so an IK iteration costs a few microseconds.
+Why compiled: through NumPy, the rest of an iteration after Pinocchio's pose and Jacobian (residual, normal
+equations, a solve, the box) would be a dozen small-array calls, whose overhead, not their arithmetic, dominates at
+these sizes; so it is one compiled call, and an iteration costs little more than Pinocchio's part.
 
 Residual of frame k (rows selected by ``mode[k]``: 0 pose, 1 position):
 
@@ -27,7 +27,7 @@ proportional damping and w_p = 2 raise the share of attempts that converge from 
 Every kernel takes at most 7 parameters. ``lm_update``'s are plain arrays: Pinocchio's output, the targets,
 the problem's constants packed in one float and one int array, and one workspace (``workspace``: the trial's
 and the current iterate's residual, errors and q, the step, the state), because numba types a tuple's elements in
-Python at every call (3–5.5 µs per call with tuples, ≈ 1 µs packed). Their layouts are named in
+Python at every call, which costs several times what a few packed arrays do. Their layouts are named in
 :mod:`redundik.ik.layouts`.
 """
 
@@ -312,8 +312,9 @@ def lm_update(
             the step dq (nv,) from the current iterate to the next trial (that trial's q is written for models whose
             q adds up; others compose q ⊕ dq themselves) and the state (:data:`S_COST` …).
 
-    Why packed: numba types every argument at each call, a tuple element by element in Python; 7 parameters of
-    plain arrays cost ≈ 1 µs per call where the same data as 15 parameters and tuples cost 3–5.5 µs (measured).
+    Why packed: numba types every argument at each call, a tuple element by element in Python, so the call's cost
+    grows with its parameters; 7 parameters of plain arrays cost a few times less than the same data as 15
+    parameters and tuples.
 
     Returns:
         :data:`CONVERGED` (the current iterate meets both tolerances), :data:`STALLED` (λ beyond its cap, the cost

@@ -40,9 +40,8 @@ if TYPE_CHECKING:
 
 #: Largest stable K·dt of the first-order update (e ← (1 − K dt) e).
 STABLE_GAIN_DT = 2.0
-#: From this many velocity coordinates on, a step limits BLAS to one thread (see ``Resolver.blas_threads``).
-#: Robots with at least this many velocity coordinates get one BLAS thread inside a step (measured: on Talos,
-#: nv = 38, toggling the BLAS pool cost more, +20 µs, than it saved).
+#: From this many velocity coordinates on, a step limits BLAS to one thread (see ``Resolver.blas_threads``): below
+#: it, toggling the BLAS pool costs more than it saves (measured on Talos, nv = 38: +20 µs a step).
 BLAS_LIMIT_NV = 64
 _USER_CHOSE_THREADS = any(os.environ.get(k) for k in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"))
 _F64 = np.dtype(np.float64)
@@ -71,12 +70,12 @@ _CONTROLLER: Any = None  # the process's _BlasLimit, built on first use
 
 class _BlasLimit:
     """Sets the BLAS libraries' thread count for the span of a step and puts back what was there: the libraries'
-    own setters, found once through threadpoolctl (its ``limit`` context builds a limiter and queries every library
-    per call: 28 µs a step on this machine, against 2–4 µs here)."""
+    own setters, found once through threadpoolctl (not its ``limit`` context, which builds a limiter and queries
+    every library at each call, several times the cost of these setters)."""
 
     def __init__(self) -> None:
         # SciPy's OpenBLAS (the LAPACK the compiled kernels call, through scipy.linalg.cython_lapack) is loaded first:
-        # a controller built before it never limits it (the snake's n = 160 SVDs ran on two threads, 0.5-40 ms)
+        # a controller built before it never limits it (the snake's n = 160 SVDs would run on two threads)
         import scipy.linalg  # noqa: F401
         from threadpoolctl import ThreadpoolController
 

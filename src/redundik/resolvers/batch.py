@@ -509,7 +509,7 @@ class BatchResolver:
     ) -> np.ndarray:
         """The box QPs of the problems ``bind`` (a limit binds) solved in one compiled loop through daqp's C entry
         point, into ``dq`` (``hqp_kernels.box_qps_native``: the call ``DaqpBackend.solve`` makes on such a QP,
-        without its Python wrapper; ≈ 3.5 against ≈ 44 µs a problem in one sweep chunk's profile). Only under a daqp
+        without its Python wrapper, whose overhead outweighs such a small QP's solve). Only under a daqp
         backend whose ``solve`` poses the QP as it is (fewer variables than its split size) and while the native
         call is on (:func:`redundik.resolvers.qp.daqp_native.status`).
 

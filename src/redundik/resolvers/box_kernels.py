@@ -38,8 +38,7 @@ _jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redun
 @_jit
 def squares_below(q: np.ndarray, bound2: float) -> bool:
     """qᵀq < ``bound2``: False for a NaN or infinite entry, and for entries whose squares overflow (a huge q).
-    ``Resolver.step``'s check of q on every tick (one compiled call: in the control loop's cold caches the
-    ``math.hypot(*q.tolist())`` it replaces cost 2.9 µs of a 44 µs Panda ``pinv`` step, this 0.9)."""
+    ``Resolver.step``'s check of q on every tick, as one compiled loop over q's entries."""
     acc = 0.0
     for i in range(q.shape[0]):
         acc += q[i] * q[i]

@@ -107,8 +107,7 @@ def coupled_coordinates(P: np.ndarray, idx: np.ndarray, lower: bool) -> int:
     bounds-only QPs, :func:`split_separable`). The one implementation of this test.
 
     Cost: the scan of a row stops at its first off-diagonal non-zero (one or two reads per row of a dense P), a
-    separable coordinate takes n − 1 reads (2(n − 1) without ``lower``): ≈ 0.03 µs on the Panda's P (9 × 9),
-    0.85 µs on Talos's (38 × 38, lower) on this machine.
+    separable coordinate takes n − 1 reads (2(n − 1) without ``lower``): O(n) on a dense P, O(n²) at most.
     """
     n = P.shape[0]
     nc = 0
@@ -296,14 +295,13 @@ def spd_solve_into(P: np.ndarray, q: np.ndarray, x: np.ndarray) -> bool:
     P is not numerically SPD (x is then zero) or x is not finite.
 
     The separable coordinates of P (``coupled_coordinates``) are solved in closed form and only the coupled
-    block is factored (``_spd_solve_split``: the same x, bit for bit, for n_c ≤ :data:`CHOLESKY_LOOPS_MAX`;
-    measured per call on the benchmark's ``wqp`` steps, detection included: Talos, 22 of 38 coordinates coupled,
-    5.2 → 2.4 µs; the Panda, 7 of 9, 0.38 → 0.34 µs; a dense P (the snake, n = 160) unchanged); when that solve
-    fails, or no coordinate is separable, the whole of P is factored, so that every failure (non-finite data, P not
-    SPD) is the full factorisation's, x included.
+    block is factored (``_spd_solve_split``: the same x, bit for bit, for n_c ≤ :data:`CHOLESKY_LOOPS_MAX`): the
+    factorisation's O(n³) shrinks to O(n_c³), and a dense P pays only the detection's few reads per row. When that
+    solve fails, or no coordinate is separable, the whole of P is factored, so that every failure (non-finite data,
+    P not SPD) is the full factorisation's, x included.
 
-    Unblocked loops up to :data:`CHOLESKY_LOOPS_MAX` coordinates (measured 6.2 vs 9.4 µs at n = 38, 30 vs 21 at
-    n = 64), LAPACK ``dpotrf`` (``np.linalg.cholesky``) above.
+    Unblocked loops up to :data:`CHOLESKY_LOOPS_MAX` coordinates, where they are faster than LAPACK's call, LAPACK
+    ``dpotrf`` (``np.linalg.cholesky``) above.
     """
     n = q.shape[0]
     m = min(n, CHOLESKY_LOOPS_MAX)  # (a larger block is factored by LAPACK, into its own array)

@@ -103,10 +103,9 @@ def damped_svd_thin(
     M: np.ndarray, epsilon: float, max_damping: float, rcond: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, float, float]:
     """:func:`damped_svd_factors` without the null directions: Vt (k, n) has only its first k = min(m, n) rows
-    (on a wide M of few rows, a fraction of the full SVD's cost — the snake's 6 × 160 level, ~10 against ~100 µs).
-    A wide M of at most :data:`JACOBI_SVD_MAX` rows takes the Jacobi SVD of Mᵀ (σ ≤ ``_WIDE_NULL``·‖M‖_F an
-    exact zero, its row of Vt zero; measured 5.1 against 8.1 µs for LAPACK's thin SVD at 6×10, 9.1 against 17.3 at
-    6×40, even at 6×160), anything else LAPACK's thin SVD."""
+    (on a wide M of few rows, a fraction of the full SVD's cost). A wide M of at most :data:`JACOBI_SVD_MAX` rows
+    takes the Jacobi SVD of Mᵀ (σ ≤ ``_WIDE_NULL``·‖M‖_F an exact zero, its row of Vt zero; measured faster than
+    LAPACK's thin SVD at such shapes, up to 6×160), anything else LAPACK's thin SVD."""
     m, n = M.shape
     fro2 = _frobenius2(M) if n > m and 0 < m <= JACOBI_SVD_MAX else math.inf
     if math.isfinite(fro2):  # wide, few rows: the Jacobi SVD of Mᵀ, as in _svd_wide

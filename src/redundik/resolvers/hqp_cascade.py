@@ -589,10 +589,9 @@ def qp_cascade_call(
     stats: np.ndarray, rfac: np.ndarray, qbuf: np.ndarray, k0: int, absorb: bool, u: np.ndarray, ctl: np.ndarray,
     nx: np.ndarray,
 ) -> tuple[int, int, int, int, float]:  # fmt: skip
-    """:func:`qp_cascade_run` for a caller in Python, its records' arrays given one by one: the records are made
-    here, in compiled code, at no cost, where numba unboxes an array given inside a tuple some 25 ns slower than one
-    given as an argument of its own (measured: 28 arrays, ~0.5 µs a call; the Python loop calls it once per level QP
-    the backend solves)."""
+    """:func:`qp_cascade_run` for a caller in Python, its records' arrays given one by one: numba unboxes an array
+    given inside a tuple more slowly than one given as an argument of its own, so the records are made here, in
+    compiled code, at no cost (the Python loop calls it once per level QP the backend solves)."""
     return qp_cascade_run(
         (A, b, w, C, d, z, meta), mixed, (lb, ub), cfg, (Z, N, F, f, slack, state, free, sel), (x, stats, rfac, qbuf),
         (k0, absorb, u), (ctl, nx),

@@ -14,9 +14,9 @@ level: :func:`identity_rows`), x ← x + Z Zᵀ(b − x). Rows are weighted by �
 lb − tol ≤ x ≤ ub + tol and every level's inequality rows C x ≤ d + tol (a feasible unconstrained lexicographic
 optimum is the constrained one).
 
-Why one call: per level the NumPy route paid a handful of small-array calls (weighting, A Z, b − A x, the SVD
-call, two products, the basis update) and Python glue, ~10 µs per level on the Panda; fused here the three-level
-Panda cascade is the SVD arithmetic plus one call's overhead. Arrays come in as preallocated buffers the caller
+Why one call: per level, the NumPy route would be a handful of small-array calls (weighting, A Z, b − A x, the SVD
+call, two products, the basis update) and Python glue, whose overhead outweighs the arithmetic at these sizes; fused
+here, a cascade costs the SVD arithmetic plus one call's overhead. Arrays come in as preallocated buffers the caller
 owns and reuses while the stack's membership is unchanged; only the per-level factors are allocated inside.
 The kernels of ``hqp`` live in modules by concern, all reached through this one (``HK``, the names below):
 :mod:`~redundik.resolvers.hqp_layout` (the named layouts of the packed arrays and the records the kernels take),

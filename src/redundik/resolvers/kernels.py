@@ -1,10 +1,9 @@
 """Compiled kernels (numba): the closed form of ``pinv``'s step, and the index of the resolvers' linear algebra.
 
-Why compiled (measured on this 2-core machine, Panda 6×9 frame task, median per call): the NumPy/SciPy route of
-one ``pinv`` step's algebra is about ten small-array calls — JJᵀ 2.8 µs, ``lapack.dsyevd`` 7.3 µs (its f2py wrapper,
-not the 6×6 eigensolve, is the cost), Jᵀ U Λ⁻¹ 4 µs, two solves 5.6 µs — where the same arithmetic fused in one
-compiled call takes ≈ 2 µs: per-call overhead, not flops, dominates at these sizes. The kernels are compiled at
-first use and cached on disk (``cache=True``); the first-run cost is reported by :func:`first_run_cost`.
+Why compiled: through NumPy/SciPy, one ``pinv`` step's algebra would be about ten small-array calls (JJᵀ, an
+eigendecomposition through LAPACK's wrapper, Jᵀ U Λ⁻¹, two solves), and at these sizes each call's overhead, not its
+arithmetic, dominates; so the algebra is one compiled call. The kernels are compiled at first use and cached on disk
+(``cache=True``); the first-run cost is reported by :func:`first_run_cost`.
 
 Here: :func:`closed_form` — the chapter's q̇ = J⁺V + (I − J⁺J)z (eq. 5.8) in one call (``pinv``'s step) — and
 :func:`closed_form_batch`, the same over N problems (the body of :mod:`redundik.resolvers.batch`). The other kernels

@@ -152,8 +152,8 @@ class LazyInfo(dict):  # type: ignore[type-arg]
 class _Deferred:
     """A step's pending diagnostics (σ_min, damped, info entries), computed once and shared by its result and the
     result's ``LazyInfo``. Neither of those holds the other through it, so a step's result is freed as soon as
-    the loop drops it: no reference cycle left for the cyclic garbage collector, whose collections took ~100 µs
-    every ~30 steps of a control loop that reads ``info`` (the snake's hqp run, before)."""
+    the loop drops it: no reference cycle is left for the cyclic garbage collector, whose collections would otherwise
+    interrupt a control loop that reads ``info``."""
 
     __slots__ = ("fn", "out")
 

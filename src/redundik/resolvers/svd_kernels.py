@@ -14,14 +14,15 @@ from redundik.resolvers.qr_kernels import _complete_rows
 _jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
 
 #: Largest symmetric matrix (m, m) whose eigendecomposition uses the Jacobi routine below, and the largest number of
-#: columns of a tall matrix whose SVD does; LAPACK beyond (measured inside compiled code: Jacobi 1.1 vs 1.8 µs at
-#: m = 3 but 4.9 vs 3.3 at m = 6 for the eigenproblem, 0.8 vs 3.1 µs for a 7×3 SVD, 7.0 vs 6.7 for a 6×9).
+#: columns of a tall matrix whose SVD does; LAPACK beyond, where its call's overhead no longer outweighs Jacobi's
+#: extra sweeps (measured inside compiled code: the Jacobi eigensolver is faster at m = 3, slower at m = 6; the
+#: Jacobi SVD faster for a 7×3 matrix, slower for a 6×9).
 JACOBI_EIG_MAX = 4
 JACOBI_SVD_MAX = 8
 #: Widest matrix (m ≤ :data:`JACOBI_SVD_MAX` rows) whose full SVD is the Jacobi SVD of its transpose plus a Householder
-#: completion of the null directions (``_svd_wide``); LAPACK beyond. Measured inside compiled code: 6×10 3.4
-#: against 9.3 µs for ``np.linalg.svd``, 3×10 0.9 against 4.6, 6×20 7.3 against 13.5 (the thin SVD: 6×40 11.7 against
-#: 16.4); the completion's O(r n (n − r)) makes it lose beyond some 24 columns (6×32: 16.1 against 15.6).
+#: completion of the null directions (``_svd_wide``); LAPACK beyond. Measured inside compiled code, it is faster
+#: than ``np.linalg.svd`` up to this width; the completion's O(r n (n − r)) makes it lose beyond (the thin SVD,
+#: without the completion, stays faster at larger widths: ``damped_svd_thin``).
 JACOBI_WIDE_MAX = 24
 #: Singular values of a wide matrix at or below this fraction of ‖M‖_F are exact zeros in ``_svd_wide`` (their
 #: right singular vectors are the completion): far below any rank tolerance (``RCOND`` = 1e-10 of σ_max).

@@ -65,7 +65,7 @@ def finite(x: np.ndarray) -> bool:
     """True when every entry of the float array x is finite.
 
     A vector first takes one dot product: a finite xᵀx means every entry is finite (an inf or NaN entry makes it
-    inf or NaN), ~0.3 µs against ~1 µs for the element-wise test, which decides only when xᵀx is not finite (an
+    inf or NaN), cheaper than the element-wise test, which decides only when xᵀx is not finite (an
     entry that is, or entries beyond ~1e154 whose squares overflow: NumPy then warns of the overflow, or raises it
     under ``np.seterr(over="raise")``, which is caught here).
     """

@@ -6,13 +6,12 @@ iteration limit, a non-finite answer) is raised as :class:`~redundik.errors.Solv
 no third-party exception leaks into a control loop.
 
 * ``daqp`` (default): the dual active-set solver of Arnström et al. (2022) through its own ``daqp.solve``: bounds
-  are native (no extra rows), exact to machine precision. Chosen as the default by measurement (/tmp script, a
-  9-variable box-bounded QP the size of a Panda wqp step, median per solve including this wrapper, loaded 2-core
-  machine): daqp 18 µs, proxsuite 36 µs (warm-started), ``qpsolvers:daqp`` 47 µs, quadprog 50 µs, osqp 1.07 ms;
-  daqp and quadprog agree to 1e-8, proxsuite to 1e-6 and osqp to 1e-4 with the tolerances set here. A problem that
-  carries its Gram factor P = FᵀF + δI (``QPProblem.factor``, k ≤ n/2 rows,
-  n ≥ ``LIFT_MIN_N``) is solved lifted to (x, s = F x), with the diagonal Hessian diag(δI, I): daqp's setup is
-  then O((n + k)·k) instead of its dense O(n³) (2.5 ms → 0.16 ms a solve on the 160-joint snake's ``wqp`` QP).
+  are native (no extra rows), exact to machine precision. The default because it is the fastest of these backends
+  on a box-bounded QP the size of a Panda ``wqp`` step (measured per solve, this wrapper included); daqp and
+  quadprog agree to 1e-8, proxsuite to 1e-6 and osqp to 1e-4 with the tolerances set here.
+  A problem that carries its Gram factor P = FᵀF + δI (``QPProblem.factor``, k ≤ n/2 rows, n ≥ ``LIFT_MIN_N``) is
+  solved lifted to (x, s = F x), with the diagonal Hessian diag(δI, I): daqp's setup is then O((n + k)·k) instead
+  of its dense O(n³).
 * ``quadprog``: Goldfarb–Idnani dual active set through ``quadprog.solve_qp`` (exact; bounds as rows).
 * ``proxsuite``: ProxQP (augmented Lagrangian) through a cached ``proxsuite.proxqp.dense.QP`` object per problem
   size, updated in place and warm-started from the previous result, at most 200 outer × 40 inner iterations (a

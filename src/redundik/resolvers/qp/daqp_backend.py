@@ -26,16 +26,15 @@ from redundik.resolvers.qp.problem import QPProblem, QPSolution
 
 #: Smallest n³ − n_c³ (n variables, n_c of them coupled) for which a bounds-only QP is split
 #: (:func:`redundik.resolvers.kernels.split_separable`) before daqp solves it. daqp's setup — a Cholesky
-#: factorisation of P and the inverse of its factor, ≈ 0.27 ns per n³ on this machine (15 µs of its 16 µs on Talos's
-#: 38-variable ``wqp`` QP) — is what the split saves; the split costs ≈ 1.5 µs (one compiled call and one scatter),
-#: i.e. ≈ 5 500 units of n³: below twice that it does not pay.
+#: factorisation of P and the inverse of its factor, ≈ 0.27 ns per n³ (measured), most of a bounds-only solve — is
+#: what the split saves; the split costs ≈ 1.5 µs (one compiled call and one scatter), i.e. ≈ 5 500 units of n³:
+#: below twice that it does not pay.
 SPLIT_MIN_SAVING = 11000
 
 #: Smallest n for which a QP that carries its Gram factor (``QPProblem.factor``, k rows) is solved lifted by
-#: daqp (``DaqpBackend._solve_lifted``), and the bound k ≤ n / LIFT_MAX_ROWS_PER_VARIABLE. Measured on the
-#: snake's ``wqp`` QPs (k = 6, 40 QPs × 5, median per solve, this wrapper included): n = 20 lifted 57 µs vs dense
-#: 40, n = 40 66 vs 82, n = 80 85 vs 384, n = 160 164 vs 2 458 — daqp's dense setup grows as n³, the lifted one
-#: as (n + k)·k.
+#: daqp (``DaqpBackend._solve_lifted``), and the bound k ≤ n / LIFT_MAX_ROWS_PER_VARIABLE: on the snake's ``wqp``
+#: QPs (k = 6) the lifted solve is measured faster from n = 40 on, slower at n = 20 — daqp's dense setup grows as
+#: n³, the lifted one as (n + k)·k.
 LIFT_MIN_N = 40
 LIFT_MAX_ROWS_PER_VARIABLE = 2
 
@@ -156,8 +155,8 @@ class DaqpBackend(Backend):
         """The problem lifted to (x, s), s = F x, when it carries its Gram factor P = FᵀF + δI
         (``QPProblem.factor``): minimise ½δ‖x‖² + ½‖s‖² + qᵀx with the rows F x − s = 0 as equalities, the
         same optimum x, but a diagonal Hessian — daqp's setup factors n + k diagonal entries instead of the dense
-        n × n P (on the 160-joint snake's ``wqp`` QP, 6 task rows: 0.6–2.6 ms → 70–110 µs a solve). ``None`` when
-        daqp does not solve it (the caller then solves P as given, with every retry)."""
+        n × n P, O((n + k)·k) instead of O(n³). ``None`` when daqp does not solve it (the caller then solves P as
+        given, with every retry)."""
         assert problem.factor is not None
         F, delta = problem.factor
         t0 = time.perf_counter()

@@ -48,27 +48,26 @@ Compiled constrained cascade: all of the constrained cascade but the level QPs �
 the QP arrays, the slack bookkeeping, the bases — is one compiled call per backend call
 (``hqp_kernels.qp_cascade_run``, on the plan's buffers); each level QP is written into a buffer in daqp's form,
 which daqp solves as it is (``Backend.solve_stacked``; other backends get it as a ``QPProblem``); the Level
-records are built only for a contradiction's row names and for the diagnostics. A QP step of the 10-joint snake
-300 → 72 µs (its Python cascade is the reference of ``tests/test_hqp_lean.py``). With daqp as the backend the
-cascade calls daqp's C entry point itself (:mod:`redundik.resolvers.qp.daqp_native`) and goes on at once; a QP
-daqp does not solve at once comes back here for the retries (72 → ~50 µs). A least-squares level of m ≤ r rows
-whose QR (A_k Z)ᵀ = Q [R; 0] certifies σ_min ≥ ε (``certified_qr``; nothing damped, full rank) takes Q₂ as its
-null basis and the ridge û from R (``hqp_kernels._ridge_triangular``, no normal equations) instead of the SVD —
-another orthonormal basis of the same space, so the same level optima, q̇ to the level QPs' conditioning; its σ_min
-comes from R's singular values when the diagnostics are read (the snake's 6 × 10 level 7.3 → 2.3 µs, its
-compiled QP cascade 21 → 16 µs); in the complement mode the thin QR's Q₁ᵀ gives the level's fixed directions
-(``hqp_kernels._certified_rows``: the 40-joint snake's QP cascade 38 → 20 µs, measured on captured steps).
+records are built only for a contradiction's row names and for the diagnostics (the tests hold it to a Python
+cascade, ``tests/test_hqp_lean.py``). With daqp as the backend the cascade calls daqp's C entry point itself
+(:mod:`redundik.resolvers.qp.daqp_native`) and goes on at once; a QP daqp does not solve at once comes back here
+for the retries. A least-squares level of m ≤ r rows whose QR (A_k Z)ᵀ = Q [R; 0] certifies σ_min ≥ ε
+(``certified_qr``; nothing damped, full rank) takes Q₂ as its null basis and the ridge û from R
+(``hqp_kernels._ridge_triangular``, no normal equations) instead of the SVD — another orthonormal basis of the same
+space, so the same level optima, q̇ to the level QPs' conditioning; its σ_min comes from R's singular values when
+the diagnostics are read; in the complement mode the thin QR's Q₁ᵀ gives the level's fixed directions
+(``hqp_kernels._certified_rows``).
 A fused step whose cascade daqp settles entirely from the compiled call, no level contradicted, keeps nothing of
 the template but that call and the clipping (``_native_cascade``, ``_native_result``: no HQPBuild, limit box or
-QPDiagnostics until the diagnostics are read; the same q̇ and info bit for bit, ``tests/test_hqp_buffers.py``; the
-snake's QP step 54 → 50 µs); anything else runs the template from the start.
+QPDiagnostics until the diagnostics are read; the same q̇ and info bit for bit, ``tests/test_hqp_buffers.py``);
+anything else runs the template from the start.
 Complement mode (exact, large robots): below a least-squares level that leaves few directions fixed (at most a third
 of nv, from nv ≥ ``complement_min_n`` = 40 on), the cascade keeps W, an orthonormal basis of the fixed directions,
 instead of Z (null(W) = range(Z)), and poses each level QP over y = Z u in joint space: the joint limits become
 simple bounds on y instead of 2·nv rows of Z, W y = 0 and the lifted least squares s = A_k y are equalities, the
 Hessian stays diagonal (``hqp_kernels.level_qp_joint_into``); ‖u‖ = ‖y‖ and A_k Z u = A_k y on null(W), so the
-QP and its optimum are the same, and no null basis is ever formed (its full SVD was 100 µs of the 160-joint
-snake's step). A QP step of the 160-joint snake 660 → 365 µs.
+QP and its optimum are the same, and no null basis is ever formed (the full SVD that forms it, with its nv × nv
+factor, is costly on a large robot).
 
 The levels are the stack's (:mod:`redundik.tasks.stack`): main tasks at their priority (0), target and bound
 subtasks below them, the null-space objective ½‖q̇ − z‖² (gradient subtasks and posture) last; restricted to Z it
