@@ -30,6 +30,7 @@ ALLOWED: dict[tuple[str, str], str] = {
     # the resolvers' own objects (defined in redundik/resolvers)
     ("info", "_pending"): "LazyInfo (resolvers/result.py)",
     ("value", "_pending"): "LazyInfo (resolvers/result.py)",
+    ("value", "_keys"): "LazyInfo (resolvers/result.py)",
     ("plan", "_pack"): "FusedPlan (resolvers/fused.py)",
     ("plan", "_dims"): "hqp's level plan (resolvers/qp/hqp.py)",
     ("backend", "_split_min_n"): "DaqpBackend (resolvers/qp/daqp_backend.py)",

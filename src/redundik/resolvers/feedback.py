@@ -53,6 +53,7 @@ from redundik.resolvers.layouts import (
 )
 from redundik.resolvers.linalg import FK, RCOND, _Kernels, contiguous, gram_sigma_min, pseudo_inverse
 from redundik.resolvers.pinv import main_system
+from redundik.resolvers.result import info_keys
 from redundik.resolvers.settings import Setting, flag, nonnegative
 from redundik.resolvers.singularity import SingularityGuard
 from redundik.tasks.base import CompiledGradient, TaskTerm
@@ -347,6 +348,7 @@ def _result(
     return res
 
 
+@info_keys("sigma_min")
 def _sigma_min(J: np.ndarray, d_damped: bool) -> tuple[float, bool, dict[str, object]]:
     """σ_min of a well-conditioned, undamped J (the law's Cholesky route), on first read."""
     smin = gram_sigma_min(J)

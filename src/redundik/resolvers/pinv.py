@@ -21,6 +21,7 @@ from redundik.resolvers.base import LazyStepResult, Resolver, StepResult, nonfin
 from redundik.resolvers.fused import FusedPlan, FusedStepResult
 from redundik.resolvers.layouts import CF_DQ, CF_NULL, CF_RANK, CF_ROWS
 from redundik.resolvers.linalg import FK, RCOND, K, contiguous, gram_sigma_min
+from redundik.resolvers.result import info_keys
 from redundik.resolvers.settings import Setting, flag
 from redundik.resolvers.singularity import SingularityGuard
 from redundik.tasks.base import TaskTerm, stack_terms
@@ -170,11 +171,7 @@ class PinvResolver(Resolver):
             dq = np.zeros(robot.nv)
         t2 = time.perf_counter()
         if sigma_min != sigma_min:  # NaN: J well conditioned and undamped, σ_min computed on first read
-
-            def diagnostics() -> tuple[float, bool, dict[str, object]]:
-                smin = gram_sigma_min(J)
-                return smin, False, {"sigma_min": smin}
-
+            diagnostics = functools.partial(_closed_form_sigma, J)
             return LazyStepResult.make(
                 dq, terms, fallback, {"rank": int(rank)}, t1 - t0, t2 - t1, layout.main, diagnostics, dq_r, dq_n
             )
@@ -228,6 +225,14 @@ class PinvResolver(Resolver):
         return f"PinvResolver(epsilon={self.epsilon}, max_damping={self.max_damping})"
 
 
+@info_keys("sigma_min")
+def _closed_form_sigma(J: np.ndarray) -> tuple[float, bool, dict[str, object]]:
+    """σ_min of a closed-form step's J (well conditioned and undamped: its Cholesky route), on first read."""
+    smin = gram_sigma_min(J)
+    return smin, False, {"sigma_min": smin}
+
+
+@info_keys("sigma_min")
 def _fused_sigma(step: tuple[Any, ...]) -> tuple[float, bool, dict[str, object]]:
     """σ_min of a fused ``pinv`` step's main Jacobian (read from its work array; the step was undamped)."""
     work, plan, _, robot, _ = step

@@ -4,9 +4,11 @@ step's intermediates non-finite."""
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -81,36 +83,69 @@ class StepResult:
         return math.sqrt(total)
 
 
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def info_keys(*keys: str) -> Callable[[F], F]:
+    """Declare the ``info`` entries a pending-diagnostics function adds (a decorator): reading any other absent key
+    of the step's ``info`` (``info.get("qp")`` on a ``pinv`` step, ``"x" in info``) then answers at once instead of
+    computing the diagnostics. An undeclared function may add anything: every absent key computes them."""
+
+    def mark(fn: F) -> F:
+        fn.info_keys = frozenset(keys)  # type: ignore[attr-defined]
+        return fn
+
+    return mark
+
+
+def declared_keys(fn: Callable[..., Any] | None) -> frozenset[str] | None:
+    """The keys :func:`info_keys` declared for ``fn`` (or the function a ``functools.partial`` wraps); ``None``."""
+    target = fn.func if isinstance(fn, functools.partial) else fn
+    return getattr(target, "info_keys", None)
+
+
 class LazyInfo(dict):  # type: ignore[type-arg]
     """``StepResult.info`` whose costly entries are computed on first read (the keys given eagerly stay cheap).
 
-    Reading a key that is present returns it at once; reading any other key, iterating, or asking the size runs the
-    pending diagnostics once (a QP step's residuals, σ_min, active-limit labels), then behaves as a plain dict.
+    Reading a key that is present returns it at once; reading a key the pending diagnostics may add (``keys``; all
+    keys when ``None``), iterating, or asking the size runs them once (a QP step's residuals, σ_min, active-limit
+    labels), then it behaves as a plain dict. Any other key is absent without computing anything.
     """
 
-    __slots__ = ("_pending",)
+    __slots__ = ("_keys", "_pending")
 
-    def __init__(self, eager: dict[str, object], pending: Callable[[], dict[str, object]] | None) -> None:
+    def __init__(
+        self,
+        eager: dict[str, object],
+        pending: Callable[[], dict[str, object]] | None,
+        keys: frozenset[str] | None = None,
+    ) -> None:
         super().__init__(eager)
         self._pending = pending
+        self._keys = keys
 
     def _fill(self) -> None:
         pending, self._pending = self._pending, None
         if pending is not None:
             dict.update(self, pending())
 
+    def _may_add(self, key: object) -> bool:
+        """Whether the pending diagnostics may add ``key`` (absent now): they must run to tell."""
+        keys = self._keys
+        return self._pending is not None and not dict.__contains__(self, key) and (keys is None or key in keys)
+
     def __getitem__(self, key: str) -> object:
-        if self._pending is not None and not dict.__contains__(self, key):
+        if self._may_add(key):
             self._fill()
         return dict.__getitem__(self, key)
 
     def get(self, key: str, default: object = None) -> object:
-        if self._pending is not None and not dict.__contains__(self, key):
+        if self._may_add(key):
             self._fill()
         return dict.get(self, key, default)
 
     def __contains__(self, key: object) -> bool:
-        if self._pending is not None and not dict.__contains__(self, key):
+        if self._may_add(key):
             self._fill()
         return dict.__contains__(self, key)
 
@@ -155,11 +190,12 @@ class _Deferred:
     the loop drops it: no reference cycle is left for the cyclic garbage collector, whose collections would otherwise
     interrupt a control loop that reads ``info``."""
 
-    __slots__ = ("fn", "out")
+    __slots__ = ("fn", "keys", "out")
 
     def __init__(self, fn: Callable[[], tuple[float, bool, dict[str, object]]]) -> None:
         self.fn: Callable[[], tuple[float, bool, dict[str, object]]] | None = fn
         self.out: tuple[float, bool, dict[str, object]] | None = None
+        self.keys = declared_keys(fn)  # the info entries fn may add (None: any)
 
     def __call__(self) -> tuple[float, bool, dict[str, object]]:
         out = self.out
@@ -279,7 +315,9 @@ class LazyStepResult(StepResult):
         info = d["_info"]
         if type(info) is dict:  # the eager entries of a step, wrapped on first read
             deferred = self._deferred()
-            info = d["_info"] = LazyInfo(info, None if deferred is None else deferred.extra)
+            info = d["_info"] = (
+                LazyInfo(info, None) if deferred is None else LazyInfo(info, deferred.extra, deferred.keys)
+            )
         return info
 
     @info.setter
@@ -288,6 +326,7 @@ class LazyStepResult(StepResult):
             value = LazyInfo(value, None)
         deferred = self._deferred()
         value._pending = None if deferred is None else deferred.extra
+        value._keys = None if deferred is None else deferred.keys
         self.__dict__["_info"] = value
 
 
