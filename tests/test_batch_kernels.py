@@ -159,8 +159,11 @@ def test_closed_form_kernel_matches_the_reference(case: str) -> None:
     np.testing.assert_allclose(dq_r, pinv @ V, atol=1e-9)
     np.testing.assert_allclose(dq_n, null @ z, atol=1e-9)
     assert rank == np.linalg.matrix_rank(J)
-    batch = kernels.closed_form_batch(J[None], V[None], z[None], True, 1e-2, 5e-2, 1e-10)
-    np.testing.assert_array_equal(batch[0][0], dq_r)  # the batch is the same kernel, problem by problem
+    single, batch = np.empty((3, J.shape[1])), np.empty((1, 3, J.shape[1]))
+    kernels.closed_form_into(J, V, z, True, 1e-2, 5e-2, 1e-10, single, True)  # (as pinv's step calls it)
+    np.testing.assert_allclose(single, [pinv @ V, null @ z, pinv @ V + null @ z], atol=1e-9)
+    kernels.closed_form_batch(J[None], V[None], z[None], True, 1e-2, 5e-2, 1e-10, batch)
+    np.testing.assert_array_equal(batch[0], single)  # the batch is the same kernel, problem by problem
 
 
 @pytest.mark.parametrize("n", [5, 40])

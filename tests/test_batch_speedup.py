@@ -1,6 +1,6 @@
 """The batch's fast paths equal the one-by-one loop: the kinematics read through views of Pinocchio's Data (and
-without them), ``pinv``'s Cholesky solve of the well-conditioned problems with the single step's kernel for the
-damped ones, row subsets, no posture, a floating base, and the whole-array input checks (no timing here)."""
+without them), ``pinv``'s problems each solved by the single step's kernel, row subsets, no posture, a floating
+base, and the whole-array input checks (no timing here)."""
 
 from __future__ import annotations
 
@@ -61,23 +61,31 @@ def test_batch_equals_the_loop_near_singularities(
     np.testing.assert_array_equal(got.capped, ref.capped)
 
 
-def test_pinv_sends_only_the_damped_problems_to_the_single_steps_kernel(
-    panda_mixed: tuple, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """The problems that fail the Cholesky test (and only they) take ``closed_form_batch``; the others are solved
-    in one ``spd_solve_batch`` call."""
+def test_pinv_solves_each_problem_with_the_single_steps_kernel(panda_mixed: tuple) -> None:
+    """Every problem — the regular ones (Cholesky) and the 8 damped ones (the damped factorisation) — is solved by
+    the single step's ``closed_form_into`` (lazy σ_min, as ``pinv``'s step calls it): bit for bit on the batch's own
+    rows, and to rounding against the loop of steps."""
     robot, Q, T = panda_mixed
     batch = BatchResolver(make_resolver("pinv"), robot, "panda_hand", gain=20.0, posture_target=Q0)
-    kernel = K.closed_form_batch
-    sizes: list[int] = []
-
-    def counted(J: np.ndarray, *args: object) -> object:
-        sizes.append(J.shape[0])
-        return kernel(J, *args)
-
-    monkeypatch.setattr(K, "closed_form_batch", counted)
     got = batch.solve(Q, T, 0.01)
-    assert sizes == [8]  # the singular configurations, not the regular ones
+    q, targets = batch._check(Q, T, 0.01)
+    J, e, ep = batch._kinematics(q, targets)
+    r = batch.resolver
+    routes = []
+    for i in range(Q.shape[0]):
+        out = np.empty((3, robot.nv))
+        _, smin, _ = K.closed_form_into(
+            J[i].copy(), batch.gain * e[i], batch.posture_gain * ep[i], True, r.epsilon, r.max_damping, 1e-10, out,
+            True,
+        )  # fmt: skip
+        routes.append(np.isnan(smin))  # NaN: the Cholesky route (σ_min left for a read)
+        if got.capped[i]:  # the joint-speed cap scaled the row, as it scales a step's q̇
+            scale = float(np.linalg.norm(got.dq[i]) / np.linalg.norm(out[2]))
+            assert 0.0 < scale < 1.0
+            np.testing.assert_allclose(got.dq[i], scale * out[2], rtol=1e-12, atol=1e-12)
+        else:
+            np.testing.assert_array_equal(got.dq[i], out[2])
+    assert sum(routes) == 28 and not got.capped.all()  # the regular problems by Cholesky, the near-singular damped
     np.testing.assert_allclose(got.dq, batch.solve_loop(Q, T, 0.01).dq, atol=1e-9, rtol=0)
 
 

@@ -12,9 +12,9 @@ Vectorised over problems:
   problem, into buffers kept per N); then one compiled loop over the N problems
   (``batch_kernels.frame_rows_batch``) for the frame placement, its base-aligned Jacobian and the pose errors
   e = (p_d − p, log(R_d Rᵀ)) (Pinocchio's ``log3`` for the rotation errors beyond the small-angle formula);
-* ``pinv``: q̇ = J⁺V + (I − J⁺J)z as the single step computes it (``kernels.closed_form_into``): the problems that
-  pass its Cholesky test (full row rank, nothing damped) by one ``spd_solve_batch`` call, the others through
-  :func:`redundik.resolvers.kernels.closed_form_batch` (the single step's damped factorisation);
+* ``pinv``: q̇ = J⁺V + (I − J⁺J)z as the single step computes it, with its kernel
+  (``kernels.closed_form_into``: Cholesky when J has full row rank and nothing is damped, else the damped
+  factorisation), in one compiled loop over the N problems (:func:`redundik.resolvers.kernels.closed_form_batch`);
 * ``wqp``: P = w JᵀJ + ρ I + λ I, q = −w JᵀV − ρ z, the unconstrained optimum and its box test (the kernels of the
   single ``wqp`` step: ``gram_update``, ``spd_solve_box_into``) in one compiled loop over the N problems
   (``batch_kernels.wqp_box_batch``), the joint-limit boxes of all N by one call of :meth:`JointLimits.box` on a (N, nq)
@@ -25,8 +25,8 @@ Vectorised over problems:
   the backend refuses goes through the single-problem ``wqp`` step itself (its relaxation and fallback, exactly as the
   loop).
 
-Agreement with the loop: ≤ 1e-9 in q̇ (tested); the differences are rounding (NumPy's stacked products and
-q̇ = z + Jᵀ(JJᵀ)⁻¹(V − Jz) for ``pinv``'s two solves; ``wqp`` matched the loop bit for bit on panda_batch1000).
+Agreement with the loop: ≤ 1e-9 in q̇ (tested); the differences are rounding (the batch's frame rows against
+Pinocchio's in the single step; ``wqp`` matched the loop bit for bit on panda_batch1000).
 """
 
 from __future__ import annotations
@@ -44,6 +44,7 @@ from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.memory import jacobian_view, se3_vector_view
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver
+from redundik.resolvers.layouts import CF_DQ, CF_ROWS
 from redundik.resolvers.linalg import RCOND, K, _Kernels
 from redundik.resolvers.pinv import PinvResolver
 from redundik.resolvers.qp.backends import DaqpBackend
@@ -397,49 +398,13 @@ class BatchResolver:
 
     def _solve_pinv(self, r: PinvResolver, J: np.ndarray, V: np.ndarray, z: np.ndarray) -> np.ndarray:
         """q̇ = J⁺V + (I − J⁺J)z (eq. 5.8) of the N problems (J (N, m, n), V (N, m) [m/s, rad/s], z (N, n)
-        [rad/s]), shape (N, n) [rad/s]: each problem's answer of the single ``pinv`` step
-        (``kernels.closed_form_into`` with its lazy σ_min), to rounding.
-
-        A problem whose J passes that kernel's Cholesky test — JJᵀ − sI positive definite with
-        s = max(ε², 1e-6·tr JJᵀ), so J has full row rank and no direction is damped — is solved as
-        q̇ = z + Jᵀ(JJᵀ)⁻¹(V − Jz) (the same q̇ as Jᵀ(JJᵀ)⁻¹V + z − Jᵀ(JJᵀ)⁻¹Jz), the test and the solve for all N in
-        one call of ``spd_solve_batch`` (its unblocked Cholesky factorisation and substitutions). The other
-        problems (a damped or rank-deficient J, non-finite data) go through ``closed_form_batch``: the single step's
-        factorisation (the eigen- or the damped SVD path), exactly.
-        """
-        N, m, n = J.shape
-        has_z = self.posture_gain > 0
-        if N == 0 or not 0 < m <= n:
-            dq_r, dq_n, _, _, _ = K.closed_form_batch(J, V, z, has_z, r.epsilon, r.max_damping, RCOND)
-            return cast(np.ndarray, dq_r + dq_n)
-        Jt = self._buffer("Jt", (N, n, m))
-        np.copyto(Jt, J.transpose(0, 2, 1))
-        P = self._buffer("P", (2, N, m, m))  # the shifted JJᵀ − sI (only its test), then JJᵀ
-        A = np.matmul(J, Jt, out=P[1])  # JJᵀ (N, m, m)
-        tr = np.trace(A, axis1=1, axis2=2)
-        P[0] = A
-        P[0].reshape(N, m * m)[:, :: m + 1] -= np.maximum(r.epsilon * r.epsilon, K.FAST_PATH_RCOND * tr)[:, None]
-        rhs = self._buffer("rhs", (2, N, m))  # spd_solve_batch's x = −P⁻¹q: q = 0, then q = Jz − V
-        rhs[0] = 0.0
-        if has_z:
-            np.matmul(J, z[:, :, None], out=rhs[1][:, :, None])
-            rhs[1] -= V
-        else:
-            np.negative(V, out=rhs[1])
-        inf = self._buffers.get("inf")
-        if inf is None or inf.shape != (2 * N, m):
-            inf = self._buffers["inf"] = np.full((2 * N, m), np.inf)
-            self._buffers["-inf"] = -inf
-        x, ok, _ = K.spd_solve_batch(P.reshape(-1, m, m), rhs.reshape(-1, m), self._buffers["-inf"], inf, 0.0)
-        dq = (Jt @ x[N:, :, None])[:, :, 0]
-        if has_z:
-            dq += z
-        good = ok[:N] & ok[N:] & (tr > 0.0) & np.isfinite(tr)
-        if not good.all():
-            bad = np.flatnonzero(~good)
-            dq_r, dq_n, _, _, _ = K.closed_form_batch(J[bad], V[bad], z[bad], has_z, r.epsilon, r.max_damping, RCOND)
-            dq[bad] = dq_r + dq_n
-        return dq
+        [rad/s]), shape (N, n) [rad/s]: each problem solved by the single ``pinv`` step's kernel
+        (``kernels.closed_form_into`` with its lazy σ_min: Jᵀ(JJᵀ)⁻¹ by Cholesky when J has full row rank and
+        nothing is damped, else the damped factorisation), in one compiled loop over the problems."""
+        N, _, n = J.shape
+        out = np.empty((N, CF_ROWS, n))
+        K.closed_form_batch(J, V, z, self.posture_gain > 0, r.epsilon, r.max_damping, RCOND, out)
+        return np.ascontiguousarray(out[:, CF_DQ])
 
     def _solve_wqp(
         self,

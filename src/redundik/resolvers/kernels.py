@@ -194,29 +194,14 @@ def closed_form(
 
 @_jit
 def closed_form_batch(
-    J: np.ndarray, V: np.ndarray, z: np.ndarray, has_z: bool, epsilon: float, max_damping: float, rcond: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`closed_form` for N problems: J (N, m, n), V (N, m), z (N, n).
-
-    Returns:
-        (q̇_r (N, n), q̇_n (N, n), rank (N,), σ_min (N,), damping (N,)), each problem solved exactly as
-        :func:`closed_form` solves it alone.
-    """
-    N, _, n = J.shape
-    dq_r = np.empty((N, n))
-    dq_n = np.empty((N, n))
-    rank = np.empty(N, dtype=np.int64)
-    smin = np.empty(N)
-    damp = np.empty(N)
-    buf = np.empty((3, n))
-    for i in range(N):
-        r, s, d = closed_form_into(
-            np.ascontiguousarray(J[i]), V[i].copy(), z[i].copy(), has_z, epsilon, max_damping, rcond, buf
-        )
-        dq_r[i] = buf[0]
-        dq_n[i] = buf[1]
-        rank[i], smin[i], damp[i] = r, s, d
-    return dq_r, dq_n, rank, smin, damp
+    J: np.ndarray, V: np.ndarray, z: np.ndarray, has_z: bool, epsilon: float, max_damping: float, rcond: float,
+    out: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`closed_form_into` for N problems — J (N, m, n), V (N, m), z (N, n) — each solved as the single ``pinv``
+    step solves it (``lazy_sigma``: by Cholesky when J is well conditioned and undamped, else through ``factor``):
+    ``out[i]`` (3, n) = (q̇_r, q̇_n, q̇) of problem i. The inputs are read, not written."""
+    for i in range(J.shape[0]):
+        closed_form_into(J[i], V[i], z[i], has_z, epsilon, max_damping, rcond, out[i], True)
 
 
 def first_run_cost() -> dict[str, float]:
@@ -231,7 +216,7 @@ def first_run_cost() -> dict[str, float]:
     closed_form(J, np.ones(2), z, True, 1e-2, 5e-2, 1e-10)
     out["closed_form"] = time.perf_counter() - t0
     t0 = time.perf_counter()
-    closed_form_batch(J[None], np.ones((1, 2)), z[None], True, 1e-2, 5e-2, 1e-10)
+    closed_form_batch(J[None], np.ones((1, 2)), z[None], True, 1e-2, 5e-2, 1e-10, np.empty((1, 3, 3)))
     out["closed_form_batch"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     P = np.eye(3)[None] * 2.0
