@@ -130,22 +130,22 @@ class LazyInfo(dict):  # type: ignore[type-arg]
             dict.update(self, pending())
 
     def _may_add(self, key: object) -> bool:
-        """Whether the pending diagnostics may add ``key`` (absent now): they must run to tell."""
+        """Whether the pending diagnostics may add ``key`` (absent now, diagnostics pending): they must run to tell."""
         keys = self._keys
-        return self._pending is not None and not dict.__contains__(self, key) and (keys is None or key in keys)
+        return keys is None or key in keys
 
     def __getitem__(self, key: str) -> object:
-        if self._may_add(key):
+        if self._pending is not None and not dict.__contains__(self, key) and self._may_add(key):
             self._fill()
         return dict.__getitem__(self, key)
 
     def get(self, key: str, default: object = None) -> object:
-        if self._may_add(key):
+        if self._pending is not None and not dict.__contains__(self, key) and self._may_add(key):
             self._fill()
         return dict.get(self, key, default)
 
     def __contains__(self, key: object) -> bool:
-        if self._may_add(key):
+        if self._pending is not None and not dict.__contains__(self, key) and self._may_add(key):
             self._fill()
         return dict.__contains__(self, key)
 
