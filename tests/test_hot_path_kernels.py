@@ -214,6 +214,43 @@ def test_cholesky_closed_form_equals_the_svd_pseudo_inverse() -> None:
     assert taken > 50 and declined > 20
 
 
+def test_damped_eigen_route_equals_the_damped_svd_of_numpy() -> None:
+    """``factor``'s eigen route with damped directions (J of full row rank, κ ≤ 1e3, σ_min < ε): J⁺_λ b, the
+    undamped null projection (I − J⁺J) z, σ_min, λ at σ_min and the rank, each against NumPy's SVD with the damping
+    rule σ/(σ² + λ²), λ² = (1 − (σ/ε)²) λ_max² (eq. 5.7's damped least squares)."""
+    rng = np.random.default_rng(23)
+    eps, lam_max = 5e-2, 1e-1
+    taken = 0
+    for _ in range(400):
+        m = int(rng.integers(1, 7))
+        n = int(rng.integers(m, 12))
+        U, _ = np.linalg.qr(rng.normal(size=(m, m)))
+        W, _ = np.linalg.qr(rng.normal(size=(n, n)))
+        s = np.sort(10.0 ** rng.uniform(-2.9, 0.4, m))[::-1]
+        J = (U * s) @ W[:m]
+        b, z = rng.normal(size=m), rng.normal(size=n)
+        fast, Uf, d, Vt, inv, rank, smin, damping = kernels.factor(J, eps, lam_max, 1e-10)
+        if not (fast and damping > 0.0):
+            continue
+        taken += 1
+        u, sv, vt = np.linalg.svd(J, full_matrices=False)
+        lam2 = np.where(sv < eps, (1.0 - (sv / eps) ** 2) * lam_max**2, 0.0)
+        x_ref = vt.T @ (sv / (sv**2 + lam2) * (u.T @ b))
+        x = kernels.solve_factored(fast, J, Uf, inv, Vt, b)
+        np.testing.assert_allclose(x, x_ref, rtol=0, atol=1e-11 * np.linalg.norm(x_ref))
+        p = kernels.null_project_factored(fast, J, Uf, d, Vt, rank, z)
+        np.testing.assert_allclose(p, z - vt.T @ (vt @ z), rtol=0, atol=1e-9 * np.linalg.norm(z))
+        np.testing.assert_allclose(J @ p, 0.0, atol=1e-9 * np.linalg.norm(z))  # undamped: exactly in null(J)
+        out = np.empty((3, n))  # pinv's closed form (eq. 5.8) on the same factors
+        kernels.closed_form_into(J, b, z, True, eps, lam_max, 1e-10, out, True)
+        np.testing.assert_allclose(out[0], x_ref, rtol=0, atol=1e-11 * np.linalg.norm(x_ref))
+        np.testing.assert_allclose(out[1], p, rtol=0, atol=1e-15 * np.linalg.norm(z))
+        assert rank == m
+        assert smin == pytest.approx(sv[-1], rel=1e-9)
+        assert damping == pytest.approx(np.sqrt(1.0 - (sv[-1] / eps) ** 2) * lam_max, rel=1e-9)
+    assert taken > 100
+
+
 def test_pinv_sigma_min_on_request_equals_the_singular_value() -> None:
     robot = rk.load_example_robot("panda")
     q = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.02, 0.02])  # away from singularities

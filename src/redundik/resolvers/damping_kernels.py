@@ -129,10 +129,16 @@ def factor(
 ) -> tuple[bool, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, float, float]:
     """Factor J (m, n) for its damped pseudo-inverse.
 
+    The fast path — J of full row rank with λ_min/λ_max of JJᵀ above ``FAST_PATH_RCOND`` (and rcond²), so that
+    every direction is kept — takes the eigendecomposition of JJᵀ alone, damped or not: Jᵀuᵢ = σᵢvᵢ, so
+    J⁺_λ = Jᵀ U diag(1/(σᵢ² + λᵢ²)) Uᵀ (λᵢ = 0 for σᵢ ≥ ε) and J⁺J = Jᵀ U diag(1/σᵢ²) Uᵀ J. Anything else (a
+    rank-deficient or ill-conditioned J, more rows than columns, a non-finite J) takes the damped SVD.
+
     Returns:
         (fast, U, d, Vt, inv, rank, sigma_min, damping). Fast path: U (m, m) eigenvectors of JJᵀ, d (m,) its
-        eigenvalues (ascending), inv = 1/d, Vt empty. SVD path: U (m, k), d = σ (k,) descending, Vt (n, n),
-        inv the damped inverse values; damping = λ at σ_min (0 when no direction is damped).
+        eigenvalues σᵢ² (ascending), inv = 1/(σᵢ² + λᵢ²), Vt empty. SVD path: U (m, k), d = σ (k,) descending,
+        Vt (n, n), inv the damped inverse values σ/(σ² + λ²); damping = λ at σ_min (0 when no direction is
+        damped). :func:`null_project_factored` takes d (the projector is undamped), :func:`solve_factored` inv.
     """
     m, n = J.shape
     if m == 0:
@@ -147,8 +153,18 @@ def factor(
                 A[i, j] = t
                 A[j, i] = t
         lam, U = sym_eig(A)
-        if lam[m - 1] > 0.0 and lam[0] > FAST_PATH_RCOND * lam[m - 1] and lam[0] >= epsilon * epsilon:
-            return True, np.ascontiguousarray(U), lam, np.zeros((0, n)), 1.0 / lam, m, math.sqrt(lam[0]), 0.0
+        if lam[m - 1] > 0.0 and lam[0] > max(FAST_PATH_RCOND, rcond * rcond) * lam[m - 1]:  # every direction kept
+            if lam[0] >= epsilon * epsilon:  # none damped: Jᵀ(JJᵀ)⁻¹
+                return True, np.ascontiguousarray(U), lam, np.zeros((0, n)), 1.0 / lam, m, math.sqrt(lam[0]), 0.0
+            # some damped (σ_i < ε): J⁺_λ = V diag(σ/(σ² + λ²)) Uᵀ = Jᵀ U diag(1/(σ² + λ²)) Uᵀ, as Jᵀuᵢ = σᵢvᵢ
+            inv = np.empty(m)
+            damp = epsilon > 0.0 and max_damping > 0.0
+            for i in range(m):
+                lam2 = (1.0 - lam[i] / (epsilon * epsilon)) * max_damping * max_damping if damp else 0.0
+                inv[i] = 1.0 / (lam[i] + max(lam2, 0.0))
+            sigma_min = math.sqrt(lam[0])
+            damping = math.sqrt(1.0 - lam[0] / (epsilon * epsilon)) * max_damping if epsilon > 0.0 else 0.0
+            return True, np.ascontiguousarray(U), lam, np.zeros((0, n)), inv, m, sigma_min, damping
     U, s, Vt, inv, rank, sigma_min, damping = damped_svd_factors(J, epsilon, max_damping, rcond)
     return False, U, s, Vt, inv, rank, sigma_min, damping
 
@@ -194,16 +210,17 @@ def solve_factored(
 
 @_jit
 def null_project_factored(
-    fast: bool, J: np.ndarray, U: np.ndarray, inv: np.ndarray, Vt: np.ndarray, rank: int, z: np.ndarray
+    fast: bool, J: np.ndarray, U: np.ndarray, d: np.ndarray, Vt: np.ndarray, rank: int, z: np.ndarray
 ) -> np.ndarray:
-    """P_n z = (I − V_r V_rᵀ) z from the factors (on the fast path V_r V_rᵀ = J⁺J)."""
+    """P_n z = (I − V_r V_rᵀ) z from the factors of :func:`factor` (its d: on the fast path the eigenvalues σᵢ² of
+    JJᵀ, and V_r V_rᵀ = J⁺J = Jᵀ U diag(1/σᵢ²) Uᵀ J, undamped whatever the damping of the solve)."""
     if fast:
         m, n = J.shape
         Jz = np.zeros(m)
         for i in range(m):
             for j in range(n):
                 Jz[i] += J[i, j] * z[j]
-        return z - _jt_ainv(J, U, inv, Jz)
+        return z - _jt_ainv(J, U, 1.0 / d, Jz)
     if rank == 0:
         return z.copy()
     Vr = np.ascontiguousarray(Vt[:rank])

@@ -71,14 +71,14 @@ def feedback_law(
             PN[:, i] = _cholesky_project(J, L, Nt[i], y)
         rank, smin, damping = m, np.nan, 0.0  # (σ_min: the caller computes it when it is read)
     else:
-        fast, U, _, Vt, inv, rank, smin, damping = factor(J, eps, lmax, rcond)
+        fast, U, d, Vt, inv, rank, smin, damping = factor(J, eps, lmax, rcond)
         if m == 0:
             dq_r[:] = 0.0
         else:
             dq_r[:] = solve_factored(fast, J, U, inv, Vt, V)
-        Pz = null_project_factored(fast, J, U, inv, Vt, rank, z) if has_z else np.zeros(n)
+        Pz = null_project_factored(fast, J, U, d, Vt, rank, z) if has_z else np.zeros(n)
         for i in range(r):
-            PN[:, i] = null_project_factored(fast, J, U, inv, Vt, rank, np.ascontiguousarray(Nt[i]))
+            PN[:, i] = null_project_factored(fast, J, U, d, Vt, rank, np.ascontiguousarray(Nt[i]))
     report[FB_J_RANK], report[FB_SIGMA_MIN], report[FB_DAMPING] = rank, smin, damping
     report[FB_D_RANK], report[FB_D_DAMPING] = 0.0, 0.0
     dq_n = out[FB_NULL]

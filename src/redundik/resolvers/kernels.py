@@ -168,13 +168,13 @@ def closed_form_into(
         for i in range(n):
             out[2, i] = out[0, i] + out[1, i]
         return m, np.nan, 0.0
-    fast, U, _, Vt, inv, rank, sigma_min, damping = factor(J, epsilon, max_damping, rcond)
+    fast, U, d, Vt, inv, rank, sigma_min, damping = factor(J, epsilon, max_damping, rcond)
     if J.shape[0] == 0:
         out[0, :] = 0.0
     else:
         out[0, :] = solve_factored(fast, J, U, inv, Vt, V)
     if has_z:
-        out[1, :] = null_project_factored(fast, J, U, inv, Vt, rank, z)
+        out[1, :] = null_project_factored(fast, J, U, d, Vt, rank, z)
     else:
         out[1, :] = 0.0
     for i in range(n):

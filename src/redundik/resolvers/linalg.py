@@ -145,14 +145,28 @@ class PseudoInverse:
         rank: Numerical rank of J.
         sigma_min: Smallest nonzero singular value (∞ for an empty or zero J) [unit of J].
         damping: Largest λ_i used (0 when not damped).
-        fast: True when the fast path Jᵀ(JJᵀ)⁻¹ was taken.
+        fast: True when the eigendecomposition of JJᵀ alone gave the factors (J of full row rank, well conditioned).
     """
 
-    __slots__ = ("_J", "_U", "_Vt", "_inv", "_null", "_pinv", "checked", "damping", "fast", "n", "rank", "sigma_min")
+    __slots__ = (
+        "_J",
+        "_U",
+        "_Vt",
+        "_d",
+        "_inv",
+        "_null",
+        "_pinv",
+        "checked",
+        "damping",
+        "fast",
+        "n",
+        "rank",
+        "sigma_min",
+    )
 
     def __init__(self, J: np.ndarray, epsilon: float, max_damping: float, rcond: float) -> None:
-        fast, U, _, Vt, inv, rank, smin, damping = K.factor(J, epsilon, max_damping, rcond)
-        self._J, self._U, self._Vt, self._inv = J, U, Vt, inv
+        fast, U, d, Vt, inv, rank, smin, damping = K.factor(J, epsilon, max_damping, rcond)
+        self._J, self._U, self._Vt, self._d, self._inv = J, U, Vt, d, inv
         self.fast, self.rank, self.sigma_min, self.damping = bool(fast), int(rank), float(smin), float(damping)
         self.n = int(J.shape[1])
         self.checked = True  # solve / null_project check their argument (off for the resolvers' own rows)
@@ -176,7 +190,7 @@ class PseudoInverse:
         """P_n z = (I − V_r V_rᵀ) z, the projection of z (n,) on the null space of J (numerical rank r)."""
         if self.checked:
             z = _real_array(z, 1, "z", self.n)
-        return K.null_project_factored(self.fast, self._J, self._U, self._inv, self._Vt, self.rank, z)
+        return K.null_project_factored(self.fast, self._J, self._U, self._d, self._Vt, self.rank, z)
 
     @property
     def pinv(self) -> np.ndarray:
