@@ -57,6 +57,7 @@ _K = KernelNamespace("redundik.kinematics.lie_kernels")
 _TK = KernelNamespace("redundik.tasks.target_kernels")
 #: ``target_kernels.OK``, the writers' status of a target written (read here without importing numba).
 _STATUS_OK = 0
+_SE3 = pin.SE3
 
 
 #: Gain [1/s] of a frame task built without a trajectory (hold the start pose, or track targets set at run time).
@@ -239,9 +240,12 @@ class FrameTask(Task):
         if row is not None:  # our own started hold: the target is data, written in place
             tk = _TK if _HOT else twins_of(_TK)  # (their twins until a resolver's kernels are loaded: no compile here)
             status = -1
-            if type(target) is pin.SE3:
-                T = target.homogeneous  # type: ignore[union-attr]  # (an SE3)
-                status = tk.pose_into(T, row, RIGID_TOLERANCE, MAX_COORDINATE)
+            if type(target) is _SE3:  # (first, with its own return: the common form)
+                if tk.pose_into(target.homogeneous, row, RIGID_TOLERANCE, MAX_COORDINATE) == _STATUS_OK:  # type: ignore[union-attr]
+                    traj._revision += 1
+                    traj._given = True  # type: ignore[attr-defined]  # (traj is self._held, a Hold): kept by a reset
+                    self._pending_position = None
+                    return
             elif type(target) is np.ndarray and target.dtype == np.float64:
                 if target.shape == (4, 4):
                     status = tk.pose_into(target, row, RIGID_TOLERANCE, MAX_COORDINATE)
