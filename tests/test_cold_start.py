@@ -68,16 +68,46 @@ def test_first_step_interpreted_while_compiling_then_compiled_same_answer(tmp_pa
         busy = _coldstart._worker is not None and _coldstart._worker.is_alive()
         assert _coldstart.wait(900)
         again = res.step(robot, s, q, 0.0, 0.01)
+        import threading
+        from numba.core import event
+        main, found = threading.get_ident(), []
+
+        class Listener(event.Listener):
+            def on_start(self, ev):
+                if threading.get_ident() == main:
+                    found.append(ev.data["dispatcher"].py_func.__qualname__)
+
+            def on_end(self, ev):
+                pass
+
+        class Height(rk.Task):  # a user's own task: the stack then runs mixed
+            def __init__(self):
+                self._init_task("height", gain=1.0)
+
+            def evaluate(self, robot, t):
+                e = np.array([0.2 - robot.frame_position("5")[2]])
+                return rk.TaskTerm(self.name, robot.frame_jacobian("5")[2:3], self.gain * e, e, self.weight)
+
+            def __repr__(self):
+                return "Height()"
+
+        event.register("numba:compile", Listener())
+        mixed = rk.TaskStack([rk.FrameTask("7", gain=5.0, axes="position"), Height(), rk.PostureTask(gain=1.0)])
+        robot.update(q)
+        mixed.reset(robot)
+        user_paths = [res.step(robot, mixed, q, 0.01 * k, 0.01).info["path"] for k in range(3)]
         print(json.dumps({"first": first.info["path"], "second": second.info["path"], "busy": busy,
                           "numba_first": numba_first,
                           "dq1": first.dq.tolist(), "later": again.info["path"], "dq2": again.dq.tolist(),
-                          "cache": str(_kernel_cache.cache_dir())}))
+                          "cache": str(_kernel_cache.cache_dir()), "user": user_paths, "found": found}))
         """,
         {"REDUNDIK_CACHE_DIR": str(tmp_path)},
     )
     assert got["first"] == got["second"] == "interpreted" and got["busy"]
     assert got["numba_first"] is False
     assert got["later"] == "compiled"
+    # a user's task afterwards: the mixed step's kernels were compiled by the thread too (none in this one)
+    assert got["user"] == ["mixed"] * 3 and got["found"] == [], got["found"]
     dq1, dq2 = np.array(got["dq1"]), np.array(got["dq2"])
     assert np.isfinite(dq1).all() and np.abs(dq1).max() > 0
     np.testing.assert_allclose(dq1, dq2, rtol=0, atol=1e-12)

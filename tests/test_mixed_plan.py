@@ -224,3 +224,50 @@ def test_wqp_with_bound_subtasks_takes_the_compiled_step(bound: str) -> None:
     assert max(float(np.abs(d).max()) for d in diffs) <= 1e-9
     assert paths.count("compiled") >= 75
     assert sum(qp) > 0, "the bound rows bind (the backend is called with them)"
+
+
+class OddArrays(Task):
+    """A user's task whose arrays are valid but not C-ordered float64: J Fortran-ordered or read-only, e strided,
+    v of integers (a frame's height, one row)."""
+
+    def __init__(self, kind: str) -> None:
+        self._init_task(f"odd_{kind}", gain=2.0, weight=0.5)
+        self.kind = kind
+
+    def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
+        J = robot.frame_jacobian("panda_link4")[[2]]
+        e = np.array([0.45 - robot.frame_position("panda_link4")[2]])
+        v = self.gain * e
+        if self.kind == "fortran":
+            J = np.asfortranarray(np.vstack([J, J]))[:1]  # (a strided row of a Fortran array: neither C nor F)
+        elif self.kind == "readonly":
+            J.flags.writeable = False
+        elif self.kind == "strided":
+            e = np.repeat(e, 2)[::2]
+            v = np.repeat(v, 2)[::2]
+        elif self.kind == "integer":
+            v = np.array([1])
+        return TaskTerm(self.name, J, v, e, self.weight)
+
+    def __repr__(self) -> str:
+        return f"OddArrays({self.kind!r})"
+
+
+@pytest.mark.parametrize("method", ["pinv", "feedback", "wqp"])
+@pytest.mark.parametrize("kind", ["plain", "fortran", "readonly", "strided", "integer"])
+def test_a_user_tasks_arrays_of_any_layout_are_written_as_numpy_reads_them(method: str, kind: str) -> None:
+    """A mixed step writes a user's rows straight into its buffers (one compiled call for C-ordered float64 arrays,
+    NumPy for any other layout or type): the per-task path's answer either way, and no kernel compiled for the
+    odd layouts on the hot path."""
+    from redundik.resolvers.linalg import FK
+
+    def make(robot: RobotModel) -> rk.TaskStack:
+        hand = rk.FrameTask("panda_hand", rk.Circle(0.05, 1.5, plane=("y", "z")), gain=5.0, axes="position")
+        return rk.TaskStack([hand, OddArrays(kind), rk.PostureTask(gain=1.0)])
+
+    diffs, paths = _run(make, "panda", method, 8)
+    assert max(float(np.abs(d).max()) for d in diffs) <= 1e-12
+    assert set(paths) == {"mixed"}
+    signatures = getattr(FK.put_rows, "signatures", None)
+    if signatures is not None:  # (compiled: one specialisation, C-ordered float64 arrays)
+        assert len(signatures) == 1

@@ -96,12 +96,19 @@ def _gradients(rk: Any) -> list[Any]:
 
 def _step_both_paths(rk: Any, robot: Any, resolver: Any, q0: np.ndarray) -> None:
     """Three steps of each of the warm-up's stacks, on the resolver's compiled step and on its per-task path."""
+    from redundik.resolvers.base import _WARNED_MIXED
+
     for fuse in (True, False) if hasattr(resolver, "fuse") else (None,):
         if fuse is not None:
             resolver.fuse = fuse
-        for teleop in (False, True):
+        for kind in ("trajectory", "teleop", "user"):
+            teleop = kind == "teleop"
             task = rk.FrameTask("7", None if teleop else rk.Circle(0.02, np.pi, plane=("y", "z")), gain=5.0)
-            stack = rk.TaskStack([task, rk.PostureTask(gain=1.0)], _gradients(rk))
+            if kind == "user":  # a user's own task among compiled ones: the mixed step's writing of its rows
+                stack = rk.TaskStack([task, _user_task(rk), rk.PostureTask(gain=1.0)])
+                _WARNED_MIXED.add((resolver.name, ("warm_up_height",)))  # (no "runs mixed" warning for our own)
+            else:
+                stack = rk.TaskStack([task, rk.PostureTask(gain=1.0)], _gradients(rk))
             q = q0.copy()
             robot.update(q)
             stack.reset(robot)
@@ -110,3 +117,20 @@ def _step_both_paths(rk: Any, robot: Any, resolver: Any, q0: np.ndarray) -> None
                 if teleop:
                     task.set_target(home.translation + 0.001 * k)
                 q = robot.integrate(q, resolver.step(robot, stack, q, k * 0.01, 0.01).dq, 0.01)
+
+
+def _user_task(rk: Any) -> Any:
+    """A task of the kind a user writes (a Python ``evaluate``: the height of frame "4", one row)."""
+
+    class Height(rk.Task):  # type: ignore[misc]
+        def __init__(self) -> None:
+            self._init_task("warm_up_height", gain=1.0)
+
+        def evaluate(self, robot: Any, t: float) -> Any:
+            e = np.array([0.1 - robot.frame_position("4")[2]])
+            return rk.TaskTerm(self.name, robot.frame_jacobian("4")[2:3], self.gain * e, e, self.weight)
+
+        def __repr__(self) -> str:
+            return "Height()"
+
+    return Height()

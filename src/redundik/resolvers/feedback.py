@@ -215,7 +215,9 @@ class FeedbackResolver(Resolver):
             work[b:c].reshape(2, m),
             work[c : c + FRAME_ROWS * K * n].reshape(K, FRAME_ROWS, n),
         )
-        if external:
+        if external and plan.plain_rows:  # a user's own tasks only: their blocks put straight into work
+            plan.put_plain_rows(robot, external, work, (a, 0, b, b + m, -1))
+        elif external:
             end = work.shape[0]  # (the Python writers' null-space terms, before z: FK.pinv_null_views)
             plan.write_external(robot, external, Jm, 0, ev, None, work[end - 2 * n : end - n], t)
         q = robot.q

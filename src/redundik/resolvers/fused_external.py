@@ -10,6 +10,7 @@ import numpy as np
 import pinocchio as pin
 
 from redundik.kinematics.model import RobotModel
+from redundik.resolvers.linalg import FK
 from redundik.tasks.base import CompiledGradient, CompiledRows, TaskTerm, check_term
 
 #: Roles of a member written from Python in a mixed plan: rows of the main system / of its level (``ROW``), a term of
@@ -20,6 +21,7 @@ from redundik.tasks.base import CompiledGradient, CompiledRows, TaskTerm, check_
 ROW, NULL, LIE_NULL, GRADIENT, TERM, TARGET = 0, 1, 2, 3, 4, 5
 #: The roles whose members write rows of the system (their row counts size the step's buffers).
 ROWS = (ROW, TARGET)
+_F64 = np.dtype(np.float64)
 
 
 class PythonWriters:
@@ -48,6 +50,9 @@ class PythonWriters:
     null_external: bool  # a member writes a term of the null-space objective (``zx`` is read, zeroed first)
     has_targets: bool  # a member is a target subtask's row (:meth:`subtask_rows` has rows to give)
     direct_rows: list[int] | None  # every member a compiled writer of main rows: their row counts; else None
+    #: Every member a main task written by its Python ``evaluate`` (the common mixed plan: a user's own task):
+    #: :meth:`put_plain_rows` writes their blocks, nothing else is to be written.
+    plain_rows: bool
 
     def _pack(
         self,
@@ -80,6 +85,7 @@ class PythonWriters:
         direct = all(_direct(role, w) for role, _, _, _, _, _, w in writes)
         counts = [w.rows if isinstance(w, CompiledRows) else 1 for _, _, _, _, _, _, w in writes]  # (a target: 1)
         self.direct_rows = counts if direct else None
+        self.plain_rows = all(role == ROW and w is None for _, role, _, _, _, _, w in writes)
 
     def evaluate_external(self, robot: RobotModel, t: float, direct: bool = False) -> list[TaskTerm | None] | None:
         """Each Python-written member's term at t (``None`` for what has no term of its own: a gradient subtask, a
@@ -148,6 +154,34 @@ class PythonWriters:
             iq = np.array([j.idx_q for j in robot.joints], dtype=np.int64)
             self._pack(robot, iq, self.level_forms, self.identity, self.main_set, self.index)
         return out
+
+    def put_plain_rows(
+        self, robot: RobotModel, terms: list[TaskTerm | None], work: np.ndarray, at: tuple[int, int, int, int, int]
+    ) -> None:
+        """:meth:`write_external` for a :attr:`plain_rows` plan into a step's flat ``work`` array, without views:
+        ``at`` = (where the J row of the plan's row ``first`` starts, ``first``, where e starts, where v starts,
+        where the weights of the rows from ``first`` start, or −1 for none). A block of C-ordered float64 arrays
+        is put by one compiled call; any other (a user's F-ordered, strided, read-only or integer array) by NumPy,
+        which converts it, as :meth:`write_external` does."""
+        j0, first, e0, v0, w0 = at
+        n = robot._nv
+        put = FK.put_rows
+        for i, _, _, scale, a, b, _ in self.writes:
+            term = terms[i]
+            assert term is not None  # (a plain member's term: evaluate_external gave it)
+            J, e, v = term.J, term.error, term.v
+            j = j0 + (a - first) * n
+            if (
+                J.dtype is _F64 and e.dtype is _F64 and v.dtype is _F64
+                and J.flags.carray and e.flags.carray and v.flags.carray
+            ):  # fmt: skip  # (the types the kernel was compiled for: no compilation on the hot path)
+                put(work, j, e0 + a, v0 + a, J, e, v)
+            else:
+                work[j : j + (b - a) * n].reshape(b - a, n)[:] = J
+                work[e0 + a : e0 + b] = e
+                work[v0 + a : v0 + b] = v
+            if w0 >= 0:
+                work[w0 + a - first : w0 + b - first] = term.weight * scale
 
     def subtask_rows(self, terms: list[TaskTerm | None]) -> list[tuple[np.ndarray, float]]:
         """The target subtasks' rows (η, v) of a step whose Python members were evaluated (``terms``: every target

@@ -467,3 +467,17 @@ def pinv_null_views(work: np.ndarray, nv: int) -> tuple[np.ndarray, np.ndarray]:
     """The tail of a ``pinv`` step's ``work``: the null-space terms Python writers give (nv,) and z (nv,)."""
     end = work.shape[0]
     return work[end - 2 * nv : end - nv], work[end - nv : end]
+
+
+@_jit
+def put_rows(work: np.ndarray, j_at: int, e_at: int, v_at: int, J: np.ndarray, e: np.ndarray, v: np.ndarray) -> None:
+    """A Python-written member's block of a step into its flat ``work`` array: J (r, nv) row by row from
+    ``work[j_at]``, its error e (r,) from ``work[e_at]`` and its v (r,) from ``work[v_at]`` (one call instead of
+    three NumPy copies and the views they need)."""
+    r, nv = J.shape
+    for i in range(r):
+        base = j_at + i * nv
+        for c in range(nv):
+            work[base + c] = J[i, c]
+        work[e_at + i] = e[i]
+        work[v_at + i] = v[i]

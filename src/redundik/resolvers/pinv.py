@@ -208,9 +208,12 @@ class PinvResolver(Resolver):
             n, m = robot._nv, plan.m
             a = CF_ROWS * n  # (FK.pinv_work_views' J and (e, v), sliced here: a compiled call returning views
             b = a + m * n  # costs more than the slicing)
-            end = work.shape[0]  # work's tail: the Python writers' null-space terms (n,), then z (n,)
-            Jm, ev = work[a:b].reshape(m, n), work[b : b + 2 * m].reshape(2, m)
-            plan.write_external(robot, external, Jm, 0, ev, None, work[end - 2 * n : end - n], t)
+            if plan.plain_rows:  # a user's own tasks only: their blocks put straight into work
+                plan.put_plain_rows(robot, external, work, (a, 0, b, b + m, -1))
+            else:
+                end = work.shape[0]  # work's tail: the Python writers' null-space terms (n,), then z (n,)
+                Jm, ev = work[a:b].reshape(m, n), work[b : b + 2 * m].reshape(2, m)
+                plan.write_external(robot, external, Jm, 0, ev, None, work[end - 2 * n : end - n], t)
         q = robot.q
         status, rank, sigma_min, damping, err2, dq2 = FK.fused_pinv_step(
             plan.jw, plan.poses, float(t), refs, q, plan.ints, plan.floats, coef, work

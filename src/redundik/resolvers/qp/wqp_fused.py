@@ -35,6 +35,9 @@ def write_external_rows(fused: FusedPlan, robot: RobotModel, external: list[Task
     n, m, mx = robot._nv, fused.m, fused.mx
     a = OUT_ROWS * n + 2 * m + FRAME_ROWS * len(fused.frames) * n
     b = a + mx * n
+    if fused.plain_rows:  # a user's own tasks only: their blocks put straight into work
+        fused.put_plain_rows(robot, external, work, (a, m - mx, OUT_ROWS * n, OUT_ROWS * n + m, b))
+        return
     ev = work[OUT_ROWS * n : OUT_ROWS * n + 2 * m].reshape(2, m)
     Jx, wx, zx = work[a:b].reshape(mx, n), work[b : b + mx], work[b + mx : b + mx + n]
     fused.write_external(robot, external, Jx, m - mx, ev, wx, zx, t)
