@@ -183,6 +183,30 @@ class PythonWriters:
             if w0 >= 0:
                 work[w0 + a - first : w0 + b - first] = term.weight * scale
 
+    def put_plain_level_rows(
+        self, terms: list[TaskTerm | None], dest: np.ndarray, A: np.ndarray, b: np.ndarray, w: np.ndarray,
+        ev: np.ndarray,
+    ) -> None:  # fmt: skip
+        """:meth:`put_plain_rows` for ``hqp``: a member's J, v and weight into the least-squares rows ``dest``
+        gives it (A, b, w: a member's rows are contiguous there) and its e and v into the step's ``ev`` (2, m)."""
+        put = FK.put_level_rows
+        for i, _, _, _, a, end, _ in self.writes:
+            term = terms[i]
+            assert term is not None  # (a plain member's term: evaluate_external gave it)
+            J, e, v = term.J, term.error, term.v
+            d = int(dest[a])
+            if (
+                J.dtype is _F64 and e.dtype is _F64 and v.dtype is _F64
+                and J.flags.carray and e.flags.carray and v.flags.carray
+            ):  # fmt: skip  # (the types the kernel was compiled for: no compilation on the hot path)
+                put(A, b, w, ev, d, a, float(term.weight), J, e, v)
+            else:
+                A[d : d + end - a] = J
+                b[d : d + end - a] = v
+                w[d : d + end - a] = term.weight
+                ev[0, a:end] = e
+                ev[1, a:end] = v
+
     def subtask_rows(self, terms: list[TaskTerm | None]) -> list[tuple[np.ndarray, float]]:
         """The target subtasks' rows (η, v) of a step whose Python members were evaluated (``terms``: every target
         subtask's term given), in :attr:`external` order — their levels' order."""

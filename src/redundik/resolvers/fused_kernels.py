@@ -481,3 +481,20 @@ def put_rows(work: np.ndarray, j_at: int, e_at: int, v_at: int, J: np.ndarray, e
             work[base + c] = J[i, c]
         work[e_at + i] = e[i]
         work[v_at + i] = v[i]
+
+
+@_jit
+def put_level_rows(
+    A: np.ndarray, b: np.ndarray, w: np.ndarray, ev: np.ndarray, d: int, a: int, weight: float,
+    J: np.ndarray, e: np.ndarray, v: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`put_rows` for ``hqp``'s least-squares buffers: J's rows into A from row d, v into b and the weight into
+    w from d, and e and v into the step's (e, v) rows ``ev`` (2, m) from the plan's row a."""
+    r, nv = J.shape
+    for i in range(r):
+        for c in range(nv):
+            A[d + i, c] = J[i, c]
+        b[d + i] = v[i]
+        w[d + i] = weight
+        ev[0, a + i] = e[i]
+        ev[1, a + i] = v[i]

@@ -389,7 +389,9 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         z = np.zeros(n)
         if fused.lie_joints:
             fused.write_joint_errors(robot, ev[0])
-        if external:
+        if external and fused.plain_rows:  # a user's own tasks only: their blocks put straight into the buffers
+            fused.put_plain_level_rows(external, plan.dest, plan.A, plan.b, plan.w, ev)
+        elif external:
             fused.write_external(robot, external, None, 0, ev, None, z)
             self._write_external_rows(plan, fused, external)
         out = np.empty((7, 1, n))
