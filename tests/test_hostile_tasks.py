@@ -140,3 +140,100 @@ def test_posture_target_beyond_a_million_is_refused_where_it_is_set() -> None:
     with pytest.raises(rk.TaskError, match=r"set_target: coordinate 0 = -2e\+06 is beyond"):
         posture.set_target([-2e6, 0.0, 0.0])
     np.testing.assert_array_equal(posture.target, [0.0, 1.0, 0.0])  # the refused target left the old one in place
+
+
+class _UserRows(rk.Task):
+    """A user's task whose ``evaluate`` returns what ``kind`` says (a frame's height row otherwise)."""
+
+    def __init__(self, kind: str) -> None:
+        self._init_task(f"user_{kind}", gain=1.0)
+        self.kind, self.calls = kind, 0
+
+    def evaluate(self, robot: rk.RobotModel, t: float) -> rk.TaskTerm:
+        self.calls += 1
+        J = robot.frame_jacobian("panda_link4")[2:3].copy()
+        e = np.array([0.3 - robot.frame_position("panda_link4")[2]])
+        v: object = self.gain * e
+        Jx: object = J
+        kind = self.kind
+        if kind == "none":
+            return None  # type: ignore[return-value]
+        if kind == "tuple":
+            return (J, v, e)  # type: ignore[return-value]
+        if kind == "zero" or (kind == "alternating" and self.calls % 2):
+            Jx, v, e = J[:0], e[:0], e[:0]
+        elif kind == "list":
+            Jx, v = J.tolist(), [float(self.gain * e[0])]
+        elif kind == "float32":
+            Jx = J.astype(np.float32)
+        elif kind == "bool":
+            Jx = J != 0.0
+        elif kind == "objects":
+            Jx = J.astype(object)
+        elif kind == "complex":
+            Jx = J.astype(complex)
+        elif kind == "strings":
+            Jx = np.full(J.shape, "a")
+        elif kind == "complex_objects":
+            Jx = np.array([[1j] * J.shape[1]], dtype=object)
+        return rk.TaskTerm(self.name, Jx, v, e, self.weight)  # type: ignore[arg-type]
+
+    def __repr__(self) -> str:
+        return f"_UserRows({self.kind!r})"
+
+
+def _user_stack(kind: str) -> tuple[rk.RobotModel, rk.TaskStack, np.ndarray]:
+    robot = rk.load_example_robot("panda")
+    q = robot.neutral()
+    q[3] = -1.5
+    robot.update(q)
+    stack = rk.TaskStack([rk.FrameTask("panda_hand", gain=5.0), _UserRows(kind), rk.PostureTask(gain=1.0)])
+    stack.reset(robot)
+    return robot, stack, q
+
+
+@pytest.mark.parametrize("fuse", [True, False])
+@pytest.mark.parametrize("method", ["pinv", "feedback", "wqp", "hqp"])
+@pytest.mark.parametrize(
+    ("kind", "expected"),
+    [
+        ("none", r"task 'user_none': evaluate must return a TaskTerm"),
+        ("tuple", r"task 'user_tuple': evaluate must return a TaskTerm"),
+        ("complex", r"task 'user_complex': evaluate returned a J that is not real numbers \(dtype complex128\)"),
+        ("strings", r"task 'user_strings': evaluate returned a J that is not real numbers"),
+        ("complex_objects", r"task 'user_complex_objects': evaluate returned a J that is not real numbers"),
+    ],
+)
+def test_a_user_term_that_is_not_real_rows_is_refused_naming_the_task(
+    fuse: bool, method: str, kind: str, expected: str
+) -> None:
+    """A user's ``evaluate`` returning no ``TaskTerm``, or complex or non-numeric rows, gets a ``TaskError`` naming
+    the task on the mixed and the per-task path alike. Complex rows were cast to real (a NumPy warning, the imaginary
+    part dropped: a silent wrong answer), ``None`` an AttributeError."""
+    robot, stack, q = _user_stack(kind)
+    resolver = rk.make_resolver(method)
+    resolver.fuse = fuse  # type: ignore[attr-defined]
+    with pytest.raises(TaskError, match=expected):
+        resolver.step(robot, stack, q, 0.0, 0.01)
+
+
+@pytest.mark.parametrize("method", ["pinv", "feedback", "wqp", "hqp"])
+@pytest.mark.parametrize("kind", ["zero", "alternating", "list", "float32", "bool", "objects"])
+def test_a_user_term_numpy_reads_as_real_rows_is_solved_as_its_float_rows(method: str, kind: str) -> None:
+    """Rows NumPy reads as real numbers (a list, float32, booleans, objects holding floats), or no rows at all this
+    step, are solved as their float64 rows: the mixed step and the per-task path agree. Zero rows under ``hqp``'s
+    mixed step raised IndexError, a list under ``wqp``'s per-task path numba's TypingError."""
+    answers = []
+    for fuse in (True, False):
+        robot, stack, q = _user_stack(kind)
+        resolver = rk.make_resolver(method)
+        resolver.fuse = fuse  # type: ignore[attr-defined]
+        dqs = []
+        for k in range(4):
+            res = resolver.step(robot, stack, q, 0.01 * k, 0.01)
+            assert res.fallback is None and np.isfinite(res.dq).all()
+            assert res.info["path"] == ("mixed" if fuse else "interpreted")
+            dqs.append(res.dq.copy())
+            q = robot.integrate(q, res.dq, 0.01)
+        answers.append(np.array(dqs))
+    np.testing.assert_allclose(answers[0], answers[1], rtol=0, atol=1e-12)

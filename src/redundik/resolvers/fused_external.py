@@ -11,7 +11,7 @@ import pinocchio as pin
 
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.linalg import FK
-from redundik.tasks.base import CompiledGradient, CompiledRows, TaskTerm, check_term
+from redundik.tasks.base import CompiledGradient, CompiledRows, TaskTerm, conform_term
 
 #: Roles of a member written from Python in a mixed plan: rows of the main system / of its level (``ROW``), a term of
 #: the null-space objective z (``NULL``: z += v), a joint-space null term on Lie-group coordinates (``LIE_NULL``:
@@ -104,6 +104,8 @@ class PythonWriters:
         for role, member, writer in self.evaluations:
             if writer is None and (role == ROW or role == NULL or role == TERM):  # (first: a user's task)
                 term = member.evaluate(robot, t)
+                if type(term) is not TaskTerm:
+                    term = conform_term(term, nv, member)  # (a TaskTerm subclass passes; anything else: TaskError)
                 J, v, e = term.J, term.v, term.error
                 if not (
                     type(J) is np.ndarray
@@ -112,9 +114,12 @@ class PythonWriters:
                     and J.ndim == 2
                     and J.shape[1] == nv
                     and v.shape == e.shape == (J.shape[0],)
+                    and J.dtype is _F64
+                    and v.dtype is _F64
+                    and e.dtype is _F64
                 ):
-                    check_term(term, nv)  # raises, naming the task and its shapes
-                    return None  # (a term of numbers that are not float arrays: the per-task path takes it)
+                    term = conform_term(term, nv, member)  # float64 arrays, or a TaskError naming the task
+                    J = term.J
                 if role == ROW:
                     rows.append(J.shape[0])
                 elif role == NULL and J.shape[0] != nv:
@@ -161,8 +166,8 @@ class PythonWriters:
         """:meth:`write_external` for a :attr:`plain_rows` plan into a step's flat ``work`` array, without views:
         ``at`` = (where the J row of the plan's row ``first`` starts, ``first``, where e starts, where v starts,
         where the weights of the rows from ``first`` start, or −1 for none). A block of C-ordered float64 arrays
-        is put by one compiled call; any other (a user's F-ordered, strided, read-only or integer array) by NumPy,
-        which converts it, as :meth:`write_external` does."""
+        is put by one compiled call; any other (a user's F-ordered, strided or read-only array) by NumPy, as
+        :meth:`write_external` does (the terms are float64: :meth:`evaluate_external` conformed them)."""
         j0, first, e0, v0, w0 = at
         n = robot._nv
         put = FK.put_rows
@@ -171,10 +176,7 @@ class PythonWriters:
             assert term is not None  # (a plain member's term: evaluate_external gave it)
             J, e, v = term.J, term.error, term.v
             j = j0 + (a - first) * n
-            if (
-                J.dtype is _F64 and e.dtype is _F64 and v.dtype is _F64
-                and J.flags.carray and e.flags.carray and v.flags.carray
-            ):  # fmt: skip  # (the types the kernel was compiled for: no compilation on the hot path)
+            if J.flags.carray and e.flags.carray and v.flags.carray:  # (float64: evaluate_external conformed them)
                 put(work, j, e0 + a, v0 + a, J, e, v)
             else:
                 work[j : j + (b - a) * n].reshape(b - a, n)[:] = J
@@ -194,11 +196,10 @@ class PythonWriters:
             term = terms[i]
             assert term is not None  # (a plain member's term: evaluate_external gave it)
             J, e, v = term.J, term.error, term.v
+            if a == end:  # (no rows this step: nothing to put, and no row of dest to read)
+                continue
             d = int(dest[a])
-            if (
-                J.dtype is _F64 and e.dtype is _F64 and v.dtype is _F64
-                and J.flags.carray and e.flags.carray and v.flags.carray
-            ):  # fmt: skip  # (the types the kernel was compiled for: no compilation on the hot path)
+            if J.flags.carray and e.flags.carray and v.flags.carray:  # (float64: evaluate_external conformed them)
                 put(A, b, w, ev, d, a, float(term.weight), J, e, v)
             else:
                 A[d : d + end - a] = J

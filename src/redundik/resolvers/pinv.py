@@ -142,7 +142,7 @@ class PinvResolver(Resolver):
                         return res
                 else:
                     self._fused = None  # a member changed: planned again at the next step
-        terms = [task.evaluate(robot, t) for task in stack.tasks]  # stack.evaluate, inlined
+        terms = stack.evaluate(robot, t)
         if len(main) == 1:  # main_system's stacking, for the common single main task
             term = terms[main[0]]
             J, V = term.J, term.v

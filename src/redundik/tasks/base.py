@@ -453,6 +453,43 @@ def stack_terms(terms: list[TaskTerm], nv: int) -> tuple[np.ndarray, np.ndarray]
         raise
 
 
+_F64 = np.dtype(np.float64)
+
+
+def conform_term(term: TaskTerm, nv: int, task: object = None) -> TaskTerm:
+    """``term`` with J (m, nv), v (m,) and error (m,) as float64 arrays: itself when they are, else a copy whose
+    arrays are converted (a list, integers, float32: what NumPy reads as real numbers). The one check of a term a
+    Python ``evaluate`` returned, on every path.
+
+    Raises:
+        TaskError: naming the task: not a ``TaskTerm``, complex or non-numeric entries, or shapes that do not fit.
+    """
+    if type(term) is not TaskTerm and not isinstance(term, TaskTerm):
+        who = f"task '{getattr(task, 'name', '?')}': " if task is not None else ""
+        raise TaskError(f"{who}evaluate must return a TaskTerm (name, J, v, error, weight), got {short_repr(term)}")
+    J, v, e = term.J, term.v, term.error
+    if (
+        type(J) is np.ndarray and type(v) is np.ndarray and type(e) is np.ndarray
+        and J.dtype is _F64 and v.dtype is _F64 and e.dtype is _F64
+        and J.ndim == 2 and J.shape[1] == nv and v.shape == e.shape == (J.shape[0],)
+    ):  # fmt: skip
+        return term
+    check_term(term, nv)  # (the shapes first: a message that names them)
+    arrays = []
+    for what, x in (("J", J), ("v", v), ("error", e)):
+        try:
+            a = np.asarray(x)
+            if a.dtype.kind not in "biufO":  # complex, strings: not a real number each
+                raise TypeError(f"dtype {a.dtype}")
+            arrays.append(a.astype(np.float64))  # (objects: each must convert, a complex or a string does not)
+        except (TypeError, ValueError) as exc:
+            raise TaskError(
+                f"task '{term.name}': evaluate returned a {what} that is not real numbers ({exc}): "
+                f"{short_repr(x)}; expected float arrays"
+            ) from None
+    return TaskTerm(term.name, arrays[0], arrays[1], arrays[2], term.weight)
+
+
 def check_term(term: TaskTerm, nv: int) -> None:
     """``term`` is a (m, nv) Jacobian with a velocity and an error of shape (m,).
 

@@ -28,7 +28,7 @@ import numpy as np
 
 from redundik.errors import ResolverError, TaskError, short_repr
 from redundik.kinematics.model import RobotModel
-from redundik.tasks.base import Task, TaskTerm
+from redundik.tasks.base import Task, TaskTerm, conform_term
 from redundik.tasks.subtasks import BoundSubtask, GradientSubtask, Subtask, TargetSubtask
 
 
@@ -150,8 +150,14 @@ class TaskStack:
 
     # ------------------------------------------------------------------ evaluation
     def evaluate(self, robot: RobotModel, t: float) -> list[TaskTerm]:
-        """Every task's term at time ``t`` (main and regularisation tasks, in order)."""
-        return [task.evaluate(robot, t) for task in self.tasks]
+        """Every task's term at time ``t`` (main and regularisation tasks, in order), each conformed to float64
+        arrays of its shapes (``conform_term``: a user's list or integers converted, complex or misshapen refused).
+
+        Raises:
+            TaskError: a term that is not a ``TaskTerm`` of real numbers and consistent shapes (naming its task).
+        """
+        nv = robot._nv
+        return [conform_term(task.evaluate(robot, t), nv, task) for task in self.tasks]
 
     @property
     def gradient_subtasks(self) -> list[GradientSubtask]:

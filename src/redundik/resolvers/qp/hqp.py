@@ -294,7 +294,7 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         if plan.critical:  # safety rows the fused step's answer broke (or it needs a QP): the template guards them
             return super().solve(robot, stack, t, dt)
         t0 = time.perf_counter()
-        terms = [task.evaluate(robot, t) for task in stack.tasks]  # stack.evaluate, inlined
+        terms = stack.evaluate(robot, t)
         z, targets, bounds = plan.gather(robot, stack, terms, dt)  # gather_rows + fill, in one pass
         t1 = time.perf_counter()
         limits = self.limits
@@ -342,7 +342,7 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         dest, A, b, w = plan.dest, plan.A, plan.b, plan.w
         for i, role, _, _, start, end, _ in fused.writes:
             term = external[i]
-            if (role == ROW or role == TARGET) and term is not None:
+            if (role == ROW or role == TARGET) and term is not None and end > start:
                 d = int(dest[start])  # (a member's rows are contiguous in the buffers: ``_Plan.lay_out``)
                 e = d + end - start
                 A[d:e] = term.J

@@ -340,7 +340,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         if plan.bounds or plan.targets:  # the template: the bound rows as the QP's inequalities, the target rows
             return super().solve(robot, stack, t, dt)
         t0 = time.perf_counter()
-        terms = [task.evaluate(robot, t) for task in stack.tasks]  # stack.evaluate, inlined
+        terms = stack.evaluate(robot, t)
         shift, z, lam = self._accumulate(robot, stack, terms, plan)
         t1 = time.perf_counter()
         limits = self.limits
