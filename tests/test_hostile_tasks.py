@@ -237,3 +237,143 @@ def test_a_user_term_numpy_reads_as_real_rows_is_solved_as_its_float_rows(method
             q = robot.integrate(q, res.dq, 0.01)
         answers.append(np.array(dqs))
     np.testing.assert_allclose(answers[0], answers[1], rtol=0, atol=1e-12)
+
+
+class _UserPotential(rk.Potential):
+    """A user's potential that sets no ``name``: p = q₁², or what ``kind`` says."""
+
+    def __init__(self, kind: str = "ok") -> None:
+        self.kind = kind
+
+    def value(self, robot: rk.RobotModel) -> float:
+        values: dict[str, object] = {"value_nan": math.nan, "value_str": "x", "value_complex": 1j,
+                                     "value_array": np.array([1.0, 2.0])}  # fmt: skip
+        return values.get(self.kind, float(robot.q[1] ** 2))  # type: ignore[return-value]
+
+    def gradient(self, robot: rk.RobotModel) -> np.ndarray:
+        g = np.zeros(robot.nv)
+        g[1] = 2.0 * robot.q[1] + 0.1
+        if self.kind == "gradient_nan":
+            g[0] = math.nan
+        elif self.kind == "gradient_complex":
+            return g.astype(complex)
+        elif self.kind == "gradient_list":
+            return g.tolist()  # type: ignore[return-value]
+        return g
+
+
+class _UserBarrier(rk.Barrier):
+    """A user's barrier that sets no ``name``: h = 0.5 − q₁ ≥ 0, or what ``kind`` says."""
+
+    def __init__(self, kind: str = "ok") -> None:
+        self.kind = kind
+
+    def evaluate(self, robot: rk.RobotModel) -> rk.BarrierTerm:
+        h, H = np.array([0.5 - robot.q[1]]), np.zeros((1, robot.nv))
+        H[0, 1] = -1.0
+        kind = self.kind
+        if kind == "none":
+            return None  # type: ignore[return-value]
+        if kind == "lists":
+            return rk.BarrierTerm(h.tolist(), H.tolist(), ["b"])  # type: ignore[arg-type]
+        if kind == "complex":
+            return rk.BarrierTerm(h.astype(complex), H, ["b"])
+        if kind == "H_shape":
+            return rk.BarrierTerm(h, H[:, :3], ["b"])
+        if kind == "names":
+            return rk.BarrierTerm(h, H, [])
+        if kind in ("gamma_negative", "gamma_nan"):
+            return rk.BarrierTerm(h, H, ["b"], np.array([-1.0 if kind == "gamma_negative" else math.nan]))
+        if kind == "h_nan":
+            return rk.BarrierTerm(np.array([math.nan]), H, ["b"])
+        return rk.BarrierTerm(h, H, ["b"])
+
+
+def _subtask_stack(sub: object) -> tuple[rk.RobotModel, rk.TaskStack, np.ndarray]:
+    robot = rk.load_example_robot("panda")
+    q = robot.neutral()
+    q[1], q[3] = 0.2, -1.5
+    robot.update(q)
+    hand = rk.FrameTask("panda_hand", rk.Circle(0.05, 2.0, plane=("y", "z")), gain=5.0, axes="position")
+    stack = rk.TaskStack([hand, rk.PostureTask(gain=1.0)], [sub])  # type: ignore[list-item]
+    stack.reset(robot)
+    return robot, stack, q
+
+
+def test_a_users_potential_or_barrier_without_a_name_gets_one_from_its_class() -> None:
+    """``GradientSubtask(MyPotential())`` raised AttributeError ('no attribute name') on a potential that sets none,
+    even with ``name=`` given; the subtask now takes the class's name in snake case."""
+    assert rk.GradientSubtask(_UserPotential(), gain=-1.0).name == "user_potential"
+    assert rk.TargetSubtask(_UserPotential(), target=0.1).name == "user_potential"
+    assert rk.GradientSubtask(_UserPotential(), name="mine").name == "mine"
+    assert rk.BoundSubtask(_UserBarrier()).name == "user_barrier"
+    assert "_UserBarrier" in repr(_UserBarrier())
+
+
+_REFUSED: list[tuple[Callable[[], object], str]] = [
+    (lambda: rk.TargetSubtask(_UserPotential("value_str"), target=0.1), "the value of potential .* is not one"),
+    (lambda: rk.TargetSubtask(_UserPotential("value_complex"), target=0.1), "is not one real number"),
+    (lambda: rk.TargetSubtask(_UserPotential("value_array"), target=0.1), r"is not one real number \(2 values"),
+    (lambda: rk.GradientSubtask(_UserPotential("gradient_complex"), gain=-1.0), "is not a vector of numbers"),
+    (lambda: rk.TargetSubtask(_UserPotential("gradient_complex"), target=0.1), "is not a vector of numbers"),
+    (lambda: rk.BoundSubtask(_UserBarrier("none")), "must return a BarrierTerm"),
+    (lambda: rk.BoundSubtask(_UserBarrier("complex")), "are not real numbers"),
+    (lambda: rk.BoundSubtask(_UserBarrier("H_shape")), r"H of shape \(1, 3\)"),
+    (lambda: rk.BoundSubtask(_UserBarrier("names")), "one name per row"),
+    (lambda: rk.BoundSubtask(_UserBarrier("gamma_negative")), "gamma must be finite and ≥ 0"),
+    (lambda: rk.BoundSubtask(_UserBarrier("gamma_nan")), "gamma must be finite and ≥ 0"),
+]
+#: (``feedback`` takes the first five, gradient and target subtasks; the bound subtasks are wqp's and hqp's.)
+
+
+@pytest.mark.parametrize("fuse", [True, False])
+@pytest.mark.parametrize(
+    ("method", "k"),
+    [(m, k) for m in ("feedback", "wqp", "hqp") for k in range(len(_REFUSED)) if m != "feedback" or k < 5],
+)
+def test_a_users_potential_or_barrier_giving_no_real_rows_is_refused_naming_it(fuse: bool, method: str, k: int) -> None:
+    """Complex or non-numeric values, misshapen rows, names or γ from a user's potential or barrier: a ``TaskError``
+    naming the subtask. They raised numba's or NumPy's errors, or were cast to real with a mere warning."""
+    make, expected = _REFUSED[k]
+    sub = make()
+    robot, stack, q = _subtask_stack(sub)
+    resolver = rk.make_resolver(method)
+    resolver.fuse = fuse  # type: ignore[attr-defined]
+    with pytest.raises(TaskError, match=expected):
+        resolver.step(robot, stack, q, 0.0, 0.01)
+
+
+_NON_FINITE: list[Callable[[], object]] = [
+    lambda: rk.TargetSubtask(_UserPotential("value_nan"), target=0.1),
+    lambda: rk.TargetSubtask(_UserPotential("gradient_nan"), target=0.1),
+    lambda: rk.BoundSubtask(_UserBarrier("h_nan")),
+]
+
+
+@pytest.mark.parametrize("fuse", [True, False])
+@pytest.mark.parametrize(
+    ("method", "k"), [(m, k) for m in ("feedback", "wqp", "hqp") for k in range(3) if m != "feedback" or k < 2]
+)
+def test_non_finite_subtask_rows_stop_the_step_and_name_the_subtask(fuse: bool, method: str, k: int) -> None:
+    """A NaN value or gradient of a target subtask's potential, or a NaN barrier value: the step stops (q̇ = 0,
+    inside the limits) and its fallback names the subtask, on both paths. A NaN barrier row was dropped without a
+    word (q̇ as if the barrier were not there), and ``wqp``'s mixed step ignored a NaN target value."""
+    sub = _NON_FINITE[k]()
+    robot, stack, q = _subtask_stack(sub)
+    resolver = rk.make_resolver(method)
+    resolver.fuse = fuse  # type: ignore[attr-defined]
+    for k in range(2):
+        res = resolver.step(robot, stack, q, 0.01 * k, 0.01)
+        assert np.isfinite(res.dq).all() and not res.dq.any()
+        assert res.fallback is not None and f"subtask '{sub.name}'" in res.fallback  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize("method", ["wqp", "hqp"])
+def test_a_users_barrier_given_as_lists_is_solved_as_its_float_rows(method: str) -> None:
+    answers = []
+    for kind in ("ok", "lists"):
+        robot, stack, q = _subtask_stack(rk.BoundSubtask(_UserBarrier(kind)))
+        res = rk.make_resolver(method).step(robot, stack, q, 0.0, 0.01)
+        assert res.fallback is None
+        answers.append(res.dq)
+    np.testing.assert_allclose(answers[0], answers[1], rtol=0, atol=1e-12)

@@ -27,6 +27,16 @@ class SolverError(ResolverError):
         self.problem = problem
 
 
+class NonFiniteRows(ResolverError):
+    """A subtask's rows hold NaN or infinite values at a step (its barrier or potential could not be evaluated
+    there): the resolver does not solve without them, it stops (q̇ = 0, clipped to the limits by a QP resolver) and
+    its result's ``fallback`` names the subtask; raised inside a step, never out of ``Resolver.step``."""
+
+    def __init__(self, subtask: str) -> None:
+        super().__init__(f"non-finite rows from subtask '{subtask}'")
+        self.subtask = subtask
+
+
 class ConfigError(RedundikError):
     """A configuration file is invalid; the message names the YAML key path and what was expected."""
 

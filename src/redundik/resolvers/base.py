@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from redundik.errors import ResolverError
+from redundik.errors import NonFiniteRows, ResolverError
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.divergence import DivergenceWatch
 from redundik.resolvers.result import LazyInfo as LazyInfo
@@ -282,6 +282,8 @@ class Resolver(ABC):
                 res = self.solve(robot, stack, t, dt)
             else:
                 res = self._solve_blas_limited(robot, stack, t, dt)
+        except NonFiniteRows as exc:  # a bound subtask's rows are NaN this step: stop, and say which
+            res = self.stopped(robot, stack, t, dt, str(exc))
         finally:
             self._stepping = None
         d = res.__dict__
@@ -312,6 +314,12 @@ class Resolver(ABC):
         if factor is not None:
             watch.flag(self.name, norm, factor, res.info)
         return res
+
+    def stopped(self, robot: RobotModel, stack: TaskStack, t: float, dt: float, why: str) -> StepResult:
+        """The result of a step that cannot be solved as asked (``why``) and stops: q̇ = 0 (a QP resolver clips it
+        to its limits), the terms evaluated at t, the ``fallback`` saying why."""
+        dq = np.zeros(robot.nv)
+        return StepResult(dq=dq, terms=stack.evaluate(robot, t), fallback=f"{why}: q̇ = 0 this step")
 
     def _check_membership(self, robot: RobotModel, stack: TaskStack) -> None:
         """The stack's membership changed since the last step (or the robot did): check it when its signature is

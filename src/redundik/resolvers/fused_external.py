@@ -11,7 +11,8 @@ import pinocchio as pin
 
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.linalg import FK
-from redundik.tasks.base import CompiledGradient, CompiledRows, TaskTerm, conform_term
+from redundik.tasks.base import CompiledGradient, CompiledRows, TaskTerm
+from redundik.tasks.conform import conform_term
 
 #: Roles of a member written from Python in a mixed plan: rows of the main system / of its level (``ROW``), a term of
 #: the null-space objective z (``NULL``: z += v), a joint-space null term on Lie-group coordinates (``LIE_NULL``:

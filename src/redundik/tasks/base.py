@@ -44,6 +44,19 @@ def check_name(name: object, what: str) -> str:
     return name
 
 
+def source_name(source: object) -> str:
+    """The name of a potential or barrier, the default name of a subtask on it: its ``name`` attribute, or — when a
+    user's class sets none — its class name in snake case (``MyPotential`` → ``my_potential``).
+
+    Raises:
+        TaskError: a ``name`` that is not a valid name (:data:`NAME_PATTERN`).
+    """
+    name = getattr(source, "name", None)
+    if name is None:
+        name = re.sub(r"(?<=[a-z0-9])(?=[A-Z])", "_", type(source).__name__).lower().strip("_") or "potential"
+    return check_name(name, f"{type(source).__name__}.name")
+
+
 def default_name(name: object, default: str, what: str) -> str:
     """``default`` when ``name`` is ``None``, else ``name`` if it is a non-empty str (the ``name or default`` of the
     constructors, which took ``""`` for ``None`` and failed on an array's truth value).
@@ -397,7 +410,7 @@ class Potential(ABC):
         return None
 
     def __repr__(self) -> str:
-        return f"{type(self).__name__}(name={self.name!r})"
+        return f"{type(self).__name__}(name={getattr(self, 'name', None)!r})"
 
 
 @dataclass
@@ -436,7 +449,7 @@ class Barrier(ABC):
         """h(q), ∂h/∂q at the robot's current (updated) state."""
 
     def __repr__(self) -> str:
-        return f"{type(self).__name__}(name={self.name!r})"
+        return f"{type(self).__name__}(name={getattr(self, 'name', None)!r})"
 
 
 def stack_terms(terms: list[TaskTerm], nv: int) -> tuple[np.ndarray, np.ndarray]:
@@ -451,43 +464,6 @@ def stack_terms(terms: list[TaskTerm], nv: int) -> tuple[np.ndarray, np.ndarray]
         for t in terms:
             check_term(t, nv)
         raise
-
-
-_F64 = np.dtype(np.float64)
-
-
-def conform_term(term: TaskTerm, nv: int, task: object = None) -> TaskTerm:
-    """``term`` with J (m, nv), v (m,) and error (m,) as float64 arrays: itself when they are, else a copy whose
-    arrays are converted (a list, integers, float32: what NumPy reads as real numbers). The one check of a term a
-    Python ``evaluate`` returned, on every path.
-
-    Raises:
-        TaskError: naming the task: not a ``TaskTerm``, complex or non-numeric entries, or shapes that do not fit.
-    """
-    if type(term) is not TaskTerm and not isinstance(term, TaskTerm):
-        who = f"task '{getattr(task, 'name', '?')}': " if task is not None else ""
-        raise TaskError(f"{who}evaluate must return a TaskTerm (name, J, v, error, weight), got {short_repr(term)}")
-    J, v, e = term.J, term.v, term.error
-    if (
-        type(J) is np.ndarray and type(v) is np.ndarray and type(e) is np.ndarray
-        and J.dtype is _F64 and v.dtype is _F64 and e.dtype is _F64
-        and J.ndim == 2 and J.shape[1] == nv and v.shape == e.shape == (J.shape[0],)
-    ):  # fmt: skip
-        return term
-    check_term(term, nv)  # (the shapes first: a message that names them)
-    arrays = []
-    for what, x in (("J", J), ("v", v), ("error", e)):
-        try:
-            a = np.asarray(x)
-            if a.dtype.kind not in "biufO":  # complex, strings: not a real number each
-                raise TypeError(f"dtype {a.dtype}")
-            arrays.append(a.astype(np.float64))  # (objects: each must convert, a complex or a string does not)
-        except (TypeError, ValueError) as exc:
-            raise TaskError(
-                f"task '{term.name}': evaluate returned a {what} that is not real numbers ({exc}): "
-                f"{short_repr(x)}; expected float arrays"
-            ) from None
-    return TaskTerm(term.name, arrays[0], arrays[1], arrays[2], term.weight)
 
 
 def check_term(term: TaskTerm, nv: int) -> None:

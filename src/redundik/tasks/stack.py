@@ -28,7 +28,8 @@ import numpy as np
 
 from redundik.errors import ResolverError, TaskError, short_repr
 from redundik.kinematics.model import RobotModel
-from redundik.tasks.base import Task, TaskTerm, conform_term
+from redundik.tasks.base import Task, TaskTerm
+from redundik.tasks.conform import conform_term
 from redundik.tasks.subtasks import BoundSubtask, GradientSubtask, Subtask, TargetSubtask
 
 

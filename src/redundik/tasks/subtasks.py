@@ -13,12 +13,13 @@
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from typing import ClassVar, overload
 
 import numpy as np
 
-from redundik.errors import TaskError
+from redundik.errors import NonFiniteRows, TaskError, short_repr
 from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import (
     Barrier,
@@ -29,7 +30,9 @@ from redundik.tasks.base import (
     check_number,
     check_priority,
     default_name,
+    source_name,
 )
+from redundik.tasks.conform import conform_barrier_term, real_array, real_value
 
 _ROW_SOURCES: dict[type, bool] = {}
 
@@ -121,22 +124,32 @@ class Subtask(ABC):
     def __repr__(self) -> str: ...
 
 
+def _value(owner: str, potential: Potential, p: object) -> float:
+    """A potential's value p(q) as a float; a :class:`TaskError` naming the subtask and the potential when it is
+    not one real number (a string, a complex, an array of several)."""
+    try:
+        return real_value(p)
+    except (TypeError, ValueError) as exc:
+        raise TaskError(
+            f"subtask '{owner}': the value of potential '{source_name(potential)}' is not one real number ({exc}): "
+            f"{short_repr(p)}"
+        ) from None
+
+
 def _gradient(owner: str, potential: Potential, eta: object, robot: RobotModel) -> np.ndarray:
     """``eta``, a potential's η = ∂p/∂q, as a float vector (nv,); a :class:`TaskError` naming the subtask and the
     potential when it is not one (a user's potential giving another size used to end in numpy's broadcast error)."""
     nv = robot.nv
     if type(eta) is np.ndarray and eta.shape == (nv,) and eta.dtype == np.float64:
         return eta
+    what = f"subtask '{owner}': the gradient of potential '{source_name(potential)}'"
     try:
-        arr = np.asarray(eta, dtype=float)
+        arr = real_array(eta)
     except (TypeError, ValueError) as exc:
-        raise TaskError(
-            f"subtask '{owner}': the gradient of potential '{potential.name}' is not a vector of numbers ({exc})"
-        ) from exc
+        raise TaskError(f"{what} is not a vector of numbers ({exc})") from exc
     if arr.shape != (nv,):
         raise TaskError(
-            f"subtask '{owner}': the gradient of potential '{potential.name}' has shape {arr.shape}, expected ({nv},)"
-            " (one entry per velocity coordinate of the robot)"
+            f"{what} has shape {arr.shape}, expected ({nv},) (one entry per velocity coordinate of the robot)"
         )
     return arr
 
@@ -163,7 +176,7 @@ class GradientSubtask(Subtask):
 
     def __init__(self, potential: Potential, gain: float = 1.0, *, name: str | None = None) -> None:
         self.potential = _potential(potential, "GradientSubtask")
-        self.name = default_name(name, potential.name, "GradientSubtask")
+        self.name = default_name(name, source_name(potential), "GradientSubtask")
         self.gain = gain
 
     @property
@@ -218,7 +231,7 @@ class TargetSubtask(Subtask):
         name: str | None = None,
     ) -> None:
         self.potential = _potential(potential, "TargetSubtask")
-        self.name = default_name(name, potential.name, "TargetSubtask")
+        self.name = default_name(name, source_name(potential), "TargetSubtask")
         self.set_target(target, target_rate)
         self.rate = rate
         self.weight = weight
@@ -242,8 +255,11 @@ class TargetSubtask(Subtask):
     def row(self, robot: RobotModel) -> tuple[np.ndarray, float, float]:
         """(η, v, e): the 1-row task ηᵀq̇ = v with v = ṗ_d + K e and e = p_d − p."""
         potential = self.potential
-        e = self.target - potential.value(robot)
-        return _gradient(self.name, potential, potential.gradient(robot), robot), self.target_rate + self.rate * e, e
+        e = self.target - _value(self.name, potential, potential.value(robot))
+        eta = _gradient(self.name, potential, potential.gradient(robot), robot)
+        if not (math.isfinite(e) and math.isfinite(float(np.add.reduce(eta)))):
+            raise NonFiniteRows(self.name)  # (a row the step cannot solve: it stops, naming this subtask)
+        return eta, self.target_rate + self.rate * e, e
 
     def __repr__(self) -> str:
         return f"TargetSubtask({self.potential!r}, target={self.target}, rate={self.rate})"
@@ -280,7 +296,7 @@ class BoundSubtask(Subtask):
         if not isinstance(source, (Potential, Barrier)):
             raise TaskError(f"BoundSubtask: expected a Potential or a Barrier, got {type(source).__name__}")
         self.source = source
-        self.name = default_name(name, source.name, "BoundSubtask")
+        self.name = default_name(name, source_name(source), "BoundSubtask")
         self._lower = None if lower is None else check_number(lower, f"subtask '{self.name}': lower")
         self._upper = None if upper is None else check_number(upper, f"subtask '{self.name}': upper")
         self._check_bounds(self._lower, self._upper)
@@ -401,11 +417,16 @@ class BoundSubtask(Subtask):
             p = src.value_and_gradient_into(robot, row, -1.0 if lower is not None else 1.0)  # type: ignore[attr-defined]
         else:
             p, eta = src.value_and_gradient(robot)
+            p = _value(self.name, src, p)
             eta = _gradient(self.name, src, eta, robot)
+            if not math.isfinite(float(np.add.reduce(eta))):
+                raise NonFiniteRows(self.name)  # (a row the step cannot keep: it stops, naming this subtask)
             if lower is not None:
                 np.negative(eta, out=row)
             else:
                 row[:] = eta
+        if not math.isfinite(p):
+            raise NonFiniteRows(self.name)
         if lower is not None:
             d[offset] = gamma * (p - lower)
             if upper is None:
@@ -421,8 +442,11 @@ class BoundSubtask(Subtask):
         """(h, H, row names, per-row γ or ``None``) with h ≥ 0 the safe side."""
         src = self.source
         if isinstance(src, Barrier):
-            term = src.evaluate(robot)
-            return term.h, term.H, self._prefixed(term.names), term.gamma
+            term = conform_barrier_term(src.evaluate(robot), robot._nv, self.name)
+            h, H = term.h, term.H
+            if not (math.isfinite(float(np.add.reduce(h))) and math.isfinite(float(np.add.reduce(H, axis=None)))):
+                raise NonFiniteRows(self.name)  # (a row the step cannot keep: it stops, naming this subtask)
+            return h, H, self._prefixed(term.names), term.gamma
         k = (self.lower is not None) + (self.upper is not None)
         C, d = np.empty((k, robot.nv)), np.empty(k)
         self._damper_into(robot, 1.0, C, d, 0)  # γ = 1: d = h, C = −H

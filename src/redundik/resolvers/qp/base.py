@@ -406,6 +406,20 @@ class QPResolverBase(Resolver):
             sol.x = x
         return sol
 
+    def stopped(self, robot: RobotModel, stack: TaskStack, t: float, dt: float, why: str) -> StepResult:
+        """:meth:`Resolver.stopped` with q̇ = 0 clipped to the step's limits (a joint outside its limits is brought
+        back), kept as the last q̇ for the next step's rate window."""
+        res = super().stopped(robot, stack, t, dt, why)
+        res.fallback = f"{why}: q̇ = 0 clipped to the limits"
+        box = self._box(robot, dt)
+        out = np.empty((2, robot.nv))
+        K.clip_twice(res.dq, box.lb, box.ub, out)
+        res.dq = out[0]
+        before = self._dq_prev
+        self._dq_hist = (out[1], np.zeros_like(out[1]) if before is None else before)
+        self._dq_prev = out[1]
+        return res
+
     def _box(self, robot: RobotModel, dt: float) -> LimitBox:
         """The step's box; with a jerk limit also the q̇ before the last one (``None`` when the last q̇ came from a
         path that keeps no history: ``JointLimits.box`` then takes the last acceleration as zero)."""

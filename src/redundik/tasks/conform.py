@@ -1,0 +1,113 @@
+"""The one check of what a user's Python code returns to a step — a task's term, a potential's value, a barrier's
+rows: float64 arrays of the right shapes pass as they are; what NumPy reads as real numbers (lists, integers,
+booleans, float32, objects holding floats) is converted; anything else (complex numbers, strings, misshapen rows, not
+a term at all) is a :class:`~redundik.errors.TaskError` naming the task or subtask. Without it NumPy would drop an
+imaginary part with a mere warning, or a numba kernel would fail on a list."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from redundik.errors import TaskError, short_repr
+from redundik.tasks.base import BarrierTerm, TaskTerm, check_term
+
+_F64 = np.dtype(np.float64)
+
+
+def conform_term(term: TaskTerm, nv: int, task: object = None) -> TaskTerm:
+    """``term`` with J (m, nv), v (m,) and error (m,) as float64 arrays: itself when they are, else a copy whose
+    arrays are converted (a list, integers, float32: what NumPy reads as real numbers). The one check of a term a
+    Python ``evaluate`` returned, on every path.
+
+    Raises:
+        TaskError: naming the task: not a ``TaskTerm``, complex or non-numeric entries, or shapes that do not fit.
+    """
+    if type(term) is not TaskTerm and not isinstance(term, TaskTerm):
+        who = f"task '{getattr(task, 'name', '?')}': " if task is not None else ""
+        raise TaskError(f"{who}evaluate must return a TaskTerm (name, J, v, error, weight), got {short_repr(term)}")
+    J, v, e = term.J, term.v, term.error
+    if (
+        type(J) is np.ndarray and type(v) is np.ndarray and type(e) is np.ndarray
+        and J.dtype is _F64 and v.dtype is _F64 and e.dtype is _F64
+        and J.ndim == 2 and J.shape[1] == nv and v.shape == e.shape == (J.shape[0],)
+    ):  # fmt: skip
+        return term
+    check_term(term, nv)  # (the shapes first: a message that names them)
+    arrays = []
+    for what, x in (("J", J), ("v", v), ("error", e)):
+        try:
+            arrays.append(real_array(x))
+        except (TypeError, ValueError) as exc:
+            raise TaskError(
+                f"task '{term.name}': evaluate returned a {what} that is not real numbers ({exc}): "
+                f"{short_repr(x)}; expected float arrays"
+            ) from None
+    return TaskTerm(term.name, arrays[0], arrays[1], arrays[2], term.weight)
+
+
+def real_array(x: object) -> np.ndarray:
+    """``x`` as a float64 array when NumPy reads it as real numbers (floats, integers, booleans, a list of them,
+    objects holding them); its own object when it already is one.
+
+    Raises:
+        TypeError, ValueError: complex numbers, strings, ragged lists: not real numbers (NumPy would drop an
+            imaginary part with a mere warning).
+    """
+    if type(x) is np.ndarray and x.dtype is _F64:
+        return x
+    a = np.asarray(x)
+    if a.dtype.kind not in "biufO":
+        raise TypeError(f"dtype {a.dtype}")
+    return a.astype(np.float64)  # (objects: each must convert; a complex or a string does not)
+
+
+def real_value(x: object) -> float:
+    """A scalar (or a one-entry array) as a float; NaN passes (the resolvers' fallback names where it came from).
+
+    Raises:
+        TypeError, ValueError: not one real number.
+    """
+    if type(x) is float:
+        return x
+    a = real_array(x)
+    if a.size != 1:
+        raise ValueError(f"{a.size} values, shape {a.shape}")
+    return float(a.reshape(-1)[0])
+
+
+def conform_barrier_term(term: BarrierTerm, nv: int, owner: str) -> BarrierTerm:
+    """``term`` with h (k,), H (k, nv) and γ (k,) or ``None`` as float64 arrays and k row names: itself when it is
+    so, else a converted copy. NaN in h or H passes (the step's fallback names the subtask).
+
+    Raises:
+        TaskError: naming the subtask ``owner``: not a ``BarrierTerm``, rows that are not real numbers, shapes or
+            a count of names that do not fit, a γ that is negative or not finite.
+    """
+    if not isinstance(term, BarrierTerm):
+        raise TaskError(
+            f"subtask '{owner}': the barrier's evaluate must return a BarrierTerm (h, H, names, gamma), got "
+            f"{short_repr(term)}"
+        )
+    h, H, names, gamma = term.h, term.H, term.names, term.gamma
+    if (
+        type(h) is np.ndarray and type(H) is np.ndarray and h.dtype is _F64 and H.dtype is _F64
+        and h.ndim == 1 and H.shape == (h.shape[0], nv) and type(names) is list and len(names) == h.shape[0]
+        and gamma is None
+    ):  # fmt: skip
+        return term
+    try:
+        h, H = real_array(h), real_array(H)
+        gamma = None if gamma is None else real_array(gamma)
+    except (TypeError, ValueError) as exc:
+        raise TaskError(f"subtask '{owner}': the barrier's h, H or gamma are not real numbers ({exc})") from None
+    k = h.shape[0] if h.ndim == 1 else -1
+    if k < 0 or H.shape != (k, nv) or (gamma is not None and gamma.shape != (k,)):
+        raise TaskError(
+            f"subtask '{owner}': the barrier gave h of shape {h.shape}, H of shape {H.shape}"
+            f"{'' if gamma is None else f' and gamma of shape {gamma.shape}'}; expected h (k,), H (k, {nv}), gamma (k,)"
+        )
+    if isinstance(names, str) or not hasattr(names, "__len__") or len(names) != k:
+        raise TaskError(f"subtask '{owner}': the barrier gave {k} rows and names {short_repr(names)}: one name per row")
+    if gamma is not None and not (np.isfinite(gamma).all() and (gamma >= 0.0).all()):
+        raise TaskError(f"subtask '{owner}': the barrier's gamma must be finite and ≥ 0 [1/s], got {short_repr(gamma)}")
+    return BarrierTerm(h, H, [str(n) for n in names], gamma)
