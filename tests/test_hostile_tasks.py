@@ -12,6 +12,7 @@ import pytest
 
 import redundik as rk
 from redundik.errors import ResolverError, TaskError
+from redundik.tasks.trajectory import Trajectory
 from tests.hostile import _planar
 
 
@@ -375,5 +376,88 @@ def test_a_users_barrier_given_as_lists_is_solved_as_its_float_rows(method: str)
         robot, stack, q = _subtask_stack(rk.BoundSubtask(_UserBarrier(kind)))
         res = rk.make_resolver(method).step(robot, stack, q, 0.0, 0.01)
         assert res.fallback is None
+        answers.append(res.dq)
+    np.testing.assert_allclose(answers[0], answers[1], rtol=0, atol=1e-12)
+
+
+class _UserTrajectory(Trajectory):
+    """A user's trajectory: a 5 cm sway along y from the start pose, or what ``mode`` says."""
+
+    def __init__(self, kind: str = "ok") -> None:
+        self.mode = kind
+
+    def reference(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        start = self.start_pose
+        p = np.array(start.translation) + np.array([0.0, 0.05 * math.sin(t), 0.0])
+        R = np.array(start.rotation)
+        twist = np.array([0.0, 0.05 * math.cos(t), 0.0, 0.0, 0.0, 0.0])
+        kind = self.mode
+        out: dict[str, object] = {
+            "none": None,
+            "two": (p, R),
+            "lists": (p.tolist(), R.tolist(), twist.tolist()),
+            "float32": (p.astype(np.float32), R, twist),
+            "complex": (p.astype(complex), R, twist),
+            "twist_shape": (p, R, twist[:3]),
+            "p_shape": (p[:2], R, twist),
+            "not_rigid": (p, 2.0 * R, twist),
+            "far": (p + 1e200, R, twist),
+            "p_nan": (p + math.nan, R, twist),
+        }
+        return out.get(kind, (p, R, twist))  # type: ignore[return-value]
+
+
+def _trajectory_stack(kind: str) -> tuple[rk.RobotModel, rk.TaskStack, np.ndarray]:
+    robot = rk.load_example_robot("panda")
+    q = robot.neutral()
+    q[3] = -1.5
+    robot.update(q)
+    stack = rk.TaskStack([rk.FrameTask("panda_hand", _UserTrajectory(kind), gain=5.0), rk.PostureTask(gain=1.0)])
+    stack.reset(robot)
+    return robot, stack, q
+
+
+@pytest.mark.parametrize("fuse", [True, False])
+@pytest.mark.parametrize("method", ["pinv", "feedback", "wqp", "hqp"])
+@pytest.mark.parametrize(
+    ("kind", "expected"),
+    [
+        ("none", r"reference\(t\) must return \(p \(3,\), R \(3, 3\), twist \(6,\)\), got None"),
+        ("two", r"reference\(t\) must return"),
+        ("complex", r"reference is not real numbers \(dtype complex128\)"),
+        ("twist_shape", r"twist of shape \(3,\); expected \(3,\), \(3, 3\) and \(6,\)"),
+        ("p_shape", r"p of shape \(2,\)"),
+        ("not_rigid", "reference rotation is not a rotation"),
+        ("far", "reference position .* is beyond"),
+    ],
+)
+def test_a_users_trajectory_giving_no_reference_is_refused_naming_the_task(
+    fuse: bool, method: str, kind: str, expected: str
+) -> None:
+    """A user's ``Trajectory.reference`` that gives no (p, R, twist) of real numbers and the right shapes, a matrix
+    that is not a rotation or a position beyond ±1e6: a ``TaskError`` naming the task, on both paths. Before: a
+    twist of 3 entries or a position of 2 was taken without a word on the per-task path (NumPy broadcast them) and
+    refused by a broadcast error on the compiled one; a non-rotation R was used as it was; lists and complex
+    numbers raised numba's TypingError on the per-task path and were cast to real on the compiled one."""
+    robot, stack, q = _trajectory_stack(kind)
+    resolver = rk.make_resolver(method)
+    resolver.fuse = fuse  # type: ignore[attr-defined]
+    with pytest.raises(TaskError, match=f"task 'panda_hand': .*{expected}"):
+        resolver.step(robot, stack, q, 0.0, 0.01)
+
+
+@pytest.mark.parametrize("method", ["pinv", "feedback", "wqp", "hqp"])
+@pytest.mark.parametrize("kind", ["lists", "float32", "p_nan"])
+def test_a_users_trajectory_read_as_real_numbers_gives_the_same_step_on_both_paths(method: str, kind: str) -> None:
+    """Lists or float32 are solved as their float64 values; a NaN position falls back (q̇ = 0) naming the task;
+    the compiled step and the per-task path agree."""
+    answers = []
+    for fuse in (True, False):
+        robot, stack, q = _trajectory_stack(kind)
+        resolver = rk.make_resolver(method)
+        resolver.fuse = fuse  # type: ignore[attr-defined]
+        res = resolver.step(robot, stack, q, 0.3, 0.01)
+        assert np.isfinite(res.dq).all()
+        assert (res.fallback is not None and "panda_hand" in res.fallback) == (kind == "p_nan")
         answers.append(res.dq)
     np.testing.assert_allclose(answers[0], answers[1], rtol=0, atol=1e-12)

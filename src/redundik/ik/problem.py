@@ -18,7 +18,8 @@ import pinocchio as pin
 from redundik.errors import ModelError, ResolverError, TaskError
 from redundik.ik import kernels as K
 from redundik.kinematics.model import RobotModel
-from redundik.tasks.frame import MAX_COORDINATE, _as_pose
+from redundik.tasks.conform import MAX_COORDINATE
+from redundik.tasks.frame import _as_pose
 
 #: What a target may be, per frame.
 Target = Any  # pin.SE3 | np.ndarray (4, 4) | np.ndarray (3,) | nested sequences of numbers

@@ -52,6 +52,7 @@ from redundik.resolvers.layouts import INT_PARTS as INT_PARTS
 from redundik.resolvers.layouts import REF as REF
 from redundik.resolvers.linalg import FK
 from redundik.tasks.base import NOT_READY, CompiledGradient, CompiledRows, Edits, FrameForm, Task, TaskTerm
+from redundik.tasks.conform import conform_reference
 from redundik.tasks.frame import FrameTask
 from redundik.tasks.layouts import PARAMS, REF_P, REF_R, REF_TWIST
 from redundik.tasks.potential_rows import compiled_writer
@@ -471,10 +472,10 @@ class FusedPlan(PythonWriters):
         """The reference rows of trajectories without a compiled form, sampled here in Python (the others are
         sampled in the compiled call)."""
         refs = self.refs
-        for k in self.given:
-            p_d, R_d, twist = self.trajs[k].reference(t)
+        for k in self.given:  # (checked as the task's evaluate checks them: conform_reference)
+            p_d, R_d, twist = conform_reference(self.trajs[k].reference(t), f"task '{self.frames[k].name}'")
             refs[k, REF_P : REF_P + 3] = p_d
-            refs[k, REF_R : REF_R + 9] = np.asarray(R_d).reshape(-1)
+            refs[k, REF_R : REF_R + 9] = R_d.reshape(-1)
             refs[k, REF_TWIST : REF_TWIST + 6] = twist
             self.frames[k].reference_sampled(np.array(R_d))
         return refs

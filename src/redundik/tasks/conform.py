@@ -8,8 +8,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from redundik._coldstart import HOT as _HOT
+from redundik._coldstart import twins_of
+from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError, short_repr
 from redundik.tasks.base import BarrierTerm, TaskTerm, check_term
+
+#: The target writers' checks (``reference_status``), imported on first use; their twins during a cold start.
+_TK = KernelNamespace("redundik.tasks.target_kernels")
+#: ``target_kernels``' status codes (read here without importing numba).
+_OK, _NOT_FINITE, _TOO_FAR, _NOT_RIGID = 0, 1, 2, 3
+#: Largest |coordinate| [length unit of the model] of a target or a reference's position (the task files' bound on
+#: numbers too): beyond it is a unit or sign mistake, whose error would only make every step fall back.
+MAX_COORDINATE = 1e6
+#: Largest |RRᵀ − I| entry of a target's or a reference's rotation.
+RIGID_TOLERANCE = 1e-6
 
 _F64 = np.dtype(np.float64)
 
@@ -111,3 +124,43 @@ def conform_barrier_term(term: BarrierTerm, nv: int, owner: str) -> BarrierTerm:
     if gamma is not None and not (np.isfinite(gamma).all() and (gamma >= 0.0).all()):
         raise TaskError(f"subtask '{owner}': the barrier's gamma must be finite and ≥ 0 [1/s], got {short_repr(gamma)}")
     return BarrierTerm(h, H, [str(n) for n in names], gamma)
+
+
+def conform_reference(ref: object, owner: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A trajectory's ``reference(t)`` as (p (3,) [length], R (3, 3), twist (6,) [length/s, rad/s]) float64
+    arrays: as they are when they are so, else converted. NaN passes (the step's fallback names the task).
+
+    Raises:
+        TaskError: naming ``owner`` (the task): not three arrays, not real numbers, other shapes, R not a
+            rotation (|RRᵀ − I| > 1e-6 or det R < 0), a position beyond ±1e6.
+    """
+    p: object
+    R: object
+    twist: object
+    try:
+        p, R, twist = ref  # type: ignore[misc]
+    except (TypeError, ValueError):
+        raise TaskError(
+            f"{owner}: its trajectory's reference(t) must return (p (3,), R (3, 3), twist (6,)), got {short_repr(ref)}"
+        ) from None
+    if not (
+        type(p) is np.ndarray and type(R) is np.ndarray and type(twist) is np.ndarray
+        and p.dtype is _F64 and R.dtype is _F64 and twist.dtype is _F64
+        and p.shape == (3,) and R.shape == (3, 3) and twist.shape == (6,)
+    ):  # fmt: skip
+        try:
+            p, R, twist = real_array(p), real_array(R), real_array(twist)
+        except (TypeError, ValueError) as exc:
+            raise TaskError(f"{owner}: its trajectory's reference is not real numbers ({exc})") from None
+        if p.shape != (3,) or R.shape != (3, 3) or twist.shape != (6,):
+            raise TaskError(
+                f"{owner}: its trajectory's reference gave p of shape {p.shape}, R of shape {R.shape} and twist of "
+                f"shape {twist.shape}; expected (3,), (3, 3) and (6,)"
+            )
+    tk = _TK if _HOT else twins_of(_TK)  # (their twins until a resolver's kernels are loaded: no compile here)
+    status = tk.reference_status(p, R, RIGID_TOLERANCE, MAX_COORDINATE)
+    if status == _NOT_RIGID:
+        raise TaskError(f"{owner}: its trajectory's reference rotation is not a rotation: {short_repr(R)}")
+    if status == _TOO_FAR:
+        raise TaskError(f"{owner}: its trajectory's reference position {short_repr(p)} is beyond ±{MAX_COORDINATE:g}")
+    return p, R, twist

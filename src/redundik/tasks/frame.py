@@ -14,6 +14,7 @@ from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError, short_repr
 from redundik.kinematics.model import AXES, LWA, RobotModel
 from redundik.tasks.base import NOT_READY, FrameForm, Task, TaskTerm, default_name
+from redundik.tasks.conform import MAX_COORDINATE, RIGID_TOLERANCE, conform_reference
 from redundik.tasks.layouts import P0, REF_R
 from redundik.tasks.trajectory import Hold, Trajectory
 
@@ -64,13 +65,10 @@ _SE3 = pin.SE3
 DEFAULT_HOLD_GAIN = 10.0
 
 
-#: Largest target coordinate accepted [length unit of the model] (the task files' bound on numbers too): a target
-#: beyond it is a unit or sign mistake, and its error would only make every step fall back.
-MAX_COORDINATE = 1e6
+#: (``MAX_COORDINATE``, ``RIGID_TOLERANCE``: :mod:`redundik.tasks.conform`'s, the bounds of a target and of a
+#: reference; the 4×4 check of ``_as_pose`` is looser on the diagonal: a target refused by the compiled check is
+#: checked again there, and taken if it passes.)
 _MAX_COORDINATE2 = MAX_COORDINATE * MAX_COORDINATE
-#: Largest |RRᵀ − I| entry of a target rotation taken without a message (the 4×4 check of ``_as_pose`` is looser on
-#: the diagonal: a target refused here is checked again there, and taken if it passes).
-RIGID_TOLERANCE = 1e-6
 
 
 def _numbers(value: object, what: str, expected: str) -> np.ndarray:
@@ -364,7 +362,7 @@ class FrameTask(Task):
         if self._pending_position is not None:
             self._hold(pin.SE3(np.array(pose.rotation), self._pending_position))
             self._pending_position = None
-        p_d, R_d, twist_d = self.trajectory.reference(t)
+        p_d, R_d, twist_d = conform_reference(self.trajectory.reference(t), f"task '{self.name}'")
         self._last_R = R_d
         J = pin.getFrameJacobian(robot.model, data, fid, LWA)  # robot.frame_jacobian without its checks
         J = J if J.ndim == 2 else J.reshape(6, -1)  # a 1-joint robot: the bindings return its 6×1 as shape (6,)

@@ -63,6 +63,18 @@ def _rotation_status(T: np.ndarray, tol: float) -> int:
 
 
 @_jit
+def reference_status(p: np.ndarray, R: np.ndarray, tol: float, max_coordinate: float) -> int:
+    """The status of a sampled reference — position p (3,) [length], rotation R (3, 3): ``OK``, ``TOO_FAR``,
+    ``NOT_RIGID``, or ``NOT_FINITE`` (a NaN the step's fallback reports)."""
+    for i in range(3):
+        if not math.isfinite(p[i]):
+            return NOT_FINITE
+        if abs(p[i]) > max_coordinate:
+            return TOO_FAR
+    return _rotation_status(R, tol)
+
+
+@_jit
 def pose_into(T: np.ndarray, row: np.ndarray, tol: float, max_coordinate: float) -> int:
     """Check the homogeneous matrix ``T`` (4, 4) and write its position [length] at ``P0`` and its rotation
     (row-major) at ``R0`` of ``row`` (``tasks.layouts``); the status (module docstring)."""
