@@ -6,6 +6,8 @@ imaginary part with a mere warning, or a numba kernel would fail on a list."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from redundik._coldstart import HOT as _HOT
@@ -16,8 +18,8 @@ from redundik.tasks.base import BarrierTerm, TaskTerm, check_term
 
 #: The target writers' checks (``reference_status``), imported on first use; their twins during a cold start.
 _TK = KernelNamespace("redundik.tasks.target_kernels")
-#: ``target_kernels``' status codes (read here without importing numba).
-_OK, _NOT_FINITE, _TOO_FAR, _NOT_RIGID = 0, 1, 2, 3
+#: ``target_kernels.NOT_RIGID`` (read here without importing numba).
+_NOT_RIGID = 3
 #: Largest |coordinate| [length unit of the model] of a target or a reference's position (the task files' bound on
 #: numbers too): beyond it is a unit or sign mistake, whose error would only make every step fall back.
 MAX_COORDINATE = 1e6
@@ -132,7 +134,7 @@ def conform_reference(ref: object, owner: str) -> tuple[np.ndarray, np.ndarray, 
 
     Raises:
         TaskError: naming ``owner`` (the task): not three arrays, not real numbers, other shapes, R not a
-            rotation (|RRᵀ − I| > 1e-6 or det R < 0), a position beyond ±1e6.
+            rotation (|RRᵀ − I| > 1e-6 or det R < 0).
     """
     p: object
     R: object
@@ -158,9 +160,8 @@ def conform_reference(ref: object, owner: str) -> tuple[np.ndarray, np.ndarray, 
                 f"shape {twist.shape}; expected (3,), (3, 3) and (6,)"
             )
     tk = _TK if _HOT else twins_of(_TK)  # (their twins until a resolver's kernels are loaded: no compile here)
-    status = tk.reference_status(p, R, RIGID_TOLERANCE, MAX_COORDINATE)
-    if status == _NOT_RIGID:
+    # (any finite position is resolved as asked, as a compiled Line's is: the joint-speed cap and the divergence
+    # watch see to what a huge one asks)
+    if tk.reference_status(p, R, RIGID_TOLERANCE, math.inf) == _NOT_RIGID:
         raise TaskError(f"{owner}: its trajectory's reference rotation is not a rotation: {short_repr(R)}")
-    if status == _TOO_FAR:
-        raise TaskError(f"{owner}: its trajectory's reference position {short_repr(p)} is beyond ±{MAX_COORDINATE:g}")
     return p, R, twist
