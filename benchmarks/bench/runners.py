@@ -107,10 +107,14 @@ class Runner(ABC):
         self._restart()
 
     def run(self, steps: int) -> None:
-        """Advance by ``steps`` control ticks (restarting episodes as the scenario says)."""
+        """Advance by ``steps`` control ticks (restarting episodes as the scenario says). The chunk's steps are
+        scored by the common ruler after the chunk, as PlaCo's worker chunks are: nothing but the method's own
+        work runs between two timed steps of one runner."""
         sc, rec = self.scenario, self.record
+        taken: list[tuple[float, np.ndarray, np.ndarray]] = []
         for _ in range(steps):
             if sc.episode is not None and self.k >= sc.episode:
+                self._score(taken)  # (the ruler is anchored per episode)
                 self.restart()
             t = self.k * sc.dt
             try:
@@ -120,20 +124,34 @@ class Runner(ABC):
                 if rec.first_failure is None:
                     rec.first_failure = f"{type(exc).__name__}: {exc}"
                 elapsed, q_next = 0, self.q
-            self.record_step(t, elapsed, q_next)
+            rec.step_ns.append(elapsed)
+            rec.qp_flags.append(self._qp_now)
+            self._qp_now = False
+            taken.append((t, self.q, q_next))
+            self.q = q_next
+            self.k += 1
+        self._score(taken)
+
+    def _score(self, taken: list[tuple[float, np.ndarray, np.ndarray]]) -> None:
+        """The common ruler on the steps ``taken`` (t, q before, q after), in order; ``taken`` is emptied."""
+        rec, metrics = self.record, self.metrics
+        for t, q, q_next in taken:
+            if float(np.max(np.abs(q_next - q), initial=0.0)) <= FROZEN_STEP:
+                rec.frozen += 1  # the robot did not move this step (every scenario's references move)
+            rec.task_error.append(metrics.task_error(q, t))
+            value, viol = metrics.after_step(q_next)
+            rec.monitor.append(value)
+            rec.violation.append(viol)
+        taken.clear()
 
     def record_step(self, t: float, elapsed: int, q_next: np.ndarray) -> None:
-        """Record one step taken at time t from self.q to ``q_next`` in ``elapsed`` ns (the common ruler)."""
+        """Record one step taken at time t from self.q to ``q_next`` in ``elapsed`` ns and score it (a runner whose
+        chunk ran elsewhere: PlaCo's worker)."""
         rec = self.record
         rec.step_ns.append(elapsed)
         rec.qp_flags.append(self._qp_now)
         self._qp_now = False
-        if float(np.max(np.abs(q_next - self.q), initial=0.0)) <= FROZEN_STEP:
-            rec.frozen += 1  # the robot did not move this step (every scenario's references move)
-        rec.task_error.append(self.metrics.task_error(self.q, t))
-        value, viol = self.metrics.after_step(q_next)
-        rec.monitor.append(value)
-        rec.violation.append(viol)
+        self._score([(t, self.q, q_next)])
         self.q = q_next
         self.k += 1
 
