@@ -459,3 +459,49 @@ def test_a_users_trajectory_read_as_real_numbers_gives_the_same_step_on_both_pat
         assert (res.fallback is not None and "panda_hand" in res.fallback) == (kind == "p_nan")
         answers.append(res.dq)
     np.testing.assert_allclose(answers[0], answers[1], rtol=0, atol=1e-12)
+
+
+class _LinearPotential(rk.Potential):
+    """A user's potential declaring η = w ⊙ (q ⊖ q_c) (``linear_gradient``), its answer what ``mode`` says."""
+
+    name = "linear"
+
+    def __init__(self, mode: str) -> None:
+        self.mode = mode
+        self.answer: object = None
+
+    def value(self, robot: rk.RobotModel) -> float:
+        return 0.0
+
+    def gradient(self, robot: rk.RobotModel) -> np.ndarray:
+        return np.zeros(robot.nv)
+
+    def linear_gradient(self, robot: rk.RobotModel) -> tuple[np.ndarray, np.ndarray] | None:
+        if self.answer is None:  # (the same objects at every call, as the protocol asks)
+            w, c = np.ones(robot.nv), np.zeros(robot.nq)
+            self.answer = {
+                "w_shape": (w[:3], c),
+                "c_shape": (w, c[:2]),
+                "complex": (w.astype(complex), c),
+                "lists": (w.tolist(), c.tolist()),
+                "three": (w, c, 1),
+                "scalar": 5,
+            }[self.mode]
+        return self.answer  # type: ignore[return-value]
+
+
+@pytest.mark.parametrize("method", ["pinv", "feedback", "wqp", "hqp"])
+@pytest.mark.parametrize("mode", ["w_shape", "c_shape", "complex", "lists", "three", "scalar"])
+def test_a_users_linear_gradient_that_does_not_fit_is_refused_naming_the_subtask(method: str, mode: str) -> None:
+    """A compiled step packs a potential's ``linear_gradient`` (w, q_c) into its data: one of other sizes was packed
+    as it was and read past its end (a silent wrong answer); lists, complex numbers or another shape of answer
+    raised raw errors or were cast. Now a ``TaskError`` names the subtask."""
+    robot = rk.load_example_robot("panda")
+    q = robot.neutral()
+    q[3] = -1.5
+    robot.update(q)
+    hand = rk.FrameTask("panda_hand", rk.Circle(0.05, 2.0, plane=("y", "z")), gain=5.0, axes="position")
+    stack = rk.TaskStack([hand], [rk.GradientSubtask(_LinearPotential(mode), gain=-0.5)])
+    stack.reset(robot)
+    with pytest.raises(TaskError, match="subtask 'linear': its potential's linear_gradient must return"):
+        rk.make_resolver(method).step(robot, stack, q, 0.0, 0.01)

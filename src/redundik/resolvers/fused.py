@@ -52,7 +52,7 @@ from redundik.resolvers.layouts import INT_PARTS as INT_PARTS
 from redundik.resolvers.layouts import REF as REF
 from redundik.resolvers.linalg import FK
 from redundik.tasks.base import NOT_READY, CompiledGradient, CompiledRows, Edits, FrameForm, Task, TaskTerm
-from redundik.tasks.conform import conform_reference
+from redundik.tasks.conform import check_linear_gradient, conform_reference
 from redundik.tasks.frame import FrameTask
 from redundik.tasks.layouts import PARAMS, REF_P, REF_R, REF_TWIST
 from redundik.tasks.potential_rows import compiled_writer
@@ -210,6 +210,8 @@ class FusedPlan(PythonWriters):
                 plan.add_external(task, ROW, scales.get(i, (1.0, False))[0])
         for sub in layout.gradients:
             lin = sub.potential.linear_gradient(robot)
+            if lin is not None:  # (a user's potential may give anything: refused here, naming the subtask)
+                lin = check_linear_gradient(lin, robot._nv, robot._nq, sub.name)
             if lin is None or (iq[np.flatnonzero(lin[0])] < 0).any():
                 if not mixed:
                     return None
@@ -421,7 +423,7 @@ class FusedPlan(PythonWriters):
                 return False
         for sub, (w, c) in self.gradient_checks:
             lin = sub.potential.linear_gradient(robot)
-            if lin is None or lin[0] is not w or lin[1] is not c:
+            if type(lin) is not tuple or len(lin) != 2 or lin[0] is not w or lin[1] is not c:
                 return False
         return True
 

@@ -165,3 +165,26 @@ def conform_reference(ref: object, owner: str) -> tuple[np.ndarray, np.ndarray, 
     if tk.reference_status(p, R, RIGID_TOLERANCE, math.inf) == _NOT_RIGID:
         raise TaskError(f"{owner}: its trajectory's reference rotation is not a rotation: {short_repr(R)}")
     return p, R, twist
+
+
+def check_linear_gradient(lin: object, nv: int, nq: int, owner: str) -> tuple[np.ndarray, np.ndarray]:
+    """A potential's ``linear_gradient`` answer (w (nv,), q_c (nq,)), float64 arrays, returned as they are (a
+    compiled step keeps them and tests their identity at each step; a float64 dtype compared by value: an
+    unpickled array's is not NumPy's own object).
+
+    Raises:
+        TaskError: naming the subtask ``owner``: not a pair of float64 1-D arrays of those sizes.
+    """
+    w: object = None
+    c: object = None
+    if isinstance(lin, tuple) and len(lin) == 2:
+        w, c = lin
+    if not (
+        isinstance(w, np.ndarray) and isinstance(c, np.ndarray) and w.dtype == _F64 and c.dtype == _F64
+        and w.shape == (nv,) and c.shape == (nq,)
+    ):  # fmt: skip
+        raise TaskError(
+            f"subtask '{owner}': its potential's linear_gradient must return (w, q_c), float64 arrays of shapes "
+            f"({nv},) and ({nq},) (or None), got {short_repr(lin)}"
+        )
+    return w, c
