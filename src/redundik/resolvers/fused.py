@@ -209,9 +209,7 @@ class FusedPlan(PythonWriters):
             else:
                 plan.add_external(task, ROW, scales.get(i, (1.0, False))[0])
         for sub in layout.gradients:
-            lin = sub.potential.linear_gradient(robot)
-            if lin is not None:  # (a user's potential may give anything: refused here, naming the subtask)
-                lin = check_linear_gradient(lin, robot._nv, robot._nq, sub.name)
+            lin = check_linear_gradient(sub.potential.linear_gradient(robot), robot._nv, robot._nq, sub.name)
             if lin is None or (iq[np.flatnonzero(lin[0])] < 0).any():
                 if not mixed:
                     return None

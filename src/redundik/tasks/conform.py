@@ -167,14 +167,16 @@ def conform_reference(ref: object, owner: str) -> tuple[np.ndarray, np.ndarray, 
     return p, R, twist
 
 
-def check_linear_gradient(lin: object, nv: int, nq: int, owner: str) -> tuple[np.ndarray, np.ndarray]:
-    """A potential's ``linear_gradient`` answer (w (nv,), q_c (nq,)), float64 arrays, returned as they are (a
-    compiled step keeps them and tests their identity at each step; a float64 dtype compared by value: an
+def check_linear_gradient(lin: object, nv: int, nq: int, owner: str) -> tuple[np.ndarray, np.ndarray] | None:
+    """A potential's ``linear_gradient`` answer — ``None``, or (w (nv,), q_c (nq,)) float64 arrays — returned as it
+    is (a compiled step keeps them and tests their identity at each step; a float64 dtype compared by value: an
     unpickled array's is not NumPy's own object).
 
     Raises:
         TaskError: naming the subtask ``owner``: not a pair of float64 1-D arrays of those sizes.
     """
+    if lin is None:
+        return None
     w: object = None
     c: object = None
     if isinstance(lin, tuple) and len(lin) == 2:
