@@ -37,6 +37,24 @@ def stack():
 """
 
 
+#: Code run in a probe process: ``found`` lists the kernels numba compiles in the calling thread from then on.
+_LISTENER = """
+import threading
+from numba.core import event
+main, found = threading.get_ident(), []
+
+class Listener(event.Listener):
+    def on_start(self, ev):
+        if threading.get_ident() == main:
+            found.append(ev.data["dispatcher"].py_func.__qualname__)
+
+    def on_end(self, ev):
+        pass
+
+event.register("numba:compile", Listener())
+"""
+
+
 def _run(code: str, env: dict[str, str], timeout: float = 900) -> dict[str, object]:
     """Run ``code`` (after the test problem's definitions) in a fresh interpreter; its last stdout line as JSON
     (with its stderr under ``"stderr"``)."""
@@ -44,7 +62,7 @@ def _run(code: str, env: dict[str, str], timeout: float = 900) -> dict[str, obje
     if "REDUNDIK_COLD_START" not in env:
         full.pop("REDUNDIK_COLD_START", None)  # (the suite's conftest waits; the default compiles in the background)
     out = subprocess.run(
-        [sys.executable, "-c", _PROBLEM + textwrap.dedent(code)],
+        [sys.executable, "-c", _PROBLEM + f"_LISTENER = {_LISTENER!r}\n" + textwrap.dedent(code)],
         env=full,
         capture_output=True,
         text=True,
@@ -68,17 +86,7 @@ def test_first_step_interpreted_while_compiling_then_compiled_same_answer(tmp_pa
         busy = _coldstart._worker is not None and _coldstart._worker.is_alive()
         assert _coldstart.wait(900)
         again = res.step(robot, s, q, 0.0, 0.01)
-        import threading
-        from numba.core import event
-        main, found = threading.get_ident(), []
-
-        class Listener(event.Listener):
-            def on_start(self, ev):
-                if threading.get_ident() == main:
-                    found.append(ev.data["dispatcher"].py_func.__qualname__)
-
-            def on_end(self, ev):
-                pass
+        exec(_LISTENER)  # found: the kernels numba compiles in this (the caller's) thread from now on
 
         class Height(rk.Task):  # a user's own task: the stack then runs mixed
             def __init__(self):
@@ -91,7 +99,6 @@ def test_first_step_interpreted_while_compiling_then_compiled_same_answer(tmp_pa
             def __repr__(self):
                 return "Height()"
 
-        event.register("numba:compile", Listener())
         mixed = rk.TaskStack([rk.FrameTask("7", gain=5.0, axes="position"), Height(), rk.PostureTask(gain=1.0)])
         robot.update(q)
         mixed.reset(robot)
@@ -121,20 +128,9 @@ def test_no_kernel_compiles_in_the_callers_thread_during_a_cold_start(tmp_path: 
     compile events, by thread): a kernel reached other than through a namespace would stall the first step."""
     got = _run(
         """
-        import json, threading
+        import json
         import pinocchio as pin
-        from numba.core import event
-        main, found = threading.get_ident(), []
-
-        class Listener(event.Listener):
-            def on_start(self, ev):
-                if threading.get_ident() == main:
-                    found.append(ev.data["dispatcher"].py_func.__qualname__)
-
-            def on_end(self, ev):
-                pass
-
-        event.register("numba:compile", Listener())
+        exec(_LISTENER)  # found: the kernels numba compiles in this (the caller's) thread from now on
         paths = []
         for name in ("pinv", "feedback", "wqp", "hqp"):
             task = rk.FrameTask("7", gain=5.0)

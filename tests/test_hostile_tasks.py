@@ -183,14 +183,19 @@ class _UserRows(rk.Task):
         return f"_UserRows({self.kind!r})"
 
 
-def _user_stack(kind: str) -> tuple[rk.RobotModel, rk.TaskStack, np.ndarray]:
+def _panda_stack(tasks: list[rk.Task]) -> tuple[rk.RobotModel, rk.TaskStack, np.ndarray]:
+    """The Panda at a bent elbow with ``tasks`` and a posture, reset there: (robot, stack, q)."""
     robot = rk.load_example_robot("panda")
     q = robot.neutral()
     q[3] = -1.5
     robot.update(q)
-    stack = rk.TaskStack([rk.FrameTask("panda_hand", gain=5.0), _UserRows(kind), rk.PostureTask(gain=1.0)])
+    stack = rk.TaskStack([*tasks, rk.PostureTask(gain=1.0)])
     stack.reset(robot)
     return robot, stack, q
+
+
+def _user_stack(kind: str) -> tuple[rk.RobotModel, rk.TaskStack, np.ndarray]:
+    return _panda_stack([rk.FrameTask("panda_hand", gain=5.0), _UserRows(kind)])
 
 
 @pytest.mark.parametrize("fuse", [True, False])
@@ -407,13 +412,7 @@ class _UserTrajectory(Trajectory):
 
 
 def _trajectory_stack(kind: str) -> tuple[rk.RobotModel, rk.TaskStack, np.ndarray]:
-    robot = rk.load_example_robot("panda")
-    q = robot.neutral()
-    q[3] = -1.5
-    robot.update(q)
-    stack = rk.TaskStack([rk.FrameTask("panda_hand", _UserTrajectory(kind), gain=5.0), rk.PostureTask(gain=1.0)])
-    stack.reset(robot)
-    return robot, stack, q
+    return _panda_stack([rk.FrameTask("panda_hand", _UserTrajectory(kind), gain=5.0)])
 
 
 @pytest.mark.parametrize("fuse", [True, False])
