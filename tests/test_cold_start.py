@@ -284,3 +284,46 @@ def test_compiling_thread_survives_imports_in_the_callers_thread() -> None:
         for k in range(64):
             sys.modules.pop(f"redundik._import_race_{k}", None)
     assert not errors, f"the walk of redundik's modules failed while another thread imported: {errors[0]!r}"
+
+
+def test_a_binding_limit_during_a_cold_start_solves_its_qp_without_the_native_call(tmp_path: Path) -> None:
+    """``hqp`` and ``wqp`` steps whose limits bind while the kernels compile: the level QPs go to the backend's own
+    solve (daqp's C entry is called by compiled code only: its interpreted twin cannot, and raised ``RuntimeError``
+    here before), and once the kernels are loaded the native call is decided and used."""
+    got = _run(
+        """
+        import json
+        import pinocchio as pin
+        from redundik import _coldstart
+        from redundik.kinematics.urdf import load_example_robot
+        from redundik.resolvers.qp import daqp_native
+        panda = load_example_robot("panda")
+        out = {}
+        for name in ("hqp", "wqp"):
+            qp = pin.neutral(panda.model)
+            qp[:7] = [0.0, -0.4, 0.0, -2.0, 0.0, 1.6, 0.8]
+            panda.update(qp)
+            circle = rk.FrameTask("panda_hand", rk.Circle(0.12, 2.0 * np.pi, plane=("y", "z")), gain=50.0)
+            s = rk.TaskStack([circle, rk.PostureTask(gain=1.0, weight=1e-2, priority=2 if name == "hqp" else 1)])
+            s.reset(panda)
+            res = rk.make_resolver(name, max_joint_speed=None)
+            rows = []
+            for k in range(40):
+                r = res.step(panda, s, qp, 0.01 * k, 0.01)
+                rows.append((r.info["path"], int(r.info.get("qp", 0)), bool(np.isfinite(r.dq).all())))
+                qp = panda.integrate(qp, r.dq, 0.01)
+            out[name] = rows
+        out["decided_cold"] = daqp_native._decided
+        assert _coldstart.wait(900)
+        out["native_after"] = daqp_native.status()
+        print(json.dumps(out))
+        """,
+        {"REDUNDIK_CACHE_DIR": str(tmp_path)},
+    )
+    for name in ("hqp", "wqp"):
+        rows = got[name]
+        assert all(finite for _, _, finite in rows), name
+        cold = [qp for path, qp, _ in rows if path == "interpreted"]
+        assert cold and any(qp > 0 for qp in cold), f"{name}: no QP solved during the cold start: {rows}"
+    assert got["decided_cold"] is False
+    assert str(got["native_after"]).startswith("on"), got["native_after"]

@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from redundik._coldstart import cold
 from redundik.resolvers.linalg import _Kernels
 
 HK = _Kernels("hqp_kernels")  # (numba loads on first use, not when redundik is imported)
@@ -121,6 +122,8 @@ def entry() -> int:
     ``status()``); decided once per process."""
     global _entry, _reason, _decided
     if not _decided:
+        if cold():  # kernels compiling in the background: the C call (and its self-test) is made by numba, not by a
+            return 0  # kernel's interpreted twin; the backend's own solve until then, decided once they are loaded
         _decided = True
         found = _find()
         if isinstance(found, str):
