@@ -287,9 +287,11 @@ def test_compiling_thread_survives_imports_in_the_callers_thread() -> None:
 
 
 def test_a_binding_limit_during_a_cold_start_solves_its_qp_without_the_native_call(tmp_path: Path) -> None:
-    """``hqp`` and ``wqp`` steps whose limits bind while the kernels compile: the level QPs go to the backend's own
-    solve (daqp's C entry is called by compiled code only: its interpreted twin cannot, and raised ``RuntimeError``
-    here before), and once the kernels are loaded the native call is decided and used."""
+    """``wqp`` and ``hqp`` steps whose limits bind while their kernels compile in the background — the first kernels
+    of the process, or after another resolver's were loaded (every namespace then holds the kernels' twins) — solve
+    their QPs through the backend's own solve: daqp's C entry is called by compiled kernels only (their
+    interpreted twins cannot: ``RuntimeError`` or ``NotImplementedError`` here before). Once the kernels are loaded
+    the native call is decided and used."""
     got = _run(
         """
         import json
@@ -298,8 +300,8 @@ def test_a_binding_limit_during_a_cold_start_solves_its_qp_without_the_native_ca
         from redundik.kinematics.urdf import load_example_robot
         from redundik.resolvers.qp import daqp_native
         panda = load_example_robot("panda")
-        out = {}
-        for name in ("hqp", "wqp"):
+
+        def run(name):
             qp = pin.neutral(panda.model)
             qp[:7] = [0.0, -0.4, 0.0, -2.0, 0.0, 1.6, 0.8]
             panda.update(qp)
@@ -309,21 +311,28 @@ def test_a_binding_limit_during_a_cold_start_solves_its_qp_without_the_native_ca
             res = rk.make_resolver(name, max_joint_speed=None)
             rows = []
             for k in range(40):
+                twins = bool(_coldstart._saved)
                 r = res.step(panda, s, qp, 0.01 * k, 0.01)
-                rows.append((r.info["path"], int(r.info.get("qp", 0)), bool(np.isfinite(r.dq).all())))
+                rows.append((twins, int(r.info.get("qp", 0)), bool(np.isfinite(r.dq).all())))
                 qp = panda.integrate(qp, r.dq, 0.01)
-            out[name] = rows
+            return rows
+
+        out = {"wqp": run("wqp")}  # (the first kernels of the process compiling: nothing loaded yet)
         out["decided_cold"] = daqp_native._decided
         assert _coldstart.wait(900)
+        out["hqp"] = run("hqp")  # (wqp's kernels loaded; hqp's compiling: every namespace holds twins)
+        assert _coldstart.wait(900)
         out["native_after"] = daqp_native.status()
+        out["hot"] = run("hqp")
         print(json.dumps(out))
         """,
         {"REDUNDIK_CACHE_DIR": str(tmp_path)},
     )
-    for name in ("hqp", "wqp"):
-        rows = got[name]
-        assert all(finite for _, _, finite in rows), name
-        cold = [qp for path, qp, _ in rows if path == "interpreted"]
-        assert cold and any(qp > 0 for qp in cold), f"{name}: no QP solved during the cold start: {rows}"
+    for case in ("wqp", "hqp"):
+        rows = got[case]
+        assert all(finite for _, _, finite in rows), case
+        cold = [qp for twins, qp, _ in rows if twins]
+        assert cold and any(qp > 0 for qp in cold), f"{case}: no QP solved on the twins: {rows}"
     assert got["decided_cold"] is False
     assert str(got["native_after"]).startswith("on"), got["native_after"]
+    assert any(qp > 0 for _, qp, _ in got["hot"])

@@ -93,6 +93,15 @@ def cold() -> bool:
     return not HOT and background() and threading.get_ident() not in _compilers
 
 
+def compiled_here() -> bool:
+    """True when a kernel called from this thread now runs compiled — not its twin (a resolver's kernels are being
+    compiled in the background: every namespace holds switches) nor its plain function (numba not adopted yet). What
+    a kernel that calls C through an address needs (daqp's entry, ``hqp_native``): it has no interpreted twin."""
+    if threading.get_ident() in _compilers:
+        return True
+    return not _saved and not cold()
+
+
 def wait(timeout: float | None = None) -> bool:
     """Block until the background thread is done (at most ``timeout`` seconds); True when it is."""
     with _lock:

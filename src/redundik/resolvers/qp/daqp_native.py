@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from redundik._coldstart import cold
+from redundik._coldstart import compiled_here
 from redundik.resolvers.linalg import _Kernels
 
 HK = _Kernels("hqp_kernels")  # (numba loads on first use, not when redundik is imported)
@@ -122,8 +122,8 @@ def entry() -> int:
     ``status()``); decided once per process."""
     global _entry, _reason, _decided
     if not _decided:
-        if cold():  # kernels compiling in the background: the C call (and its self-test) is made by numba, not by a
-            return 0  # kernel's interpreted twin; the backend's own solve until then, decided once they are loaded
+        if not compiled_here():  # the C call (and its self-test) is made by compiled kernels, never their interpreted
+            return 0  # twins (a cold start): the backend's own solve until then, decided once they are loaded
         _decided = True
         found = _find()
         if isinstance(found, str):
@@ -187,6 +187,7 @@ class NativeDaqp:
         key = self.key
         return (
             enabled
+            and compiled_here()
             and len(key) == 6
             and key[4] >= nvar
             and key[5] >= nr
@@ -199,7 +200,10 @@ class NativeDaqp:
     def for_backend(cls, backend: Any, nvar: int, nr: int, cached: NativeDaqp | None) -> NativeDaqp | None:
         """The arrays for ``backend`` (a ``DaqpBackend``: its iteration limit, primal tolerance and split size) and QPs
         of up to ``nvar`` variables and ``nr`` rows, ``cached`` when it has those settings and room enough (else
-        grown); ``None`` when the native call is off."""
+        grown); ``None`` when the native call is off, or while kernels called from this thread run interpreted (a
+        cold start: another resolver's kernels compiling puts every kernel's twin in place)."""
+        if not compiled_here():
+            return None
         quadprog = entry()
         if not quadprog:
             return None
