@@ -301,13 +301,15 @@ class Resolver(ABC):
         watch = self._watch
         if watch is None:
             watch = self._watch = DivergenceWatch()
-        norm = res.__dict__.get("_dq_norm")  # a fused step computed ‖q̇‖ in its compiled call
+        d = res.__dict__
+        norm = d.get("_dq_norm")  # a fused step computed ‖q̇‖ in its compiled call
         if norm is None:
             dq = res.dq
             norm = math.sqrt(dq.dot(dq))
         speed = self._limiter  # the joint-speed cap and the singularity guard (issue 33; resolvers/singularity.py)
         if speed is not None:
-            if speed.binds(res.dq, norm):
+            over = d.get("_cap_ratio", -1.0)  # max_i |q̇_i| / c_i, when the compiled call tested the cap
+            if over > 1.0 or (over < 0.0 and speed.binds(res.dq, norm)):
                 res, norm = speed.apply(self, robot, stack, res, dt, norm)
             speed.seen = self.__dict__.get("_dq_prev")  # (a QP resolver's rate window of the next step)
         factor = watch.update(norm, res.task_error)

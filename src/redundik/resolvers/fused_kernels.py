@@ -29,6 +29,7 @@ from redundik.resolvers.kernels import (
     _jit,
     closed_form_into,
     gram_update,
+    scaled_max,
     wqp_free_step,
 )
 from redundik.resolvers.layouts import (
@@ -179,6 +180,15 @@ def _sumsq(x: np.ndarray) -> float:
 
 
 @_jit
+def cap_ratio(dq: np.ndarray, inv: np.ndarray) -> float:
+    """max_i |q̇_i| / c_i with ``inv`` the joints' 1 / cap [s/rad] (``SpeedLimiter.folded_caps``): the joint-speed
+    cap's test, returned by a fused step with its q̇; −1 when ``inv`` is empty (the cap tested after the step)."""
+    if inv.shape[0] != dq.shape[0]:
+        return -1.0
+    return scaled_max(dq, inv)
+
+
+@_jit
 def _main_error2(ints: np.ndarray, e: np.ndarray) -> float:
     """Σ e² over the main tasks' rows (the step's task error, squared)."""
     m = ints[H_M]
@@ -281,7 +291,8 @@ def fused_wqp_step(
     qp: np.ndarray,
     dq_prev: np.ndarray,
     work: np.ndarray,
-) -> tuple[float, float, float]:
+    inv: np.ndarray,
+) -> tuple[float, float, float, float]:
     """One ``wqp`` step of a fused stack: frame rows (``frame_rows``) and joint rows (e = (q_ref − q)[sel],
     v = K e) into e, v (``ev`` (2, m)); P = Σ w JᵀJ and g = −Σ w Jᵀv (``gram_update``; a joint task adds w on P's
     diagonal, or to the diagonal shift when it is an identity task, as the per-task path does); the null-space
@@ -298,10 +309,13 @@ def fused_wqp_step(
     objective; its N coefficients; then the resolver's tail (``layouts.WQP_TAIL``: position, rate, the position
     gain, λ, dt [s], the step's time t [s]).
 
+    ``inv``: the joints' 1 / speed cap, or empty (:func:`cap_ratio`).
+
     Returns:
-        (status, Σ e² of the main rows, ‖q̇‖² when inside): status −1 — a rotation error too large for the compiled
-        log3 (evaluate the tasks one by one); 1 — the optimum is inside the box (q̇ in ``out[OUT_DQ]``); 0 — a limit
-        binds (P, g and the box in ``out``'s first ``OUT_BOX`` rows are ready for the QP).
+        (status, Σ e² of the main rows, ‖q̇‖² and ``cap_ratio`` when inside): status −1 — a rotation error too
+        large for the compiled log3 (evaluate the tasks one by one); 1 — the optimum is inside the box (q̇ in
+        ``out[OUT_DQ]``); 0 — a limit binds (P, g and the box in ``out``'s first ``OUT_BOX`` rows are ready for the
+        QP).
     """
     K, J, N, m, nv = ints[H_K], ints[H_J], ints[H_N], ints[H_M], ints[H_NV]
     out, ev, Jf = wqp_work_views(work, K, m, nv)
@@ -310,7 +324,7 @@ def fused_wqp_step(
     c0 = 2 * K
     tail = coef[c0 + 2 * J + 1 + N : c0 + 2 * J + 1 + N + WQP_TAIL]
     if not frame_rows(Jw, poses, tail[TAIL_T], refs, ints, floats, coef[0:K], Jf, e, v):
-        return -1.0, 0.0, 0.0
+        return -1.0, 0.0, 0.0, -1.0
     _frame_grams(Jf, v, ints, coef[K : 2 * K], P, g)
     shift = _joint_grams(q, ints, floats, coef[c0 : c0 + 2 * J], ev, P, g, tail[TAIL_DAMPING])  # λ + identity weights
     mx = ints[H_EXTERNAL_ROWS]
@@ -330,7 +344,9 @@ def fused_wqp_step(
     opts[OPT_DT], opts[OPT_SHIFT], opts[OPT_Z_SCALE] = tail[TAIL_DT], shift, z_scale
     lim = qp[QP_LIM : QP_LIM + LIM_ROWS]
     inside = wqp_free_step(P, g, z, q, _part(ints, H_IQ, nv), lim, opts, dq_prev, out)
-    return (1.0 if inside else 0.0), _main_error2(ints, e[0:m]), _sumsq(out[OUT_DQ]) if inside else 0.0
+    if not inside:
+        return 0.0, _main_error2(ints, e[0:m]), 0.0, -1.0
+    return 1.0, _main_error2(ints, e[0:m]), _sumsq(out[OUT_DQ]), cap_ratio(out[OUT_DQ], inv)
 
 
 @_jit
@@ -388,7 +404,8 @@ def fused_pinv_step(
     floats: np.ndarray,
     coef: np.ndarray,
     work: np.ndarray,
-) -> tuple[float, int, float, float, float, float]:
+    inv: np.ndarray,
+) -> tuple[float, int, float, float, float, float, float]:
     """One ``pinv`` step of a fused stack: its rows (:func:`fused_pinv_rows`) and the closed form
     q̇ = J⁺V + (I − J⁺J) z (eq. 5.8, ``closed_form_into``, σ_min lazily).
 
@@ -397,20 +414,22 @@ def fused_pinv_step(
     Python writers give (n,) and z (n,). ``coef``: gain (K) per frame task, the N null coefficients, then the
     resolver's tail (``layouts.PINV_TAIL``: ε, λ_max and rcond).
 
+    ``inv``: the joints' 1 / speed cap, or empty (:func:`cap_ratio`).
+
     Returns:
         (status — −1 a rotation error too large for the compiled log3, 1 done —, rank, σ_min (NaN: to compute on
-        request), damping, Σ e², ‖q̇‖²).
+        request), damping, Σ e², ‖q̇‖², ``cap_ratio``).
     """
     status, has_z, err2 = fused_pinv_rows(Jw, poses, t, refs, q, ints, floats, coef, work)
     if status < 0.0:
-        return -1.0, 0, 0.0, 0.0, 0.0, 0.0
+        return -1.0, 0, 0.0, 0.0, 0.0, 0.0, -1.0
     K, N, m, nv = ints[H_K], ints[H_N], ints[H_M], ints[H_NV]
     out, Jm, ev, _ = pinv_work_views(work, K, m, nv)
     _, z = pinv_null_views(work, nv)
     tail = coef[K + N : K + N + PINV_TAIL]
     eps, lmax, rcond = tail[TAIL_EPSILON], tail[TAIL_MAX_DAMPING], tail[TAIL_RCOND]
     rank, sigma_min, damping = closed_form_into(Jm, ev[1], z, has_z, eps, lmax, rcond, out, True)
-    return 1.0, rank, sigma_min, damping, err2, _sumsq(out[CF_DQ])
+    return 1.0, rank, sigma_min, damping, err2, _sumsq(out[CF_DQ]), cap_ratio(out[CF_DQ], inv)
 
 
 def wqp_work_size(K: int, m: int, nv: int, mx: int = 0) -> int:

@@ -29,8 +29,10 @@ class FusedStepResult(LazyStepResult):
         dq_null: np.ndarray | None = None,
         dq_norm: float | None = None,
         fallback: str | None = None,
+        cap_ratio: float = -1.0,
     ) -> FusedStepResult:
-        """The result; ``make_terms()`` builds the terms when they are first read."""
+        """The result; ``make_terms()`` builds the terms when they are first read. ``dq_norm`` and ``cap_ratio``
+        (max_i |q̇_i| / c_i, −1 when not computed): what the compiled call computed of q̇ for ``Resolver.step``."""
         res = cls.__new__(cls)
         res.__dict__ = {
             "dq": dq,
@@ -47,6 +49,7 @@ class FusedStepResult(LazyStepResult):
             "_make_terms": make_terms,
             "_task_error": task_error,
             "_dq_norm": dq_norm,  # ‖q̇‖ from the compiled call (the divergence watch reads it)
+            "_cap_ratio": cap_ratio,  # (the joint-speed cap's test, when the compiled call made it)
         }
         return res
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from redundik.kinematics.layouts import POSE_P
-from redundik.resolvers.fused_kernels import _main_error2, _null_objective, _part, _sumsq, frame_rows
+from redundik.resolvers.fused_kernels import _main_error2, _null_objective, _part, _sumsq, cap_ratio, frame_rows
 from redundik.resolvers.hqp_kernels import closed_step
 from redundik.resolvers.hqp_layout import (
     H_FRAME_ROWS,
@@ -30,6 +30,7 @@ from redundik.resolvers.hqp_layout import (
     H_NQ,
     H_NV,
     OUT_DQ,
+    OUT_ROWS,
     CascadeRows,
 )
 from redundik.resolvers.kernels import _jit
@@ -45,6 +46,7 @@ from redundik.resolvers.layouts import (
     B_ROW,
     B_UP,
     B_UPPER,
+    FRAME_ROWS,
     GIVEN_ERROR,
     H_EXTERNAL_Z,
     LIM_AMAX,
@@ -57,7 +59,33 @@ from redundik.resolvers.layouts import (
 )
 from redundik.tasks.potential_kernels import clearance_into
 
-__all__ = ["clearance_rows", "fused_hqp_step"]
+__all__ = ["clearance_rows", "fused_hqp_step", "step_work_size", "step_work_views"]
+
+
+def step_work_size(K: int, m: int, nv: int, levels: int) -> int:
+    """Length of a fused ``hqp`` step's ``work`` (one allocation a step, zeroed; :func:`step_work_views` names its
+    parts) for K frame tasks, m fused rows, nv velocity coordinates and the cascade's levels."""
+    return (OUT_ROWS + FRAME_ROWS * K + 1) * nv + 2 * m + 4 * levels
+
+
+@_jit
+def step_work_views(
+    work: np.ndarray, K: int, m: int, nv: int, levels: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The parts of a fused ``hqp`` step's ``work``, views in this order: ``out`` (``OUT_ROWS``, 1, nv) of
+    ``closed_step`` (its row ``OUT_DQ`` is ``work[OUT_DQ * nv : (OUT_DQ + 1) * nv]``), the frames' Jacobians
+    (K, 6, nv), (e, v) (2, m), z of the null-space objective (nv,) and the per-level ``stats`` (levels, 4). In
+    Python through ``step_work_views.py_func`` (slices; a compiled call would box five arrays)."""
+    a = OUT_ROWS * nv
+    b = a + FRAME_ROWS * K * nv
+    c = b + 2 * m
+    return (
+        work[0:a].reshape((OUT_ROWS, 1, nv)),
+        work[a:b].reshape((K, FRAME_ROWS, nv)),
+        work[b:c].reshape((2, m)),
+        work[c : c + nv],
+        work[c + nv : c + nv + 4 * levels].reshape((levels, 4)),
+    )
 
 
 @_jit
@@ -203,12 +231,12 @@ def fused_hqp_step(
     step: Step,
     plan: Packing,
     coef: np.ndarray,
-    limits: tuple[np.ndarray, np.ndarray],
+    limits: tuple[np.ndarray, np.ndarray, np.ndarray],
     work: FusedWork,
     rows: CascadeRows,
     params: np.ndarray,
     outs: FusedOuts,
-) -> tuple[float, float, float]:
+) -> tuple[float, float, float, float]:
     """One ``hqp`` step of a fused stack: the frame rows (``frame_rows``) and joint rows written into the cascade's
     least-squares buffers A, b, w at the rows ``dest[r]`` of the stack's layout (the rows ``hqp``'s per-task gather
     would give them, ``_task_rows``), z of the null-space objective and its identity rows (``_null_rows``);
@@ -224,15 +252,16 @@ def fused_hqp_step(
             coefficients; then position (0/1), rate (0/1) and the position gain of the limits.
         limits: (iq, lim): the q index of each velocity coordinate and the (4, nv) limit rows (lower, upper [rad],
             velocity [rad/s], acceleration [rad/s²]) of ``LimitBox.kernel_args`` (``FusedPlan.limits``): fewer
-            arrays for the call to unbox than the whole record.
+            arrays for the call to unbox than the whole record; and the joints' 1 / speed cap, or empty
+            (``fused_kernels.cap_ratio``).
         work: (Jf, ev): the frame tasks' Jacobians (K, 6, nv) and (e, v) (2, m).
         rows: ``closed_step``'s rows of the cascade; params: its settings (the two records passed on).
         outs: (out, stats): ``closed_step``'s.
 
     Returns:
-        (status, Σ e² of the main rows, ‖q̇‖² when feasible): status −1 — a rotation error too large for the
-        compiled log3 (evaluate the tasks one by one); otherwise ``closed_step``'s: 1 feasible (q̇ in out[OUT_DQ,
-        0]), 0 a constraint is active, 2 q̇ not finite.
+        (status, Σ e² of the main rows, ‖q̇‖² and ``cap_ratio`` when feasible): status −1 — a rotation error too
+        large for the compiled log3 (evaluate the tasks one by one); otherwise ``closed_step``'s: 1 feasible (q̇ in
+        out[OUT_DQ, 0]), 0 a constraint is active, 2 q̇ not finite.
     """
     Jw, poses, refs = kin
     t, dt, q, dq_prev = step
@@ -242,31 +271,34 @@ def fused_hqp_step(
     out, stats = outs
     K, m = ints[H_K], ints[H_M]
     if not frame_rows(Jw, poses, t, refs, ints, floats, coef[0:K], Jf, ev[0], ev[1]):
-        return -1.0, 0.0, 0.0
+        return -1.0, 0.0, 0.0, -1.0
     _task_rows(q, ints, floats, dest, coef, Jf, ev, A, b, w)
     _null_rows(q, ints, floats, dest, coef, A, b, w, z)
     if bint.shape[0] > 0:
         clearance_rows(Jw, poses, dt, bint, bcols, bfl, C, d)
-    iq, lim = limits
+    iq, lim, inv = limits
     o = 2 * K + 2 * ints[H_J] + 1 + ints[H_N]  # the limits' options (OPT_* of a box), after the null coefficients
     position, has_rate, gain = coef[o + OPT_POSITION] != 0.0, coef[o + OPT_RATE] != 0.0, coef[o + OPT_GAIN]
     box_args = (iq, lim[LIM_LO], lim[LIM_HI], lim[LIM_VMAX], lim[LIM_AMAX], position, has_rate, gain)
     status = closed_step(rows, params, q, box_args, dt, dq_prev, out, stats)
-    return float(status), _main_error2(ints, ev[0][0:m]), _sumsq(out[OUT_DQ, 0]) if status == 1 else 0.0
+    if status != 1:
+        return float(status), _main_error2(ints, ev[0][0:m]), 0.0, -1.0
+    return 1.0, _main_error2(ints, ev[0][0:m]), _sumsq(out[OUT_DQ, 0]), cap_ratio(out[OUT_DQ, 0], inv)
 
 
 @_jit
 def fused_hqp_call(
     Jw: np.ndarray, poses: np.ndarray, refs: np.ndarray, t: float, dt: float, q: np.ndarray, dq_prev: np.ndarray,
     ints: np.ndarray, floats: np.ndarray, dest: np.ndarray, bint: np.ndarray, bcols: np.ndarray, bfl: np.ndarray,
-    coef: np.ndarray, iq: np.ndarray, lim: np.ndarray, Jf: np.ndarray, ev: np.ndarray, A: np.ndarray, b: np.ndarray,
-    w: np.ndarray, C: np.ndarray, d: np.ndarray, z: np.ndarray, meta: np.ndarray, params: np.ndarray, out: np.ndarray,
-    stats: np.ndarray,
-) -> tuple[float, float, float]:  # fmt: skip
+    coef: np.ndarray, iq: np.ndarray, lim: np.ndarray, inv: np.ndarray, A: np.ndarray, b: np.ndarray, w: np.ndarray,
+    C: np.ndarray, d: np.ndarray, meta: np.ndarray, params: np.ndarray, work: np.ndarray,
+) -> tuple[float, float, float, float]:  # fmt: skip
     """:func:`fused_hqp_step` for a caller in Python, its records' arrays given one by one: numba unboxes an array
-    given inside a tuple more slowly than one given as an argument of its own, so the records are made here, in
-    compiled code, at no cost."""
+    given inside a tuple more slowly than one given as an argument of its own (and each argument costs about
+    60 ns), so the records are made here, in compiled code, at no cost; the step's own buffers are the parts of one
+    ``work`` (:func:`step_work_views`)."""
+    out, Jf, ev, z, stats = step_work_views(work, ints[H_K], ints[H_M], ints[H_NV], meta.shape[1] - 1)
     return fused_hqp_step(
-        (Jw, poses, refs), (t, dt, q, dq_prev), (ints, floats, dest, bint, bcols, bfl), coef, (iq, lim), (Jf, ev),
+        (Jw, poses, refs), (t, dt, q, dq_prev), (ints, floats, dest, bint, bcols, bfl), coef, (iq, lim, inv), (Jf, ev),
         (A, b, w, C, d, z, meta), params, (out, stats),
     )  # fmt: skip

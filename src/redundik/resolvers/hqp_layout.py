@@ -29,6 +29,7 @@ SIGMA_MIN, DAMPING, RANK, FREE = 0, 1, 2, 3
 #: Rows of ``closed_step``'s ``out`` (7, 1, n): the limit box (lb, ub, the position bounds), the cascade's q̇, q̇
 #: clipped to the box (returned) and its copy (kept).
 OUT_LB, OUT_UB, OUT_POS_LO, OUT_POS_HI, OUT_CASCADE, OUT_DQ, OUT_KEPT = range(7)
+OUT_ROWS = 7
 
 #: Slots of the header of a fused plan's ``ints`` (the layout of ``fused.HEADER``, written by ``FusedPlan._pack``):
 #: the counts K (frame tasks), J (level joint tasks), N (null-space terms), m (rows of e), nv, nq; the offsets in

@@ -23,7 +23,7 @@ from redundik.resolvers.layouts import CF_DQ, CF_NULL, CF_RANK, CF_ROWS
 from redundik.resolvers.linalg import FK, RCOND, K, contiguous, gram_sigma_min
 from redundik.resolvers.result import info_keys
 from redundik.resolvers.settings import Setting, flag
-from redundik.resolvers.singularity import SingularityGuard
+from redundik.resolvers.singularity import NO_CAPS, SingularityGuard
 from redundik.tasks.base import TaskTerm, stack_terms
 from redundik.tasks.stack import StackLayout, TaskStack
 
@@ -215,13 +215,15 @@ class PinvResolver(Resolver):
                 Jm, ev = work[a:b].reshape(m, n), work[b : b + 2 * m].reshape(2, m)
                 plan.write_external(robot, external, Jm, 0, ev, None, work[end - 2 * n : end - n], t)
         q = robot.q
-        status, rank, sigma_min, damping, err2, dq2 = FK.fused_pinv_step(
-            plan.jw, plan.poses, float(t), refs, q, plan.ints, plan.floats, coef, work
-        )
+        speed = self._limiter
+        status, rank, sigma_min, damping, err2, dq2, over = FK.fused_pinv_step(
+            plan.jw, plan.poses, float(t), refs, q, plan.ints, plan.floats, coef, work,
+            NO_CAPS if speed is None else speed.folded_caps(robot),
+        )  # fmt: skip
         if status < 0.0 or not math.isfinite(dq2):  # a non-finite q̇: the per-task path diagnoses it
             return None
         return FusedPinvResult.of(
-            work, plan, q, robot, rank, sigma_min, damping, err2, dq2, time.perf_counter() - t0, main, external
+            work, plan, q, robot, (rank, sigma_min, damping, err2, dq2, over), time.perf_counter() - t0, main, external
         )
 
     def __repr__(self) -> str:
@@ -255,17 +257,14 @@ class FusedPinvResult(FusedStepResult):
         plan: FusedPlan,
         q: np.ndarray,
         robot: RobotModel,
-        rank: int,
-        sigma_min: float,
-        damping: float,
-        err2: float,
-        dq2: float,
+        outputs: tuple[int, float, float, float, float, float],
         build_time: float,
         main: list[int],
         external: list[TaskTerm | None] | tuple[()] = (),
     ) -> FusedPinvResult:
-        """The result of ``fused_pinv_step``'s outputs (σ_min NaN: J well conditioned and undamped, computed on
-        first read)."""
+        """The result of ``fused_pinv_step``'s ``outputs`` (rank, σ_min — NaN: J well conditioned and undamped,
+        computed on first read —, damping, Σ e², ‖q̇‖², the cap ratio)."""
+        rank, sigma_min, damping, err2, dq2, over = outputs
         n = robot._nv
         res = cls.__new__(cls)
         lazy = sigma_min != sigma_min
@@ -281,6 +280,7 @@ class FusedPinvResult(FusedStepResult):
             "pending": True if lazy else None,  # ``_resolve`` computes σ_min from the step's J
             "_task_error": math.sqrt(err2),
             "_dq_norm": math.sqrt(dq2),  # ‖q̇‖ from the compiled call (the divergence watch reads it)
+            "_cap_ratio": over,  # max_i |q̇_i| / c_i from the compiled call (−1: not computed)
             "_step": (work, plan, q, robot, external),
         }
         if not lazy:

@@ -69,6 +69,8 @@ if TYPE_CHECKING:
 
 #: The cap [rad/s or m/s] of a joint whose model gives no velocity limit (``max_joint_speed="auto"``).
 DEFAULT_MAX_JOINT_SPEED = 10.0
+#: ``SpeedLimiter.folded_caps`` of a resolver without a cap, or whose cap a compiled step does not test.
+NO_CAPS = np.zeros(0)  # (writeable: a read-only array is another type for numba, another specialisation)
 #: ``result.info["singularity"]`` values, and their codes in ``info["singularity_state"]`` (the run's CSV).
 OK, DECELERATE, HALT = "ok", "decelerate", "halt"
 STATE_CODES = {OK: 0, DECELERATE: 1, HALT: 2}
@@ -308,6 +310,15 @@ class SpeedLimiter:
             cached = self._caps = (robot, c, float(c.min()) if c.size else math.inf)
             self.floor, self._inv = cached[2], 1.0 / c
         return cached[1]
+
+    def folded_caps(self, robot: RobotModel) -> np.ndarray:
+        """1 / the per-joint caps [s/rad] for a compiled step to test its q̇ against (``fused_kernels.cap_ratio``:
+        max_i |q̇_i| / c_i, returned with q̇), when that test is the whole of :meth:`binds`: no guard and the caps
+        built for ``robot``; else an empty array (the step's q̇ goes through :meth:`binds`)."""
+        cached = self._caps
+        if self.guard is None and cached is not None and cached[0] is robot:
+            return self._inv
+        return NO_CAPS
 
     def binds(self, dq: np.ndarray, norm: float) -> bool:
         """Whether :meth:`apply` has work this step: a guard is set, the caps are not built yet, or ‖q̇‖ [rad/s]

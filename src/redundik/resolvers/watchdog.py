@@ -379,6 +379,7 @@ def _replace_dq(resolver: Resolver, res: StepResult, dq: np.ndarray, prev: np.nd
     d = res.__dict__
     d["dq"] = dq
     d.pop("_dq_norm", None)
+    d.pop("_cap_ratio", None)
     res.dq_rank = None
     res.dq_null = None
     state = resolver.__dict__

@@ -314,7 +314,10 @@ def _commit(
     """The result with q̇ replaced by the direction-preserving one (kept as the previous q̇: rate window, warm
     start), its diagnostics computed at it, and marked."""
     resolver._dq_prev = dq.copy()
-    res.__dict__["dq"] = dq
+    d = res.__dict__
+    d["dq"] = dq
+    d.pop("_dq_norm", None)  # (what a compiled call computed of the q̇ replaced)
+    d.pop("_cap_ratio", None)
     _replace_diagnostics(res, resolver, built, dq)
     return _mark(res, info, alpha, how, stuck_below, note)
 

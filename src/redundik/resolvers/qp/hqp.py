@@ -97,6 +97,7 @@ projected Jacobian lost rank while the task's own did not — an algorithmic sin
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from collections.abc import Callable
@@ -134,6 +135,7 @@ from redundik.resolvers.qp.hqp_constrained import (
 from redundik.resolvers.qp.hqp_plan import _NO_BOUNDS, HK, _Plan
 from redundik.resolvers.qp.terms import Level, gather_rows
 from redundik.resolvers.settings import Setting, flag
+from redundik.resolvers.singularity import NO_CAPS as _NO_CAPS
 from redundik.resolvers.singularity import SingularityGuard
 from redundik.tasks.base import TaskTerm
 from redundik.tasks.stack import StackLayout, TaskStack
@@ -141,6 +143,12 @@ from redundik.tasks.stack import StackLayout, TaskStack
 #: :mod:`redundik.resolvers.hqp_fused` (the fused step), imported on first use.
 HFK = _Kernels("hqp_fused")
 _BOX = slice(OUT_LB, OUT_POS_HI + 1)  # the limit box's rows of ``closed_step``'s out
+
+
+def _frame_parts(views: Callable[[], tuple[np.ndarray, ...]]) -> tuple[np.ndarray, np.ndarray]:
+    """(Jf, ev) of a fused step's ``work`` (``views``: ``step_work_views`` bound to it), for its terms."""
+    parts = views()
+    return parts[1], parts[2]
 
 
 class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
@@ -384,43 +392,48 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         coef = fused.coefficients((float(args[5]), float(args[6]), float(args[7])))
         refs = fused.given_references(t) if fused.given else fused.refs
         prev = limits.previous(self._dq_prev)
-        Jf = np.empty((len(fused.frames), 6, n))
-        ev = np.empty((2, fused.m))
-        z = np.zeros(n)
-        if fused.lie_joints:
-            fused.write_joint_errors(robot, ev[0])
-        if external and fused.plain_rows:  # a user's own tasks only: their blocks put straight into the buffers
-            fused.put_plain_level_rows(external, plan.dest, plan.A, plan.b, plan.w, ev)
-        elif external:
-            fused.write_external(robot, external, None, 0, ev, None, z)
-            self._write_external_rows(plan, fused, external)
-        out = np.empty((7, 1, n))
-        stats = np.empty((plan.meta.shape[1] - 1, 4))
+        K_, m, levels = len(fused.frames), fused.m, plan.meta.shape[1] - 1
+        work = np.zeros(HFK.step_work_size(K_, m, n, levels))  # out, Jf, ev, z, stats: one allocation
+        if fused.lie_joints or external:  # (Python writes into e, z before the call)
+            _, _, ev, z, _ = HFK.step_work_views.py_func(work, K_, m, n, levels)
+            if fused.lie_joints:
+                fused.write_joint_errors(robot, ev[0])
+            if external and fused.plain_rows:  # a user's own tasks only: their blocks put straight into the buffers
+                fused.put_plain_level_rows(external, plan.dest, plan.A, plan.b, plan.w, ev)
+            elif external:
+                fused.write_external(robot, external, None, 0, ev, None, z)
+                self._write_external_rows(plan, fused, external)
         q = robot.q
+        speed = self._limiter
         try:
-            status, err2, dq2 = HFK.fused_hqp_call(
+            status, err2, dq2, over = HFK.fused_hqp_call(
                 fused.jw, fused.poses, refs, float(t), float(dt), q, prev, fused.ints, fused.floats, plan.dest, bint,
-                bcols, bfl, coef, args[0], fused.limits(args), Jf, ev, plan.A, plan.b, plan.w, plan.C, plan.d, z,
-                plan.meta, plan.params, out, stats,
+                bcols, bfl, coef, args[0], fused.limits(args), _NO_CAPS if speed is None else speed.folded_caps(robot),
+                plan.A, plan.b, plan.w, plan.C, plan.d, plan.meta, plan.params, work,
             )  # fmt: skip
         except np.linalg.LinAlgError:  # non-finite rows: the per-task path (it says where from)
             return None
         if status < 0.0:
             return None
         t1 = time.perf_counter()
-        zs = z if plan.layout.has_null_objective else None
-        make_terms = fused.terms_once(Jf, ev, q, robot, external)
+        views = functools.partial(HFK.step_work_views.py_func, work, K_, m, n, levels)  # (made only if asked)
+        make_terms = fused.terms_once(functools.partial(_frame_parts, views), None, q, robot, external)
         targets = fused.subtask_rows(external) if external and fused.has_targets else []
         windowed = prev.shape[0] > 0
-        if status != 1.0 or (plan.critical and not plan.keeps_safety_rows(out[OUT_DQ, 0])):
+        dq = work[OUT_DQ * n : (OUT_DQ + 1) * n]
+        if status != 1.0 or (plan.critical and not plan.keeps_safety_rows(dq)):
+            out, _, _, z, _ = views()
+            zs = z if plan.layout.has_null_objective else None
             return self._constrained_step(
                 robot, stack, plan, status, out, windowed, (zs, targets), bounds, make_terms, err2, t0, t1
             )
-        kept = out[OUT_KEPT, 0]
+        kept = work[OUT_KEPT * n : (OUT_KEPT + 1) * n]
         self._dq_prev = kept
 
         def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
+            out, _, _, z, stats = views()
             box = limits.box_from(out[_BOX, 0], windowed)
+            zs = z if plan.layout.has_null_objective else None
             built = HQPBuild(plan.step_rows(make_terms(), zs, targets, bounds), box, n, stats)
             diag = QPDiagnostics()
             diag.active_limits = box.active(kept, limits.joint_names)
@@ -428,7 +441,7 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
             return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
 
         return FusedStepResult.fused(
-            out[OUT_DQ, 0],
+            dq,
             make_terms,
             math.sqrt(err2),
             {"backend": "closed-form", "qp": 0, "iterations": 0},
@@ -437,6 +450,7 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
             plan.layout.main,
             diagnostics,
             dq_norm=math.sqrt(dq2),
+            cap_ratio=over,
         )
 
     def _constrained_step(
