@@ -1,7 +1,7 @@
-"""The joint-speed cap tested inside the compiled step (``fused_kernels.cap_ratio``): a compiled ``pinv``, ``wqp`` or
-``hqp`` step returns max_i |q̇_i| / c_i with q̇, and ``Resolver.step`` scales q̇ from it exactly as it does from its own
-test on the interpreted path — same q̇, same ``capped``/``speed_scale``, on the steps where the cap binds and on those
-where it does not."""
+"""The joint-speed cap on the compiled path: a compiled ``pinv`` or ``hqp`` step returns max_i |q̇_i| / c_i with q̇
+(``fused_kernels.cap_ratio``), ``wqp``'s is tested after its step (``SpeedLimiter.binds``), and ``Resolver.step`` scales
+q̇ exactly as it does on the interpreted path — same q̇, same ``capped``/``speed_scale``, on the steps where the cap
+binds and on those where it does not."""
 
 from __future__ import annotations
 

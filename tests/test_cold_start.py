@@ -336,3 +336,41 @@ def test_a_binding_limit_during_a_cold_start_solves_its_qp_without_the_native_ca
     assert got["decided_cold"] is False
     assert str(got["native_after"]).startswith("on"), got["native_after"]
     assert any(qp > 0 for _, qp, _ in got["hot"])
+
+
+def test_a_fork_during_the_background_compile_does_not_hang_the_child(tmp_path: Path) -> None:
+    """``multiprocessing`` (fork) while the kernels compile in the background: the children step instead of waiting
+    forever on numba's compiler lock, which the parent's compiling thread held at the fork (a pool made a few
+    seconds into a cold start hung: ``_coldstart._before_fork``)."""
+    got = _run(
+        """
+        import json, multiprocessing as mp, time
+        import pinocchio as pin
+        from redundik import _coldstart
+        from redundik.kinematics.urdf import load_example_robot
+
+        def work(k):
+            panda = load_example_robot("panda")
+            qp = pin.neutral(panda.model)
+            qp[:7] = [0.0, -0.4, 0.0, -2.0, 0.0, 1.6, 0.8]
+            panda.update(qp)
+            circle = rk.FrameTask("panda_hand", rk.Circle(0.05, 1.0, plane=("y", "z")), gain=20.0)
+            s = rk.TaskStack([circle, rk.PostureTask(gain=1.0, weight=1e-2)])
+            s.reset(panda)
+            res = rk.make_resolver("wqp")
+            for i in range(400):
+                qp = panda.integrate(qp, res.step(panda, s, qp, 0.01 * i, 0.01).dq, 0.01)
+            return bool(np.isfinite(qp).all())
+
+        work(-1)  # (the thread compiling wqp's kernels starts at its second step)
+        time.sleep(2.0)
+        busy = _coldstart._worker is not None and _coldstart._worker.is_alive()
+        with mp.get_context("fork").Pool(2) as pool:
+            done = pool.map_async(work, range(4)).get(timeout=200)
+        print(json.dumps({"busy": busy, "done": done}))
+        """,
+        {"REDUNDIK_CACHE_DIR": str(tmp_path)},
+        timeout=400,
+    )
+    assert got["busy"] and got["done"] == [True] * 4
+    assert "in the background failed" not in str(got["stderr"])  # (the children's own compiling threads too)

@@ -211,6 +211,45 @@ def _work() -> None:
                 _restore()
 
 
+_FORK_HELD: list[Any] = []  # the release of each lock :func:`_before_fork` took, in the order taken
+
+
+def _before_fork() -> None:
+    """``os.fork`` in a process whose kernels may be compiling: take the locks that the compiling thread holds while it
+    works — numba's compiler lock (compiling or loading a kernel), llvmlite's lock (any LLVM call) and this module's —
+    so that the fork happens between two of its kernels. A child forked while that thread held one inherited it
+    locked by a thread it does not have: its first compile waited forever (a ``multiprocessing`` pool made during a
+    cold start hung). The fork waits at most for the kernel being compiled."""
+    compiler = sys.modules.get("numba.core.compiler_lock")
+    if compiler is not None:
+        lock = compiler.global_compiler_lock
+        lock.acquire()
+        _FORK_HELD.append(lock.release)
+    ffi = sys.modules.get("llvmlite.binding.ffi")
+    llvm = getattr(getattr(ffi, "lib", None), "_lock", None)
+    if llvm is not None and hasattr(llvm, "__enter__"):
+        llvm.__enter__()
+        _FORK_HELD.append(lambda: llvm.__exit__(None, None, None))
+    _lock.acquire()
+    _FORK_HELD.append(_lock.release)
+
+
+def _after_fork_in_parent() -> None:
+    while _FORK_HELD:
+        _FORK_HELD.pop()()
+
+
+def _after_fork_in_child() -> None:
+    """The locks released (the forking thread, the child's only one, holds them) and the compiling thread forgotten:
+    the child's next step that asks :func:`ready` starts its own thread for what is still pending."""
+    _after_fork_in_parent()
+    _compilers.clear()
+
+
+if hasattr(os, "register_at_fork"):  # (POSIX)
+    os.register_at_fork(before=_before_fork, after_in_parent=_after_fork_in_parent, after_in_child=_after_fork_in_child)
+
+
 class _Switch:
     """A kernel as its namespaces hold it during a cold start: numba's dispatcher in a compiling thread, its twin in
     any other (a compiled kernel called there with other argument types would compile, in the caller's thread)."""

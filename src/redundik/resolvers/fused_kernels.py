@@ -291,8 +291,7 @@ def fused_wqp_step(
     qp: np.ndarray,
     dq_prev: np.ndarray,
     work: np.ndarray,
-    inv: np.ndarray,
-) -> tuple[float, float, float, float]:
+) -> tuple[float, float, float]:
     """One ``wqp`` step of a fused stack: frame rows (``frame_rows``) and joint rows (e = (q_ref − q)[sel],
     v = K e) into e, v (``ev`` (2, m)); P = Σ w JᵀJ and g = −Σ w Jᵀv (``gram_update``; a joint task adds w on P's
     diagonal, or to the diagonal shift when it is an identity task, as the per-task path does); the null-space
@@ -309,13 +308,10 @@ def fused_wqp_step(
     objective; its N coefficients; then the resolver's tail (``layouts.WQP_TAIL``: position, rate, the position
     gain, λ, dt [s], the step's time t [s]).
 
-    ``inv``: the joints' 1 / speed cap, or empty (:func:`cap_ratio`).
-
     Returns:
-        (status, Σ e² of the main rows, ‖q̇‖² and ``cap_ratio`` when inside): status −1 — a rotation error too
-        large for the compiled log3 (evaluate the tasks one by one); 1 — the optimum is inside the box (q̇ in
-        ``out[OUT_DQ]``); 0 — a limit binds (P, g and the box in ``out``'s first ``OUT_BOX`` rows are ready for the
-        QP).
+        (status, Σ e² of the main rows, ‖q̇‖² when inside): status −1 — a rotation error too large for the compiled
+        log3 (evaluate the tasks one by one); 1 — the optimum is inside the box (q̇ in ``out[OUT_DQ]``); 0 — a limit
+        binds (P, g and the box in ``out``'s first ``OUT_BOX`` rows are ready for the QP).
     """
     K, J, N, m, nv = ints[H_K], ints[H_J], ints[H_N], ints[H_M], ints[H_NV]
     out, ev, Jf = wqp_work_views(work, K, m, nv)
@@ -324,7 +320,7 @@ def fused_wqp_step(
     c0 = 2 * K
     tail = coef[c0 + 2 * J + 1 + N : c0 + 2 * J + 1 + N + WQP_TAIL]
     if not frame_rows(Jw, poses, tail[TAIL_T], refs, ints, floats, coef[0:K], Jf, e, v):
-        return -1.0, 0.0, 0.0, -1.0
+        return -1.0, 0.0, 0.0
     _frame_grams(Jf, v, ints, coef[K : 2 * K], P, g)
     shift = _joint_grams(q, ints, floats, coef[c0 : c0 + 2 * J], ev, P, g, tail[TAIL_DAMPING])  # λ + identity weights
     mx = ints[H_EXTERNAL_ROWS]
@@ -344,9 +340,7 @@ def fused_wqp_step(
     opts[OPT_DT], opts[OPT_SHIFT], opts[OPT_Z_SCALE] = tail[TAIL_DT], shift, z_scale
     lim = qp[QP_LIM : QP_LIM + LIM_ROWS]
     inside = wqp_free_step(P, g, z, q, _part(ints, H_IQ, nv), lim, opts, dq_prev, out)
-    if not inside:
-        return 0.0, _main_error2(ints, e[0:m]), 0.0, -1.0
-    return 1.0, _main_error2(ints, e[0:m]), _sumsq(out[OUT_DQ]), cap_ratio(out[OUT_DQ], inv)
+    return (1.0 if inside else 0.0), _main_error2(ints, e[0:m]), _sumsq(out[OUT_DQ]) if inside else 0.0
 
 
 @_jit

@@ -145,12 +145,6 @@ HFK = _Kernels("hqp_fused")
 _BOX = slice(OUT_LB, OUT_POS_HI + 1)  # the limit box's rows of ``closed_step``'s out
 
 
-def _frame_parts(views: Callable[[], tuple[np.ndarray, ...]]) -> tuple[np.ndarray, np.ndarray]:
-    """(Jf, ev) of a fused step's ``work`` (``views``: ``step_work_views`` bound to it), for its terms."""
-    parts = views()
-    return parts[1], parts[2]
-
-
 class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
     """Strict task hierarchy by a cascade of QPs with slack (see the module docstring for the method and references).
 
@@ -417,7 +411,7 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
             return None
         t1 = time.perf_counter()
         views = functools.partial(HFK.step_work_views.py_func, work, K_, m, n, levels)  # (made only if asked)
-        make_terms = fused.terms_once(functools.partial(_frame_parts, views), None, q, robot, external)
+        make_terms = fused.terms_once(lambda: views()[1:3], None, q, robot, external)  # (Jf, ev) if asked
         targets = fused.subtask_rows(external) if external and fused.has_targets else []
         windowed = prev.shape[0] > 0
         dq = work[OUT_DQ * n : (OUT_DQ + 1) * n]

@@ -76,7 +76,7 @@ from redundik.resolvers.qp.problem import QPProblem, infeasible
 from redundik.resolvers.qp.wqp_fused import FusedWqpResult, free_diagnostics, work_views, write_external_rows
 from redundik.resolvers.qp.wqp_native import native_box_step
 from redundik.resolvers.settings import Setting, flag, nonnegative, unit_interval
-from redundik.resolvers.singularity import NO_CAPS, SingularityGuard
+from redundik.resolvers.singularity import SingularityGuard
 from redundik.tasks.base import TaskTerm
 from redundik.tasks.stack import StackLayout, TaskStack
 from redundik.tasks.subtasks import BoundSubtask, TargetSubtask
@@ -481,11 +481,9 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         if external:
             write_external_rows(fused, robot, external, work, t)
         q = robot.q
-        speed = self._limiter
-        status, err2, dq2, over = FK.fused_wqp_step(
-            fused.jw, fused.poses, refs, q, fused.ints, fused.floats, coef, qp, prev, work,
-            NO_CAPS if speed is None else speed.folded_caps(robot),
-        )  # fmt: skip
+        status, err2, dq2 = FK.fused_wqp_step(
+            fused.jw, fused.poses, refs, q, fused.ints, fused.floats, coef, qp, prev, work
+        )
         if status < 0.0:
             return None
         bounds = self._bound_rows(robot, plan, dt) if plan.bounds else None  # (Python writers of inequality rows)
@@ -503,7 +501,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             return native or self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1, bounds)
         self._dq_prev = work[OUT_KEPT * n : (OUT_KEPT + 1) * n]
         return FusedWqpResult.of(
-            self, fused, work, q, robot, windowed, lam, (err2, dq2, over), t1 - t0, t1, plan.main, external
+            self, fused, work, q, robot, windowed, lam, (err2, dq2), t1 - t0, t1, plan.main, external
         )
 
     def _plan_for(self, stack: TaskStack, layout: StackLayout) -> _Plan:

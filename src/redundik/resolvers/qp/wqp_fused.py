@@ -110,15 +110,14 @@ class FusedWqpResult(FusedStepResult):
         robot: RobotModel,
         windowed: bool,
         lam: float,
-        outputs: tuple[float, float, float],
+        outputs: tuple[float, float],
         build_time: float,
         t1: float,
         main: list[int],
         external: list[TaskTerm | None] | tuple[()] = (),
     ) -> FusedWqpResult:
-        """The result of ``fused_wqp_step``'s ``outputs`` (Σ e², ‖q̇‖², the cap ratio; ``t1``: when the compiled call
-        returned)."""
-        err2, dq2, over = outputs
+        """The result of ``fused_wqp_step``'s ``outputs`` (Σ e², ‖q̇‖²; ``t1``: when the compiled call returned)."""
+        err2, dq2 = outputs
         n = robot._nv
         res = cls.__new__(cls)
         d = res.__dict__ = _TEMPLATE.copy()  # (the constant entries; one copy is cheaper than a literal)
@@ -126,7 +125,6 @@ class FusedWqpResult(FusedStepResult):
         d["_info"] = {"backend": "closed-form", "qp": 0, "iterations": 0}
         d["build_time"], d["main"] = build_time, main
         d["_task_error"], d["_dq_norm"] = math.sqrt(err2), math.sqrt(dq2)  # (‖q̇‖: the divergence watch reads it)
-        d["_cap_ratio"] = over  # (max_i |q̇_i| / c_i: the joint-speed cap's test; −1 when not computed)
         d["_step"] = (resolver, fused, work, q, robot, windowed, lam, external)
         d["solve_time"] = time.perf_counter() - t1
         return res
