@@ -7,7 +7,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any, TypeVar
 
 import numpy as np
@@ -278,6 +278,14 @@ class LazyStepResult(StepResult):
         }
         return res
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        """Pickled and copied (``copy.deepcopy``) as the plain :class:`StepResult` it reads as: the diagnostics and
+        the terms computed now, ``info`` a plain dict. What a lazy result holds to compute them on request — the
+        step's buffers, its plan, the robot, closures, which do not all pickle — does not go with it."""
+        values = {f.name: getattr(self, f.name) for f in fields(StepResult)}
+        values["info"] = dict(self.info.items())
+        return (_plain_result, (values,))
+
     def _resolve(self) -> None:
         d = self.__dict__
         pending = d.get("pending")
@@ -328,6 +336,11 @@ class LazyStepResult(StepResult):
         value._pending = None if deferred is None else deferred.extra
         value._keys = None if deferred is None else deferred.keys
         self.__dict__["_info"] = value
+
+
+def _plain_result(values: dict[str, Any]) -> StepResult:
+    """A :class:`StepResult` of the field ``values`` (the unpickling of a :class:`LazyStepResult`)."""
+    return StepResult(**values)
 
 
 def nonfinite_sources(
