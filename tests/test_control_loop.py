@@ -224,3 +224,89 @@ def test_bad_options_are_refused() -> None:
         loop.run(-1)
     with pytest.raises(ResolverError, match="not both"):
         loop.run(3, duration=1.0)
+
+
+class Recording(Plant):
+    """A plant that records every command and can fail to read or to write at a given call."""
+
+    def __init__(self, robot: rk.RobotModel, q0: np.ndarray, bad_read: int = -1, bad_write: int = -1) -> None:
+        super().__init__(robot, q0)
+        self.commands: list[np.ndarray] = []
+        self.reads, self.bad_read, self.bad_write = 0, bad_read, bad_write
+
+    def read(self) -> np.ndarray:
+        self.reads += 1
+        if self.reads == self.bad_read:
+            return np.full_like(self.q, np.nan)  # (a sensor glitch)
+        return super().read()
+
+    def write(self, dq: np.ndarray) -> None:
+        if len(self.commands) == self.bad_write:
+            self.commands.append(dq.copy())
+            raise OSError("bus error")
+        self.commands.append(dq.copy())
+        super().write(dq)
+
+
+def _recording(**plant_options: int) -> tuple[rk.ControlLoop, Recording, FakeClock]:
+    loop, task, plant, clock = _setup()
+    task.set_target(_target(0.0))  # (away from the start: every tick commands some q̇)
+    rec = Recording(plant.robot, plant.q, **plant_options)
+    loop.read, loop.write = rec.read, rec.write
+    return loop, rec, clock
+
+
+def test_an_exception_leaving_the_loop_commands_zero_velocity() -> None:
+    """A bad read (NaN: the step refuses it), the caller's callback or body raising, Ctrl-C while the loop sleeps: the
+    last command sent is q̇ = 0 (the robot is not left on its last q̇), and the exception says so."""
+    loop, rec, _ = _recording(bad_read=4)
+    with pytest.raises(ResolverError, match="NaN") as err:
+        loop.run(20)
+    assert len(rec.commands) == 4 and np.abs(rec.commands[2]).max() > 0  # (three ticks moved the robot)
+    np.testing.assert_array_equal(rec.commands[-1], np.zeros(rec.robot.nv))
+    assert "q̇ = 0 was commanded" in "".join(err.value.__notes__)
+
+    loop, rec, _ = _recording()
+
+    def callback(tick: rk.Tick) -> None:
+        if tick.index == 5:
+            raise RuntimeError("from the callback")
+
+    with pytest.raises(RuntimeError, match="from the callback"):
+        loop.run(20, on_tick=callback)
+    assert len(rec.commands) == 7 and not rec.commands[-1].any() and rec.commands[-2].any()
+
+    loop, rec, clock = _recording()
+
+    def interrupted_sleep(seconds: float) -> None:
+        if clock.slept == 6:
+            raise KeyboardInterrupt
+        clock.sleep(seconds)
+
+    loop.sleep = interrupted_sleep
+    with pytest.raises(KeyboardInterrupt):
+        loop.run(20)
+    assert not rec.commands[-1].any() and rec.commands[-2].any()
+
+
+def test_a_run_that_ends_or_breaks_leaves_the_last_command_as_it_was() -> None:
+    loop, rec, _ = _recording()
+    loop.run(6)
+    assert len(rec.commands) == 6 and rec.commands[-1].any()
+    for tick in loop.ticks(20):
+        if tick.index == 3:
+            break
+    assert len(rec.commands) == 10 and rec.commands[-1].any()
+
+
+def test_a_failed_write_is_followed_by_a_stop_attempt_and_said_when_that_fails_too() -> None:
+    loop, rec, _ = _recording(bad_write=3)
+    with pytest.raises(OSError, match="bus error") as err:
+        loop.run(20)
+    assert len(rec.commands) == 5 and not rec.commands[-1].any()  # (the failed one, then q̇ = 0 went through)
+    rec.bad_write = len(rec.commands)  # every write fails from now on
+    rec.write = lambda dq: (_ for _ in ()).throw(OSError("bus down"))  # type: ignore[method-assign]
+    loop.write = rec.write
+    with pytest.raises(OSError, match="bus down") as err:
+        loop.run(5)
+    assert "the stop command q̇ = 0 after this error failed too" in "".join(err.value.__notes__)

@@ -23,6 +23,11 @@ they give the same q for the same targets.
   objects are returned to the collector and automatic collection is enabled again if it was before.
 * **Pacing**: the loop sleeps until ``spin`` seconds before a slot and busy-waits the rest (``time.sleep`` wakes up
   late by 50-100 µs on a general-purpose kernel); ``clock`` and ``sleep`` can be replaced (a simulated clock).
+* **Stop on error**: an exception that leaves the loop — a read that fails or gives no configuration (a NaN: the
+  step refuses it), a refused step, a failed write, the caller's ``on_tick``, ``KeyboardInterrupt`` — is preceded by
+  one last command q̇ = 0 (``write(zeros)``), so that the robot is not left running its last q̇; a note on the
+  exception says so (or that this command failed too). A run that ends, is stopped or broken out of leaves the last
+  command as it was.
 * **Watchdog**: ``command_timeout`` sets the resolver's (:mod:`redundik.resolvers.watchdog`): when the caller stops
   setting targets, the robot is brought to rest; each tick's ``result.info`` says so.
 
@@ -238,6 +243,7 @@ class ControlLoop:
         if command_timeout is not None:
             resolver.command_timeout = command_timeout
         self._stop = False
+        self._halted: BaseException | None = None  # the exception the loop last commanded q̇ = 0 for
         self._clear()
 
     def _clear(self) -> None:
@@ -275,6 +281,10 @@ class ControlLoop:
             for tick in iterator:
                 if on_tick is not None and on_tick(tick) is False:
                     break
+        except BaseException as exc:  # (on_tick's; the ticks' own were halted where they were raised)
+            if exc is not self._halted:
+                self._halt(exc)
+            raise
         finally:
             iterator.close()
         return self.stats
@@ -310,8 +320,13 @@ class ControlLoop:
             k = done = 0
             while done < most and k < slots and not self._stop:
                 slot = start + k * self.period
-                self._wait(slot)
-                yield self._tick(k, slot)
+                try:
+                    self._wait(slot)
+                    tick = self._tick(k, slot)
+                except BaseException as exc:  # a read, step or write that failed, Ctrl-C: the robot told to stop
+                    self._halt(exc)
+                    raise
+                yield tick
                 done += 1
                 end = self.clock()
                 self._ticks.append(end - slot)
@@ -320,6 +335,18 @@ class ControlLoop:
             gc.unfreeze()
             if was_enabled:
                 gc.enable()
+
+    def _halt(self, exc: BaseException) -> None:
+        """Command q̇ = 0 as an exception leaves the loop (a read that failed or gave no configuration, a refused
+        step, a failed write, the caller's ``on_tick``, ``KeyboardInterrupt``): the robot is not left running its last
+        command; the exception says so in a note (or that this command failed too)."""
+        self._halted = exc
+        try:
+            self.write(np.zeros(self.robot.nv))
+        except Exception as again:
+            exc.add_note(f"control loop: the stop command q̇ = 0 after this error failed too: {again!r}")
+        else:
+            exc.add_note("control loop: q̇ = 0 was commanded after this error")
 
     def _warm_up(self) -> None:
         warm = self.warm
