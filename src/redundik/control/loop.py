@@ -344,9 +344,13 @@ class ControlLoop:
         try:
             self.write(np.zeros(self.robot.nv))
         except Exception as again:
-            exc.add_note(f"control loop: the stop command q̇ = 0 after this error failed too: {again!r}")
+            note = f"control loop: the stop command q̇ = 0 after this error failed too: {again!r}"
         else:
-            exc.add_note("control loop: q̇ = 0 was commanded after this error")
+            note = "control loop: q̇ = 0 was commanded after this error"
+        add_note = getattr(exc, "add_note", None)  # (Python ≥ 3.11; the log says it on any)
+        if add_note is not None:
+            add_note(note)
+        _LOG.warning("%s (%s: %s)", note, type(exc).__name__, exc)
 
     def _warm_up(self) -> None:
         warm = self.warm
