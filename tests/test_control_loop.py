@@ -304,7 +304,7 @@ def test_a_failed_write_is_followed_by_a_stop_attempt_and_said_when_that_fails_t
     caplog: pytest.LogCaptureFixture,
 ) -> None:
     loop, rec, _ = _recording(bad_write=3)
-    with pytest.raises(OSError, match="bus error") as err:
+    with pytest.raises(OSError, match="bus error"):
         loop.run(20)
     assert len(rec.commands) == 5 and not rec.commands[-1].any()  # (the failed one, then q̇ = 0 went through)
     rec.bad_write = len(rec.commands)  # every write fails from now on
