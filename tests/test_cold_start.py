@@ -374,3 +374,15 @@ def test_a_fork_during_the_background_compile_does_not_hang_the_child(tmp_path: 
     )
     assert got["busy"] and got["done"] == [True] * 4
     assert "in the background failed" not in str(got["stderr"])  # (the children's own compiling threads too)
+
+
+def test_a_cache_folder_that_cannot_be_written_is_said_once(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    """``$REDUNDIK_CACHE_DIR`` under a file (or anywhere not writable): the kernels compile uncached — in every
+    process, tens of seconds — and a warning says so once, naming the folder and the variable."""
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    folder = blocker / "kernels-x"
+    assert kc._writable(folder) is False and kc._writable(folder) is False
+    said = [r.getMessage() for r in caplog.records if "cannot be created or written" in r.getMessage()]
+    assert len(said) == 1 and str(folder) in said[0] and "REDUNDIK_CACHE_DIR" in said[0]
+    assert kc._writable(tmp_path / "fine") is True

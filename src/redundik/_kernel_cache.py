@@ -18,6 +18,7 @@ on-disk cache (compiled again in each process, never stale).
 from __future__ import annotations
 
 import hashlib
+import logging
 import os
 import sys
 import threading
@@ -119,6 +120,13 @@ def _writable(folder: Path) -> bool:
     known = _writable_memo.get(folder)
     if known is None:
         known = _writable_memo[folder] = _make_writable(folder)
+        if not known:  # (said once per folder: every process then compiles every kernel, tens of seconds)
+            logging.getLogger("redundik").warning(
+                "redundik: the kernel cache folder %s cannot be created or written: the kernels compile in every "
+                "process, uncached; set %s to a writable folder (or `redundik compile` where it can write)",
+                folder,
+                CACHE_ENV,
+            )
     return known
 
 
