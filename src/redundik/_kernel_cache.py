@@ -51,6 +51,7 @@ KERNEL_SOURCES: tuple[str, ...] = (
     "resolvers/hqp_level_qp.py",
     "resolvers/hqp_native.py",
     "resolvers/hqp_cascade.py",
+    "resolvers/hqp_cascade_call.py",
     "resolvers/fused.py",
     "tasks/trajectory.py",
     "tasks/layouts.py",

@@ -579,20 +579,3 @@ def qp_cascade_run(
             continue
         return CASCADE_LEVEL_QP, k, nvar, nr, eq
     return CASCADE_DONE, L, 0, 0, 0.0
-
-
-@_jit
-def qp_cascade_call(
-    A: np.ndarray, b: np.ndarray, w: np.ndarray, C: np.ndarray, d: np.ndarray, z: np.ndarray, meta: np.ndarray,
-    mixed: np.ndarray, lb: np.ndarray, ub: np.ndarray, cfg: np.ndarray, Z: np.ndarray, N: np.ndarray, F: np.ndarray,
-    f: np.ndarray, slack: np.ndarray, state: np.ndarray, free: np.ndarray, sel: np.ndarray, x: np.ndarray,
-    stats: np.ndarray, rfac: np.ndarray, qbuf: np.ndarray, k0: int, absorb: bool, u: np.ndarray, ctl: np.ndarray,
-    nx: np.ndarray,
-) -> tuple[int, int, int, int, float]:  # fmt: skip
-    """:func:`qp_cascade_run` for a caller in Python, its records' arrays given one by one: numba unboxes an array
-    given inside a tuple more slowly than one given as an argument of its own, so the records are made here, in
-    compiled code, at no cost (the Python loop calls it once per level QP the backend solves)."""
-    return qp_cascade_run(
-        (A, b, w, C, d, z, meta), mixed, (lb, ub), cfg, (Z, N, F, f, slack, state, free, sel), (x, stats, rfac, qbuf),
-        (k0, absorb, u), (ctl, nx),
-    )  # fmt: skip

@@ -47,7 +47,14 @@ from redundik.resolvers.hqp_algebra import (
     qr_certificate,
     upper_inverse,
 )
-from redundik.resolvers.hqp_cascade import qp_cascade_call, qp_cascade_run
+from redundik.resolvers.hqp_cascade import qp_cascade_run
+from redundik.resolvers.hqp_cascade_call import (
+    cascade_out_size,
+    cascade_out_views,
+    cascade_work_sizes,
+    cascade_work_views,
+    qp_cascade_call,
+)
 from redundik.resolvers.hqp_layout import (
     CASCADE_DONE,
     CASCADE_LEVEL_QP,
@@ -204,8 +211,12 @@ __all__ = [
     "box_qp_native_into",
     "box_qp_native_split_into",
     "box_qps_native",
+    "cascade_out_size",
+    "cascade_out_views",
     "cascade_qp_dims",
     "cascade_qp_size",
+    "cascade_work_sizes",
+    "cascade_work_views",
     "clearance_into",
     "closed_cascade",
     "closed_step",

@@ -190,18 +190,18 @@ class ConstrainedCascade(QPResolverBase):
             return None
         L = plan.meta.shape[1] - 1
         assert plan._dims is not None
-        Z, N, F, f, slack, state, free, sel = plan.cascade_buffers(plan._dims[3])
-        x = np.empty(plan.n)
-        stats = np.zeros((L, 7))
-        rfac = np.empty((L, plan.r_size))
+        state = plan.cascade_buffers(plan._dims[3])[5]
+        fwork, iwork, free = plan.cascade_blocks
+        out = np.zeros(HK.cascade_out_size(plan.n, L, plan.r_size))  # q̇, the per-level records, their R
         ctl = native.ctl
         ctl[HK.NAT_SOLVED] = ctl[HK.NAT_ITERS] = 0
         status = HK.qp_cascade_call(
-            plan.A, plan.b, plan.w, plan.C, plan.d, z, plan.meta, plan.mixed_flags, lb, ub, self._cascade_cfg(), Z, N,
-            F, f, slack, state, free, sel, x, stats, rfac, qbuf, 0, False, _NO_U, ctl, native.x,
+            plan.A, plan.b, plan.w, plan.C, plan.d, z, plan.meta, plan.mixed_flags, lb, ub, self._cascade_cfg(), fwork,
+            iwork, free, out, qbuf, 0, False, _NO_U, ctl, native.x,
         )[0]  # fmt: skip
         if status != HK.CASCADE_DONE or state[HK.ST_CONTRADICTED]:
             return None
+        x, stats, rfac = HK.cascade_out_views(out, plan.n, L)
         return x, stats, rfac, int(ctl[HK.NAT_SOLVED]), int(ctl[HK.NAT_ITERS])
 
     def _qp_cascade(self, built: HQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, list[str]]:
@@ -226,16 +226,17 @@ class ConstrainedCascade(QPResolverBase):
         # joint held at its limit) are not unknowns but fixed first and left out of the basis, so that no level QP
         # carries a window of zero width (as the pair of rows ±Z_j u ≤ tol, it left proxsuite a 1e-7-wide feasible
         # set that it declared infeasible)
-        x = np.empty(n)
-        Z, N, F, f, slack, state, free, sel = plan.cascade_buffers(int(plan.meta[META_INEQ, L]))
-        stats = np.zeros((L, 7))
+        _, _, _, _, slack, state, _, _ = plan.cascade_buffers(int(plan.meta[META_INEQ, L]))
+        fwork, iwork, free = plan.cascade_blocks
         z = built.z if built.z is not None else plan.zero
         notes: list[tuple[int, str]] = []
         k, absorb, u = 0, False, _NO_U
         backend = self.backend
         # daqp itself: the cascade calls its C entry point and absorbs what it solves at once (``daqp_native``)
         qbuf, native = plan.qp_arrays(backend)
-        rfac = np.empty((L, plan.r_size))  # the R of the levels factored by their certified QR (σ_min when read)
+        # q̇, the per-level records and the R of the levels factored by their certified QR (σ_min when read)
+        out = np.zeros(HK.cascade_out_size(n, L, plan.r_size))
+        x, stats, rfac = HK.cascade_out_views(out, n, L)
         # a built-in backend that checks its answers takes the QP in the kernel's buffer as it is (daqp: no copy);
         # anything else, and any QP it does not solve at once, goes through QPProblem and the retries below
         stacked = backend.solve_stacked if type(backend) in CHECKED_ANSWERS else None
@@ -247,8 +248,8 @@ class ConstrainedCascade(QPResolverBase):
         last_here = -1  # the last level whose QP was solved here (the record's backend is the last solver's)
         while True:
             status, k, nvar, nr, eps = HK.qp_cascade_call(
-                plan.A, plan.b, plan.w, plan.C, plan.d, z, plan.meta, plan.mixed_flags, box.lb, box.ub, cfg, Z, N, F, f,
-                slack, state, free, sel, x, stats, rfac, qbuf, k, absorb, u, ctl, nx,
+                plan.A, plan.b, plan.w, plan.C, plan.d, z, plan.meta, plan.mixed_flags, box.lb, box.ub, cfg, fwork,
+                iwork, free, out, qbuf, k, absorb, u, ctl, nx,
             )  # fmt: skip
             if status == HK.CASCADE_DONE:
                 break

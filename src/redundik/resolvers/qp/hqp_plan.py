@@ -73,6 +73,7 @@ class _Packed(NamedTuple):
 
 #: No packed bounds (``hqp_fused.fused_hqp_step``'s arguments when :meth:`_Plan.fused_bounds` wrote the rows).
 _NO_BOUNDS = (np.zeros((0, B_AXES + 3), dtype=np.int64), np.zeros((0, 0), dtype=np.int64), np.zeros((0, B_RATE + 1)))
+_EMPTY, _EMPTY_INT, _EMPTY_BOOL = np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.bool_)
 
 
 class _Plan:
@@ -111,6 +112,7 @@ class _Plan:
         self.ls_offsets: list[int] = []
         self._written: tuple[weakref.ref[_Written], int] | None = None  # the last gather's record, its rows
         self._cascade: tuple[np.ndarray, ...] | None = None  # the constrained cascade's work arrays
+        self.cascade_blocks: tuple[np.ndarray, np.ndarray, np.ndarray] = (_EMPTY, _EMPTY_INT, _EMPTY_BOOL)
         self._qp_buf = np.zeros(0)  # where the cascade writes a level QP (``hqp_kernels.level_qp_into``)
         self._qp_views: dict[tuple[int, int], tuple[np.ndarray, ...]] = {}  # its views, per (variables, rows)
         self._native: NativeDaqp | None = None  # daqp's C call from the cascade (``daqp_native``)
@@ -526,14 +528,16 @@ class _Plan:
     def cascade_buffers(self, rows: int) -> tuple[np.ndarray, ...]:
         """The constrained cascade's work arrays (Z, N, the fixed rows F, f, their slacks, its state, the free-joint
         mask and indices), kept between steps and grown to ``rows`` inequality rows; the cascade's first call
-        initialises what it reads."""
+        initialises what it reads. Views of :attr:`cascade_blocks` (``hqp_cascade_call``'s ``fwork``, ``iwork``,
+        ``free``)."""
         bufs = self._cascade
         if bufs is None or bufs[2].shape[0] < max(rows, 1):
             n, cap = self.n, max(rows, 1, 2 * (bufs[2].shape[0] if bufs is not None else 0))
-            bufs = self._cascade = (
-                np.zeros((n, n)), np.empty((n, n)), np.empty((cap, n)), np.empty(cap), np.zeros(cap),
-                np.zeros(9, dtype=np.int64), np.ones(n, dtype=np.bool_), np.zeros(n, dtype=np.int64),
-            )  # fmt: skip
+            sizes = HK.cascade_work_sizes(n, cap)
+            fwork, iwork, free = np.zeros(sizes[0]), np.zeros(sizes[1], dtype=np.int64), np.ones(n, dtype=np.bool_)
+            Z, N, F, f, slack, state, sel = HK.cascade_work_views(fwork, iwork, n)  # (once per growth)
+            bufs = self._cascade = (Z, N, F, f, slack, state, free, sel)
+            self.cascade_blocks = (fwork, iwork, free)  # (what ``qp_cascade_call`` takes: the same memory)
         return bufs
 
     def qp_arrays(self, backend: Backend) -> tuple[np.ndarray, NativeDaqp | None]:
