@@ -97,9 +97,11 @@ def compiled_here() -> bool:
     """True when a kernel called from this thread now runs compiled — not its twin (a resolver's kernels are being
     compiled in the background: every namespace holds switches) nor its plain function (numba not adopted yet). What
     a kernel that calls C through an address needs (daqp's entry, ``hqp_native``): it has no interpreted twin."""
-    if threading.get_ident() in _compilers:
+    if _saved:  # (switches in place: only a compiling thread reaches the kernels themselves)
+        return threading.get_ident() in _compilers
+    if HOT:  # (the common answer, without reading the environment: called at every cascade)
         return True
-    return not _saved and not cold()
+    return not background() or threading.get_ident() in _compilers
 
 
 def wait(timeout: float | None = None) -> bool:
