@@ -404,3 +404,23 @@ def test_packed_bound_rows_read_late_are_those_of_their_step(scenario: str) -> N
     assert {info["path"] for info in eager} == {"compiled"}
     for info, res in zip(eager, held, strict=True):
         assert dict(res.info) == info
+
+
+@pytest.mark.parametrize(("n", "levels", "r_size"), [(9, 3, 16), (7, 1, 0), (38, 5, 49), (1, 2, 1)])
+def test_the_cascade_blocks_are_sliced_alike_in_python_and_in_compiled_code(n: int, levels: int, r_size: int) -> None:
+    """``_Plan.cascade_outputs`` (Python) and ``cascade_out_views`` (the compiled call's) name the same parts of
+    ``out``; ``cascade_buffers``' views are the parts of the blocks ``qp_cascade_call`` takes."""
+    from types import SimpleNamespace
+
+    def where(a: np.ndarray) -> tuple[int | None, tuple[int, ...]]:  # (an empty part's address is no place)
+        return (a.__array_interface__["data"][0] if a.size else None), a.shape
+
+    out, *parts = _Plan.cascade_outputs(SimpleNamespace(n=n, r_size=r_size), levels)  # type: ignore[arg-type]
+    assert [where(p) for p in parts] == [where(p) for p in HK.cascade_out_views(out, n, levels)]
+    plan = SimpleNamespace(n=n, _cascade=None)
+    bufs = _Plan.cascade_buffers(plan, 5)  # type: ignore[arg-type]
+    fwork, iwork, free = plan.cascade_blocks
+    Z, N, F, f, slack, state, free_, sel = bufs
+    assert free_ is free and [where(a) for a in (Z, N, F, f, slack, state, sel)] == [
+        where(a) for a in HK.cascade_work_views(fwork, iwork, n)
+    ]

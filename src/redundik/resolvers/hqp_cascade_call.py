@@ -6,8 +6,8 @@ inside a tuple more), made into :func:`~redundik.resolvers.hqp_cascade.qp_cascad
 * ``iwork`` (int64): the cascade's ``state`` (``hqp_layout.ST_*``), then ``sel`` (n,);
 * ``out`` (float): q̇ (n,), the per-level ``stats`` (L, 7) and ``rfac`` (L, r²).
 
-Python holds views of the same parts (``_Plan.cascade_buffers``, :func:`cascade_out_views` through its
-``py_func``).
+Python holds views of the same parts, sliced in Python (``_Plan.cascade_buffers``, ``_Plan.cascade_outputs``: a
+compiled call returning them would box each array).
 """
 
 from __future__ import annotations
@@ -15,15 +15,13 @@ from __future__ import annotations
 import numpy as np
 
 from redundik.resolvers.hqp_cascade import qp_cascade_run
-from redundik.resolvers.hqp_layout import ST_NEQ
+from redundik.resolvers.hqp_layout import QS_COLUMNS, ST_NEQ
 from redundik.resolvers.kernels import _jit
 
-__all__ = ["cascade_out_size", "cascade_out_views", "cascade_work_views", "qp_cascade_call"]
+__all__ = ["cascade_out_views", "cascade_work_views", "qp_cascade_call"]
 
 #: Entries of ``state`` (``ST_MODE`` … ``ST_NEQ``), the first part of ``iwork``.
 STATE_SIZE = ST_NEQ + 1
-#: Columns of the per-level ``stats`` (``hqp_layout.QS_*``).
-STATS_COLUMNS = 7
 
 
 def cascade_work_sizes(n: int, cap: int) -> tuple[int, int]:
@@ -52,17 +50,12 @@ def cascade_work_views(
     )
 
 
-def cascade_out_size(n: int, levels: int, r_size: int) -> int:
-    """Length of ``out`` for n joints, the cascade's levels and ``r_size`` entries of R per level."""
-    return n + levels * (STATS_COLUMNS + r_size)
-
-
 @_jit
 def cascade_out_views(out: np.ndarray, n: int, levels: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(x (n,), stats (levels, 7), rfac (levels, r²)): the parts of ``out`` (views)."""
-    a = n + levels * STATS_COLUMNS
+    a = n + levels * QS_COLUMNS
     r_size = (out.shape[0] - a) // levels if levels > 0 else 0
-    return out[0:n], out[n:a].reshape((levels, STATS_COLUMNS)), out[a : a + levels * r_size].reshape((levels, r_size))
+    return out[0:n], out[n:a].reshape((levels, QS_COLUMNS)), out[a : a + levels * r_size].reshape((levels, r_size))
 
 
 @_jit

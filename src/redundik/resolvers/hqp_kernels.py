@@ -49,7 +49,6 @@ from redundik.resolvers.hqp_algebra import (
 )
 from redundik.resolvers.hqp_cascade import qp_cascade_run
 from redundik.resolvers.hqp_cascade_call import (
-    cascade_out_size,
     cascade_out_views,
     cascade_work_sizes,
     cascade_work_views,
@@ -211,7 +210,6 @@ __all__ = [
     "box_qp_native_into",
     "box_qp_native_split_into",
     "box_qps_native",
-    "cascade_out_size",
     "cascade_out_views",
     "cascade_qp_dims",
     "cascade_qp_size",

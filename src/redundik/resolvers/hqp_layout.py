@@ -65,6 +65,7 @@ IDENTITY_BASIS, SELECTION_BASIS, GENERAL_BASIS, COMPLEMENT_BASIS = 0, 1, 2, 3
 #: directions r before the level, projected (1: the basis was a general Z), solved (1: a least squares was solved:
 #: the record of ``HierarchicalQPResolver._record``), the worst slack w_k* of its inequality rows.
 QS_SIGMA, QS_DAMPING, QS_RANK, QS_FREE, QS_PROJECTED, QS_SOLVED, QS_WORST = range(7)
+QS_COLUMNS = 7
 #: Values ``qp_cascade_run`` returns first: the cascade is done, or a level QP waits in ``qbuf`` for the backend.
 CASCADE_DONE, CASCADE_LEVEL_QP = 0, 1
 

@@ -192,7 +192,7 @@ class ConstrainedCascade(QPResolverBase):
         assert plan._dims is not None
         state = plan.cascade_buffers(plan._dims[3])[5]
         fwork, iwork, free = plan.cascade_blocks
-        out = np.zeros(HK.cascade_out_size(plan.n, L, plan.r_size))  # q̇, the per-level records, their R
+        out, x, stats, rfac = plan.cascade_outputs(L)  # q̇, the per-level records, their R
         ctl = native.ctl
         ctl[HK.NAT_SOLVED] = ctl[HK.NAT_ITERS] = 0
         status = HK.qp_cascade_call(
@@ -201,7 +201,6 @@ class ConstrainedCascade(QPResolverBase):
         )[0]  # fmt: skip
         if status != HK.CASCADE_DONE or state[HK.ST_CONTRADICTED]:
             return None
-        x, stats, rfac = HK.cascade_out_views(out, plan.n, L)
         return x, stats, rfac, int(ctl[HK.NAT_SOLVED]), int(ctl[HK.NAT_ITERS])
 
     def _qp_cascade(self, built: HQPBuild, diag: QPDiagnostics) -> tuple[np.ndarray, list[str]]:
@@ -235,8 +234,7 @@ class ConstrainedCascade(QPResolverBase):
         # daqp itself: the cascade calls its C entry point and absorbs what it solves at once (``daqp_native``)
         qbuf, native = plan.qp_arrays(backend)
         # q̇, the per-level records and the R of the levels factored by their certified QR (σ_min when read)
-        out = np.zeros(HK.cascade_out_size(n, L, plan.r_size))
-        x, stats, rfac = HK.cascade_out_views(out, n, L)
+        out, x, stats, rfac = plan.cascade_outputs(L)
         # a built-in backend that checks its answers takes the QP in the kernel's buffer as it is (daqp: no copy);
         # anything else, and any QP it does not solve at once, goes through QPProblem and the retries below
         stacked = backend.solve_stacked if type(backend) in CHECKED_ANSWERS else None

@@ -21,6 +21,7 @@ from redundik.resolvers.hqp_layout import (
     META_INEQ,
     META_KIND,
     META_LS,
+    QS_COLUMNS,
 )
 from redundik.resolvers.layouts import (
     B_AXES,
@@ -539,6 +540,15 @@ class _Plan:
             bufs = self._cascade = (Z, N, F, f, slack, state, free, sel)
             self.cascade_blocks = (fwork, iwork, free)  # (what ``qp_cascade_call`` takes: the same memory)
         return bufs
+
+    def cascade_outputs(self, levels: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """A new ``out`` block of ``qp_cascade_call`` (zeros) and its parts q̇ (n,), the per-level records (levels, 7)
+        and R's (levels, r²), sliced here as ``hqp_cascade_call.cascade_out_views`` slices them in compiled code
+        (its call from Python would box three arrays)."""
+        n, r = self.n, self.r_size
+        out = np.zeros(n + levels * (QS_COLUMNS + r))
+        a = n + levels * QS_COLUMNS
+        return out, out[:n], out[n:a].reshape(levels, QS_COLUMNS), out[a:].reshape(levels, r)
 
     def qp_arrays(self, backend: Backend) -> tuple[np.ndarray, NativeDaqp | None]:
         """The level QPs' buffer, grown to the largest level QP of the rows now in ``meta`` (``hqp_kernels.
