@@ -424,3 +424,25 @@ def test_the_cascade_blocks_are_sliced_alike_in_python_and_in_compiled_code(n: i
     assert free_ is free and [where(a) for a in (Z, N, F, f, slack, state, sel)] == [
         where(a) for a in HK.cascade_work_views(fwork, iwork, n)
     ]
+
+
+def test_the_fused_step_block_is_sliced_alike_in_python_and_in_compiled_code() -> None:
+    """``_fused_solve`` slices (e, v), z, q̇ and the kept q̇ of a fused step's ``work`` itself: at the places
+    ``hqp_fused.step_work_views`` (the compiled call's) gives them."""
+    from redundik.resolvers import hqp_fused
+    from redundik.resolvers.hqp_layout import OUT_DQ, OUT_KEPT
+
+    K, m, n, levels = 2, 13, 9, 3
+    work = np.zeros(hqp_fused.step_work_size(K, m, n, levels))
+    ev, z, out, Jf, stats = hqp_fused.step_work_views(work, K, m, n, levels)
+    o = 2 * m + n
+    for mine, theirs in (
+        (work[: 2 * m].reshape(2, m), ev),
+        (work[2 * m : 2 * m + n], z),
+        (work[o + OUT_DQ * n : o + (OUT_DQ + 1) * n], out[OUT_DQ, 0]),
+        (work[o + OUT_KEPT * n : o + (OUT_KEPT + 1) * n], out[OUT_KEPT, 0]),
+    ):
+        assert mine.__array_interface__["data"][0] == theirs.__array_interface__["data"][0]
+        assert mine.shape == theirs.shape
+    assert Jf.shape == (K, 6, n) and stats.shape == (levels, 4)
+    assert stats.__array_interface__["data"][0] + stats.nbytes == work.__array_interface__["data"][0] + work.nbytes

@@ -65,26 +65,28 @@ __all__ = ["clearance_rows", "fused_hqp_step", "step_work_size", "step_work_view
 def step_work_size(K: int, m: int, nv: int, levels: int) -> int:
     """Length of a fused ``hqp`` step's ``work`` (one allocation a step, zeroed; :func:`step_work_views` names its
     parts) for K frame tasks, m fused rows, nv velocity coordinates and the cascade's levels."""
-    return (OUT_ROWS + FRAME_ROWS * K + 1) * nv + 2 * m + 4 * levels
+    return 2 * m + (1 + OUT_ROWS + FRAME_ROWS * K) * nv + 4 * levels
 
 
 @_jit
 def step_work_views(
     work: np.ndarray, K: int, m: int, nv: int, levels: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The parts of a fused ``hqp`` step's ``work``, views in this order: ``out`` (``OUT_ROWS``, 1, nv) of
-    ``closed_step`` (its row ``OUT_DQ`` is ``work[OUT_DQ * nv : (OUT_DQ + 1) * nv]``), the frames' Jacobians
-    (K, 6, nv), (e, v) (2, m), z of the null-space objective (nv,) and the per-level ``stats`` (levels, 4). In
-    Python through ``step_work_views.py_func`` (slices; a compiled call would box five arrays)."""
-    a = OUT_ROWS * nv
-    b = a + FRAME_ROWS * K * nv
-    c = b + 2 * m
+    """The parts of a fused ``hqp`` step's ``work``, views in this order (the order of the block): (e, v) (2, m), z
+    of the null-space objective (nv,), ``out`` (``OUT_ROWS``, 1, nv) of ``closed_step`` (its row ``OUT_DQ`` starts
+    at 2m + nv + ``OUT_DQ``·nv), the frames' Jacobians (K, 6, nv) and the per-level ``stats`` (levels, 4). The parts
+    Python writes before the call come first: it slices (e, v) and z itself (``HierarchicalQPResolver._fused_solve``);
+    the others, seldom read, through ``step_work_views.py_func``."""
+    a = 2 * m
+    b = a + nv
+    c = b + OUT_ROWS * nv
+    e = c + FRAME_ROWS * K * nv
     return (
-        work[0:a].reshape((OUT_ROWS, 1, nv)),
-        work[a:b].reshape((K, FRAME_ROWS, nv)),
-        work[b:c].reshape((2, m)),
-        work[c : c + nv],
-        work[c + nv : c + nv + 4 * levels].reshape((levels, 4)),
+        work[0:a].reshape((2, m)),
+        work[a:b],
+        work[b:c].reshape((OUT_ROWS, 1, nv)),
+        work[c:e].reshape((K, FRAME_ROWS, nv)),
+        work[e : e + 4 * levels].reshape((levels, 4)),
     )
 
 
@@ -297,7 +299,7 @@ def fused_hqp_call(
     given inside a tuple more slowly than one given as an argument of its own (and each argument costs about
     60 ns), so the records are made here, in compiled code, at no cost; the step's own buffers are the parts of one
     ``work`` (:func:`step_work_views`)."""
-    out, Jf, ev, z, stats = step_work_views(work, ints[H_K], ints[H_M], ints[H_NV], meta.shape[1] - 1)
+    ev, z, out, Jf, stats = step_work_views(work, ints[H_K], ints[H_M], ints[H_NV], meta.shape[1] - 1)
     return fused_hqp_step(
         (Jw, poses, refs), (t, dt, q, dq_prev), (ints, floats, dest, bint, bcols, bfl), coef, (iq, lim, inv), (Jf, ev),
         (A, b, w, C, d, z, meta), params, (out, stats),

@@ -388,8 +388,8 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         prev = limits.previous(self._dq_prev)
         K_, m, levels = len(fused.frames), fused.m, plan.meta.shape[1] - 1
         work = np.zeros(HFK.step_work_size(K_, m, n, levels))  # out, Jf, ev, z, stats: one allocation
-        if fused.lie_joints or external:  # (Python writes into e, z before the call)
-            _, _, ev, z, _ = HFK.step_work_views.py_func(work, K_, m, n, levels)
+        if fused.lie_joints or external:  # (Python writes into e, z before the call: the block's first parts)
+            ev, z = work[: 2 * m].reshape(2, m), work[2 * m : 2 * m + n]
             if fused.lie_joints:
                 fused.write_joint_errors(robot, ev[0])
             if external and fused.plain_rows:  # a user's own tasks only: their blocks put straight into the buffers
@@ -411,21 +411,22 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
             return None
         t1 = time.perf_counter()
         views = functools.partial(HFK.step_work_views.py_func, work, K_, m, n, levels)  # (made only if asked)
-        make_terms = fused.terms_once(lambda: views()[1:3], None, q, robot, external)  # (Jf, ev) if asked
+        make_terms = fused.terms_once(lambda: views()[3::-3], None, q, robot, external)  # parts 3, 0: (Jf, ev)
         targets = fused.subtask_rows(external) if external and fused.has_targets else []
         windowed = prev.shape[0] > 0
-        dq = work[OUT_DQ * n : (OUT_DQ + 1) * n]
+        o = 2 * m + n  # (``out`` after (e, v) and z)
+        dq = work[o + OUT_DQ * n : o + (OUT_DQ + 1) * n]
         if status != 1.0 or (plan.critical and not plan.keeps_safety_rows(dq)):
-            out, _, _, z, _ = views()
+            _, z, out, _, _ = views()
             zs = z if plan.layout.has_null_objective else None
             return self._constrained_step(
                 robot, stack, plan, status, out, windowed, (zs, targets), bounds, make_terms, err2, t0, t1
             )
-        kept = work[OUT_KEPT * n : (OUT_KEPT + 1) * n]
+        kept = work[o + OUT_KEPT * n : o + (OUT_KEPT + 1) * n]
         self._dq_prev = kept
 
         def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
-            out, _, _, z, stats = views()
+            _, z, out, _, stats = views()
             box = limits.box_from(out[_BOX, 0], windowed)
             zs = z if plan.layout.has_null_objective else None
             built = HQPBuild(plan.step_rows(make_terms(), zs, targets, bounds), box, n, stats)
