@@ -158,3 +158,25 @@ def test_bad_yaml_syntax_in_a_real_process(write_yaml: Callable[..., Path]) -> N
     assert "Traceback" not in proc.stderr
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
     assert len(lines) == 1 and f"{file}:" in lines[0] and "invalid YAML" in lines[0], proc.stderr
+
+
+@pytest.mark.parametrize("json_mode", [False, True], ids=["text", "json"])
+def test_ctrl_c_during_a_run_exits_aborted_and_says_so(
+    tmp_path: Path, cli: Callable[..., tuple[int, str, str]], monkeypatch: pytest.MonkeyPatch, json_mode: bool
+) -> None:
+    """Ctrl-C inside a command: typer turns it into its Exit(130), which the non-standalone call returned and the
+    CLI dropped — `redundik run` exited 0 and silent, its outputs half written. Now: exit 1 (aborted) and one line
+    (a JSON record with --json)."""
+    import redundik.reporting.outputs as outputs
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(outputs, "write_outputs", interrupted)
+    extra = ["--json"] if json_mode else []
+    code, out, err = cli("run", PLANAR_TASK, "--out", tmp_path / "o", "--quiet", *extra)
+    assert code == 1, (code, out, err)
+    assert "aborted (Ctrl-C)" in err
+    if json_mode:
+        record = json.loads(out)
+        assert record["ok"] is False and record["exit_code"] == 1 and record["kind"] == "KeyboardInterrupt"

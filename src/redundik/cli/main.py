@@ -21,6 +21,8 @@ from redundik.errors import ConfigError, MissingDependencyError, RedundikError, 
 
 #: Exit codes of the ``redundik`` command.
 EXIT_OK, EXIT_ABORTED, EXIT_USAGE, EXIT_INVALID, EXIT_FAILED, EXIT_MISSING = 0, 1, 2, 3, 4, 5
+#: What typer's non-standalone mode returns for a Ctrl-C inside a command (its ``Exit(130)``).
+TYPER_INTERRUPTED = 130
 #: An unexpected exception (a bug): 70, EX_SOFTWARE of sysexits.h.
 EXIT_INTERNAL = 70
 EXIT_CODES = {
@@ -94,6 +96,17 @@ def _app() -> Any:
     return app
 
 
+def _aborted() -> int:
+    """Ctrl-C: one line (and the JSON record with ``--json``); what was written so far may be incomplete."""
+    from redundik.cli._console import JSON_MODE, emit_json
+
+    text = "aborted (Ctrl-C): what was written so far may be incomplete"
+    if JSON_MODE["on"]:
+        emit_json({"ok": False, "error": text, "exit_code": EXIT_ABORTED, "kind": "KeyboardInterrupt"})
+    print(text, file=sys.stderr)
+    return EXIT_ABORTED
+
+
 def _report(exc: RedundikError) -> int:
     from redundik.cli._console import JSON_MODE, emit_json
 
@@ -126,12 +139,16 @@ def main(argv: list[str] | None = None) -> int:
             # a joint or frame name in a script the figure font lacks (CJK, ...) is drawn as boxes; matplotlib's
             # per-glyph warnings (two lines each, with source) would otherwise fill stderr of a successful run
             warnings.filterwarnings("ignore", message=r"Glyph \d+ .*missing from font", category=UserWarning)
-            app(args=argv, standalone_mode=False)
+            code = app(args=argv, standalone_mode=False)
+        # (typer turns Ctrl-C inside a command into Exit(130), which non-standalone mode returns: that was exit 0)
+        if code == TYPER_INTERRUPTED:
+            return _aborted()
+        if isinstance(code, int) and not isinstance(code, bool) and code != EXIT_OK:
+            return code
     except RedundikError as exc:
         return _report(exc)
     except KeyboardInterrupt:
-        print("aborted", file=sys.stderr)
-        return EXIT_ABORTED
+        return _aborted()
     except OSError as exc:  # the file system said no (permissions, a full disk, a name too long): not a bug
         where = f" '{exc.filename}'" if getattr(exc, "filename", None) else ""
         return _report(ConfigError(f"cannot read or write{where}: {exc.strerror or exc}"))
@@ -140,8 +157,7 @@ def main(argv: list[str] | None = None) -> int:
         if name == "Exit":  # typer.Exit / click.exceptions.Exit
             return int(getattr(exc, "exit_code", 0) or 0)
         if name == "Abort":
-            print("aborted", file=sys.stderr)
-            return EXIT_ABORTED
+            return _aborted()
         # Usage errors (missing option, bad value): typer raises click's ClickException, from the click package or
         # from the copy typer vendors (typer ≥ 0.2x), so recognise it by its interface rather than by import.
         show, code = getattr(exc, "show", None), getattr(exc, "exit_code", None)
