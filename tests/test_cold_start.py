@@ -19,6 +19,7 @@ import pytest
 import redundik as rk
 from redundik import _coldstart
 from redundik import _kernel_cache as kc
+from tests.compile_events import LISTENER as _LISTENER
 
 SRC = kc.PACKAGE_ROOT.parent
 
@@ -35,24 +36,6 @@ def stack():
     robot.update(q)
     s.reset(robot)
     return s
-"""
-
-
-#: Code run in a probe process: ``found`` lists the kernels numba compiles in the calling thread from then on.
-_LISTENER = """
-import threading
-from numba.core import event
-main, found = threading.get_ident(), []
-
-class Listener(event.Listener):
-    def on_start(self, ev):
-        if threading.get_ident() == main:
-            found.append(ev.data["dispatcher"].py_func.__qualname__)
-
-    def on_end(self, ev):
-        pass
-
-event.register("numba:compile", Listener())
 """
 
 

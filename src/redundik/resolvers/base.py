@@ -301,8 +301,7 @@ class Resolver(ABC):
         watch = self._watch
         if watch is None:
             watch = self._watch = DivergenceWatch()
-        d = res.__dict__
-        norm = d.get("_dq_norm")  # a fused step computed ‖q̇‖ in its compiled call
+        norm = d.get("_dq_norm")  # ‖q̇‖ of a fused step's compiled call (the watchdog drops it when it replaces q̇)
         if norm is None:
             dq = res.dq
             norm = math.sqrt(dq.dot(dq))
