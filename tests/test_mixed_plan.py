@@ -272,3 +272,47 @@ def test_a_user_tasks_arrays_of_any_layout_are_written_as_numpy_reads_them(metho
         signatures = getattr(kernel, "signatures", None)
         if signatures is not None:  # (compiled: at most one specialisation, C-ordered float64 arrays)
             assert len(signatures) <= 1
+
+
+class CountedTerm(TaskTerm):
+    """A user's TaskTerm subclass (the mixed step's quick checks leave it to the general walk)."""
+
+
+class Counted(OddArrays):
+    """:class:`OddArrays` that counts its evaluations, switching to two rows from the 5th (``kind`` "rows") or
+    returning a :class:`CountedTerm` (``kind`` "subclass")."""
+
+    def __init__(self, kind: str) -> None:
+        super().__init__("plain" if kind in ("rows", "subclass") else kind)
+        self.calls, self.mode = 0, kind
+
+    def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
+        self.calls += 1
+        term = super().evaluate(robot, t)
+        if self.mode == "rows" and self.calls >= 5:
+            J = robot.frame_jacobian("panda_link4")[[0, 2]]
+            e = np.array([0.3, 0.45]) - robot.frame_position("panda_link4")[[0, 2]]
+            return TaskTerm(self.name, J, self.gain * e, e, self.weight)
+        if self.mode == "subclass":
+            return CountedTerm(term.name, term.J, term.v, term.error, term.weight)
+        return term
+
+
+@pytest.mark.parametrize("method", ["pinv", "feedback", "wqp", "hqp"])
+@pytest.mark.parametrize("kind", ["plain", "fortran", "integer", "rows", "subclass"])
+def test_a_user_task_is_evaluated_once_per_step_on_every_walk(method: str, kind: str) -> None:
+    """The mixed step's quick walk hands a term it cannot put (another row count, a subclass, odd arrays) to the
+    general walk with the terms already evaluated: each member's ``evaluate`` runs once a step, whichever walk
+    writes its rows, and the answer is the per-task path's."""
+    tasks: list[Counted] = []
+
+    def make(robot: RobotModel) -> rk.TaskStack:
+        hand = rk.FrameTask("panda_hand", rk.Circle(0.05, 1.5, plane=("y", "z")), gain=5.0, axes="position")
+        tasks.append(Counted(kind))
+        return rk.TaskStack([hand, tasks[-1], rk.PostureTask(gain=1.0)])
+
+    diffs, paths = _run(make, "panda", method, 10)
+    assert max(float(np.abs(d).max()) for d in diffs) <= 1e-12
+    assert set(paths) == {"mixed"}
+    fused, per_task = tasks
+    assert fused.calls == per_task.calls == 10, (fused.calls, per_task.calls)

@@ -286,13 +286,16 @@ class Resolver(ABC):
             res = self.stopped(robot, stack, t, dt, str(exc))
         finally:
             self._stepping = None
-        d = res.__dict__
+        d, d_self = res.__dict__, self.__dict__
         info = d["_info"] if "_info" in d else d.get("info")
         if info is not None:  # which path wrote the rows (issue 31): one entry, not a diagnostic to compute
             compiled = d.get("_compiled")
             if compiled is True:
                 dict.__setitem__(info, "path", COMPILED)
                 dict.__setitem__(info, "interpreted", ())
+            elif compiled and compiled is d_self.get("_mixed_seen"):  # the same mixed plan as the last step's
+                dict.__setitem__(info, "path", MIXED)
+                dict.__setitem__(info, "interpreted", compiled)
             else:
                 self._record_path(info, compiled, robot, stack)
         dog = self.watchdog
@@ -310,7 +313,7 @@ class Resolver(ABC):
             over = d.get("_cap_ratio", -1.0)  # max_i |q̇_i| / c_i, when the compiled call tested the cap
             if over > 1.0 or (over < 0.0 and speed.binds(res.dq, norm)):
                 res, norm = speed.apply(self, robot, stack, res, dt, norm)
-            speed.seen = self.__dict__.get("_dq_prev")  # (a QP resolver's rate window of the next step)
+            speed.seen = d_self.get("_dq_prev")  # (a QP resolver's rate window of the next step)
         factor = watch.update(norm, res.task_error)
         if factor is not None:
             watch.flag(self.name, norm, factor, res.info)
@@ -363,6 +366,7 @@ class Resolver(ABC):
         if compiled:
             dict.__setitem__(info, "path", MIXED)
             dict.__setitem__(info, "interpreted", compiled)
+            self.__dict__["_mixed_seen"] = compiled  # (the next step of the same plan skips this function)
             if (self.name, compiled) not in _WARNED_MIXED:
                 _WARNED_MIXED.add((self.name, compiled))
                 _LOG.warning(

@@ -88,24 +88,77 @@ class PythonWriters:
         self.direct_rows = counts if direct else None
         self.plain_rows = all(role == ROW and w is None for _, role, _, _, _, _, w in writes)
 
-    def evaluate_external(self, robot: RobotModel, t: float, direct: bool = False) -> list[TaskTerm | None] | None:
+    def take_plain_rows(
+        self, robot: RobotModel, t: float, work: np.ndarray | None, at: tuple[int, int, int, int, int] = (0,) * 5
+    ) -> list[TaskTerm | None] | None:
+        """:meth:`evaluate_external` (``direct``) and :meth:`put_plain_rows` in one walk, for a :attr:`plain_rows`
+        plan (a user's own tasks only): each member's ``evaluate``, its term checked in a few comparisons (float64,
+        C-ordered blocks of the rows the plan laid out) and put into ``work`` by one compiled call. A term that is
+        anything else (another row count, a TaskTerm subclass, lists, F-ordered arrays) sends the walk to
+        :meth:`evaluate_external` with the terms already evaluated (no member is evaluated twice), which conforms
+        them and packs the plan again when a row count moved (:attr:`repacked`: then ``work``, sized for the old
+        plan, is left for the caller to allocate again). ``None``: as :meth:`evaluate_external`. ``work`` ``None``:
+        the terms checked and returned, nothing put (``hqp`` puts them into its level buffers later)."""
+        j0, first, e0, v0, w0 = at
+        n = robot._nv
+        put = FK.put_rows
+        terms: list[Any] = []  # (each member's answer, a TaskTerm once checked)
+        for _, _, member, scale, a, b, _ in self.writes:
+            term = member.evaluate(robot, t)
+            terms.append(term)
+            if type(term) is TaskTerm:
+                J, e, v = term.J, term.error, term.v
+                r = b - a
+                if (
+                    type(J) is np.ndarray
+                    and type(e) is np.ndarray
+                    and type(v) is np.ndarray
+                    and J.shape == (r, n)
+                    and e.shape == (r,)
+                    and v.shape == (r,)
+                    and J.dtype is _F64
+                    and e.dtype is _F64
+                    and v.dtype is _F64
+                    and J.flags.carray
+                    and e.flags.carray
+                    and v.flags.carray
+                ):
+                    if work is None:
+                        continue
+                    put(work, j0 + (a - first) * n, e0 + a, v0 + a, J, e, v)
+                    if w0 >= 0:
+                        work[w0 + a - first : w0 + b - first] = term.weight * scale
+                    continue
+            evaluated = self.evaluate_external(robot, t, direct=True, given=terms)  # (the general walk)
+            if evaluated is not None and not self.repacked and work is not None:
+                self.put_plain_rows(robot, evaluated, work, at)
+            return evaluated
+        self.repacked = False
+        return terms
+
+    def evaluate_external(
+        self, robot: RobotModel, t: float, direct: bool = False, given: list[Any] | None = None
+    ) -> list[TaskTerm | None] | None:
         """Each Python-written member's term at t (``None`` for what has no term of its own: a gradient subtask, a
         Lie-group null term), in :attr:`external` order; the plan is packed again when a member's row count moved.
         ``None``: a term is not a (r, nv) Jacobian with r-vectors v and e (the per-task path says what is wrong).
 
         ``direct``: a compiled writer of main rows is not called here but by :meth:`write_external`, straight into
         the step's buffers (its entry ``None`` until then); for a step whose buffers are its own (``pinv``, ``wqp``:
-        the result's terms are views on them)."""
+        the result's terms are views on them). ``given``: the terms of the first members, evaluated already
+        (:meth:`take_plain_rows`, which a :attr:`plain_rows` plan's call without them goes to)."""
+        if given is None and self.plain_rows:  # a user's own tasks only: checked in one quick walk
+            return self.take_plain_rows(robot, t, None)
         if direct and self.direct_rows == self.external_rows:  # compiled writers only: nothing to evaluate here
             self.repacked = False
             return [None] * len(self.external)
         nv = robot._nv
         out: list[TaskTerm | None] = []
         rows: list[int] = []
-        for role, member, writer in self.evaluations:
+        for k, (role, member, writer) in enumerate(self.evaluations):
             if writer is None and (role == ROW or role == NULL or role == TERM):  # (first: a user's task)
-                term = member.evaluate(robot, t)
-                if type(term) is not TaskTerm:
+                term = member.evaluate(robot, t) if given is None or k >= len(given) else given[k]
+                if type(term) is not TaskTerm:  # (given: a member's own answer, whatever it is)
                     term = conform_term(term, nv, member)  # (a TaskTerm subclass passes; anything else: TaskError)
                 J, v, e = term.J, term.v, term.error
                 if not (

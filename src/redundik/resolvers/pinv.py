@@ -198,22 +198,29 @@ class PinvResolver(Resolver):
         coef = plan.coefficients(self._tail)
         refs = plan.given_references(t) if plan.given else plan.refs
         external: list[TaskTerm | None] | tuple[()] = ()
-        if plan.external:  # the members without a compiled form: their evaluate, written into the step's rows
+        if plan.plain_rows:  # a user's own tasks only: evaluated and put straight into work, in one walk
+            work = np.empty(plan.pinv_work)  # q̇'s parts, J, e and v, the frames' Jacobians: one allocation
+            taken = plan.take_plain_rows(robot, t, work, _plain_at(plan, robot._nv))
+            if taken is None:
+                return None
+            if plan.repacked:  # a row count moved: the plan was packed again, and work is sized anew
+                work = np.empty(plan.pinv_work)
+                plan.put_plain_rows(robot, taken, work, _plain_at(plan, robot._nv))
+            external = taken
+        elif plan.external:  # the members without a compiled form: their evaluate, written into the step's rows
             evaluated = plan.evaluate_external(robot, t, direct=True)
             if evaluated is None:
                 return None
             external = evaluated
-        work = np.empty(plan.pinv_work)  # q̇'s parts, J, e and v, the frames' Jacobians: one allocation
-        if external:
+            work = np.empty(plan.pinv_work)
             n, m = robot._nv, plan.m
             a = CF_ROWS * n  # (FK.pinv_work_views' J and (e, v), sliced here: a compiled call returning views
             b = a + m * n  # costs more than the slicing)
-            if plan.plain_rows:  # a user's own tasks only: their blocks put straight into work
-                plan.put_plain_rows(robot, external, work, (a, 0, b, b + m, -1))
-            else:
-                end = work.shape[0]  # work's tail: the Python writers' null-space terms (n,), then z (n,)
-                Jm, ev = work[a:b].reshape(m, n), work[b : b + 2 * m].reshape(2, m)
-                plan.write_external(robot, external, Jm, 0, ev, None, work[end - 2 * n : end - n], t)
+            end = work.shape[0]  # work's tail: the Python writers' null-space terms (n,), then z (n,)
+            Jm, ev = work[a:b].reshape(m, n), work[b : b + 2 * m].reshape(2, m)
+            plan.write_external(robot, external, Jm, 0, ev, None, work[end - 2 * n : end - n], t)
+        else:
+            work = np.empty(plan.pinv_work)
         q = robot.q
         speed = self._limiter
         status, rank, sigma_min, damping, err2, dq2, over = FK.fused_pinv_step(
@@ -228,6 +235,14 @@ class PinvResolver(Resolver):
 
     def __repr__(self) -> str:
         return f"PinvResolver(epsilon={self.epsilon}, max_damping={self.max_damping})"
+
+
+def _plain_at(plan: FusedPlan, n: int) -> tuple[int, int, int, int, int]:
+    """Where a ``pinv`` step's work array takes the main rows' J, e and v (``PythonWriters.put_plain_rows``' ``at``;
+    ``FK.pinv_work_views``' layout, sliced here: a compiled call returning views costs more)."""
+    a = CF_ROWS * n
+    b = a + plan.m * n
+    return (a, 0, b, b + plan.m, -1)
 
 
 @info_keys("sigma_min")

@@ -73,7 +73,12 @@ from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics
 from redundik.resolvers.qp.direction import DirectionScaling, solve_direction
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, infeasible
-from redundik.resolvers.qp.wqp_fused import FusedWqpResult, free_diagnostics, work_views, write_external_rows
+from redundik.resolvers.qp.wqp_fused import (
+    FusedWqpResult,
+    free_diagnostics,
+    work_views,
+    work_with_external,
+)
 from redundik.resolvers.qp.wqp_native import native_box_step
 from redundik.resolvers.settings import Setting, flag, nonnegative, unit_interval
 from redundik.resolvers.singularity import SingularityGuard
@@ -469,17 +474,12 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         coef[_COEF_T] = t
         refs = fused.given_references(t) if fused.given else fused.refs
         prev = limits.previous(self._dq_prev)
-        external: list[TaskTerm | None] | tuple[()] = ()
-        if fused.external:  # the members without a compiled form: their evaluate, written into the step's rows
-            evaluated = fused.evaluate_external(robot, t, direct=True)
-            if evaluated is None:
-                return None
-            external = evaluated
-        work = np.empty(fused.wqp_work)  # the box and answers, e and v, the frames' Jacobians: one allocation
+        made = work_with_external(fused, robot, t)  # (the Python writers' rows of a mixed plan written)
+        if made is None:
+            return None
+        work, external = made
         if fused.lie_joints:
             fused.write_joint_errors(robot, work[OUT_ROWS * n : OUT_ROWS * n + fused.m])  # (e: the first row of ev)
-        if external:
-            write_external_rows(fused, robot, external, work, t)
         q = robot.q
         status, err2, dq2 = FK.fused_wqp_step(
             fused.jw, fused.poses, refs, q, fused.ints, fused.floats, coef, qp, prev, work

@@ -28,6 +28,41 @@ def work_views(work: np.ndarray, K: int, m: int, n: int) -> tuple[np.ndarray, np
     return work[:a].reshape(OUT_ROWS, n), work[a:b].reshape(2, m), work[b : b + FRAME_ROWS * K * n].reshape(K, 6, n)
 
 
+def plain_at(fused: FusedPlan, n: int) -> tuple[int, int, int, int, int]:
+    """Where a ``wqp`` step's ``work`` takes the Python writers' J, e, v and weights (``PythonWriters.put_plain_rows``'
+    ``at``), at the parts ``FK.wqp_work_views`` and ``FK.wqp_external_views`` give (sliced here: cheaper than those
+    compiled calls)."""
+    m, mx = fused.m, fused.mx
+    a = OUT_ROWS * n + 2 * m + FRAME_ROWS * len(fused.frames) * n
+    return (a, m - mx, OUT_ROWS * n, OUT_ROWS * n + m, a + mx * n)
+
+
+def work_with_external(
+    fused: FusedPlan, robot: RobotModel, t: float
+) -> tuple[np.ndarray, list[TaskTerm | None] | tuple[()]] | None:
+    """A ``wqp`` step's ``work`` (the box and answers, e and v, the frames' Jacobians: one allocation) with the
+    Python writers' rows of a mixed plan written at t, and their terms (``()``: none); ``None`` when a member's term
+    sends the step to the per-task path (``PythonWriters.evaluate_external``)."""
+    n = robot._nv
+    if fused.plain_rows:  # a user's own tasks only: evaluated and put straight into work, in one walk
+        work = np.empty(fused.wqp_work)
+        taken = fused.take_plain_rows(robot, t, work, plain_at(fused, n))
+        if taken is None:
+            return None
+        if fused.repacked:  # a row count moved: the plan was packed again, and work is sized anew
+            work = np.empty(fused.wqp_work)
+            fused.put_plain_rows(robot, taken, work, plain_at(fused, n))
+        return work, taken
+    if not fused.external:
+        return np.empty(fused.wqp_work), ()
+    evaluated = fused.evaluate_external(robot, t, direct=True)  # (their evaluate, or their compiled writers)
+    if evaluated is None:
+        return None
+    work = np.empty(fused.wqp_work)
+    write_external_rows(fused, robot, evaluated, work, t)
+    return work, evaluated
+
+
 def write_external_rows(fused: FusedPlan, robot: RobotModel, external: list[TaskTerm | None], work: np.ndarray,
                         t: float) -> None:  # fmt: skip
     """The Python writers' rows of a mixed plan into a ``wqp`` step's ``work``, at the parts
@@ -36,7 +71,7 @@ def write_external_rows(fused: FusedPlan, robot: RobotModel, external: list[Task
     a = OUT_ROWS * n + 2 * m + FRAME_ROWS * len(fused.frames) * n
     b = a + mx * n
     if fused.plain_rows:  # a user's own tasks only: their blocks put straight into work
-        fused.put_plain_rows(robot, external, work, (a, m - mx, OUT_ROWS * n, OUT_ROWS * n + m, b))
+        fused.put_plain_rows(robot, external, work, plain_at(fused, n))
         return
     ev = work[OUT_ROWS * n : OUT_ROWS * n + 2 * m].reshape(2, m)
     Jx, wx, zx = work[a:b].reshape(mx, n), work[b : b + mx], work[b + mx : b + mx + n]
