@@ -54,6 +54,9 @@ class PythonWriters:
     #: Every member a main task written by its Python ``evaluate`` (the common mixed plan: a user's own task):
     #: :meth:`put_plain_rows` writes their blocks, nothing else is to be written.
     plain_rows: bool
+    #: Every member a task with a compiled writer of main rows (``Task.compiled_rows``): :meth:`take_direct_rows`
+    #: runs them straight into the step's work, nothing else is to be written.
+    direct_main: bool
 
     def _pack(
         self,
@@ -86,7 +89,10 @@ class PythonWriters:
         direct = all(_direct(role, w) for role, _, _, _, _, _, w in writes)
         counts = [w.rows if isinstance(w, CompiledRows) else 1 for _, _, _, _, _, _, w in writes]  # (a target: 1)
         self.direct_rows = counts if direct else None
-        self.plain_rows = all(role == ROW and w is None for _, role, _, _, _, _, w in writes)
+        self.plain_rows = bool(writes) and all(role == ROW and w is None for _, role, _, _, _, _, w in writes)
+        self.direct_main = bool(writes) and all(
+            role == ROW and isinstance(w, CompiledRows) for _, role, _, _, _, _, w in writes
+        )
 
     def take_plain_rows(
         self, robot: RobotModel, t: float, work: np.ndarray | None, at: tuple[int, int, int, int, int] = (0,) * 5
@@ -133,6 +139,31 @@ class PythonWriters:
             if evaluated is not None and not self.repacked and work is not None:
                 self.put_plain_rows(robot, evaluated, work, at)
             return evaluated
+        self.repacked = False
+        return terms
+
+    def take_direct_rows(
+        self, robot: RobotModel, t: float, work: np.ndarray, at: tuple[int, int, int, int, int]
+    ) -> list[TaskTerm | None]:
+        """:meth:`evaluate_external` (``direct``) and :meth:`write_external` in one walk, for a :attr:`direct_main`
+        plan: each member's compiled writer called at t on its block of ``work`` (``at`` as
+        :meth:`put_plain_rows`' : its J rows zeroed first, a writer fills the columns it supports), its weight × ρ^k
+        written when the step has weights; the terms are views on those blocks."""
+        j0, first, e0, v0, w0 = at
+        n = robot._nv
+        q, poses, jw = robot.q, self.poses, self.jw
+        terms: list[TaskTerm | None] = []
+        for _, _, member, scale, a, b, writer in self.writes:
+            assert isinstance(writer, CompiledRows)
+            j = j0 + (a - first) * n
+            J = work[j : j + (b - a) * n].reshape(b - a, n)
+            J.fill(0.0)
+            e, v = work[e0 + a : e0 + b], work[v0 + a : v0 + b]
+            writer.kernel(q, t, poses, jw, writer.ints, writer.floats, member.gain, J, e, v)
+            weight = member.weight
+            if w0 >= 0:
+                work[w0 + a - first : w0 + b - first] = weight * scale
+            terms.append(TaskTerm(member.name, J, v, e, weight))
         self.repacked = False
         return terms
 

@@ -207,6 +207,10 @@ class PinvResolver(Resolver):
                 work = np.empty(plan.pinv_work)
                 plan.put_plain_rows(robot, taken, work, _plain_at(plan, robot._nv))
             external = taken
+        elif plan.direct_main and plan.direct_rows == plan.external_rows:  # compiled writers of tasks only: run
+            # straight into work (their rows laid out as the writers give them)
+            work = np.empty(plan.pinv_work)
+            external = plan.take_direct_rows(robot, t, work, _plain_at(plan, robot._nv))
         elif plan.external:  # the members without a compiled form: their evaluate, written into the step's rows
             evaluated = plan.evaluate_external(robot, t, direct=True)
             if evaluated is None:

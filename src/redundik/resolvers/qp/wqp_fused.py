@@ -55,6 +55,10 @@ def work_with_external(
         return work, taken
     if not fused.external:
         return np.empty(fused.wqp_work), ()
+    if fused.direct_main and fused.direct_rows == fused.external_rows:  # compiled writers of tasks only: run
+        # straight into work (their rows laid out as the writers give them)
+        work = np.empty(fused.wqp_work)
+        return work, fused.take_direct_rows(robot, t, work, plain_at(fused, n))
     evaluated = fused.evaluate_external(robot, t, direct=True)  # (their evaluate, or their compiled writers)
     if evaluated is None:
         return None
