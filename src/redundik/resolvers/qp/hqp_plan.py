@@ -354,8 +354,10 @@ class _Plan:
         """:meth:`fused_bounds` for packed bounds, whose rows the compiled call writes: the offsets table, the
         previous record's rows kept if held, and this step's record (``bounds`` of :meth:`gather`).
 
-        The compiled call writes them into new inequality buffers (``C``, ``d``), which this step's record holds:
-        the last step's result keeps its own rows without a copy."""
+        The compiled call writes every entry of their rows (``clearance_rows``: whole rows of C and their d) into the
+        plan's inequality buffers, which this step's record reads as :meth:`gather`'s do: its rows copied when first
+        asked, or before the next step writes the buffers while the record is still held (a kept result's
+        diagnostics) — no allocation a step."""
         if self._written is not None:
             self._keep_written()
         if self._offsets is not packed.offsets:
@@ -366,8 +368,7 @@ class _Plan:
         if not packed.slices:
             return []
         written = _Written()
-        written.C = self.C = np.zeros(self.C.shape)
-        written.d = self.d = np.zeros(self.d.shape)
+        self._written = (weakref.ref(written), packed.rows)
         return [(written, sl, names) for sl, names in packed.slices]
 
     def fuse(self, robot: RobotModel, stack: TaskStack, t: float = 0.0) -> FusedPlan | str | bool:
