@@ -109,7 +109,7 @@ class RobotModel:
     _quaternions: tuple[tuple[str, int], ...] = field(init=False, default=(), repr=False)
     #: (model, its frame count, name → first frame id): :meth:`frame_id`'s table, made again when either changes
     _frame_ids: tuple[pin.Model, int, dict[str, int]] | None = field(init=False, default=None, repr=False)
-    #: (data, a (nframes, 12) view on its frame placements or None: not verified): :meth:`frame_position`'s
+    #: (data, a (nframes, 3) view on its frames' origins or None: not verified): :meth:`frame_position`'s
     _placements: tuple[pin.Data, np.ndarray | None] | None = field(init=False, default=None, repr=False)
     #: (joints, name → first JointInfo, the (3, nv) rows lower, upper, velocity): made once per ``joints``
     _joint_table: tuple[Any, dict[str, JointInfo], np.ndarray] | None = field(init=False, default=None, repr=False)
@@ -255,6 +255,10 @@ class RobotModel:
         """
         table = self._frame_ids
         model = self.model
+        if table is not None and table[0] is model and type(name) is str:  # (a known name: one lookup; a frame
+            fid = table[2].get(name)  # added since cannot change a known name's first index)
+            if fid is not None:
+                return fid
         if table is None or table[0] is not model or table[1] != model.nframes:
             ids: dict[str, int] = {}
             for i, frame in enumerate(model.frames):
@@ -493,12 +497,13 @@ class RobotModel:
         placements = self._placements
         data = self.data
         if placements is None or placements[0] is not data:
-            placements = self._placements = (data, se3_vector_view(data.oMf))
+            view = se3_vector_view(data.oMf)
+            placements = self._placements = (data, None if view is None else view[:, 9:12])
         fid = self._frame_index(frame)
-        view = placements[1]
-        if view is None or self._q is None:
+        origins = placements[1]  # (nframes, 3): each frame's origin, a verified view of data.oMf
+        if origins is None or self._q is None:
             return np.array(self.frame_pose_view(fid).translation)  # (its error; a view not verified)
-        return view[fid, 9:12].copy()
+        return origins[fid].copy()
 
     def _frame_index(self, frame: str | int) -> int:
         """The frame id of a name or an index.
@@ -507,6 +512,11 @@ class RobotModel:
             ModelError: an unknown name, an index outside [0, nframes), or neither a name nor an integer.
         """
         if type(frame) is str:
+            table = self._frame_ids  # (frame_id's first test, inlined: a known name costs one lookup)
+            if table is not None and table[0] is self.model:
+                fid = table[2].get(frame)
+                if fid is not None:
+                    return fid
             return self.frame_id(frame)
         if isinstance(frame, (int, np.integer)) and not isinstance(frame, bool):
             fid = int(frame)
