@@ -133,6 +133,7 @@ from redundik.resolvers.qp.hqp_constrained import (
     HQPBuild,
 )
 from redundik.resolvers.qp.hqp_plan import _NO_BOUNDS, HK, _Plan
+from redundik.resolvers.qp.hqp_result import FusedHqpResult
 from redundik.resolvers.qp.terms import Level, gather_rows
 from redundik.resolvers.settings import Setting, flag
 from redundik.resolvers.singularity import NO_CAPS as _NO_CAPS
@@ -410,13 +411,13 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         if status < 0.0:
             return None
         t1 = time.perf_counter()
-        views = functools.partial(HFK.step_work_views.py_func, work, K_, m, n, levels)  # (made only if asked)
-        make_terms = fused.terms_once(lambda: views()[3::-3], None, q, robot, external)  # parts 3, 0: (Jf, ev)
         targets = fused.subtask_rows(external) if external and fused.has_targets else []
         windowed = prev.shape[0] > 0
         o = 2 * m + n  # (``out`` after (e, v) and z)
         dq = work[o + OUT_DQ * n : o + (OUT_DQ + 1) * n]
         if status != 1.0 or (plan.critical and not plan.keeps_safety_rows(dq)):
+            views = functools.partial(HFK.step_work_views.py_func, work, K_, m, n, levels)
+            make_terms = fused.terms_once(lambda: views()[3::-3], None, q, robot, external)  # parts 3, 0: (Jf, ev)
             _, z, out, _, _ = views()
             zs = z if plan.layout.has_null_objective else None
             return self._constrained_step(
@@ -424,29 +425,9 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
             )
         kept = work[o + OUT_KEPT * n : o + (OUT_KEPT + 1) * n]
         self._dq_prev = kept
-
-        def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
-            _, z, out, _, stats = views()
-            box = limits.box_from(out[_BOX, 0], windowed)
-            zs = z if plan.layout.has_null_objective else None
-            built = HQPBuild(plan.step_rows(make_terms(), zs, targets, bounds), box, n, stats)
-            diag = QPDiagnostics()
-            diag.active_limits = box.active(kept, limits.joint_names)
-            self._diagnose(built, kept, diag)
-            return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
-
-        return FusedStepResult.fused(
-            dq,
-            make_terms,
-            math.sqrt(err2),
-            {"backend": "closed-form", "qp": 0, "iterations": 0},
-            t1 - t0,
-            time.perf_counter() - t1,
-            plan.layout.main,
-            diagnostics,
-            dq_norm=math.sqrt(dq2),
-            cap_ratio=over,
-        )
+        dims = (K_, m, n, levels)
+        step: tuple[Any, ...] = (plan, fused, work, dims, q, robot, external, targets, bounds, windowed, kept, [])
+        return FusedHqpResult.of(self, dq, step, (err2, dq2, over), t0, t1)
 
     def _constrained_step(
         self,
