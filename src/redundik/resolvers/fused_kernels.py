@@ -72,6 +72,7 @@ from redundik.resolvers.layouts import (
     OUT_DQ,
     OUT_ROWS,
     PINV_TAIL,
+    QP_CAPS,
     QP_G,
     QP_LIM,
     QP_P,
@@ -291,14 +292,15 @@ def fused_wqp_step(
     qp: np.ndarray,
     dq_prev: np.ndarray,
     work: np.ndarray,
-) -> tuple[float, float, float]:
+) -> tuple[float, float, float, float]:
     """One ``wqp`` step of a fused stack: frame rows (``frame_rows``) and joint rows (e = (q_ref − q)[sel],
     v = K e) into e, v (``ev`` (2, m)); P = Σ w JᵀJ and g = −Σ w Jᵀv (``gram_update``; a joint task adds w on P's
     diagonal, or to the diagonal shift when it is an identity task, as the per-task path does); the null-space
     objective z (``_null_objective``); then ``wqp_free_step`` (the limit box; the optimum; its test).
 
     ``qp``: the resolver's QP record (``layouts.QP_P`` + nv, nv): the joint-limit record (``layouts.LIM_ROWS`` rows
-    from ``QP_LIM``, read), g (row ``QP_G``) and P (nv rows from ``QP_P``), both written.
+    from ``QP_LIM``, read), the joints' 1 / speed cap (row ``QP_CAPS``, read: a negative first entry, no cap test
+    here), g (row ``QP_G``) and P (nv rows from ``QP_P``), both written.
 
     ``work`` (flat, one allocation a step; :func:`wqp_work_views` names its parts): ``out``
     (``layouts.OUT_ROWS``, nv) — the box and the answers of ``wqp_free_step`` —, e and v (2, m), and the frames'
@@ -309,9 +311,10 @@ def fused_wqp_step(
     gain, λ, dt [s], the step's time t [s]).
 
     Returns:
-        (status, Σ e² of the main rows, ‖q̇‖² when inside): status −1 — a rotation error too large for the compiled
-        log3 (evaluate the tasks one by one); 1 — the optimum is inside the box (q̇ in ``out[OUT_DQ]``); 0 — a limit
-        binds (P, g and the box in ``out``'s first ``OUT_BOX`` rows are ready for the QP).
+        (status, Σ e² of the main rows, ‖q̇‖² when inside, max_i |q̇_i| / c_i when inside and the caps are given,
+        else −1): status −1 — a rotation error too large for the compiled log3 (evaluate the tasks one by one); 1 —
+        the optimum is inside the box (q̇ in ``out[OUT_DQ]``); 0 — a limit binds (P, g and the box in ``out``'s
+        first ``OUT_BOX`` rows are ready for the QP).
     """
     K, J, N, m, nv = ints[H_K], ints[H_J], ints[H_N], ints[H_M], ints[H_NV]
     out, ev, Jf = wqp_work_views(work, K, m, nv)
@@ -320,7 +323,7 @@ def fused_wqp_step(
     c0 = 2 * K
     tail = coef[c0 + 2 * J + 1 + N : c0 + 2 * J + 1 + N + WQP_TAIL]
     if not frame_rows(Jw, poses, tail[TAIL_T], refs, ints, floats, coef[0:K], Jf, e, v):
-        return -1.0, 0.0, 0.0
+        return -1.0, 0.0, 0.0, -1.0
     _frame_grams(Jf, v, ints, coef[K : 2 * K], P, g)
     shift = _joint_grams(q, ints, floats, coef[c0 : c0 + 2 * J], ev, P, g, tail[TAIL_DAMPING])  # λ + identity weights
     mx = ints[H_EXTERNAL_ROWS]
@@ -340,7 +343,11 @@ def fused_wqp_step(
     opts[OPT_DT], opts[OPT_SHIFT], opts[OPT_Z_SCALE] = tail[TAIL_DT], shift, z_scale
     lim = qp[QP_LIM : QP_LIM + LIM_ROWS]
     inside = wqp_free_step(P, g, z, q, _part(ints, H_IQ, nv), lim, opts, dq_prev, out)
-    return (1.0 if inside else 0.0), _main_error2(ints, e[0:m]), _sumsq(out[OUT_DQ]) if inside else 0.0
+    if not inside:
+        return 0.0, _main_error2(ints, e[0:m]), 0.0, -1.0
+    inv = qp[QP_CAPS]
+    over = -1.0 if inv[0] < 0.0 else scaled_max(out[OUT_DQ], inv)
+    return 1.0, _main_error2(ints, e[0:m]), _sumsq(out[OUT_DQ]), over
 
 
 @_jit

@@ -47,11 +47,13 @@ OUT_BOX = 4
 OUT_ROWS = 7
 
 #: Rows of a ``wqp`` resolver's QP record ``qp`` (``QP_P`` + nv, nv), the fused step's: the joint-limit record
-#: (``LIM_ROWS`` rows from ``QP_LIM``), the QP's linear term g (row ``QP_G``), then its Hessian P (nv rows from
-#: ``QP_P``; the resolver's ``_P`` and ``_q`` are views on these rows).
+#: (``LIM_ROWS`` rows from ``QP_LIM``), the QP's linear term g (row ``QP_G``), the joints' 1 / speed cap [s/rad]
+#: for the step's cap test (row ``QP_CAPS``; a negative first entry: no test in the step, ``SpeedLimiter.folded_caps``),
+#: then its Hessian P (nv rows from ``QP_P``; the resolver's ``_P`` and ``_q`` are views on these rows).
 QP_LIM = 0
 QP_G = LIM_ROWS
-QP_P = LIM_ROWS + 1
+QP_CAPS = LIM_ROWS + 1
+QP_P = LIM_ROWS + 2
 
 #: Rows of the closed form's ``out`` (``CF_ROWS``, nv): J⁺V, (I − J⁺J) z and q̇ (eq. 5.8).
 CF_RANK, CF_NULL, CF_DQ = 0, 1, 2

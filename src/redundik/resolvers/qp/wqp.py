@@ -73,12 +73,7 @@ from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics
 from redundik.resolvers.qp.direction import DirectionScaling, solve_direction
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, infeasible
-from redundik.resolvers.qp.wqp_fused import (
-    FusedWqpResult,
-    free_diagnostics,
-    work_views,
-    work_with_external,
-)
+from redundik.resolvers.qp.wqp_fused import FusedWqpResult, free_diagnostics, work_views, work_with_external, write_caps
 from redundik.resolvers.qp.wqp_native import native_box_step
 from redundik.resolvers.settings import Setting, flag, nonnegative, unit_interval
 from redundik.resolvers.singularity import SingularityGuard
@@ -192,6 +187,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         self._P: np.ndarray | None = None  # (views on the QP record ``_qp``: ``_buffers``)
         self._q: np.ndarray | None = None
         self._qp = np.zeros((QP_P, 0))
+        self._caps_seen: np.ndarray | None = None  # the caps last written into the QP record's row ``QP_CAPS``
         self._plan: _Plan | None = None
         self._no_rows, self._no_rhs = np.zeros((0, 0)), np.zeros(0)
         self._diag = np.zeros(0)
@@ -379,6 +375,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         ``_P`` and ``_q`` views on its rows (``_diag`` on P's diagonal); its joint-limit rows are written at the
         next ``_box_record``."""
         qp = self._qp = np.empty((QP_P + n, n))
+        self._caps_seen = None  # (the cap row written at the next fused step)
         P, g = self._P, self._q = qp[QP_P:], qp[QP_G]
         self._diag = P.reshape(-1)[:: n + 1]  # a view on P's diagonal
         self._no_rows, self._no_rhs = np.zeros((0, n)), np.zeros(0)
@@ -432,6 +429,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         """Restore a copy or a pickle: ``_P``, ``_q`` and ``_diag`` views on the copy's own QP record again (a copied
         view is a separate array: the rows and shifts a step wrote into it would not reach the QP solved)."""
         self.__dict__.update(state)
+        self._caps_seen = None  # (the cap row written again at the next fused step)
         qp, n = self._qp, self._qp.shape[1]
         if n:  # P, g (and the limit rows, at the next box): views on the copy's own QP record again
             P, self._q, self._record = qp[QP_P:], qp[QP_G], (None, *self._record[1:])
@@ -480,8 +478,9 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         work, external = made
         if fused.lie_joints:
             fused.write_joint_errors(robot, work[OUT_ROWS * n : OUT_ROWS * n + fused.m])  # (e: the first row of ev)
+        write_caps(self, robot, qp)  # (the joint-speed cap's test inside the compiled call)
         q = robot.q
-        status, err2, dq2 = FK.fused_wqp_step(
+        status, err2, dq2, over = FK.fused_wqp_step(
             fused.jw, fused.poses, refs, q, fused.ints, fused.floats, coef, qp, prev, work
         )
         if status < 0.0:
@@ -501,7 +500,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             return native or self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1, bounds)
         self._dq_prev = work[OUT_KEPT * n : (OUT_KEPT + 1) * n]
         return FusedWqpResult.of(
-            self, fused, work, q, robot, windowed, lam, (err2, dq2), t1 - t0, t1, plan.main, external
+            self, fused, work, q, robot, windowed, lam, (err2, dq2, over), t1 - t0, t1, plan.main, external
         )
 
     def _plan_for(self, stack: TaskStack, layout: StackLayout) -> _Plan:

@@ -13,8 +13,9 @@ import numpy as np
 
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.fused import FusedPlan, FusedStepResult
-from redundik.resolvers.layouts import FRAME_ROWS, OUT_BOX, OUT_DQ, OUT_KEPT, OUT_ROWS
+from redundik.resolvers.layouts import FRAME_ROWS, OUT_BOX, OUT_DQ, OUT_KEPT, OUT_ROWS, QP_CAPS
 from redundik.resolvers.qp.base import QPDiagnostics
+from redundik.resolvers.singularity import NO_CAPS
 from redundik.tasks.base import TaskTerm
 
 __all__ = ["FusedWqpResult", "free_diagnostics", "work_views", "write_external_rows"]
@@ -26,6 +27,20 @@ def work_views(work: np.ndarray, K: int, m: int, n: int) -> tuple[np.ndarray, np
     a = OUT_ROWS * n
     b = a + 2 * m
     return work[:a].reshape(OUT_ROWS, n), work[a:b].reshape(2, m), work[b : b + FRAME_ROWS * K * n].reshape(K, 6, n)
+
+
+def write_caps(resolver: Any, robot: RobotModel, qp: np.ndarray) -> None:
+    """The joints' 1 / speed cap [s/rad] into the QP record's row ``QP_CAPS`` when the resolver's limiter gives them
+    for the compiled step's test (``SpeedLimiter.folded_caps``; a negative first entry when it does not: a guard,
+    caps not built yet, no cap), written again only when they changed."""
+    speed = resolver._limiter
+    inv = NO_CAPS if speed is None else speed.folded_caps(robot)
+    if inv is not resolver._caps_seen:
+        resolver._caps_seen = inv
+        if inv.shape[0] == qp.shape[1]:
+            qp[QP_CAPS] = inv
+        else:
+            qp[QP_CAPS, 0] = -1.0
 
 
 def plain_at(fused: FusedPlan, n: int) -> tuple[int, int, int, int, int]:
@@ -149,14 +164,15 @@ class FusedWqpResult(FusedStepResult):
         robot: RobotModel,
         windowed: bool,
         lam: float,
-        outputs: tuple[float, float],
+        outputs: tuple[float, float, float],
         build_time: float,
         t1: float,
         main: list[int],
         external: list[TaskTerm | None] | tuple[()] = (),
     ) -> FusedWqpResult:
-        """The result of ``fused_wqp_step``'s ``outputs`` (Σ e², ‖q̇‖²; ``t1``: when the compiled call returned)."""
-        err2, dq2 = outputs
+        """The result of ``fused_wqp_step``'s ``outputs`` (Σ e², ‖q̇‖², the cap ratio max_i |q̇_i| / c_i or −1: not
+        tested; ``t1``: when the compiled call returned)."""
+        err2, dq2, over = outputs
         n = robot._nv
         res = cls.__new__(cls)
         d = res.__dict__ = _TEMPLATE.copy()  # (the constant entries; one copy is cheaper than a literal)
@@ -164,6 +180,7 @@ class FusedWqpResult(FusedStepResult):
         d["_info"] = {"backend": "closed-form", "qp": 0, "iterations": 0}
         d["build_time"], d["main"] = build_time, main
         d["_task_error"], d["_dq_norm"] = math.sqrt(err2), math.sqrt(dq2)  # (‖q̇‖: the divergence watch reads it)
+        d["_cap_ratio"] = over  # (the joint-speed cap's test, when the compiled call made it: Resolver.step reads it)
         d["_step"] = (resolver, fused, work, q, robot, windowed, lam, external)
         d["solve_time"] = time.perf_counter() - t1
         return res
