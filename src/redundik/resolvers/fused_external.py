@@ -146,8 +146,8 @@ class PythonWriters:
         self, robot: RobotModel, t: float, work: np.ndarray, at: tuple[int, int, int, int, int]
     ) -> list[TaskTerm | None]:
         """:meth:`evaluate_external` (``direct``) and :meth:`write_external` in one walk, for a :attr:`direct_main`
-        plan: each member's compiled writer called at t on its block of ``work`` (``at`` as
-        :meth:`put_plain_rows`' : its J rows zeroed first, a writer fills the columns it supports), its weight × ρ^k
+        plan: each member's compiled writer called at t on its block of ``work`` (``at``: as for
+        :meth:`put_plain_rows`), its J rows zeroed first (a writer fills the columns it supports), its weight × ρ^k
         written when the step has weights; the terms are views on those blocks."""
         j0, first, e0, v0, w0 = at
         n = robot._nv

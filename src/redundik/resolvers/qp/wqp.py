@@ -478,7 +478,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         work, external = made
         if fused.lie_joints:
             fused.write_joint_errors(robot, work[OUT_ROWS * n : OUT_ROWS * n + fused.m])  # (e: the first row of ev)
-        write_caps(self, robot, qp)  # (the joint-speed cap's test inside the compiled call)
+        self._caps_seen = write_caps(self._limiter, robot, qp, self._caps_seen)  # (the cap's test in the call)
         q = robot.q
         status, err2, dq2, over = FK.fused_wqp_step(
             fused.jw, fused.poses, refs, q, fused.ints, fused.floats, coef, qp, prev, work

@@ -15,7 +15,7 @@ from redundik.kinematics.model import RobotModel
 from redundik.resolvers.fused import FusedPlan, FusedStepResult
 from redundik.resolvers.layouts import FRAME_ROWS, OUT_BOX, OUT_DQ, OUT_KEPT, OUT_ROWS, QP_CAPS
 from redundik.resolvers.qp.base import QPDiagnostics
-from redundik.resolvers.singularity import NO_CAPS
+from redundik.resolvers.singularity import NO_CAPS, SpeedLimiter
 from redundik.tasks.base import TaskTerm
 
 __all__ = ["FusedWqpResult", "free_diagnostics", "work_views", "write_external_rows"]
@@ -29,18 +29,17 @@ def work_views(work: np.ndarray, K: int, m: int, n: int) -> tuple[np.ndarray, np
     return work[:a].reshape(OUT_ROWS, n), work[a:b].reshape(2, m), work[b : b + FRAME_ROWS * K * n].reshape(K, 6, n)
 
 
-def write_caps(resolver: Any, robot: RobotModel, qp: np.ndarray) -> None:
-    """The joints' 1 / speed cap [s/rad] into the QP record's row ``QP_CAPS`` when the resolver's limiter gives them
+def write_caps(speed: SpeedLimiter | None, robot: RobotModel, qp: np.ndarray, seen: np.ndarray | None) -> np.ndarray:
+    """The joints' 1 / speed cap [s/rad] into the QP record's row ``QP_CAPS`` when the limiter ``speed`` gives them
     for the compiled step's test (``SpeedLimiter.folded_caps``; a negative first entry when it does not: a guard,
-    caps not built yet, no cap), written again only when they changed."""
-    speed = resolver._limiter
+    caps not built yet, no cap), written only when they are not ``seen`` (the array written last); returns them."""
     inv = NO_CAPS if speed is None else speed.folded_caps(robot)
-    if inv is not resolver._caps_seen:
-        resolver._caps_seen = inv
+    if inv is not seen:
         if inv.shape[0] == qp.shape[1]:
             qp[QP_CAPS] = inv
         else:
             qp[QP_CAPS, 0] = -1.0
+    return inv
 
 
 def plain_at(fused: FusedPlan, n: int) -> tuple[int, int, int, int, int]:
