@@ -5,13 +5,14 @@ path's. A floating-base ``PostureTask`` (Lie-group coordinates) is on the compil
 from __future__ import annotations
 
 import logging
+import math
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
 import redundik as rk
-from redundik.errors import RedundikError
+from redundik.errors import RedundikError, TaskError
 from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import Task, TaskTerm
 
@@ -316,3 +317,55 @@ def test_a_user_task_is_evaluated_once_per_step_on_every_walk(method: str, kind:
     assert set(paths) == {"mixed"}
     fused, per_task = tasks
     assert fused.calls == per_task.calls == 10, (fused.calls, per_task.calls)
+
+
+class Weighted(Task):
+    """A user's task (a frame's height) whose term carries the weight ``w`` it was given."""
+
+    def __init__(self, w: object) -> None:
+        self._init_task("weighted", gain=2.0)
+        self.w = w
+
+    def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
+        J = robot.frame_jacobian("panda_link4")[[2]]
+        e = np.array([0.45 - robot.frame_position("panda_link4")[2]])
+        return TaskTerm(self.name, J, self.gain * e, e, self.w)  # type: ignore[arg-type]
+
+    def __repr__(self) -> str:
+        return f"Weighted({self.w!r})"
+
+
+@pytest.mark.parametrize("method", ["pinv", "feedback", "wqp", "hqp"])
+@pytest.mark.parametrize("weight", [math.nan, math.inf, 0.0, -1.0, "1", 10**400, None])
+def test_a_term_weight_that_is_not_a_finite_positive_number_is_refused_naming_the_task(
+    method: str, weight: object
+) -> None:
+    """A NaN, infinite, zero, negative, text or overflowing weight in a term a user's ``evaluate`` returns was used
+    as it was (``wqp`` then failed its QP and fell back without saying why; ``pinv`` ignored it): every path now
+    refuses it as ``Task.weight`` refuses it, naming the task."""
+    for fuse in (True, False):
+        robot = rk.load_example_robot("panda")
+        q = _panda_q0(robot)
+        robot.update(q)
+        hand = rk.FrameTask("panda_hand", rk.Circle(0.05, 1.5, plane=("y", "z")), gain=5.0, axes="position")
+        stack = rk.TaskStack([hand, Weighted(weight), rk.PostureTask(gain=1.0)])
+        stack.reset(robot)
+        resolver = rk.make_resolver(method)
+        resolver.fuse = fuse  # type: ignore[attr-defined]
+        with pytest.raises(TaskError, match=r"task 'weighted': evaluate returned the weight .*expected a finite"):
+            resolver.step(robot, stack, q, 0.0, DT)
+
+
+@pytest.mark.parametrize("method", ["pinv", "wqp", "hqp"])
+def test_an_integer_or_boolean_term_weight_is_read_as_its_float(method: str) -> None:
+    """A weight of 2 (or True) is the weight 2.0 (1.0): the per-task path's answer, on the mixed step."""
+
+    for weight in (2, True):
+
+        def make(robot: RobotModel, weight: object = weight) -> rk.TaskStack:
+            hand = rk.FrameTask("panda_hand", rk.Circle(0.05, 1.5, plane=("y", "z")), gain=5.0, axes="position")
+            return rk.TaskStack([hand, Weighted(weight), rk.PostureTask(gain=1.0)])
+
+        diffs, paths = _run(make, "panda", method, 6)
+        assert max(float(np.abs(d).max()) for d in diffs) <= 1e-12
+        assert set(paths) == {"mixed"}

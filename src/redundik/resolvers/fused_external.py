@@ -12,7 +12,7 @@ import pinocchio as pin
 from redundik.kinematics.model import RobotModel
 from redundik.resolvers.linalg import FK
 from redundik.tasks.base import CompiledGradient, CompiledRows, TaskTerm
-from redundik.tasks.conform import conform_term
+from redundik.tasks.conform import WEIGHT_MAX, conform_term
 
 #: Roles of a member written from Python in a mixed plan: rows of the main system / of its level (``ROW``), a term of
 #: the null-space objective z (``NULL``: z += v), a joint-space null term on Lie-group coordinates (``LIE_NULL``:
@@ -113,10 +113,12 @@ class PythonWriters:
             term = member.evaluate(robot, t)
             terms.append(term)
             if type(term) is TaskTerm:
-                J, e, v = term.J, term.error, term.v
+                J, e, v, w = term.J, term.error, term.v, term.weight
                 r = b - a
                 if (
-                    type(J) is np.ndarray
+                    (type(w) is float or type(w) is int)
+                    and 0.0 < w <= WEIGHT_MAX
+                    and type(J) is np.ndarray
                     and type(e) is np.ndarray
                     and type(v) is np.ndarray
                     and J.shape == (r, n)
@@ -133,7 +135,7 @@ class PythonWriters:
                         continue
                     put(work, j0 + (a - first) * n, e0 + a, v0 + a, J, e, v)
                     if w0 >= 0:
-                        work[w0 + a - first : w0 + b - first] = term.weight * scale
+                        work[w0 + a - first : w0 + b - first] = w * scale
                     continue
             evaluated = self.evaluate_external(robot, t, direct=True, given=terms)  # (the general walk)
             if evaluated is not None and not self.repacked and work is not None:
@@ -191,9 +193,11 @@ class PythonWriters:
                 term = member.evaluate(robot, t) if given is None or k >= len(given) else given[k]
                 if type(term) is not TaskTerm:  # (given: a member's own answer, whatever it is)
                     term = conform_term(term, nv, member)  # (a TaskTerm subclass passes; anything else: TaskError)
-                J, v, e = term.J, term.v, term.error
+                J, v, e, w = term.J, term.v, term.error, term.weight
                 if not (
-                    type(J) is np.ndarray
+                    (type(w) is float or type(w) is int)
+                    and 0.0 < w <= WEIGHT_MAX
+                    and type(J) is np.ndarray
                     and type(v) is np.ndarray
                     and type(e) is np.ndarray
                     and J.ndim == 2

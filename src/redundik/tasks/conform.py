@@ -7,6 +7,7 @@ imaginary part with a mere warning, or a numba kernel would fail on a list."""
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 
@@ -25,6 +26,8 @@ _NOT_RIGID = 3
 MAX_COORDINATE = 1e6
 #: Largest |RRᵀ − I| entry of a target's or a reference's rotation.
 RIGID_TOLERANCE = 1e-6
+#: Largest weight a term may give (the largest float: an integer beyond it does not convert).
+WEIGHT_MAX = sys.float_info.max
 
 _F64 = np.dtype(np.float64)
 
@@ -35,19 +38,22 @@ def conform_term(term: TaskTerm, nv: int, task: object = None) -> TaskTerm:
     Python ``evaluate`` returned, on every path.
 
     Raises:
-        TaskError: naming the task: not a ``TaskTerm``, complex or non-numeric entries, or shapes that do not fit.
+        TaskError: naming the task: not a ``TaskTerm``, complex or non-numeric entries, shapes that do not fit, or a
+            weight that is not a finite number > 0 (as ``Task.weight``).
     """
     if type(term) is not TaskTerm and not isinstance(term, TaskTerm):
         who = f"task '{getattr(task, 'name', '?')}': " if task is not None else ""
         raise TaskError(f"{who}evaluate must return a TaskTerm (name, J, v, error, weight), got {short_repr(term)}")
-    J, v, e = term.J, term.v, term.error
+    J, v, e, w = term.J, term.v, term.error, term.weight
     if (
         type(J) is np.ndarray and type(v) is np.ndarray and type(e) is np.ndarray
         and J.dtype is _F64 and v.dtype is _F64 and e.dtype is _F64
         and J.ndim == 2 and J.shape[1] == nv and v.shape == e.shape == (J.shape[0],)
+        and (type(w) is float or type(w) is int) and 0.0 < w <= WEIGHT_MAX
     ):  # fmt: skip
         return term
     check_term(term, nv)  # (the shapes first: a message that names them)
+    weight = term_weight(term)
     arrays = []
     for what, x in (("J", J), ("v", v), ("error", e)):
         try:
@@ -57,7 +63,25 @@ def conform_term(term: TaskTerm, nv: int, task: object = None) -> TaskTerm:
                 f"task '{term.name}': evaluate returned a {what} that is not real numbers ({exc}): "
                 f"{short_repr(x)}; expected float arrays"
             ) from None
-    return TaskTerm(term.name, arrays[0], arrays[1], arrays[2], term.weight)
+    return TaskTerm(term.name, arrays[0], arrays[1], arrays[2], weight)
+
+
+def term_weight(term: TaskTerm) -> float:
+    """A term's weight as a float when it is a finite number > 0 (what ``Task.weight`` accepts).
+
+    Raises:
+        TaskError: naming the task and the weight it gave.
+    """
+    try:
+        w = real_value(term.weight)
+    except (TypeError, ValueError, OverflowError):
+        w = math.nan
+    if not 0.0 < w <= WEIGHT_MAX:
+        raise TaskError(
+            f"task '{term.name}': evaluate returned the weight {short_repr(term.weight)}; expected a finite number > 0 "
+            "(the weight of its rows among its level's, as Task.weight)"
+        )
+    return w
 
 
 def real_array(x: object) -> np.ndarray:
