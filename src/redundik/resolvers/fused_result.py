@@ -58,12 +58,18 @@ class FusedStepResult(LazyStepResult):
         d = self.__dict__
         terms = d.get("_terms")
         if terms is None:
-            terms = d["_terms"] = d["_make_terms"]()
+            terms = d["_terms"] = self._build_terms()
         return terms
 
     @terms.setter
     def terms(self, value: list[TaskTerm]) -> None:
         self.__dict__["_terms"] = value
+
+    def _build_terms(self) -> list[TaskTerm]:
+        """The step's terms, built on their first read (``terms`` keeps them): from the ``make_terms`` callable the
+        result was made with; a subclass builds them from its step's record."""
+        terms: list[TaskTerm] = self.__dict__["_make_terms"]()
+        return terms
 
     @property
     def task_error(self) -> float:

@@ -218,8 +218,7 @@ class PinvResolver(Resolver):
             external = evaluated
             work = np.empty(plan.pinv_work)
             n, m = robot._nv, plan.m
-            a = CF_ROWS * n  # (FK.pinv_work_views' J and (e, v), sliced here: a compiled call returning views
-            b = a + m * n  # costs more than the slicing)
+            a, _, b, _, _ = _plain_at(plan, n)
             end = work.shape[0]  # work's tail: the Python writers' null-space terms (n,), then z (n,)
             Jm, ev = work[a:b].reshape(m, n), work[b : b + 2 * m].reshape(2, m)
             plan.write_external(robot, external, Jm, 0, ev, None, work[end - 2 * n : end - n], t)
@@ -316,19 +315,10 @@ class FusedPinvResult(FusedStepResult):
             return functools.partial(_fused_sigma, d["_step"])
         return super()._pending_fn()
 
-    @property
-    def terms(self) -> list[TaskTerm]:
-        d = self.__dict__
-        terms = d.get("_terms")
-        if terms is None:
-            _, plan, q, robot, external = d["_step"]
-            _, _, ev, Jf = self._views()
-            terms = d["_terms"] = plan.terms(Jf, ev, q, robot, external)
-        return terms
-
-    @terms.setter
-    def terms(self, value: list[TaskTerm]) -> None:
-        self.__dict__["_terms"] = value
+    def _build_terms(self) -> list[TaskTerm]:
+        _, plan, q, robot, external = self.__dict__["_step"]
+        _, _, ev, Jf = self._views()
+        return plan.terms(Jf, ev, q, robot, external)
 
     @property
     def dq_rank(self) -> np.ndarray | None:

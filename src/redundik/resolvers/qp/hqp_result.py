@@ -62,17 +62,8 @@ class FusedHqpResult(FusedStepResult):
         }
         return res
 
-    @property
-    def terms(self) -> list[TaskTerm]:
-        d = self.__dict__
-        terms = d.get("_terms")
-        if terms is None:
-            terms = d["_terms"] = _terms(d["_step"])
-        return terms
-
-    @terms.setter
-    def terms(self, value: list[TaskTerm]) -> None:
-        self.__dict__["_terms"] = value
+    def _build_terms(self) -> list[TaskTerm]:
+        return _terms(self.__dict__["_step"])
 
     def _pending_fn(self) -> Callable[[], tuple[float, bool, dict[str, object]]]:
         d = self.__dict__

@@ -18,7 +18,10 @@ from redundik.resolvers.qp.base import QPDiagnostics
 from redundik.resolvers.singularity import NO_CAPS, SpeedLimiter
 from redundik.tasks.base import TaskTerm
 
-__all__ = ["FusedWqpResult", "free_diagnostics", "work_views", "write_external_rows"]
+__all__ = [
+    "FusedWqpResult", "free_diagnostics", "plain_at", "work_views", "work_with_external", "write_caps",
+    "write_external_rows",
+]  # fmt: skip
 
 
 def work_views(work: np.ndarray, K: int, m: int, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -190,14 +193,5 @@ class FusedWqpResult(FusedStepResult):
             return functools.partial(_fused_diagnostics, d["_step"], d["main"])
         return super()._pending_fn()
 
-    @property
-    def terms(self) -> list[TaskTerm]:
-        d = self.__dict__
-        terms = d.get("_terms")
-        if terms is None:
-            terms = d["_terms"] = _fused_terms(d["_step"])
-        return terms
-
-    @terms.setter
-    def terms(self, value: list[TaskTerm]) -> None:
-        self.__dict__["_terms"] = value
+    def _build_terms(self) -> list[TaskTerm]:
+        return _fused_terms(self.__dict__["_step"])
