@@ -406,6 +406,41 @@ def test_packed_bound_rows_read_late_are_those_of_their_step(scenario: str) -> N
         assert dict(res.info) == info
 
 
+@pytest.mark.parametrize("scenario", ["panda_circle", "snake10"])
+def test_packed_bound_records_are_reused_only_when_nobody_holds_them(scenario: str) -> None:
+    """A control loop that drops each result gets the same bound-row records every step (none made a step); a
+    result that is held, or whose diagnostics were read while it was the latest, keeps rows of its own step: its
+    diagnostics read after later steps are those read at once in a twin run, whatever was dropped in between."""
+    from benchmarks.bench.runners import RedundikRunner
+    from benchmarks.bench.scenarios import SCENARIOS
+
+    now = RedundikRunner(SCENARIOS[scenario](), "hqp", None, {})
+    late = RedundikRunner(SCENARIOS[scenario](), "hqp", None, {})
+    dt = now.scenario.dt
+    eager: dict[int, dict[str, object]] = {}
+    held: dict[int, Any] = {}
+    reused = 0
+    for k in range(150):
+        a = now.resolver.step(now.robot, now.stack, now.q, k * dt, dt)
+        plan = late.resolver._plan
+        before = None if plan is None else plan._last_written
+        b = late.resolver.step(late.robot, late.stack, late.q, k * dt, dt)
+        after = late.resolver._plan._last_written
+        reused += before is not None and after is not None and after[1] is before[1]
+        eager[k] = dict(a.info)
+        if k % 4 == 0:  # held while the loop goes on
+            held[k] = b
+        elif k % 7 == 1:  # read while the latest, then dropped: its rows copied, the next step makes new records
+            assert dict(b.info) == eager[k]
+        now.q = now.robot.integrate(now.q, a.dq, dt)
+        late.q = late.robot.integrate(late.q, b.dq, dt)
+        del a, b
+    assert {info["path"] for info in eager.values()} == {"compiled"}
+    assert reused > 50, reused  # (the loop's dropped results: their records described the next step's rows)
+    for k, res in held.items():
+        assert dict(res.info) == eager[k], k
+
+
 @pytest.mark.parametrize(("n", "levels", "r_size"), [(9, 3, 16), (7, 1, 0), (38, 5, 49), (1, 2, 1)])
 def test_the_cascade_blocks_are_sliced_alike_in_python_and_in_compiled_code(n: int, levels: int, r_size: int) -> None:
     """``_Plan.cascade_outputs`` (Python) and ``cascade_out_views`` (the compiled call's) name the same parts of

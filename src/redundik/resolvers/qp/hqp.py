@@ -126,13 +126,14 @@ from redundik.resolvers.linalg import K, _Kernels
 from redundik.resolvers.qp.backends import DEFAULT_BACKEND, Backend, finite
 from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics, with_relaxed
 from redundik.resolvers.qp.direction import DirectionScaling, solve_direction
+from redundik.resolvers.qp.hqp_bounds import NO_BOUNDS
 from redundik.resolvers.qp.hqp_constrained import (
     COMPLEMENT_FRACTION,
     COMPLEMENT_MIN_N,
     ConstrainedCascade,
     HQPBuild,
 )
-from redundik.resolvers.qp.hqp_plan import _NO_BOUNDS, HK, _Plan
+from redundik.resolvers.qp.hqp_plan import HK, _Plan
 from redundik.resolvers.qp.hqp_result import FusedHqpResult
 from redundik.resolvers.qp.terms import Level, gather_rows
 from redundik.resolvers.settings import Setting, flag
@@ -175,6 +176,8 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
 
     name = "hqp"
     fuse = Setting(flag, resets=("_plan",))  # (whether the stack is fused is the plan's)
+    #: (the limits' ``kernel_args`` tuple, the fused step's coefficient tail read from it): read again for a new tuple
+    _coef_tail: tuple[Any, tuple[float, float, float]] = (None, (0.0, 0.0, 0.0))
 
     def __init__(
         self,
@@ -378,13 +381,16 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         packed = plan.packed_bounds(robot)
         if packed is None:
             bounds = plan.fused_bounds(robot, dt)
-            bint, bcols, bfl = _NO_BOUNDS
+            bint, bcols, bfl = NO_BOUNDS
         else:  # their rows written in the compiled call
             bounds = plan.written_bounds(packed)
             bint, bcols, bfl = packed.bint, packed.bcols, packed.bfl
         limits = self.limits
         args = limits.kernel_args(robot)
-        coef = fused.coefficients((float(args[5]), float(args[6]), float(args[7])))
+        tail = self._coef_tail
+        if tail[0] is not args:  # (a new tuple when the limits or their options changed: ``kernel_args``)
+            tail = self._coef_tail = (args, (float(args[5]), float(args[6]), float(args[7])))
+        coef = fused.coefficients(tail[1])
         refs = fused.given_references(t) if fused.given else fused.refs
         prev = limits.previous(self._dq_prev)
         K_, m, levels = len(fused.frames), fused.m, plan.meta.shape[1] - 1

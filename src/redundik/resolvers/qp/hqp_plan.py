@@ -6,8 +6,9 @@ constrained cascade's work arrays and level-QP buffer.
 
 from __future__ import annotations
 
+import sys
 import weakref
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 
@@ -23,23 +24,11 @@ from redundik.resolvers.hqp_layout import (
     META_LS,
     QS_COLUMNS,
 )
-from redundik.resolvers.layouts import (
-    B_AXES,
-    B_CENTER,
-    B_FID,
-    B_LO,
-    B_LOWER,
-    B_NAXES,
-    B_RADIUS,
-    B_RATE,
-    B_ROW,
-    B_UP,
-    B_UPPER,
-)
 from redundik.resolvers.linalg import _Kernels
 from redundik.resolvers.qp.backends import Backend, DaqpBackend
 from redundik.resolvers.qp.base import SAFETY_TOLERANCE
 from redundik.resolvers.qp.daqp_native import NativeDaqp
+from redundik.resolvers.qp.hqp_bounds import UNHELD, PackedBounds, WrittenRows, pack_bounds
 from redundik.resolvers.qp.terms import StepRows
 from redundik.tasks.base import Edits, TaskTerm
 from redundik.tasks.stack import StackLayout, TaskStack
@@ -49,31 +38,6 @@ from redundik.tasks.subtasks import BoundSubtask
 HK = _Kernels("hqp_kernels")
 
 
-class _Written:
-    """The damper rows one :meth:`_Plan.gather` wrote into the plan's buffers, for :meth:`_Plan.step_rows`: their
-    copies, taken when first asked or before the buffers are next written while this record is still held (the
-    step's lazy diagnostics hold it), never otherwise."""
-
-    __slots__ = ("C", "__weakref__", "d")
-
-    def __init__(self) -> None:
-        self.C: np.ndarray | None = None
-        self.d: np.ndarray | None = None
-
-
-class _Packed(NamedTuple):
-    """Bound subtasks packed for ``hqp_fused.clearance_rows`` (:meth:`_Plan.packed_bounds`)."""
-
-    bint: np.ndarray  # (B, B_AXES + 3) integers per bound (``fused_kernels.B_FID`` …)
-    bcols: np.ndarray  # (B, nv) the columns of the joints supporting each frame
-    bfl: np.ndarray  # (B, B_RATE + 1) numbers per bound (``fused_kernels.B_CENTER`` …)
-    offsets: list[tuple[int, int]]  # the offsets table (least-squares row, inequality row) per level
-    slices: list[tuple[slice, list[str]]]  # per bound its rows of C, d and their names
-    rows: int  # the rows of C, d written
-
-
-#: No packed bounds (``hqp_fused.fused_hqp_step``'s arguments when :meth:`_Plan.fused_bounds` wrote the rows).
-_NO_BOUNDS = (np.zeros((0, B_AXES + 3), dtype=np.int64), np.zeros((0, 0), dtype=np.int64), np.zeros((0, B_RATE + 1)))
 _EMPTY, _EMPTY_INT, _EMPTY_BOOL = np.zeros(0), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.bool_)
 
 
@@ -111,7 +75,9 @@ class _Plan:
         self.fused: FusedPlan | str | bool | None = None
         self.dest = np.zeros(0, dtype=np.int64)  # per fused row its row of A, then the mixed levels' first rows
         self.ls_offsets: list[int] = []
-        self._written: tuple[weakref.ref[_Written], int] | None = None  # the last gather's record, its rows
+        self._written: tuple[weakref.ref[WrittenRows], int] | None = None  # the last gather's record, its rows
+        #: (packed bounds, the records list) of the last :meth:`written_bounds`: reused while nobody else holds it
+        self._last_written: tuple[PackedBounds, list[tuple[Any, Any, list[str]]]] | None = None
         self._cascade: tuple[np.ndarray, ...] | None = None  # the constrained cascade's work arrays
         self.cascade_blocks: tuple[np.ndarray, np.ndarray, np.ndarray] = (_EMPTY, _EMPTY_INT, _EMPTY_BOOL)
         self._qp_buf = np.zeros(0)  # where the cascade writes a level QP (``hqp_kernels.level_qp_into``)
@@ -123,13 +89,13 @@ class _Plan:
         self._dims: tuple[object, int, int, int] | None = None
         #: (Edits.count, robot data) the bound subtasks were packed for, and the packing (``packed_bounds``)
         self._packed_key: tuple[int, Any] | None = None
-        self._packed: _Packed | None = None
+        self._packed: PackedBounds | None = None
 
     def __getstate__(self) -> dict[str, Any]:
         """The plan without its weak reference to the last gather's record (a copy holds no step's rows): a copy
         or a pickle of a resolver steps as the original."""
         state = self.__dict__.copy()
-        state["_written"] = None
+        state["_written"] = state["_last_written"] = None
         return state
 
     def _keep_written(self) -> None:
@@ -154,7 +120,7 @@ class _Plan:
         Returns:
             (z of the null-space objective or ``None``, the target subtasks' (η, v) in layout order, the bound
             subtasks' (C, d, row names) in layout order — for rows written by ``rows_into``, (their
-            :class:`_Written` record, the rows' slice, names)): what :meth:`step_rows` needs to build the step's
+            :class:`WrittenRows` record, the rows' slice, names)): what :meth:`step_rows` needs to build the step's
             :class:`~redundik.resolvers.qp.terms.StepRows` when it is asked for.
         """
         if self._written is not None:
@@ -163,7 +129,7 @@ class _Plan:
         A, b, w = self.A, self.b, self.w
         targets: list[tuple[np.ndarray, float]] = []
         bounds: list[tuple[Any, Any, list[str]]] = []  # (C, d, names), or (written, rows' slice, names)
-        written: _Written | None = None  # the record of the rows written by rows_into
+        written: WrittenRows | None = None  # the record of the rows written by rows_into
         z = None
         ms = cs = 0
         blk = 0
@@ -229,9 +195,9 @@ class _Plan:
         bsubs: list[BoundSubtask],
         cs: int,
         bounds: list[tuple[Any, Any, list[str]]],
-        written: _Written | None,
+        written: WrittenRows | None,
         safety: list[tuple[int, int]] | None = None,
-    ) -> tuple[int, _Written | None]:
+    ) -> tuple[int, WrittenRows | None]:
         """A level's bound subtasks' rows into C, d from row ``cs`` (:meth:`gather`'s, appended to ``bounds``);
         returns the next row and the record of the rows written by ``rows_into``. ``safety``: the (first, end) rows
         of the critical ones are appended to it."""
@@ -244,7 +210,7 @@ class _Plan:
                     C, d = self._grow_ineq(e)
                 bsub.rows_into(robot, dt, C, d, cs)
                 if written is None:
-                    written = _Written()
+                    written = WrittenRows()
                 bounds.append((written, slice(cs, e), bsub.row_names))
             else:
                 Ci, di, rn = bsub.rows(robot, dt)
@@ -267,7 +233,7 @@ class _Plan:
             self._keep_written()
         meta = self.meta
         bounds: list[tuple[Any, Any, list[str]]] = []
-        written: _Written | None = None
+        written: WrittenRows | None = None
         cs = 0
         offsets = []
         safety: list[tuple[int, int]] = []
@@ -293,7 +259,7 @@ class _Plan:
                 return False
         return True
 
-    def packed_bounds(self, robot: RobotModel) -> _Packed | None:
+    def packed_bounds(self, robot: RobotModel) -> PackedBounds | None:
         """The bound subtasks packed for the fused step's compiled damper rows (``hqp_fused.clearance_rows``),
         when every one gives its ``clearance_form`` (a bound on a clearance, read through verified views of
         Pinocchio's memory, as the fused step reads it); ``None``: :meth:`fused_bounds` evaluates them in Python.
@@ -306,58 +272,35 @@ class _Plan:
         self._packed_key = (Edits.count, robot.data)
         return self._packed
 
-    def _pack_bounds(self, robot: RobotModel) -> _Packed | None:
-        """:meth:`packed_bounds`' packing: the rows C, d of :meth:`fused_bounds`, laid out at the same offsets."""
-        bsubs = [bsub for _, _, bs, _, _ in self.members for bsub in bs]
-        forms = [bsub.clearance_form(robot) for bsub in bsubs]
-        if any(form is None for form in forms):  # another source, rows of its own, unverified views: Python rows
-            return None
-        n = self.n
-        bint = np.zeros((len(bsubs), B_AXES + 3), dtype=np.int64)
-        bcols = np.zeros((len(bsubs), n), dtype=np.int64)
-        bfl = np.zeros((len(bsubs), B_RATE + 1))
-        slices: list[tuple[slice, list[str]]] = []
-        offsets = []
-        cs = k = 0
-        for (_, _, bs, _, _), ls_row in zip(self.members, self.ls_offsets, strict=False):
-            offsets.append((ls_row, cs))
-            for bsub in bs:
-                form = forms[k]
-                assert form is not None  # (checked above)
-                rows = form.rows
-                lower, upper = bsub.lower, bsub.upper
-                bint[k, [B_FID, B_ROW, B_LOWER, B_UPPER, B_NAXES]] = (
-                    form.fid,
-                    cs,
-                    lower is not None,
-                    upper is not None,
-                    rows.shape[0],
-                )
-                bint[k, B_AXES : B_AXES + rows.shape[0]] = rows
-                bcols[k] = form.columns
-                bfl[k, B_CENTER : B_CENTER + 3] = form.center
-                bfl[k, [B_RADIUS, B_LO, B_UP, B_RATE]] = (
-                    form.radius,
-                    0.0 if lower is None else lower,
-                    0.0 if upper is None else upper,
-                    bsub.rate,
-                )
-                e = cs + (lower is not None) + (upper is not None)
-                slices.append((slice(cs, e), bsub.row_names))
-                cs, k = e, k + 1
-        offsets.append((self.ls_offsets[-1], cs))
-        if cs > self.C.shape[0]:
-            self._grow_ineq(cs)
-        return _Packed(bint, bcols, bfl, offsets, slices, cs)
+    def _pack_bounds(self, robot: RobotModel) -> PackedBounds | None:
+        """:meth:`packed_bounds`' packing (``hqp_bounds.pack_bounds``), with C, d grown to its rows."""
+        packed = pack_bounds(robot, self.members, self.ls_offsets, self.n)
+        if packed is not None and packed.rows > self.C.shape[0]:
+            self._grow_ineq(packed.rows)
+        return packed
 
-    def written_bounds(self, packed: _Packed) -> list[tuple[Any, Any, list[str]]]:
+    def written_bounds(self, packed: PackedBounds) -> list[tuple[Any, Any, list[str]]]:
         """:meth:`fused_bounds` for packed bounds, whose rows the compiled call writes: the offsets table, the
         previous record's rows kept if held, and this step's record (``bounds`` of :meth:`gather`).
 
         The compiled call writes every entry of their rows (``clearance_rows``: whole rows of C and their d) into the
         plan's inequality buffers, which this step's record reads as :meth:`gather`'s do: its rows copied when first
         asked, or before the next step writes the buffers while the record is still held (a kept result's
-        diagnostics) — no allocation a step."""
+        diagnostics) — no allocation a step.
+
+        When nobody but this plan holds the last step's records (its result was dropped: the list's reference count
+        is that of a list held by the plan alone, ``UNHELD``) and their rows were never copied, they describe this
+        step's rows as well and are returned again: the common control loop makes no record a step."""
+        last = self._last_written
+        if (
+            last is not None
+            and last[0] is packed
+            and self._offsets is packed.offsets
+            and self._written is not None
+            and sys.getrefcount(last[1]) == UNHELD
+            and last[1][0][0].C is None
+        ):
+            return last[1]
         if self._written is not None:
             self._keep_written()
         if self._offsets is not packed.offsets:
@@ -367,9 +310,11 @@ class _Plan:
             self._offsets = packed.offsets
         if not packed.slices:
             return []
-        written = _Written()
+        written = WrittenRows()
         self._written = (weakref.ref(written), packed.rows)
-        return [(written, sl, names) for sl, names in packed.slices]
+        bounds: list[tuple[Any, Any, list[str]]] = [(written, sl, names) for sl, names in packed.slices]
+        self._last_written = (packed, bounds)
+        return bounds
 
     def fuse(self, robot: RobotModel, stack: TaskStack, t: float = 0.0) -> FusedPlan | str | bool:
         """The fused form of this plan's stack (:mod:`redundik.resolvers.fused`): every task a frame task or a

@@ -21,6 +21,11 @@ from redundik.tasks.base import TaskTerm
 
 _BOX = slice(OUT_LB, OUT_POS_HI + 1)  # the limit box's rows of the step's ``out``
 HFK = _Kernels("hqp_fused")  # (imported on first use)
+#: A result's entries that are the same on every step (``pending``: ``_pending_fn`` builds the diagnostics from the
+#: step's arrays).
+_TEMPLATE: dict[str, Any] = {
+    "dq_rank": None, "dq_null": None, "gains": None, "damping": 0.0, "fallback": None, "pending": True,
+}  # fmt: skip
 
 
 class FusedHqpResult(FusedStepResult):
@@ -43,23 +48,14 @@ class FusedHqpResult(FusedStepResult):
         [s]: the step's start and the end of its compiled call."""
         err2, dq2, over = outputs
         res = cls.__new__(cls)
-        res.__dict__ = {
-            "dq": dq,
-            "dq_rank": None,
-            "dq_null": None,
-            "gains": None,
-            "damping": 0.0,
-            "fallback": None,
-            "_info": {"backend": "closed-form", "qp": 0, "iterations": 0},
-            "build_time": t1 - t0,
-            "solve_time": time.perf_counter() - t1,
-            "main": step[0].layout.main,
-            "pending": True,  # (``_pending_fn`` builds the diagnostics from the step's arrays)
-            "_task_error": math.sqrt(err2),
-            "_dq_norm": math.sqrt(dq2),  # ‖q̇‖ from the compiled call (the divergence watch reads it)
-            "_cap_ratio": over,  # max_i |q̇_i| / c_i from the compiled call (−1: not computed)
-            "_step": (resolver, *step),
-        }
+        d = res.__dict__ = _TEMPLATE.copy()  # (the constant entries; one copy is cheaper than a literal)
+        d["dq"] = dq
+        d["_info"] = {"backend": "closed-form", "qp": 0, "iterations": 0}
+        d["build_time"], d["main"] = t1 - t0, step[0].layout.main
+        d["_task_error"], d["_dq_norm"] = math.sqrt(err2), math.sqrt(dq2)  # (‖q̇‖: the divergence watch reads it)
+        d["_cap_ratio"] = over  # max_i |q̇_i| / c_i from the compiled call (−1: not computed)
+        d["_step"] = (resolver, *step)
+        d["solve_time"] = time.perf_counter() - t1
         return res
 
     def _build_terms(self) -> list[TaskTerm]:
