@@ -199,3 +199,19 @@ def test_a_bad_target_among_many_is_named(panda_mixed: tuple) -> None:
     qbad[3, 2] = np.inf
     with pytest.raises(rk.ResolverError, match=r"q of problems \[3\] contain NaN or infinite"):
         batch.solve(qbad, T, 0.01)
+
+
+@pytest.mark.parametrize("method", ["pinv", "wqp"])
+@pytest.mark.parametrize("count", [1, 2, 36])
+def test_a_results_arrays_are_its_own_after_the_next_call(method: str, count: int, panda_mixed: tuple) -> None:
+    """A batch reuses its scratch from call to call: the arrays of a result it returned (one problem or many) are
+    unchanged by the next call on other problems, and equal those of a batch that made only the first call."""
+    robot, Q, T = panda_mixed
+    batch = BatchResolver(make_resolver(method), robot, "panda_hand")
+    first = batch.solve(Q[:count], T[:count], 0.01)
+    kept = first.dq.copy(), first.task_error.copy()
+    batch.solve(Q[::-1][:count], T[::-1][:count], 0.01)
+    np.testing.assert_array_equal(first.dq, kept[0])
+    np.testing.assert_array_equal(first.task_error, kept[1])
+    alone = BatchResolver(make_resolver(method), robot, "panda_hand").solve(Q[:count], T[:count], 0.01)
+    np.testing.assert_array_equal(first.dq, alone.dq)

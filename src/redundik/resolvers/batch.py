@@ -56,8 +56,6 @@ from redundik.tasks.base import Task
 from redundik.tasks.frame import FrameTask, PostureTask, resolve_axes
 from redundik.tasks.stack import TaskStack
 
-_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
-
 BK = _Kernels("batch_kernels")  # (numba loads on first use, not when redundik is imported)
 
 
@@ -116,24 +114,9 @@ def _supporting_columns(robot: RobotModel, fid: int) -> np.ndarray:
 
 def _all_rigid(T: np.ndarray) -> bool:
     """Whether every transform of T (N ≥ 1, 4, 4; finite) is rigid by :meth:`BatchResolver._check`'s test — RRᵀ
-    within 1e-6 of I, det R > 0 and a last row (0, 0, 0, 1) within 1e-12 — in a few whole-array operations (the
-    per-problem test then only names the problems that fail). det R by its cofactor expansion: with RRᵀ that close
-    to I, |det R| ≈ 1 and its sign is the LU determinant's."""
-    r = np.ascontiguousarray(T[:, :3, :3].transpose(1, 2, 0))  # r[i, k]: entry (i, k) of every R, (N,)
-    gram = np.empty((6, T.shape[0]))  # RRᵀ − I: its upper triangle
-    for n, (i, j) in enumerate(((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))):
-        g = gram[n]
-        np.multiply(r[i, 0], r[j, 0], out=g)
-        g += r[i, 1] * r[j, 1]
-        g += r[i, 2] * r[j, 2]
-    gram[:3] -= 1.0
-    if not float(np.max(np.abs(gram))) <= 1e-6:
-        return False
-    (a, b, c), (d, e, f), (g, h, k) = r
-    det = a * (e * k - f * h) - b * (d * k - f * g) + c * (d * h - e * g)
-    if not float(np.min(det)) > 0.0:
-        return False
-    return float(np.max(np.abs(T[:, 3] - _LAST_ROW))) <= 1e-12
+    within 1e-6 of I, det R > 0 and a last row (0, 0, 0, 1) within 1e-12 — in one compiled loop
+    (``batch_kernels.all_rigid``; the per-problem test then only names the problems that fail)."""
+    return bool(BK.all_rigid(T, 1e-6, 1e-12))
 
 
 def batch_log3(R: np.ndarray) -> np.ndarray:
@@ -402,9 +385,9 @@ class BatchResolver:
         (``kernels.closed_form_into`` with its lazy σ_min: Jᵀ(JJᵀ)⁻¹ by Cholesky when J has full row rank and
         nothing is damped, else the damped factorisation), in one compiled loop over the problems."""
         N, _, n = J.shape
-        out = np.empty((N, CF_ROWS, n))
+        out = self._buffer("closed_forms", (N, CF_ROWS, n))  # (q̇_r, q̇_n, q̇) per problem; q̇ is copied out
         K.closed_form_batch(J, V, z, self.posture_gain > 0, r.epsilon, r.max_damping, RCOND, out)
-        return np.ascontiguousarray(out[:, CF_DQ])
+        return out[:, CF_DQ].copy()  # (always a copy: out is the batch's buffer, reused by the next call)
 
     def _solve_wqp(
         self,

@@ -20,12 +20,42 @@ from redundik.resolvers.cholesky_kernels import gram_update
 
 _jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
 
-__all__ = ["WB_COEFS", "frame_rows_batch", "wqp_box_batch"]
+__all__ = ["WB_COEFS", "all_rigid", "frame_rows_batch", "wqp_box_batch"]
 
 #: Entries of :func:`wqp_box_batch`'s ``coef``: the frame task's gain K [1/s], the posture's level weight ρ, 1.0 when
 #: the stack has a posture (else 0.0), λ₀, the Levenberg–Marquardt factor of λ, the box test's tolerance.
 WB_GAIN, WB_SCALE, WB_POSTURE, WB_DAMPING, WB_LM, WB_TOL = range(6)
 WB_COEFS = 6
+
+
+@_jit
+def all_rigid(T: np.ndarray, gram_tol: float, last_tol: float) -> bool:
+    """Whether every transform of T (N, 4, 4), finite, is rigid: R Rᵀ within ``gram_tol`` of I (each entry), det R
+    > 0 and a last row within ``last_tol`` of (0, 0, 0, 1) — in one loop over the problems, stopping at the first
+    that fails (``BatchResolver._check``'s test; det R by its cofactor expansion: with R Rᵀ that close to I,
+    |det R| ≈ 1 and its sign is the LU determinant's)."""
+    for k in range(T.shape[0]):
+        R = T[k]
+        for i in range(3):
+            for j in range(i, 3):
+                g = R[i, 0] * R[j, 0] + R[i, 1] * R[j, 1] + R[i, 2] * R[j, 2]
+                if i == j:
+                    g -= 1.0
+                if not abs(g) <= gram_tol:
+                    return False
+        det = (
+            R[0, 0] * (R[1, 1] * R[2, 2] - R[1, 2] * R[2, 1])
+            - R[0, 1] * (R[1, 0] * R[2, 2] - R[1, 2] * R[2, 0])
+            + R[0, 2] * (R[1, 0] * R[2, 1] - R[1, 1] * R[2, 0])
+        )
+        if not det > 0.0:
+            return False
+        if not (
+            abs(R[3, 0]) <= last_tol and abs(R[3, 1]) <= last_tol and abs(R[3, 2]) <= last_tol
+            and abs(R[3, 3] - 1.0) <= last_tol
+        ):  # fmt: skip
+            return False
+    return True
 
 
 @_jit
