@@ -215,3 +215,22 @@ def test_a_results_arrays_are_its_own_after_the_next_call(method: str, count: in
     np.testing.assert_array_equal(first.task_error, kept[1])
     alone = BatchResolver(make_resolver(method), robot, "panda_hand").solve(Q[:count], T[:count], 0.01)
     np.testing.assert_array_equal(first.dq, alone.dq)
+
+
+@pytest.mark.parametrize("method", ["pinv", "wqp"])
+@pytest.mark.parametrize("how", ["pickle", "deepcopy"])
+def test_a_copied_batch_reads_its_own_kinematics(method: str, how: str, panda_mixed: tuple) -> None:
+    """A pickled or deep-copied batch (a worker's copy) solves as a fresh batch does, on other problems than the
+    original last solved, and the original is unaffected: each reads the Pinocchio data of its own (a view copied
+    with it read the original's memory, or a frozen copy: silently wrong q̇)."""
+    import copy
+    import pickle
+
+    robot, Q, T = panda_mixed
+    batch = BatchResolver(make_resolver(method), robot, "panda_hand")
+    batch.solve(Q[:20], T[:20], 0.01)
+    twin = pickle.loads(pickle.dumps(batch)) if how == "pickle" else copy.deepcopy(batch)
+    fresh = BatchResolver(make_resolver(method), robot, "panda_hand")
+    got = twin.solve(Q[16:], T[16:], 0.01)
+    np.testing.assert_array_equal(got.dq, fresh.solve(Q[16:], T[16:], 0.01).dq)
+    np.testing.assert_array_equal(batch.solve(Q[16:], T[16:], 0.01).dq, got.dq)

@@ -34,7 +34,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
 import pinocchio as pin
@@ -110,6 +110,24 @@ def _supporting_columns(robot: RobotModel, fid: int) -> np.ndarray:
             jm = model.joints[j]
             columns[jm.idx_v : jm.idx_v + jm.nv] = True
     return columns
+
+
+def _copy_plan(
+    JwT: np.ndarray, placement: np.ndarray, views: tuple[np.ndarray, np.ndarray] | None
+) -> tuple[list[Any], list[Any], tuple[Any, Any] | None]:
+    """How :meth:`BatchResolver._kinematics` copies each problem's Pinocchio data into the rows of ``JwT`` and
+    ``placement``: (destinations of J, destinations of the placement, their sources), each a byte ``memoryview``
+    when the live views and the rows are C-contiguous (a memoryview's slice assignment is one ``memcpy``, about half
+    a NumPy assignment's cost on these 54 + 12 numbers); the rows and the views themselves otherwise, and the
+    sources ``None`` without live views (the caller then reads Pinocchio's objects)."""
+    if views is None:
+        return list(JwT), list(placement), None
+    if all(a.flags.c_contiguous for a in (*views, JwT, placement)):
+        J_view, M_view = views
+        J_rows = [row.data.cast("B") for row in JwT]  # (ndarray.data: the array's buffer as a memoryview)
+        M_rows = [row.data.cast("B") for row in placement]
+        return J_rows, M_rows, (J_view.data.cast("B"), M_view.data.cast("B"))
+    return list(JwT), list(placement), views
 
 
 def _all_rigid(T: np.ndarray) -> bool:
@@ -193,16 +211,33 @@ class BatchResolver:
         self._parent = int(placed.parentJoint)
         self._to_frame = _placement_map(np.array(placed.placement.rotation), np.array(placed.placement.translation))
         self._columns = _supporting_columns(robot, self.fid)
+        self._bind_views()
+        self._native: NativeDaqp | None = None  # daqp's C entry for the binding problems' box QPs (kept)
+        self._qbuf = np.empty(0)
+        self._done = np.empty(0, dtype=np.bool_)  # frame_rows_batch's small-angle flags (kept per N)
+
+    def _bind_views(self) -> None:
+        """The live views of this batch's own Pinocchio data (made again for a copy, whose data is another object:
+        a view copied with it would read the original's memory, or a frozen copy of it), and empty scratch."""
         self._views: tuple[np.ndarray, np.ndarray] | None = None  # (data.J, data.oMi[parent]) as live views, or None
         J_view, placements = jacobian_view(self._data), se3_vector_view(self._data.oMi)
         if J_view is not None and placements is not None:
             self._views = (J_view.T, placements[self._parent])  # (nv, 6) C-ordered, and R (column-major), t (12,)
-        #: Scratch arrays kept from call to call (:meth:`_buffer`), and the rows of the kinematics' two buffers
+        #: Scratch arrays kept from call to call (:meth:`_buffer`), and the per-problem copy plan of the kinematics
         self._buffers: dict[str, np.ndarray] = {}
-        self._rows_of: tuple[np.ndarray, list[np.ndarray], list[np.ndarray]] | None = None
-        self._native: NativeDaqp | None = None  # daqp's C entry for the binding problems' box QPs (kept)
-        self._qbuf = np.empty(0)
-        self._done = np.empty(0, dtype=np.bool_)  # frame_rows_batch's small-angle flags (kept per N)
+        self._rows_of: tuple[np.ndarray, np.ndarray, list[Any], list[Any], tuple[Any, Any] | None] | None = None
+
+    def __getstate__(self) -> dict[str, Any]:
+        """The batch without its views of Pinocchio's memory, its scratch and daqp's C entry (made again)."""
+        state = self.__dict__.copy()
+        for key in ("_views", "_rows_of", "_native"):
+            state[key] = None
+        state["_buffers"] = {}
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._bind_views()
 
     # ------------------------------------------------------------------ the one-by-one reference
     def loop_stack(self, q: np.ndarray, target: np.ndarray) -> TaskStack:
@@ -268,16 +303,16 @@ class BatchResolver:
         JwT = self._buffer("JwT", (N, nv, 6))  # joint Jacobians in the world frame, transposed [m/rad, 1]
         placement = self._buffer("placement", (N, 12))  # the parent joint's rotation (column-major), origin [m]
         rows_of = self._rows_of
-        if rows_of is None or rows_of[0] is not JwT:  # (row views made once per buffer: a copy into one is cheap)
-            rows_of = self._rows_of = (JwT, list(JwT), list(placement))
-        _, J_rows, M_rows = rows_of
+        if rows_of is None or rows_of[0] is not JwT or rows_of[1] is not placement:
+            rows_of = self._rows_of = (JwT, placement, *_copy_plan(JwT, placement, self._views))
+        _, _, J_rows, M_rows, sources = rows_of
         jacobians = pin.computeJointJacobians
-        if self._views is not None:
-            J_view, M_view = self._views
+        if sources is not None:
+            J_src, M_src = sources
             for qi, J_row, M_row in zip(q, J_rows, M_rows, strict=True):  # (the Pinocchio call, two copies a problem)
                 jacobians(model, data, qi)
-                J_row[...] = J_view
-                M_row[...] = M_view
+                J_row[:] = J_src
+                M_row[:] = M_src
         else:  # (bindings that return copies: read Pinocchio's objects problem by problem)
             for i, qi in enumerate(q):
                 jacobians(model, data, qi)
