@@ -322,6 +322,49 @@ def test_a_binding_limit_during_a_cold_start_solves_its_qp_without_the_native_ca
     assert any(qp > 0 for _, qp, _ in got["hot"])
 
 
+def test_wait_chosen_after_import_compiles_the_kernels_before_the_first_step(tmp_path: Path) -> None:
+    """``REDUNDIK_COLD_START=wait`` set after ``import redundik`` (which deferred numba in the default mode): the
+    first step decorates the kernels and runs them compiled, in the caller's thread. Before, the steps ran the
+    kernels' plain functions while reporting the compiled path, and a ``wqp`` step whose limit binds raised
+    ``RuntimeError`` from daqp's C entry (its intrinsic was never made)."""
+    got = _run(
+        """
+        import json, os
+        import pinocchio as pin
+        from redundik import _kernel_cache
+        from redundik.kinematics.urdf import load_example_robot
+        from redundik.resolvers.linalg import FK
+        from redundik.resolvers.qp import daqp_native
+        deferred_at_import = _kernel_cache.deferred()
+        os.environ["REDUNDIK_COLD_START"] = "wait"
+        panda = load_example_robot("panda")
+        qp = pin.neutral(panda.model)
+        qp[:7] = [0.0, -0.4, 0.0, -2.0, 0.0, 1.6, 0.8]
+        panda.update(qp)
+        circle = rk.FrameTask("panda_hand", rk.Circle(0.12, 2.0 * np.pi, plane=("y", "z")), gain=50.0)
+        s = rk.TaskStack([circle, rk.PostureTask(gain=1.0, weight=1e-2)])
+        s.reset(panda)
+        res = rk.make_resolver("wqp", max_joint_speed=None)
+        rows = []
+        for k in range(40):
+            r = res.step(panda, s, qp, 0.01 * k, 0.01)
+            rows.append((r.info["path"], int(r.info.get("qp", 0)), bool(np.isfinite(r.dq).all())))
+            qp = panda.integrate(qp, r.dq, 0.01)
+        print(json.dumps({"deferred_at_import": deferred_at_import, "rows": rows,
+                          "dispatcher": hasattr(FK.fused_wqp_step, "py_func"),
+                          "native": daqp_native.status()}))
+        """,
+        {"REDUNDIK_CACHE_DIR": str(tmp_path)},
+    )
+    assert got["deferred_at_import"] is True  # (the situation under test: numba deferred by the default mode)
+    rows = got["rows"]
+    assert all(finite for _, _, finite in rows)
+    assert {path for path, _, _ in rows} == {"compiled"}, rows
+    assert any(qp > 0 for _, qp, _ in rows), rows  # (a limit bound: the box QP was solved)
+    assert got["dispatcher"] is True
+    assert str(got["native"]).startswith("on"), got["native"]
+
+
 def test_a_fork_during_the_background_compile_does_not_hang_the_child(tmp_path: Path) -> None:
     """``multiprocessing`` (fork) while the kernels compile in the background: the children step instead of waiting
     forever on numba's compiler lock, which the parent's compiling thread held at the fork (a pool made a few

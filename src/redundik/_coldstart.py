@@ -73,7 +73,8 @@ def ready(resolver: str) -> bool:
         return True
     if threading.get_ident() in _compilers:
         return True
-    if not background():
+    if not background():  # (the first step compiles in this thread; ``wait`` may have been chosen after
+        compiled_now()  # ``import redundik`` deferred numba: the kernels are decorated first, never run as functions)
         HOT.add(resolver)
         return True
     with _lock:
@@ -99,6 +100,8 @@ def compiled_here() -> bool:
     a kernel that calls C through an address needs (daqp's entry, ``hqp_native``): it has no interpreted twin."""
     if _saved:  # (switches in place: only a compiling thread reaches the kernels themselves)
         return threading.get_ident() in _compilers
+    if _kernel_cache.deferred():  # (numba not adopted yet: a kernel is still its plain function)
+        return False
     if HOT:  # (the common answer, without reading the environment: called at every cascade)
         return True
     return not background() or threading.get_ident() in _compilers
