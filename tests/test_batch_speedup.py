@@ -199,6 +199,9 @@ def test_a_bad_target_among_many_is_named(panda_mixed: tuple) -> None:
     qbad[3, 2] = np.inf
     with pytest.raises(rk.ResolverError, match=r"q of problems \[3\] contain NaN or infinite"):
         batch.solve(qbad, T, 0.01)
+    qbad[3, 2], qbad[5, 0] = 2e9, -1e200  # finite, but no configuration: refused as a step refuses it
+    with pytest.raises(rk.ResolverError, match=r"q of problems \[3, 5\] have entries beyond ±1e\+09"):
+        batch.solve(qbad, T, 0.01)
 
 
 @pytest.mark.parametrize("method", ["pinv", "wqp"])

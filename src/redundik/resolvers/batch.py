@@ -43,7 +43,7 @@ from redundik._coldstart import compiled_now
 from redundik.errors import ResolverError, SolverError
 from redundik.kinematics.memory import jacobian_view, se3_vector_view
 from redundik.kinematics.model import RobotModel
-from redundik.resolvers.base import Resolver
+from redundik.resolvers.base import MAX_Q, Resolver
 from redundik.resolvers.layouts import CF_DQ, CF_ROWS
 from redundik.resolvers.linalg import RCOND, K, _Kernels
 from redundik.resolvers.pinv import PinvResolver
@@ -368,6 +368,12 @@ class BatchResolver:
                     raise ResolverError(
                         f"batch: {key} of problems {np.flatnonzero(bad)[:8].tolist()} contain NaN or infinite values"
                     )
+        if N and not float(np.max(np.abs(q))) <= MAX_Q:  # (a step refuses such a q: no configuration)
+            huge = np.flatnonzero(~(np.abs(q) <= MAX_Q).all(axis=1))
+            raise ResolverError(
+                f"batch: q of problems {huge[:8].tolist()} have entries beyond ±{MAX_Q:g} [rad or length unit]: not "
+                "configurations (a diverged loop, or a unit mistake?)"
+            )
         if N and _all_rigid(targets):
             return q, targets
         R = targets[:, :3, :3]
