@@ -20,6 +20,7 @@ import redundik as rk
 from redundik.resolvers import hqp_kernels as HK
 from redundik.resolvers.qp import backends, daqp_native
 from redundik.resolvers.qp.hqp import HierarchicalQPResolver, HQPBuild, _Plan
+from redundik.resolvers.qp.hqp_result import FusedHqpResult
 
 
 def _buffers(plan: _Plan) -> tuple[np.ndarray, ...]:
@@ -439,6 +440,73 @@ def test_packed_bound_records_are_reused_only_when_nobody_holds_them(scenario: s
     assert reused > 50, reused  # (the loop's dropped results: their records described the next step's rows)
     for k, res in held.items():
         assert dict(res.info) == eager[k], k
+
+
+def _bound_rows_of(res: Any) -> list[tuple[np.ndarray, np.ndarray]] | None:
+    """The bound subtasks' rows (C, d) a fused ``hqp`` result of the closed form reads, as its diagnostics would
+    read them (``None``: another kind of result)."""
+    if type(res) is not FusedHqpResult:
+        return None
+    rows = []
+    for record, sl, _ in res.__dict__["_step"][9]:  # (``FusedHqpResult.of``: the bound records)
+        record.keep()
+        rows.append((record.C[sl].copy(), record.d[sl].copy()))
+    return rows
+
+
+@pytest.mark.parametrize("scenario", ["panda_circle", "snake10"])
+def test_a_loop_that_keeps_its_last_result_makes_no_bound_record_and_reads_its_own_rows(
+    scenario: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A control loop ``res = step(...)`` holds the last result while it steps: the step writes the spare
+    inequality buffers, so that no record is made and no row copied a step; and a result read one step late (its
+    rows in the other buffers) or two steps late reads the bound rows and diagnostics of its own step, those a twin
+    run read at once."""
+    from benchmarks.bench.runners import RedundikRunner
+    from benchmarks.bench.scenarios import SCENARIOS
+
+    from redundik.resolvers.qp import hqp_bounds, hqp_plan
+
+    made = [0]
+
+    class Counted(hqp_bounds.WrittenRows):
+        __slots__ = ()
+
+        def __init__(self) -> None:
+            made[0] += 1
+            super().__init__()
+
+    monkeypatch.setattr(hqp_plan, "WrittenRows", Counted)
+    now = RedundikRunner(SCENARIOS[scenario](), "hqp", None, {})
+    late = RedundikRunner(SCENARIOS[scenario](), "hqp", None, {})
+    dt = now.scenario.dt
+    eager: list[tuple[dict[str, object], list[tuple[np.ndarray, np.ndarray]]]] = []
+    res = older = None
+    quiet = compared = 0
+    for k in range(160):
+        a = now.resolver.step(now.robot, now.stack, now.q, k * dt, dt)
+        eager.append((dict(a.info), _bound_rows_of(a)))  # (read at once: this twin's records are made every step)
+        if k < 100:  # the loop keeps only its last result
+            older = None
+        before = made[0]
+        older, res = res, late.resolver.step(late.robot, late.stack, late.q, k * dt, dt)
+        if k < 100:
+            quiet += made[0] == before  # (steps 0–99: the result is kept, never read)
+        elif k % 3 != 2 and older is not None:  # read one step late (k % 3 == 0) or two steps late (held meanwhile)
+            info, rows = eager[k - 1]
+            got = _bound_rows_of(older)
+            assert (got is None) == (rows is None), k
+            if rows is not None and got is not None:
+                assert rows and len(got) == len(rows), k
+                for (C, d), (Cg, dg) in zip(rows, got, strict=True):
+                    assert np.array_equal(C, Cg) and np.array_equal(d, dg), k
+                compared += 1
+            assert dict(older.info) == info, k
+        now.q = now.robot.integrate(now.q, a.dq, dt)
+        late.q = late.robot.integrate(late.q, res.dq, dt)
+    assert {info["path"] for info, _ in eager} == {"compiled"}
+    assert quiet >= 95, quiet  # (the first steps make the records of the two pairs of buffers)
+    assert compared > 15, compared
 
 
 @pytest.mark.parametrize(("n", "levels", "r_size"), [(9, 3, 16), (7, 1, 0), (38, 5, 49), (1, 2, 1)])

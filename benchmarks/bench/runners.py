@@ -21,6 +21,7 @@ from redundik.kinematics.model import RobotModel
 from redundik.resolvers.base import Resolver
 from redundik.resolvers.fused import plan_of
 from redundik.resolvers.registry import make_resolver
+from redundik.resolvers.result import StepResult
 from redundik.tasks.base import Barrier, Potential, Task, TaskTerm
 from redundik.tasks.stack import TaskStack
 from redundik.tasks.subtasks import Subtask
@@ -177,6 +178,7 @@ class RedundikRunner(Runner):
         if backend is not None:
             self.options["backend"] = backend
         self.resolver: Resolver = make_resolver(method, **self.options)
+        self.last_result: StepResult | None = None  # the last step's result, held as a control loop holds it
         used = getattr(self.resolver, "backend", None)
         self.backend = backend or str(getattr(used, "name", used) or "-")
         self.robot = scenario.robot() if scenario.runner_robot is None else scenario.runner_robot()
@@ -199,6 +201,7 @@ class RedundikRunner(Runner):
                 task.set_target(pose)  # type: ignore[attr-defined]  # the scenario's frame tasks come first
         res = self.resolver.step(self.robot, self.stack, self.q, t, dt)
         t1 = _ns()
+        self.last_result = res  # (a user's loop ``res = step(...)`` holds its last result while it steps)
         info = res.info
         path = str(info.get("path", "?"))
         self.record.paths[path] = self.record.paths.get(path, 0) + 1

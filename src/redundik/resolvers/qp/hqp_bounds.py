@@ -29,14 +29,21 @@ from redundik.resolvers.layouts import (
 
 class WrittenRows:
     """The damper rows one step wrote into the plan's buffers, for ``_Plan.step_rows``: their copies, taken when
-    first asked or before the buffers are next written while this record is still held (the step's lazy
-    diagnostics hold it), never otherwise."""
+    first asked or before those buffers are next written while this record is still held (the step's lazy
+    diagnostics hold it), never otherwise. ``src``: (C, d, rows) — the buffers written and how many rows."""
 
-    __slots__ = ("C", "__weakref__", "d")
+    __slots__ = ("C", "__weakref__", "d", "src")
 
     def __init__(self) -> None:
         self.C: np.ndarray | None = None
         self.d: np.ndarray | None = None
+        self.src: tuple[np.ndarray, np.ndarray, int] | None = None
+
+    def keep(self) -> None:
+        """Copy the rows out of the buffers they were written into (once)."""
+        if self.C is None and self.src is not None:
+            C, d, rows = self.src
+            self.C, self.d = C[:rows].copy(), d[:rows].copy()
 
 
 class PackedBounds(NamedTuple):

@@ -75,9 +75,12 @@ class _Plan:
         self.fused: FusedPlan | str | bool | None = None
         self.dest = np.zeros(0, dtype=np.int64)  # per fused row its row of A, then the mixed levels' first rows
         self.ls_offsets: list[int] = []
-        self._written: tuple[weakref.ref[WrittenRows], int] | None = None  # the last gather's record, its rows
+        self._written: weakref.ref[WrittenRows] | None = None  # the record of the rows now in C, d
         #: (packed bounds, the records list) of the last :meth:`written_bounds`: reused while nobody else holds it
         self._last_written: tuple[PackedBounds, list[tuple[Any, Any, list[str]]]] | None = None
+        #: the other pair of inequality buffers, with its (record, records list): :meth:`written_bounds` writes a
+        #: step's rows there while a kept result still reads the last step's (:meth:`_swap_ineq`)
+        self._spare: tuple[np.ndarray, np.ndarray, Any, Any] | None = None
         self._cascade: tuple[np.ndarray, ...] | None = None  # the constrained cascade's work arrays
         self.cascade_blocks: tuple[np.ndarray, np.ndarray, np.ndarray] = (_EMPTY, _EMPTY_INT, _EMPTY_BOOL)
         self._qp_buf = np.zeros(0)  # where the cascade writes a level QP (``hqp_kernels.level_qp_into``)
@@ -95,17 +98,26 @@ class _Plan:
         """The plan without its weak reference to the last gather's record (a copy holds no step's rows): a copy
         or a pickle of a resolver steps as the original."""
         state = self.__dict__.copy()
-        state["_written"] = state["_last_written"] = None
+        state["_written"] = state["_last_written"] = state["_spare"] = None
         return state
 
     def _keep_written(self) -> None:
-        """Before the buffers are written again: copy the last gather's damper rows if their record is held."""
+        """Before the buffers are written again: copy the damper rows now in them if their record is held."""
         last = self._written
         if last is not None:
             self._written = None
-            held = last[0]()
-            if held is not None and held.C is None:
-                held.C, held.d = self.C[: last[1]].copy(), self.d[: last[1]].copy()
+            held = last()
+            if held is not None:
+                held.keep()
+
+    def _swap_ineq(self) -> None:
+        """Make the spare inequality buffers the plan's (grown to the same rows), and the plan's the spare."""
+        spare = self._spare
+        C, d = self.C, self.d
+        if spare is None or spare[0].shape[0] < C.shape[0]:
+            spare = (np.zeros_like(C), np.zeros_like(d), None, None)
+        self._spare = (C, d, self._written, self._last_written)
+        self.C, self.d, self._written, self._last_written = spare
 
     def gather(
         self, robot: RobotModel, stack: TaskStack, terms: list[TaskTerm], dt: float
@@ -181,7 +193,8 @@ class _Plan:
                 ms = e
         offsets.append((ms, cs))
         if written is not None:
-            self._written = (weakref.ref(written), cs)
+            written.src = (self.C, self.d, cs)
+            self._written = weakref.ref(written)
         if offsets != self._offsets:
             for k, (ls_row, ineq_row) in enumerate(offsets):
                 meta[META_LS, k], meta[META_INEQ, k] = ls_row, ineq_row
@@ -244,7 +257,8 @@ class _Plan:
         self.safety_rows = safety
         offsets.append((self.ls_offsets[-1], cs))
         if written is not None:
-            self._written = (weakref.ref(written), cs)
+            written.src = (self.C, self.d, cs)
+            self._written = weakref.ref(written)
         if offsets != self._offsets:
             for k, (ls_row, ineq_row) in enumerate(offsets):
                 meta[META_LS, k], meta[META_INEQ, k] = ls_row, ineq_row
@@ -280,29 +294,42 @@ class _Plan:
         return packed
 
     def written_bounds(self, packed: PackedBounds) -> list[tuple[Any, Any, list[str]]]:
-        """:meth:`fused_bounds` for packed bounds, whose rows the compiled call writes: the offsets table, the
-        previous record's rows kept if held, and this step's record (``bounds`` of :meth:`gather`).
+        """:meth:`fused_bounds` for packed bounds, whose rows the compiled call writes: the offsets table and this
+        step's records (``bounds`` of :meth:`gather`), which read the rows from the buffers they were written into.
 
         The compiled call writes every entry of their rows (``clearance_rows``: whole rows of C and their d) into the
-        plan's inequality buffers, which this step's record reads as :meth:`gather`'s do: its rows copied when first
-        asked, or before the next step writes the buffers while the record is still held (a kept result's
-        diagnostics) — no allocation a step.
+        plan's inequality buffers — no allocation a step. A record's rows are copied when first asked, or before
+        those buffers are written again while the record is still held (a kept result's diagnostics).
 
         When nobody but this plan holds the last step's records (its result was dropped: the list's reference count
         is that of a list held by the plan alone, ``UNHELD``) and their rows were never copied, they describe this
-        step's rows as well and are returned again: the common control loop makes no record a step."""
+        step's rows as well and are returned again. When a result still holds them (a loop's ``res = step(...)``
+        keeps the last result while it steps), this step writes the spare buffers, whose records the result before
+        it left: a control loop makes no record and copies no row a step."""
         last = self._last_written
         if (
             last is not None
             and last[0] is packed
             and self._offsets is packed.offsets
             and self._written is not None
-            and sys.getrefcount(last[1]) == UNHELD
             and last[1][0][0].C is None
         ):
-            return last[1]
+            if sys.getrefcount(last[1]) == UNHELD:
+                return last[1]
+            self._swap_ineq()  # (a kept result reads the rows now in C, d)
+            last = self._last_written
+            if (
+                last is not None
+                and last[0] is packed
+                and self._written is not None
+                and sys.getrefcount(last[1]) == UNHELD
+                and last[1][0][0].C is None
+            ):
+                return last[1]
         if self._written is not None:
             self._keep_written()
+        if packed.rows > self.C.shape[0]:
+            self._grow_ineq(packed.rows)
         if self._offsets is not packed.offsets:
             if self._offsets != packed.offsets:
                 for k, (ls_row, ineq_row) in enumerate(packed.offsets):
@@ -311,7 +338,8 @@ class _Plan:
         if not packed.slices:
             return []
         written = WrittenRows()
-        self._written = (weakref.ref(written), packed.rows)
+        written.src = (self.C, self.d, packed.rows)
+        self._written = weakref.ref(written)
         bounds: list[tuple[Any, Any, list[str]]] = [(written, sl, names) for sl, names in packed.slices]
         self._last_written = (packed, bounds)
         return bounds
@@ -408,8 +436,7 @@ class _Plan:
                 Ci, di, rn = next(ib)
                 if type(di) is slice:  # rows written by rows_into: their copies, as rows() gives them
                     held = Ci
-                    if held.C is None:  # the buffers still hold this step's rows (_keep_written)
-                        self._keep_written()
+                    held.keep()  # (copied once: the buffers may be written again)
                     Ci, di = held.C[di], held.d[di]
                 rows.append((Ci, di, list(rn), bsub))
             ineq.append(rows)
