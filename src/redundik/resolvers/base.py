@@ -135,7 +135,7 @@ class Resolver(ABC):
     _checked: tuple[int, ...] | None = None
     #: (stack, robot, its tasks, its subtasks) as last checked: a step whose stack has the same members (by identity)
     #: skips recomputing the signature
-    _members: tuple[TaskStack, RobotModel, list[Any], list[Any]] | None = None
+    _members: tuple[TaskStack, RobotModel, list[Any], list[Any], int] | None = None
     _watch: DivergenceWatch | None = None
     _gain_members: tuple[tuple[Any, ...], tuple[Any, ...]] = ((), ())
     _plain_gains = False
@@ -264,6 +264,7 @@ class Resolver(ABC):
             and members[1] is robot
             and stack.tasks == members[2]
             and stack.subtasks == members[3]
+            and members[4] == Edits.levels  # (a member's priority or name changed: laid out again)
         ):
             self._check_membership(robot, stack)
         tasks, targets = self._gain_members
@@ -344,7 +345,7 @@ class Resolver(ABC):
             # gains set through Task's validated property move Edits; a task with its own ``gain`` is read each step
             self._plain_gains = all(m.gain_tracked for m in stack.tasks)
             self._gains_seen = None
-        self._members = (stack, robot, list(stack.tasks), list(stack.subtasks))
+        self._members = (stack, robot, list(stack.tasks), list(stack.subtasks), Edits.levels)
 
     def _solve_blas_limited(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
         """:meth:`solve` with BLAS limited to :attr:`blas_threads` threads (``"auto"``: one, on a large robot)."""

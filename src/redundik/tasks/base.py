@@ -210,6 +210,10 @@ class Edits:
     a fused step (:mod:`redundik.resolvers.fused`) re-reads its coefficients when it has moved."""
 
     count: ClassVar[int] = 0
+    #: Moved by every change of what places a stack's members in its levels once they exist: a task's or a target
+    #: or bound subtask's ``priority``, a task's ``name`` (a resolver's level overrides name them). It is part of
+    #: ``TaskStack.signature``: a resolver checks and lays the stack out again when it has moved.
+    levels: ClassVar[int] = 0
 
 
 @dataclass
@@ -279,7 +283,10 @@ class Task(ABC):
 
     @name.setter
     def name(self, value: str) -> None:
-        self._name = check_name(value, f"task {type(self).__name__}")
+        name = check_name(value, f"task {type(self).__name__}")
+        if self.__dict__.get("_name", name) != name:  # (a level override names it: the layout is made again)
+            Edits.levels += 1
+        self._name = name
 
     @property
     def weight(self) -> float:
@@ -308,7 +315,10 @@ class Task(ABC):
 
     @priority.setter
     def priority(self, value: int | None) -> None:
-        self._priority = check_priority(value, f"task '{self._label}'")
+        level = check_priority(value, f"task '{self._label}'")
+        if "_priority" in self.__dict__ and self._priority != level:  # (a stack holding it is laid out again)
+            Edits.levels += 1
+        self._priority = level
 
     @property
     def gain_tracked(self) -> bool:

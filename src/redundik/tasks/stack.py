@@ -28,7 +28,7 @@ import numpy as np
 
 from redundik.errors import ResolverError, TaskError, short_repr
 from redundik.kinematics.model import RobotModel
-from redundik.tasks.base import Task, TaskTerm
+from redundik.tasks.base import Edits, Task, TaskTerm
 from redundik.tasks.conform import conform_term
 from redundik.tasks.subtasks import BoundSubtask, GradientSubtask, Subtask, TargetSubtask
 
@@ -137,8 +137,9 @@ class TaskStack:
             sub.check(robot)
 
     def signature(self) -> tuple[int, ...]:
-        """Identity of the stack's membership (changes when a task or subtask is added, removed or replaced)."""
-        return (id(self), *map(id, self.tasks), -1, *map(id, self.subtasks))
+        """Identity of the stack's membership and levels: it changes when a task or subtask is added, removed or
+        replaced, and when a member's ``priority`` or name changed (``Edits.levels``)."""
+        return (id(self), *map(id, self.tasks), -1, *map(id, self.subtasks), -2, Edits.levels)
 
     def reset(self, robot: RobotModel) -> None:
         """Check the stack and reset every task at the robot's current state (call after ``robot.update(q0)``).

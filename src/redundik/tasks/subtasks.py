@@ -87,6 +87,29 @@ class _Number:
         Edits.count += 1  # (a fused step's packed copy compares it)
 
 
+class _Level:
+    """A target or bound subtask's ``priority``: ``None`` (the first level below the main tasks) or a level ≥ 0,
+    checked on every assignment as the constructor checks it; a change moves ``Edits.levels`` (a resolver lays the
+    stack out again)."""
+
+    @overload
+    def __get__(self, obj: None, objtype: type | None = None) -> _Level: ...
+    @overload
+    def __get__(self, obj: object, objtype: type | None = None) -> int | None: ...
+    def __get__(self, obj: object | None, objtype: type | None = None) -> int | _Level | None:
+        if obj is None:
+            return self
+        level: int | None = obj.__dict__["_priority"]
+        return level
+
+    def __set__(self, obj: object, value: int | None) -> None:
+        level = check_priority(value, f"subtask '{getattr(obj, 'name', '?')}'")
+        state = obj.__dict__
+        if "_priority" in state and state["_priority"] != level:
+            Edits.levels += 1
+        state["_priority"] = level
+
+
 _OWN_ROWS: dict[type, bool] = {}
 
 
@@ -113,7 +136,10 @@ class Subtask(ABC):
 
     @name.setter
     def name(self, value: str) -> None:
-        self._name = check_name(value, f"{type(self).__name__}")
+        name = check_name(value, f"{type(self).__name__}")
+        if self.__dict__.get("_name", name) != name:  # (a level override names it: the layout is made again)
+            Edits.levels += 1
+        self._name = name
         Edits.count += 1  # (a fused step's packed row names compare it)
 
     @abstractmethod
@@ -218,6 +244,8 @@ class TargetSubtask(Subtask):
     """
 
     kind: ClassVar[str] = "target"
+    #: Its level: ``None`` (the first level below the main tasks) or an explicit level ≥ 0.
+    priority = _Level()
 
     def __init__(
         self,
@@ -235,7 +263,7 @@ class TargetSubtask(Subtask):
         self.set_target(target, target_rate)
         self.rate = rate
         self.weight = weight
-        self.priority = check_priority(priority, f"subtask '{self.name}'")
+        self.priority = priority
 
     def set_target(self, target: float, target_rate: float = 0.0) -> None:
         """Move the target p_d (and its rate ṗ_d) at run time, between ticks."""
@@ -282,6 +310,8 @@ class BoundSubtask(Subtask):
     """
 
     kind: ClassVar[str] = "bound"
+    #: Its level: ``None`` (the first level below the main tasks) or an explicit level ≥ 0.
+    priority = _Level()
 
     def __init__(
         self,
@@ -301,7 +331,7 @@ class BoundSubtask(Subtask):
         self._upper = None if upper is None else check_number(upper, f"subtask '{self.name}': upper")
         self._check_bounds(self._lower, self._upper)
         self.rate = rate
-        self.priority = check_priority(priority, f"subtask '{self.name}'")
+        self.priority = priority
         self._names_of: tuple[str, list[str]] | None = None  # (name, a barrier's last row names), prefixed:
         self._names: list[str] = []
         self._row_names_of: tuple[str, bool, bool] | None = None  # (name, lower set, upper set) of _row_names
