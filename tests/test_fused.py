@@ -149,7 +149,17 @@ def test_fused_frame_and_posture_agree(method: str, traj) -> None:
     _compare(stack, method)
 
 
-@pytest.mark.parametrize("axes", ["position", ["x", "z", "ry"], "orientation"])
+@pytest.mark.parametrize(
+    "axes",
+    [
+        "position",
+        ["x", "z", "ry"],
+        "orientation",
+        ["y", "z", "rz", "ry", "rx", "x"],  # all six rows in another order (wqp's fused step read them as x … rz)
+        ["rx", "ry", "rz", "x", "y", "z"],
+        ["z", "x", "y"],
+    ],
+)
 def test_fused_row_subsets_agree(axes) -> None:
     def stack(robot: RobotModel) -> TaskStack:
         return TaskStack(

@@ -211,7 +211,10 @@ def _frame_grams(Jf: np.ndarray, v: np.ndarray, ints: np.ndarray, w: np.ndarray,
     reset = True
     for k in range(K):
         a, b = starts[k], starts[k + 1]
-        if b - a == FRAME_ROWS:
+        natural = b - a == FRAME_ROWS  # (all six rows in the order of Jf's: Jf itself; any other order is taken)
+        for r in range(a, b):
+            natural = natural and rows[r] == r - a
+        if natural:
             gram_update(P, g, Jf[k], v[a:b], w[k], reset)
         else:
             gram_update(P, g, np.ascontiguousarray(Jf[k][rows[a:b]]), v[a:b], w[k], reset)
