@@ -239,3 +239,34 @@ def test_the_second_step_after_a_reset_knows_the_first_came_from_rest(resolver: 
         assert dq0[0] == pytest.approx(100.0 * 1e-4)  # j_max·dt² from rest
         assert dq1[0] == pytest.approx(dq0[0])  # the hardest braking the jerk allows: q̈ back to 0 (it was 0 before)
         assert np.max(np.abs(jerk)) <= 100.0 * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("method", ["wqp", "hqp"])
+def test_a_jerk_limit_switched_on_mid_run_reads_the_last_two_steps_on_either_path(method: str) -> None:
+    """The compiled steps keep the last two q̇ as the per-task steps do: a jerk limit set between steps (which
+    turns the compiled step off) starts from the same acceleration on a resolver that ran compiled as on one that
+    ran the per-task steps (the compiled one took it as zero)."""
+    q0 = np.array([0, -0.785, 0, -2.356, 0, 1.571, 0.785, 0.02, 0.02])
+    runs = []
+    for fuse in (True, False):
+        robot = rk.load_example_robot("panda")
+        subs: list[rk.Subtask] = [rk.GradientSubtask(rk.JointCentering(), gain=-1.0)]
+        if method == "wqp":  # (with a bound subtask its per-task step is the template's)
+            subs.append(rk.BoundSubtask(rk.JointValue("panda_joint1", 0.0), lower=-2.0, upper=2.0))
+        frame = rk.FrameTask("panda_hand_tcp", rk.Circle(0.1, 3.0, plane=("y", "z")), gain=20.0)
+        stack = rk.TaskStack([frame], subs)
+        resolver = rk.make_resolver(method)
+        resolver.fuse = fuse
+        robot.update(q0)
+        stack.reset(robot)
+        q, out = q0.copy(), []
+        for k in range(8):
+            if k == 5:
+                resolver.limits.jerk = 50.0
+            res = resolver.step(robot, stack, q, k * 0.01, 0.01)
+            out.append((res.dq.copy(), str(res.info["path"])))
+            q = robot.integrate(q, res.dq, 0.01)
+        runs.append(out)
+    assert [p for _, p in runs[0][:5]] == ["compiled"] * 5
+    for (a, _), (b, _) in zip(*runs, strict=True):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)

@@ -147,3 +147,29 @@ def test_a_bad_backend_limits_or_levels_assignment_says_what_is_wrong() -> None:
     stack.reset(robot)
     with pytest.raises(ResolverError, match=r"levels: 'nosuch': no such task or subtask.*'posture'"):
         res.step(robot, stack, q0, 0.0, 0.01)
+
+
+@pytest.mark.parametrize("method", ["wqp", "hqp"])
+@pytest.mark.parametrize("fuse", [True, False])
+@pytest.mark.parametrize(
+    "limits", [{"acceleration": 20.0}, {"velocity": False}, None, True], ids=["accel", "no-velocity", "none", "default"]
+)
+def test_limits_assigned_between_steps_are_bound_and_used_as_a_fresh_resolvers(
+    method: str, fuse: bool, limits: object
+) -> None:
+    """``resolver.limits = …`` between steps: the next step binds the new limits to the robot (the per-task path
+    raised AttributeError on unbound limits) and steps as a fresh resolver made with them."""
+    robot = rk.load_example_robot("panda")
+    q0 = np.array([0, -0.785, 0, -2.356, 0, 1.571, 0.785, 0.02, 0.02])
+    stack = rk.TaskStack([rk.FrameTask("panda_hand_tcp", rk.Circle(0.1, 3.0, plane=("y", "z")), gain=20.0)])
+    resolver = rk.make_resolver(method)
+    resolver.fuse = fuse
+    robot.update(q0)
+    stack.reset(robot)
+    for k in range(3):
+        resolver.step(robot, stack, q0, k * 0.01, 0.01)
+    resolver.limits = limits  # type: ignore[assignment]
+    got = resolver.step(robot, stack, q0, 0.03, 0.01).dq
+    fresh = rk.make_resolver(method, limits=limits)
+    fresh.fuse = fuse
+    np.testing.assert_allclose(got, fresh.step(robot, stack, q0, 0.03, 0.01).dq, rtol=0, atol=1e-12)

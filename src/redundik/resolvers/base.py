@@ -264,7 +264,7 @@ class Resolver(ABC):
             and members[1] is robot
             and stack.tasks == members[2]
             and stack.subtasks == members[3]
-            and members[4] == Edits.levels  # (a member's priority or name changed: laid out again)
+            and members[4] == Edits.layout  # (a member's priority or name changed: laid out again)
         ):
             self._check_membership(robot, stack)
         tasks, targets = self._gain_members
@@ -345,7 +345,7 @@ class Resolver(ABC):
             # gains set through Task's validated property move Edits; a task with its own ``gain`` is read each step
             self._plain_gains = all(m.gain_tracked for m in stack.tasks)
             self._gains_seen = None
-        self._members = (stack, robot, list(stack.tasks), list(stack.subtasks), Edits.levels)
+        self._members = (stack, robot, list(stack.tasks), list(stack.subtasks), Edits.layout)
 
     def _solve_blas_limited(self, robot: RobotModel, stack: TaskStack, t: float, dt: float) -> StepResult:
         """:meth:`solve` with BLAS limited to :attr:`blas_threads` threads (``"auto"``: one, on a large robot)."""

@@ -120,30 +120,51 @@ class CoMTask(Task):
         name: str = "com",
     ) -> None:
         self._init_task(name, weight=weight, gain=gain, priority=priority)
-        axes = list(axes)
-        if not axes or any(a not in _COM_AXES for a in axes) or len(set(axes)) != len(axes):
-            raise TaskError(f"task '{self.name}': axes must be distinct names among x, y, z, got {axes}")
-        self.axes = tuple(axes)
-        self.rows = np.array([_COM_AXES[a] for a in axes])
+        self._layout: tuple[object, np.ndarray, np.ndarray] | None = None  # (robot data, ints, floats) of the writer
+        self.axes = axes  # (the setter takes any sequence of names)
         self._given = None if target is None else self._vec(target)
         self._target: np.ndarray | None = self._given
-        self._layout: tuple[object, np.ndarray, np.ndarray] | None = None  # (robot data, ints, floats) of the writer
+
+    @property
+    def axes(self) -> tuple[str, ...]:
+        """The CoM axes controlled, among ``x, y, z``; an assignment takes effect at the next step."""
+        return self._axes
+
+    @axes.setter
+    def axes(self, value: Sequence[str]) -> None:
+        axes = [value] if isinstance(value, str) else list(value)
+        if not axes or any(a not in _COM_AXES for a in axes) or len(set(axes)) != len(axes):
+            raise TaskError(f"task '{self.name}': axes must be distinct names among x, y, z, got {axes}")
+        rows = np.array([_COM_AXES[a] for a in axes])
+        rows.setflags(write=False)
+        self._axes, self._rows = tuple(axes), rows
+        self._layout = None  # (the compiled writer's rows are packed again)
+        self._form_revision += 1
+
+    @property
+    def rows(self) -> np.ndarray:
+        """The indices of :attr:`axes` in (x, y, z) (read-only; assign :attr:`axes` to change them)."""
+        return self._rows
 
     def _vec(self, target: Sequence[float] | np.ndarray) -> np.ndarray:
-        arr = np.asarray(target, dtype=float).reshape(-1)
+        arr = np.array(target, dtype=float).reshape(-1)  # (a copy, read-only: an edit is an assignment)
         if arr.shape != (3,) or not np.all(np.isfinite(arr)):
             raise TaskError(f"task '{self.name}': target must be 3 finite numbers [m], got {arr.tolist()}")
+        arr.setflags(write=False)
         return arr
 
     @property
     def target(self) -> np.ndarray | None:
-        """c_d (3,) [m], or ``None`` before the first reset when none was given."""
+        """c_d (3,) [m] (read-only), or ``None`` before the first reset when none was given. ``None`` assigned: the
+        next step takes the target again as a reset does (the one given, else the CoM then)."""
         return self._target
 
     @target.setter
     def target(self, value: Sequence[float] | np.ndarray | None) -> None:
         self._target = None if value is None else self._vec(value)
-        if self._layout is not None and self._target is not None:
+        if self._target is None:
+            self._form_revision += 1  # (a compiled step plans again, and its writer takes the CoM then)
+        elif self._layout is not None:
             self._layout[2][COM_TARGET : COM_TARGET + 3] = self._target  # (the compiled writer's data: in place)
 
     def set_target(self, target: Sequence[float] | np.ndarray) -> None:

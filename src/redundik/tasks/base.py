@@ -210,10 +210,11 @@ class Edits:
     a fused step (:mod:`redundik.resolvers.fused`) re-reads its coefficients when it has moved."""
 
     count: ClassVar[int] = 0
-    #: Moved by every change of what places a stack's members in its levels once they exist: a task's or a target
-    #: or bound subtask's ``priority``, a task's ``name`` (a resolver's level overrides name them). It is part of
-    #: ``TaskStack.signature``: a resolver checks and lays the stack out again when it has moved.
-    levels: ClassVar[int] = 0
+    #: Moved by every change, once a member exists, of what a resolver checks and lays out from a stack: a task's or
+    #: a target or bound subtask's ``priority``, a member's ``name`` (a resolver's level overrides name them), a
+    #: subtask's potential or source. It is part of ``TaskStack.signature``: a resolver checks the stack and lays it
+    #: out again when it has moved.
+    layout: ClassVar[int] = 0
 
 
 @dataclass
@@ -285,7 +286,7 @@ class Task(ABC):
     def name(self, value: str) -> None:
         name = check_name(value, f"task {type(self).__name__}")
         if self.__dict__.get("_name", name) != name:  # (a level override names it: the layout is made again)
-            Edits.levels += 1
+            Edits.layout += 1
         self._name = name
 
     @property
@@ -317,7 +318,7 @@ class Task(ABC):
     def priority(self, value: int | None) -> None:
         level = check_priority(value, f"task '{self._label}'")
         if "_priority" in self.__dict__ and self._priority != level:  # (a stack holding it is laid out again)
-            Edits.levels += 1
+            Edits.layout += 1
         self._priority = level
 
     @property

@@ -498,19 +498,24 @@ class BestPosture(CompiledPotential):
             self._axes = resolve_axes(value)
         except TaskError as exc:
             raise TaskError(f"subtask '{self.name}': {exc}") from None
-        self.rows = np.array([AXES[a] for a in self._axes], dtype=np.int64)
+        rows = np.array([AXES[a] for a in self._axes], dtype=np.int64)
+        rows.setflags(write=False)  # (a compiled step's writer packs them: assign ``axes`` to change them)
+        self.rows = rows
         self.form_revision += 1  # (a compiled step's writer reads them: planned again)
 
     @property
     def weights(self) -> np.ndarray | None:
-        """The diagonal of W (nv, > 0), or ``None`` for the identity; an assignment is used from the next step."""
+        """The diagonal of W (nv, > 0), or ``None`` for the identity: a read-only copy of what was assigned; an
+        assignment is used from the next step."""
         return self._weights
 
     @weights.setter
     def weights(self, value: Sequence[float] | None) -> None:
-        arr = None if value is None else _finite_vec(value, f"subtask '{self.name}': weights")
+        arr = None if value is None else _finite_vec(value, f"subtask '{self.name}': weights").copy()
         if arr is not None and np.any(arr <= 0):
             raise TaskError(f"subtask '{self.name}': weights must be > 0 (W is positive definite)")
+        if arr is not None:  # (a copy, read-only: a compiled step packs it; an edit is an assignment)
+            arr.setflags(write=False)
         self._weights = arr
         self.form_revision += 1
 

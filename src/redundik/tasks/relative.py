@@ -76,16 +76,69 @@ class RelativePoseTask(CompiledTask):
         self.name = default_name(name, f"{frame_a}_in_{frame_b}", "RelativePoseTask")
         if frame_a == frame_b:
             raise TaskError(f"task '{self.name}': frame_a and frame_b must differ, got '{frame_a}' twice")
-        self.frame_a, self.frame_b = frame_a, frame_b
-        self.axes = resolve_axes(axes)
-        self.rows = np.array([AXES[a] for a in self.axes], dtype=int)
+        self._frames = (frame_a, frame_b)
+        self._ids: tuple[int, int] | None = None
+        self._data: object = None  # the robot data the writer's frame ids and columns are for
+        self.axes = axes  # (the setter takes a name of AXIS_SETS or a list of axes)
         self.gain, self.weight = gain, weight  # (Task's setters: check_number)
         self._target: pin.SE3 | None = None
         self._given: pin.SE3 | None = None if target is None else self._pose(target)
-        self._ids: tuple[int, int] | None = None
-        self._data: object = None  # the robot data the writer's frame ids and columns are for
         self._ints = np.zeros(0, dtype=np.int64)
         self._floats = np.zeros(REL_FLOATS)  # (p_d, R_d row-major): the target, rewritten in place
+
+    @property
+    def frame_a(self) -> str:
+        """Frame A, whose pose in frame B is held; an assignment takes effect at the next step, which holds the
+        target given (:meth:`set_target`), else the frames' relative pose then."""
+        return self._frames[0]
+
+    @frame_a.setter
+    def frame_a(self, value: str) -> None:
+        self._set_frames(value, self._frames[1])
+
+    @property
+    def frame_b(self) -> str:
+        """Frame B, in which the pose of frame A is held (as :attr:`frame_a` on assignment)."""
+        return self._frames[1]
+
+    @frame_b.setter
+    def frame_b(self, value: str) -> None:
+        self._set_frames(self._frames[0], value)
+
+    def _set_frames(self, frame_a: object, frame_b: object) -> None:
+        for key, frame in (("frame_a", frame_a), ("frame_b", frame_b)):
+            if not isinstance(frame, str) or not frame:
+                raise TaskError(f"task '{self.name}': {key} must be a frame name (a str), got {frame!r:.60}")
+        if frame_a == frame_b:
+            raise TaskError(f"task '{self.name}': frame_a and frame_b must differ, got '{frame_a}' twice")
+        assert isinstance(frame_a, str) and isinstance(frame_b, str)  # (checked above)
+        if (frame_a, frame_b) != self._frames:
+            self._frames = (frame_a, frame_b)
+            self._ids, self._target = None, None  # (bound again at the next step, and the target taken then)
+            self._form_revision += 1
+
+    @property
+    def axes(self) -> tuple[str, ...]:
+        """The rows of the relative pose that count (a name of ``AXIS_SETS`` or a list of axes on assignment); an
+        assignment takes effect at the next step, the target kept."""
+        return self._axes
+
+    @axes.setter
+    def axes(self, value: str | Sequence[str]) -> None:
+        try:
+            axes = resolve_axes(value)
+        except TaskError as exc:
+            raise TaskError(f"task '{self.name}': {exc}") from None
+        rows = np.array([AXES[a] for a in axes], dtype=np.int64)
+        rows.setflags(write=False)
+        self._axes, self._rows = axes, rows
+        self._data = None  # (the writer's rows packed again at the next step: ``compiled_rows`` binds anew)
+        self._form_revision += 1
+
+    @property
+    def rows(self) -> np.ndarray:
+        """The indices of :attr:`axes` in (x, y, z, rx, ry, rz) (read-only; assign :attr:`axes` to change them)."""
+        return self._rows
 
     def _pose(self, target: object) -> pin.SE3:
         """``target`` (an SE3 or a 4×4 homogeneous matrix) as an SE3, checked: finite, a rotation block."""

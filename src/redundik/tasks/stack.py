@@ -138,8 +138,8 @@ class TaskStack:
 
     def signature(self) -> tuple[int, ...]:
         """Identity of the stack's membership and levels: it changes when a task or subtask is added, removed or
-        replaced, and when a member's ``priority`` or name changed (``Edits.levels``)."""
-        return (id(self), *map(id, self.tasks), -1, *map(id, self.subtasks), -2, Edits.levels)
+        replaced, and when a member's ``priority`` or name changed (``Edits.layout``)."""
+        return (id(self), *map(id, self.tasks), -1, *map(id, self.subtasks), -2, Edits.layout)
 
     def reset(self, robot: RobotModel) -> None:
         """Check the stack and reset every task at the robot's current state (call after ``robot.update(q0)``).

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from typing import ClassVar, overload
+from typing import Any, ClassVar, overload
 
 import numpy as np
 
@@ -89,7 +89,7 @@ class _Number:
 
 class _Level:
     """A target or bound subtask's ``priority``: ``None`` (the first level below the main tasks) or a level ≥ 0,
-    checked on every assignment as the constructor checks it; a change moves ``Edits.levels`` (a resolver lays the
+    checked on every assignment as the constructor checks it; a change moves ``Edits.layout`` (a resolver lays the
     stack out again)."""
 
     @overload
@@ -106,8 +106,46 @@ class _Level:
         level = check_priority(value, f"subtask '{getattr(obj, 'name', '?')}'")
         state = obj.__dict__
         if "_priority" in state and state["_priority"] != level:
-            Edits.levels += 1
+            Edits.layout += 1
         state["_priority"] = level
+
+
+class _Source:
+    """A subtask's potential (``potential``) or source (``source``: a potential or a barrier), checked on every
+    assignment as the constructor checks it; a new object moves ``Edits.layout`` (a resolver checks it against the
+    robot and plans the stack again: a compiled step packed the old one's writer)."""
+
+    def __init__(self, barrier: bool) -> None:
+        self.barrier = barrier
+        self.slot = ""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.slot = f"_{name}"
+
+    @overload
+    def __get__(self, obj: None, objtype: type | None = None) -> _Source: ...
+    @overload
+    def __get__(self, obj: object, objtype: type | None = None) -> Any: ...
+    def __get__(self, obj: object | None, objtype: type | None = None) -> Any:
+        if obj is None:
+            return self
+        return obj.__dict__[self.slot]
+
+    def __set__(self, obj: object, value: object) -> None:
+        kinds: tuple[type, ...] = (Potential, Barrier) if self.barrier else (Potential,)
+        what = type(obj).__name__ if "_name" not in obj.__dict__ else f"subtask '{obj.__dict__['_name']}'"
+        if not isinstance(value, kinds):
+            expected = "a Potential or a Barrier" if self.barrier else "a Potential (p(q) with its gradient)"
+            raise TaskError(f"{what}: expected {expected}, got {type(value).__name__}")
+        state = obj.__dict__
+        old = state.get(self.slot)
+        if old is not None and old is not value:
+            check = getattr(obj, "_check_source", None)
+            if check is not None:
+                check(value)
+            Edits.layout += 1
+            Edits.count += 1
+        state[self.slot] = value
 
 
 _OWN_ROWS: dict[type, bool] = {}
@@ -138,7 +176,7 @@ class Subtask(ABC):
     def name(self, value: str) -> None:
         name = check_name(value, f"{type(self).__name__}")
         if self.__dict__.get("_name", name) != name:  # (a level override names it: the layout is made again)
-            Edits.levels += 1
+            Edits.layout += 1
         self._name = name
         Edits.count += 1  # (a fused step's packed row names compare it)
 
@@ -180,12 +218,6 @@ def _gradient(owner: str, potential: Potential, eta: object, robot: RobotModel) 
     return arr
 
 
-def _potential(obj: object, what: str) -> Potential:
-    if not isinstance(obj, Potential):
-        raise TaskError(f"{what}: expected a Potential (p(q) with its gradient), got {type(obj).__name__}")
-    return obj
-
-
 class GradientSubtask(Subtask):
     """z = k η in the null space of the main tasks (eq. 5.8).
 
@@ -199,9 +231,11 @@ class GradientSubtask(Subtask):
     """
 
     kind: ClassVar[str] = "gradient"
+    #: p(q): a :class:`~redundik.tasks.base.Potential`; another one assigned is checked and planned anew.
+    potential = _Source(barrier=False)
 
     def __init__(self, potential: Potential, gain: float = 1.0, *, name: str | None = None) -> None:
-        self.potential = _potential(potential, "GradientSubtask")
+        self.potential = potential
         self.name = default_name(name, source_name(potential), "GradientSubtask")
         self.gain = gain
 
@@ -244,6 +278,8 @@ class TargetSubtask(Subtask):
     """
 
     kind: ClassVar[str] = "target"
+    #: p(q): a :class:`~redundik.tasks.base.Potential`; another one assigned is checked and planned anew.
+    potential = _Source(barrier=False)
     #: Its level: ``None`` (the first level below the main tasks) or an explicit level ≥ 0.
     priority = _Level()
 
@@ -258,7 +294,7 @@ class TargetSubtask(Subtask):
         priority: int | None = None,
         name: str | None = None,
     ) -> None:
-        self.potential = _potential(potential, "TargetSubtask")
+        self.potential = potential
         self.name = default_name(name, source_name(potential), "TargetSubtask")
         self.set_target(target, target_rate)
         self.rate = rate
@@ -310,6 +346,9 @@ class BoundSubtask(Subtask):
     """
 
     kind: ClassVar[str] = "bound"
+    #: The potential or barrier kept within bounds; another one assigned is checked (against the bounds) and
+    #: planned anew.
+    source = _Source(barrier=True)
     #: Its level: ``None`` (the first level below the main tasks) or an explicit level ≥ 0.
     priority = _Level()
 
@@ -323,8 +362,6 @@ class BoundSubtask(Subtask):
         priority: int | None = None,
         name: str | None = None,
     ) -> None:
-        if not isinstance(source, (Potential, Barrier)):
-            raise TaskError(f"BoundSubtask: expected a Potential or a Barrier, got {type(source).__name__}")
         self.source = source
         self.name = default_name(name, source_name(source), "BoundSubtask")
         self._lower = None if lower is None else check_number(lower, f"subtask '{self.name}': lower")
@@ -339,10 +376,14 @@ class BoundSubtask(Subtask):
 
     # lower, upper and rate are validated properties: assigned between ticks they are checked as the constructor
     # checks them (a NaN bound or rate used to reach the resolvers: the level skipped, or the bound silently ignored)
-    def _check_bounds(self, lower: float | None, upper: float | None) -> None:
+    def _check_source(self, source: Potential | Barrier) -> None:
+        """A new source must suit the bounds set (``source``'s check on assignment)."""
+        self._check_bounds(self._lower, self._upper, source)
+
+    def _check_bounds(self, lower: float | None, upper: float | None, source: object = None) -> None:
         if lower is not None and upper is not None and lower > upper:
             raise TaskError(f"subtask '{self.name}': lower ({lower}) > upper ({upper})")
-        if isinstance(self.source, Barrier):
+        if isinstance(self.source if source is None else source, Barrier):
             if lower is not None or upper is not None:
                 raise TaskError(f"subtask '{self.name}': a barrier is kept ≥ 0; lower/upper apply to potentials only")
         elif lower is None and upper is None:
@@ -441,7 +482,7 @@ class BoundSubtask(Subtask):
     def _damper_into(self, robot: RobotModel, gamma: float, C: np.ndarray, d: np.ndarray, offset: int) -> int:
         """:meth:`rows_into` at a given γ [1/s] (γ = 1: d = h, C = −H) for a potential source."""
         lower, upper = self.lower, self.upper
-        src: Potential = self.source  # type: ignore[assignment]  # (not a barrier: the callers checked)
+        src: Potential = self.source  # (not a barrier: the callers checked)
         row = C[offset]
         if _writes_into(src):  # η written in place (e.g. Clearance's kernel)
             p = src.value_and_gradient_into(robot, row, -1.0 if lower is not None else 1.0)  # type: ignore[attr-defined]

@@ -219,10 +219,18 @@ class QPResolverBase(Resolver):
     max_damping = Setting(nonnegative, resets=("_plan",))
     #: The QP backend: a name or a ``Backend`` (:func:`~redundik.resolvers.qp.backends.make_backend`).
     backend = Setting(lambda who, key, val: make_backend(val), resets=("_plan",))  # type: ignore[arg-type]
-    #: The joint limits: as the constructor's ``limits`` (:func:`make_limits`).
-    limits = Setting(lambda who, key, val: make_limits(val), resets=("_plan",))  # type: ignore[arg-type]
-    #: Level overrides: as the constructor's ``levels`` (:func:`make_levels`); the stack's layout is made again.
-    levels = Setting(lambda who, key, val: make_levels(val), resets=("_layout", "_plan"))  # type: ignore[arg-type]
+    #: The joint limits: as the constructor's ``limits`` (:func:`make_limits`); the next step checks the stack again,
+    #: which binds them to the robot.
+    limits = Setting(
+        lambda who, key, val: make_limits(val),  # type: ignore[arg-type]
+        resets=("_plan", "_checked", "_members"),
+    )
+    #: Level overrides: as the constructor's ``levels`` (:func:`make_levels`); the next step checks their names
+    #: against the stack and lays it out again.
+    levels = Setting(
+        lambda who, key, val: make_levels(val),  # type: ignore[arg-type]
+        resets=("_layout", "_plan", "_checked", "_members"),
+    )
 
     def __init__(
         self,

@@ -320,6 +320,7 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
             )  # fmt: skip
             return self._finish(robot, stack, terms, built, t0, t1)
         kept = out[OUT_KEPT, 0]
+        self._dq_hist = (kept, self._dq_prev)  # (a jerk limit switched on later reads the last two)
         self._dq_prev = kept
 
         def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
@@ -430,6 +431,7 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
                 robot, stack, plan, status, out, windowed, (zs, targets), bounds, make_terms, err2, t0, t1
             )
         kept = work[o + OUT_KEPT * n : o + (OUT_KEPT + 1) * n]
+        self._dq_hist = (kept, self._dq_prev)  # (a jerk limit switched on later reads the last two)
         self._dq_prev = kept
         dims = (K_, m, n, levels)
         step: tuple[Any, ...] = (plan, fused, work, dims, q, robot, external, targets, bounds, windowed, kept, [])
@@ -506,6 +508,7 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         clipped = np.empty((2, x.shape[0]))
         K.clip_twice(x, lb, ub, clipped)
         kept = clipped[1]
+        self._dq_hist = (kept, self._dq_prev)  # (a jerk limit switched on later reads the last two)
         self._dq_prev = kept
         t2 = time.perf_counter()
         limits, name = self.limits, self.backend.name

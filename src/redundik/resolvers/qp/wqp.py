@@ -357,7 +357,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             native = native_box_step(self, stack, terms, out, windowed, lam, t0, t1)
             return native or self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1)
         dq, kept = out[OUT_DQ], out[OUT_KEPT]
-        self._dq_prev = kept
+        self._dq_hist, self._dq_prev = (kept, self._dq_prev), kept  # (a jerk limit switched on reads both)
         diagnostics = free_diagnostics(self, lambda: terms, plan.main, out, windowed, kept, lam)
         return LazyStepResult.make(
             dq,
@@ -498,7 +498,8 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             terms = fused.terms(Jf, ev, q, robot, external)
             native = None if bounds is not None else native_box_step(self, stack, terms, out, windowed, lam, t0, t1)
             return native or self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1, bounds)
-        self._dq_prev = work[OUT_KEPT * n : (OUT_KEPT + 1) * n]
+        kept = work[OUT_KEPT * n : (OUT_KEPT + 1) * n]
+        self._dq_hist, self._dq_prev = (kept, self._dq_prev), kept  # (a jerk limit switched on reads both)
         return FusedWqpResult.of(
             self, fused, work, q, robot, windowed, lam, (err2, dq2, over), t1 - t0, t1, plan.main, external
         )
