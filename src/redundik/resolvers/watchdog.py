@@ -86,15 +86,21 @@ class CommandReader:
     Built once per stack membership: the (member ``__dict__``, key) pairs of the target objects and numbers, and the
     dicts of the frame tasks whose trajectory's ``revision`` moves on an in-place target write. :meth:`changed`
     compares them with the last step's values: objects by identity, numbers by value.
+
+    A copy or a pickle (made together with the stack, as a resolver's is) reads the copied members: the dicts are
+    taken again from the copied members (:meth:`__setstate__`; a copied ``__dict__`` would be a detached dict that
+    no target write reaches), and the last values are the copied targets, so the copy's next step sees a command
+    exactly when the original's would.
     """
 
     _KEYS = ("_trajectory", "_given", "_pending_position", "_target", "_target_rate")
 
     def __init__(self, stack: TaskStack) -> None:
-        self.entries: list[tuple[dict[str, object], str]] = []
-        self.owners: list[dict[str, object]] = []  # members with a trajectory
+        self.sources: list[tuple[object, str]] = []  # (member, key): where each entry is read
+        self.owned: list[object] = []  # members with a trajectory
         for member in (*stack.tasks, *stack.subtasks):
             self._add(member)
+        self._bind()
         self.values: list[object] = [d.get(key) for d, key in self.entries]
         self.revisions: list[int] = [getattr(d.get("_trajectory"), "_revision", 0) for d in self.owners]
 
@@ -104,12 +110,27 @@ class CommandReader:
             return
         for key in self._KEYS:
             if key in d:
-                self.entries.append((d, key))
+                self.sources.append((member, key))
         if "_trajectory" in d:
-            self.owners.append(d)
+            self.owned.append(member)
         row = d.get("_row")
         if row is not None:  # a PotentialTask's target subtask
             self._add(row)
+
+    def _bind(self) -> None:
+        """The members' ``__dict__`` objects :meth:`changed` reads (one lookup per entry at each step)."""
+        self.entries: list[tuple[dict[str, object], str]] = [(vars(m), key) for m, key in self.sources]
+        self.owners: list[dict[str, object]] = [vars(m) for m in self.owned]
+
+    def __getstate__(self) -> dict[str, object]:
+        """The members, keys and last values, without the members' dicts (taken again from the copied members)."""
+        state = self.__dict__.copy()
+        del state["entries"], state["owners"]
+        return state
+
+    def __setstate__(self, state: dict[str, object]) -> None:
+        self.__dict__.update(state)
+        self._bind()
 
     def changed(self) -> bool:
         """True when a target was set since the last call (the values are updated)."""
@@ -239,18 +260,13 @@ class Watchdog:
         """Forget the last command, the q̇ sent and the state (``"armed"``); the next step counts as a command."""
         self.state = ARMED
         self.last_command: float | None = None
-        self._reader: tuple[object, CommandReader] | None = None  # (the membership it was built for, the reader)
+        #: (the membership it was built for, the reader): kept by a copy made with the resolver's stack and robot
+        #: (it then reads the copied members), so that the copy's next step is not taken for a command
+        self._reader: tuple[object, CommandReader] | None = None
         self._fed: float | None = None
         self._dq: np.ndarray | None = None  # the q̇ sent at the last step, and at the step before [rad/s]
         self._before: np.ndarray | None = None
         self._dt = 1.0  # the last step's dt [s]
-
-    def __getstate__(self) -> dict[str, object]:
-        """The settings and state, without the reader (it holds the stack's members: built again at the next step,
-        which counts as a command)."""
-        state = self.__dict__.copy()
-        state["_reader"] = None
-        return state
 
     def feed(self, t: float | None = None) -> None:
         """Count a command at time ``t`` [s] (``None``: at the next step's t), as a target set would."""

@@ -129,6 +129,23 @@ class ProxsuiteBackend(Backend):
     def reset(self) -> None:
         self._cache.clear()
 
+    def __getstate__(self) -> dict[str, Any]:
+        """The settings for a copy or a pickle, without proxsuite's module (a module does not pickle;
+        :meth:`__setstate__` imports it again) and without the cached QPs: a copied ``dense.QP`` forgets that it was
+        made with box constraints (its next ``update`` raises), so the copy solves its first QP of each size cold, as
+        a new backend does. ProxQP's answer depends on its warm start (to its tolerance): a copy's q̇ may differ from
+        the original's by that much."""
+        state = self.__dict__.copy()
+        del state["_px"]
+        state["_cache"] = {}
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        import proxsuite
+
+        self.__dict__.update(state)
+        self._px = proxsuite.proxqp
+
     def _new_qp(self, n: int, e: int, p: int, duality_gap: bool) -> Any:
         qp = self._px.dense.QP(n, e, p, True)
         qp.settings.eps_abs = self.eps_abs
@@ -228,6 +245,19 @@ class QpsolversBackend(Backend):
         if info is not None:
             iters = int(getattr(info, "iter", getattr(info, "iterations", -1)))
         return QPSolution(x, iters, self.name, time.perf_counter() - t0)
+
+    def __getstate__(self) -> dict[str, Any]:
+        """The solver's name and settings for a copy or a pickle, without the qpsolvers module (a module does not
+        pickle; :meth:`__setstate__` imports it again)."""
+        state = self.__dict__.copy()
+        del state["_qps"]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        import qpsolvers
+
+        self.__dict__.update(state)
+        self._qps = qpsolvers
 
     def __repr__(self) -> str:
         return f"QpsolversBackend({self.solver!r})"

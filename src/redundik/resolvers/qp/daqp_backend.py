@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -82,6 +83,16 @@ class DaqpBackend(Backend):
         self._lift_cache: dict[tuple[int, int], tuple[np.ndarray, float]] = {}
         #: What failed in this solve before its answer (``QPSolution.retried``), reset at each :meth:`solve`.
         self._miss: str | None = None
+
+    def __getstate__(self) -> dict[str, Any]:
+        """The backend without the split's work buffers and their views (made again at the copy's first split).
+
+        ``_split_cache`` holds views of the arrays in ``_split_work``; copy.deepcopy and pickle turn each view into
+        an array of its own, so a copy's split kernel would write the problem into the copied buffer while daqp
+        solved the stale copied views: a wrong q̇ at every split solve of the copy."""
+        state = self.__dict__.copy()
+        state["_split_work"], state["_split_cache"] = {}, {}
+        return state
 
     def _split_views(self, n: int, nc: int) -> tuple[np.ndarray, ...]:
         """The work buffers of the split kernel (:func:`split_kernel`) for n variables and the views daqp reads for

@@ -95,10 +95,16 @@ class _Plan:
         self._packed: PackedBounds | None = None
 
     def __getstate__(self) -> dict[str, Any]:
-        """The plan without its weak reference to the last gather's record (a copy holds no step's rows): a copy
-        or a pickle of a resolver steps as the original."""
+        """The plan without its weak reference to the last gather's record (a copy holds no step's rows) and without
+        the views of its own buffers, made again at the copy's first use: the level QPs' views (``_qp_views``, of
+        ``_qp_buf``) and the constrained cascade's work arrays (``_cascade``, views of ``cascade_blocks``). Copied,
+        each view would be an array of its own: the cascade would write a level QP into the copied buffer while the
+        backend solved the copied views' stale one, and read its state (the level's variables) from a frozen copy.
+        A copy or a pickle of a resolver steps as the original."""
         state = self.__dict__.copy()
         state["_written"] = state["_last_written"] = state["_spare"] = None
+        state["_qp_views"], state["_cascade"] = {}, None
+        state["cascade_blocks"] = (_EMPTY, _EMPTY_INT, _EMPTY_BOOL)  # (cascade_buffers makes both again)
         return state
 
     def _keep_written(self) -> None:
