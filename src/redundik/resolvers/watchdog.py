@@ -88,7 +88,7 @@ class CommandReader:
     compares them with the last step's values: objects by identity, numbers by value.
 
     A copy or a pickle (made together with the stack, as a resolver's is) reads the copied members: the dicts are
-    taken again from the copied members (:meth:`__setstate__`; a copied ``__dict__`` would be a detached dict that
+    taken again from the copied members (``__setstate__``; a copied ``__dict__`` would be a detached dict that
     no target write reaches), and the last values are the copied targets, so the copy's next step sees a command
     exactly when the original's would.
     """
