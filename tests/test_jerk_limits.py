@@ -270,3 +270,32 @@ def test_a_jerk_limit_switched_on_mid_run_reads_the_last_two_steps_on_either_pat
     assert [p for _, p in runs[0][:5]] == ["compiled"] * 5
     for (a, _), (b, _) in zip(*runs, strict=True):
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)
+
+
+def test_a_jerk_limit_switched_on_mid_run_after_binding_limits_on_hqp() -> None:
+    """The same on ``tasks/rpr_corner.yaml`` under ``hqp``, whose joint limits bind before the jerk limit is set (the
+    constrained steps keep the q̇ history too): the first jerk-limited steps agree on both paths."""
+    from redundik.config import load_task
+
+    runs = []
+    for fuse in (True, False):
+        plan = load_task(ROOT / "tasks" / "rpr_corner.yaml")
+        run = plan.runs["rank_only"]
+        robot, stack = plan.robot.model, run.stack
+        resolver = rk.make_resolver("hqp")
+        resolver.fuse = fuse
+        q = np.array(run.q0, dtype=float)
+        robot.update(q)
+        stack.reset(robot)
+        out = []
+        for k in range(8):
+            if k == 4:
+                stack.tasks[0].trajectory.omega = -2.27  # (a turn that drives the joints into their limits)
+            if k == 5:
+                resolver.limits.jerk = 404.0
+            res = resolver.step(robot, stack, q, k * plan.dt, plan.dt)
+            out.append(res.dq.copy())
+            q = robot.integrate(q, res.dq, plan.dt)
+        runs.append(out)
+    for k, (a, b) in enumerate(zip(*runs, strict=True)):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-12, err_msg=f"step {k}")
