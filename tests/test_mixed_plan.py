@@ -227,6 +227,45 @@ def test_wqp_with_bound_subtasks_takes_the_compiled_step(bound: str) -> None:
     assert sum(qp) > 0, "the bound rows bind (the backend is called with them)"
 
 
+class _Height(rk.Potential):
+    """A user's Python potential (no compiled form): the height of a frame [m]."""
+
+    def __init__(self, frame: str) -> None:
+        self.frame = frame
+        self.name = f"height_{frame}"
+
+    def value(self, robot: RobotModel) -> float:
+        return float(robot.frame_position(self.frame)[2])
+
+    def gradient(self, robot: RobotModel) -> np.ndarray:
+        return np.array(robot.frame_jacobian(self.frame)[2])
+
+
+@pytest.mark.parametrize("method", ["wqp", "hqp"])
+def test_bound_rows_written_from_python_make_a_mixed_step_that_names_them(
+    method: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A bound subtask whose source has no compiled form (a user's Python potential) has its rows written from
+    Python before the compiled solve: the step is mixed and names it, with a one-time warning; a bound on a
+    potential with a compiled form (a joint value) leaves the step compiled."""
+    robot = rk.load_example_robot("panda")
+    q0 = np.array([0, -0.785, 0, -2.356, 0, 1.571, 0.785, 0.02, 0.02])
+    hand = rk.FrameTask("panda_hand", rk.Circle(0.08, 2.0, plane=("y", "z")), gain=5.0)
+    user = rk.BoundSubtask(_Height("panda_link4"), lower=0.2, name="elbow_up")
+    joint = rk.BoundSubtask(rk.JointValue("panda_joint1", 0.0, name="j1"), lower=-0.3, upper=0.3, rate=5.0)
+    for subs, path, named in (([joint], "compiled", ()), ([joint, user], "mixed", ("elbow_up",))):
+        stack = rk.TaskStack([hand, rk.PostureTask(gain=1.0)], subs)
+        resolver = rk.make_resolver(method)
+        robot.update(q0)
+        stack.reset(robot)
+        with caplog.at_level("WARNING"):
+            for k in range(3):
+                res = resolver.step(robot, stack, q0, k * 0.01, 0.01)
+        assert res.info["path"] == path, res.info["path"]
+        assert tuple(res.info["interpreted"]) == named
+    assert any("runs mixed" in r.getMessage() and "elbow_up" in r.getMessage() for r in caplog.records)
+
+
 class OddArrays(Task):
     """A user's task whose arrays are valid but not C-ordered float64: J Fortran-ordered or read-only, e strided,
     v of integers (a frame's height, one row)."""

@@ -371,12 +371,12 @@ class Resolver(ABC):
             if (self.name, compiled) not in _WARNED_MIXED:
                 _WARNED_MIXED.add((self.name, compiled))
                 _LOG.warning(
-                    "%s: the stack runs mixed: %s %s no compiled form and %s written by %s Python evaluate "
-                    "before the compiled solve (result.info['path'] == 'mixed')",
+                    "%s: the stack runs mixed: %s %s no compiled form; %s rows are written from Python (%s evaluate, "
+                    "or a bound's rows) before the compiled solve (result.info['path'] == 'mixed')",
                     self.name,
                     ", ".join(compiled),
                     "has" if len(compiled) == 1 else "have",
-                    "is" if len(compiled) == 1 else "are",
+                    "its" if len(compiled) == 1 else "their",
                     "its" if len(compiled) == 1 else "their",
                 )
         else:
@@ -406,10 +406,16 @@ class Resolver(ABC):
                 names.append(task.name)
         for sub in stack.subtasks:
             potential = getattr(sub, "potential", None)
+            rows_compiled = getattr(sub, "rows_compiled", None)  # (a bound subtask: its rows' compiled form)
             if (
                 not compiled_capable
-                or potential is None
-                or (potential.linear_gradient(robot) is None and compiled_writer(potential, robot) is None)
+                or (rows_compiled is not None and not rows_compiled(robot))
+                or (rows_compiled is None and potential is None)
+                or (
+                    potential is not None
+                    and potential.linear_gradient(robot) is None
+                    and compiled_writer(potential, robot) is None
+                )
             ):
                 names.append(str(getattr(sub, "name", type(sub).__name__)))
         self.__dict__["_interpreted_cache"] = (self._checked, stack, tuple(names), off)

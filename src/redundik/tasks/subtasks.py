@@ -33,6 +33,7 @@ from redundik.tasks.base import (
     source_name,
 )
 from redundik.tasks.conform import conform_barrier_term, real_array, real_value
+from redundik.tasks.potential_rows import compiled_writer
 
 _ROW_SOURCES: dict[type, bool] = {}
 
@@ -436,6 +437,20 @@ class BoundSubtask(Subtask):
         if _rows_of_its_own(self.source) or _own_rows(type(self)):
             return None
         return (self.lower is not None) + (self.upper is not None)
+
+    def rows_compiled(self, robot: RobotModel) -> bool:
+        """Whether this subtask's rows have a compiled form: the damper rows of a potential with a linear gradient,
+        a compiled writer or a clearance form. ``False`` for a barrier (its rows are its own, from Python: coal's
+        distances, a support polygon), a potential with only a Python gradient, or a subclass with rows of its own:
+        a compiled step writes those from Python and names the subtask (``info["interpreted"]``, a mixed step)."""
+        if self.fixed_rows is None or type(self).rows_into is not BoundSubtask.rows_into:
+            return False
+        source = self.source
+        return isinstance(source, Potential) and (
+            self.clearance_form(robot) is not None
+            or source.linear_gradient(robot) is not None
+            or compiled_writer(source, robot) is not None
+        )
 
     def clearance_form(self, robot: RobotModel) -> ClearanceForm | None:
         """The source's ``ClearanceForm`` when this subtask's rows are the damper rows of

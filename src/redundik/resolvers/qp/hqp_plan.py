@@ -368,6 +368,9 @@ class _Plan:
             if terms is None:
                 return False
             built.pending_external = terms
+        built.external_names += tuple(  # (bound rows from Python: named as a mixed step's Python writers)
+            b.name for _, _, bounds, _, _ in self.members for b in bounds if not b.rows_compiled(robot)
+        )
         self.lay_out(built)
         return built
 

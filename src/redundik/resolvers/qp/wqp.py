@@ -102,8 +102,7 @@ class WQPBuild:
     damping: float = 0.0
     safe: np.ndarray | None = None
     free_outside: bool = False
-    #: (F, δ) with P = FᵀF + δI, computed when the backend is called (``WeightedQPResolver._gram_factor``);
-    #: ``None``: not known.
+    #: (F, δ) with P = FᵀF + δI, computed when the backend is called (``WeightedQPResolver._gram_factor``); or None
     gram: Callable[[], tuple[np.ndarray, float] | None] | None = None
 
 
@@ -447,6 +446,8 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             return False
         scales = {i: (scale, identity) for i, scale, identity in plan.tasks}
         built = FusedPlan.build(robot, stack, plan.layout, scales, plan.null_scale, mixed=True, targets=plan.targets)
+        if isinstance(built, FusedPlan):  # (bound rows written from Python name their subtasks)
+            built.external_names += tuple(b.name for b in plan.bounds if not b.rows_compiled(robot))
         return False if built is None else built
 
     def _fused_solve(
