@@ -52,6 +52,18 @@ def resolve_axes(axes: str | Sequence[str]) -> tuple[str, ...]:
     return out
 
 
+def axes_rows(axes: str | Sequence[str], owner: str) -> tuple[tuple[str, ...], np.ndarray]:
+    """:func:`resolve_axes` and the axes' row indices in (x, y, z, rx, ry, rz), read-only (a compiled step's writer
+    packs them: an edit is an assignment of the axes); a bad value is a TaskError prefixed with ``owner``."""
+    try:
+        names = resolve_axes(axes)
+    except TaskError as exc:
+        raise TaskError(f"{owner}: {exc}") from None
+    rows = np.array([AXES[a] for a in names], dtype=np.int64)
+    rows.setflags(write=False)
+    return names, rows
+
+
 #: The compiled Lie kernels and target writers, imported on first use (numba loads then, not when redundik is
 #: imported); namespaces, so that a cold start puts their interpreted twins here while they compile.
 _K = KernelNamespace("redundik.kinematics.lie_kernels")

@@ -15,9 +15,9 @@ import numpy as np
 from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
 from redundik.kinematics.layouts import POSE_P
-from redundik.kinematics.model import AXES, RobotModel
+from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import ClearanceForm, CompiledGradient, Edits, Potential, check_number, default_name
-from redundik.tasks.frame import resolve_axes
+from redundik.tasks.frame import axes_rows
 from redundik.tasks.joint_potentials import JointSine2 as JointSine2
 from redundik.tasks.joint_potentials import JointValue as JointValue
 from redundik.tasks.layouts import FP_POINT, FP_RADIUS
@@ -208,14 +208,9 @@ class _FramePotential(Potential):
 
     @axes.setter
     def axes(self, value: str | Sequence[str]) -> None:
-        try:
-            axes = resolve_axes(value)
-        except TaskError as exc:
-            raise TaskError(f"subtask '{self.name}': {exc}") from None
+        axes, rows = axes_rows(value, f"subtask '{self.name}'")
         if self._position_only and any(a not in ("x", "y", "z") for a in axes):
             raise TaskError(f"subtask '{self.name}': axes must be among x, y, z, got {list(axes)}")
-        rows = np.array([AXES[a] for a in axes], dtype=np.int64)
-        rows.setflags(write=False)
         self._axes, self._rows = axes, rows
         self.form_revision += 1
         Edits.count += 1
@@ -494,13 +489,7 @@ class BestPosture(CompiledPotential):
 
     @axes.setter
     def axes(self, value: str | Sequence[str]) -> None:
-        try:
-            self._axes = resolve_axes(value)
-        except TaskError as exc:
-            raise TaskError(f"subtask '{self.name}': {exc}") from None
-        rows = np.array([AXES[a] for a in self._axes], dtype=np.int64)
-        rows.setflags(write=False)  # (a compiled step's writer packs them: assign ``axes`` to change them)
-        self.rows = rows
+        self._axes, self.rows = axes_rows(value, f"subtask '{self.name}'")
         self.form_revision += 1  # (a compiled step's writer reads them: planned again)
 
     @property

@@ -25,9 +25,9 @@ import pinocchio as pin
 
 from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError
-from redundik.kinematics.model import AXES, RobotModel
+from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import CompiledRows, default_name
-from redundik.tasks.frame import resolve_axes
+from redundik.tasks.frame import axes_rows
 from redundik.tasks.layouts import REL_FLOATS, REL_FRAME_A, REL_FRAME_B, REL_NROWS, REL_P, REL_R, REL_ROWS
 from redundik.tasks.rows import CompiledTask
 
@@ -125,13 +125,7 @@ class RelativePoseTask(CompiledTask):
 
     @axes.setter
     def axes(self, value: str | Sequence[str]) -> None:
-        try:
-            axes = resolve_axes(value)
-        except TaskError as exc:
-            raise TaskError(f"task '{self.name}': {exc}") from None
-        rows = np.array([AXES[a] for a in axes], dtype=np.int64)
-        rows.setflags(write=False)
-        self._axes, self._rows = axes, rows
+        self._axes, self._rows = axes_rows(value, f"task '{self.name}'")
         self._data = None  # (the writer's rows packed again at the next step: ``compiled_rows`` binds anew)
         self._form_revision += 1
 
