@@ -305,6 +305,16 @@ def _clearance_stack(robot: rk.RobotModel, q0: np.ndarray, rng: np.random.Genera
     return rk.TaskStack([hand, rk.PostureTask(q0.copy(), gain=0.5, priority=3)], bounds)
 
 
+def _edit_first_bound(*stacks: rk.TaskStack) -> None:
+    """A moving obstacle, a new margin and rate: the first bound subtask of each stack edited alike."""
+    for stack in stacks:
+        sub = stack.subtasks[0]
+        sub.source.center = sub.source.center + np.array([0.0, 0.02, -0.01])
+        sub.rate = 5.0
+        if sub.lower is not None:
+            sub.lower = sub.lower + 0.01
+
+
 def test_packed_clearance_rows_equal_the_python_rows(monkeypatch: pytest.MonkeyPatch) -> None:
     """The fused step's compiled damper rows of clearance bounds (``hqp_fused.clearance_rows``) are bitwise those
     ``BoundSubtask.rows_into`` writes: the same q̇ and the same diagnostics over random stacks, on closed-form and on
@@ -321,12 +331,7 @@ def test_packed_clearance_rows_equal_the_python_rows(monkeypatch: pytest.MonkeyP
         qa, qb = q0.copy(), q0.copy()
         for k in range(60):
             if k == 30:  # a moving obstacle, a new margin and rate, on both
-                for stack in (a, b):
-                    sub = stack.subtasks[0]
-                    sub.source.center = sub.source.center + np.array([0.0, 0.02, -0.01])
-                    sub.rate = 5.0
-                    if sub.lower is not None:
-                        sub.lower = sub.lower + 0.01
+                _edit_first_bound(a, b)
             with monkeypatch.context() as m:
                 m.setattr(_Plan, "_pack_bounds", lambda self, robot: None)  # the Python rows (fused_bounds)
                 want = rb.step(twin, b, qb, 0.01 * k, 0.01)

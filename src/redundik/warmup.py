@@ -108,7 +108,10 @@ def _step_both_paths(rk: Any, robot: Any, resolver: Any, q0: np.ndarray) -> None
                 stack = rk.TaskStack([task, _user_task(rk), rk.PostureTask(gain=1.0)])
                 _WARNED_MIXED.add((resolver.name, ("warm_up_height",)))  # (no "runs mixed" warning for our own)
             else:
-                stack = rk.TaskStack([task, rk.PostureTask(gain=1.0)], _gradients(rk))
+                subs = _gradients(rk)
+                if resolver.name in ("wqp", "hqp"):  # (a bound on a clearance: its compiled damper rows)
+                    subs.append(rk.BoundSubtask(rk.Clearance("6", [1.0, 1.0, 1.0], 0.1), lower=0.01))
+                stack = rk.TaskStack([task, rk.PostureTask(gain=1.0)], subs)
             q = q0.copy()
             robot.update(q)
             stack.reset(robot)

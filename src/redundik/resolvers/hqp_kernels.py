@@ -134,7 +134,13 @@ from redundik.resolvers.hqp_level_qp import (
     qp_buffer_size,
     qp_views,
 )
-from redundik.resolvers.hqp_native import box_qp_native_into, box_qp_native_split_into, box_qps_native, native_quadprog
+from redundik.resolvers.hqp_native import (
+    box_qp_native_into,
+    box_qp_native_split_into,
+    box_qps_native,
+    native_quadprog,
+    rows_qp_native_into,
+)
 from redundik.resolvers.kernels import _jit, clip_twice, damped_svd_factors, in_box, limit_box
 from redundik.tasks.potential_kernels import clearance_into  # first_run_cost loads it too
 
@@ -231,6 +237,7 @@ __all__ = [
     "qp_cascade_run",
     "qp_views",
     "qr_certificate",
+    "rows_qp_native_into",
     "upper_inverse",
 ]
 

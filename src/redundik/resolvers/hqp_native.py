@@ -158,7 +158,36 @@ def box_qp_native_into(native: np.ndarray, nx: np.ndarray, qbuf: np.ndarray, P: 
     qv[:] = q
     upper[:] = out[OUT_UB]
     lower[:] = out[OUT_LB]
-    flag, iters = native_quadprog(native, nx, qbuf, n, 0, 0)
+    return _solve_clipped(native, nx, qbuf, n, 0, out)
+
+
+@_jit
+def rows_qp_native_into(native: np.ndarray, nx: np.ndarray, qbuf: np.ndarray, P: np.ndarray, q: np.ndarray,
+                        out: np.ndarray, G: np.ndarray, h: np.ndarray) -> tuple[int, int]:  # fmt: skip
+    """:func:`box_qp_native_into` with inequality rows G x ≤ h (G (nr, n), h (nr,)) beside the box: daqp's
+    constraints are the box, then the rows with upper bound h and lower bound −∞ — the QP ``DaqpBackend.solve``
+    poses for a ``QPProblem`` with rows below its lift size, on the same numbers. x, clipped to the box, goes to the
+    rows ``OUT_DQ`` and ``OUT_KEPT`` of ``out`` where daqp solves it at once and x is finite. Returns (daqp's exit
+    flag, its iterations); the flag is 0 when x is not finite."""
+    n, nr = P.shape[0], G.shape[0]
+    Pv, qv, Gv, upper, lower = qp_views(qbuf, n, nr)
+    Pv[:, :] = P
+    qv[:] = q
+    Gv[:, :] = G
+    upper[:n] = out[OUT_UB]
+    lower[:n] = out[OUT_LB]
+    upper[n:] = h
+    lower[n:] = -np.inf
+    return _solve_clipped(native, nx, qbuf, n, nr, out)
+
+
+@_jit
+def _solve_clipped(native: np.ndarray, nx: np.ndarray, qbuf: np.ndarray, n: int, nr: int,
+                   out: np.ndarray) -> tuple[int, int]:  # fmt: skip
+    """daqp on the QP of n variables and nr rows in ``qbuf`` (:func:`native_quadprog`); where it is solved at once
+    and x is finite, x clipped to the box (rows ``OUT_LB``, ``OUT_UB`` of ``out``) into the rows ``OUT_DQ`` and
+    ``OUT_KEPT``. Returns (daqp's exit flag — 0 when x is not finite —, its iterations)."""
+    flag, iters = native_quadprog(native, nx, qbuf, n, nr, 0)
     if flag != 1 and flag != 2:
         return flag, iters
     for j in range(n):

@@ -7,6 +7,7 @@ that call wrote into the plan's inequality buffers C, d (the velocity damper, Fa
 from __future__ import annotations
 
 import sys
+from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -73,13 +74,14 @@ UNHELD = _refs_of_unheld()
 
 
 def pack_bounds(
-    robot: RobotModel, members: list[tuple[Any, ...]], ls_offsets: list[int], n: int
+    robot: RobotModel, levels: Sequence[Sequence[Any]], ls_offsets: list[int], n: int
 ) -> PackedBounds | None:
-    """The bound subtasks of the levels ``members`` (``_Plan.members``) packed for the compiled damper rows, when
-    every one gives its ``clearance_form`` (a bound on a clearance, read through verified views of Pinocchio's
-    memory); their rows C, d at the offsets ``_Plan.fused_bounds`` gives them. ``None``: another source, rows of its
-    own, unverified views (their rows are written from Python)."""
-    bsubs = [bsub for _, _, bs, _, _ in members for bsub in bs]
+    """The bound subtasks of ``levels`` (per level, its bound subtasks: ``hqp``'s ``_Plan.members``, or ``wqp``'s
+    one list with ``ls_offsets`` ``[0]``) packed for the compiled damper rows, when every one gives its
+    ``clearance_form`` (a bound on a clearance, read through verified views of Pinocchio's memory); their rows C, d
+    one after another, level by level (the offsets ``_Plan.fused_bounds`` gives them). ``None``: another source, rows
+    of its own, unverified views (their rows are written from Python)."""
+    bsubs = [bsub for bs in levels for bsub in bs]
     forms = [bsub.clearance_form(robot) for bsub in bsubs]
     if any(form is None for form in forms):
         return None
@@ -89,7 +91,7 @@ def pack_bounds(
     slices: list[tuple[slice, list[str]]] = []
     offsets = []
     cs = k = 0
-    for (_, _, bs, _, _), ls_row in zip(members, ls_offsets, strict=False):
+    for bs, ls_row in zip(levels, ls_offsets, strict=False):
         offsets.append((ls_row, cs))
         for bsub in bs:
             form = forms[k]

@@ -294,7 +294,7 @@ class _Plan:
 
     def _pack_bounds(self, robot: RobotModel) -> PackedBounds | None:
         """:meth:`packed_bounds`' packing (``hqp_bounds.pack_bounds``), with C, d grown to its rows."""
-        packed = pack_bounds(robot, self.members, self.ls_offsets, self.n)
+        packed = pack_bounds(robot, [bs for _, _, bs, _, _ in self.members], self.ls_offsets, self.n)
         if packed is not None and packed.rows > self.C.shape[0]:
             self._grow_ineq(packed.rows)
         return packed

@@ -73,6 +73,7 @@ from redundik.resolvers.qp.base import LevelsOption, LimitsOption, QPDiagnostics
 from redundik.resolvers.qp.direction import DirectionScaling, solve_direction
 from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, infeasible
+from redundik.resolvers.qp.wqp_bounds import BoundRows, PackedBoundRows, python_bound_rows
 from redundik.resolvers.qp.wqp_fused import FusedWqpResult, free_diagnostics, work_views, work_with_external, write_caps
 from redundik.resolvers.qp.wqp_native import native_box_step
 from redundik.resolvers.settings import Setting, flag, nonnegative, unit_interval
@@ -119,6 +120,7 @@ class _Plan:
         self.tasks: list[tuple[int, float, bool]] = []  # (task index, ρ^k, identity Jacobian)
         self.targets: list[tuple[TargetSubtask, float]] = []
         self.bounds: list[BoundSubtask] = []
+        self.bound_rows = PackedBoundRows()  # (the fused step's compiled rows of bounds on clearances)
         self.null_scale = 0.0  # ρ^k of the null-space objective's level (0: none)
         self.last_scale = 1.0  # ρ^(L−1)
         self.main: list[int] = layout.main
@@ -221,22 +223,12 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         gram = None if plan.targets else (lambda: self._gram_factor(plan, terms, shift))
         return WQPBuild(prob, box, [terms[i] for i in plan.main], lam, safe, gram=gram)
 
-    def _bound_rows(
-        self, robot: RobotModel, plan: _Plan, dt: float
-    ) -> tuple[np.ndarray, np.ndarray, list[str], np.ndarray | None]:
+    def _bound_rows(self, robot: RobotModel, plan: _Plan, dt: float) -> BoundRows:
         """The bound subtasks' rows G q̇ ≤ h (each subtask's ``rows``), their names and which are safety rows
         (``None``: no bound subtask)."""
         if not plan.bounds:
             return self._no_rows, self._no_rhs, [], None
-        Cs, ds, critical, names = [], [], [], []
-        for bsub in plan.bounds:
-            C, d, rn = bsub.rows(robot, dt)
-            Cs.append(C)
-            ds.append(d)
-            names += rn
-            critical += [bsub.critical] * len(rn)
-        G, h = (Cs[0], ds[0]) if len(Cs) == 1 else (np.vstack(Cs), np.concatenate(ds))
-        return G, h, names, np.array(critical, dtype=bool)
+        return python_bound_rows(plan.bounds, robot, dt)
 
     def _gram_factor(self, plan: _Plan, terms: list[TaskTerm], shift: float) -> tuple[np.ndarray, float] | None:
         """(F, δ) with P = FᵀF + δI for a stack of tasks (no target subtask): F the rows √(ρ^k w) J of the tasks
@@ -406,7 +398,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         lam: float,
         t0: float,
         t1: float,
-        bounds: tuple[np.ndarray, np.ndarray, list[str], np.ndarray | None] | None = None,
+        bounds: BoundRows | None = None,
     ) -> StepResult:
         """A lean step whose unconstrained optimum left the box (rows of ``out``: lb, ub, pos_lo, pos_hi) or the
         bound rows ``bounds`` (G, h, names, safety flags): the backend solves P, q with that box and those rows,
@@ -486,7 +478,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         )
         if status < 0.0:
             return None
-        bounds = self._bound_rows(robot, plan, dt) if plan.bounds else None  # (Python writers of inequality rows)
+        bounds = plan.bound_rows.rows(plan.bounds, robot, fused.jw, fused.poses, dt) if plan.bounds else None
         if bounds is not None and status == 1.0:  # the optimum inside the box: is it inside the bound rows too?
             G, h = bounds[0], bounds[1]
             if G.shape[0] and not (G @ work[OUT_FREE * n : (OUT_FREE + 1) * n] <= h + 1e-12).all():
@@ -497,7 +489,9 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             K, m = len(fused.frames), fused.m
             out, ev, Jf = work_views(work, K, m, n)
             terms = fused.terms(Jf, ev, q, robot, external)
-            native = None if bounds is not None else native_box_step(self, stack, terms, out, windowed, lam, t0, t1)
+            if bounds is not None:  # (the QP and the result keep them: copies of the plan's buffers)
+                bounds = plan.bound_rows.kept(bounds)
+            native = native_box_step(self, stack, terms, out, windowed, lam, t0, t1, bounds)
             return native or self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1, bounds)
         kept = work[OUT_KEPT * n : (OUT_KEPT + 1) * n]
         self._dq_hist, self._dq_prev = (kept, self._dq_prev), kept  # (a jerk limit switched on reads both)

@@ -6,10 +6,11 @@ It is the template's answer, not an approximation: the same QP goes to the same 
 (the call ``DaqpBackend.solve`` makes on a bounds-only QP below its split size, checked bit for bit by
 :mod:`redundik.resolvers.qp.daqp_native` for the daqp version installed), x is clipped to the box as the template
 clips it, and the result carries the same info, diagnostics and kept q̇; from the backend's split size on, the
-separable variables in closed form and daqp on the coupled ones, as the backend splits it. Anything else — another
-backend, a QP daqp does not solve at once (the template then poses it with every retry), bound rows, a problem the
-backend could lift (its lift size), the native call off — returns ``None`` and the template solves the step as
-before.
+separable variables in closed form and daqp on the coupled ones, as the backend splits it. The bound subtasks' rows
+G q̇ ≤ h, when the step has some, are daqp's rows after the box (``hqp_native.rows_qp_native_into``). Anything
+else — another backend, a QP daqp does not solve at once (the template then poses it with every retry), safety rows
+(the template scales q̇ to keep them), a problem the backend could lift (its lift size), the native call off —
+returns ``None`` and the template solves the step as before.
 """
 
 from __future__ import annotations
@@ -40,34 +41,47 @@ def native_box_step(
     lam: float,
     t0: float,
     t1: float,
+    bounds: tuple[np.ndarray, np.ndarray, list[str], np.ndarray | None] | None = None,
 ) -> StepResult | None:
     """The step's result when daqp's C entry point solves its box QP at once (module docstring), else ``None``.
 
     ``out`` (``layouts.OUT_ROWS``, n): the step's box rows and answers (``wqp_free_step``'s), with the resolver's
     ``_P`` and ``_q`` holding the QP; ``lam``: the step's λ; ``t0``/``t1`` [s]: when the step started and its build
-    ended."""
+    ended; ``bounds``: the bound subtasks' rows (G, h, names, safety flags) G q̇ ≤ h, kept by the result (copies of
+    the plan's buffers), or ``None``. Rows with a safety flag set go to the template (it guards them)."""
     backend = resolver.backend
     n = out.shape[1]
     if type(backend) is not DaqpBackend or not ready("wqp"):
         return None  # (ready: not during a cold start, whose steps run the kernels' interpreted twins)
+    G = h = None
+    nr = 0
+    if bounds is not None:
+        G, h, _, safe = bounds
+        if (safe is not None and safe.any()) or n >= backend.lift_min_n:  # (the template guards, or may lift)
+            return None
+        nr = G.shape[0]
     cached = resolver.__dict__.get("_native_box")
-    native = NativeDaqp.for_backend(backend, n, 0, None if cached is None else cached[0])
+    native = NativeDaqp.for_backend(backend, n, nr, None if cached is None else cached[0])
     if native is None:
         return None
-    if cached is None or cached[0] is not native or cached[2].shape != (n,):
-        scratch = (np.empty(n * n + 3 * n), np.empty((4 + n, n)), np.empty(n, dtype=np.int64))
+    size = n * n + 3 * n + nr * (n + 2)  # (qp_views' P, q, rows, upper and lower)
+    if cached is None or cached[0] is not native or cached[3].shape != (n,) or cached[1].shape[0] < size:
+        scratch = (np.empty(size), np.empty((4 + n, n)), np.empty(n, dtype=np.int64))
         cached = resolver.__dict__["_native_box"] = (native, *scratch)
     _, qbuf, work, idx = cached
     P, g = resolver._P, resolver._q
-    whole = n < backend._split_min_n  # (DaqpBackend.solve's order: the split, then the lifted QP, then P as given)
-    if not whole:
-        flag, iterations, nc = HK.box_qp_native_split_into(native.ctl, native.x, qbuf, P, g, out, SPLIT_MIN_SAVING,
-                                                           work, idx)  # fmt: skip
-        whole = nc < 0
-    if whole:
-        if n >= backend.lift_min_n:  # (the backend may lift it: its own solve decides)
-            return None
-        flag, iterations = HK.box_qp_native_into(native.ctl, native.x, qbuf, P, g, out)
+    if G is not None:
+        flag, iterations = HK.rows_qp_native_into(native.ctl, native.x, qbuf, P, g, out, G, h)
+    else:
+        whole = n < backend._split_min_n  # (DaqpBackend.solve's order: the split, then the lifted QP, then P as given)
+        if not whole:
+            flag, iterations, nc = HK.box_qp_native_split_into(native.ctl, native.x, qbuf, P, g, out,
+                                                               SPLIT_MIN_SAVING, work, idx)  # fmt: skip
+            whole = nc < 0
+        if whole:
+            if n >= backend.lift_min_n:  # (the backend may lift it: its own solve decides)
+                return None
+            flag, iterations = HK.box_qp_native_into(native.ctl, native.x, qbuf, P, g, out)
     if flag != 1 and flag != 2:
         return None
     dq, kept = out[OUT_DQ], out[OUT_KEPT]
@@ -84,6 +98,8 @@ def native_box_step(
     def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
         diag.active_limits = box.active(kept, limits.joint_names)
         resolver._diagnose_terms([terms[i] for i in main], lam, kept, diag)
+        if G is not None and G.shape[0]:  # (as WeightedQPResolver._diagnose)
+            diag.bound_violation = float(np.max(np.maximum(G @ kept - h, 0.0)))
         return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
 
     info: dict[str, object] = {"backend": diag.backend, "qp": 1, "iterations": diag.iterations}
@@ -104,3 +120,7 @@ def warm_native_box() -> None:
     qbuf, work, idx = np.empty(10), np.empty((6, 2)), np.empty(2, dtype=np.int64)
     HK.box_qp_native_into(native.ctl, native.x, qbuf, np.eye(2), np.array([-1.0, 0.0]), out)
     HK.box_qp_native_split_into(native.ctl, native.x, qbuf, np.eye(2), np.array([-1.0, 0.0]), out, 0, work, idx)
+    rows = NativeDaqp.for_backend(backend, 2, 1, native)
+    if rows is not None:  # (a step with bound rows: one row x₀ + x₁ ≤ 0.2)
+        HK.rows_qp_native_into(rows.ctl, rows.x, np.empty(14), np.eye(2), np.array([-1.0, 0.0]), out, np.ones((1, 2)),
+                               np.array([0.2]))  # fmt: skip
