@@ -136,3 +136,58 @@ def test_bound_rows_qp_through_daqps_native_call_is_the_templates_answer(monkeyp
                 np.testing.assert_array_equal(a[2], b[2])
             assert a[3:] == b[3:], (seed, a[0])
     assert native_steps > 20, native_steps
+
+
+def _snake_run(n: int, native: bool, bounds: bool, monkeypatch: pytest.MonkeyPatch) -> tuple[list[Any], int]:
+    """The benchmark's snake of n joints under ``wqp`` (its clearance bounds, or none and velocity limits of
+    0.01 rad/s that bind), daqp's native call on or off: each step's answers, and the steps the native call took."""
+    from benchmarks.bench.scenarios import snake_scenario
+
+    from redundik.resolvers.qp import daqp_native, wqp
+
+    monkeypatch.setattr(daqp_native, "enabled", native)
+    taken = [0]
+    original = wqp.native_box_step
+
+    def counting(*args: Any, **kwargs: Any) -> Any:
+        res = original(*args, **kwargs)
+        taken[0] += res is not None
+        return res
+
+    monkeypatch.setattr(wqp, "native_box_step", counting)
+    sc = snake_scenario(n)
+    robot, q = sc.robot(), sc.q0.copy()
+    robot.update(q)
+    stack = sc.stacks["wqp"](robot)
+    limits = None
+    if not bounds:
+        stack = rk.TaskStack(stack.tasks, [s for s in stack.subtasks if not isinstance(s, rk.BoundSubtask)])
+        limits = {"velocity_limits": {str(j + 1): 0.01 for j in range(n)}}
+    stack.reset(robot)
+    res, out = rk.make_resolver("wqp", limits=limits), []
+    for k in range(150):
+        step = res.step(robot, stack, q, k * sc.dt, sc.dt)
+        out.append((step.dq.copy(), res._dq_prev.copy(), dict(step.info), step.relaxed, step.fallback))
+        q = robot.integrate(q, step.dq, sc.dt)
+    return out, taken[0]
+
+
+@pytest.mark.parametrize("bounds", [True, False], ids=["clearance_rows", "box_only"])
+def test_a_lifted_qp_through_daqps_native_call_is_the_templates_answer(
+    bounds: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """From daqp's lift size on (n ≥ 40) the template gives the backend the Gram factor of P and daqp solves the QP
+    lifted (``DaqpBackend._solve_lifted``); the native call poses the same lifted QP (``lifted_rows_qp_native_into``):
+    the same q̇ bit for bit, kept q̇, info, relaxations and fallbacks — with bound rows, and with the box alone."""
+    from redundik.resolvers.qp import daqp_native
+
+    if not daqp_native.entry():
+        pytest.skip(f"daqp's native call is off here: {daqp_native.status()}")  # (CI installs daqp 0.11.0)
+    native, taken = _snake_run(40, True, bounds, monkeypatch)
+    template, taken_off = _snake_run(40, False, bounds, monkeypatch)
+    qp_steps = sum(1 for step in native if step[2]["qp"])
+    assert qp_steps >= 20 and taken == qp_steps and taken_off == 0, (qp_steps, taken, taken_off)
+    for k, (a, b) in enumerate(zip(native, template, strict=True)):
+        np.testing.assert_array_equal(a[0], b[0], err_msg=f"q̇, step {k}")
+        np.testing.assert_array_equal(a[1], b[1], err_msg=f"kept q̇, step {k}")
+        assert a[2:] == b[2:], f"info, relaxed, fallback, step {k}"

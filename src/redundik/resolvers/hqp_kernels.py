@@ -138,6 +138,7 @@ from redundik.resolvers.hqp_native import (
     box_qp_native_into,
     box_qp_native_split_into,
     box_qps_native,
+    lifted_rows_qp_native_into,
     native_quadprog,
     rows_qp_native_into,
 )
@@ -231,6 +232,7 @@ __all__ = [
     "level_qp_into",
     "level_qp_joint_into",
     "level_rows_ok",
+    "lifted_rows_qp_native_into",
     "native_quadprog",
     "qp_buffer_size",
     "qp_cascade_call",

@@ -158,7 +158,7 @@ def box_qp_native_into(native: np.ndarray, nx: np.ndarray, qbuf: np.ndarray, P: 
     qv[:] = q
     upper[:] = out[OUT_UB]
     lower[:] = out[OUT_LB]
-    return _solve_clipped(native, nx, qbuf, n, 0, out)
+    return _solve_clipped(native, nx, qbuf, n, 0, 0, out)
 
 
 @_jit
@@ -178,16 +178,51 @@ def rows_qp_native_into(native: np.ndarray, nx: np.ndarray, qbuf: np.ndarray, P:
     lower[:n] = out[OUT_LB]
     upper[n:] = h
     lower[n:] = -np.inf
-    return _solve_clipped(native, nx, qbuf, n, nr, out)
+    return _solve_clipped(native, nx, qbuf, n, nr, 0, out)
 
 
 @_jit
-def _solve_clipped(native: np.ndarray, nx: np.ndarray, qbuf: np.ndarray, n: int, nr: int,
+def lifted_rows_qp_native_into(native: np.ndarray, nx: np.ndarray, qbuf: np.ndarray, F: np.ndarray, delta: float,
+                               q: np.ndarray, out: np.ndarray, G: np.ndarray,
+                               h: np.ndarray) -> tuple[int, int]:  # fmt: skip
+    """The QP min ½xᵀ(FᵀF + δI)x + qᵀx s.t. lb ≤ x ≤ ub, G x ≤ h (F (k, n), G (p, n); the box the rows ``OUT_LB``,
+    ``OUT_UB`` of ``out``) lifted as ``DaqpBackend._solve_lifted`` poses it, on the same numbers: the variables
+    (x, s), the Hessian diag(δ·1_n, 1_k), f = (q, 0); the box and s free, then the rows [G 0] (upper h, lower −∞) and
+    the equalities [F −I] (x, s) = 0. x, clipped to the box, goes to the rows ``OUT_DQ`` and ``OUT_KEPT`` where daqp
+    solves it at once and x is finite. Returns (daqp's exit flag — 0 when x is not finite —, its iterations)."""
+    n, k, p = q.shape[0], F.shape[0], G.shape[0]
+    nv = n + k
+    Pv, qv, Mv, upper, lower = qp_views(qbuf, nv, p + k)
+    Pv[:, :] = 0.0
+    for j in range(nv):
+        Pv[j, j] = delta if j < n else 1.0
+    qv[:n] = q
+    qv[n:] = 0.0
+    Mv[:, :] = 0.0
+    Mv[:p, :n] = G
+    Mv[p:, :n] = F
+    for r in range(k):
+        Mv[p + r, n + r] = -1.0
+    upper[:n] = out[OUT_UB]
+    lower[:n] = out[OUT_LB]
+    upper[n:nv] = np.inf
+    lower[n:nv] = -np.inf
+    upper[nv : nv + p] = h
+    lower[nv : nv + p] = -np.inf
+    upper[nv + p :] = 0.0
+    lower[nv + p :] = 0.0
+    return _solve_clipped(native, nx, qbuf, nv, p + k, k, out)
+
+
+@_jit
+def _solve_clipped(native: np.ndarray, nx: np.ndarray, qbuf: np.ndarray, nvar: int, nr: int, neq: int,
                    out: np.ndarray) -> tuple[int, int]:  # fmt: skip
-    """daqp on the QP of n variables and nr rows in ``qbuf`` (:func:`native_quadprog`); where it is solved at once
-    and x is finite, x clipped to the box (rows ``OUT_LB``, ``OUT_UB`` of ``out``) into the rows ``OUT_DQ`` and
-    ``OUT_KEPT``. Returns (daqp's exit flag — 0 when x is not finite —, its iterations)."""
-    flag, iters = native_quadprog(native, nx, qbuf, n, nr, 0)
+    """daqp on the QP of ``nvar`` variables and ``nr`` rows (the last ``neq`` equalities) in ``qbuf``
+    (:func:`native_quadprog`); where it is solved at once and the step's n = ``out.shape[1]`` first variables x are
+    finite, x clipped to the box (rows ``OUT_LB``, ``OUT_UB`` of ``out``) into the rows ``OUT_DQ`` and ``OUT_KEPT``.
+    Returns (daqp's exit flag — 0 when x is not finite —, its iterations)."""
+    n = out.shape[1]
+    flag, iters = native_quadprog(native, nx, qbuf, nvar, nr, neq)
     if flag != 1 and flag != 2:
         return flag, iters
     for j in range(n):

@@ -75,6 +75,7 @@ from redundik.resolvers.qp.limits import LimitBox
 from redundik.resolvers.qp.problem import QPProblem, infeasible
 from redundik.resolvers.qp.wqp_bounds import BoundRows, PackedBoundRows, python_bound_rows
 from redundik.resolvers.qp.wqp_fused import FusedWqpResult, free_diagnostics, work_views, work_with_external, write_caps
+from redundik.resolvers.qp.wqp_gram import gram_factor, gram_of
 from redundik.resolvers.qp.wqp_native import native_box_step
 from redundik.resolvers.settings import Setting, flag, nonnegative, unit_interval
 from redundik.resolvers.singularity import SingularityGuard
@@ -103,7 +104,7 @@ class WQPBuild:
     damping: float = 0.0
     safe: np.ndarray | None = None
     free_outside: bool = False
-    #: (F, δ) with P = FᵀF + δI, computed when the backend is called (``WeightedQPResolver._gram_factor``); or None
+    #: (F, δ) with P = FᵀF + δI, computed when the backend is called (``wqp_gram.gram_factor``); or None
     gram: Callable[[], tuple[np.ndarray, float] | None] | None = None
 
 
@@ -220,7 +221,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             q -= plan.null_scale * z
         box = self._box(robot, dt)
         prob = QPProblem(P, q, G, h, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp", names)
-        gram = None if plan.targets else (lambda: self._gram_factor(plan, terms, shift))
+        gram = None if plan.targets else (lambda: gram_factor(self, plan.tasks, terms, shift))
         return WQPBuild(prob, box, [terms[i] for i in plan.main], lam, safe, gram=gram)
 
     def _bound_rows(self, robot: RobotModel, plan: _Plan, dt: float) -> BoundRows:
@@ -229,24 +230,6 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         if not plan.bounds:
             return self._no_rows, self._no_rhs, [], None
         return python_bound_rows(plan.bounds, robot, dt)
-
-    def _gram_factor(self, plan: _Plan, terms: list[TaskTerm], shift: float) -> tuple[np.ndarray, float] | None:
-        """(F, δ) with P = FᵀF + δI for a stack of tasks (no target subtask): F the rows √(ρ^k w) J of the tasks
-        that are not identity blocks, δ the diagonal shift (λ, the identity tasks' ρ^k w, the null objective's
-        ρ^k) — the factor a backend may solve the QP lifted with (``QPProblem.factor``). ``None`` when the
-        backend does not lift a QP of this size, or when P's diagonal is not that of FᵀF + δI (to 1e-9 relative:
-        a member whose rows are not what the plan says; the dense P is then solved as it is)."""
-        P = self._P
-        lift_min_n = getattr(self.backend, "lift_min_n", None)
-        if P is None or lift_min_n is None or P.shape[0] < lift_min_n or not shift > 0.0:
-            return None
-        blocks = [math.sqrt(scale * terms[i].weight) * terms[i].J for i, scale, identity in plan.tasks if not identity]
-        if not blocks:
-            return None
-        F = blocks[0] if len(blocks) == 1 else np.vstack(blocks)
-        if not K.gram_diagonal_matches(np.ascontiguousarray(F), float(shift), self._diag, 1e-9):
-            return None
-        return F, float(shift)
 
     def _lambda(self, plan: _Plan, terms: list[TaskTerm]) -> float:
         """λ of the step: ``damping``·ρ^(L−1) + ``lm_damping``·‖e‖² (module docstring)."""
@@ -345,7 +328,9 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         inside = K.wqp_free_step(self._P, self._q, z, robot.q, args[0], lim, opts, prev, out)
         windowed = prev.shape[0] > 0
         if not inside:  # a constraint is active (or the optimum is not finite): daqp's C entry, or the template
-            native = native_box_step(self, stack, terms, out, windowed, lam, t0, t1)
+            native = native_box_step(
+                self, stack, terms, out, windowed, lam, t0, t1, None, gram_of(self, plan, terms, lam)
+            )
             return native or self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1)
         dq, kept = out[OUT_DQ], out[OUT_KEPT]
         self._dq_hist, self._dq_prev = (kept, self._dq_prev), kept  # (a jerk limit switched on reads both)
@@ -408,9 +393,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         box = self.limits.box_from(out, windowed)
         G, h, names, safe = bounds if bounds is not None else (self._no_rows, self._no_rhs, [], None)
         prob = QPProblem(P, q, G, h, self._no_rows, self._no_rhs, box.lb, box.ub, "wqp", names)
-        identity = sum(scale * terms[i].weight for i, scale, ident in plan.tasks if ident)
-        shift = lam + identity + plan.null_scale  # (the diagonal the lean and fused paths added to P)
-        gram = None if plan.targets else (lambda: self._gram_factor(plan, terms, shift))
+        gram = gram_of(self, plan, terms, lam)
         built = WQPBuild(
             prob, box, [terms[i] for i in plan.main], lam, safe, free_outside=True, gram=gram
         )  # (the free optimum is known to leave the box or to break a bound row)
@@ -491,7 +474,8 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             terms = fused.terms(Jf, ev, q, robot, external)
             if bounds is not None:  # (the QP and the result keep them: copies of the plan's buffers)
                 bounds = plan.bound_rows.kept(bounds)
-            native = native_box_step(self, stack, terms, out, windowed, lam, t0, t1, bounds)
+            gram = gram_of(self, plan, terms, lam)
+            native = native_box_step(self, stack, terms, out, windowed, lam, t0, t1, bounds, gram)
             return native or self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1, bounds)
         kept = work[OUT_KEPT * n : (OUT_KEPT + 1) * n]
         self._dq_hist, self._dq_prev = (kept, self._dq_prev), kept  # (a jerk limit switched on reads both)
