@@ -24,6 +24,7 @@ import numpy as np
 from redundik._coldstart import ready
 from redundik.resolvers.base import LazyStepResult, StepResult
 from redundik.resolvers.layouts import OUT_DQ, OUT_KEPT, OUT_LB, OUT_ROWS, OUT_UB
+from redundik.resolvers.linalg import K
 from redundik.resolvers.qp.base import QPDiagnostics
 from redundik.resolvers.qp.daqp_backend import LIFT_MAX_ROWS_PER_VARIABLE, SPLIT_MIN_SAVING, DaqpBackend
 from redundik.resolvers.qp.daqp_native import HK, NativeDaqp
@@ -155,3 +156,5 @@ def warm_native_box() -> None:
         G, h, g = np.ones((1, 2)), np.array([0.2]), np.array([-1.0, 0.0])
         HK.rows_qp_native_into(rows.ctl, rows.x, np.empty(32), np.eye(2), g, out, G, h)
         HK.lifted_rows_qp_native_into(rows.ctl, rows.x, np.empty(32), np.ones((1, 2)), 1.0, g, out, G, h)
+    diag = (2.0 * np.eye(2)).reshape(-1)[::3]  # (P's diagonal: a strided view, as wqp's ``_diag``)
+    K.gram_diagonal_matches(np.ones((1, 2)), 1.0, diag, 1e-9)  # (the lifted QP's test of its factor)
