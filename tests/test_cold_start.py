@@ -275,7 +275,8 @@ def test_a_binding_limit_during_a_cold_start_solves_its_qp_without_the_native_ca
     of the process, or after another resolver's were loaded (every namespace then holds the kernels' twins) — solve
     their QPs through the backend's own solve: daqp's C entry is called by compiled kernels only (their
     interpreted twins cannot: ``RuntimeError`` or ``NotImplementedError`` here before). Once the kernels are loaded
-    the native call is decided and used."""
+    the native call is decided and used, and the constrained steps compile nothing more in the caller's thread (the
+    warm-up steps a binding bound: ``hqp``'s cascade was compiled at the loop's first constrained step before)."""
     got = _run(
         """
         import json
@@ -284,6 +285,8 @@ def test_a_binding_limit_during_a_cold_start_solves_its_qp_without_the_native_ca
         from redundik.kinematics.urdf import load_example_robot
         from redundik.resolvers.qp import daqp_native
         panda = load_example_robot("panda")
+        qp0 = pin.neutral(panda.model)
+        qp0[:7] = [0.0, -0.4, 0.0, -2.0, 0.0, 1.6, 0.8]
 
         def run(name):
             qp = pin.neutral(panda.model)
@@ -307,7 +310,21 @@ def test_a_binding_limit_during_a_cold_start_solves_its_qp_without_the_native_ca
         out["hqp"] = run("hqp")  # (wqp's kernels loaded; hqp's compiling: every namespace holds twins)
         assert _coldstart.wait(900)
         out["native_after"] = daqp_native.status()
-        out["hot"] = run("hqp")
+        exec(_LISTENER)  # found: the kernels numba compiles in this (the caller's) thread from now on
+        out["hot"] = run("hqp")  # (its constrained cascade: compiled by the warm-up, not here)
+        panda.update(qp0)
+        near = panda.frame_position("panda_link4") + np.array([0.0, 0.05, 0.0])
+        rel = rk.RelativePoseTask("panda_hand", "panda_link4", axes="position", gain=1.0)
+        s = rk.TaskStack([rk.FrameTask("panda_hand", rk.Circle(0.05, 2.0, plane=("y", "z")), gain=10.0), rel],
+                         [rk.BoundSubtask(rk.Clearance("panda_link4", near, 0.0), lower=0.2, priority=0),
+                          rk.TargetSubtask(rk.JointCentering(), target=0.5, rate=1.0)])
+        s.reset(panda)
+        res, q1, bound = rk.make_resolver("hqp"), qp0.copy(), []
+        for k in range(20):
+            r = res.step(panda, s, q1, 0.01 * k, 0.01)
+            bound.append((r.info["path"], int(r.info["qp"])))
+            q1 = panda.integrate(q1, r.dq, 0.01)
+        out["bound"], out["found"] = bound, sorted(set(found))
         print(json.dumps(out))
         """,
         {"REDUNDIK_CACHE_DIR": str(tmp_path)},
@@ -320,6 +337,10 @@ def test_a_binding_limit_during_a_cold_start_solves_its_qp_without_the_native_ca
     assert got["decided_cold"] is False
     assert str(got["native_after"]).startswith("on"), got["native_after"]
     assert any(qp > 0 for _, qp, _ in got["hot"])
+    # after the warm-up: hqp's constrained cascade (a binding limit; a binding clearance bound with a relative pose
+    # and a target subtask) on the compiled step, and nothing compiled in the caller's thread
+    assert sum(qp for _, qp in got["bound"]) >= 5 and got["bound"][-1][0] == "compiled", got["bound"]
+    assert got["found"] == [], got["found"]
 
 
 def test_wait_chosen_after_import_compiles_the_kernels_before_the_first_step() -> None:

@@ -24,8 +24,9 @@ RESOLVERS: tuple[str, ...] = ("pinv", "feedback", "wqp", "hqp")
 
 def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS, *, ik: bool = True) -> dict[str, float]:
     """Step each resolver of ``resolvers`` a few times on a small arm (a frame task on a trajectory, a target set
-    at run time, a posture, a joint centering and the potentials with compiled writers, joint limits), so that the
-    kernels of their compiled and interpreted steps are compiled or loaded; with ``ik``, also
+    at run time, a posture, a joint centering and the potentials with compiled writers, joint limits; a user's task, a
+    relative pose, target subtasks, and under ``wqp``/``hqp`` a clearance bound that binds), so that the kernels of
+    their compiled and interpreted steps — constrained ones included — are compiled or loaded; with ``ik``, also
     :func:`redundik.solve_ik` (a pose and a position target, and the batch form), under the key ``"solve_ik"``;
     returns the seconds each took.
 
@@ -96,30 +97,54 @@ def _gradients(rk: Any) -> list[Any]:
 
 def _step_both_paths(rk: Any, robot: Any, resolver: Any, q0: np.ndarray) -> None:
     """Three steps of each of the warm-up's stacks, on the resolver's compiled step and on its per-task path."""
-    from redundik.resolvers.base import _WARNED_MIXED
-
     for fuse in (True, False) if hasattr(resolver, "fuse") else (None,):
         if fuse is not None:
             resolver.fuse = fuse
-        for kind in ("trajectory", "teleop", "user"):
-            teleop = kind == "teleop"
-            task = rk.FrameTask("7", None if teleop else rk.Circle(0.02, np.pi, plane=("y", "z")), gain=5.0)
-            if kind == "user":  # a user's own task among compiled ones: the mixed step's writing of its rows
-                stack = rk.TaskStack([task, _user_task(rk), rk.PostureTask(gain=1.0)])
-                _WARNED_MIXED.add((resolver.name, ("warm_up_height",)))  # (no "runs mixed" warning for our own)
-            else:
-                subs = _gradients(rk)
-                if resolver.name in ("wqp", "hqp"):  # (a bound on a clearance: its compiled damper rows)
-                    subs.append(rk.BoundSubtask(rk.Clearance("6", [1.0, 1.0, 1.0], 0.1), lower=0.01))
-                stack = rk.TaskStack([task, rk.PostureTask(gain=1.0)], subs)
+        for kind in ("trajectory", "teleop", "user", "relative", "targets", "binding"):
+            stack = _stack(rk, robot, resolver.name, kind, q0)
+            if stack is None:
+                continue
+            task = stack.tasks[0]
             q = q0.copy()
             robot.update(q)
             stack.reset(robot)
             home = robot.frame_pose("7")
             for k in range(3):
-                if teleop:
+                if kind == "teleop":
                     task.set_target(home.translation + 0.001 * k)
                 q = robot.integrate(q, resolver.step(robot, stack, q, k * 0.01, 0.01).dq, 0.01)
+
+
+def _stack(rk: Any, robot: Any, resolver: str, kind: str, q0: np.ndarray) -> Any:
+    """The warm-up's stack of ``kind`` for ``resolver`` (``None``: a kind the resolver refuses): a frame task (on a
+    trajectory, or re-targeted), then the posture and the gradients; a user's task among them (the mixed step); a
+    relative pose (``RelativePoseTask``'s writer); target subtasks (the feedback law, a QP's weighted rows); a bound
+    on a clearance that binds from the first step (``wqp``'s rows QP, ``hqp``'s constrained cascade)."""
+    from redundik.resolvers.base import _WARNED_MIXED
+
+    teleop = kind == "teleop"
+    task = rk.FrameTask("7", None if teleop else rk.Circle(0.02, np.pi, plane=("y", "z")), gain=5.0)
+    qp = resolver in ("wqp", "hqp")
+    if kind == "user":  # a user's own task among compiled ones: the mixed step's writing of its rows
+        _WARNED_MIXED.add((resolver, ("warm_up_height",)))  # (no "runs mixed" warning for our own)
+        return rk.TaskStack([task, _user_task(rk), rk.PostureTask(gain=1.0)])
+    if kind == "relative":
+        return rk.TaskStack([task, rk.RelativePoseTask("7", "4", axes="position"), rk.PostureTask(gain=1.0)])
+    if kind == "targets":
+        if resolver == "pinv":
+            return None
+        return rk.TaskStack([task], [rk.TargetSubtask(rk.JointCentering(), target=0.5, rate=1.0)])
+    if kind == "binding":
+        if not qp:
+            return None
+        robot.update(q0)
+        near = robot.frame_position("6") + np.array([0.05, 0.0, 0.0])  # (5 cm away, kept ≥ 20 cm: it binds)
+        bound = rk.BoundSubtask(rk.Clearance("6", near, 0.0), lower=0.2)
+        return rk.TaskStack([task, rk.PostureTask(gain=1.0)], [bound])
+    subs = _gradients(rk)
+    if qp:  # (a bound on a clearance: its compiled damper rows)
+        subs.append(rk.BoundSubtask(rk.Clearance("6", [1.0, 1.0, 1.0], 0.1), lower=0.01))
+    return rk.TaskStack([task, rk.PostureTask(gain=1.0)], subs)
 
 
 def _user_task(rk: Any) -> Any:
