@@ -32,6 +32,7 @@ that solved the QP (``QPSolution.retried``) does: in ``relaxed`` as ``"wqp (back
 from __future__ import annotations
 
 import math
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -328,9 +329,8 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
         inside = K.wqp_free_step(self._P, self._q, z, robot.q, args[0], lim, opts, prev, out)
         windowed = prev.shape[0] > 0
         if not inside:  # a constraint is active (or the optimum is not finite): daqp's C entry, or the template
-            native = native_box_step(
-                self, stack, terms, out, windowed, lam, t0, t1, None, gram_of(self, plan, terms, lam)
-            )
+            gram = gram_of(self, plan, terms, lam) if robot._nv >= self._lift_min_n else None
+            native = native_box_step(self, stack, terms, out, windowed, lam, t0, t1, None, gram)
             return native or self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1)
         dq, kept = out[OUT_DQ], out[OUT_KEPT]
         self._dq_hist, self._dq_prev = (kept, self._dq_prev), kept  # (a jerk limit switched on reads both)
@@ -398,6 +398,11 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             prob, box, [terms[i] for i in plan.main], lam, safe, free_outside=True, gram=gram
         )  # (the free optimum is known to leave the box or to break a bound row)
         return self._finish(robot, stack, terms, built, t0, t1)
+
+    @property
+    def _lift_min_n(self) -> int:
+        """The smallest n the backend may lift a QP at (``DaqpBackend.lift_min_n``; none: never)."""
+        return int(getattr(self.backend, "lift_min_n", sys.maxsize))
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         """Restore a copy or a pickle: ``_P``, ``_q`` and ``_diag`` views on the copy's own QP record again (a copied
@@ -474,7 +479,7 @@ class WeightedQPResolver(DirectionScaling, QPResolverBase):
             terms = fused.terms(Jf, ev, q, robot, external)
             if bounds is not None:  # (the QP and the result keep them: copies of the plan's buffers)
                 bounds = plan.bound_rows.kept(bounds)
-            gram = gram_of(self, plan, terms, lam)
+            gram = gram_of(self, plan, terms, lam) if n >= self._lift_min_n else None  # (a factor to lift with)
             native = native_box_step(self, stack, terms, out, windowed, lam, t0, t1, bounds, gram)
             return native or self._box_qp(robot, stack, terms, plan, out, windowed, lam, t0, t1, bounds)
         kept = work[OUT_KEPT * n : (OUT_KEPT + 1) * n]

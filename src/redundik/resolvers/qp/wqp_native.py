@@ -55,10 +55,9 @@ def native_box_step(
     the Gram factor (F, δ) of P = FᵀF + δI when the template would give the backend one (``WQPBuild.gram``): from
     the backend's lift size on, the QP is solved lifted as the backend lifts it."""
     backend = resolver.backend
-    n = out.shape[1]
     if type(backend) is not DaqpBackend or not ready("wqp"):
         return None  # (ready: not during a cold start, whose steps run the kernels' interpreted twins)
-    G, h = (np.zeros((0, n)), np.zeros(0)) if bounds is None else bounds[:2]
+    G, h = (None, None) if bounds is None else bounds[:2]
     if bounds is not None and bounds[3] is not None and bounds[3].any():  # (safety rows: the template guards them)
         return None
     iterations = _solve(resolver, backend, out, G, h, gram)
@@ -78,7 +77,7 @@ def native_box_step(
     def diagnostics() -> tuple[float, bool, dict[str, object]]:  # on first read of the result's diagnostics
         diag.active_limits = box.active(kept, limits.joint_names)
         resolver._diagnose_terms([terms[i] for i in main], lam, kept, diag)
-        if G.shape[0]:  # (as WeightedQPResolver._diagnose)
+        if G is not None and G.shape[0]:  # (as WeightedQPResolver._diagnose)
             diag.bound_violation = float(np.max(np.maximum(G @ kept - h, 0.0)))
         return diag.sigma_min, bool(diag.damped_levels), diag.as_info()
 
@@ -87,14 +86,14 @@ def native_box_step(
 
 
 def _solve(
-    resolver: Any, backend: DaqpBackend, out: np.ndarray, G: np.ndarray, h: np.ndarray,
+    resolver: Any, backend: DaqpBackend, out: np.ndarray, G: np.ndarray | None, h: np.ndarray | None,
     gram: Callable[[], tuple[np.ndarray, float] | None] | None,
 ) -> int | None:  # fmt: skip
     """The QP through daqp's C entry point in ``DaqpBackend.solve``'s order — the separable split (bounds only,
     from its split size), the lifted QP (from its lift size, when ``gram`` gives a factor of few rows), P as given —
     into the rows ``OUT_DQ``, ``OUT_KEPT`` of ``out``; daqp's iterations, or ``None`` when daqp did not solve it at
     once (the template then poses it with every retry)."""
-    n, nr = out.shape[1], G.shape[0]
+    n, nr = out.shape[1], 0 if G is None else G.shape[0]
     P, g = resolver._P, resolver._q
     cached = resolver.__dict__.get("_native_box")
     if nr == 0 and n >= backend._split_min_n:  # (bounds only: the split first)
@@ -112,12 +111,14 @@ def _solve(
         native, qbuf, _, _ = _scratch(resolver, backend, n, nr, F.shape[0], cached)
         if native is None:
             return None
+        if G is None or h is None:  # (no rows: the lifted QP's equalities only)
+            G, h = np.zeros((0, n)), np.zeros(0)
         flag, iterations = HK.lifted_rows_qp_native_into(native.ctl, native.x, qbuf, F, delta, g, out, G, h)
     else:
         native, qbuf, _, _ = _scratch(resolver, backend, n, nr, 0, cached)
         if native is None:
             return None
-        if nr:
+        if G is not None and h is not None and nr:
             flag, iterations = HK.rows_qp_native_into(native.ctl, native.x, qbuf, P, g, out, G, h)
         else:
             flag, iterations = HK.box_qp_native_into(native.ctl, native.x, qbuf, P, g, out)
