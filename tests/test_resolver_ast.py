@@ -56,6 +56,8 @@ ALLOWED: dict[tuple[str, str], str] = {
     ("resolver", "_solve_qp"): "a QP resolver's backend call (resolvers/qp/base.py), in its direction mode",
     ("resolver", "_P"): "a WeightedQPResolver's Hessian, solved by its native box step (resolvers/qp/wqp_native.py)",
     ("resolver", "_q"): "a WeightedQPResolver's gradient, solved by its native box step (resolvers/qp/wqp_native.py)",
+    ("resolver", "_diag"): "a WeightedQPResolver's Hessian diagonal (a view of _P), tested by its Gram factor "
+    "(resolvers/qp/wqp_gram.py)",
     ("resolver", "_dq_hist"): "a QP resolver's last two q̇ (its jerk window), kept by its native box step as by its "
     "template",
 }
