@@ -191,3 +191,86 @@ def test_a_lifted_qp_through_daqps_native_call_is_the_templates_answer(
         np.testing.assert_array_equal(a[0], b[0], err_msg=f"q̇, step {k}")
         np.testing.assert_array_equal(a[1], b[1], err_msg=f"kept q̇, step {k}")
         assert a[2:] == b[2:], f"info, relaxed, fallback, step {k}"
+
+
+class _Floor(rk.Barrier):
+    """A user's safety barrier (``critical``, as a collision damper's rows): keep a frame's height above z_min,
+    h = z − z_min, H = its frame Jacobian's z row."""
+
+    critical = True
+
+    def __init__(self, frame: str, z_min: float) -> None:
+        self.name, self.frame, self.z_min = f"floor_{frame}", frame, z_min
+
+    def evaluate(self, robot: rk.RobotModel) -> rk.BarrierTerm:
+        h = np.array([robot.frame_position(self.frame)[2] - self.z_min])
+        return rk.BarrierTerm(h, robot.frame_jacobian(self.frame)[2:3].copy(), ["z"])
+
+
+def _safety_run(enabled: bool, seed: int, monkeypatch: pytest.MonkeyPatch) -> tuple[list[tuple[Any, ...]], int]:
+    """A clearance stack of ``_clearance_stack`` with a safety barrier that binds (the hand's circle dips below
+    its floor) under ``wqp``, daqp's native call on or off: each step's answers, and how many steps the native call
+    answered with the safety rows among the bound rows."""
+    from redundik.resolvers.qp import daqp_native, wqp
+
+    monkeypatch.setattr(daqp_native, "enabled", enabled)
+    taken = [0]
+    original = wqp.native_box_step
+
+    def counting(*args: Any, **kwargs: Any) -> Any:
+        res = original(*args, **kwargs)
+        bounds = args[8] if len(args) > 8 else kwargs.get("bounds")
+        taken[0] += res is not None and bounds is not None and bool(bounds[3] is not None and bounds[3].any())
+        return res
+
+    monkeypatch.setattr(wqp, "native_box_step", counting)
+    robot = rk.load_example_robot("panda")
+    rng = np.random.default_rng(seed)
+    base = _clearance_stack(robot, Q0, rng)
+    robot.update(Q0)
+    z0 = float(robot.frame_position("panda_hand")[2])
+    floor = rk.BoundSubtask(_Floor("panda_hand", z0 - float(rng.uniform(0.0, 0.03))), rate=float(rng.uniform(5, 50)))
+    stack = rk.TaskStack(list(base.tasks), [*base.subtasks, floor])
+    stack.reset(robot)
+    res, q, out, held = rk.make_resolver("wqp"), Q0.copy(), [], []
+    for k in range(60):
+        step = res.step(robot, stack, q, 0.02 * k, 0.01)
+        if k % 2:
+            held.append((k, step))
+        else:
+            out.append((k, step.dq.copy(), res._dq_prev.copy(), dict(step.info), step.relaxed, step.fallback))
+        q = robot.integrate(q, step.dq, 0.01)
+    out += [(k, s.dq.copy(), None, dict(s.info), s.relaxed, s.fallback) for k, s in held]
+    return out, taken[0]
+
+
+@pytest.mark.parametrize("declines", [False, True], ids=["keeps", "breaks"])
+def test_a_qp_with_safety_rows_through_daqps_native_call_is_the_templates_answer(
+    declines: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A step whose bound rows include a safety barrier's (``critical``: the template's last guard scales q̇ to keep
+    them) solves its QP through daqp's C entry point when the answer keeps them: the template's q̇ bit for bit, its
+    kept q̇, info, relaxations and fallbacks. ``breaks``: with the guard's tolerance made −∞ for the native call
+    only, every native answer counts as breaking them, the native call declines each such step and the template
+    answers, unchanged."""
+    from redundik.resolvers.qp import daqp_native, wqp_native
+
+    if not daqp_native.entry():
+        pytest.skip(f"daqp's native call is off here: {daqp_native.status()}")  # (CI installs daqp 0.11.0)
+    if declines:
+        monkeypatch.setattr(wqp_native, "SAFETY_TOLERANCE", -np.inf)
+    native_steps = 0
+    for seed in range(6):
+        native, taken = _safety_run(True, seed, monkeypatch)
+        template, taken_off = _safety_run(False, seed, monkeypatch)
+        native_steps += taken
+        assert taken_off == 0
+        for a, b in zip(native, template, strict=True):
+            np.testing.assert_array_equal(a[1], b[1], err_msg=f"seed {seed}, step {a[0]}")
+            if a[2] is not None:
+                np.testing.assert_array_equal(a[2], b[2])
+            assert a[3:] == b[3:], (seed, a[0])
+    if declines:
+        assert native_steps == 0
+    else:
+        assert native_steps > 20, native_steps

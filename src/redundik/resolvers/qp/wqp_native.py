@@ -9,8 +9,9 @@ form and daqp on the coupled ones (``hqp_native.box_qp_native_split_into``); fro
 P = FᵀF + δI the template would give it, the QP lifted to (q̇, F q̇) (``hqp_native.lifted_rows_qp_native_into``);
 otherwise P as given, the bound rows after the box (``box_qp_native_into``, ``rows_qp_native_into``). x is clipped to
 the box as the template clips it, and the result carries the same info, diagnostics and kept q̇. Anything else —
-another backend, a QP daqp does not solve at once (the template then poses it with every retry), safety rows (the
-template scales q̇ to keep them), the native call off — returns ``None`` and the template solves the step as before.
+another backend, a QP daqp does not solve at once (the template then poses it with every retry), an answer that
+breaks a safety row (a collision damper's) by more than the template's last guard allows (the template scales q̇ to
+keep it, and says so), the native call off — returns ``None`` and the template solves the step as before.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from redundik._coldstart import ready
 from redundik.resolvers.base import LazyStepResult, StepResult
 from redundik.resolvers.layouts import OUT_DQ, OUT_KEPT, OUT_LB, OUT_ROWS, OUT_UB
 from redundik.resolvers.linalg import K
-from redundik.resolvers.qp.base import QPDiagnostics
+from redundik.resolvers.qp.base import SAFETY_TOLERANCE, QPDiagnostics
 from redundik.resolvers.qp.daqp_backend import LIFT_MAX_ROWS_PER_VARIABLE, SPLIT_MIN_SAVING, DaqpBackend
 from redundik.resolvers.qp.daqp_native import HK, NativeDaqp
 from redundik.tasks.base import TaskTerm
@@ -48,21 +49,22 @@ def native_box_step(
 ) -> StepResult | None:
     """The step's result when daqp's C entry point solves its box QP at once (module docstring), else ``None``.
 
-    ``out`` (``layouts.OUT_ROWS``, n): the step's box rows and answers (``wqp_free_step``'s), with the resolver's
-    ``_P`` and ``_q`` holding the QP; ``lam``: the step's λ; ``t0``/``t1`` [s]: when the step started and its build
-    ended; ``bounds``: the bound subtasks' rows (G, h, names, safety flags) G q̇ ≤ h, kept by the result (copies of
-    the plan's buffers), or ``None``. Rows with a safety flag set go to the template (it guards them). ``gram``:
-    the Gram factor (F, δ) of P = FᵀF + δI when the template would give the backend one (``WQPBuild.gram``): from
-    the backend's lift size on, the QP is solved lifted as the backend lifts it."""
+        ``out`` (``layouts.OUT_ROWS``, n): the step's box rows and answers (``wqp_free_step``'s), with the resolver's
+        ``_P`` and ``_q`` holding the QP; ``lam``: the step's λ; ``t0``/``t1`` [s]: when the step started and its build
+        ended; ``bounds``: the bound subtasks' rows (G, h, names, safety flags) G q̇ ≤ h, kept by the result (copies of
+        the plan's buffers), or ``None``; a q̇ that breaks a row with a safety flag set goes to the template (it scales
+    q̇ to keep them: ``qp.base.keep_safe``), one that keeps them is the template's answer. ``gram``:
+        the Gram factor (F, δ) of P = FᵀF + δI when the template would give the backend one (``WQPBuild.gram``): from
+        the backend's lift size on, the QP is solved lifted as the backend lifts it."""
     backend = resolver.backend
     if type(backend) is not DaqpBackend or not ready("wqp"):
         return None  # (ready: not during a cold start, whose steps run the kernels' interpreted twins)
     G, h = (None, None) if bounds is None else bounds[:2]
-    if bounds is not None and bounds[3] is not None and bounds[3].any():  # (safety rows: the template guards them)
-        return None
     iterations = _solve(resolver, backend, out, G, h, gram)
     if iterations is None:
         return None
+    if bounds is not None and not _keeps_safety_rows(out[OUT_DQ], G, h, bounds[3]):
+        return None  # (the template scales q̇ to keep them, and says so)
     dq, kept = out[OUT_DQ], out[OUT_KEPT]
     before = resolver._dq_prev
     resolver._dq_hist = (kept, np.zeros_like(kept) if before is None else before)  # (as the template keeps them)
@@ -83,6 +85,15 @@ def native_box_step(
 
     info: dict[str, object] = {"backend": diag.backend, "qp": 1, "iterations": diag.iterations}
     return LazyStepResult.make(dq, terms, None, info, t1 - t0, t2 - t1, main, diagnostics)
+
+
+def _keeps_safety_rows(dq: np.ndarray, G: np.ndarray | None, h: np.ndarray | None, safe: np.ndarray | None) -> bool:
+    """Whether ``dq`` keeps the safety rows (``safe``: a flag per row of G q̇ ≤ h) within ``SAFETY_TOLERANCE``: the
+    test of the template's last guard (``qp.base.keep_safe``), which leaves such a q̇ as it is."""
+    if safe is None or G is None or h is None or not safe.any():
+        return True
+    C, d = (G, h) if safe.all() else (G[safe], h[safe])
+    return bool((C @ dq <= d + SAFETY_TOLERANCE).all())
 
 
 def _solve(
