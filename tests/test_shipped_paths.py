@@ -12,8 +12,8 @@ from redundik.config.loader import load_task
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 #: Classes without a compiled form: their rows come from Python (a mixed step names them): coal's distances of the
-#: collision barrier and the support polygon's rows.
-NOT_COMPILED = {"CollisionAvoidance", "SupportPolygon"}
+#: collision barrier.
+NOT_COMPILED = {"CollisionAvoidance"}
 
 
 def _source_class(member: object) -> str:

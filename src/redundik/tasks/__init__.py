@@ -8,6 +8,7 @@ from redundik.tasks.balance import CoMTask, ContactTask, SupportPolygon
 from redundik.tasks.base import (
     Barrier,
     BarrierTerm,
+    CompiledBarrier,
     CompiledGradient,
     CompiledRows,
     Potential,
@@ -45,6 +46,7 @@ __all__ = [
     "Circle",
     "Clearance",
     "CoMTask",
+    "CompiledBarrier",
     "CompiledGradient",
     "CompiledPotential",
     "CompiledRows",

@@ -26,6 +26,7 @@ from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import (
     Barrier,
     BarrierTerm,
+    CompiledBarrier,
     CompiledRows,
     Potential,
     Task,
@@ -43,6 +44,12 @@ from redundik.tasks.layouts import (
     COM_NROWS,
     COM_ROWS,
     COM_TARGET,
+    SUP_AX,
+    SUP_AY,
+    SUP_B,
+    SUP_EDGE,
+    SUP_EDGES,
+    SUP_MARGIN,
 )
 
 _COM_AXES = {"x": 0, "y": 1, "z": 2}
@@ -302,6 +309,9 @@ class SupportPolygon(Barrier, Potential):
         self.A: np.ndarray | None = None  # (k, 2) outward edge normals
         self.b: np.ndarray | None = None  # (k,)
         self.vertices: np.ndarray | None = None
+        #: The compiled writer's (robot data, ints, floats, row names, where its margin is in floats) for the polygon
+        #: captured last
+        self._packed: tuple[object, np.ndarray, np.ndarray, list[str], int] | None = None
 
     def check(self, robot: RobotModel) -> None:
         """Check the foot frames and capture the polygon at the robot's current state."""
@@ -326,6 +336,7 @@ class SupportPolygon(Barrier, Potential):
         normal = np.column_stack([edge[:, 1], -edge[:, 0]])  # outward for a counter-clockwise polygon
         normal /= np.linalg.norm(normal, axis=1, keepdims=True)
         self.A, self.b, self.vertices = normal, np.einsum("ij,ij->i", normal, hull), hull
+        self._packed = None  # (the compiled writer's edges: packed again)
 
     def _edges(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         if self.A is None or self.b is None:
@@ -339,6 +350,27 @@ class SupportPolygon(Barrier, Potential):
         s, H, _ = self._edges(robot)
         gamma = None if self.rate is None else np.full(len(s), self.rate)
         return BarrierTerm(s - self.margin, H, [f"edge{i}" for i in range(len(s))], gamma)
+
+    def compiled_barrier(self, robot: RobotModel) -> CompiledBarrier | None:
+        """The rows of :meth:`evaluate` from ``row_kernels.support_rows``: the CoM of ``com_rows``' packed bodies
+        (once per robot) and the captured polygon's edges; ``None`` when a body's joint has no frame at the joint
+        (then :meth:`evaluate`, Pinocchio's ``jacobianCenterOfMass``)."""
+        if self.A is None or self.b is None:
+            self.check(robot)
+        assert self.A is not None and self.b is not None
+        packed = self._packed
+        if packed is None or packed[0] is not robot.data:
+            com = com_layout(robot, np.array([0, 1]))
+            if com is None:
+                return None
+            edges = np.column_stack([self.A, self.b])  # (a_x, a_y, b) per edge: SUP_AX, SUP_AY, SUP_B
+            assert edges.shape[1] == SUP_EDGE and (SUP_AX, SUP_AY, SUP_B) == (0, 1, 2)
+            floats = np.concatenate([com[1], np.zeros(SUP_EDGES), edges.reshape(-1)])  # (after the bodies)
+            names = [f"edge{i}" for i in range(len(self.b))]
+            packed = self._packed = (robot.data, com[0], floats, names, com[1].shape[0] + SUP_MARGIN)
+        floats = packed[2]
+        floats[packed[4]] = self.margin  # (an attribute: read at every call)
+        return CompiledBarrier(_RK.support_rows, len(packed[3]), packed[1], floats, packed[3], self.rate or 0.0)
 
     def value(self, robot: RobotModel) -> float:
         """Signed distance [m] of the CoM projection to the nearest edge line, positive inside (no margin)."""

@@ -205,6 +205,32 @@ class CompiledGradient(NamedTuple):
     floats: np.ndarray
 
 
+class CompiledBarrier(NamedTuple):
+    """A barrier's h(q) ≥ 0 and H = ∂h/∂q as a compiled writer: the optional compiled form of a barrier
+    (``Barrier.compiled_barrier``), which a bound subtask calls in place of ``evaluate``.
+
+    A step calls ``kernel(q, poses, jw, ints, floats, h, H)`` — a ``numba.njit`` function — with ``q``, ``poses``
+    and ``jw`` as for :class:`CompiledRows` and ``ints``, ``floats`` the barrier's own data; the kernel writes the
+    ``rows`` values h into ``h`` (rows,) and their Jacobian into ``H`` (rows, nv; zeros on entry).
+
+    Attributes:
+        kernel: The compiled writer.
+        rows: Its number of rows.
+        ints: int64 data (1-D).
+        floats: float64 data (1-D).
+        names: One name per row (``BarrierTerm.names``).
+        gamma: The damper's gain γ [1/s] of every row, or 0: the bound subtask's rate (``BarrierTerm.gamma``
+            ``None``).
+    """
+
+    kernel: Any
+    rows: int
+    ints: np.ndarray
+    floats: np.ndarray
+    names: list[str]
+    gamma: float = 0.0
+
+
 class Edits:
     """A counter that every change of a task's or a gradient subtask's gain or weight moves (their validated setters):
     a fused step (:mod:`redundik.resolvers.fused`) re-reads its coefficients when it has moved."""
@@ -458,6 +484,12 @@ class Barrier(ABC):
     @abstractmethod
     def evaluate(self, robot: RobotModel) -> BarrierTerm:
         """h(q), ∂h/∂q at the robot's current (updated) state."""
+
+    def compiled_barrier(self, robot: RobotModel) -> CompiledBarrier | None:
+        """h and H as a compiled writer (:class:`CompiledBarrier`) on ``robot`` (checked), which a bound subtask
+        calls in place of :meth:`evaluate`; ``None`` (the default): only :meth:`evaluate` gives them. The returned
+        arrays stay the barrier's (rewritten in place)."""
+        return None
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(name={getattr(self, 'name', None)!r})"

@@ -46,6 +46,13 @@ COM_NBODIES, COM_NROWS, COM_ROWS = 0, 1, 2
 COM_TARGET, COM_BODIES = 0, 3
 COM_MASS, COM_LEVER = 0, 1
 COM_BODY = 4
+#: ``SupportPolygon`` (``row_kernels.support_rows``): ``ints`` those of ``com_rows``; ``floats`` those of
+#: ``com_rows`` (the target unused), then from the end of the bodies (``COM_BODIES`` + ``COM_BODY`` b) the margin m
+#: [m] at ``SUP_MARGIN`` and, from ``SUP_EDGES``, per edge (``SUP_EDGE`` entries) its outward unit normal a (x, y)
+#: at ``SUP_AX``, ``SUP_AY`` and its offset b [m] at ``SUP_B`` (aᵀx ≤ b inside).
+SUP_MARGIN, SUP_EDGES = 0, 1
+SUP_AX, SUP_AY, SUP_B = 0, 1, 2
+SUP_EDGE = 3
 
 #: ``ints`` of a joint potential's writer: the joint's index in q, then in q̇.
 J_IQ, J_IV = 0, 1

@@ -1,10 +1,12 @@
 """Compiled writers (numba) of the built-in tasks that give their rows through ``Task.compiled_rows``
 (:class:`redundik.tasks.base.CompiledRows`): joint coupling, the pose of one frame relative to another, the centre of
-mass. Each is the one implementation of its task's rows: its ``evaluate`` (:class:`redundik.tasks.rows.CompiledTask`)
-and the resolvers' compiled steps call the same kernel.
+mass; and of the support polygon's barrier (``Barrier.compiled_barrier``, :class:`redundik.tasks.base.CompiledBarrier`).
+Each is the one implementation of its rows: the task's ``evaluate`` (:class:`redundik.tasks.rows.CompiledTask`) or
+the bound subtask's rows, and the resolvers' compiled steps, call the same kernel.
 
-Every writer has the protocol's signature ``(q, t, poses, jw, ints, floats, gain, J, e, v)``; ``poses`` holds the
-frames' placements (rotation column-major, then the origin) and ``jw`` the joint Jacobians in the world frame.
+The task writers have the protocol's signature ``(q, t, poses, jw, ints, floats, gain, J, e, v)``, the barrier's
+``(q, poses, jw, ints, floats, h, H)``; ``poses`` holds the frames' placements (rotation column-major, then the
+origin) and ``jw`` the joint Jacobians in the world frame.
 """
 
 from __future__ import annotations
@@ -36,6 +38,12 @@ from redundik.tasks.layouts import (
     REL_P,
     REL_R,
     REL_ROWS,
+    SUP_AX,
+    SUP_AY,
+    SUP_B,
+    SUP_EDGE,
+    SUP_EDGES,
+    SUP_MARGIN,
 )
 
 _jit = _kernel_cache.jit  # numba.njit, cached in the user's cache folder (redundik._kernel_cache)
@@ -158,6 +166,39 @@ def relative_rows(
 
 
 @_jit
+def com_into(poses: np.ndarray, jw: np.ndarray, ints: np.ndarray, floats: np.ndarray, Jc: np.ndarray) -> np.ndarray:
+    """The centre of mass c (3,) [m] (returned) and its Jacobian into ``Jc`` (3, nv; zeros on entry):
+    c = Σ m_i c_i / M with c_i = p_i + R_i l_i the bodies' centres, J_c = Σ (m_i / M) (J_i^v + ω_i × c_i) on the
+    columns that support body i (``ints``, ``floats``: the bodies of ``com_rows``' layout)."""
+    nv = jw.shape[1]
+    b, r = ints[COM_NBODIES], ints[COM_NROWS]
+    fids = COM_ROWS + r
+    cols = fids + b
+    c = np.zeros(3)
+    for i in range(b):
+        f = ints[fids + i]
+        body = COM_BODIES + COM_BODY * i
+        w = floats[body + COM_MASS]
+        lever = floats[body + COM_LEVER : body + COM_LEVER + 3]
+        lx, ly, lz = lever[0], lever[1], lever[2]
+        R = poses[f, POSE_R : POSE_R + 9]  # column-major: column j at 3 j
+        p = poses[f, POSE_P : POSE_P + 3]
+        c0 = p[0] + R[0] * lx + R[3] * ly + R[6] * lz  # p + R l
+        c1 = p[1] + R[1] * lx + R[4] * ly + R[7] * lz
+        c2 = p[2] + R[2] * lx + R[5] * ly + R[8] * lz
+        c[0] += w * c0
+        c[1] += w * c1
+        c[2] += w * c2
+        for col in range(nv):
+            if ints[cols + i * nv + col]:
+                wx, wy, wz = jw[3, col], jw[4, col], jw[5, col]
+                Jc[0, col] += w * (jw[0, col] + wy * c2 - wz * c1)
+                Jc[1, col] += w * (jw[1, col] + wz * c0 - wx * c2)
+                Jc[2, col] += w * (jw[2, col] + wx * c1 - wy * c0)
+    return c
+
+
+@_jit
 def com_rows(
     q: np.ndarray,
     t: float,
@@ -170,38 +211,38 @@ def com_rows(
     e: np.ndarray,
     v: np.ndarray,
 ) -> None:
-    """The centre of mass (:mod:`redundik.tasks.balance`): c = Σ m_i c_i / M with c_i = p_i + R_i l_i the bodies'
-    centres, J_c = Σ (m_i / M) (J_i^v + ω_i × c_i) on the columns that support body i; e = (c_d − c)[rows],
+    """The centre of mass (:mod:`redundik.tasks.balance`): c and J_c of :func:`com_into`; e = (c_d − c)[rows],
     v = K e.
 
     ``ints`` = (bodies b, r, rows (r), per body its joint's frame id (b), per body its supporting columns (b × nv));
     ``floats`` = (c_d (3) [m], per body m_i / M, l_i (3) [m] (b × 4)) (``tasks.layouts``' ``COM_*``)."""
     nv = jw.shape[1]
-    b, r = ints[COM_NBODIES], ints[COM_NROWS]
-    fids = COM_ROWS + r
-    cols = fids + b
-    c = np.zeros(3)
     Jc = np.zeros((3, nv))
-    for i in range(b):
-        f = ints[fids + i]
-        body = COM_BODIES + COM_BODY * i
-        w = floats[body + COM_MASS]
-        lever = floats[body + COM_LEVER : body + COM_LEVER + 3]
-        lx, ly, lz = lever[0], lever[1], lever[2]
-        R = poses[f, POSE_R : POSE_R + 9]  # column-major: column j at 3 j
-        ci = np.empty(3)
-        for k in range(3):  # p + R l
-            ci[k] = poses[f, POSE_P + k] + R[k] * lx + R[3 + k] * ly + R[6 + k] * lz
-            c[k] += w * ci[k]
-        for col in range(nv):
-            if ints[cols + i * nv + col]:
-                wx, wy, wz = jw[3, col], jw[4, col], jw[5, col]
-                Jc[0, col] += w * (jw[0, col] + wy * ci[2] - wz * ci[1])
-                Jc[1, col] += w * (jw[1, col] + wz * ci[0] - wx * ci[2])
-                Jc[2, col] += w * (jw[2, col] + wx * ci[1] - wy * ci[0])
-    for k in range(r):
+    c = com_into(poses, jw, ints, floats, Jc)
+    for k in range(ints[COM_NROWS]):
         row = ints[COM_ROWS + k]
         e[k] = floats[COM_TARGET + row] - c[row]
         v[k] = gain * e[k]
         for col in range(nv):
             J[k, col] = Jc[row, col]
+
+
+@_jit
+def support_rows(
+    q: np.ndarray, poses: np.ndarray, jw: np.ndarray, ints: np.ndarray, floats: np.ndarray, h: np.ndarray,
+    H: np.ndarray,
+) -> None:  # fmt: skip
+    """The support polygon's barrier (``SupportPolygon``, a ``CompiledBarrier`` writer): per edge i (outward unit
+    normal a_i, offset b_i), h_i = b_i − a_iᵀ S c − m [m] and H_i = −a_iᵀ S J_c, with c, J_c of :func:`com_into` and
+    S the x–y selection (``tasks.layouts``' ``SUP_*`` after the bodies)."""
+    nv = jw.shape[1]
+    Jc = np.zeros((3, nv))
+    c = com_into(poses, jw, ints, floats, Jc)
+    o = COM_BODIES + COM_BODY * ints[COM_NBODIES]
+    margin = floats[o + SUP_MARGIN]
+    for i in range(h.shape[0]):
+        edge = o + SUP_EDGES + SUP_EDGE * i
+        ax, ay = floats[edge + SUP_AX], floats[edge + SUP_AY]
+        h[i] = (floats[edge + SUP_B] - (ax * c[0] + ay * c[1])) - margin
+        for col in range(nv):
+            H[i, col] = -ax * Jc[0, col] + -ay * Jc[1, col]

@@ -21,6 +21,7 @@ import numpy as np
 
 from redundik.errors import NonFiniteRows, TaskError, short_repr
 from redundik.kinematics.model import RobotModel
+from redundik.tasks.barrier_rows import barrier_values, barrier_writer
 from redundik.tasks.base import (
     Barrier,
     ClearanceForm,
@@ -440,12 +441,21 @@ class BoundSubtask(Subtask):
 
     def rows_compiled(self, robot: RobotModel) -> bool:
         """Whether this subtask's rows have a compiled form: the damper rows of a potential with a linear gradient,
-        a compiled writer or a clearance form. ``False`` for a barrier (its rows are its own, from Python: coal's
-        distances, a support polygon), a potential with only a Python gradient, or a subclass with rows of its own:
-        a compiled step writes those from Python and names the subtask (``info["interpreted"]``, a mixed step)."""
-        if self.fixed_rows is None or type(self).rows_into is not BoundSubtask.rows_into:
-            return False
+        a compiled writer or a clearance form, or of a barrier with a compiled writer (``Barrier.compiled_barrier``:
+        the support polygon). ``False`` for a barrier without one (coal's distances), a potential with only a Python
+        gradient, or a subclass with rows of its own: a compiled step writes those from Python and names the subtask
+        (``info["interpreted"]``, a mixed step)."""
         source = self.source
+        if self.fixed_rows is None:  # a barrier: its rows from its compiled writer, when it has one
+            kind = type(self)
+            return (
+                kind.rows is BoundSubtask.rows
+                and kind.values is BoundSubtask.values
+                and getattr(source, "bound_rows", None) is None
+                and barrier_writer(source, robot) is not None
+            )
+        if type(self).rows_into is not BoundSubtask.rows_into:
+            return False
         return isinstance(source, Potential) and (
             self.clearance_form(robot) is not None
             or source.linear_gradient(robot) is not None
@@ -528,11 +538,16 @@ class BoundSubtask(Subtask):
         """(h, H, row names, per-row γ or ``None``) with h ≥ 0 the safe side."""
         src = self.source
         if isinstance(src, Barrier):
-            term = conform_barrier_term(src.evaluate(robot), robot._nv, self.name)
-            h, H = term.h, term.H
+            form = barrier_writer(src, robot)
+            if form is not None:  # (its compiled writer: the same rows as its evaluate)
+                h, H = barrier_values(form, robot)
+                names, gamma = form.names, None if form.gamma == 0 else np.full(h.shape[0], float(form.gamma))
+            else:
+                term = conform_barrier_term(src.evaluate(robot), robot._nv, self.name)
+                h, H, names, gamma = term.h, term.H, term.names, term.gamma
             if not (math.isfinite(float(np.add.reduce(h))) and math.isfinite(float(np.add.reduce(H, axis=None)))):
                 raise NonFiniteRows(self.name)  # (a row the step cannot keep: it stops, naming this subtask)
-            return h, H, self._prefixed(term.names), term.gamma
+            return h, H, self._prefixed(names), gamma
         k = (self.lower is not None) + (self.upper is not None)
         C, d = np.empty((k, robot.nv)), np.empty(k)
         self._damper_into(robot, 1.0, C, d, 0)  # γ = 1: d = h, C = −H
