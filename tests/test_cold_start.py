@@ -343,6 +343,46 @@ def test_a_binding_limit_during_a_cold_start_solves_its_qp_without_the_native_ca
     assert got["found"] == [], got["found"]
 
 
+_SHIPPED_WORLDS = """
+import json
+from redundik.config.loader import load_task
+rk.warm_up(["wqp"], ik=False)
+exec(_LISTENER)  # found: the kernels numba compiles in this (the caller's) thread from now on
+paths = []
+for name in ("humanoid_balance", "panda_shelf"):
+    plan = load_task(TASKS / f"{name}.yaml")
+    run, model = plan.runs["wqp"], plan.robot.model
+    q1 = run.q0.copy()
+    model.update(q1)
+    run.stack.reset(model)
+    for k in range(3):
+        r = run.resolver.step(model, run.stack, q1, k * plan.dt, plan.dt)
+        paths.append(r.info["path"])
+        q1 = model.integrate(q1, r.dq, plan.dt)
+    plan.world.compute(model, 0.1)  # (a run summary's distances)
+    for run in plan.runs.values():  # (the repulsive potentials' gradients)
+        for sub in run.stack.subtasks:
+            if sub.kind == "gradient" and type(sub.potential).__name__ == "CollisionAvoidance":
+                sub.potential.gradient(model)
+print(json.dumps({"found": sorted(set(found)), "paths": paths}))
+"""
+
+
+def test_the_shipped_collision_worlds_compile_nothing_in_the_callers_thread_after_the_warm_up(tmp_path: Path) -> None:
+    """After ``rk.warm_up`` on an empty cache (``wqp``: its collision worlds are a capsule-only one, one with a box
+    and a capsule obstacle, one with a moving obstacle), loading the shipped collision task files and stepping their
+    ``wqp`` runs — TALOS's self-collision damper (capsules only: ``capsule_damper``), the Panda's shelf (a capsule
+    post and boxes, the boxes through coal: ``load_poses``, ``capsule_pairs``, ``barrier_rows``) — then their
+    worlds' distances (``capsule_distances``) and the repulsive potentials' gradients (``distance_rows``) compile
+    nothing in the caller's thread (numba's compile events, by thread)."""
+    got = _run(
+        f"from pathlib import Path\nTASKS = Path({str(SRC.parent / 'tasks')!r})\n" + _SHIPPED_WORLDS,
+        {"REDUNDIK_CACHE_DIR": str(tmp_path), "REDUNDIK_COLD_START": "wait"},
+    )
+    assert got["found"] == [], got["found"]
+    assert set(got["paths"]) == {"mixed"}, got["paths"]  # (the compiled solve; the damper rows from Python)
+
+
 def test_wait_chosen_after_import_compiles_the_kernels_before_the_first_step() -> None:
     """``REDUNDIK_COLD_START=wait`` set after ``import redundik`` (which deferred numba in the default mode): the
     first step decorates the kernels and runs them compiled, in the caller's thread. Before, the steps ran the

@@ -45,9 +45,9 @@ CORE_RANK: dict[str, int] = {
     "__init__": 7,
 }
 #: Modules that are one unit with another: ``warmup`` is the facade's ``warm_up`` (it drives the public API through
-#: ``import redundik``, and ``redundik/__init__.py`` exports it); ``control`` is the facade's fixed-rate loop (it warms
-#: the resolvers up with ``warm_up`` before the first tick).
-SAME_UNIT = {"warmup": "__init__", "control": "__init__"}
+#: ``import redundik``, and ``redundik/__init__.py`` exports it), ``warmup_collision`` its collision part; ``control``
+#: is the facade's fixed-rate loop (it warms the resolvers up with ``warm_up`` before the first tick).
+SAME_UNIT = {"warmup": "__init__", "warmup_collision": "__init__", "control": "__init__"}
 
 
 def _resolve(module: str | None, level: int, path: Path) -> str | None:

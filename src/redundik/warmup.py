@@ -25,8 +25,10 @@ RESOLVERS: tuple[str, ...] = ("pinv", "feedback", "wqp", "hqp")
 def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS, *, ik: bool = True) -> dict[str, float]:
     """Step each resolver of ``resolvers`` a few times on a small arm (a frame task on a trajectory, a target set
     at run time, a posture, a joint centering and the potentials with compiled writers, joint limits; a user's task, a
-    relative pose, target subtasks, and under ``wqp``/``hqp`` a clearance bound that binds), so that the kernels of
-    their compiled and interpreted steps — constrained ones included — are compiled or loaded; with ``ik``, also
+    relative pose, target subtasks, and under ``wqp``/``hqp`` a clearance bound that binds), then on collision worlds
+    (:func:`redundik.warmup_collision.step_collision`: the damper as a bound, the repulsive potential as a gradient),
+    so that the kernels of their compiled and interpreted steps — constrained ones and the collision world's
+    included — are compiled or loaded; with ``ik``, also
     :func:`redundik.solve_ik` (a pose and a position target, and the batch form), under the key ``"solve_ik"``;
     returns the seconds each took.
 
@@ -36,6 +38,7 @@ def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS, *, ik: bool = Tr
     import redundik as rk
     from redundik import _coldstart
     from redundik._kernel_cache import cache_dir
+    from redundik.warmup_collision import step_collision
 
     _coldstart.adopt()  # (numba imported and the deferred kernels decorated: _kernel_cache.defer_numba)
 
@@ -51,6 +54,7 @@ def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS, *, ik: bool = Tr
         resolver = rk.make_resolver(name)
         with _coldstart.compiling():  # this thread's kernel calls compile: none runs interpreted
             _step_both_paths(rk, robot, resolver, q0)
+            step_collision(rk, robot, name, q0)
             _speed_cap()
             if name == "wqp":  # (a step whose limit binds solves its box QP through daqp's C entry point)
                 from redundik.resolvers.qp.wqp_native import warm_native_box

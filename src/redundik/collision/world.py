@@ -210,10 +210,16 @@ class CollisionWorld:
         self._tables()
 
     def _new_data(self) -> None:
-        """Coal's geometry data for :attr:`geometry` (signed distances) and the view of its placements."""
+        """Coal's geometry data for :attr:`geometry` (signed distances) and the view of its placements, taken after
+        the placements are set to the identity: a fresh ``GeometryData`` leaves them uninitialised, and a NaN there
+        fails the view's check of the values (:func:`~redundik.kinematics.memory.se3_vector_view`), which left the
+        world without its one-call damper (``capsule_damper``) for the whole run."""
         self.data = pin.GeometryData(self.geometry)
         for req in self.data.distanceRequests:
             req.enable_signed_distance = True
+        placements = self.data.oMg
+        for g in range(len(placements)):
+            placements[g] = pin.SE3.Identity()
         self._poses, self._poses_of = _placements_view(self.data), self.data  # the view and the data it reads
 
     def _bind_static(self) -> None:
