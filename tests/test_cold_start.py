@@ -276,7 +276,8 @@ def test_a_binding_limit_during_a_cold_start_solves_its_qp_without_the_native_ca
     their QPs through the backend's own solve: daqp's C entry is called by compiled kernels only (their
     interpreted twins cannot: ``RuntimeError`` or ``NotImplementedError`` here before). Once the kernels are loaded
     the native call is decided and used, and the constrained steps compile nothing more in the caller's thread (the
-    warm-up steps a binding bound: ``hqp``'s cascade was compiled at the loop's first constrained step before)."""
+    warm-up steps a binding bound: ``hqp``'s cascade was compiled at the loop's first constrained step before), nor
+    do a target set as an SE3 or a 4×4 matrix, the centre of mass and the support polygon."""
     got = _run(
         """
         import json
@@ -324,6 +325,19 @@ def test_a_binding_limit_during_a_cold_start_solves_its_qp_without_the_native_ca
             r = res.step(panda, s, q1, 0.01 * k, 0.01)
             bound.append((r.info["path"], int(r.info["qp"])))
             q1 = panda.integrate(q1, r.dq, 0.01)
+        # a teleop target in each form, the centre of mass and the support polygon's barrier (their writers)
+        from redundik.tasks.balance import CoMTask, SupportPolygon
+        panda.update(qp0)
+        hand = rk.FrameTask("panda_hand", gain=10.0)
+        s = rk.TaskStack([hand, CoMTask(axes=("x", "y"), weight=0.1), rk.PostureTask(gain=1.0)],
+                         [rk.BoundSubtask(SupportPolygon(["panda_link0"], size=(1.0, 1.0)))])
+        s.reset(panda)
+        home, res, q1 = panda.frame_pose("panda_hand"), rk.make_resolver("wqp"), qp0.copy()
+        for k in range(6):
+            target = [home, home, np.array(home.homogeneous), home.translation][min(k, 3)]
+            hand.set_target(target)
+            q1 = panda.integrate(q1, res.step(panda, s, q1, 0.01 * k, 0.01).dq, 0.01)
+        out["balance"] = list(res.step(panda, s, q1, 0.06, 0.01).info["interpreted"])
         out["bound"], out["found"] = bound, sorted(set(found))
         print(json.dumps(out))
         """,
@@ -340,6 +354,7 @@ def test_a_binding_limit_during_a_cold_start_solves_its_qp_without_the_native_ca
     # after the warm-up: hqp's constrained cascade (a binding limit; a binding clearance bound with a relative pose
     # and a target subtask) on the compiled step, and nothing compiled in the caller's thread
     assert sum(qp for _, qp in got["bound"]) >= 5 and got["bound"][-1][0] == "compiled", got["bound"]
+    assert got["balance"] == [], got["balance"]  # (the CoM's and the support polygon's writers ran)
     assert got["found"] == [], got["found"]
 
 

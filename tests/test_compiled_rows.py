@@ -119,6 +119,32 @@ def test_com_writer_equals_pinocchio(robot_name: str) -> None:
     assert task.form_revision == revision
 
 
+def test_com_writer_on_a_dh_chain_reads_its_bodies_through_their_frames() -> None:
+    """A DH chain has no joint frames (each joint carries its row's frame, placed off the joint): the compiled CoM
+    reads each body through that frame, its lever expressed there — Pinocchio's CoM and J_c to 1e-12; a chain
+    without mass has no compiled CoM (``evaluate``: Pinocchio's)."""
+    rows = [rk.DHRow(str(k), a=0.3, d=0.05 * k, alpha=np.pi / 2 if k % 2 else -np.pi / 2) for k in range(1, 7)]
+    robot = rk.from_dh(rows)
+    task = rk.tasks.CoMTask(target=[0.1, -0.05, 0.4], gain=2.0)
+    assert task.compiled_rows(robot) is None  # (no mass: nothing to weigh)
+    rng = np.random.default_rng(3)
+    model = robot.model
+    for j in range(1, model.njoints):
+        model.inertias[j] = pin.Inertia(rng.uniform(0.5, 2.0), rng.normal(0.0, 0.1, 3), np.eye(3))
+    task = rk.tasks.CoMTask(target=[0.1, -0.05, 0.4], gain=2.0)
+    for _ in range(4):
+        q = rng.uniform(-2.0, 2.0, robot.nq)
+        robot.update(q)
+        form = task.compiled_rows(robot)
+        assert form is not None
+        J, e, v = np.zeros((3, robot.nv)), np.zeros(3), np.zeros(3)
+        write_rows(form, robot, 0.0, task.gain, J, e, v)
+        data = model.createData()
+        Jc = pin.jacobianCenterOfMass(model, data, q)
+        np.testing.assert_allclose(J, Jc, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(e, np.array([0.1, -0.05, 0.4]) - data.com[0], rtol=0, atol=1e-12)
+
+
 @pytest.mark.parametrize("kind", ["relative", "coupling", "user"])
 def test_writer_rows_equal_pinocchio(kind: str) -> None:
     robot, q = _panda()

@@ -24,8 +24,9 @@ RESOLVERS: tuple[str, ...] = ("pinv", "feedback", "wqp", "hqp")
 
 def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS, *, ik: bool = True) -> dict[str, float]:
     """Step each resolver of ``resolvers`` a few times on a small arm (a frame task on a trajectory, a target set
-    at run time, a posture, a joint centering and the potentials with compiled writers, joint limits; a user's task, a
-    relative pose, target subtasks, and under ``wqp``/``hqp`` a clearance bound that binds), then on collision worlds
+    at run time in each accepted form, a posture, a joint centering and the potentials with compiled writers, joint
+    limits; a user's task, a relative pose, target subtasks, the centre of mass, and under ``wqp``/``hqp`` a clearance
+    bound that binds and the support polygon), then on collision worlds
     (:func:`redundik.warmup_collision.step_collision`: the damper as a bound, the repulsive potential as a gradient),
     so that the kernels of their compiled and interpreted steps — constrained ones and the collision world's
     included — are compiled or loaded; with ``ik``, also
@@ -46,7 +47,7 @@ def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS, *, ik: bool = Tr
         "redundik: loading the compiled kernels from %s (a first run on an empty cache compiles them: up to a minute)",
         cache_dir(),
     )
-    robot = rk.from_dh([rk.DHRow(str(k), a=0.3, alpha=np.pi / 2 if k % 2 else -np.pi / 2) for k in range(1, 8)])
+    robot = _arm(rk)
     q0 = np.full(robot.nq, 0.3)
     out: dict[str, float] = {}
     for name in resolvers:
@@ -73,6 +74,18 @@ def warm_up(resolvers: tuple[str, ...] | list[str] = RESOLVERS, *, ik: bool = Tr
         out["solve_ik"] = time.perf_counter() - t0
     _LOG.info("redundik: kernels ready in %.1f s", sum(out.values()))
     return out
+
+
+def _arm(rk: Any) -> Any:
+    """The warm-up's arm: 7 revolute joints of a DH chain (a = 0.3 m, α = ±π/2), a body of 1 kg on each link (its
+    centre of mass 0.15 m along the link), so that the centre-of-mass writers run."""
+    import pinocchio as pin
+
+    robot = rk.from_dh([rk.DHRow(str(k), a=0.3, alpha=np.pi / 2 if k % 2 else -np.pi / 2) for k in range(1, 8)])
+    model = robot.model
+    for j in range(1, model.njoints):
+        model.inertias[j] = pin.Inertia(1.0, np.array([0.15, 0.0, 0.0]), 0.01 * np.eye(3))
+    return robot
 
 
 def _speed_cap() -> None:
@@ -104,7 +117,7 @@ def _step_both_paths(rk: Any, robot: Any, resolver: Any, q0: np.ndarray) -> None
     for fuse in (True, False) if hasattr(resolver, "fuse") else (None,):
         if fuse is not None:
             resolver.fuse = fuse
-        for kind in ("trajectory", "teleop", "user", "relative", "targets", "binding"):
+        for kind in ("trajectory", "teleop", "user", "relative", "targets", "binding", "balance"):
             stack = _stack(rk, robot, resolver.name, kind, q0)
             if stack is None:
                 continue
@@ -114,8 +127,8 @@ def _step_both_paths(rk: Any, robot: Any, resolver: Any, q0: np.ndarray) -> None
             stack.reset(robot)
             home = robot.frame_pose("7")
             for k in range(3):
-                if kind == "teleop":
-                    task.set_target(home.translation + 0.001 * k)
+                if kind == "teleop":  # (each accepted form: an SE3, twice — the hold made, then written in place —
+                    _set_target(task, home, k)  # a 4×4 matrix, a position)
                 q = robot.integrate(q, resolver.step(robot, stack, q, k * 0.01, 0.01).dq, 0.01)
 
 
@@ -123,7 +136,8 @@ def _stack(rk: Any, robot: Any, resolver: str, kind: str, q0: np.ndarray) -> Any
     """The warm-up's stack of ``kind`` for ``resolver`` (``None``: a kind the resolver refuses): a frame task (on a
     trajectory, or re-targeted), then the posture and the gradients; a user's task among them (the mixed step); a
     relative pose (``RelativePoseTask``'s writer); target subtasks (the feedback law, a QP's weighted rows); a bound
-    on a clearance that binds from the first step (``wqp``'s rows QP, ``hqp``'s constrained cascade)."""
+    on a clearance that binds from the first step (``wqp``'s rows QP, ``hqp``'s constrained cascade); the centre of
+    mass (``CoMTask``'s writer) and, under a QP resolver, the support polygon's barrier (its writer)."""
     from redundik.resolvers.base import _WARNED_MIXED
 
     teleop = kind == "teleop"
@@ -138,6 +152,12 @@ def _stack(rk: Any, robot: Any, resolver: str, kind: str, q0: np.ndarray) -> Any
         if resolver == "pinv":
             return None
         return rk.TaskStack([task], [rk.TargetSubtask(rk.JointCentering(), target=0.5, rate=1.0)])
+    if kind == "balance":  # the centre of mass as a task, and (QP resolvers) the support polygon's barrier
+        from redundik.tasks.balance import CoMTask, SupportPolygon
+
+        com = CoMTask(axes=("x", "y"), gain=1.0, weight=0.1)
+        support = [rk.BoundSubtask(SupportPolygon(["2"], size=(1.0, 1.0), margin=0.0))] if qp else []
+        return rk.TaskStack([task, com, rk.PostureTask(gain=1.0)], support)
     if kind == "binding":
         if not qp:
             return None
@@ -149,6 +169,19 @@ def _stack(rk: Any, robot: Any, resolver: str, kind: str, q0: np.ndarray) -> Any
     if qp:  # (a bound on a clearance: its compiled damper rows)
         subs.append(rk.BoundSubtask(rk.Clearance("6", [1.0, 1.0, 1.0], 0.1), lower=0.01))
     return rk.TaskStack([task, rk.PostureTask(gain=1.0)], subs)
+
+
+def _set_target(task: Any, home: Any, k: int) -> None:
+    """Step k's re-targeting of the teleop stack's frame task (``home``: the frame's pose at the start): an SE3
+    twice at k = 0 (the first makes the task's hold, the second is written into it), its 4×4 matrix at k = 1, a
+    position at k = 2."""
+    if k == 0:
+        task.set_target(home)
+        task.set_target(home)
+    elif k == 1:
+        task.set_target(np.array(home.homogeneous))
+    else:
+        task.set_target(home.translation + 0.001 * k)
 
 
 def _user_task(rk: Any) -> Any:

@@ -58,21 +58,26 @@ _RK = KernelNamespace("redundik.tasks.row_kernels")
 
 
 def com_layout(robot: RobotModel, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """(ints, floats) of ``row_kernels.com_rows`` for ``robot`` (the target slots zero), or ``None`` when a body's
-    joint has no frame of its own at the joint (its pose is not among the frames' placements)."""
+    """(ints, floats) of ``row_kernels.com_rows`` for ``robot`` (the target slots zero), or ``None`` when the robot
+    has no mass or a body's joint carries no frame (its pose is not among the frames' placements). A body is read
+    through the frame at its joint (a URDF's joint frame) or, without one, through the first frame on its joint (a
+    DH chain's), its lever then expressed in that frame."""
     model, nv = robot.model, robot.nv
     total = sum(model.inertias[j].mass for j in range(1, model.njoints))
     if not total > 0.0:
         return None
-    joint_frame = {}
+    joint_frame: dict[int, int] = {}
+    any_frame: dict[int, int] = {}
     for f, frame in enumerate(model.frames):
-        if frame.type == pin.FrameType.JOINT and frame.placement.isIdentity() and frame.parentJoint not in joint_frame:
-            joint_frame[frame.parentJoint] = f
+        any_frame.setdefault(frame.parentJoint, f)
+        if frame.type == pin.FrameType.JOINT and frame.placement.isIdentity():
+            joint_frame.setdefault(frame.parentJoint, f)
     fids, columns, floats = [], [], [0.0] * COM_BODIES  # (the target c_d from COM_TARGET: written by the task)
     for j in range(1, model.njoints):
-        if j not in joint_frame:
+        fid = joint_frame.get(j, any_frame.get(j))
+        if fid is None:
             return None
-        fids.append(joint_frame[j])
+        fids.append(fid)
         col = np.zeros(nv, dtype=np.int64)
         for s in model.supports[j]:
             if s > 0:
@@ -81,7 +86,10 @@ def com_layout(robot: RobotModel, rows: np.ndarray) -> tuple[np.ndarray, np.ndar
         inertia = model.inertias[j]
         body = [0.0] * COM_BODY
         body[COM_MASS] = inertia.mass / total
-        body[COM_LEVER : COM_LEVER + 3] = np.asarray(inertia.lever, dtype=float).tolist()
+        lever = np.asarray(inertia.lever, dtype=float)
+        if fid != joint_frame.get(j):  # (the lever in the frame's coordinates: x_f = M_f⁻¹ x_joint)
+            lever = np.asarray(model.frames[fid].placement.actInv(lever), dtype=float)
+        body[COM_LEVER : COM_LEVER + 3] = lever.tolist()
         floats += body
     head = [0] * COM_ROWS
     head[COM_NBODIES], head[COM_NROWS] = len(fids), len(rows)
