@@ -168,7 +168,8 @@ def test_a_malformed_writer_is_refused_with_the_barriers_name(form: Any, message
 
 def test_humanoid_balance_names_only_the_collision_barrier() -> None:
     """The shipped balance run: the support polygon's rows come from its writer; only coal's collision barrier is
-    written from Python (``info["interpreted"]``)."""
+    written from Python (``info["interpreted"]``), on the compiled step and in the names a step that is not fused
+    gives (the support polygon, a potential too, was named there by its lack of a compiled gradient)."""
     plan = load_task(TASKS / "humanoid_balance.yaml")
     robot = plan.robot.model
     for name, run in plan.runs.items():
@@ -178,3 +179,5 @@ def test_humanoid_balance_names_only_the_collision_barrier() -> None:
             res = run.resolver.step(robot, run.stack, q, k * 0.01, 0.01)
             q = robot.integrate(q, res.dq, 0.01)
         assert set(res.info["interpreted"]) == {"self_collision"}, (name, res.info["interpreted"])
+        # (the names a step that is not fused reports, e.g. during a cold start: the same)
+        assert run.resolver._interpreted_members(robot, run.stack) == ("self_collision",), name

@@ -409,10 +409,11 @@ class Resolver(ABC):
             rows_compiled = getattr(sub, "rows_compiled", None)  # (a bound subtask: its rows' compiled form)
             if (
                 not compiled_capable
-                or (rows_compiled is not None and not rows_compiled(robot))
+                or (rows_compiled is not None and not rows_compiled(robot))  # (a bound subtask: its rows decide)
                 or (rows_compiled is None and potential is None)
                 or (
-                    potential is not None
+                    rows_compiled is None
+                    and potential is not None
                     and potential.linear_gradient(robot) is None
                     and compiled_writer(potential, robot) is None
                 )
