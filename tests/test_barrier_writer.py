@@ -181,3 +181,26 @@ def test_humanoid_balance_names_only_the_collision_barrier() -> None:
         assert set(res.info["interpreted"]) == {"self_collision"}, (name, res.info["interpreted"])
         # (the names a step that is not fused reports, e.g. during a cold start: the same)
         assert run.resolver._interpreted_members(robot, run.stack) == ("self_collision",), name
+
+
+@numba.njit
+def _nan_rows(q, poses, jw, ints, floats, h, H):  # type: ignore[no-untyped-def]
+    """A broken writer: h = NaN."""
+    h[0] = np.nan
+
+
+@pytest.mark.parametrize("method", ["wqp", "hqp"])
+def test_a_writer_that_gives_nan_stops_the_step_and_names_the_subtask(method: str) -> None:
+    """A barrier writer whose h is not finite: the step stops (q̇ = 0, no NaN in the output) and its fallback names
+    the bound subtask; the robot's state stays valid."""
+    robot = rk.load_example_robot("panda")
+    q = np.array([0.1, -0.5, 0.2, -2.0, 0.1, 1.6, 0.7, 0.02, 0.02])
+    robot.update(q)
+    form = rk.CompiledBarrier(_nan_rows, 1, np.zeros(1, dtype=np.int64), np.zeros(1), ["z"])
+    bound = rk.BoundSubtask(_Floor("panda_hand", 0.2, form), name="broken_floor")
+    stack = rk.TaskStack([rk.FrameTask("panda_hand", rk.Circle(0.05, 2.0, ("y", "z"))), rk.PostureTask()], [bound])
+    stack.reset(robot)
+    res = rk.make_resolver(method)
+    for k in range(3):
+        out = res.step(robot, stack, q, 0.01 * k, 0.01)
+        assert np.all(out.dq == 0.0) and out.fallback is not None and "broken_floor" in out.fallback, out.fallback
