@@ -13,13 +13,14 @@ The twins are put in the lazy kernel namespaces (:class:`redundik._kernel_cache.
 ``HK`` of the resolvers, the tasks' and the collision world's — every resolver and task reaches its kernels through
 one) and in place of any kernel bound in a module global; the kernel modules themselves are never touched (numba
 reads their globals when it compiles). ``Resolver.step``'s check of q, which runs before the resolver asks, takes
-the twin while :func:`cold`. Before the first step (:func:`serve_twins`) the namespaces hand out the twins
-themselves: what runs then — loading a task file (its collision world, its tasks' rows, a resolver's check), a
-target set ahead of the loop — compiles nothing in the caller's thread either. The cost, measured: an interpreted
-``pinv`` step of a 7-joint arm 0.17 ms on the twins, 0.3–0.4 ms while the thread compiles (it holds the
-interpreter's lock for much of its work; single steps up to some 60 ms). When the thread is done it puts the
-compiled kernels back, and the resolver takes its compiled step from its next step on: no indirection is left on the
-hot path.
+the twin while :func:`cold`. While a task file loads (:func:`loading`) the namespaces hand out the twins
+themselves (:func:`serve_twins`): its collision world, its stacks' rows and a resolver's check compile nothing in the
+caller's thread; ``FrameTask.set_target`` ahead of the loop takes its twins itself (:func:`twins_of`).
+
+The cost, measured: an interpreted ``pinv`` step of a 7-joint arm 0.17 ms on the twins, 0.3–0.4 ms while the thread
+compiles (it holds the interpreter's lock for much of its work; single steps up to some 60 ms). When the thread is done
+it puts the compiled kernels back, and the resolver takes its compiled step from its next step on: no indirection is
+left on the hot path.
 
 Numba itself is imported by that thread, not before the first step: ``import redundik`` in a background-compiling
 process defers numba (:func:`redundik._kernel_cache.defer_numba`, when no one imported it yet), so the kernel
@@ -37,11 +38,13 @@ caller's thread (numba's default).
 from __future__ import annotations
 
 import atexit
+import contextlib
 import logging
 import os
 import sys
 import threading
 import types
+from collections.abc import Iterator
 from typing import Any
 
 from redundik import _kernel_cache
@@ -59,6 +62,7 @@ _lock = threading.Lock()
 _worker: threading.Thread | None = None
 _saved: list[tuple[dict[str, Any], str, Any]] = []  # (namespace, key, original) of every switch put in place
 _twins: dict[int, Any] = {}  # id(dispatcher) → its twin
+_loading = threading.local()  # its ``depth``: how many :func:`loading` blocks this thread is in
 _compiled_wanted = False  # compiled_now() was called: the namespaces hand out the kernels, not their twins
 #: ``redundik.warmup.warm_up``, set by the package's facade (this base module imports nothing above it).
 WARM_UP: Any = None
@@ -101,9 +105,24 @@ def cold() -> bool:
 
 def serve_twins() -> bool:
     """True while the kernel namespaces hand out twins rather than fill themselves (:data:`_kernel_cache.SERVE_TWINS
-    <redundik._kernel_cache.SERVE_TWINS>`): no resolver's kernels loaded in a background-compiling process that did
-    not ask for compiled kernels (:func:`compiled_now`). Costs a set's truth test once a resolver is hot."""
-    return not HOT and not _compiled_wanted and background()
+    <redundik._kernel_cache.SERVE_TWINS>`): in this thread, inside :func:`loading` (a task file's load), while no
+    resolver's kernels are loaded in a background-compiling process that did not ask for compiled kernels
+    (:func:`compiled_now`). Costs an attribute read outside a load."""
+    return getattr(_loading, "depth", 0) > 0 and not HOT and not _compiled_wanted and background()
+
+
+@contextlib.contextmanager
+def loading() -> Iterator[None]:
+    """Inside: what runs before a loop's first step — a task file's load (its collision world, its stacks' rows, a
+    resolver's check) — takes the kernels' interpreted twins while the process is cold (:func:`serve_twins`), so
+    that it compiles nothing in the caller's thread. Outside, a kernel called before the first step compiles (or
+    loads) as it is called; ``FrameTask.set_target`` ahead of the loop takes its twins itself (:func:`twins_of`)."""
+    depth = getattr(_loading, "depth", 0)
+    _loading.depth = depth + 1
+    try:
+        yield
+    finally:
+        _loading.depth = depth
 
 
 def twin_here(kernel: Any) -> Any:
@@ -302,6 +321,33 @@ def twin(kernel: Any) -> Any:
             return kernel
         _build_twins()
     return _twins[id(kernel)]
+
+
+class _Twins:
+    """A kernel namespace seen through its twins (:func:`twins_of`); its other attributes (constants) as they are."""
+
+    def __init__(self, space: Any) -> None:
+        self._space = space
+
+    def __getattr__(self, name: str) -> Any:
+        value = getattr(self._space, name)
+        return twin(value) if isinstance(value, _Switch) or _kernel_cache.is_kernel(value) else value
+
+
+_twin_spaces: dict[int, _Twins] = {}
+
+
+def twins_of(space: Any) -> Any:
+    """``space`` (a :class:`~redundik._kernel_cache.KernelNamespace`) while no resolver's kernels are loaded in a
+    background-compiling process (:func:`cold`): a view of it whose kernels are their twins — for a kernel called
+    before the first step (``FrameTask.set_target`` ahead of the loop), which would otherwise compile in the
+    caller's thread. Otherwise ``space`` itself. Costs a set's truth test once a resolver is hot."""
+    if HOT or not cold():
+        return space
+    view = _twin_spaces.get(id(space))
+    if view is None:
+        view = _twin_spaces[id(space)] = _Twins(space)
+    return view
 
 
 def _build_twins() -> None:

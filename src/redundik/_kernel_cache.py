@@ -254,8 +254,8 @@ def _as_is(kernel: Any) -> Any:
 
 
 #: Whether a kernel namespace hands out twins now instead of filling itself, and what it hands out for a kernel
-#: then: :mod:`redundik._coldstart` sets them (no resolver's kernels loaded in a background-compiling process; the
-#: kernel's interpreted twin, the kernel itself in a thread that compiles).
+#: then: :mod:`redundik._coldstart` sets them (a task file's load in a background-compiling process, no resolver's
+#: kernels loaded yet; the kernel's interpreted twin, the kernel itself in a thread that compiles).
 SERVE_TWINS: Callable[[], bool] = _never
 TWIN_HERE: Callable[[Any], Any] = _as_is
 
@@ -264,11 +264,11 @@ class KernelNamespace:
     """The compiled kernels of a module (a dotted name), imported on first use (numba loads then, not when redundik
     is imported); after the first access every kernel is a plain attribute.
 
-    While :data:`SERVE_TWINS` (a background cold start before any resolver's kernels are loaded) a namespace stays
-    empty and hands out each kernel's interpreted twin (:data:`TWIN_HERE`): a kernel called before the first step —
-    a task file's collision world, task rows or a resolver's check evaluated while it loads, a target set ahead of
-    the loop — runs its own code interpreted instead of compiling in the caller's thread. It fills itself at its
-    first access after that. A cold start's first step fills every namespace and puts switches to the twins in it
+    While :data:`SERVE_TWINS` (a task file's load, before any resolver's kernels are loaded in a background cold
+    start: ``_coldstart.loading``) a namespace stays empty and hands out each kernel's interpreted twin
+    (:data:`TWIN_HERE`): the load's collision world, task rows and resolver checks run their own code interpreted
+    instead of compiling in the caller's thread. It fills itself at its first access after that. A cold start's
+    first step fills every namespace and puts switches to the twins in it
     while the kernels compile (:mod:`redundik._coldstart`)."""
 
     def __init__(self, module: str) -> None:

@@ -11,6 +11,8 @@ import sys
 
 import numpy as np
 
+from redundik._coldstart import HOT as _HOT
+from redundik._coldstart import twins_of
 from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError, short_repr
 from redundik.tasks.base import BarrierTerm, TaskTerm, check_term
@@ -181,9 +183,10 @@ def conform_reference(ref: object, owner: str) -> tuple[np.ndarray, np.ndarray, 
                 f"{owner}: its trajectory's reference gave p of shape {p.shape}, R of shape {R.shape} and twist of "
                 f"shape {twist.shape}; expected (3,), (3, 3) and (6,)"
             )
+    tk = _TK if _HOT else twins_of(_TK)  # (their twins until a resolver's kernels are loaded: no compile here)
     # (any finite position is resolved as asked, as a compiled Line's is: the joint-speed cap and the divergence
     # watch see to what a huge one asks)
-    if _TK.reference_status(p, R, RIGID_TOLERANCE, math.inf) == _NOT_RIGID:
+    if tk.reference_status(p, R, RIGID_TOLERANCE, math.inf) == _NOT_RIGID:
         raise TaskError(f"{owner}: its trajectory's reference rotation is not a rotation: {short_repr(R)}")
     return p, R, twist
 

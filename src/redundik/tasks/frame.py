@@ -8,6 +8,8 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
+from redundik._coldstart import HOT as _HOT
+from redundik._coldstart import twins_of
 from redundik._kernel_cache import KernelNamespace
 from redundik.errors import TaskError, short_repr
 from redundik.kinematics.model import AXES, LWA, RobotModel
@@ -246,18 +248,19 @@ class FrameTask(Task):
         traj = self._trajectory
         row = traj._kparams if traj is self._held else None
         if row is not None:  # our own started hold: the target is data, written in place
+            tk = _TK if _HOT else twins_of(_TK)  # (their twins until a resolver's kernels are loaded: no compile here)
             status = -1
             if type(target) is _SE3:  # (first, with its own return: the common form)
-                if _TK.pose_into(target.homogeneous, row, RIGID_TOLERANCE, MAX_COORDINATE) == _STATUS_OK:  # type: ignore[union-attr]
+                if tk.pose_into(target.homogeneous, row, RIGID_TOLERANCE, MAX_COORDINATE) == _STATUS_OK:  # type: ignore[union-attr]
                     traj._revision += 1
                     traj._given = True  # type: ignore[attr-defined]  # (traj is self._held, a Hold): kept by a reset
                     self._pending_position = None
                     return
             elif type(target) is np.ndarray and target.dtype == np.float64:
                 if target.shape == (4, 4):
-                    status = _TK.pose_into(target, row, RIGID_TOLERANCE, MAX_COORDINATE)
+                    status = tk.pose_into(target, row, RIGID_TOLERANCE, MAX_COORDINATE)
                 elif target.shape == (3,):
-                    status = _TK.position_into(target, row, MAX_COORDINATE)
+                    status = tk.position_into(target, row, MAX_COORDINATE)
             if status == _STATUS_OK:
                 traj._revision += 1
                 traj._given = True  # type: ignore[attr-defined]  # (traj is self._held, a Hold): kept by a reset
