@@ -19,6 +19,9 @@ import pytest
 import redundik as rk
 from redundik import _coldstart
 from redundik import _kernel_cache as kc
+from redundik.collision import world as collision_world
+from redundik.config.loader import TaskPlan, load_task
+from redundik.tasks import frame
 from tests.compile_events import LISTENER as _LISTENER
 
 SRC = kc.PACKAGE_ROOT.parent
@@ -39,14 +42,14 @@ def stack():
 """
 
 
-def _run(code: str, env: dict[str, str], timeout: float = 900) -> dict[str, object]:
-    """Run ``code`` (after the test problem's definitions) in a fresh interpreter; its last stdout line as JSON
-    (with its stderr under ``"stderr"``)."""
+def _run(code: str, env: dict[str, str], timeout: float = 900, prelude: str = _PROBLEM) -> dict[str, object]:
+    """Run ``code`` (after ``prelude``: the test problem's definitions) in a fresh interpreter; its last stdout line
+    as JSON (with its stderr under ``"stderr"``)."""
     full = {**os.environ, "PYTHONPATH": str(SRC), **env}
     if "REDUNDIK_COLD_START" not in env:
         full.pop("REDUNDIK_COLD_START", None)  # (the suite's conftest waits; the default compiles in the background)
     out = subprocess.run(
-        [sys.executable, "-c", _PROBLEM + f"_LISTENER = {_LISTENER!r}\n" + textwrap.dedent(code)],
+        [sys.executable, "-c", prelude + f"_LISTENER = {_LISTENER!r}\n" + textwrap.dedent(code)],
         env=full,
         capture_output=True,
         text=True,
@@ -134,6 +137,86 @@ def test_no_kernel_compiles_in_the_callers_thread_during_a_cold_start(tmp_path: 
     )
     assert got["found"] == [], got["found"]
     assert set(got["paths"]) == {"interpreted"}  # (all the steps ran before the thread finished: on the twins)
+
+
+def test_loading_the_shipped_collision_and_relative_task_files_compiles_nothing_in_the_callers_thread(
+    tmp_path: Path,
+) -> None:
+    """On an empty cache, loading ``panda_shelf.yaml`` (a collision world with boxes: ``load_poses``,
+    ``capsule_pairs``; relative poses: ``relative_rows``, ``log3``) and ``humanoid_balance.yaml`` (TALOS's capsules:
+    ``capsule_distances``), then resetting and stepping one run of each, compiles nothing in the caller's thread:
+    the kernel namespaces hand out twins before the first step. Numba is imported before redundik, so that every
+    kernel is numba's from the start (with numba deferred, a load compiled only if it outlasted
+    ``_coldstart.ADOPT_DELAY``)."""
+    got = _run(
+        f"""
+        exec(_LISTENER)  # found: the kernels numba compiles in this (the caller's) thread from now on
+        import json
+        import numpy as np
+        from redundik import _kernel_cache
+        from redundik.config.loader import load_task
+        plans = [(load_task({str(SRC.parent / "tasks")!r} + f"/{{name}}.yaml"), run)
+                 for name, run in (("panda_shelf", "wqp"), ("humanoid_balance", "hqp"))]
+        firsts = []
+        for plan, name in plans:
+            run, robot = plan.runs[name], plan.robot.model
+            run.stack.reset(robot)
+            r = run.resolver.step(robot, run.stack, run.q0.copy(), 0.0, plan.dt)
+            firsts.append([bool(np.isfinite(r.dq).all() and np.abs(r.dq).max() > 0), r.info["path"]])
+        print(json.dumps({{"found": sorted(set(found)), "firsts": firsts, "deferred": _kernel_cache.deferred()}}))
+        """,
+        {"REDUNDIK_CACHE_DIR": str(tmp_path)},
+        timeout=300,
+        prelude="",
+    )
+    assert got["deferred"] is False  # (numba imported first: the kernels are dispatchers)
+    assert got["found"] == [], got["found"]
+    assert got["firsts"] == [[True, "interpreted"]] * 2, got["firsts"]
+
+
+def _fresh_namespaces(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every kernel namespace of redundik's loaded modules replaced by an empty one (this test's only), and the
+    namespaces told to hand out twins: what a background cold start does before its first step."""
+    for name, module in list(sys.modules.items()):
+        if not name.startswith("redundik."):
+            continue
+        for key, value in list(vars(module).items()):
+            if isinstance(value, kc.KernelNamespace):
+                fresh = object.__new__(type(value))
+                fresh.__dict__["_module"] = value.__dict__["_module"]
+                monkeypatch.setattr(module, key, fresh)
+    monkeypatch.setattr(kc, "SERVE_TWINS", lambda: True)
+
+
+def _rows(plan: TaskPlan) -> list[np.ndarray]:
+    """Each run's task rows (J, v, e) at q0 and t = 0.1 s, and the collision world's distances and witness points."""
+    out: list[np.ndarray] = []
+    robot = plan.robot.model
+    for run in plan.runs.values():
+        robot.update(run.q0)
+        run.stack.reset(robot)
+        for term in run.stack.evaluate(robot, 0.1):
+            out += [np.array(term.J), np.array(term.v), np.array(term.error)]
+    world = plan.world
+    if world is not None:
+        dist = world.compute(robot)
+        out += [np.array(dist.d), np.array(dist.p1), np.array(dist.p2)]
+    return out
+
+
+@pytest.mark.parametrize("name", ["panda_shelf", "humanoid_balance", "dualarm17"])
+def test_a_task_file_loaded_on_twins_gives_the_compiled_rows(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A task file loaded and evaluated through the kernels' twins (a cold start before its first step: the
+    collision world's pairs and distances, the frame and relative-pose rows, the feedback resolver's check) gives
+    the rows and distances of the compiled kernels."""
+    path = SRC.parent / "tasks" / f"{name}.yaml"
+    compiled = _rows(load_task(path))
+    _fresh_namespaces(monkeypatch)
+    twins = _rows(load_task(path))
+    assert "frame_error" not in vars(frame._K) and "load_poses" not in vars(collision_world.KC)  # (twins handed out)
+    assert len(twins) == len(compiled) > 0
+    for a, b in zip(twins, compiled, strict=True):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)
 
 
 def test_read_only_package_folder_caches_to_the_user_folder(tmp_path: Path) -> None:

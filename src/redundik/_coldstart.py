@@ -9,22 +9,27 @@ kernels into the on-disk cache of :mod:`redundik._kernel_cache`, or loading them
   interpreter with NumPy, its calls to other kernels bound to their twins — the same code, so the same answers to
   rounding, and no compilation in the caller's thread.
 
-The twins are put in the lazy kernel namespaces of :mod:`redundik.resolvers.linalg` (``K``, ``FK``, ``HK``: every
-resolver and task reaches its kernels through them) and in place of any kernel bound in a module global; the kernel
-modules themselves are never touched (numba reads their globals when it compiles). ``Resolver.step``'s check of q,
-which runs before the resolver asks, takes the twin while :func:`cold`. The cost, measured: an interpreted ``pinv``
-step of a 7-joint arm 0.17 ms on the twins, 0.3–0.4 ms while the thread compiles (it holds the interpreter's lock
-for much of its work; single steps up to some 60 ms). When the thread is done it puts
-the compiled kernels back, and the resolver takes its compiled step from its next step on: no indirection is left
-on the hot path.
+The twins are put in the lazy kernel namespaces (:class:`redundik._kernel_cache.KernelNamespace`: ``K``, ``FK``,
+``HK`` of the resolvers, the tasks' and the collision world's — every resolver and task reaches its kernels through
+one) and in place of any kernel bound in a module global; the kernel modules themselves are never touched (numba
+reads their globals when it compiles). ``Resolver.step``'s check of q, which runs before the resolver asks, takes
+the twin while :func:`cold`. While a task file loads (:func:`loading`) the namespaces hand out the twins
+themselves (:func:`serve_twins`): its collision world, its stacks' rows and a resolver's check compile nothing in the
+caller's thread; ``FrameTask.set_target`` ahead of the loop takes its twins itself (:func:`twins_of`).
+
+The cost, measured: an interpreted ``pinv`` step of a 7-joint arm 0.17 ms on the twins, 0.3–0.4 ms while the thread
+compiles (it holds the interpreter's lock for much of its work; single steps up to some 60 ms). When the thread is done
+it puts the compiled kernels back, and the resolver takes its compiled step from its next step on: no indirection is
+left on the hot path.
 
 Numba itself is imported by that thread, not before the first step: ``import redundik`` in a background-compiling
 process defers numba (:func:`redundik._kernel_cache.defer_numba`, when no one imported it yet), so the kernel
 modules hold their plain functions, which the first steps run as twins; the thread imports numba, decorates them
 (:func:`adopt`) and hands the dispatchers to whatever held the functions. Importing numba and decorating the kernels
 took about 0.2 s of every first q̇; the first step is now a few milliseconds. An entry point that wants compiled
-kernels from its first call (``solve_ik``, the batch API) decorates them at once (:func:`compiled_now`); a process
-that never steps a resolver decorates them in a thread of its own :data:`ADOPT_DELAY` after it first uses a kernel.
+kernels from its first call (``solve_ik``, the batch API) decorates them at once (:func:`compiled_now`), and the
+namespaces hand out the kernels from then on; a process that never steps a resolver decorates them in a thread of
+its own :data:`ADOPT_DELAY` after it first uses a kernel (what it reaches through a namespace stays a twin).
 
 ``REDUNDIK_COLD_START=wait`` turns this off: numba is imported with the kernels and the first step compiles in the
 caller's thread (numba's default).
@@ -33,11 +38,13 @@ caller's thread (numba's default).
 from __future__ import annotations
 
 import atexit
+import contextlib
 import logging
 import os
 import sys
 import threading
 import types
+from collections.abc import Iterator
 from typing import Any
 
 from redundik import _kernel_cache
@@ -55,6 +62,8 @@ _lock = threading.Lock()
 _worker: threading.Thread | None = None
 _saved: list[tuple[dict[str, Any], str, Any]] = []  # (namespace, key, original) of every switch put in place
 _twins: dict[int, Any] = {}  # id(dispatcher) → its twin
+_loading = threading.local()  # its ``depth``: how many :func:`loading` blocks this thread is in
+_compiled_wanted = False  # compiled_now() was called: the namespaces hand out the kernels, not their twins
 #: ``redundik.warmup.warm_up``, set by the package's facade (this base module imports nothing above it).
 WARM_UP: Any = None
 
@@ -92,6 +101,34 @@ def cold() -> bool:
     """True while no resolver's kernels are loaded in a background-compiling process (outside a compiling thread):
     a kernel called now would compile in the caller's thread, its twin (:func:`twin`) does not."""
     return not HOT and background() and threading.get_ident() not in _compilers
+
+
+def serve_twins() -> bool:
+    """True while the kernel namespaces hand out twins rather than fill themselves (:data:`_kernel_cache.SERVE_TWINS
+    <redundik._kernel_cache.SERVE_TWINS>`): in this thread, inside :func:`loading` (a task file's load), while no
+    resolver's kernels are loaded in a background-compiling process that did not ask for compiled kernels
+    (:func:`compiled_now`). Costs an attribute read outside a load."""
+    return getattr(_loading, "depth", 0) > 0 and not HOT and not _compiled_wanted and background()
+
+
+@contextlib.contextmanager
+def loading() -> Iterator[None]:
+    """Inside: what runs before a loop's first step — a task file's load (its collision world, its stacks' rows, a
+    resolver's check) — takes the kernels' interpreted twins while the process is cold (:func:`serve_twins`), so
+    that it compiles nothing in the caller's thread. Outside, a kernel called before the first step compiles (or
+    loads) as it is called; ``FrameTask.set_target`` ahead of the loop takes its twins itself (:func:`twins_of`)."""
+    depth = getattr(_loading, "depth", 0)
+    _loading.depth = depth + 1
+    try:
+        yield
+    finally:
+        _loading.depth = depth
+
+
+def twin_here(kernel: Any) -> Any:
+    """What a namespace hands out for ``kernel`` while :func:`serve_twins`: its twin (:func:`twin`), or the kernel
+    itself in a thread that compiles."""
+    return kernel if threading.get_ident() in _compilers else twin(kernel)
 
 
 def compiled_here() -> bool:
@@ -275,10 +312,13 @@ class _Switch:
 
 def twin(kernel: Any) -> Any:
     """The twin of a kernel made by :func:`redundik._kernel_cache.jit`: its Python function with every kernel it
-    calls bound to that kernel's twin (built for all kernels at the first request)."""
+    calls bound to that kernel's twin (built for all kernels at the first request). A twin (what a namespace hands
+    out before the first step) is its own twin."""
     if isinstance(kernel, _Switch):  # (a namespace holds the kernel's switch during a cold start)
         return kernel.twin
     if id(kernel) not in _twins:
+        if not _kernel_cache.is_kernel(kernel):
+            return kernel
         _build_twins()
     return _twins[id(kernel)]
 
@@ -342,7 +382,7 @@ def _install(compiled_too: bool = False) -> None:
         spaces[id(space)] = space
         for value in list(space.values()):
             if isinstance(value, _kernel_cache.KernelNamespace):
-                value.__getattr__("__name__")  # imports its module and fills its namespace
+                value.fill()  # imports its module and fills its namespace
                 spaces[id(value.__dict__)] = value.__dict__
     _build_twins()  # (after the namespaces loaded their modules)
     kernels = {id(d): d for funcs in list(_kernel_cache.KERNELS.values()) for d in list(funcs.values())}
@@ -406,9 +446,18 @@ _kernel_cache.FIRST_USE.append(_adopt_soon)
 
 def compiled_now() -> None:
     """For an entry point that wants compiled kernels from its first call (``solve_ik``, the batch API): numba
-    imported and the deferred kernels decorated now, in the caller's thread (a no-op once done)."""
+    imported and the deferred kernels decorated now, in the caller's thread (a no-op once done), and the kernel
+    namespaces hand out the kernels from now on, not their twins (:func:`serve_twins`). In a compiling thread only
+    the decoration."""
+    global _compiled_wanted
     if _kernel_cache.deferred():
         adopt()
+    if threading.get_ident() not in _compilers:
+        _compiled_wanted = True
+
+
+_kernel_cache.SERVE_TWINS = serve_twins
+_kernel_cache.TWIN_HERE = twin_here
 
 
 def _redundik_modules() -> list[tuple[str, types.ModuleType]]:

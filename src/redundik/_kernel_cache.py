@@ -245,20 +245,52 @@ def materialize() -> dict[int, Any]:
         return DISPATCHERS
 
 
+def _never() -> bool:
+    return False
+
+
+def _as_is(kernel: Any) -> Any:
+    return kernel
+
+
+#: Whether a kernel namespace hands out twins now instead of filling itself, and what it hands out for a kernel
+#: then: :mod:`redundik._coldstart` sets them (a task file's load in a background-compiling process, no resolver's
+#: kernels loaded yet; the kernel's interpreted twin, the kernel itself in a thread that compiles).
+SERVE_TWINS: Callable[[], bool] = _never
+TWIN_HERE: Callable[[Any], Any] = _as_is
+
+
 class KernelNamespace:
     """The compiled kernels of a module (a dotted name), imported on first use (numba loads then, not when redundik
-    is imported); after the first access every kernel is a plain attribute. A cold start
-    (:mod:`redundik._coldstart`) puts the kernels' interpreted twins in these namespaces while they compile."""
+    is imported); after the first access every kernel is a plain attribute.
+
+    While :data:`SERVE_TWINS` (a task file's load, before any resolver's kernels are loaded in a background cold
+    start: ``_coldstart.loading``) a namespace stays empty and hands out each kernel's interpreted twin
+    (:data:`TWIN_HERE`): the load's collision world, task rows and resolver checks run their own code interpreted
+    instead of compiling in the caller's thread. It fills itself at its first access after that. A cold start's
+    first step fills every namespace and puts switches to the twins in it
+    while the kernels compile (:mod:`redundik._coldstart`)."""
 
     def __init__(self, module: str) -> None:
         self.__dict__["_module"] = module
 
-    def __getattr__(self, name: str) -> Any:
+    def _kernels(self) -> Any:
+        """The kernel module, imported on first use."""
         import importlib
 
         if _deferred:  # (kernels wanted while numba is deferred: decorated soon, whatever the caller does next)
             for hook in FIRST_USE:
                 hook()
-        kernels = importlib.import_module(self.__dict__["_module"])
-        self.__dict__.update({k: v for k, v in vars(kernels).items() if not k.startswith("__")})
-        return getattr(kernels, name)
+        name = self.__dict__["_module"]
+        return sys.modules.get(name) or importlib.import_module(name)
+
+    def fill(self) -> None:
+        """Import the module and copy its public names into this namespace (its kernels as the module holds them)."""
+        self.__dict__.update({k: v for k, v in vars(self._kernels()).items() if not k.startswith("__")})
+
+    def __getattr__(self, name: str) -> Any:
+        value = getattr(self._kernels(), name)
+        if SERVE_TWINS():  # (cold: the twin, and the namespace left empty)
+            return TWIN_HERE(value) if is_kernel(value) else value
+        self.fill()
+        return value

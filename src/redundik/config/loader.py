@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from redundik import _coldstart
 from redundik.config import world_types  # registers collision / balance YAML types (issue 12)
 from redundik.config.builders import (
     MONITORS,
@@ -161,6 +162,12 @@ def load_task(source: str | Path | dict[str, Any], base_dir: Path | None = None)
     Raises:
         ConfigError: the first problem found, with its YAML key path.
     """
+    with _coldstart.loading():  # (cold: the kernels' twins, nothing compiled in the caller's thread)
+        return _load_task(source, base_dir)
+
+
+def _load_task(source: str | Path | dict[str, Any], base_dir: Path | None) -> TaskPlan:
+    """:func:`load_task`'s work."""
     if isinstance(source, dict):
         data, path = source, None
         base = base_dir or Path.cwd()
