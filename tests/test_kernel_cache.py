@@ -7,6 +7,7 @@ from __future__ import annotations
 import ast
 import shutil
 from pathlib import Path
+from typing import Any
 
 from redundik import _kernel_cache as kc
 
@@ -85,3 +86,26 @@ def test_a_change_to_a_dependency_changes_the_stamp(tmp_path: Path) -> None:
     after = kc.sources_stamp(tmp_path)
     assert after != before
     assert after != kc.sources_stamp(SRC)
+
+
+def test_a_namespace_waits_for_an_import_another_thread_has_under_way(tmp_path: Path, monkeypatch: Any) -> None:
+    """A kernel namespace read while another thread (the cold start's compiling one) is still importing its module
+    gets the module once made, not the half-made one in ``sys.modules`` (an ``AttributeError``, "partially
+    initialized module", in the benchmark's cold-start case before)."""
+    import importlib
+    import sys
+    import threading
+    import time
+
+    (tmp_path / "slow_kernels_for_test.py").write_text("import time\ntime.sleep(0.5)\nanswer = 42\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "slow_kernels_for_test", raising=False)
+    importer = threading.Thread(target=importlib.import_module, args=("slow_kernels_for_test",))
+    importer.start()
+    while "slow_kernels_for_test" not in sys.modules:  # (the other thread's import under way)
+        time.sleep(0.001)
+    try:
+        assert kc.KernelNamespace("slow_kernels_for_test").answer == 42
+    finally:
+        importer.join()
+        sys.modules.pop("slow_kernels_for_test", None)

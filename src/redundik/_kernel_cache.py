@@ -281,8 +281,9 @@ class KernelNamespace:
         if _deferred:  # (kernels wanted while numba is deferred: decorated soon, whatever the caller does next)
             for hook in FIRST_USE:
                 hook()
-        name = self.__dict__["_module"]
-        return sys.modules.get(name) or importlib.import_module(name)
+        # (import_module, not sys.modules: it waits for an import another thread has under way — the cold start's
+        # compiling thread — where sys.modules would give the module half made)
+        return importlib.import_module(self.__dict__["_module"])
 
     def fill(self) -> None:
         """Import the module and copy its public names into this namespace (its kernels as the module holds them)."""
