@@ -117,6 +117,15 @@ def _run_native(enabled: bool, seed: int, monkeypatch: pytest.MonkeyPatch) -> tu
     return out, taken[0]
 
 
+def _assert_same_steps(native: list[tuple[Any, ...]], template: list[tuple[Any, ...]], seed: int) -> None:
+    """Each step's q̇, kept q̇ (when recorded), info, relaxations and fallback, bit for bit."""
+    for a, b in zip(native, template, strict=True):
+        np.testing.assert_array_equal(a[1], b[1], err_msg=f"seed {seed}, step {a[0]}")
+        if a[2] is not None:
+            np.testing.assert_array_equal(a[2], b[2])
+        assert a[3:] == b[3:], (seed, a[0])
+
+
 def test_bound_rows_qp_through_daqps_native_call_is_the_templates_answer(monkeypatch: pytest.MonkeyPatch) -> None:
     """A step whose bound rows bind solves its QP (box and rows) through daqp's C entry point: the template's
     q̇ bit for bit, its kept q̇, info (``bound_violation`` included), relaxations and fallbacks."""
@@ -130,11 +139,7 @@ def test_bound_rows_qp_through_daqps_native_call_is_the_templates_answer(monkeyp
         template, taken_off = _run_native(False, seed, monkeypatch)
         native_steps += taken
         assert taken_off == 0
-        for a, b in zip(native, template, strict=True):
-            np.testing.assert_array_equal(a[1], b[1], err_msg=f"seed {seed}, step {a[0]}")
-            if a[2] is not None:
-                np.testing.assert_array_equal(a[2], b[2])
-            assert a[3:] == b[3:], (seed, a[0])
+        _assert_same_steps(native, template, seed)
     assert native_steps > 20, native_steps
 
 
@@ -265,11 +270,7 @@ def test_a_qp_with_safety_rows_through_daqps_native_call_is_the_templates_answer
         template, taken_off = _safety_run(False, seed, monkeypatch)
         native_steps += taken
         assert taken_off == 0
-        for a, b in zip(native, template, strict=True):
-            np.testing.assert_array_equal(a[1], b[1], err_msg=f"seed {seed}, step {a[0]}")
-            if a[2] is not None:
-                np.testing.assert_array_equal(a[2], b[2])
-            assert a[3:] == b[3:], (seed, a[0])
+        _assert_same_steps(native, template, seed)
     if declines:
         assert native_steps == 0
     else:

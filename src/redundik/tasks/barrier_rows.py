@@ -13,17 +13,10 @@ import numpy as np
 from redundik.errors import TaskError
 from redundik.kinematics.model import RobotModel
 from redundik.tasks.base import Barrier, CompiledBarrier
+from redundik.tasks.potential_rows import _definer
 from redundik.tasks.rows import kinematic_views, writer_problems
 
 __all__ = ["barrier_values", "barrier_writer"]
-
-
-def _definer(kind: type, name: str) -> type:
-    """The class of ``kind``'s MRO whose body defines ``name``."""
-    for klass in kind.__mro__:
-        if name in vars(klass):
-            return klass
-    return object
 
 
 #: Per barrier class: whether its compiled writer gives its rows (the class that defines ``compiled_barrier`` is
