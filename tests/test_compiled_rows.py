@@ -217,6 +217,33 @@ def test_compiled_writer_step_equals_per_task_path(method: str, kind: str) -> No
         q = copies[0][0].integrate(q, a.dq, DT)
 
 
+@pytest.mark.parametrize("method", ["pinv", "wqp", "hqp"])
+@pytest.mark.parametrize("kind", ["relative", "user"])
+def test_a_compiled_writers_terms_read_after_later_steps_are_those_of_their_step(method: str, kind: str) -> None:
+    """A result keeps its step's rows: its terms, read only after the loop has stepped on (the QP's least-squares
+    buffers rewritten since), equal the per-task path's at that step."""
+    copies = []
+    for fuse in (True, False):
+        robot, q = _panda()
+        stack = _stack(_make(kind))
+        stack.reset(robot)
+        res = rk.make_resolver(method)
+        res.fuse = fuse  # type: ignore[attr-defined]
+        copies.append((robot, stack, res))
+    q = copies[0][0].q.copy()
+    kept = []
+    for k in range(8):
+        a, b = (res.step(robot, stack, q, k * DT, DT) for robot, stack, res in copies)
+        assert a.info["path"] == "compiled"
+        kept.append((a, [(t.J.copy(), t.v.copy(), t.error.copy()) for t in b.terms]))
+        q = copies[0][0].integrate(q, a.dq, DT)
+    for a, expected in kept:
+        for term, (J, v, e) in zip(a.terms, expected, strict=True):
+            np.testing.assert_allclose(term.J, J, rtol=0, atol=1e-12)
+            np.testing.assert_allclose(term.v, v, rtol=0, atol=1e-11)
+            np.testing.assert_allclose(term.error, e, rtol=0, atol=1e-12)
+
+
 def test_user_writer_tracks_its_target() -> None:
     """The user's task, compiled, drives the elbow's height to its target while the hand holds (pinv)."""
     robot, q = _panda()
@@ -254,7 +281,7 @@ class BadForm(CompiledTask):
         (CompiledRows(_height_rows, 1, np.zeros(2), np.zeros(0)), "ints must be a 1-D int64"),
     ],
 )
-@pytest.mark.parametrize("method", ["pinv", "wqp"])
+@pytest.mark.parametrize("method", ["pinv", "wqp", "hqp"])
 def test_bad_writer_is_named(form: object, words: str, method: str) -> None:
     robot, q = _panda()
     stack = _stack(BadForm(form))

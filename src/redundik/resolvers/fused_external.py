@@ -169,6 +169,35 @@ class PythonWriters:
         self.repacked = False
         return terms
 
+    def take_direct_level_rows(
+        self, robot: RobotModel, t: float, dest: np.ndarray, lsq: tuple[np.ndarray, np.ndarray, np.ndarray],
+        ev: np.ndarray, Jx: np.ndarray,
+    ) -> list[TaskTerm | None]:  # fmt: skip
+        """:meth:`take_direct_rows` for ``hqp``, whose least-squares buffers (A, b, w of ``lsq``) outlive the step:
+        each member's compiled writer called at t on its rows of the step's ``Jx`` (zeros, one block of the
+        members' rows in order) and of ``ev`` (2, m), then its J, v and weight put into the rows ``dest`` gives it
+        (a member's rows are contiguous there); the terms are views on the step's blocks."""
+        A, b, w = lsq
+        q, poses, jw = robot.q, self.poses, self.jw
+        e_all, v_all = ev[0], ev[1]
+        terms: list[TaskTerm | None] = []
+        row = 0
+        for _, _, member, _, a, end, writer in self.writes:
+            assert isinstance(writer, CompiledRows)
+            r = end - a
+            J, e, v = Jx[row : row + r], e_all[a:end], v_all[a:end]
+            row += r
+            writer.kernel(q, t, poses, jw, writer.ints, writer.floats, member.gain, J, e, v)
+            weight = member.weight
+            if r:
+                d = int(dest[a])
+                A[d : d + r] = J
+                b[d : d + r] = v
+                w[d : d + r] = weight
+            terms.append(TaskTerm(member.name, J, v, e, weight))
+        self.repacked = False
+        return terms
+
     def evaluate_external(
         self, robot: RobotModel, t: float, direct: bool = False, given: list[Any] | None = None
     ) -> list[TaskTerm | None] | None:

@@ -368,7 +368,10 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         t0 = time.perf_counter()
         n = robot._nv
         external: list[TaskTerm | None] | tuple[()] = ()
-        if fused.external:  # members without a compiled form: their rows and z terms from Python (before the
+        direct = fused.direct_main and fused.direct_rows == fused.external_rows  # compiled row writers only:
+        if direct:  # called below, straight into the step's blocks and the cascade's rows
+            fused.pending_external = None
+        elif fused.external:  # members without a compiled form: their rows and z terms from Python (before the
             evaluated = fused.pending_external  # bounds: a moved row count moves the levels' offsets)
             fused.pending_external = None
             if evaluated is None:
@@ -395,12 +398,17 @@ class HierarchicalQPResolver(DirectionScaling, ConstrainedCascade):
         refs = fused.given_references(t) if fused.given else fused.refs
         prev = limits.previous(self._dq_prev)
         K_, m, levels = len(fused.frames), fused.m, plan.meta.shape[1] - 1
-        work = np.zeros(HFK.step_work_size(K_, m, n, levels))  # out, Jf, ev, z, stats: one allocation
-        if fused.lie_joints or external:  # (Python writes into e, z before the call: the block's first parts)
+        size = HFK.step_work_size(K_, m, n, levels)
+        # out, Jf, ev, z, stats (and the compiled writers' J rows after them): one allocation
+        work = np.zeros(size + sum(fused.external_rows) * n if direct else size)
+        if fused.lie_joints or external or direct:  # (Python writes into e, z before the call: the first parts)
             ev, z = work[: 2 * m].reshape(2, m), work[2 * m : 2 * m + n]
             if fused.lie_joints:
                 fused.write_joint_errors(robot, ev[0])
-            if external and fused.plain_rows:  # a user's own tasks only: their blocks put straight into the buffers
+            if direct:
+                Jx = work[size:].reshape(-1, n)
+                external = fused.take_direct_level_rows(robot, t, plan.dest, (plan.A, plan.b, plan.w), ev, Jx)
+            elif external and fused.plain_rows:  # a user's own tasks only: their blocks put straight into the buffers
                 fused.put_plain_level_rows(external, plan.dest, plan.A, plan.b, plan.w, ev)
             elif external:
                 fused.write_external(robot, external, None, 0, ev, None, z)
