@@ -518,6 +518,8 @@ class RobotModel:
                 if fid is not None:
                     return fid
             return self.frame_id(frame)
+        if type(frame) is int and 0 <= frame < self.model.nframes:  # (an id, as a task keeps it: two tests)
+            return frame
         if isinstance(frame, (int, np.integer)) and not isinstance(frame, bool):
             fid = int(frame)
             if 0 <= fid < self.model.nframes:
