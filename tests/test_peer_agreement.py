@@ -1,0 +1,81 @@
+"""``wqp`` and pink solve the same weighted problem (``docs/from-pink-and-mink.md``'s mapping: a pink cost c is a weight
+c², a pink gain α is K = α/dt, a posture of cost c sits at ``level_ratio`` = c²). A frame task's error differs only at
+second order — pink's is the body twist log6(T_bt) with Jacobian −Jlog6(T_tb)·J_local, redundik's the base-aligned
+position error and log3 with the base-aligned Jacobian —, so on the same small problem their q̇ agree to first order
+in the error. Skipped without the ``peers`` extra."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import redundik as rk
+
+pink = pytest.importorskip("pink", reason="pin-pink is not installed (optional extra redundik[peers])")
+
+pytestmark = pytest.mark.peers
+
+DT = 0.01
+HOME = np.array([0.0, -0.785, 0.0, -2.356, 0.0, 1.571, 0.785, 0.02, 0.02])
+TOOL = "panda_hand_tcp"
+
+
+def _problem(seed: int, size: float) -> tuple[rk.RobotModel, np.ndarray, pin.SE3, float]:
+    """The Panda at a configuration ``size`` away from home, a hand goal ``size`` away from its pose there; the
+    largest error of the problem (hand position [m], rotation [rad], posture [rad])."""
+    rng = np.random.default_rng(seed)
+    robot = rk.load_example_robot("panda")
+    q = HOME.copy()
+    q[:7] += size * rng.uniform(-1.0, 1.0, 7)
+    robot.update(q)
+    hand = robot.frame_pose(TOOL)
+    goal = pin.SE3(
+        hand.rotation @ pin.exp3(size * rng.uniform(-1.0, 1.0, 3)), hand.translation + size * rng.uniform(-1.0, 1.0, 3)
+    )
+    error = max(np.abs(pin.log6(hand.actInv(goal)).vector).max(), np.abs(q - HOME).max())
+    return robot, q, goal, error
+
+
+def _pink_dq(robot: rk.RobotModel, q: np.ndarray, goal: pin.SE3, cost: float) -> np.ndarray:
+    """pink's velocity: a frame task of costs 1 and gain 1, a posture of ``cost`` and gain 1 towards home, no limits."""
+    configuration = pink.Configuration(robot.model, robot.model.createData(), q)
+    hand = pink.tasks.FrameTask(TOOL, position_cost=1.0, orientation_cost=1.0, gain=1.0)
+    hand.set_target(goal)
+    posture = pink.tasks.PostureTask(cost=cost, gain=1.0)
+    posture.set_target(HOME)
+    return np.asarray(pink.solve_ik(configuration, [hand, posture], DT, solver="daqp", damping=1e-12, limits=[]))
+
+
+def _wqp_dq(robot: rk.RobotModel, q: np.ndarray, goal: pin.SE3, level_ratio: float) -> np.ndarray:
+    """redundik's ``wqp`` on the same problem, mapped: K = α/dt, the posture's level at ``level_ratio``, no limits,
+    no damping, no speed cap."""
+    hand, posture = rk.FrameTask(TOOL, gain=1.0 / DT), rk.PostureTask(gain=1.0 / DT)
+    stack = rk.TaskStack([hand, posture])
+    robot.update(q)
+    stack.reset(robot)
+    hand.set_target(goal)
+    posture.set_target(HOME)
+    resolver = rk.make_resolver(
+        "wqp", backend="daqp", level_ratio=level_ratio, damping=0.0, lm_damping=0.0, max_joint_speed=None,
+        limits=rk.JointLimits(position=False, velocity=False),
+    )  # fmt: skip
+    result = resolver.step(robot, stack, q, 0.0, DT)
+    assert result.fallback is None, result.fallback
+    return np.asarray(result.dq)
+
+
+@pytest.mark.parametrize("size", [1e-5, 1e-4, 1e-3])
+@pytest.mark.parametrize("seed", range(3))
+def test_wqp_and_pink_give_the_same_velocity_to_first_order_in_the_error(seed: int, size: float) -> None:
+    robot, q, goal, error = _problem(seed, size)
+    cost = 1e-2
+    v_pink = _pink_dq(robot, q, goal, cost)
+    dq = _wqp_dq(robot, q, goal, cost**2)
+    scale = np.abs(v_pink).max()
+    assert scale > 1e-3  # (the problem asks for motion)
+    gap = np.abs(dq - v_pink).max() / scale
+    assert gap <= 2.0 * error, (gap, error)
+    # the mapping matters: the posture's level at c instead of c² is another problem, ten times outside that bound
+    wrong = np.abs(_wqp_dq(robot, q, goal, cost) - v_pink).max() / scale
+    assert wrong > 10.0 * max(gap, 2.0 * error), (wrong, gap, error)
