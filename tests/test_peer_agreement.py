@@ -1,8 +1,8 @@
-"""``wqp`` and pink solve the same weighted problem (``docs/from-pink-and-mink.md``'s mapping: a pink cost c is a weight
-c², a pink gain α is K = α/dt, a posture of cost c sits at ``level_ratio`` = c²). A frame task's error differs only at
-second order — pink's is the body twist log6(T_bt) with Jacobian −Jlog6(T_tb)·J_local, redundik's the base-aligned
-position error and log3 with the base-aligned Jacobian —, so on the same small problem their q̇ agree to first order
-in the error. Skipped without the ``peers`` extra."""
+"""``wqp``, pink and mink solve the same weighted problem under ``docs/from-pink-and-mink.md``'s mapping (a peer's
+cost c is a weight c², its gain α is K = α/dt, a posture of cost c sits at ``level_ratio`` = c²). Their frame error is
+the body twist log6 with the Jacobian −Jlog6·J_local; redundik's is the base-aligned position error and log3 with the
+base-aligned Jacobian. The two agree at zero error, so on the same small problem the q̇ agree to first order in the
+error. Skipped without the ``peers`` extra."""
 
 from __future__ import annotations
 
@@ -13,6 +13,11 @@ import pytest
 import redundik as rk
 
 pink = pytest.importorskip("pink", reason="pin-pink is not installed (optional extra redundik[peers])")
+mink = pytest.importorskip("mink", reason="mink is not installed (optional extra redundik[peers])")
+
+from redundik.kinematics.urdf import EXAMPLE_ROBOTS, example_robot_data_dir  # noqa: E402 - after the skips
+from redundik.peers import JointMap  # noqa: E402
+from redundik.simulation.mujoco_model import mujoco_from_urdf  # noqa: E402
 
 pytestmark = pytest.mark.peers
 
@@ -47,6 +52,25 @@ def _pink_dq(robot: rk.RobotModel, q: np.ndarray, goal: pin.SE3, cost: float) ->
     return np.asarray(pink.solve_ik(configuration, [hand, posture], DT, solver="daqp", damping=1e-12, limits=[]))
 
 
+def _mink_dq(robot: rk.RobotModel, q: np.ndarray, goal: pin.SE3, cost: float) -> np.ndarray:
+    """mink's velocity on the same problem, its MuJoCo model made from the same URDF (a site at the hand), mapped
+    back to redundik's joint order."""
+    model = mujoco_from_urdf(example_robot_data_dir() / EXAMPLE_ROBOTS["panda"][0], robot, [TOOL])
+    joints = JointMap.from_mujoco(robot, model)
+    configuration = mink.Configuration(model, joints.to_peer_q(q))
+    hand = mink.FrameTask(TOOL, "site", position_cost=1.0, orientation_cost=1.0, gain=1.0)
+    hand.set_target(mink.SE3.from_matrix(goal.homogeneous))
+    posture = mink.PostureTask(model, cost=cost, gain=1.0)
+    posture.set_target(joints.to_peer_q(HOME))
+    v = np.asarray(mink.solve_ik(configuration, [hand, posture], DT, solver="daqp", damping=1e-12, limits=[]))
+    out = np.zeros(robot.nv)
+    out[joints.rk_v] = v[joints.peer_v]
+    return out
+
+
+PEERS = {"pink": _pink_dq, "mink": _mink_dq}
+
+
 def _wqp_dq(robot: rk.RobotModel, q: np.ndarray, goal: pin.SE3, level_ratio: float) -> np.ndarray:
     """redundik's ``wqp`` on the same problem, mapped: K = α/dt, the posture's level at ``level_ratio``, no limits,
     no damping, no speed cap."""
@@ -67,15 +91,16 @@ def _wqp_dq(robot: rk.RobotModel, q: np.ndarray, goal: pin.SE3, level_ratio: flo
 
 @pytest.mark.parametrize("size", [1e-5, 1e-4, 1e-3])
 @pytest.mark.parametrize("seed", range(3))
-def test_wqp_and_pink_give_the_same_velocity_to_first_order_in_the_error(seed: int, size: float) -> None:
+@pytest.mark.parametrize("peer", sorted(PEERS))
+def test_wqp_and_a_peer_give_the_same_velocity_to_first_order_in_the_error(peer: str, seed: int, size: float) -> None:
     robot, q, goal, error = _problem(seed, size)
     cost = 1e-2
-    v_pink = _pink_dq(robot, q, goal, cost)
+    v_peer = PEERS[peer](robot, q, goal, cost)
     dq = _wqp_dq(robot, q, goal, cost**2)
-    scale = np.abs(v_pink).max()
+    scale = np.abs(v_peer).max()
     assert scale > 1e-3  # (the problem asks for motion)
-    gap = np.abs(dq - v_pink).max() / scale
+    gap = np.abs(dq - v_peer).max() / scale
     assert gap <= 2.0 * error, (gap, error)
     # the mapping matters: the posture's level at c instead of c² is another problem, ten times outside that bound
-    wrong = np.abs(_wqp_dq(robot, q, goal, cost) - v_pink).max() / scale
+    wrong = np.abs(_wqp_dq(robot, q, goal, cost) - v_peer).max() / scale
     assert wrong > 10.0 * max(gap, 2.0 * error), (wrong, gap, error)
