@@ -5,6 +5,8 @@ per-task path, and the path is reported as compiled."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numba
 import numpy as np
 import pinocchio as pin
@@ -193,17 +195,24 @@ def _make(kind: str) -> Task:
     return ElbowHeight(0.45)
 
 
-@pytest.mark.parametrize("method", ["pinv", "wqp", "hqp"])
-@pytest.mark.parametrize("kind", ["relative", "coupling", "user", "com"])
-def test_compiled_writer_step_equals_per_task_path(method: str, kind: str) -> None:
+def _fused_and_per_task(method: str, kind: str) -> list[tuple[RobotModel, rk.TaskStack, Any]]:
+    """The same stack with a ``kind`` member, twice: (robot, stack, resolver) on the fused step, then on the per-task
+    path."""
     copies = []
     for fuse in (True, False):
-        robot, q = _panda()
+        robot, _ = _panda()
         stack = _stack(_make(kind))
         stack.reset(robot)
         res = rk.make_resolver(method)
         res.fuse = fuse  # type: ignore[attr-defined]
         copies.append((robot, stack, res))
+    return copies
+
+
+@pytest.mark.parametrize("method", ["pinv", "wqp", "hqp"])
+@pytest.mark.parametrize("kind", ["relative", "coupling", "user", "com"])
+def test_compiled_writer_step_equals_per_task_path(method: str, kind: str) -> None:
+    copies = _fused_and_per_task(method, kind)
     q = copies[0][0].q.copy()
     for k in range(25):
         a, b = (res.step(robot, stack, q, k * DT, DT) for robot, stack, res in copies)
@@ -222,14 +231,7 @@ def test_compiled_writer_step_equals_per_task_path(method: str, kind: str) -> No
 def test_a_compiled_writers_terms_read_after_later_steps_are_those_of_their_step(method: str, kind: str) -> None:
     """A result keeps its step's rows: its terms, read only after the loop has stepped on (the QP's least-squares
     buffers rewritten since), equal the per-task path's at that step."""
-    copies = []
-    for fuse in (True, False):
-        robot, q = _panda()
-        stack = _stack(_make(kind))
-        stack.reset(robot)
-        res = rk.make_resolver(method)
-        res.fuse = fuse  # type: ignore[attr-defined]
-        copies.append((robot, stack, res))
+    copies = _fused_and_per_task(method, kind)
     q = copies[0][0].q.copy()
     kept = []
     for k in range(8):
