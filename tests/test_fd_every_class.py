@@ -108,6 +108,8 @@ CASES: dict[type, list[tuple[str, Case]]] = {
     PostureTask: [
         ("dh", on(_dh, lambda: PostureTask())),
         ("talos_free_flyer", on(_talos, lambda: PostureTask())),
+        ("talos_actuated", on(_talos, lambda: PostureTask(joints="actuated"))),
+        ("talos_some_joints", on(_talos, lambda: PostureTask(joints=["root_joint", "arm_left_4_joint"]))),
     ],
     CoMTask: [("talos", on(_talos, lambda: CoMTask()))],
     ContactTask: [("talos_sole", on(_talos, lambda: ContactTask("left_sole_link")))],

@@ -104,3 +104,64 @@ def test_wqp_and_a_peer_give_the_same_velocity_to_first_order_in_the_error(peer:
     # the mapping matters: the posture's level at c instead of c² is another problem, ten times outside that bound
     wrong = np.abs(_wqp_dq(robot, q, goal, cost) - v_peer).max() / scale
     assert wrong > 10.0 * max(gap, 2.0 * error), (wrong, gap, error)
+
+
+GRIPPER = "gripper_left_joint"
+
+
+def _talos_problem(seed: int, size: float) -> tuple[rk.RobotModel, np.ndarray, np.ndarray, pin.SE3, float]:
+    """TALOS (a free flyer) with its joints ``size`` away from a reference inside their limits, a gripper goal
+    ``size`` away; the reference, and the largest error of the problem."""
+    rng = np.random.default_rng(seed)
+    robot = rk.load_example_robot("talos")
+    ref = robot.neutral()
+    lower, upper = robot.lower_limits[6:], robot.upper_limits[6:]
+    ref[7:] = np.clip(ref[7:], lower + 2 * size, upper - 2 * size)
+    q = ref.copy()
+    q[7:] += size * rng.uniform(-1.0, 1.0, robot.nq - 7)
+    robot.update(q)
+    hand = robot.frame_pose(GRIPPER)
+    goal = pin.SE3(
+        hand.rotation @ pin.exp3(size * rng.uniform(-1.0, 1.0, 3)), hand.translation + size * rng.uniform(-1.0, 1.0, 3)
+    )
+    error = max(np.abs(pin.log6(hand.actInv(goal)).vector).max(), np.abs(q - ref).max())
+    return robot, q, ref, goal, error
+
+
+@pytest.mark.parametrize("size", [1e-5, 1e-4, 1e-3])
+@pytest.mark.parametrize("seed", range(2))
+def test_on_a_floating_base_pinks_posture_is_a_posture_on_the_actuated_joints(seed: int, size: float) -> None:
+    """pink's posture leaves the root joint out. Mapped as ``PostureTask(joints="actuated")`` in the frame task's
+    level with weight c² (pink's problem: ‖task‖² + c²‖posture‖² + damping), ``wqp`` gives pink's q̇ to first order
+    in the error; the same posture over every coordinate (the base pulled towards the reference's) does not."""
+    robot, q, ref, goal, error = _talos_problem(seed, size)
+    cost = 1e-2
+    configuration = pink.Configuration(robot.model, robot.model.createData(), q)
+    hand = pink.tasks.FrameTask(GRIPPER, position_cost=1.0, orientation_cost=1.0, gain=1.0)
+    hand.set_target(goal)
+    posture = pink.tasks.PostureTask(cost=cost, gain=1.0)
+    posture.set_target(ref)
+    v_pink = np.asarray(
+        pink.solve_ik(configuration, [hand, posture], DT, solver="daqp", damping=1e-12, limits=[], safety_break=False)
+    )
+
+    def wqp(joints: str | None) -> np.ndarray:
+        task = rk.FrameTask(GRIPPER, gain=1.0 / DT)
+        stack = rk.TaskStack([task, rk.PostureTask(ref, joints=joints, gain=1.0 / DT, priority=0, weight=cost**2)])
+        robot.update(q)
+        stack.reset(robot)
+        task.set_target(goal)
+        resolver = rk.make_resolver(
+            "wqp", backend="daqp", damping=0.0, lm_damping=0.0, max_joint_speed=None,
+            limits=rk.JointLimits(position=False, velocity=False),
+        )  # fmt: skip
+        result = resolver.step(robot, stack, q, 0.0, DT)
+        assert result.fallback is None and result.info["path"] == "compiled", (result.fallback, result.info)
+        return np.asarray(result.dq)
+
+    scale = np.abs(v_pink).max()
+    assert scale > 1e-3 and np.abs(v_pink[:6]).max() > 0.1 * scale  # (pink moves the base)
+    gap = np.abs(wqp("actuated") - v_pink).max() / scale
+    assert gap <= 2.0 * error, (gap, error)
+    wrong = np.abs(wqp(None) - v_pink).max() / scale
+    assert wrong > 10.0 * max(gap, 2.0 * error), (wrong, gap, error)

@@ -353,7 +353,11 @@ def register(
         if over.hidden:
             read.append(Param(pname, None, over.convert))
             continue
-        ann, conv = _derive(pname, hints.get(pname, Any), doc, default)
+        conv: Converter | None
+        if over.annotation is not None and over.convert is not None:  # (both given: nothing to derive)
+            ann, conv = over.annotation, over.convert
+        else:
+            ann, conv = _derive(pname, hints.get(pname, Any), doc, default)
         ann = over.annotation if over.annotation is not None else ann
         conv = over.convert if over.convert is not None else conv
         if over.default is not None:

@@ -21,7 +21,7 @@ from redundik.config import schema as s
 from redundik.config.builders import Context, TorqueMonitor, check_axes, frame_list
 from redundik.config.registry import POSITIVE, As, OptVec3, configuration, joint_unit, per_joint, register
 from redundik.config.robot import rpy_matrix
-from redundik.errors import ConfigError
+from redundik.errors import ConfigError, TaskError
 from redundik.kinematics import AXES
 from redundik.tasks import (
     BestPosture,
@@ -42,6 +42,7 @@ from redundik.tasks import (
     RelativePoseTask,
     VirtualPoint,
 )
+from redundik.tasks.joint_selection import check_joint_selection, selected_coordinates
 
 
 def _rpy(value: Any, ctx: Context, path: str, spec: Any) -> np.ndarray:
@@ -52,6 +53,18 @@ def _plane(value: Any, ctx: Context, path: str, spec: Any) -> tuple[str, str]:
     if value[0] == value[1]:
         raise ConfigError(f"expected two different axes, got {value}", path)
     return (value[0], value[1])
+
+
+def _posture_joints(value: Any, ctx: Context, path: str, spec: Any) -> Any:
+    """A posture's ``joints`` (``actuated`` or joint names), checked against the robot here, with the key path."""
+    if value is None:
+        return None
+    try:
+        joints = check_joint_selection(value, "posture")
+        selected_coordinates(ctx.robot, joints, "posture")
+    except TaskError as exc:
+        raise ConfigError(str(exc).removeprefix("posture: "), path) from None
+    return joints
 
 
 def _relative_target(value: Any, ctx: Context, path: str, spec: Any) -> np.ndarray | None:
@@ -122,7 +135,15 @@ register(
 
 # ---------------------------------------------------------------------------------------------------- main tasks
 register("frame", "task", FrameTask, params={"gain": As(default=0.0, bounds={"ge": 0})})
-register("posture", "task", PostureTask, params={"target": As(convert=configuration("nq"))})
+register(
+    "posture",
+    "task",
+    PostureTask,
+    params={
+        "target": As(convert=configuration("nq")),
+        "joints": As(annotation=s.Name | list[s.Name] | None, convert=_posture_joints),
+    },
+)
 register("joint_coupling", "task", JointCoupling, params={"offset": As(convert=joint_unit("joint_i"))})
 register("potential", "task", PotentialTask)
 register(

@@ -89,6 +89,7 @@ class FusedPlan(PythonWriters):
         self.kparams: list[Any] = []
         self.targets: list[np.ndarray] = []
         self.null_targets: list[np.ndarray] = []
+        self.null_masks: list[np.ndarray] = []  # per null task: 1 on the coordinates it covers (its joint form's)
         self.gradient_forms: list[Form] = []
         self.scales: list[float] = []  # ρ^k per frame task, then per level joint task
         self.null_scale = 0.0
@@ -184,14 +185,8 @@ class FusedPlan(PythonWriters):
             form = task.joint_form(robot) if frame_form is None else None
             lie = form is not None and bool((iq[form[0]] < 0).any())  # a coordinate that is not a subtraction
             if i in null_tasks:
-                if form is not None and task.identity_jacobian and form[0].shape[0] == robot.nv and not lie:
-                    plan.order.append(("n", len(plan.nulls)))
-                    plan.nulls.append(task)
-                    plan.null_targets.append(form[1])
-                elif not mixed:
+                if not plan.add_null(task, form, lie, robot.nv, bool(mixed)):
                     return None
-                else:
-                    plan.add_external(task, LIE_NULL if form is not None and lie else NULL, 1.0)
             elif scales is None:  # pinv: a main task without a frame form; a task below it is only evaluated
                 if not mixed:
                     return None
@@ -304,7 +299,7 @@ class FusedPlan(PythonWriters):
             for (role, member, _), writer in zip(self.external, writers, strict=True)
             if role != LIE_NULL and writer is None
         )
-        nulls = self.gradient_forms + [(np.ones(nv), target) for target in self.null_targets]
+        nulls = self.gradient_forms + list(zip(self.null_masks, self.null_targets, strict=True))
         N = len(nulls)
         forms = self.forms
         self.fids = [int(f.fid) for f in forms]
@@ -536,6 +531,20 @@ class FusedPlan(PythonWriters):
             return cell[0]
 
         return make
+
+    def add_null(self, task: Task, form: Form | None, lie: bool, nv: int, mixed: bool) -> bool:
+        """A null-space objective's task: z += Sᵀ K S (q_ref ⊖ q) in the compiled call (a joint form, rows S of the
+        identity, on coordinates that subtract); else from Python (``mixed``); False: the per-task path (J⁺v)."""
+        if form is not None and not lie:
+            self.order.append(("n", len(self.nulls)))
+            self.nulls.append(task)
+            self.null_targets.append(form[1])
+            self.null_masks.append(np.isin(np.arange(nv), form[0]).astype(float))  # (1 on the coordinates of S)
+            return True
+        if not mixed or (form is None and not task.identity_jacobian):
+            return False
+        self.add_external(task, LIE_NULL if form is not None else NULL, 1.0)
+        return True
 
     def _slots(self, robot: RobotModel, level_forms: list[Form], starts: list[int], jstarts: list[int]) -> None:
         """What ``terms`` needs per stack task, laid out once: (kind, task, weight index, first row, end row,

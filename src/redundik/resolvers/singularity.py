@@ -254,7 +254,7 @@ def jacobian_derivatives(res: StepResult, robot: RobotModel, stack: TaskStack) -
         if isinstance(form, FrameForm):
             H = robot.frame_jacobian_derivatives(int(form.fid))
             blocks.append(H[np.asarray(form.rows)])
-        elif getattr(task, "identity_jacobian", False):
+        elif getattr(task, "identity_jacobian", False) or task.joint_form(robot) is not None:  # (J = I[sel]: constant)
             blocks.append(np.zeros((term.J.shape[0], nv, nv)))
         else:
             return None

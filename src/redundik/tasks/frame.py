@@ -15,6 +15,7 @@ from redundik.errors import TaskError, short_repr
 from redundik.kinematics.model import AXES, LWA, RobotModel
 from redundik.tasks.base import NOT_READY, FrameForm, Task, TaskTerm, default_name
 from redundik.tasks.conform import MAX_COORDINATE, RIGID_TOLERANCE, conform_reference
+from redundik.tasks.joint_selection import check_joint_selection, selected_coordinates
 from redundik.tasks.layouts import P0, REF_R
 from redundik.tasks.trajectory import Hold, Trajectory
 
@@ -421,17 +422,25 @@ def _read_only(arr: np.ndarray) -> np.ndarray:
 
 
 class PostureTask(Task):
-    """Joint-space posture: q̇ = K (q_ref ⊖ q) on every joint — a regularisation task.
+    """Joint-space posture: q̇ = K (q_ref ⊖ q) on every joint (or on the ``joints`` given) — a regularisation task.
 
-    It declares ``identity_jacobian`` and ``regularization``: in every resolver it lies below the main tasks and the
-    subtasks, as one term of the null-space objective z (see :mod:`redundik.tasks.stack`): it is the gradient
-    of −½K‖q ⊖ q_ref‖². As in pink and mink, a posture never pulls the main tasks off their targets; its strength
-    in the null space is its gain (its weight only matters if it is given an explicit ``priority``).
+    It declares ``regularization`` (and ``identity_jacobian`` when it covers every coordinate): in every resolver it
+    lies below the main tasks and the subtasks, as one term of the null-space objective z (see
+    :mod:`redundik.tasks.stack`): it is the gradient of −½K‖S(q ⊖ q_ref)‖², S the rows of the identity it covers
+    (J = S; z += Sᵀ K S(q_ref ⊖ q)). As in pink and mink, a posture never pulls the main tasks off their targets; its
+    strength in the null space is its gain (its weight only matters if it is given an explicit ``priority``, where
+    its rows J = S are weighted as any task's).
+
+    ``joints="actuated"`` leaves a floating base out (a free flyer or a planar root joint), as pink's and mink's
+    posture tasks do: the base then moves as the other tasks need, not back towards q_ref's base pose.
 
     Args:
         target: Reference configuration q_ref (size nq); the configuration at reset if ``None``. Settable at run
             time with :meth:`set_target` or by assigning :attr:`target` (kept across resets); the array in use is
             read-only, since a fused step packs it when it plans the stack (an edit in place would be missed).
+        joints: ``None`` (every velocity coordinate), ``"actuated"`` (all but a floating root joint's), or a list of
+            joint names (a multi-dof joint by its name, or one of its coordinates as ``"name.k"``), checked against
+            the robot at reset.
         gain: K [1/s] ≥ 0.
         weight: Weight (> 0), used only when the task is given an explicit level.
         priority: ``None`` (the null-space objective) or an explicit level.
@@ -444,12 +453,16 @@ class PostureTask(Task):
         self,
         target: Sequence[float] | np.ndarray | None = None,
         *,
+        joints: Sequence[str] | str | None = None,
         gain: float = 1.0,
         weight: float = 1.0,
         priority: int | None = None,
         name: str = "posture",
     ) -> None:
         self._init_task(name, weight=weight, gain=gain, priority=priority)
+        self._joints = check_joint_selection(joints, f"posture task '{name}'")
+        if self._joints is not None:  # (rows of the identity, not all of them: J = S)
+            self.identity_jacobian = False  # type: ignore[misc]  # (a per-instance declaration)
         what = f"posture task '{name}': target"
         given = None if target is None else _numbers(target, what, "a configuration")
         if given is not None and not np.all(np.isfinite(given)):
@@ -457,6 +470,23 @@ class PostureTask(Task):
         self._given = None if given is None else _read_only(_bounded_configuration(given, what).copy())
         self._target: np.ndarray | None = self._given
         self._sel: np.ndarray | None = None
+        self._sel_model: Any = None
+        self._sel_nv = -1
+        self._rows = _identity(0)
+
+    @property
+    def joints(self) -> str | tuple[str, ...] | None:
+        """The coordinates covered: ``None`` (all), ``"actuated"`` or the joint names given (fixed at construction)."""
+        return self._joints
+
+    def _selection(self, robot: RobotModel) -> np.ndarray:
+        """The velocity coordinates covered on ``robot`` (sorted indices, read-only; made once per robot model)."""
+        sel = self._sel
+        if sel is None or self._sel_model is not robot.model or self._sel_nv != robot.nv:
+            sel = _read_only(selected_coordinates(robot, self._joints, f"posture task '{self.name}'"))
+            self._sel, self._sel_model, self._sel_nv = sel, robot.model, robot.nv
+            self._rows = _read_only(np.eye(robot.nv)[sel])  # J = S, the rows of the identity covered
+        return sel
 
     @property
     def target(self) -> np.ndarray | None:
@@ -489,6 +519,14 @@ class PostureTask(Task):
         self._target = None
 
     def reset(self, robot: RobotModel) -> None:
+        """Capture q_ref (the configuration now, unless one was given: checked against the robot here) and the
+        coordinates covered.
+
+        Raises:
+            TaskError: a given target that is not one of this robot's configurations; ``joints`` naming a joint the
+                robot does not have, or covering none of its coordinates.
+        """
+        self._selection(robot)
         given = self._given
         if given is None:
             self._target = _read_only(robot.q.copy())
@@ -503,7 +541,10 @@ class PostureTask(Task):
             self.reset(robot)  # target it captured is not one of this robot's; a given one is checked against it)
         assert self._target is not None  # set by reset()
         e = robot.difference(robot.q, self._target)
-        return TaskTerm(self._name, _identity(robot.nv), self._gain * e, e, self._weight)
+        if self._joints is None:
+            return TaskTerm(self._name, _identity(robot.nv), self._gain * e, e, self._weight)
+        e = e[self._selection(robot)]
+        return TaskTerm(self._name, self._rows, self._gain * e, e, self._weight)
 
     def joint_form(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray] | None:
         """(every velocity coordinate, q_ref) once the target is known: after the first evaluation or reset, or
@@ -519,10 +560,8 @@ class PostureTask(Task):
             target = self._target
         if target is None or target.shape[0] != robot.nq:
             return None
-        sel = self._sel
-        if sel is None or sel.shape[0] != robot.nv:
-            sel = self._sel = np.arange(robot.nv)
-        return sel, target
+        return self._selection(robot), target
 
     def __repr__(self) -> str:
-        return f"PostureTask(gain={self.gain})"
+        joints = "" if self._joints is None else f"joints={self._joints!r}, "
+        return f"PostureTask({joints}gain={self.gain})"

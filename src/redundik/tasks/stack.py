@@ -7,10 +7,10 @@ target, bound; :mod:`redundik.tasks.subtasks`). Its levels, highest first:
    J q̇ = V (eq. 5.6); ``hqp`` keeps their levels; ``wqp`` weights them (below).
 2. **target and bound subtasks**: level ``priority``, default one below the lowest main level.
 3. **the null-space objective**, always the lowest level: ½‖q̇ − z‖² with
-   z = Σ k_i η_i (every gradient subtask, eqs. 5.8/5.15) + Σ_r K_r e_r (every regularisation task whose Jacobian
-   is the identity, e.g. a posture: the gradient of −½K‖q ⊖ q_r‖²). Restricted to the null space N of the levels
-   above, its optimum is P_N z: after a minimum-norm main task this is exactly the chapter's J⁺V + (I − J⁺J)z.
-4. other regularisation tasks (a Jacobian that is not the identity), below everything.
+   z = Σ k_i η_i (every gradient subtask, eqs. 5.8/5.15) + Σ_r J_r⁺ v_r (every regularisation task without a level
+   of its own: for a posture, J = I and J⁺v = K (q_r ⊖ q), the gradient of −½K‖q ⊖ q_r‖²; for a posture on some
+   joints, J = S, rows of the identity, and J⁺ = Sᵀ). Restricted to the null space N of the levels above, its
+   optimum is P_N z: after a minimum-norm main task this is exactly the chapter's J⁺V + (I − J⁺J)z.
 
 Resolver by resolver: ``pinv`` = J⁺V + (I − J⁺J)z (refuses target and bound subtasks); ``feedback`` = the same
 plus the state-feedback gains for the target subtasks (refuses bound subtasks); ``hqp`` = the strict cascade over
@@ -64,7 +64,7 @@ class StackLayout:
     Attributes:
         levels: Non-empty levels in decreasing priority.
         main: Indices of the main tasks (not regularisation tasks).
-        null_tasks: Indices of the identity-Jacobian regularisation tasks summed into z.
+        null_tasks: Indices of the regularisation tasks without a level of their own, summed into z (J⁺v each).
         gradients: The gradient subtasks summed into z.
     """
 
@@ -211,17 +211,15 @@ class TaskStack:
         def plan(prio: int) -> LevelPlan:
             return plans.setdefault(prio, LevelPlan(prio))
 
-        main, null_tasks, late = [], [], []
+        main, null_tasks = [], []
         for i, task in enumerate(self.tasks):
             if not task.regularization:
                 main.append(i)
                 plan(level(task, 0)).tasks.append(i)
             elif task.priority is not None or task.name in overrides:
                 plan(level(task, 0)).tasks.append(i)
-            elif task.identity_jacobian:
-                null_tasks.append(i)
             else:
-                late.append(i)
+                null_tasks.append(i)
         below_main = max((p for p in plans), default=-1) + 1
         for sub in self.subtasks:
             if isinstance(sub, TargetSubtask):
@@ -232,13 +230,11 @@ class TaskStack:
         lowest = max(plans, default=-1) + 1
         if null_tasks or gradients:
             plan(lowest).null_objective = True
-            lowest += 1
-        if late:
-            plan(lowest).tasks.extend(late)
         return StackLayout([plans[p] for p in sorted(plans)], main, null_tasks, gradients)
 
     def null_target(self, robot: RobotModel, terms: list[TaskTerm], layout: StackLayout) -> np.ndarray | None:
-        """z of the null-space objective: Σ k_i η_i + Σ_r v_r (module docstring), or ``None`` if nothing adds to it."""
+        """z of the null-space objective: Σ k_i η_i + Σ_r J_r⁺ v_r (module docstring), or ``None`` if nothing adds
+        to it."""
         if not layout.has_null_objective:
             return None
         z = None  # a new array in every case (the first gradient's k η is one already)
@@ -247,6 +243,24 @@ class TaskStack:
                 d = sub.direction(robot)
                 z = d if z is None else z + d
         for i in layout.null_tasks:
-            v = terms[i].v
+            v = null_velocity(self.tasks[i], terms[i], robot._nv)
             z = v.copy() if z is None else z + v
         return np.zeros(robot.nv) if z is None else z
+
+
+def null_velocity(task: Task, term: TaskTerm, nv: int) -> np.ndarray:
+    """J⁺v of a regularisation task's term in the null-space objective: v itself for an identity Jacobian; Sᵀv for
+    rows of the identity S (a posture on some joints: v scattered to its coordinates); the minimum-norm solution
+    of J q̇ = v otherwise."""
+    J, v = term.J, term.v
+    if task.identity_jacobian and v.shape[0] == nv:
+        return v
+    if not np.isfinite(J).all():  # (NaN rows: q̇ is then not finite, and the resolver says where from)
+        return np.full(nv, np.nan)
+    r = J.shape[0]
+    cols = np.argmax(J, axis=1) if r else np.zeros(0, dtype=np.intp)
+    if np.count_nonzero(J) == r and np.all(J[np.arange(r), cols] == 1.0) and np.unique(cols).shape[0] == r:
+        out = np.zeros(nv)
+        out[cols] = v
+        return out
+    return np.asarray(np.linalg.lstsq(J, v, rcond=None)[0], dtype=float)
