@@ -107,15 +107,19 @@ def test_in_the_null_space_it_adds_St_v_to_z_so_the_base_gets_no_posture_term(
     assert np.abs(res.dq - expected).max() <= 1e-9 * max(1.0, np.abs(expected).max())
 
 
-@pytest.mark.parametrize("method", ["pinv", "feedback", "wqp", "hqp"])
-def test_compiled_and_per_task_paths_agree_over_a_run(talos: rk.RobotModel, method: str) -> None:
+@pytest.mark.parametrize(
+    ("method", "priority"), [("pinv", None), ("feedback", None), ("wqp", None), ("hqp", None), ("wqp", 0), ("hqp", 1)]
+)
+def test_compiled_and_per_task_paths_agree_over_a_run(talos: rk.RobotModel, method: str, priority: int | None) -> None:
+    """In the null-space objective, and at a level of its own (``wqp``: beside the gripper; ``hqp``: below it)."""
     runs = {}
     for fuse in (True, False):
         robot = talos
         q = _talos_q(robot, 5)
         robot.update(q)
         hand = rk.FrameTask(GRIPPER, gain=20.0)
-        posture = rk.PostureTask(joints=["arm_left_1_joint", "arm_left_2_joint", "torso_1_joint"], gain=4.0)
+        joints = ["arm_left_1_joint", "arm_left_2_joint", "torso_1_joint"]
+        posture = rk.PostureTask(joints=joints, gain=4.0, priority=priority, weight=0.1)
         stack = rk.TaskStack([hand, posture])
         stack.reset(robot)
         goal = robot.frame_pose(GRIPPER).copy()

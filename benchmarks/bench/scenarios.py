@@ -18,8 +18,8 @@ What each method's stack means (the same task as the peers': frame tasks + postu
   weighted QP (their cost c weighs rows by c²). Without an explicit level the library's posture is a regularisation
   below every level (redundik's own meaning of a posture, not the peers' weighted sum). It covers every velocity
   coordinate, so on Talos it also pulls the floating base towards q0's (the peers leave the base free: six rows more
-  for redundik). ``talos_actuated`` is the earlier benchmark-only :class:`ActuatedPostureTask` (actuated joints only),
-  kept as a clearly labelled extra line: no user has that class.
+  for redundik). ``talos_actuated`` gives the same posture ``joints="actuated"``: the floating base left out, the
+  peers' task set exactly.
 * ``hqp``: frames (level 0) > post clearance, an inequality inactive on the circle (level 1) > the same posture
   rows (level 2), limits above all: the hierarchy whose null-space optimum is the closed forms' posture.
 * ``pinv``: the posture as the null-space gradient z = −K_p(q − q0) on the actuated joints (eq. 5.8; the floating
@@ -54,7 +54,7 @@ import numpy as np
 from redundik.kinematics.dh import DHRow, from_dh
 from redundik.kinematics.model import RobotModel
 from redundik.kinematics.urdf import EXAMPLE_ROBOTS, example_robot_data_dir, load_example_robot
-from redundik.tasks.base import Barrier, Potential, Task, TaskTerm
+from redundik.tasks.base import Barrier, Potential, Task
 from redundik.tasks.frame import FrameTask, PostureTask
 from redundik.tasks.potentials import Clearance, JointCentering, JointSine2
 from redundik.tasks.stack import TaskStack
@@ -66,49 +66,6 @@ POSTURE_GAIN = 1.0  # K_p [1/s]
 #: for the control loop; a case above it is reported FAILED [m, rad].
 ERROR_TOLERANCE = 1e-3
 POSTURE_WEIGHT = 0.01  # against 1 for frame tasks (peer cost 0.1)
-
-
-class ActuatedPostureTask(Task):
-    """Benchmark-only (not a library class; only the labelled extra case ``talos_actuated`` uses it).
-
-    Posture on the actuated joints only: q̇_a = K (q_ref ⊖ q)_a (the floating base left free, as in mink/pink).
-
-    Args:
-        target: Reference configuration (size nq).
-        gain: K [1/s].
-        weight: Weight in a weighted QP.
-        priority: Level in a hierarchy (read by ``hqp``).
-    """
-
-    def __init__(self, target: np.ndarray, *, gain: float, weight: float, priority: int = 0) -> None:
-        self.target = np.asarray(target, dtype=float)
-        self.gain, self.weight, self.priority, self.name = float(gain), float(weight), int(priority), "posture"
-        self._rows: np.ndarray | None = None
-        self._J: np.ndarray | None = None
-        self._every = False
-
-    def reset(self, robot: RobotModel) -> None:
-        self._rows = np.array([j.idx_v for j in robot.joints if j.idx_q >= 0 and j.kind != "other"], dtype=int)
-        self._J = np.eye(robot.nv)[self._rows]
-        self._every = self._rows.shape[0] == robot.nv  # every joint actuated (no floating base): no row selection
-
-    def evaluate(self, robot: RobotModel, t: float) -> TaskTerm:
-        if self._rows is None or self._J is None:
-            self.reset(robot)
-        assert self._rows is not None and self._J is not None  # set by reset()
-        e = robot.difference(robot.q, self.target)
-        if not self._every:
-            e = e[self._rows]
-        return TaskTerm(self._name, self._J, self._gain * e, e, self._weight)
-
-    def joint_form(self, robot: RobotModel) -> tuple[np.ndarray, np.ndarray] | None:
-        """Its rows are a posture on the actuated coordinates (a fused step computes them itself)."""
-        if self._rows is None:
-            self.reset(robot)
-        return self._rows, self.target
-
-    def __repr__(self) -> str:
-        return f"ActuatedPostureTask(gain={self.gain}, weight={self.weight})"
 
 
 @dataclass
@@ -200,9 +157,10 @@ class Scenario:
         """The library's posture task towards q0, at an explicit level (weight 0.01: the peers' weighted sum)."""
         return PostureTask(self.q0, gain=POSTURE_GAIN, weight=POSTURE_WEIGHT, priority=priority)
 
-    def actuated_posture_task(self, priority: int = 0) -> ActuatedPostureTask:
-        """The benchmark-only posture of the actuated joints (``talos_actuated``, a labelled extra line)."""
-        return ActuatedPostureTask(self.q0, gain=POSTURE_GAIN, weight=POSTURE_WEIGHT, priority=priority)
+    def actuated_posture_task(self, priority: int = 0) -> PostureTask:
+        """The library's posture of the actuated joints (``joints="actuated"``: a floating base left out, as the
+        peers' postures leave it), at an explicit level (``talos_actuated``)."""
+        return PostureTask(self.q0, joints="actuated", gain=POSTURE_GAIN, weight=POSTURE_WEIGHT, priority=priority)
 
     def stack(self, method: str, robot: RobotModel) -> TaskStack:
         """The task stack of a redundik method (``pinv``, ``feedback``, ``wqp``, ``hqp``)."""
@@ -393,11 +351,11 @@ def talos_scenario() -> Scenario:
 
 
 def talos_actuated_scenario() -> Scenario:
-    """``talos`` with the benchmark-only :class:`ActuatedPostureTask` in ``wqp``/``hqp`` (the earlier benchmark's
-    stacks; a labelled extra line, not what a user can write). Its peers are ``talos``'s (the same task set)."""
+    """``talos`` with ``PostureTask(joints="actuated")`` in ``wqp``/``hqp``: the peers' task set exactly (their postures
+    leave the floating base out). Its peers are ``talos``'s (the same task set)."""
     sc = talos_scenario()
     sc.key = "talos_actuated"
-    sc.title = "Talos as `talos`, posture = benchmark-only ActuatedPostureTask (actuated joints only)"
+    sc.title = 'Talos as `talos`, posture = `PostureTask(joints="actuated")` (the floating base left out, as peers do)'
     sc.methods, sc.placo, sc.all_backends = ("wqp", "hqp"), False, False
     post = _post_clearance
     sc.stacks = {
