@@ -45,7 +45,7 @@ def main_system(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """(J, V) of every main task stacked (eq. 5.6) and z of the null-space objective (``None`` if empty).
 
-    Regularisation tasks that are not identity blocks (rare) are left out of these closed forms.
+    Every regularisation task without a level adds its J⁺v to z (:meth:`TaskStack.null_target`).
     """
     main_terms = [terms[i] for i in layout.main]
     J, V = stack_terms(main_terms, robot.nv)

@@ -283,7 +283,8 @@ class Task(ABC):
     Declarations for resolvers (class attributes, overridable per instance):
 
     * ``identity_jacobian``: J is the n×n identity (a posture): the QP adds it as a diagonal update;
-    * ``regularization``: the task lies strictly below every main task and subtask (a posture / damping task).
+    * ``regularization``: the task lies strictly below every main task and subtask (a posture / damping task):
+      without a ``priority``, its J⁺v joins z of the null-space objective (:mod:`redundik.tasks.stack`).
     """
 
     identity_jacobian: ClassVar[bool] = False

@@ -555,6 +555,8 @@ class PostureTask(Task):
             TaskError: a given target that is not one of this robot's configurations.
         """
         target = self._target
+        if target is not None and self._sel_model is robot.model:  # (both captured on this model at reset)
+            return self._sel, target  # type: ignore[return-value]  # (set with _sel_model)
         if target is None and self._given is not None:
             self.reset(robot)
             target = self._target

@@ -53,7 +53,7 @@ def check_joint_selection(joints: object, what: str) -> JointSelection:
     repeated = sorted({n for n in names if names.count(n) > 1})
     if repeated:
         raise TaskError(f"{what}: joints names {repeated} more than once")
-    return tuple(names)
+    return tuple(str(n) for n in names)
 
 
 def selected_coordinates(robot: RobotModel, joints: JointSelection, what: str) -> np.ndarray:
