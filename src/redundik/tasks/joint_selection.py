@@ -52,7 +52,7 @@ def check_joint_selection(joints: object, what: str) -> JointSelection:
             raise TaskError(f"{what}: joints must be joint names (str), got {short_repr(name)} in {short_repr(joints)}")
     repeated = sorted({n for n in names if names.count(n) > 1})
     if repeated:
-        raise TaskError(f"{what}: joints names {repeated} more than once")
+        raise TaskError(f"{what}: joints lists {repeated} more than once")
     return tuple(str(n) for n in names)
 
 
