@@ -52,6 +52,7 @@ KERNEL_SOURCES: tuple[str, ...] = (
     "resolvers/hqp_native.py",
     "resolvers/hqp_cascade.py",
     "resolvers/hqp_cascade_call.py",
+    "resolvers/hqp_selection.py",
     "resolvers/fused.py",
     "tasks/trajectory.py",
     "tasks/layouts.py",

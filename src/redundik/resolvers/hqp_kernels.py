@@ -142,6 +142,7 @@ from redundik.resolvers.hqp_native import (
     native_quadprog,
     rows_qp_native_into,
 )
+from redundik.resolvers.hqp_selection import selection_columns, selection_solve
 from redundik.resolvers.kernels import _jit, clip_twice, damped_svd_factors, in_box, limit_box
 from redundik.tasks.potential_kernels import clearance_into  # first_run_cost loads it too
 
@@ -412,7 +413,11 @@ def closed_cascade(rows: CascadeRows, limits: Rows, params: np.ndarray, x: np.nd
         cols = M.shape[1]
         u = np.zeros(cols)
         done = False
-        if not exact:  # QR when it certifies that no direction is damped: M⁺ exactly, several times cheaper
+        sel = np.empty(m, np.int64)
+        if projected and selection_columns(A, w, s, m, sel):  # some rows of I, one weight: from Z's other rows
+            N, rank, sigma_min, damping = selection_solve(M, Z, sel, rhs, math.sqrt(w[s]), eps_k, lam_k, rcond, u)
+            done = rank >= 0
+        if not done and not exact:  # QR when it certifies that no direction is damped: M⁺ exactly, far cheaper
             done, N = _qr_solve(M, rhs, eps_k, rcond, u)
             rank, sigma_min, damping = (m if m <= cols else cols), np.nan, 0.0
         if not done:  # the damped SVD: the rule of redundik.resolvers.linalg, direction by direction
