@@ -105,3 +105,42 @@ def test_a_talos_hierarchy_ending_in_a_posture_on_the_actuated_joints_is_the_str
     S, v2 = terms[posture.name].J, terms[posture.name].v
     expected = x1 + N1 @ np.linalg.pinv(S @ N1, rcond=1e-10) @ (v2 - S @ x1)
     assert np.abs(res.dq - expected).max() <= 1e-9 * np.abs(expected).max()
+
+
+def test_with_limits_binding_the_posture_as_one_selection_or_as_two_is_the_same_hierarchy() -> None:
+    """The benchmark's ``talos_actuated`` stack under ``hqp`` (a joint limit binds on a third of the steps), its
+    posture as one ``PostureTask(joints="actuated")`` — rows of I at increasing columns, one weight: the closed
+    cascade solves it from the left-out rows — or as two postures splitting those joints at the same level and
+    weight (the same rows, not in order: the QR or SVD route). The same q̇ over 150 steps, the steps the limits bind
+    included (the constrained cascade takes the SVD for both)."""
+    from benchmarks.bench.harness import SCENARIOS
+
+    sc = SCENARIOS["talos_actuated"]()
+    runs = []
+    for split in (False, True):
+        robot = sc.robot()
+        q = sc.q0.copy()
+        robot.update(q)
+        stack = sc.stack("hqp", robot)
+        posture = stack.tasks[-1]
+        assert isinstance(posture, rk.PostureTask) and posture.joints == "actuated"
+        if split:
+            names = [j.name for j in robot.joints if j.idx_q >= 7]
+            halves = [names[len(names) // 2 :], names[: len(names) // 2]]  # (the second half's rows first)
+            parts = [
+                rk.PostureTask(sc.q0, joints=h, gain=posture.gain, weight=posture.weight, priority=posture.priority,
+                               name=f"posture{i}")
+                for i, h in enumerate(halves)
+            ]  # fmt: skip
+            stack = rk.TaskStack([*stack.tasks[:-1], *parts], stack.subtasks)
+        stack.reset(robot)
+        resolver = rk.make_resolver("hqp", backend="daqp")
+        dqs, qp = [], 0
+        for k in range(150):
+            res = resolver.step(robot, stack, q, k * sc.dt, sc.dt)
+            dqs.append(res.dq.copy())
+            qp += res.info.get("qp", 0) > 0
+            q = robot.integrate(q, res.dq, sc.dt)
+        runs.append((np.array(dqs), qp))
+    assert runs[0][1] >= 20 and runs[1][1] == runs[0][1]  # (the constrained cascade ran, as often in both)
+    np.testing.assert_allclose(runs[0][0], runs[1][0], rtol=0, atol=1e-9 * np.abs(runs[1][0]).max())
