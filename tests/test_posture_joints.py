@@ -234,3 +234,26 @@ def test_yaml_posture_joints(write_yaml: Callable[..., Path], planar_task_data: 
     with pytest.raises(ConfigError) as info:
         load_task(write_yaml(d))
     assert info.value.path == "runs.p.main[0].joints" and "joint '4' does not exist" in str(info.value), str(info.value)
+
+
+def test_actuated_leaves_a_planar_root_out_and_nothing_else() -> None:
+    """A mobile base as a planar root joint (x, y, θ) carrying an arm joint, then a free flyer further down (a
+    floating object on the arm): only the root's coordinates are left out. A robot that is only a free flyer has
+    no actuated coordinate: said at reset."""
+    model = pin.Model()
+    base = model.addJoint(0, pin.JointModelPlanar(), pin.SE3.Identity(), "base")
+    arm = model.addJoint(base, pin.JointModelRZ(), pin.SE3.Identity(), "arm")
+    model.addJoint(arm, pin.JointModelFreeFlyer(), pin.SE3(np.eye(3), np.array([0.5, 0.0, 0.0])), "floating")
+    model.addFrame(pin.Frame("tip", 3, 0, pin.SE3.Identity(), pin.FrameType.OP_FRAME))
+    robot = rk.RobotModel(model, name="mobile")
+    robot.update(robot.neutral())
+    task = rk.PostureTask(joints="actuated")
+    task.reset(robot)
+    sel, _ = task.joint_form(robot)  # type: ignore[misc]
+    np.testing.assert_array_equal(sel, np.arange(3, robot.nv))  # the arm joint and the free flyer below it
+    floating_only = pin.Model()
+    floating_only.addJoint(0, pin.JointModelFreeFlyer(), pin.SE3.Identity(), "root")
+    alone = rk.RobotModel(floating_only, name="alone")
+    alone.update(alone.neutral())
+    with pytest.raises(TaskError, match="covers no velocity coordinate"):
+        rk.PostureTask(joints="actuated").reset(alone)
