@@ -43,30 +43,45 @@ def _problem(seed: int, size: float) -> tuple[rk.RobotModel, np.ndarray, pin.SE3
     return robot, q, goal, error
 
 
-def _pink_dq(robot: rk.RobotModel, q: np.ndarray, goal: pin.SE3, cost: float) -> np.ndarray:
-    """pink's velocity: a frame task of costs 1 and gain 1, a posture of ``cost`` and gain 1 towards home, no limits."""
+def _pink_velocity(
+    robot: rk.RobotModel, q: np.ndarray, frame: str, goal: pin.SE3, ref: np.ndarray, cost: float
+) -> np.ndarray:
+    """pink's velocity: a frame task of costs 1 and gain 1 towards ``goal``, a posture of ``cost`` and gain 1 towards
+    ``ref`` (pink leaves a root joint out of it), no limits."""
     configuration = pink.Configuration(robot.model, robot.model.createData(), q)
-    hand = pink.tasks.FrameTask(TOOL, position_cost=1.0, orientation_cost=1.0, gain=1.0)
+    hand = pink.tasks.FrameTask(frame, position_cost=1.0, orientation_cost=1.0, gain=1.0)
     hand.set_target(goal)
     posture = pink.tasks.PostureTask(cost=cost, gain=1.0)
-    posture.set_target(HOME)
-    return np.asarray(pink.solve_ik(configuration, [hand, posture], DT, solver="daqp", damping=1e-12, limits=[]))
+    posture.set_target(ref)
+    return np.asarray(
+        pink.solve_ik(configuration, [hand, posture], DT, solver="daqp", damping=1e-12, limits=[], safety_break=False)
+    )
+
+
+def _mink_velocity(
+    robot: rk.RobotModel, key: str, q: np.ndarray, frame: str, goal: pin.SE3, ref: np.ndarray, cost: float
+) -> np.ndarray:
+    """mink's velocity on the same problem, its MuJoCo model made from the example robot ``key``'s URDF (a site at
+    ``frame``; a free joint where redundik has a free flyer, which mink's posture leaves out), q̇ mapped back to
+    redundik's joints (the free joint's linear velocity into the base frame)."""
+    urdf, free_flyer = EXAMPLE_ROBOTS[key]
+    model = mujoco_from_urdf(example_robot_data_dir() / urdf, robot, [frame], free_flyer=free_flyer)
+    joints = JointMap.from_mujoco(robot, model)
+    configuration = mink.Configuration(model, joints.to_peer_q(q))
+    hand = mink.FrameTask(frame, "site", position_cost=1.0, orientation_cost=1.0, gain=1.0)
+    hand.set_target(mink.SE3.from_matrix(goal.homogeneous))
+    posture = mink.PostureTask(model, cost=cost, gain=1.0)
+    posture.set_target(joints.to_peer_q(ref))
+    v = np.asarray(mink.solve_ik(configuration, [hand, posture], DT, solver="daqp", damping=1e-12, limits=[]))
+    return joints.velocity_to_robot(v, q)
+
+
+def _pink_dq(robot: rk.RobotModel, q: np.ndarray, goal: pin.SE3, cost: float) -> np.ndarray:
+    return _pink_velocity(robot, q, TOOL, goal, HOME, cost)
 
 
 def _mink_dq(robot: rk.RobotModel, q: np.ndarray, goal: pin.SE3, cost: float) -> np.ndarray:
-    """mink's velocity on the same problem, its MuJoCo model made from the same URDF (a site at the hand), mapped
-    back to redundik's joint order."""
-    model = mujoco_from_urdf(example_robot_data_dir() / EXAMPLE_ROBOTS["panda"][0], robot, [TOOL])
-    joints = JointMap.from_mujoco(robot, model)
-    configuration = mink.Configuration(model, joints.to_peer_q(q))
-    hand = mink.FrameTask(TOOL, "site", position_cost=1.0, orientation_cost=1.0, gain=1.0)
-    hand.set_target(mink.SE3.from_matrix(goal.homogeneous))
-    posture = mink.PostureTask(model, cost=cost, gain=1.0)
-    posture.set_target(joints.to_peer_q(HOME))
-    v = np.asarray(mink.solve_ik(configuration, [hand, posture], DT, solver="daqp", damping=1e-12, limits=[]))
-    out = np.zeros(robot.nv)
-    out[joints.rk_v] = v[joints.peer_v]
-    return out
+    return _mink_velocity(robot, "panda", q, TOOL, goal, HOME, cost)
 
 
 PEERS = {"pink": _pink_dq, "mink": _mink_dq}
@@ -130,29 +145,11 @@ def _talos_problem(seed: int, size: float) -> tuple[rk.RobotModel, np.ndarray, n
 
 
 def _pink_talos(robot: rk.RobotModel, q: np.ndarray, ref: np.ndarray, goal: pin.SE3, cost: float) -> np.ndarray:
-    """pink's velocity on TALOS: the gripper (costs 1, gain 1), a posture of ``cost`` (its root joint left out)."""
-    configuration = pink.Configuration(robot.model, robot.model.createData(), q)
-    hand = pink.tasks.FrameTask(GRIPPER, position_cost=1.0, orientation_cost=1.0, gain=1.0)
-    hand.set_target(goal)
-    posture = pink.tasks.PostureTask(cost=cost, gain=1.0)
-    posture.set_target(ref)
-    return np.asarray(
-        pink.solve_ik(configuration, [hand, posture], DT, solver="daqp", damping=1e-12, limits=[], safety_break=False)
-    )
+    return _pink_velocity(robot, q, GRIPPER, goal, ref, cost)
 
 
 def _mink_talos(robot: rk.RobotModel, q: np.ndarray, ref: np.ndarray, goal: pin.SE3, cost: float) -> np.ndarray:
-    """mink's on the same problem (its posture leaves the free joint out), its MuJoCo model made from the same URDF
-    with a site at the gripper, q̇ mapped back (the free joint's linear velocity into the base frame)."""
-    model = mujoco_from_urdf(example_robot_data_dir() / EXAMPLE_ROBOTS["talos"][0], robot, [GRIPPER], free_flyer=True)
-    joints = JointMap.from_mujoco(robot, model)
-    configuration = mink.Configuration(model, joints.to_peer_q(q))
-    hand = mink.FrameTask(GRIPPER, "site", position_cost=1.0, orientation_cost=1.0, gain=1.0)
-    hand.set_target(mink.SE3.from_matrix(goal.homogeneous))
-    posture = mink.PostureTask(model, cost=cost, gain=1.0)
-    posture.set_target(joints.to_peer_q(ref))
-    v = np.asarray(mink.solve_ik(configuration, [hand, posture], DT, solver="daqp", damping=1e-12, limits=[]))
-    return joints.velocity_to_robot(v, q)
+    return _mink_velocity(robot, "talos", q, GRIPPER, goal, ref, cost)
 
 
 TALOS_PEERS = {"pink": _pink_talos, "mink": _mink_talos}
